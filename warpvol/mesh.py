@@ -1,0 +1,297 @@
+"""Tetrahedral meshes: validation and derived data (adjacency, planes, gradients, ...).
+
+Conventions
+-----------
+* ``tets[c]`` lists 4 point indices with positive signed volume
+  ``det(p1 - p0, p2 - p0, p3 - p0) > 0`` (inverted tets are reoriented on load).
+* Local face ``i`` of a tet is the face *opposite* vertex ``i`` (``FACE_VERTS[i]``);
+  ``adjacency[c, i]`` is the tet across it, ``-1`` on the boundary.
+* ``face_planes[c, i] = (n, o)`` with unit outward normal ``n``: ``n . x + o = 0`` on the face,
+  ``< 0`` inside the tet.
+* ``gradients[c] = g`` and ``offsets[c] = g0`` with ``s(x) = g . x + g0`` inside tet ``c``.
+"""
+
+from __future__ import annotations
+
+import warnings
+from functools import cached_property
+
+import numpy as np
+
+from .errors import MeshError, check_finite_array
+
+# face i is opposite vertex i; the order gives an outward normal for positively oriented tets
+FACE_VERTS = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]], dtype=np.int64)
+EDGE_VERTS = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]], dtype=np.int64)
+
+
+def signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Six times the signed volume of each tet (float64)."""
+    p = points[tets]
+    a, b, c = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0], p[:, 3] - p[:, 0]
+    return np.einsum("ij,ij->i", a, np.cross(b, c))
+
+
+class TetMesh:
+    """A validated tetrahedral mesh with point scalars.
+
+    Parameters
+    ----------
+    points : (N, 3) array of float
+    tets : (M, 4) array of int, indices into ``points``
+    scalars : (N,) array of float
+    name : str
+        Used in messages (e.g. the file it came from).
+    strict : bool
+        Zero-volume tets are an error instead of being dropped with a warning.
+    zero_volume_rtol : float
+        A tet counts as zero-volume when ``|6 V| <= zero_volume_rtol * (longest edge)^3``.
+
+    Examples
+    --------
+    >>> m = TetMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], [[0, 1, 2, 3]], [0, 1, 2, 3])
+    >>> m.n_tets, m.adjacency.tolist(), m.is_convex
+    (1, [[-1, -1, -1, -1]], True)
+    """
+
+    def __init__(self, points, tets, scalars, *, name: str = "mesh", strict: bool = False,
+                 zero_volume_rtol: float = 1e-12):
+        self.name = name
+        points = np.asarray(points, dtype=np.float64)
+        tets = np.asarray(tets)
+        scalars = np.asarray(scalars, dtype=np.float64)
+        if points.ndim != 2 or points.shape[1] != 3:
+            raise MeshError(f"{name}: points must have shape (N, 3), got {points.shape}")
+        if tets.ndim != 2 or tets.shape[1] != 4:
+            raise MeshError(f"{name}: tets must have shape (M, 4), got {tets.shape}")
+        if len(points) == 0 or len(tets) == 0:
+            raise MeshError(f"{name}: empty mesh ({len(points)} points, {len(tets)} tets)")
+        if not np.issubdtype(tets.dtype, np.integer):
+            raise MeshError(f"{name}: tet indices must be integers, got dtype {tets.dtype}")
+        if scalars.shape != (len(points),):
+            raise MeshError(f"{name}: scalars must have one value per point ({len(points)}), got shape {scalars.shape}")
+        check_finite_array(f"{name}: points", points)
+        check_finite_array(f"{name}: scalars", scalars)
+        tets = tets.astype(np.int64)
+        bad = (tets < 0) | (tets >= len(points))
+        if bad.any():
+            c, k = np.argwhere(bad)[0]
+            raise MeshError(
+                f"{name}: tet index out of range: tets[{c}][{k}] = {tets[c, k]}, expected 0 <= index < {len(points)}"
+            )
+        vol6 = signed_volumes(points, tets)
+        edges = points[tets[:, EDGE_VERTS[:, 1]]] - points[tets[:, EDGE_VERTS[:, 0]]]
+        longest = np.sqrt((edges ** 2).sum(-1).max(axis=1))
+        zero = np.abs(vol6) <= zero_volume_rtol * np.maximum(longest, 1e-300) ** 3
+        if zero.any():
+            msg = f"{name}: {int(zero.sum())} zero-volume tet(s) (first: tets[{int(np.argmax(zero))}])"
+            if strict:
+                raise MeshError(msg + "; strict mode forbids them")
+            warnings.warn(msg + " dropped", stacklevel=2)
+            tets, vol6 = tets[~zero], vol6[~zero]
+            if len(tets) == 0:
+                raise MeshError(f"{name}: empty mesh (every tet has zero volume)")
+        inverted = vol6 < 0
+        self.n_reoriented = int(inverted.sum())
+        if self.n_reoriented:
+            tets = tets.copy()
+            tets[inverted, 2], tets[inverted, 3] = tets[inverted, 3].copy(), tets[inverted, 2].copy()
+        self.n_dropped = int(zero.sum())
+        self.points, self.tets, self.scalars = points, tets, scalars
+        for a in (self.points, self.tets, self.scalars):
+            a.setflags(write=False)
+        _ = self.adjacency  # eager: non-manifold faces are an input error, report it on load
+
+    # -- sizes ----------------------------------------------------------------------------------
+    @property
+    def n_points(self) -> int:
+        return len(self.points)
+
+    @property
+    def n_tets(self) -> int:
+        return len(self.tets)
+
+    @cached_property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.points.min(axis=0), self.points.max(axis=0)
+
+    @cached_property
+    def scalar_range(self) -> tuple[float, float]:
+        return float(self.scalars.min()), float(self.scalars.max())
+
+    # -- topology ---------------------------------------------------------------------------------
+    @cached_property
+    def adjacency(self) -> np.ndarray:
+        """(M, 4) int32: tet across local face i, -1 on the boundary."""
+        m = self.n_tets
+        faces = np.sort(self.tets[:, FACE_VERTS].reshape(-1, 3), axis=1)  # (4M, 3)
+        n = np.int64(self.n_points)
+        key = (faces[:, 0] * n + faces[:, 1]) * n + faces[:, 2] if n < 2_000_000 else None
+        if key is None:
+            _, inv, counts = np.unique(faces, axis=0, return_inverse=True, return_counts=True)
+        else:
+            _, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
+        inv = inv.ravel()
+        if (counts > 2).any():
+            g = int(np.argmax(counts > 2))
+            who = np.nonzero(inv == g)[0] // 4
+            raise MeshError(
+                f"{self.name}: face {faces[np.nonzero(inv == g)[0][0]].tolist()} is shared by "
+                f"{int(counts[g])} tets ({who.tolist()[:6]}); a face may be shared by at most 2"
+            )
+        order = np.argsort(inv, kind="stable")
+        sorted_inv = inv[order]
+        adj = np.full(4 * m, -1, dtype=np.int64)
+        pair = np.nonzero(sorted_inv[1:] == sorted_inv[:-1])[0]
+        a, b = order[pair], order[pair + 1]
+        adj[a], adj[b] = b // 4, a // 4
+        return adj.reshape(m, 4).astype(np.int32)
+
+    @cached_property
+    def boundary_faces(self) -> np.ndarray:
+        """(B, 2) int64 rows ``(tet, local face)`` of faces without a neighbour."""
+        return np.argwhere(self.adjacency < 0).astype(np.int64)
+
+    def boundary_triangles(self) -> np.ndarray:
+        """(B, 3) point indices of boundary faces, ordered so the normal points outward."""
+        bf = self.boundary_faces
+        return self.tets[bf[:, 0][:, None], FACE_VERTS[bf[:, 1]]]
+
+    # -- geometry -------------------------------------------------------------------------------
+    @cached_property
+    def face_planes(self) -> np.ndarray:
+        """(M, 4, 4) float64: ``(nx, ny, nz, o)`` per local face, unit outward normal."""
+        p = self.points[self.tets]  # (M,4,3)
+        tri = p[:, FACE_VERTS]  # (M,4,3,3)
+        n = np.cross(tri[:, :, 1] - tri[:, :, 0], tri[:, :, 2] - tri[:, :, 0])
+        n /= np.linalg.norm(n, axis=-1, keepdims=True)
+        o = -np.einsum("mfk,mfk->mf", n, tri[:, :, 0])
+        # orient outward: the opposite vertex must be on the negative side
+        side = np.einsum("mfk,mfk->mf", n, p) + o
+        flip = side > 0
+        n[flip] *= -1
+        o[flip] *= -1
+        return np.concatenate([n, o[..., None]], axis=-1)
+
+    @cached_property
+    def _gradient_and_offset(self) -> tuple[np.ndarray, np.ndarray]:
+        p = self.points[self.tets]
+        s = self.scalars[self.tets]
+        a = p[:, 1:] - p[:, :1]  # (M,3,3)
+        b = s[:, 1:] - s[:, :1]
+        g = np.linalg.solve(a, b[..., None])[..., 0]
+        g0 = s[:, 0] - np.einsum("mk,mk->m", g, p[:, 0])
+        return g, g0
+
+    @property
+    def gradients(self) -> np.ndarray:
+        """(M, 3) scalar gradient per tet."""
+        return self._gradient_and_offset[0]
+
+    @property
+    def offsets(self) -> np.ndarray:
+        """(M,) offset g0 with ``s(x) = g . x + g0``."""
+        return self._gradient_and_offset[1]
+
+    @cached_property
+    def edge_lengths(self) -> np.ndarray:
+        """(M, 6) edge lengths per tet (``EDGE_VERTS`` order)."""
+        p = self.points[self.tets]
+        return np.linalg.norm(p[:, EDGE_VERTS[:, 1]] - p[:, EDGE_VERTS[:, 0]], axis=-1)
+
+    @property
+    def lmax(self) -> float:
+        """Longest edge of the mesh (world units)."""
+        return float(self.edge_lengths.max())
+
+    @property
+    def edge_ratio(self) -> float:
+        """Longest / shortest edge over the whole mesh."""
+        e = self.edge_lengths
+        return float(e.max() / e.min())
+
+    @cached_property
+    def is_convex(self) -> bool:
+        """Whether the boundary is one closed, locally convex surface (so every ray enters once).
+
+        Checked edge by edge: at every boundary edge the two incident boundary faces must not fold
+        inward, and the boundary must form a single connected component.
+        """
+        tris = self.boundary_triangles()
+        if len(tris) == 0:
+            return False
+        p = self.points
+        # each directed edge (a->b) of an outward triangle; its twin (b->a) belongs to the neighbour
+        e = np.stack([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]], axis=1).reshape(-1, 2)
+        opp = np.stack([tris[:, 2], tris[:, 0], tris[:, 1]], axis=1).reshape(-1)
+        n = np.int64(self.n_points)
+        fwd = e[:, 0] * n + e[:, 1]
+        rev = e[:, 1] * n + e[:, 0]
+        order = np.argsort(fwd)
+        pos = np.searchsorted(fwd[order], rev)
+        pos = np.minimum(pos, len(fwd) - 1)
+        twin = order[pos]
+        if not (fwd[twin] == rev).all():
+            return False  # open or non-manifold boundary
+        fid = np.repeat(np.arange(len(tris)), 3)
+        # convex at the edge: the opposite vertex of the twin face lies on the inner side of this face
+        a, b, c = p[tris[:, 0]], p[tris[:, 1]], p[tris[:, 2]]
+        nrm = np.cross(b - a, c - a)
+        scale = np.linalg.norm(nrm, axis=1)
+        d = np.einsum("ij,ij->i", nrm[fid], p[opp[twin]] - a[fid]) / scale[fid]
+        tol = 1e-9 * float(np.linalg.norm(self.bounds[1] - self.bounds[0]))
+        if (d > tol).any():
+            return False
+        # single connected component of the boundary surface: min-label propagation over edges
+        lab = np.arange(len(tris))
+        f1, f2 = fid, fid[twin]
+        while True:
+            m = np.minimum(lab[f1], lab[f2])
+            new = lab.copy()
+            np.minimum.at(new, f1, m)
+            np.minimum.at(new, f2, m)
+            new = new[new]
+            if (new == lab).all():
+                break
+            lab = new
+        return bool((lab == lab[0]).all())
+
+    def __repr__(self) -> str:
+        return f"TetMesh({self.name!r}, {self.n_points} points, {self.n_tets} tets)"
+
+
+# -- structured grids -> tets --------------------------------------------------------------------
+# Kuhn/Freudenthal split: 6 tets around the main diagonal (0,0,0)-(1,1,1) of each hex, one per
+# permutation of the axes. The same split in every cell gives a conforming triangulation of the
+# lattice (each quad face is cut along the same diagonal from both sides).
+_CORNER = {(i, j, k): i + 2 * j + 4 * k for i in (0, 1) for j in (0, 1) for k in (0, 1)}
+
+
+def _kuhn_tets() -> np.ndarray:
+    import itertools
+
+    out = []
+    for perm in itertools.permutations(range(3)):
+        v = [0, 0, 0]
+        path = [_CORNER[tuple(v)]]
+        for ax in perm:
+            v[ax] = 1
+            path.append(_CORNER[tuple(v)])
+        out.append(path)
+    return np.array(out, dtype=np.int64)
+
+
+KUHN_TETS = _kuhn_tets()
+
+
+def structured_to_tets(dims: tuple[int, int, int]) -> np.ndarray:
+    """Tets (6 per hex cell) of a structured grid with ``dims = (ni, nj, nk)`` points whose point
+    index is ``i + ni*(j + nj*k)`` (Fortran / VTK order). Returns (6*(ni-1)(nj-1)(nk-1), 4)."""
+    ni, nj, nk = (int(d) for d in dims)
+    if min(ni, nj, nk) < 2:
+        raise MeshError(f"structured grid dims {dims}: need at least 2 points along each axis")
+    i, j, k = np.meshgrid(np.arange(ni - 1), np.arange(nj - 1), np.arange(nk - 1), indexing="ij")
+    base = (i + ni * (j + nj * k)).transpose(2, 1, 0).ravel()  # cells in Fortran order
+    corner_off = np.array([ci + ni * (cj + nj * ck) for ck in (0, 1) for cj in (0, 1) for ci in (0, 1)])
+    corners = base[:, None] + corner_off[None, :]  # (C, 8) with corner index i + 2j + 4k
+    return corners[:, KUHN_TETS].reshape(-1, 4)
