@@ -1,0 +1,1 @@
+"""Warp kernels, one module per hardware unit (installed as ``warpvol.kernels``)."""

@@ -1,0 +1,312 @@
+"""Stage framework: registry, parameters, planner, timing and the render report.
+
+A *stage* is one hardware unit or host step. It validates its parameters when built, owns the buffers
+it creates (stored on the render :class:`Context`), launches its own kernels in :meth:`Stage.run`, and
+may tell the planner through :meth:`Stage.skip_reason` that the current scene does not need it.
+
+A *pipeline* is an ordered list of stages built from a plain config (TOML or dict)::
+
+    name = "raycast"
+    description = "..."
+    [[stages]]
+    stage = "cell_setup"
+    [[stages]]
+    stage = "raycast"
+    max_steps = 100000
+
+Unknown stage names, unknown keys and bad values are errors that name them and list what is allowed.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any, Callable, ClassVar
+
+import numpy as np
+
+from .errors import ConfigError, check_choice, check_keys, check_number
+
+# ------------------------------------------------------------------------------------------------
+# parameters
+# ------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Param:
+    """One stage parameter: type, default, allowed values and a one-line doc."""
+
+    name: str
+    kind: type
+    default: Any
+    doc: str
+    choices: tuple | None = None
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    hi_open: bool = False
+
+    def validate(self, where: str, value: Any) -> Any:
+        key = f"{where}.{self.name}"
+        if self.choices is not None:
+            return check_choice(key, value, self.choices)
+        if self.kind is bool:
+            if not isinstance(value, bool):
+                raise ConfigError(f"{key}: expected true or false, got {value!r}")
+            return value
+        if self.kind in (int, float):
+            return check_number(key, value, lo=self.lo, hi=self.hi, lo_open=self.lo_open,
+                                hi_open=self.hi_open, integer=self.kind is int)
+        if not isinstance(value, self.kind):
+            raise ConfigError(f"{key}: expected {self.kind.__name__}, got {value!r}")
+        return value
+
+    def describe(self) -> str:
+        rng = ""
+        if self.choices:
+            rng = " | ".join(map(str, self.choices))
+        elif self.lo is not None or self.hi is not None:
+            rng = f"{'(' if self.lo_open else '['}{self.lo}, {self.hi}{')' if self.hi_open else ']'}"
+        return f"{self.name:<18} {self.kind.__name__:<6} {self.default!r:<12} {rng:<22} {self.doc}"
+
+
+# ------------------------------------------------------------------------------------------------
+# registry
+# ------------------------------------------------------------------------------------------------
+
+STAGES: dict[str, type["Stage"]] = {}
+
+
+def register_stage(cls: type["Stage"]) -> type["Stage"]:
+    """Class decorator: make a stage available to pipeline configs under ``cls.name``."""
+    if not getattr(cls, "name", None):
+        raise TypeError(f"{cls.__name__} has no stage name")
+    if cls.name in STAGES and STAGES[cls.name] is not cls:
+        raise TypeError(f"stage name {cls.name!r} registered twice")
+    STAGES[cls.name] = cls
+    return cls
+
+
+def _load_builtin_stages() -> None:
+    # importing the package registers every stage module it lists
+    from . import stages  # noqa: F401
+
+
+def get_stage_class(name: str, where: str = "stage") -> type["Stage"]:
+    _load_builtin_stages()
+    if name not in STAGES:
+        raise ConfigError(f"{where}: unknown stage {name!r}; allowed: {', '.join(sorted(STAGES))}")
+    return STAGES[name]
+
+
+class Stage:
+    """Base class of all stages.
+
+    Subclasses set ``name``, ``summary`` and ``params`` (a tuple of :class:`Param`) and implement
+    :meth:`run`. They may override :meth:`skip_reason` (planner hook).
+    """
+
+    name: ClassVar[str] = ""
+    summary: ClassVar[str] = ""
+    params: ClassVar[tuple[Param, ...]] = ()
+
+    def __init__(self, device: str = "cpu", where: str | None = None, **params: Any):
+        self.device = device
+        self.where = where or f"stage {self.name!r}"
+        allowed = {p.name: p for p in self.params}
+        check_keys(self.where, params, list(allowed))
+        self.config: dict[str, Any] = {}
+        for p in self.params:
+            self.config[p.name] = p.validate(self.where, params[p.name]) if p.name in params else p.default
+        self.validate()
+
+    def validate(self) -> None:
+        """Cross-parameter checks (override)."""
+
+    def __getattr__(self, item: str) -> Any:
+        cfg = self.__dict__.get("config")
+        if cfg is not None and item in cfg:
+            return cfg[item]
+        raise AttributeError(item)
+
+    def skip_reason(self, ctx: "Context") -> str | None:
+        """Planner hook: return a reason if this scene does not need the stage, else ``None``."""
+        return None
+
+    def run(self, ctx: "Context") -> None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    @classmethod
+    def doc_table(cls) -> str:
+        """Plain-text parameter table (used by ``warpvol pipelines --stages``)."""
+        lines = [f"{cls.name}: {cls.summary}"]
+        lines += ["    " + p.describe() for p in cls.params] or ["    (no parameters)"]
+        return "\n".join(lines)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({', '.join(f'{k}={v!r}' for k, v in self.config.items())})"
+
+
+# ------------------------------------------------------------------------------------------------
+# context and report
+# ------------------------------------------------------------------------------------------------
+
+
+@dataclass
+class Context:
+    """What the stages of one render share: the scene, the device, buffers and the output image."""
+
+    scene: Any
+    device: str = "cpu"
+    buffers: dict[str, Any] = field(default_factory=dict)
+    stats: dict[str, Any] = field(default_factory=dict)
+    image: np.ndarray | None = None
+    quiet: bool = False
+
+    def progress(self, msg: str) -> None:
+        if not self.quiet:
+            print(f"[warpvol] {msg}", file=sys.stderr, flush=True)
+
+
+@dataclass
+class RenderResult:
+    image: np.ndarray
+    report: dict
+
+    def write_report(self, path: str | Path) -> None:
+        from .io import atomic_write_text
+
+        atomic_write_text(path, json.dumps(self.report, indent=2) + "\n")
+
+
+def _sync(device: str) -> None:
+    try:
+        import warp as wp
+
+        wp.synchronize_device(device)
+    except Exception:  # pragma: no cover - warp absent/uninitialised: nothing to wait for
+        pass
+
+
+class Pipeline:
+    """Ordered stages plus a name; :meth:`render` runs the planner, the stages and the report."""
+
+    def __init__(self, stages: list[Stage], name: str = "custom", description: str = ""):
+        if not stages:
+            raise ConfigError(f"pipeline {name!r}: no stages")
+        self.stages, self.name, self.description = stages, name, description
+
+    @classmethod
+    def from_config(cls, cfg: dict, device: str = "cpu", where: str = "pipeline") -> "Pipeline":
+        check_keys(where, cfg, ["name", "description", "stages"])
+        stages_cfg = cfg.get("stages")
+        if not isinstance(stages_cfg, list) or not stages_cfg:
+            raise ConfigError(f"{where}.stages: expected a non-empty list of [[stages]] tables")
+        stages = []
+        for k, sc in enumerate(stages_cfg):
+            w = f"{where}.stages[{k}]"
+            if not isinstance(sc, dict) or "stage" not in sc:
+                raise ConfigError(f"{w}: expected a table with a 'stage' key")
+            sc = dict(sc)
+            scls = get_stage_class(sc.pop("stage"), where=f"{w}.stage")
+            stages.append(scls(device=device, where=f"{w} ({scls.name})", **sc))
+        return cls(stages, name=str(cfg.get("name", where)), description=str(cfg.get("description", "")))
+
+    @classmethod
+    def load(cls, name_or_path: str | Path, device: str = "cpu") -> "Pipeline":
+        """A shipped preset by name, or a pipeline TOML file."""
+        text, where = _read_pipeline_text(name_or_path)
+        try:
+            cfg = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as e:
+            raise ConfigError(f"{where}: invalid TOML: {e}") from None
+        cfg.setdefault("name", Path(str(name_or_path)).stem)
+        return cls.from_config(cfg, device=device, where=where)
+
+    def render(self, scene: Any, *, reference: np.ndarray | None = None, quiet: bool = False,
+               device: str | None = None) -> RenderResult:
+        device = device or self.stages[0].device
+        ctx = Context(scene=scene, device=device, quiet=quiet)
+        report: dict[str, Any] = {"pipeline": self.name, "device": device, "scene": getattr(scene, "name", None),
+                                  "image": [scene.camera.height_px, scene.camera.width_px],
+                                  "stages": {}, "skipped": []}
+        t_all = time.perf_counter()
+        for st in self.stages:
+            key = st.name
+            n = 2
+            while key in report["stages"] or any(s["stage"] == key for s in report["skipped"]):
+                key, n = f"{st.name}#{n}", n + 1
+            reason = st.skip_reason(ctx)
+            if reason:
+                report["skipped"].append({"stage": key, "reason": reason})
+                ctx.progress(f"{key}: skipped ({reason})")
+                continue
+            ctx.progress(f"{key} ...")
+            t0 = time.perf_counter()
+            st.run(ctx)
+            _sync(device)
+            dt = time.perf_counter() - t0
+            report["stages"][key] = dt
+            ctx.progress(f"{key}: {dt:.3f} s")
+        report["total_s"] = time.perf_counter() - t_all
+        if ctx.image is None:
+            raise RuntimeError(f"pipeline {self.name!r} produced no image (no stage wrote ctx.image)")
+        img = np.asarray(ctx.image, dtype=np.float32)
+        if not np.isfinite(img).all():
+            raise RuntimeError(f"pipeline {self.name!r} produced NaN/Inf pixels")
+        if ctx.stats:
+            report["stats"] = ctx.stats
+        if reference is not None:
+            from .metrics import image_error
+
+            report["error"] = image_error(img, reference)
+        return RenderResult(img, report)
+
+
+# ------------------------------------------------------------------------------------------------
+# presets
+# ------------------------------------------------------------------------------------------------
+
+
+def _preset_files() -> dict[str, Any]:
+    root = resources.files("warpvol.presets")
+    return {p.name[:-5]: p for p in root.iterdir() if p.name.endswith(".toml")}
+
+
+def _read_pipeline_text(name_or_path: str | Path) -> tuple[str, str]:
+    presets = _preset_files()
+    s = str(name_or_path)
+    if s in presets:
+        return presets[s].read_text(), f"preset {s!r}"
+    p = Path(s)
+    if p.suffix == ".toml" or p.exists():
+        if not p.is_file():
+            raise ConfigError(f"--pipeline: file not found: {p}")
+        return p.read_text(), str(p)
+    raise ConfigError(f"--pipeline: {s!r} is neither a preset nor a file; presets: {', '.join(sorted(presets))}")
+
+
+def list_presets() -> list[tuple[str, str]]:
+    """``(name, one-line description)`` of every shipped preset, sorted by name."""
+    out = []
+    for name, p in sorted(_preset_files().items()):
+        cfg = tomllib.loads(p.read_text())
+        out.append((name, str(cfg.get("description", "")).strip().splitlines()[0] if cfg.get("description") else ""))
+    return out
+
+
+DEFAULT_PIPELINE = "raycast"
+
+
+def run_stage_standalone(stage: Stage, ctx: Context) -> None:
+    """Run one stage outside a pipeline (tests), honouring its planner hook."""
+    if stage.skip_reason(ctx) is None:
+        stage.run(ctx)
+
+
+Progress = Callable[[str], None]

@@ -1,0 +1,1 @@
+"""Shipped pipeline presets (TOML). ``warpvol pipelines`` lists them."""

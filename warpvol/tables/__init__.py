@@ -1,0 +1,1 @@
+"""Pre-integration table builders (plain functions; stages in warpvol.stages wrap them)."""
