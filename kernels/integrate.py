@@ -1,0 +1,137 @@
+"""Exact ray-segment integration for piecewise-linear transfer functions (``@wp.func`` only).
+
+Along a segment of length ``L`` the scalar is linear from ``sf`` (front) to ``sb`` (back). The
+segment is split at every transfer-function control point it crosses; on each piece colour ``c`` and
+extinction ``rho`` are linear in the ray parameter, the optical depth is exact
+(``tau = h (rho0 + rho1) / 2``) and the radiance
+
+* ``color_extinction`` (model 0):  ``int_0^h c(t) rho(t) exp(-int_0^t rho) dt``
+* ``emission_density`` (model 1):  ``int_0^h c(t) exp(-int_0^t rho) dt``
+
+is integrated by 4-point Gauss-Legendre on sub-steps of optical depth <= 1 (error ~1e-9 relative,
+far below float32). Sub-steps stop once the transmittance inside the piece is below ``1e-10``, so
+stiff extinction (depth 1e4 in one cell) costs ~25 sub-steps, not 1e4. A zero-length segment
+contributes nothing.
+"""
+
+import warp as wp
+
+from .tf import tf_eval, tf_upper
+
+wp.set_module_options({"enable_backward": False})
+
+# 4-point Gauss-Legendre on [0, 1]
+GL_X0 = wp.constant(0.0694318442029737)
+GL_X1 = wp.constant(0.3300094782075719)
+GL_X2 = wp.constant(0.6699905217924281)
+GL_X3 = wp.constant(0.9305681557970263)
+GL_W0 = wp.constant(0.1739274225687269)
+GL_W1 = wp.constant(0.3260725774312731)
+T_CUTOFF = wp.constant(1.0e-10)
+
+
+@wp.func
+def _piece_term(x: float, v: float, a: float, b: float, r0: float, dr: float,
+                c0: wp.vec3, dc: wp.vec3, model: int) -> wp.vec3:
+    # integrand at local parameter x of the piece (0..1); tau(x) = a x + b x^2 / 2
+    tau = a * x + 0.5 * b * x * x
+    w = wp.exp(-tau)
+    c = c0 + dc * x
+    if model == 0:
+        w = w * (r0 + dr * x)
+    return c * w
+
+
+@wp.func
+def integrate_piece(h: float, front: wp.vec4, back: wp.vec4, model: int) -> wp.vec4:
+    """Radiance (xyz) and optical depth (w) of a piece of length ``h`` with linear TF values."""
+    if h <= 0.0:
+        return wp.vec4(0.0, 0.0, 0.0, 0.0)
+    c0 = wp.vec3(front[0], front[1], front[2])
+    dc = wp.vec3(back[0], back[1], back[2]) - c0
+    r0 = front[3]
+    dr = back[3] - r0
+    a = h * r0  # depth rate at x = 0 (per unit x)
+    b = h * dr  # its change over the piece
+    tau_total = 0.5 * h * (front[3] + back[3])
+    acc = wp.vec3(0.0, 0.0, 0.0)
+    x = float(0.0)
+    while x < 1.0:
+        # step width with optical depth <= 1 over [x, x + dx]: rate(x) dx + b dx^2 / 2 = 1
+        rate = a + b * x
+        dx = float(1.0)
+        if b > 0.0:
+            dx = 2.0 / (rate + wp.sqrt(rate * rate + 2.0 * b))
+        elif rate > 1.0:
+            dx = 1.0 / rate
+        dx = wp.min(dx, 1.0 - x)
+        if dx <= 0.0:
+            break
+        s = _piece_term(x + GL_X0 * dx, x, a, b, r0, dr, c0, dc, model) * GL_W0
+        s += _piece_term(x + GL_X1 * dx, x, a, b, r0, dr, c0, dc, model) * GL_W1
+        s += _piece_term(x + GL_X2 * dx, x, a, b, r0, dr, c0, dc, model) * GL_W1
+        s += _piece_term(x + GL_X3 * dx, x, a, b, r0, dr, c0, dc, model) * GL_W0
+        acc += s * (dx * h)
+        x = x + dx
+        if wp.exp(-(a * x + 0.5 * b * x * x)) < T_CUTOFF:
+            break
+    return wp.vec4(acc[0], acc[1], acc[2], tau_total)
+
+
+@wp.func
+def integrate_segment(sf: float, sb: float, length: float, tf_s: wp.array(dtype=float),
+                      tf_v: wp.array(dtype=wp.vec4), model: int) -> wp.vec4:
+    """Radiance (xyz) and optical depth (w) of one ray segment, front-to-back over TF pieces."""
+    if not (length > 0.0):
+        return wp.vec4(0.0, 0.0, 0.0, 0.0)
+    ds = sb - sf
+    rgb = wp.vec3(0.0, 0.0, 0.0)
+    tau = float(0.0)
+    u0 = float(0.0)
+    v0 = tf_eval(sf, tf_s, tf_v)
+    n = tf_s.shape[0]
+    if ds > 0.0:
+        k = tf_upper(sf, tf_s)
+        while k < n:
+            sk = tf_s[k]
+            if sk >= sb:
+                break
+            u1 = (sk - sf) / ds
+            v1 = tf_v[k]
+            p = integrate_piece((u1 - u0) * length, v0, v1, model)
+            rgb += wp.exp(-tau) * wp.vec3(p[0], p[1], p[2])
+            tau += p[3]
+            u0 = u1
+            v0 = v1
+            k += 1
+    elif ds < 0.0:
+        k = tf_upper(sf, tf_s) - 1  # largest k with tf_s[k] <= sf
+        if k >= 0:
+            if tf_s[k] >= sf:  # a control point exactly at sf starts no new piece
+                k -= 1
+        while k >= 0:
+            sk = tf_s[k]
+            if sk <= sb:
+                break
+            u1 = (sk - sf) / ds
+            v1 = tf_v[k]
+            p = integrate_piece((u1 - u0) * length, v0, v1, model)
+            rgb += wp.exp(-tau) * wp.vec3(p[0], p[1], p[2])
+            tau += p[3]
+            u0 = u1
+            v0 = v1
+            k -= 1
+    v1 = tf_eval(sb, tf_s, tf_v)
+    p = integrate_piece((1.0 - u0) * length, v0, v1, model)
+    rgb += wp.exp(-tau) * wp.vec3(p[0], p[1], p[2])
+    tau += p[3]
+    return wp.vec4(rgb[0], rgb[1], rgb[2], tau)
+
+
+@wp.kernel
+def integrate_segments_kernel(sf: wp.array(dtype=float), sb: wp.array(dtype=float),
+                              length: wp.array(dtype=float), tf_s: wp.array(dtype=float),
+                              tf_v: wp.array(dtype=wp.vec4), model: int, out: wp.array(dtype=wp.vec4)):
+    """Batch form of :func:`integrate_segment` (tests and table builders)."""
+    i = wp.tid()
+    out[i] = integrate_segment(sf[i], sb[i], length[i], tf_s, tf_v, model)
