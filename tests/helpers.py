@@ -1,0 +1,33 @@
+"""Small mesh builders shared by tests (no files, no randomness unless seeded)."""
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from warpvol.mesh import TetMesh, structured_to_tets
+
+
+def grid_points(lo, hi, dims):
+    axes = [np.linspace(lo[k], hi[k], dims[k]) for k in range(3)]
+    x, y, z = np.meshgrid(*axes, indexing="ij")
+    return np.stack([x, y, z], -1).transpose(2, 1, 0, 3).reshape(-1, 3)
+
+
+def box_mesh(lo=(-1, -1, -1), hi=(1, 1, 1), dims=(4, 4, 4), scalar=None, name="box"):
+    pts = grid_points(lo, hi, dims)
+    s = np.ones(len(pts)) if scalar is None else scalar(pts)
+    return TetMesh(pts, structured_to_tets(dims), s, name=name)
+
+
+def merge(*meshes, name="merged"):
+    pts, tets, sc, off = [], [], [], 0
+    for m in meshes:
+        pts.append(m.points)
+        tets.append(m.tets + off)
+        sc.append(m.scalars)
+        off += m.n_points
+    return TetMesh(np.vstack(pts), np.vstack(tets), np.concatenate(sc), name=name)
+
+
+def scene(mesh, tf, camera, name="test"):
+    return SimpleNamespace(mesh=mesh, transfer=tf, camera=camera, name=name)

@@ -1,0 +1,83 @@
+"""Stage framework: registry, config validation, planner report, presets."""
+
+import subprocess
+import sys
+
+import pytest
+
+from helpers import box_mesh, scene
+from warpvol.camera import Camera
+from warpvol.errors import ConfigError
+from warpvol.pipeline import STAGES, Pipeline, Stage, get_stage_class, list_presets
+from warpvol.transfer import TransferFunction
+
+
+def test_unknown_stage_names_it_and_lists_allowed():
+    with pytest.raises(ConfigError, match=r"stages\[1\].stage: unknown stage 'raycats'; allowed: .*raycast"):
+        Pipeline.from_config({"stages": [{"stage": "cell_setup"}, {"stage": "raycats"}]})
+
+
+def test_unknown_key_is_an_error_naming_it():
+    with pytest.raises(ConfigError, match=r"unknown key\(s\) 'max_step'; allowed: 'max_steps'"):
+        Pipeline.from_config({"stages": [{"stage": "raycast", "max_step": 3}]})
+    with pytest.raises(ConfigError, match=r"pipeline: unknown key\(s\) 'stage'"):
+        Pipeline.from_config({"stage": []})
+
+
+def test_bad_parameter_value_names_range():
+    with pytest.raises(ConfigError, match=r"raycast.*t_min: 2.0 is outside the allowed range \[0, 1\]"):
+        Pipeline.from_config({"stages": [{"stage": "raycast", "t_min": 2.0}]})
+    with pytest.raises(ConfigError, match=r"tile: expected an integer"):
+        Pipeline.from_config({"stages": [{"stage": "entry_bins", "tile": 2.5}]})
+
+
+def test_empty_or_missing_pipeline():
+    with pytest.raises(ConfigError, match="non-empty list"):
+        Pipeline.from_config({"stages": []})
+    with pytest.raises(ConfigError, match="neither a preset nor a file"):
+        Pipeline.load("no-such-preset")
+    with pytest.raises(ConfigError, match="file not found"):
+        Pipeline.load("missing/pipe.toml")
+
+
+def test_pipeline_file_with_bad_toml(tmp_path):
+    p = tmp_path / "p.toml"
+    p.write_text("[[stages]\nstage=1")
+    with pytest.raises(ConfigError, match="invalid TOML"):
+        Pipeline.load(p)
+
+
+def test_presets_listed_and_loadable():
+    names = dict(list_presets())
+    assert "raycast" in names and names["raycast"]
+    for n in names:
+        Pipeline.load(n)
+
+
+def test_report_has_contract_fields_and_skips():
+    tf = TransferFunction([[0, 1, 1, 1, 1.0], [2, 1, 1, 1, 1.0]])
+    cam = Camera(projection="orthographic", eye=[0, 0, 5], height=3, width_px=8, height_px=8)
+    res = Pipeline.load("raycast").render(scene(box_mesh(), tf, cam), quiet=True, reference=None)
+    r = res.report
+    assert r["pipeline"] == "raycast"
+    assert set(r["stages"]) == {"cell_setup", "entry_bins", "raycast"}
+    assert all(v >= 0 for v in r["stages"].values()) and r["total_s"] >= sum(r["stages"].values()) * 0.99
+    assert r["skipped"] == [{"stage": "peel", "reason": "mesh boundary is convex: every ray enters the mesh at most once"}]
+    res2 = Pipeline.load("raycast").render(scene(box_mesh(), tf, cam), quiet=True, reference=res.image)
+    assert res2.report["error"]["rmse"] == 0 and res2.report["error"]["psnr"] == float("inf")
+
+
+def test_every_registered_stage_documents_its_parameters():
+    get_stage_class("raycast")
+    for name, cls in STAGES.items():
+        assert issubclass(cls, Stage) and cls.summary, name
+        doc = cls.__doc__ or ""
+        for p in cls.params:
+            assert p.name in doc, f"stage {name}: parameter {p.name} missing from its docstring table"
+
+
+def test_top_level_kernels_package_is_not_importable(tmp_path):
+    # kernels/ is installed as warpvol.kernels only
+    code = "import importlib.util, sys; print(importlib.util.find_spec('kernels') is None, importlib.util.find_spec('warpvol.kernels') is not None)"
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["True", "True"]

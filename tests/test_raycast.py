@@ -1,0 +1,99 @@
+"""The ``raycast`` preset against closed forms (constant slab, disconnected slabs) and its planner."""
+
+import numpy as np
+import pytest
+
+from helpers import box_mesh, merge, scene
+from tolerances import TOLERANCES
+from warpvol.camera import Camera
+from warpvol.pipeline import Pipeline
+from warpvol.transfer import TransferFunction
+
+TOL = TOLERANCES["raycast/fp32"]
+
+
+def render(sc, **raycast_params):
+    stages = [{"stage": "cell_setup"}, {"stage": "entry_bins"}, {"stage": "raycast", **raycast_params},
+              {"stage": "peel", **raycast_params}]
+    return Pipeline.from_config({"name": "t", "stages": stages}).render(sc, quiet=True)
+
+
+def ortho(w=24, h=24, height=3.0, eye=(0.1, 0.05, 6.0)):
+    return Camera(projection="orthographic", eye=list(eye), target=[eye[0], eye[1], 0], height=height,
+                  width_px=w, height_px=h)
+
+
+@pytest.mark.parametrize("emission", ["color_extinction", "emission_density"])
+def test_constant_box_is_slab_formula(emission):
+    rho, c = 1.5, np.array([0.8, 0.6, 0.4])
+    tf = TransferFunction([[0, *c, rho], [2, *c, rho]], emission)
+    cam = ortho()
+    res = render(scene(box_mesh(), tf, cam))
+    o, _ = cam.rays()
+    inside = (np.abs(o[..., 0]) < 0.98) & (np.abs(o[..., 1]) < 0.98)
+    outside = (np.abs(o[..., 0]) > 1.02) | (np.abs(o[..., 1]) > 1.02)
+    a = 1 - np.exp(-2 * rho)
+    img = res.image
+    np.testing.assert_allclose(img[inside][:, 3], a, atol=1e-6)
+    want = c * a if emission == "color_extinction" else c * a / rho
+    np.testing.assert_allclose(img[inside][:, :3], np.broadcast_to(want, (inside.sum(), 3)), atol=2e-6)
+    assert (img[outside] == 0).all()
+    assert res.report["skipped"] and res.report["skipped"][0]["stage"] == "peel"
+
+
+def test_disconnected_boxes_need_peeling():
+    rho = 0.9
+    tf = TransferFunction([[0, 1, 1, 1, rho], [2, 1, 1, 1, rho]])
+    m = merge(box_mesh((-1, -1, -2), (1, 1, -1.5), (3, 3, 2)), box_mesh((-1, -1, 0), (1, 1, 1), (3, 3, 3)))
+    assert not m.is_convex
+    cam = ortho(16, 16)
+    res = render(scene(m, tf, cam))
+    o, _ = cam.rays()
+    inside = (np.abs(o[..., 0]) < 0.95) & (np.abs(o[..., 1]) < 0.95)
+    np.testing.assert_allclose(res.image[inside][:, 3], 1 - np.exp(-rho * 1.5), atol=1e-6)
+    assert res.report["stats"]["peel"]["reentries"] >= inside.sum()
+    assert "peel" in res.report["stages"]
+    # without the peel stage only the nearest box is seen
+    one = Pipeline.from_config({"stages": [{"stage": "cell_setup"}, {"stage": "entry_bins"}, {"stage": "raycast"}]})
+    img1 = one.render(scene(m, tf, cam), quiet=True).image
+    np.testing.assert_allclose(img1[inside][:, 3], 1 - np.exp(-rho * 1.0), atol=1e-6)
+
+
+def test_perspective_box_alpha_matches_chord_length():
+    rho = 0.7
+    tf = TransferFunction([[0, 1, 1, 1, rho], [2, 1, 1, 1, rho]])
+    cam = Camera(eye=[0.3, 0.4, 4.0], target=[0, 0, 0], fov_y_deg=40, width_px=20, height_px=20)
+    res = render(scene(box_mesh(), tf, cam))
+    o, d = cam.rays()
+    # analytic slab intersection with [-1, 1]^3
+    with np.errstate(divide="ignore"):
+        t1 = (-1 - o) / d
+        t2 = (1 - o) / d
+    tn = np.minimum(t1, t2).max(-1)
+    tf_ = np.maximum(t1, t2).min(-1)
+    chord = np.clip(tf_ - tn, 0, None)
+    np.testing.assert_allclose(res.image[..., 3], 1 - np.exp(-rho * chord), atol=TOL["max_abs"])
+
+
+def test_thread_blocks_give_identical_images():
+    tf = TransferFunction([[-1, 0, 0, 1, 0.5], [0, 1, 0.5, 0, 2.0], [1, 1, 1, 1, 1.0]])
+    m = box_mesh(dims=(5, 4, 6), scalar=lambda p: p[:, 0] * p[:, 1] + p[:, 2])
+    cam = Camera(eye=[2, 1.5, 4], width_px=40, height_px=33)
+    a = render(scene(m, tf, cam), threads=1).image
+    b = render(scene(m, tf, cam), threads=2).image
+    assert np.array_equal(a, b)
+
+
+def test_stiff_extinction_stays_finite():
+    c = np.array([0.2, 0.7, 0.4])
+    tf = TransferFunction([[0, *c, 1e6], [2, *c, 1e6]])
+    res = render(scene(box_mesh(), tf, ortho(8, 8)))
+    assert np.isfinite(res.image).all()
+    centre = res.image[4, 4]
+    np.testing.assert_allclose(centre, [*c, 1.0], atol=1e-5)
+
+
+def test_max_steps_limits_and_reports_unfinished_rays():
+    tf = TransferFunction([[0, 1, 1, 1, 0.1], [2, 1, 1, 1, 0.1]])
+    res = render(scene(box_mesh(), tf, ortho(8, 8)), max_steps=2)
+    assert res.report["stats"]["raycast"]["unfinished_rays"] > 0
