@@ -33,7 +33,7 @@ def check_finite_array(name: str, arr: np.ndarray) -> None:
         idx = np.argwhere(bad)[0]
         raise MeshError(
             f"{name}: {int(bad.sum())} non-finite value(s) (NaN/Inf); first at index "
-            f"{tuple(int(i) for i in idx)} = {arr[tuple(idx)]!r}; expected finite numbers"
+            f"{tuple(int(i) for i in idx)} = {arr[tuple(idx)].item()!r}; expected finite numbers"
         )
 
 

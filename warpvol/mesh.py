@@ -79,6 +79,7 @@ class TetMesh:
             raise MeshError(
                 f"{name}: tet index out of range: tets[{c}][{k}] = {tets[c, k]}, expected 0 <= index < {len(points)}"
             )
+        self.n_input_tets = len(tets)
         vol6 = signed_volumes(points, tets)
         edges = points[tets[:, EDGE_VERTS[:, 1]]] - points[tets[:, EDGE_VERTS[:, 0]]]
         longest = np.sqrt((edges ** 2).sum(-1).max(axis=1))

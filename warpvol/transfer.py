@@ -63,12 +63,12 @@ class TransferFunction:
         if (d <= 0).any():
             k = int(np.argmax(d <= 0))
             raise ConfigError(
-                f"{where}.points: s must be strictly ascending; points[{k}].s = {pts[k, 0]!r} "
-                f">= points[{k + 1}].s = {pts[k + 1, 0]!r}"
+                f"{where}.points: s must be strictly ascending; points[{k}].s = {float(pts[k, 0])!r} "
+                f">= points[{k + 1}].s = {float(pts[k + 1, 0])!r}"
             )
         if (pts[:, 4] < 0).any():
             k = int(np.argmax(pts[:, 4] < 0))
-            raise ConfigError(f"{where}.points[{k}]: extinction {pts[k, 4]!r} is negative; expected >= 0")
+            raise ConfigError(f"{where}.points[{k}]: extinction {float(pts[k, 4])!r} is negative; expected >= 0")
         if (pts[:, 1:4] < 0).any():
             k = int(np.argmax((pts[:, 1:4] < 0).any(axis=1)))
             raise ConfigError(f"{where}.points[{k}]: colour {pts[k, 1:4].tolist()} has a negative channel")
