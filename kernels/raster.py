@@ -1,0 +1,498 @@
+"""Rasteriser of the emulated GPU: triangle setup, tile binning, per-pixel fragment generation.
+
+Window coordinates: x in [0, W] left to right, y in [0, H] top to bottom (row index), z depth,
+w the clip-space w (1 for orthographic). Pixel (row i, column j) has its centre at (j + .5, i + .5).
+
+* **Snapping**: x, y are snapped to fixed point with ``SUBPIX`` = 8 fractional bits (round to nearest,
+  ties away from zero), and edge functions are evaluated *exactly* in int64. Triangles with a vertex
+  outside the guard band |x|, |y| <= 2^20 px, a non-finite coordinate or ``w <= 0`` are discarded
+  (there is no geometric clipping; the vertex stage's users keep geometry in front of the eye).
+* **Fill rule**: top-left. After orienting every triangle clockwise on screen (positive area in
+  y-down coordinates), a pixel centre on an edge belongs to the triangle iff the edge is a *top*
+  edge (horizontal, interior below) or a *left* edge (going up the screen). So a closed mesh covers
+  each pixel centre exactly once per layer.
+* **Interpolation**: barycentrics at the pixel centre from the *unsnapped* fp32 positions;
+  ``linear`` (screen space) ``a = sum l_i a_i``; ``perspective`` ``a = sum (l_i/w_i) a_i / sum l_i/w_i``;
+  ``flat`` takes the last vertex of the triangle as given (OpenGL provoking vertex). Depth is always
+  screen-space linear (window z is affine in screen space).
+* **Order**: triangles are binned to square tiles by a stable radix sort on the tile key, so each
+  tile lists its triangles in submission order; one thread per pixel walks its tile's list, which
+  keeps primitive order per pixel with no atomics.
+"""
+
+import warp as wp
+
+from .blend import BlendState, blend
+from .texture import Tex1D, tex1d
+
+wp.set_module_options({"enable_backward": False, "fuse_fp": False})
+
+SUBPIX = wp.constant(256)
+SUBPIX64 = wp.constant(wp.int64(256))
+GUARD = wp.constant(1048576.0)
+
+CULL_NONE = wp.constant(0)
+CULL_BACK = wp.constant(1)
+CULL_FRONT = wp.constant(2)
+
+DEPTH_ALWAYS = wp.constant(0)
+DEPTH_LESS = wp.constant(1)
+DEPTH_GREATER = wp.constant(2)
+DEPTH_LEQUAL = wp.constant(3)
+DEPTH_GEQUAL = wp.constant(4)
+DEPTH_NEVER = wp.constant(5)
+
+INTERP_LINEAR = wp.constant(0)
+INTERP_PERSPECTIVE = wp.constant(1)
+INTERP_FLAT = wp.constant(2)
+
+
+@wp.struct
+class TriSetup:
+    """Per-triangle setup produced by :func:`k_setup` and the bins of :func:`k_tile_ranges`."""
+
+    vidx: wp.array(dtype=wp.vec3i)  # vertex indices, reordered clockwise on screen
+    sx: wp.array(dtype=wp.vec3i)  # snapped x (fixed point, SUBPIX per pixel)
+    sy: wp.array(dtype=wp.vec3i)
+    bias: wp.array(dtype=wp.vec3i)  # 0 if the edge opposite vertex k is top-left (E == 0 counts), else 1
+    bbox: wp.array(dtype=wp.vec4i)  # j0, i0, j1, i1 pixel range (inclusive)
+    tile_start: wp.array(dtype=wp.int32)
+    tile_end: wp.array(dtype=wp.int32)
+    tri_of: wp.array(dtype=wp.int32)  # sorted bin entries -> triangle index
+    tile_size: int
+    tiles_x: int
+
+
+@wp.func
+def floordiv(a: int, b: int) -> int:
+    q = a / b
+    if (a % b != 0) and (a < 0):
+        q = q - 1
+    return q
+
+
+@wp.func
+def snap(x: float) -> int:
+    return int(wp.round(x * float(SUBPIX)))
+
+
+@wp.func
+def edge(ax: int, ay: int, bx: int, by: int, px: int, py: int) -> wp.int64:
+    return wp.int64(bx - ax) * wp.int64(py - ay) - wp.int64(by - ay) * wp.int64(px - ax)
+
+
+@wp.func
+def top_left_bias(ax: int, ay: int, bx: int, by: int) -> int:
+    dx = bx - ax
+    dy = by - ay
+    if dy < 0 or (dy == 0 and dx > 0):
+        return 0
+    return 1
+
+
+@wp.kernel
+def k_setup(pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i), width: int, height: int,
+            tile_size: int, cull: int, front_ccw: int,
+            vidx: wp.array(dtype=wp.vec3i), sx: wp.array(dtype=wp.vec3i), sy: wp.array(dtype=wp.vec3i),
+            bias: wp.array(dtype=wp.vec3i), bbox: wp.array(dtype=wp.vec4i), counts: wp.array(dtype=wp.int32)):
+    t = wp.tid()
+    counts[t] = 0
+    bbox[t] = wp.vec4i(0, 0, -1, -1)
+    tri = tris[t]
+    nv = pos.shape[0]
+    if wp.min(tri[0], wp.min(tri[1], tri[2])) < 0 or wp.max(tri[0], wp.max(tri[1], tri[2])) >= nv:
+        return
+    p0 = pos[tri[0]]
+    p1 = pos[tri[1]]
+    p2 = pos[tri[2]]
+    ok = True
+    for k in range(3):
+        p = pos[tri[k]]
+        if not (wp.abs(p[0]) <= GUARD and wp.abs(p[1]) <= GUARD and wp.isfinite(p[2]) and p[3] > 0.0
+                and wp.isfinite(p[3])):
+            ok = False
+    if not ok:
+        return
+    x0 = snap(p0[0])
+    y0 = snap(p0[1])
+    x1 = snap(p1[0])
+    y1 = snap(p1[1])
+    x2 = snap(p2[0])
+    y2 = snap(p2[1])
+    area = edge(x0, y0, x1, y1, x2, y2)
+    if area == wp.int64(0):
+        return
+    # area > 0 in y-down coordinates is clockwise as displayed; OpenGL's counter-clockwise (in its
+    # y-up window coordinates, which display the same way) is therefore area < 0 here.
+    ccw_gl = area < wp.int64(0)
+    front = ccw_gl
+    if front_ccw == 0:
+        front = not ccw_gl
+    if cull == 1 and not front:
+        return
+    if cull == 2 and front:
+        return
+    i0 = tri[0]
+    i1 = tri[1]
+    i2 = tri[2]
+    if area < wp.int64(0):
+        tx = x1
+        ty = y1
+        x1 = x2
+        y1 = y2
+        x2 = tx
+        y2 = ty
+        ti = i1
+        i1 = i2
+        i2 = ti
+    vidx[t] = wp.vec3i(i0, i1, i2)
+    sx[t] = wp.vec3i(x0, x1, x2)
+    sy[t] = wp.vec3i(y0, y1, y2)
+    # edge k is opposite vertex k: e0 = (v1 -> v2), e1 = (v2 -> v0), e2 = (v0 -> v1)
+    bias[t] = wp.vec3i(top_left_bias(x1, y1, x2, y2), top_left_bias(x2, y2, x0, y0), top_left_bias(x0, y0, x1, y1))
+    h = SUBPIX / 2
+    xmin = wp.min(x0, wp.min(x1, x2))
+    xmax = wp.max(x0, wp.max(x1, x2))
+    ymin = wp.min(y0, wp.min(y1, y2))
+    ymax = wp.max(y0, wp.max(y1, y2))
+    j0 = wp.max(-floordiv(-(xmin - h), SUBPIX), 0)
+    j1 = wp.min(floordiv(xmax - h, SUBPIX), width - 1)
+    r0 = wp.max(-floordiv(-(ymin - h), SUBPIX), 0)
+    r1 = wp.min(floordiv(ymax - h, SUBPIX), height - 1)
+    if j0 > j1 or r0 > r1:
+        return
+    bbox[t] = wp.vec4i(j0, r0, j1, r1)
+    counts[t] = (j1 / tile_size - j0 / tile_size + 1) * (r1 / tile_size - r0 / tile_size + 1)
+
+
+@wp.kernel
+def k_emit(bbox: wp.array(dtype=wp.vec4i), counts: wp.array(dtype=wp.int32), offsets: wp.array(dtype=wp.int32),
+           tile_size: int, tiles_x: int, keys: wp.array(dtype=wp.int32), vals: wp.array(dtype=wp.int32)):
+    t = wp.tid()
+    if counts[t] == 0:
+        return
+    b = bbox[t]
+    o = offsets[t]
+    for ty in range(b[1] / tile_size, b[3] / tile_size + 1):
+        for tx in range(b[0] / tile_size, b[2] / tile_size + 1):
+            keys[o] = ty * tiles_x + tx
+            vals[o] = t
+            o += 1
+
+
+@wp.kernel
+def k_tile_ranges(keys: wp.array(dtype=wp.int32), total: int, start: wp.array(dtype=wp.int32),
+                  end: wp.array(dtype=wp.int32)):
+    i = wp.tid()
+    k = keys[i]
+    if i == 0:
+        start[k] = i
+    elif keys[i - 1] != k:
+        start[k] = i
+    if i == total - 1:
+        end[k] = i + 1
+    elif keys[i + 1] != k:
+        end[k] = i + 1
+
+
+@wp.func
+def coverage(s: TriSetup, t: int, j: int, i: int) -> bool:
+    """Does triangle ``t`` cover the centre of pixel (row i, column j)? Exact, top-left rule."""
+    b = s.bbox[t]
+    if j < b[0] or j > b[2] or i < b[1] or i > b[3]:
+        return False
+    px = j * SUBPIX + SUBPIX / 2
+    py = i * SUBPIX + SUBPIX / 2
+    x = s.sx[t]
+    y = s.sy[t]
+    bi = s.bias[t]
+    e0 = edge(x[1], y[1], x[2], y[2], px, py)
+    e1 = edge(x[2], y[2], x[0], y[0], px, py)
+    e2 = edge(x[0], y[0], x[1], y[1], px, py)
+    return (e0 - wp.int64(bi[0]) >= wp.int64(0)) and (e1 - wp.int64(bi[1]) >= wp.int64(0)) and (
+        e2 - wp.int64(bi[2]) >= wp.int64(0))
+
+
+@wp.func
+def bary_from(a: wp.vec4, b: wp.vec4, c: wp.vec4, px: float, py: float) -> wp.vec3:
+    """Screen-space barycentrics of point (px, py) in triangle (a, b, c) (fp32, fixed operation order)."""
+    l0 = (c[0] - b[0]) * (py - b[1]) - (c[1] - b[1]) * (px - b[0])
+    l1 = (a[0] - c[0]) * (py - c[1]) - (a[1] - c[1]) * (px - c[0])
+    l2 = (b[0] - a[0]) * (py - a[1]) - (b[1] - a[1]) * (px - a[0])
+    ssum = l0 + l1 + l2
+    if ssum == 0.0:
+        return wp.vec3(1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0)
+    return wp.vec3(l0 / ssum, l1 / ssum, l2 / ssum)
+
+
+@wp.func
+def screen_bary(pos: wp.array(dtype=wp.vec4), v: wp.vec3i, px: float, py: float) -> wp.vec3:
+    """Screen-space barycentrics of point (px, py) from the unsnapped fp32 window positions."""
+    return bary_from(pos[v[0]], pos[v[1]], pos[v[2]], px, py)
+
+
+@wp.func
+def persp_bary(pos: wp.array(dtype=wp.vec4), v: wp.vec3i, l: wp.vec3) -> wp.vec3:
+    """Perspective-correct weights from screen barycentrics ``l`` (interpolate a/w and 1/w, divide)."""
+    q0 = l[0] / pos[v[0]][3]
+    q1 = l[1] / pos[v[1]][3]
+    q2 = l[2] / pos[v[2]][3]
+    s = q0 + q1 + q2
+    return wp.vec3(q0 / s, q1 / s, q2 / s)
+
+
+@wp.func
+def depth_pass(func: int, z: float, zbuf: float) -> bool:
+    r = True
+    if func == 1:
+        r = z < zbuf
+    elif func == 2:
+        r = z > zbuf
+    elif func == 3:
+        r = z <= zbuf
+    elif func == 4:
+        r = z >= zbuf
+    elif func == 5:
+        r = False
+    return r
+
+
+@wp.func
+def interp_depth(pos: wp.array(dtype=wp.vec4), v: wp.vec3i, l: wp.vec3) -> float:
+    return l[0] * pos[v[0]][2] + l[1] * pos[v[1]][2] + l[2] * pos[v[2]][2]
+
+
+@wp.func
+def fragment_weights(pos: wp.array(dtype=wp.vec4), v: wp.vec3i, l: wp.vec3, mode: int) -> wp.vec3:
+    if mode == 1:
+        return persp_bary(pos, v, l)
+    return l
+
+
+# ------------------------------------------------------------------------------------------------
+# per-pixel kernels (launch dim = (H, W))
+# ------------------------------------------------------------------------------------------------
+
+
+@wp.kernel
+def k_fragments(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i),
+                attrs: wp.array2d(dtype=wp.float32), modes: wp.array(dtype=wp.int32), na: int,
+                depth: wp.array2d(dtype=wp.float32), depth_func: int, depth_write: int, depth_clip: int,
+                write: int, counts: wp.array(dtype=wp.int32), offsets: wp.array(dtype=wp.int32),
+                frag_prim: wp.array(dtype=wp.int32), frag_depth: wp.array(dtype=wp.float32),
+                frag_attrs: wp.array2d(dtype=wp.float32)):
+    """Pass ``write=0`` counts the fragments of each pixel; ``write=1`` writes them at ``offsets``."""
+    i, j = wp.tid()
+    width = depth.shape[1]
+    tile = (i / s.tile_size) * s.tiles_x + j / s.tile_size
+    zb = depth[i, j]
+    n = int(0)
+    o = int(0)
+    if write != 0:
+        o = offsets[i * width + j]
+    px = float(j) + 0.5
+    py = float(i) + 0.5
+    for e in range(s.tile_start[tile], s.tile_end[tile]):
+        t = s.tri_of[e]
+        if coverage(s, t, j, i):
+            v = s.vidx[t]
+            l = screen_bary(pos, v, px, py)
+            z = interp_depth(pos, v, l)
+            if depth_clip != 0 and (z < 0.0 or z > 1.0):
+                continue
+            if not depth_pass(depth_func, z, zb):
+                continue
+            if depth_write != 0:
+                zb = z
+            if write != 0:
+                frag_prim[o] = t
+                frag_depth[o] = z
+                wl = l
+                wpc = persp_bary(pos, v, l)
+                last = tris[t][2]
+                for a in range(na):
+                    m = modes[a]
+                    val = float(0.0)
+                    if m == 2:
+                        val = attrs[last, a]
+                    else:
+                        w = wl
+                        if m == 1:
+                            w = wpc
+                        val = w[0] * attrs[v[0], a] + w[1] * attrs[v[1], a] + w[2] * attrs[v[2], a]
+                    frag_attrs[o, a] = val
+                o += 1
+            n += 1
+    if write == 0:
+        counts[i * width + j] = n
+    else:
+        depth[i, j] = zb
+
+
+@wp.kernel
+def k_draw_colors(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i),
+                  colors: wp.array(dtype=wp.vec4), mode: int,
+                  depth: wp.array2d(dtype=wp.float32), depth_func: int, depth_write: int, depth_clip: int,
+                  bs: BlendState, fb: wp.array2d(dtype=wp.vec4), prim0: int):
+    """Fused raster + Gouraud/flat colour + blend, in primitive order per pixel."""
+    i, j = wp.tid()
+    tile = (i / s.tile_size) * s.tiles_x + j / s.tile_size
+    zb = depth[i, j]
+    d = fb[i, j]
+    px = float(j) + 0.5
+    py = float(i) + 0.5
+    for e in range(s.tile_start[tile], s.tile_end[tile]):
+        t = s.tri_of[e]
+        if coverage(s, t, j, i):
+            v = s.vidx[t]
+            l = screen_bary(pos, v, px, py)
+            z = interp_depth(pos, v, l)
+            if depth_clip != 0 and (z < 0.0 or z > 1.0):
+                continue
+            if not depth_pass(depth_func, z, zb):
+                continue
+            if depth_write != 0:
+                zb = z
+            c = colors[tris[t][2]]
+            if mode != 2:
+                w = fragment_weights(pos, v, l, mode)
+                c = w[0] * colors[v[0]] + w[1] * colors[v[1]] + w[2] * colors[v[2]]
+            d = blend(bs, c, d, j, i, prim0 + t)
+    fb[i, j] = d
+    depth[i, j] = zb
+
+
+@wp.kernel
+def k_draw_colors_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i),
+                        colors: wp.array(dtype=wp.vec4), mode: int,
+                        depth: wp.array2d(dtype=wp.float32), depth_func: int, depth_write: int, depth_clip: int,
+                        bs: BlendState, fb: wp.array2d(dtype=wp.vec4), prim0: int):
+    """Same result as :func:`k_draw_colors`, one thread per *tile*: each bin entry visits only the
+    pixels of the triangle's bounding box inside the tile (far fewer coverage tests; the better
+    choice on the CPU, where launches run serially anyway). Pixels are owned by one thread, and a
+    tile's entries are in submission order, so per-pixel primitive order is kept."""
+    tile = wp.tid()
+    ty = tile / s.tiles_x
+    tx = tile - ty * s.tiles_x
+    tj0 = tx * s.tile_size
+    ti0 = ty * s.tile_size
+    tj1 = wp.min(tj0 + s.tile_size, fb.shape[1]) - 1
+    ti1 = wp.min(ti0 + s.tile_size, fb.shape[0]) - 1
+    for e in range(s.tile_start[tile], s.tile_end[tile]):
+        t = s.tri_of[e]
+        b = s.bbox[t]
+        j0 = wp.max(b[0], tj0)
+        j1 = wp.min(b[2], tj1)
+        i0 = wp.max(b[1], ti0)
+        i1 = wp.min(b[3], ti1)
+        v = s.vidx[t]
+        pa = pos[v[0]]
+        pb = pos[v[1]]
+        pc = pos[v[2]]
+        ca = colors[v[0]]
+        cb = colors[v[1]]
+        cc = colors[v[2]]
+        cflat = colors[tris[t][2]]
+        x = s.sx[t]
+        y = s.sy[t]
+        bi = s.bias[t]
+        # edge functions at the first pixel centre, stepped exactly (int64) along rows and columns
+        px0 = j0 * SUBPIX + SUBPIX / 2
+        py0 = i0 * SUBPIX + SUBPIX / 2
+        r0 = edge(x[1], y[1], x[2], y[2], px0, py0) - wp.int64(bi[0])
+        r1 = edge(x[2], y[2], x[0], y[0], px0, py0) - wp.int64(bi[1])
+        r2 = edge(x[0], y[0], x[1], y[1], px0, py0) - wp.int64(bi[2])
+        sj0 = -wp.int64(y[2] - y[1]) * SUBPIX64
+        sj1 = -wp.int64(y[0] - y[2]) * SUBPIX64
+        sj2 = -wp.int64(y[1] - y[0]) * SUBPIX64
+        si0 = wp.int64(x[2] - x[1]) * SUBPIX64
+        si1 = wp.int64(x[0] - x[2]) * SUBPIX64
+        si2 = wp.int64(x[1] - x[0]) * SUBPIX64
+        for i in range(i0, i1 + 1):
+            e0 = r0
+            e1 = r1
+            e2 = r2
+            for j in range(j0, j1 + 1):
+                if e0 >= wp.int64(0) and e1 >= wp.int64(0) and e2 >= wp.int64(0):
+                    l = bary_from(pa, pb, pc, float(j) + 0.5, float(i) + 0.5)
+                    z = l[0] * pa[2] + l[1] * pb[2] + l[2] * pc[2]
+                    ok = True
+                    if depth_clip != 0 and (z < 0.0 or z > 1.0):
+                        ok = False
+                    if ok and depth_func != 0:
+                        ok = depth_pass(depth_func, z, depth[i, j])
+                    if ok:
+                        if depth_write != 0:
+                            depth[i, j] = z
+                        c = cflat
+                        if mode != 2:
+                            w = l
+                            if mode == 1:
+                                q0 = l[0] / pa[3]
+                                q1 = l[1] / pb[3]
+                                q2 = l[2] / pc[3]
+                                qs = q0 + q1 + q2
+                                w = wp.vec3(q0 / qs, q1 / qs, q2 / qs)
+                            c = w[0] * ca + w[1] * cb + w[2] * cc
+                        fb[i, j] = blend(bs, c, fb[i, j], j, i, prim0 + t)
+                e0 = e0 + sj0
+                e1 = e1 + sj1
+                e2 = e2 + sj2
+            r0 = r0 + si0
+            r1 = r1 + si1
+            r2 = r2 + si2
+
+
+@wp.kernel
+def k_draw_ids(s: TriSetup, pos: wp.array(dtype=wp.vec4), ids: wp.array(dtype=wp.int32),
+               depth: wp.array2d(dtype=wp.float32), depth_func: int, depth_write: int, depth_clip: int,
+               idbuf: wp.array2d(dtype=wp.int32)):
+    """Flat-shaded integer IDs (24-bit) with depth test: the ID buffer of VSBUFFER-style passes."""
+    i, j = wp.tid()
+    tile = (i / s.tile_size) * s.tiles_x + j / s.tile_size
+    zb = depth[i, j]
+    idv = idbuf[i, j]
+    px = float(j) + 0.5
+    py = float(i) + 0.5
+    for e in range(s.tile_start[tile], s.tile_end[tile]):
+        t = s.tri_of[e]
+        if coverage(s, t, j, i):
+            v = s.vidx[t]
+            l = screen_bary(pos, v, px, py)
+            z = interp_depth(pos, v, l)
+            if depth_clip != 0 and (z < 0.0 or z > 1.0):
+                continue
+            if not depth_pass(depth_func, z, zb):
+                continue
+            if depth_write != 0:
+                zb = z
+            idv = ids[t] & 16777215
+    idbuf[i, j] = idv
+    depth[i, j] = zb
+
+
+@wp.kernel
+def k_draw_quads_1d(bs: BlendState, fb: wp.array2d(dtype=wp.vec4), tex: Tex1D, corners: wp.array(dtype=wp.vec4),
+                    modulate: wp.vec4, prim0: int):
+    """Draw n full-viewport rectangles in order, rectangle k textured from a 1D texture.
+
+    ``corners[k] = (c00, c10, c01, c11)`` are rectangle k's texture coordinates at window corners
+    (x, y) = (0, 0), (W, 0), (0, H), (W, H); the coordinate at a pixel centre is their bilinear
+    interpolation (equal to the two-triangle screen-space interpolation whenever the corner values
+    are affine, as in hardware pre-integration). Fragment colour = texel * ``modulate``.
+    """
+    i, j = wp.tid()
+    h = fb.shape[0]
+    w = fb.shape[1]
+    fx = (float(j) + 0.5) / float(w)
+    fy = (float(i) + 0.5) / float(h)
+    d = fb[i, j]
+    for k in range(corners.shape[0]):
+        c = corners[k]
+        top = c[0] + fx * (c[1] - c[0])
+        bot = c[2] + fx * (c[3] - c[2])
+        u = top + fy * (bot - top)
+        texel = tex1d(tex, u)
+        src = wp.cw_mul(texel, modulate)
+        d = blend(bs, src, d, j, i, prim0 + k)
+    fb[i, j] = d

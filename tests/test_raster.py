@@ -1,0 +1,367 @@
+"""Rasteriser: watertightness, fill rule, interpolation, depth test, culling, order, ID buffers; vertex stage."""
+
+import numpy as np
+import pytest
+import warp as wp
+
+from warpvol.camera import Camera
+from warpvol.errors import ConfigError
+from warpvol.gpu.blend import BlendUnit, FrameBuffer
+from warpvol.gpu.raster import Rasterizer, rasterize
+from warpvol.gpu.vertex import VertexStage, transform_vertices, viewport_matrix
+
+DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
+
+
+def icosphere(level: int) -> tuple[np.ndarray, np.ndarray]:
+    t = (1 + 5**0.5) / 2
+    v = [[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t], [0, -1, -t], [0, 1, -t],
+         [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]]
+    f = [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4], [11, 10, 2], [10, 7, 6],
+         [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10],
+         [8, 6, 7], [9, 8, 1]]
+    v = [np.array(p, float) / np.linalg.norm(p) for p in v]
+    for _ in range(level):
+        cache, nf = {}, []
+
+        def mid(a, b):
+            key = (min(a, b), max(a, b))
+            if key not in cache:
+                m = v[a] + v[b]
+                v.append(m / np.linalg.norm(m))
+                cache[key] = len(v) - 1
+            return cache[key]
+
+        for a, b, c in f:
+            ab, bc, ca = mid(a, b), mid(b, c), mid(c, a)
+            nf += [[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]
+        f = nf
+    return np.array(v), np.array(f)
+
+
+def random_closed_mesh(seed: int, bumpy: bool = True):
+    """A closed triangle mesh (randomly perturbed and rotated icosphere; convex if not ``bumpy``)."""
+    rng = np.random.default_rng(seed)
+    v, f = icosphere(2)
+    if bumpy:
+        v = v * rng.uniform(0.6, 1.0, (len(v), 1))
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    return v @ q.T, f
+
+
+def counts_per_pixel(frags, shape):
+    return np.diff(frags.offsets.numpy()).reshape(shape)
+
+
+def reference_coverage(win, faces, width, height, eps=1e-3):
+    """NumPy: how many projected triangles contain each pixel centre, and where that is ambiguous
+    (a centre within ``eps`` pixels of an edge line)."""
+    j, i = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5)
+    p = np.stack([j.ravel(), i.ravel()], -1)
+    count = np.zeros(len(p), int)
+    ambiguous = np.zeros(len(p), bool)
+    for tri in faces:
+        a, b, c = win[tri, :2].astype(np.float64)
+        e = []
+        for u, v in ((a, b), (b, c), (c, a)):
+            d = v - u
+            e.append((d[0] * (p[:, 1] - u[1]) - d[1] * (p[:, 0] - u[0])) / max(np.hypot(*d), 1e-12))
+        e = np.stack(e, -1)
+        inside = np.all(e > eps, 1) | np.all(e < -eps, 1)
+        count += inside
+        near = np.all(e > -eps, 1) | np.all(e < eps, 1)
+        ambiguous |= near & ~inside
+    return count.reshape(height, width), ambiguous.reshape(height, width)
+
+
+@pytest.mark.parametrize("device", DEVICES)
+@pytest.mark.parametrize("seed,bumpy", [(0, False), (1, True), (2, True)])
+def test_closed_mesh_is_watertight(device, seed, bumpy):
+    verts, faces = random_closed_mesh(seed, bumpy)
+    W, H = 96, 80
+    cam = Camera(eye=[0.3, 0.2, 3.2], target=[0, 0, 0], width_px=W, height_px=H, fov_y_deg=45)
+    out = VertexStage.from_camera(cam, near=0.5, far=10.0, device=device).transform(verts)
+    win = out.window_array
+    n_all = counts_per_pixel(Rasterizer(W, H, device=device, tile_size=8).fragments(win, faces), (H, W))
+    n_back = counts_per_pixel(Rasterizer(W, H, device=device, cull="back").fragments(win, faces), (H, W))
+    n_front = counts_per_pixel(Rasterizer(W, H, device=device, cull="front").fragments(win, faces), (H, W))
+    assert (n_all > 0).sum() > 1500
+    # closed mesh: at every pixel centre as many front layers as back layers, one fragment each
+    np.testing.assert_array_equal(n_front, n_back)
+    np.testing.assert_array_equal(n_all, n_front + n_back)
+    if not bumpy:
+        assert set(np.unique(n_all)) == {0, 2}
+    # exactly the number of projected triangles containing the centre (where that is unambiguous),
+    # and centres on shared edges (ambiguous for the reference) are still counted once per layer
+    ref, amb = reference_coverage(out.window, faces, W, H)
+    np.testing.assert_array_equal(n_all[~amb], ref[~amb])
+    assert amb.sum() < 0.05 * W * H
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_pixel_centre_aligned_grid_mesh_covers_each_centre_once(device):
+    """A jittered planar grid whose vertices sit on pixel centres and edges: shared edges pass through
+    many pixel centres; each centre strictly inside the boundary is covered exactly once."""
+    rng = np.random.default_rng(3)
+    W = H = 40
+    g = np.arange(4, 37, 4).astype(float)
+    X, Y = np.meshgrid(g, g)
+    inner = (X > 4) & (X < 36) & (Y > 4) & (Y < 36)
+    X = X + inner * rng.choice([-1.5, -1.0, -0.5, 0.0, 0.5, 1.0, 1.5], X.shape)
+    Y = Y + inner * rng.choice([-1.5, -1.0, -0.5, 0.0, 0.5, 1.0, 1.5], Y.shape)
+    X, Y = X + 0.5, Y + 0.5  # vertices at pixel centres
+    n = len(g)
+    pos = np.stack([X.ravel(), Y.ravel(), np.full(n * n, 0.5), np.ones(n * n)], -1)
+    idx = np.arange(n * n).reshape(n, n)
+    tris = []
+    for r in range(n - 1):
+        for c in range(n - 1):
+            a, b, d, e = idx[r, c], idx[r, c + 1], idx[r + 1, c], idx[r + 1, c + 1]
+            if rng.random() < 0.5:
+                tris += [[a, b, e], [a, e, d]]
+            else:
+                tris += [[a, b, d], [b, e, d]]
+    tris = np.array(tris)
+    tris[::3] = tris[::3, ::-1]  # mixed windings must not matter with culling off
+    cnt = counts_per_pixel(rasterize(pos, tris, W, H, device=device, tile_size=4), (H, W))
+    # boundary square from 4.5 to 36.5: top/left boundary centres included, bottom/right excluded
+    expect = np.zeros((H, W), int)
+    expect[4:36, 4:36] = 1
+    np.testing.assert_array_equal(cnt, expect)
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_top_left_fill_rule_on_pixel_centre_edges(device):
+    # a square with corners on pixel centres (2.5, 1.5)-(6.5, 5.5), split along its diagonal
+    pos = np.array([[2.5, 1.5, 0, 1], [6.5, 1.5, 0, 1], [2.5, 5.5, 0, 1], [6.5, 5.5, 0, 1]], np.float32)
+    for tris in ([[0, 1, 2], [1, 3, 2]], [[0, 1, 3], [0, 3, 2]], [[2, 1, 0], [2, 3, 1]]):
+        fr = rasterize(pos, np.array(tris), 9, 8, device=device)
+        cnt = counts_per_pixel(fr, (8, 9))
+        expect = np.zeros((8, 9), int)
+        expect[1:5, 2:6] = 1  # top row (y = 1.5) and left column (x = 2.5) in; bottom / right out
+        np.testing.assert_array_equal(cnt, expect)
+    # single triangle: which diagonal centres belong to it depends on the edge's side
+    lower_left = counts_per_pixel(rasterize(pos, np.array([[0, 3, 2]]), 9, 8, device=device), (8, 9))
+    upper_right = counts_per_pixel(rasterize(pos, np.array([[0, 1, 3]]), 9, 8, device=device), (8, 9))
+    diag = [(1 + k, 2 + k) for k in range(4)]
+    # the diagonal is a left edge of the upper-right triangle (interior to its right), a right edge
+    # of the lower-left one
+    assert all(upper_right[r, c] == 1 for r, c in diag)
+    assert all(lower_left[r, c] == 0 for r, c in diag)
+    assert lower_left.sum() == 6 and upper_right.sum() == 10  # 16 centres in the square, each once
+    # a horizontal edge shared by two triangles above/below it: the lower triangle owns it (top edge)
+    pos2 = np.array([[0, 2.5, 0, 1], [8, 2.5, 0, 1], [4, -3, 0, 1], [4, 8, 0, 1]], np.float32)
+    above = counts_per_pixel(rasterize(pos2, np.array([[0, 2, 1]]), 8, 8, device=device), (8, 8))
+    below = counts_per_pixel(rasterize(pos2, np.array([[0, 1, 3]]), 8, 8, device=device), (8, 8))
+    assert above[2].sum() == 0 and below[2].sum() > 0
+    assert (above + below).max() == 1
+
+
+def _plane_setup(device, width=64, height=48):
+    cam = Camera(eye=[0.5, 0.4, 3.0], target=[0, 0, -0.5], width_px=width, height_px=height, fov_y_deg=60)
+    # a large triangle strongly inclined to the view (big depth range -> visible perspective)
+    P = np.array([[-2.0, -1.5, 1.0], [2.5, -1.0, -4.0], [-1.0, 2.0, -3.0]])
+    near, far = 0.5, 20.0
+    vs = VertexStage.from_camera(cam, near, far, device=device)
+    out = vs.transform(P)
+    return cam, P, out
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_perspective_correct_interpolation_is_exact_at_pixel_rays(device):
+    cam, P, out = _plane_setup(device)
+    attrs = P  # attributes = world position (linear in the plane)
+    r = Rasterizer(cam.width_px, cam.height_px, device=device)
+    fr = r.fragments(out.window_array, [[0, 1, 2]], attrs, interpolation="perspective")
+    assert fr.count > 500
+    pix = fr.pixel_index()
+    rows, cols = pix // cam.width_px, pix % cam.width_px
+    o, d = cam.rays()
+    o, d = o[rows, cols], d[rows, cols]
+    nrm = np.cross(P[1] - P[0], P[2] - P[0])
+    t = ((P[0] - o) @ nrm) / (d @ nrm)
+    hit = o + t[:, None] * d
+    got = fr.attrs.numpy()[: fr.count]
+    np.testing.assert_allclose(got, hit, atol=2e-4 * np.abs(P).max())
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_linear_interpolation_has_the_expected_screen_space_error(device):
+    cam, P, out = _plane_setup(device)
+    r = Rasterizer(cam.width_px, cam.height_px, device=device)
+    fr = r.fragments(out.window_array, [[0, 1, 2]], P, interpolation="linear")
+    pix = fr.pixel_index()
+    px = pix % cam.width_px + 0.5
+    py = pix // cam.width_px + 0.5
+    w = out.window[:, :2].astype(np.float64)
+    # screen-space barycentrics of the pixel centres: what affine (non-perspective) hardware does
+    T = np.array([[w[0, 0] - w[2, 0], w[1, 0] - w[2, 0]], [w[0, 1] - w[2, 1], w[1, 1] - w[2, 1]]])
+    l01 = np.linalg.solve(T, np.stack([px - w[2, 0], py - w[2, 1]]))
+    lam = np.stack([l01[0], l01[1], 1 - l01[0] - l01[1]], -1)
+    got = fr.attrs.numpy()[: fr.count]
+    np.testing.assert_allclose(got, lam @ P, atol=2e-4 * np.abs(P).max())
+    # ... which differs from the perspective-correct (exact) attribute by a visible amount
+    exact = r.fragments(out.window_array, [[0, 1, 2]], P, interpolation="perspective").attrs.numpy()[: fr.count]
+    assert np.abs(got - exact).max() > 0.2
+    # and depth is the same either way (window z is affine in screen space)
+    np.testing.assert_allclose(fr.depth.numpy()[: fr.count], lam @ out.window[:, 2], atol=1e-5)
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_flat_and_mixed_interpolation_modes(device):
+    pos = np.array([[0, 0, 0.5, 1], [8, 0, 0.5, 2], [0, 8, 0.5, 4]], np.float32)
+    attrs = np.array([[1.0, 10.0], [2.0, 20.0], [3.0, 30.0]])
+    fr = rasterize(pos, [[0, 1, 2]], 8, 8, attrs, interpolation=["flat", "linear"], device=device)
+    a = fr.attrs.numpy()[: fr.count]
+    assert np.all(a[:, 0] == 3.0)  # provoking vertex = last vertex
+    assert a[:, 1].min() > 10.0 and a[:, 1].max() < 30.0
+    with pytest.raises(ConfigError, match=r"interpolation: unknown value 'smooth'"):
+        rasterize(pos, [[0, 1, 2]], 8, 8, attrs, interpolation="smooth", device=device)
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_depth_tests_culling_and_primitive_order(device):
+    W = H = 20
+    # two overlapping full-viewport-ish quads (as 2 triangles each), near one (z=.3) drawn second
+    def quad(z, x0=0.0, y0=0.0, x1=20.0, y1=20.0):
+        return np.array([[x0, y0, z, 1], [x1, y0, z, 1], [x0, y1, z, 1], [x1, y1, z, 1]], np.float32)
+
+    pos = np.concatenate([quad(0.6), quad(0.3, 5, 5, 15, 15)])
+    tris = np.array([[0, 2, 1], [1, 2, 3], [4, 6, 5], [5, 6, 7]])  # CCW in GL (y up) = front facing
+    cols = np.concatenate([np.tile([1.0, 0, 0, 1], (4, 1)), np.tile([0, 1.0, 0, 1], (4, 1))])
+
+    def render(depth_func, order, **kw):
+        fb = FrameBuffer(W, H, "unorm8", device)
+        fb.clear((0, 0, 0, 0))
+        fb.clear_depth(1.0 if depth_func in ("less", "always") else 0.0)
+        r = Rasterizer(W, H, device=device, depth_func=depth_func, depth_write=True, tile_size=8, **kw)
+        r.draw(pos, tris[order], cols, fb, BlendUnit.replace())
+        return fb.codes()[..., :2]
+
+    centre, corner = (10, 10), (1, 1)
+    # ALWAYS: the later primitive wins, whatever its depth
+    assert render("always", [0, 1, 2, 3])[centre].tolist() == [0, 255]
+    assert render("always", [2, 3, 0, 1])[centre].tolist() == [255, 0]
+    # LESS: the nearer wins in either order; GREATER: the farther
+    for order in ([0, 1, 2, 3], [2, 3, 0, 1]):
+        assert render("less", order)[centre].tolist() == [0, 255]
+        assert render("greater", order)[centre].tolist() == [255, 0]
+        assert render("less", order)[corner].tolist() == [255, 0]
+    # culling: these faces are front facing (CCW in OpenGL's y-up window coordinates)
+    assert render("always", [0, 1, 2, 3], cull="back")[centre].tolist() == [0, 255]
+    assert render("always", [0, 1, 2, 3], cull="front")[centre].tolist() == [0, 0]
+    assert render("always", [0, 1, 2, 3], cull="back", front_face="cw")[centre].tolist() == [0, 0]
+    # depth clip: fragments beyond the far plane are dropped
+    far = np.concatenate([quad(1.5), quad(0.3, 5, 5, 15, 15)])
+    fb = FrameBuffer(W, H, "unorm8", device)
+    Rasterizer(W, H, device=device).draw(far, tris, cols, fb, BlendUnit.replace())
+    assert fb.codes()[corner].tolist() == [0, 0, 0, 0]
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_fused_draw_equals_fragment_list_and_is_tile_size_independent(device):
+    rng = np.random.default_rng(11)
+    W, H, T = 50, 40, 300
+    pos = np.concatenate([rng.uniform([-5, -5], [55, 45], (3 * T, 2)), rng.uniform(0, 1, (3 * T, 1)),
+                          rng.uniform(0.5, 2, (3 * T, 1))], 1).astype(np.float32)
+    tris = np.arange(3 * T).reshape(T, 3)
+    cols = rng.uniform(0, 1, (3 * T, 4)).astype(np.float32)
+    outs = []
+    for ts, trav in ((4, "tile"), (16, "pixel"), (64, "tile"), (8, "pixel")):
+        fb = FrameBuffer(W, H, "unorm8", device)
+        fb.clear((0.1, 0.2, 0.3, 0.0))
+        Rasterizer(W, H, device=device, tile_size=ts, traversal=trav).draw(pos, tris, cols, fb, BlendUnit.over())
+        outs.append(fb.codes())
+    for o in outs[1:]:
+        np.testing.assert_array_equal(o, outs[0])
+    # per-tile and per-pixel traversal also agree with a depth test and flat / linear shading
+    for mode in ("flat", "linear"):
+        res = []
+        for trav in ("tile", "pixel"):
+            fb = FrameBuffer(W, H, "unorm12", device)
+            fb.clear((0, 0, 0, 0))
+            Rasterizer(W, H, device=device, depth_func="less", depth_write=True, traversal=trav).draw(
+                pos, tris, cols, fb, BlendUnit.under(), interpolation=mode)
+            res.append((fb.codes(), fb.depth.numpy()))
+        np.testing.assert_array_equal(res[0][0], res[1][0])
+        np.testing.assert_array_equal(res[0][1], res[1][1])
+        assert (res[0][1] < 1).sum() > 0.5 * W * H
+    r = Rasterizer(W, H, device=device)
+    fr = r.fragments(pos, tris, cols, interpolation="perspective")
+    fb = FrameBuffer(W, H, "unorm8", device)
+    fb.clear((0.1, 0.2, 0.3, 0.0))
+    BlendUnit.over().blend_fragments(fb, fr, fr.attrs)
+    np.testing.assert_array_equal(fb.codes(), outs[0])
+    # primitive order per pixel: fragment prims strictly increasing within each pixel
+    off, prim = fr.offsets.numpy(), fr.prim.numpy()[: fr.count]
+    inc = np.diff(prim) > 0
+    starts = np.zeros(fr.count, bool)
+    starts[off[:-1][off[:-1] < fr.count]] = True
+    assert np.all(inc | starts[1:])
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_id_buffer_flat_24bit_ids_with_depth(device):
+    pos = np.array([[0, 0, 0.7, 1], [16, 0, 0.7, 1], [0, 16, 0.7, 1],
+                    [0, 0, 0.2, 1], [16, 0, 0.9, 1], [0, 16, 0.2, 1]], np.float32)
+    tris = np.array([[0, 1, 2], [3, 4, 5]])
+    ids = np.array([0xABCDEF, 0x123456])
+    idb, depth = Rasterizer(16, 16, device=device, depth_func="less", depth_write=True).draw_ids(pos, tris, ids)
+    assert idb[0, 0] == 0x123456  # second triangle nearer at x = 0
+    assert idb[0, 13] == 0xABCDEF  # first nearer near x = 16
+    assert idb[15, 15] == -1  # not covered: clear value
+    assert np.isclose(depth[0, 0], 0.2 + 0.7 * 0.5 / 16, atol=1e-5)
+    with pytest.raises(ConfigError, match=r"ids: must be 24-bit"):
+        Rasterizer(16, 16, device=device).draw_ids(pos, tris, np.array([1, 2**24]))
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_vertex_stage_matches_camera_rays(device):
+    cam = Camera(eye=[1.0, 2.0, 4.0], target=[0, 0, 0], width_px=32, height_px=24, fov_y_deg=50)
+    o, d = cam.rays()
+    pts = o[[0, 5, 23], [0, 17, 31]] + 3.0 * d[[0, 5, 23], [0, 17, 31]]
+    out = VertexStage.from_camera(cam, 0.1, 50.0, device=device).transform(pts)
+    np.testing.assert_allclose(out.window[:, :2], [[0.5, 0.5], [17.5, 5.5], [31.5, 23.5]], atol=1e-3)
+    np.testing.assert_allclose(-out.eye[:, 2], out.clip[:, 3], rtol=1e-6)  # clip w = eye distance along -z
+    assert np.all((out.window[:, 2] > 0) & (out.window[:, 2] < 1))
+    ortho = Camera(projection="orthographic", eye=[0, 0, 5], target=[0, 0, 0], height=2.0, width_px=4, height_px=4)
+    out2 = transform_vertices([[1.0, 1.0, 0.0]], ortho.view_matrix(), ortho.projection_matrix(1, 10),
+                              viewport_matrix(4, 4), device=device)
+    np.testing.assert_allclose(out2.window[0], [4.0, 0.0, (5 - 1) / 9, 1.0], atol=1e-5)
+    # behind the eye: w <= 0 and the rasteriser discards triangles using it
+    back = VertexStage.from_camera(cam, 0.1, 50.0, device=device).transform([[0, 0, 0], [2, 4, 8], [0.5, 0, 0]])
+    assert back.window[1, 3] <= 0
+    assert rasterize(back.window_array, [[0, 1, 2]], 32, 24, device=device).count == 0
+    with pytest.raises(ConfigError, match=r"points: expected shape \(V, 3\)"):
+        VertexStage.from_camera(cam, 0.1, 50.0).transform([[0.0, 1.0]])
+
+
+def test_rasterizer_validation_names_the_argument():
+    with pytest.raises(ConfigError, match=r"cull: unknown value 'both'; allowed: 'none', 'back', 'front'"):
+        Rasterizer(4, 4, cull="both")
+    with pytest.raises(ConfigError, match=r"tile_size: 12 not allowed"):
+        Rasterizer(4, 4, tile_size=12)
+    with pytest.raises(ConfigError, match=r"depth_func: unknown value 'lt'"):
+        Rasterizer(4, 4, depth_func="lt")
+    with pytest.raises(ConfigError, match=r"width: 0 is outside the allowed range"):
+        Rasterizer(0, 4)
+    with pytest.raises(ConfigError, match=r"tris: vertex indices must be in \[0, 2\]"):
+        rasterize(np.zeros((3, 4)), [[0, 1, 3]], 4, 4)
+    with pytest.raises(ConfigError, match=r"attrs: expected shape \(3, A\)"):
+        rasterize(np.zeros((3, 4)), [[0, 1, 2]], 4, 4, attrs=np.zeros((2, 1)))
+
+
+def test_vertex_stage_registered_and_runs():
+    from warpvol.builtin import builtin_scene
+    from warpvol.pipeline import Context, get_stage_class
+
+    scene = builtin_scene("box").with_camera(width_px=12, height_px=10)
+    ctx = Context(scene=scene, quiet=True)
+    stage = get_stage_class("vertex")()
+    stage.run(ctx)
+    v = ctx.buffers["vertices"]
+    assert v.window.shape == (scene.mesh.points.shape[0], 4)
+    # every mesh point lies inside the depth range chosen from the bounds
+    assert np.all((v.window[:, 2] >= 0) & (v.window[:, 2] <= 1))
+    with pytest.raises(ConfigError, match=r"far: 1.0 must exceed near \(2.0\)"):
+        get_stage_class("vertex")(near=2.0, far=1.0)

@@ -1,0 +1,57 @@
+"""Stage ``vertex``: the vertex stage of the emulated GPU (model-view / projection / viewport).
+
+Transforms the mesh's points with the scene camera (near/far planes enclosing the mesh bounds,
+:meth:`warpvol.camera.Camera.depth_range`) and stores :class:`warpvol.gpu.vertex.Vertices` in
+``ctx.buffers["vertices"]`` (eye, clip and window coordinates; ``window_array`` feeds the
+rasteriser directly) and the matrices in ``ctx.buffers["vertex_stage"]``.
+"""
+
+from __future__ import annotations
+
+from ..pipeline import Context, Param, Stage, register_stage
+
+
+@register_stage
+class Vertex(Stage):
+    """Transform mesh points to window coordinates.
+
+    ==========  =====  =======  ===========  ===================================================
+    parameter   type   default  allowed      meaning
+    ==========  =====  =======  ===========  ===================================================
+    near        float  0.0      >= 0         near plane distance; 0: from the mesh bounds
+    far         float  0.0      >= 0         far plane distance; 0: from the mesh bounds
+    ==========  =====  =======  ===========  ===================================================
+
+    Example
+    -------
+    >>> from warpvol.builtin import builtin_scene
+    >>> from warpvol.pipeline import Context
+    >>> ctx = Context(scene=builtin_scene("box").with_camera(width_px=8, height_px=8), quiet=True)
+    >>> Vertex().run(ctx)
+    >>> ctx.buffers["vertices"].window.shape[1]
+    4
+    """
+
+    name = "vertex"
+    summary = "vertex stage: model-view / projection transform, perspective division, viewport"
+    params = (
+        Param("near", float, 0.0, "near plane distance (0: enclose the mesh bounds)", lo=0.0),
+        Param("far", float, 0.0, "far plane distance (0: enclose the mesh bounds)", lo=0.0),
+    )
+
+    def validate(self) -> None:
+        from ..errors import ConfigError
+
+        if self.config["near"] and self.config["far"] and self.config["far"] <= self.config["near"]:
+            raise ConfigError(f"{self.where}.far: {self.config['far']} must exceed near ({self.config['near']})")
+
+    def run(self, ctx: Context) -> None:
+        from ..gpu.vertex import VertexStage
+
+        cam, mesh = ctx.scene.camera, ctx.scene.mesh
+        near, far = cam.depth_range(*mesh.bounds)
+        near = self.config["near"] or near
+        far = self.config["far"] or max(far, near * 1.0001 + 1e-6)
+        vs = VertexStage.from_camera(cam, near, far, device=ctx.device)
+        ctx.buffers["vertex_stage"] = vs
+        ctx.buffers["vertices"] = vs.transform(mesh.points)
