@@ -97,3 +97,19 @@ def test_max_steps_limits_and_reports_unfinished_rays():
     tf = TransferFunction([[0, 1, 1, 1, 0.1], [2, 1, 1, 1, 0.1]])
     res = render(scene(box_mesh(), tf, ortho(8, 8)), max_steps=2)
     assert res.report["stats"]["raycast"]["unfinished_rays"] > 0
+
+
+@pytest.mark.parametrize("name", ["sphere", "box", "linear_box", "concave", "stiff"])
+def test_builtin_scenes_match_reference(name):
+    from warpvol.builtin import builtin_scene
+    from warpvol.metrics import image_error
+    from warpvol.reference import render_reference
+
+    sc = builtin_scene(name)
+    sc.camera = sc.camera.replace(width_px=48, height_px=40)
+    ref = render_reference(sc.mesh, sc.transfer, sc.camera)
+    img = Pipeline.load("raycast").render(sc, quiet=True).image
+    err = image_error(img, ref)
+    assert ref[..., 3].max() > 0.05, "scene must show something"
+    assert err["rmse"] <= TOL["rmse"], err
+    assert err["max_abs"] <= TOL["max_abs"], err
