@@ -1,0 +1,89 @@
+"""Hardware-emulated builders (Roettger & Ertl 2002 §3, Guthe et al. 2002 §4) on the emulated units."""
+
+import numpy as np
+import pytest
+
+from test_tables_common import TOLERANCES, report, smooth_tf
+from warpvol.tables.exact import build_exact3d
+from warpvol.tables.pingpong import build_pingpong
+from warpvol.tables.roettger_hw import build_roettger_hw
+from warpvol.tables.roettger_sw import build_roettger_sw
+
+
+def float_same_steps(tf, n_s, n_l, steps):
+    """The same n-step back-to-front integration in fp32 (no frame-buffer rounding): n_min = steps."""
+    return build_roettger_sw(tf, n_s=n_s, n_l=n_l, lmax=1.0, m=1, oversampling=1e-9, n_min=steps)
+
+
+@pytest.mark.parametrize("bits", [12, 8])
+@pytest.mark.parametrize("passes", ["two", "one"])
+def test_hardware_slices_within_quantisation_bound(bits, passes):
+    tf = smooth_tf("emission_density", rho_max=2.0)
+    steps = 32
+    hw = build_roettger_hw(tf, n_s=12, n_l=3, lmax=1.0, steps=steps, bits=bits, passes=passes, n_tex=64)
+    fl = float_same_steps(tf, 12, 3, steps)
+    d = np.abs(hw.data - fl.data)
+    bound = steps * TOLERANCES[f"roettger_hw/{bits}"]["lsb"]
+    report(f"roettger_hw/{bits} {passes}-pass, {steps} steps vs same-step fp32", max=d.max(), bound=bound)
+    assert d.max() <= bound
+    assert np.isfinite(hw.data).all()
+
+
+def test_one_and_two_pass_agree_on_colour():
+    tf = smooth_tf("emission_density", rho_max=2.0)
+    a = build_roettger_hw(tf, n_s=8, n_l=2, steps=16, bits=12, passes="two", n_tex=64)
+    b = build_roettger_hw(tf, n_s=8, n_l=2, steps=16, bits=12, passes="one", n_tex=64)
+    np.testing.assert_array_equal(a.data[..., :3], b.data[..., :3])
+    np.testing.assert_allclose(a.data[..., 3], b.data[..., 3], atol=1 / 4095 + 1e-7)
+
+
+def test_error_grows_with_steps_and_8bit_is_worse():
+    """Table 1's trend: every blend quantises, so more steps means more error; 8 bits worse than 12."""
+    tf = smooth_tf("emission_density", rho_max=2.0)
+    ex = build_exact3d(tf, n_s=16, n_l=4, lmax=1.0)
+    rms = {}
+    for bits in (12, 8):
+        for steps in (32, 128, 512):
+            hw = build_roettger_hw(tf, n_s=16, n_l=4, steps=steps, bits=bits, n_tex=256)
+            rms[bits, steps] = float(np.sqrt(((hw.data - ex.data) ** 2).mean()))
+    report("roettger_hw RMS vs exact", **{f"{b}bit_{s}": v for (b, s), v in rms.items()})
+    assert rms[12, 128] < rms[12, 512] and rms[8, 32] < rms[8, 128] < rms[8, 512]
+    for s in (32, 128, 512):
+        assert rms[8, s] > rms[12, s]
+
+
+def test_geforce3_combiners_beat_plain_8bit_blending():
+    tf = smooth_tf("emission_density", rho_max=2.0)
+    steps = 64
+    fl = float_same_steps(tf, 12, 3, steps)
+    plain = build_roettger_hw(tf, n_s=12, n_l=3, steps=steps, bits=8, n_tex=256)
+    gf3 = build_roettger_hw(tf, n_s=12, n_l=3, steps=steps, bits=8, variant="geforce3", n_tex=256)
+    e_plain = np.sqrt(((plain.data - fl.data) ** 2).mean())
+    e_gf3 = np.sqrt(((gf3.data - fl.data) ** 2).mean())
+    report("geforce3 vs plain 8-bit (RMS vs same-step fp32)", plain=e_plain, geforce3=e_gf3)
+    assert e_gf3 < e_plain
+    assert gf3.meta["blends"] * 4 == plain.meta["blends"]
+
+
+def pingpong_float_reference(tf, n_s, l, m):
+    """The same m-step integration kappa a + (1 - a) C in float64 with the same texture sampling."""
+    return build_roettger_sw(tf, n_s=n_s, n_l=1, lmax=l, m=1, oversampling=1e-9, n_min=m).data[0]
+
+
+def test_pingpong_radeon_masks_geforce_saturates():
+    tf = smooth_tf("color_extinction", rho_max=3.0)
+    m = 64
+    ref = build_roettger_sw(tf, n_s=12, n_l=2, lmax=1.0, m=1, oversampling=1e-9, n_min=m,
+                            l_axis="endpoint").data[1]  # same m steps in fp32 at l = lmax
+    passes = -(-m // 4)
+    bound = (passes + 2 * m) * TOLERANCES["pingpong/radeon8500"]["lsb"]
+    err = {}
+    for gpu in ("radeon8500", "geforce4"):
+        pp = build_pingpong(tf, n_s=12, lengths=[1.0], lmax=1.0, m=m, gpu=gpu, n_tex=4096)
+        d = np.abs(pp.data[0, ..., :3] - ref[..., :3])
+        err[gpu] = float(np.sqrt((d ** 2).mean()))
+        report(f"pingpong/{gpu} m = {m}", max=d.max(), rms=err[gpu], radeon_bound=bound)
+        assert pp.meta["passes"] == 3 * passes
+        if gpu == "radeon8500":
+            assert d.max() <= bound
+    assert err["geforce4"] > 2 * err["radeon8500"]  # saturation loses the low bits: the paper's point

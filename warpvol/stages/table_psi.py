@@ -1,0 +1,30 @@
+"""Host step ``table_psi``: the TF-free psi table of partial pre-integration (Moreland & Angel 2004)."""
+
+from __future__ import annotations
+
+from ..pipeline import Param, register_stage
+from ..tables.stage_support import TableStage, output_param
+
+
+@register_stage
+class TablePsi(TableStage):
+    """ψ(γf, γb) and ψ1 (emission-density moment); built once, never rebuilt on TF edits.
+
+    ==========  =====  =========  ==================================================
+    parameter   type   default    meaning
+    ==========  =====  =========  ==================================================
+    n           int    128        resolution of both gamma axes
+    format      str    fp32       ``fp32`` | ``fp16`` | ``rgba8`` | ``hilo16``
+    output      str    psi        ``ctx.buffers`` key
+    ==========  =====  =========  ==================================================
+    """
+
+    name = "table_psi"
+    summary = "partial pre-integration psi(gamma_f, gamma_b) table (TF-independent)"
+    builder = "psi"
+    uses_tf = False
+    params = (
+        Param("n", int, 128, "resolution of the gamma axes", lo=2, hi=4096),
+        Param("format", str, "fp32", "stored format", choices=("fp32", "fp16", "rgba8", "hilo16")),
+        output_param("psi"),
+    )

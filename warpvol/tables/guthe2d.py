@@ -1,0 +1,185 @@
+"""Guthe et al. 2002 §3: the 3D table replaced by 2D textures and a dependent 1D opacity texture.
+
+Opacity, separated exactly: ``rho_hat(sf, sb) = int_0^1 rho(sf + t (sb - sf)) dt`` (a 2D texture,
+stored normalised by its maximum ``rho_max``) and ``alpha = alpha1D(l rho_hat)``,
+``alpha1D(x) = 1 - exp(-x)``, a 1D dependent texture over ``x_n = (l / lmax)(rho_hat / rho_max)``
+holding 16-bit opacity as an 8-bit A/L pair (``alpha = 256 A/257 + L/257``, :class:`warpvol.formats.Pair16`).
+
+Colour: normalised emission ``C_hat(l) = C(l) / alpha(l)`` approximated by a polynomial in
+``x = l / lmax``: ``C ~ alpha sum_i x^i C~_i``. The coefficients interpolate ``degree + 1`` equally
+spaced slices ``x_i = i / degree`` with ``C_hat(0) = C0_hat = int kappa rho / int rho`` (the l -> 0
+limit); degree 1 gives ``C~_0 = C0_hat``, ``C~_1 = dC1 = C_hat(lmax) - C0_hat`` (the paper's linear
+setup). Each coefficient texture is scaled into the signed texel range [-1, 1] by a per-channel
+constant (``meta["coef_scale"][i]``, the shader multiplies it back).
+
+Only the colour-times-extinction model factors this way (the paper's model): with emission density
+``C / alpha`` is unbounded where extinction vanishes, so such a TF is rejected.
+
+Documented behaviour at vanishing quantities: ``sf = sb`` needs no division (``rho_hat = rho(sf)``,
+``C0_hat = kappa(sf)``); where ``int rho = 0`` ``C0_hat`` is the plain mean colour (alpha = 0 there
+anyway); where ``alpha(l) < 1e-6`` ``C_hat(l)`` is replaced by ``C0_hat`` (its limit, error O(alpha)).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ConfigError
+from .base import Axis, Table, quantise
+from .common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, model_id, scalar_axis,
+                     table_key, tf_arrays, timed)
+
+COEF_FORMATS = ("snorm8", "fp16", "fp32")
+ALPHA_FORMATS = ("al16", "rgba8", "fp32")
+ALPHA_MIN = 1e-6
+
+
+def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_alpha: int = 1024,
+                  format: str = "snorm8", alpha_format: str = "al16", slices: str = "exact", m: int = 128,
+                  device: str = "cpu") -> Table:
+    """Guthe 2D tables.
+
+    Parameters
+    ----------
+    tf : TransferFunction
+        Must use the ``color_extinction`` model.
+    n_s : int
+        Resolution of the 2D textures (sf, sb); the paper uses 512.
+    degree : int
+        Polynomial degree in l: 1 (linear), 2 (GeForce4), 4 (Radeon 8500); any 1..6 accepted.
+    lmax : float
+        Thickness at x = 1.
+    n_alpha : int
+        Entries of the dependent alpha1D texture.
+    format : str
+        Coefficient textures: ``snorm8`` (signed texels, the paper), ``fp16`` or ``fp32``.
+        ``rho_hat`` is stored as unsigned 8 bits with ``snorm8`` (NV ``SIGNED_RGB_UNSIGNED_ALPHA``),
+        else in the same float format.
+    alpha_format : str
+        ``al16`` (16-bit A/L pair, the paper), ``rgba8`` (8-bit alpha) or ``fp32``.
+    slices : str
+        How the colour slices ``C(l_i)`` are integrated: ``exact`` (software) or ``pingpong``
+        (hardware, Radeon 8500 ping-pong filtering with ``m`` steps; §4).
+    m : int
+        Integration steps of the ping-pong slices.
+    device : str
+
+    Returns
+    -------
+    Table
+        ``data[i, sb, sf, rgba]``: coefficient i in rgb (scaled to [-1, 1]), ``rho_hat / rho_max`` in
+        the alpha channel of i = 0. ``extra``: ``alpha1d`` (decoded, (n_alpha,)), ``alpha1d_raw``,
+        ``c_hat`` (the slices the polynomial interpolates, float32), ``coef`` (unscaled coefficients).
+    """
+    check_tf(tf)
+    if tf.emission != "color_extinction":
+        raise ConfigError("tf.emission: Guthe's 2D tables need the 'color_extinction' model (C / alpha is "
+                          f"unbounded for {tf.emission!r} where extinction vanishes)")
+    n_s = check_res("n_s", n_s, 2)
+    degree = check_res("degree", degree, 1, 6)
+    lmax = check_lmax(lmax)
+    n_alpha = check_res("n_alpha", n_alpha, 2, 1 << 16)
+    check_choice("format", format, COEF_FORMATS)
+    check_choice("alpha_format", alpha_format, ALPHA_FORMATS)
+    check_choice("slices", slices, ("exact", "pingpong"))
+    m = check_res("m", m, 1, 1 << 16)
+    import warp as wp
+
+    k = kernels()
+    ax_f = scalar_axis("sf", tf, n_s)
+    ax_b = scalar_axis("sb", tf, n_s)
+    key = table_key("guthe2d", tf.hash, n_s=n_s, degree=degree, lmax=lmax, n_alpha=n_alpha,
+                    alpha_format=alpha_format, slices=slices, m=m if slices == "pingpong" else 0, format=format)
+    meta = {"builder": "guthe2d", "emission": tf.emission, "lmax": lmax, "degree": degree}
+    x = farr(ax_f.nodes, device)
+    tf_s, tf_v = tf_arrays(tf, device)
+    lo, hi = tf.srange
+    mom = wp.zeros((n_s, n_s), dtype=wp.vec4, device=device)
+    sl = wp.zeros((degree, n_s, n_s), dtype=wp.vec4, device=device)
+    with timed(meta, device=device):
+        wp.launch(k.guthe_moments, dim=(n_s, n_s), device=device, inputs=[x, x, lo, hi - lo, tf_s, tf_v, mom])
+        if slices == "exact":
+            lengths = farr(lmax * np.arange(1, degree + 1) / degree, device)
+            wp.launch(k.exact_table3d, dim=(degree, n_s, n_s), device=device,
+                      inputs=[x, x, lengths, lo, hi - lo, tf_s, tf_v, model_id(tf), sl])
+            s = sl.numpy().astype(np.float64)
+        else:
+            from .pingpong import build_pingpong
+
+            pp = build_pingpong(tf, n_s=n_s, lengths=tuple(np.arange(1, degree + 1) / degree), lmax=lmax, m=m,
+                                device=device)
+            s = pp.data.astype(np.float64)
+            meta["pingpong_passes"] = pp.meta["passes"]
+        mo = mom.numpy().astype(np.float64)
+        c0 = mo[..., :3]
+        rho_hat = mo[..., 3]
+        a = s[..., 3:4]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ch = np.where(a >= ALPHA_MIN, s[..., :3] / np.maximum(a, ALPHA_MIN), c0[None])
+        c_hat = np.concatenate([c0[None], ch], axis=0)  # (degree+1, N, N, 3)
+        xs = np.arange(degree + 1) / degree
+        V = np.vander(xs, degree + 1, increasing=True)
+        coef = np.einsum("ij,j...->i...", np.linalg.inv(V), c_hat)  # (degree+1, N, N, 3)
+        scale = np.abs(coef).reshape(degree + 1, -1, 3).max(axis=1)
+        scale = np.where(scale > 0, scale, 1.0)
+        rho_max = float(rho_hat.max()) if rho_hat.max() > 0 else 1.0
+        data = np.zeros((degree + 1, n_s, n_s, 4), dtype=np.float32)
+        data[..., :3] = coef / scale[:, None, None, :]
+        data[0, ..., 3] = rho_hat / rho_max
+        # alpha1D at x_n = k / (n_alpha - 1) (the dependent lookup applies Kraus' texel-centre scale and
+        # bias, so x_n = 0 hits alpha = 0 exactly); x_n = 1 <-> optical depth lmax * rho_max
+        xa = np.arange(n_alpha) / (n_alpha - 1)
+        alpha1d = -np.expm1(-xa * lmax * rho_max)
+    dec, raw = quantise(data[..., :3], format)
+    rho_dec, _ = quantise(data[..., 3], "rgba8" if format == "snorm8" else format)
+    data_q = np.concatenate([dec, rho_dec[..., None]], axis=-1)
+    data_q[1:, ..., 3] = 0.0
+    a_dec, a_raw = quantise(alpha1d, alpha_format)
+    meta.update(coef_scale=scale.tolist(), rho_max=rho_max, alpha_depth=lmax * rho_max)
+    t = finish("guthe2d", data_q, (Axis("coef", degree + 1), ax_b, ax_f), ("r", "g", "b", "rho"), "fp32", key, meta,
+               extra={"alpha1d": a_dec, "alpha1d_raw": a_raw, "c_hat": c_hat.astype(np.float32),
+                      "coef": coef.astype(np.float32), "coef_raw": raw})
+    t.format = format
+    return t
+
+
+def _bilinear2d(tex: np.ndarray, fx: np.ndarray, fy: np.ndarray) -> np.ndarray:
+    """Bilinear lookup of ``tex[y, x, C]`` at continuous texel indices (clamp to edge), float64."""
+    ny, nx = tex.shape[:2]
+    x = np.clip(fx, 0, nx - 1)
+    y = np.clip(fy, 0, ny - 1)
+    x0 = np.minimum(np.floor(x).astype(np.int64), nx - 2)
+    y0 = np.minimum(np.floor(y).astype(np.int64), ny - 2)
+    wx = (x - x0)[..., None]
+    wy = (y - y0)[..., None]
+    t = tex.astype(np.float64)
+    return ((t[y0, x0] * (1 - wx) + t[y0, x0 + 1] * wx) * (1 - wy)
+            + (t[y0 + 1, x0] * (1 - wx) + t[y0 + 1, x0 + 1] * wx) * wy)
+
+
+def reconstruct(table: Table, sf, sb, l) -> np.ndarray:
+    """``(C rgb, alpha)`` at normalised ``(sf, sb, l)`` from the stored (quantised) textures.
+
+    The fragment program of Guthe's Table 1/2 setup, in float64: bilinear coefficient and
+    ``rho_hat`` lookups, dependent linear alpha1D lookup at ``x_n = l rho_hat``,
+    ``C = alpha sum_i l^i C~_i``.
+    """
+    sf, sb, l = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in (sf, sb, l)))
+    ax_b, ax_f = table.axes[1], table.axes[2]
+    fx, fy = ax_f.index(sf), ax_b.index(sb)
+    deg = table.data.shape[0] - 1
+    scale = np.asarray(table.meta["coef_scale"], dtype=np.float64)
+    t0 = _bilinear2d(table.data[0], fx, fy)
+    rho_n = t0[..., 3]
+    xa = np.clip(l, 0, 1) * rho_n
+    a1 = table.extra["alpha1d"].astype(np.float64)
+    na = a1.shape[0]
+    ia = np.clip(xa * (na - 1), 0, na - 1)
+    i0 = np.minimum(np.floor(ia).astype(np.int64), na - 2)
+    w = ia - i0
+    alpha = a1[i0] * (1 - w) + a1[i0 + 1] * w
+    c = np.zeros(sf.shape + (3,))
+    for i in range(deg + 1):
+        ci = t0[..., :3] if i == 0 else _bilinear2d(table.data[i], fx, fy)[..., :3]
+        c += (np.clip(l, 0, 1) ** i)[..., None] * ci * scale[i]
+    return np.concatenate([c * alpha[..., None], alpha[..., None]], axis=-1)

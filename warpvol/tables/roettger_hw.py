@@ -1,0 +1,156 @@
+"""Roettger & Ertl 2002 §3: hardware-accelerated pre-integration, one ``l = const`` slice at a time,
+run on the emulated GPU (texture unit :mod:`warpvol.gpu.texture`, blending unit and frame buffer
+:mod:`warpvol.gpu.blend`).
+
+The TF is a 1D texture ``T1D(s) = (E(s), 1 - exp(-(l/n) rho(s)))`` with ``E = (l/n) kappa``
+(emission density, eq. 8) or ``kappa (1 - exp(-(l/n) rho))`` (colour times extinction, premultiplied);
+``n`` rectangles the size of the slice are drawn back to front with texture coordinate
+``w_i(sf, sb) = sb + i/(n-1) (sf - sb)`` and blended ``dst = src.rgb + (1 - src.a) dst`` into a
+frame buffer of 8 or 12 bits per channel (every blend rounds: that is the method's error).
+
+``passes``:
+  * ``"two"``: RGB pass into a buffer cleared to (0, 0, 0); opacity pass with the texture modulated
+    by the primary colour (0, 0, 0, 1) into a buffer cleared to (1, 1, 1): transparency in RGB
+    (SGI Octane MXI: 12-bit RGB visual, no RGBA).
+  * ``"one"``: constant blend colour (1, 1, 1, 0) in the source path, buffer cleared to (0, 0, 0, 1):
+    colour in RGB, transparency in alpha.
+
+``variant="geforce3"``: 4 texture units per pass, 3 general register-combiner steps at 12-bit internal
+precision, the final combiner's output stored into an 8-bit buffer (4 steps per blend).
+
+The texture has ``n_tex`` texels at ``(k + 0.5) / n_tex`` of the normalised scalar (default: the TF's
+number of control points, ``m``), in the frame buffer's precision (8-bit ``rgba8``; 12-bit values
+via :data:`warpvol.formats.UNORM12` held in an ``rgba32f`` texture, since the texture unit has no
+12-bit texel format), linear filtering.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import check_number
+from .base import AXIS_KINDS, TABLE_FORMATS
+from .common import check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, scalar_axis, table_key, timed
+from .exact import length_axis
+
+VARIANTS = ("blend", "geforce3")
+
+
+def tf_texture_values(tf, n_tex: int, l: float, n: int) -> np.ndarray:
+    """``T1D`` texel values (n_tex, 4), float64, unquantised (eq. 8)."""
+    lo, hi = tf.srange
+    x = (np.arange(n_tex) + 0.5) / n_tex
+    v = tf.evaluate(lo + x * (hi - lo))
+    a = -np.expm1(-(l / n) * v[:, 3])
+    if tf.emission == "emission_density":
+        e = (l / n) * v[:, :3]
+    else:
+        e = v[:, :3] * a[:, None]
+    return np.clip(np.column_stack([e, a]), 0.0, 1.0)
+
+
+def make_tf_texture(values: np.ndarray, bits: int, device: str):
+    """The TF as a texture of the emulated texture unit, in ``bits`` precision."""
+    from ..formats import UNORM12
+    from ..gpu.texture import Texture1D
+
+    if bits == 8:
+        return Texture1D(values, fmt="rgba8", filter="linear", device=device)
+    # 12-bit texels: quantised by the 12-bit number format, stored exactly in an fp32 texture
+    return Texture1D(UNORM12.quantize(values.astype(np.float32)), fmt="rgba32f", filter="linear", device=device)
+
+
+def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, steps: int | None = None,
+                      bits: int = 12, passes: str = "two", variant: str = "blend", n_tex: int | None = None,
+                      l_axis: str = "centred", draw: int | None = None, format: str = "fp32", device: str = "cpu"):
+    """Hardware-emulated per-slice pre-integration.
+
+    Parameters
+    ----------
+    tf : TransferFunction
+    n_s, n_l : int
+        Slice resolution (frame buffer ``n_s x n_s``) and number of slices.
+    lmax : float
+    steps : int, optional
+        Rectangles per slice ``n = o m`` (paper: o = 1); default: the TF's number of points.
+    bits : int
+        Frame-buffer (and TF texture) depth: 8 or 12. ``variant="geforce3"`` needs 8.
+    passes : str
+        ``"two"`` (RGB pass + opacity pass) or ``"one"`` (constant blend colour).
+    variant : str
+        ``"blend"`` (one blend per step) or ``"geforce3"`` (4 steps per blend via register combiners).
+    n_tex : int, optional
+        TF texture resolution (default: number of TF points).
+    draw : int, optional
+        Draw only the first ``draw`` rectangles (intermediate frame buffers, the paper's Fig. 4).
+    l_axis, format, device : str
+
+    Returns
+    -------
+    Table
+        ``data[l, sb, sf] = (C, alpha)``, values of the frame buffer read back (then stored in ``format``).
+    """
+    from ..gpu.blend import BlendUnit, FrameBuffer
+    from ..formats import UNORM12
+    import warp as wp
+
+    check_tf(tf)
+    n_s = check_res("n_s", n_s, 2)
+    n_l = check_res("n_l", n_l, 1 if l_axis == "centred" else 2)
+    lmax = check_lmax(lmax)
+    steps = len(tf.points) if steps is None else check_res("steps", steps, 1, 1 << 16)
+    bits = int(check_number("bits", bits, integer=True))
+    check_choice("bits", bits, (8, 12))
+    check_choice("passes", passes, ("two", "one"))
+    check_choice("variant", variant, VARIANTS)
+    if variant == "geforce3" and bits != 8:
+        raise ValueError("bits: the geforce3 variant stores into an 8-bit frame buffer; use bits=8")
+    n_tex = len(tf.points) if n_tex is None else check_res("n_tex", n_tex, 2, 1 << 16)
+    check_choice("l_axis", l_axis, AXIS_KINDS[:2])
+    check_choice("format", format, TABLE_FORMATS)
+    draw = steps if draw is None else check_res("draw", draw, 0, steps)
+
+    k = kernels()
+    ax_f = scalar_axis("sf", tf, n_s)
+    ax_b = scalar_axis("sb", tf, n_s)
+    ax_l = length_axis(n_l, lmax, l_axis)
+    key = table_key("roettger_hw", tf.hash, n_s=n_s, n_l=n_l, lmax=lmax, steps=steps, bits=bits, passes=passes,
+                    variant=variant, n_tex=n_tex, l_axis=l_axis, draw=draw, format=format)
+    meta = {"builder": "roettger_hw", "emission": tf.emission, "lmax": lmax, "steps": steps, "bits": bits,
+            "passes": passes, "variant": variant, "fragments": 0, "blends": 0}
+    fb_fmt = f"unorm{bits}"
+    group = 4 if variant == "geforce3" else 1
+    comb = UNORM12.kernel_params()
+    x = farr(ax_f.nodes, device)
+    fb = FrameBuffer(n_s, n_s, fb_fmt, device)
+    over = BlendUnit.over()
+    one_pass = BlendUnit("constant_color", "one_minus_src_alpha", constant=(1, 1, 1, 0))
+    data = np.zeros((n_l, n_s, n_s, 4), dtype=np.float32)
+    nblend = -(-draw // group)
+    with timed(meta, device=device):
+        for li, l in enumerate(ax_l.physical):
+            tex = make_tf_texture(tf_texture_values(tf, n_tex, float(l), steps), bits, device)
+            if passes == "two":
+                fb.clear((0, 0, 0, 0))
+                wp.launch(k.hw_preint_slice, dim=(n_s, n_s), device=device,
+                          inputs=[tex.struct, over.state(fb), fb.array, x, x, steps, draw, group, comb,
+                                  wp.vec4(1.0, 1.0, 1.0, 1.0)])
+                rgb = fb.readback()[..., :3]
+                fb.clear((1, 1, 1, 1))
+                wp.launch(k.hw_preint_slice, dim=(n_s, n_s), device=device,
+                          inputs=[tex.struct, over.state(fb), fb.array, x, x, steps, draw, group, comb,
+                                  wp.vec4(0.0, 0.0, 0.0, 1.0)])
+                theta = fb.readback()[..., 0]
+                meta["blends"] += 2 * nblend * n_s * n_s
+            else:
+                fb.clear((0, 0, 0, 1))
+                wp.launch(k.hw_preint_slice, dim=(n_s, n_s), device=device,
+                          inputs=[tex.struct, one_pass.state(fb), fb.array, x, x, steps, draw, group, comb,
+                                  wp.vec4(1.0, 1.0, 1.0, 1.0)])
+                v = fb.readback()
+                rgb, theta = v[..., :3], v[..., 3]
+                meta["blends"] += nblend * n_s * n_s
+            data[li, ..., :3] = rgb
+            data[li, ..., 3] = 1.0 - theta
+    meta["fragments"] = meta["blends"] * group
+    return finish("roettger_hw", data, (ax_l, ax_b, ax_f), ("r", "g", "b", "a"), format, key, meta)

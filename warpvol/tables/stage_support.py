@@ -1,0 +1,52 @@
+"""Thin stage wrapper shared by ``warpvol/stages/table_*.py``: each stage validates its parameters,
+then fetches its table from the render's :class:`~warpvol.tables.cache.TableCache`
+(``ctx.buffers["table_cache"]``, created on first use) and stores it in ``ctx.buffers[output]``.
+
+``lmax = 0`` (the default everywhere) means the mesh's longest edge (``scene.mesh.lmax``).
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+from ..pipeline import Context, Param, Stage
+from .cache import TableCache
+
+LMAX = Param("lmax", float, 0.0, "thickness at l = 1 (world units); 0 = the mesh's longest edge", lo=0.0)
+
+
+def output_param(default: str) -> Param:
+    return Param("output", str, default, "ctx.buffers key the table is stored under")
+
+
+class TableStage(Stage):
+    """Base class: subclasses set ``builder`` and map their config to builder keyword arguments."""
+
+    builder: ClassVar[str] = ""
+    uses_tf: ClassVar[bool] = True
+
+    def builder_kwargs(self, ctx: Context) -> dict[str, Any]:
+        kw = {k: v for k, v in self.config.items() if k != "output"}
+        if "lmax" in kw:
+            kw["lmax"] = self.resolve_lmax(ctx)
+        return kw
+
+    def resolve_lmax(self, ctx: Context) -> float:
+        if self.config.get("lmax", 0.0) > 0:
+            return float(self.config["lmax"])
+        mesh = getattr(ctx.scene, "mesh", None)
+        if mesh is None:
+            raise ValueError(f"{self.where}: lmax = 0 needs a scene with a mesh (or give lmax > 0)")
+        return float(mesh.lmax)
+
+    def run(self, ctx: Context) -> None:
+        cache = ctx.buffers.setdefault("table_cache", TableCache())
+        tf = getattr(ctx.scene, "transfer", None) if self.uses_tf else None
+        if self.uses_tf and tf is None:
+            raise ValueError(f"{self.where}: the scene has no transfer function")
+        n_before = len(cache.builds)
+        table = cache.get(self.builder, tf, device=ctx.device, **self.builder_kwargs(ctx))
+        ctx.buffers[self.config["output"]] = table
+        ctx.stats.setdefault("tables", {})[self.config["output"]] = {
+            "builder": self.builder, "shape": list(table.data.shape), "format": table.format,
+            "built": len(cache.builds) > n_before, "build_s": table.meta.get("build_s")}
