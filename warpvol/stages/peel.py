@@ -9,7 +9,8 @@ stage when the mesh boundary is convex (every ray enters at most once).
 from __future__ import annotations
 
 from ..pipeline import Context, Param, Stage, register_stage
-from .raycast import RAY_PARAMS, default_threads, march_pass
+from ..parallel import cpu_threads
+from .raycast import RAY_PARAMS, march_pass
 
 
 @register_stage
@@ -39,7 +40,7 @@ class Peel(Stage):
         state = ctx.buffers.get("march")
         if state is None:
             raise RuntimeError("stage 'peel' needs the 'raycast' stage before it")
-        threads = self.threads or default_threads()
+        threads = self.threads or cpu_threads()
         passes, entries = 0, 0
         for _ in range(self.max_passes):
             c = march_pass(ctx, state, max_steps=self.max_steps, t_min=self.t_min, threads=threads)

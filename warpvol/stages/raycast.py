@@ -12,11 +12,9 @@ of host threads launches concurrently (``threads``); Warp releases the GIL while
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
-
 import numpy as np
 
+from ..parallel import blocks, cpu_threads, launch_blocks
 from ..pipeline import Context, Param, Stage, register_stage
 
 
@@ -62,8 +60,8 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
     diam = float(np.linalg.norm(mesh.bounds[1] - mesh.bounds[0]))
     scale = diam + float(np.linalg.norm(cam.eye - 0.5 * (mesh.bounds[0] + mesh.bounds[1])))
     on_cpu = str(ctx.device).startswith("cpu")
-    blocks = [(r, min(rows_per_block, h - r)) for r in range(0, h, rows_per_block)] if on_cpu else [(0, h)]
-    counters = wp.zeros((len(blocks), 3), dtype=wp.int32, device=ctx.device)
+    rows = blocks(h, rows_per_block if on_cpu else h)
+    counters = wp.zeros((len(rows), 3), dtype=wp.int32, device=ctx.device)
     common = [w, h, wp.vec3(*cam.eye), wp.vec3(*cam.forward), wp.vec3(*cam.right), wp.vec3(*cam.true_up),
               int(cam.projection == "orthographic"), half_h, float(cam.aspect),
               cells["planes"], cells["grad"], cells["adj"], bins["bface_tet"], bins["bface_local"],
@@ -72,21 +70,12 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
               1e-6 * scale, 1e-6 * diam, t_min]
 
     def launch(b: int) -> None:
-        r0, nr = blocks[b]
+        r0, nr = rows[b]
         wp.launch(k.march, dim=nr * w, device=ctx.device,
                   inputs=common + [r0, state.rgb, state.trans, state.tcur, state.status, counters, b])
 
-    if on_cpu and threads > 1 and len(blocks) > 1:
-        with ThreadPoolExecutor(max_workers=threads) as pool:
-            list(pool.map(launch, range(len(blocks))))
-    else:
-        for b in range(len(blocks)):
-            launch(b)
+    launch_blocks(ctx.device, len(rows), launch, threads)
     return counters.numpy().sum(axis=0)
-
-
-def default_threads() -> int:
-    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
 
 
 RAY_PARAMS = (
@@ -119,7 +108,7 @@ class Raycast(Stage):
         cam = ctx.scene.camera
         state = MarchState(cam.width_px * cam.height_px, ctx.device)
         ctx.buffers["march"] = state
-        threads = self.threads or default_threads()
+        threads = self.threads or cpu_threads()
         c = march_pass(ctx, state, max_steps=self.max_steps, t_min=self.t_min, threads=threads)
         ctx.stats["raycast"] = {"entries": int(c[0]), "cell_steps": int(c[1]), "unfinished_rays": int(c[2])}
         ctx.image = state.image(cam.height_px, cam.width_px)

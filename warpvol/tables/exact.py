@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from .common import (Axis, check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, model_id,
                      scalar_axis, table_key, tf_arrays, timed)
+from ..parallel import blocks, launch_blocks
 from .base import AXIS_KINDS, TABLE_FORMATS
 
 
@@ -54,8 +55,14 @@ def build_exact3d(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, l_axis
     out = wp.zeros((n_l, n_s, n_s), dtype=wp.vec4, device=device)
     tf_s, tf_v = tf_arrays(tf, device)
     lo, hi = tf.srange
+    xf, xb, ls = farr(ax_f.nodes, device), farr(ax_b.nodes, device), farr(ax_l.physical, device)
+    slabs = blocks(n_l, 1)  # one l-slice per launch: CPU cores work on slices concurrently
+
+    def launch(b: int) -> None:
+        l0, nl = slabs[b]
+        wp.launch(k.exact_table3d, dim=(nl, n_s, n_s), device=device,
+                  inputs=[xf, xb, ls[l0:l0 + nl], lo, hi - lo, tf_s, tf_v, model_id(tf), out[l0:l0 + nl]])
+
     with timed(meta, device=device):
-        wp.launch(k.exact_table3d, dim=(n_l, n_s, n_s), device=device,
-                  inputs=[farr(ax_f.nodes, device), farr(ax_b.nodes, device), farr(ax_l.physical, device),
-                          lo, hi - lo, tf_s, tf_v, model_id(tf), out])
+        launch_blocks(device, len(slabs), launch)
     return finish("exact3d", out.numpy(), (ax_l, ax_b, ax_f), ("r", "g", "b", "a"), format, key, meta)

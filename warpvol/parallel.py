@@ -1,0 +1,38 @@
+"""Concurrent Warp launches on the CPU.
+
+Warp's CPU backend runs all threads of one launch serially on the calling host thread, but releases
+the GIL while the kernel runs. Work that splits into independent blocks (row blocks of an image,
+slices of a table) can therefore use every core by launching the blocks from a pool of host threads.
+On CUDA one launch already fills the device, so blocks run in order on the calling thread.
+"""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+from typing import Callable
+
+
+def cpu_threads() -> int:
+    """Cores this process may run on."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return max(1, os.cpu_count() or 1)
+
+
+def blocks(n: int, size: int) -> list[tuple[int, int]]:
+    """``(start, count)`` blocks covering ``range(n)``."""
+    return [(s, min(size, n - s)) for s in range(0, n, max(1, size))]
+
+
+def launch_blocks(device: str, n_blocks: int, launch: Callable[[int], None], threads: int = 0) -> None:
+    """Call ``launch(b)`` for every block ``b``; concurrently from ``threads`` host threads on the CPU
+    (0: all cores), in order on other devices."""
+    threads = threads or cpu_threads()
+    if str(device).startswith("cpu") and threads > 1 and n_blocks > 1:
+        with ThreadPoolExecutor(max_workers=min(threads, n_blocks)) as pool:
+            for f in [pool.submit(launch, b) for b in range(n_blocks)]:
+                f.result()
+    else:
+        for b in range(n_blocks):
+            launch(b)
