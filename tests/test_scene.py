@@ -524,7 +524,7 @@ def test_with_camera_override():
     s = builtin_scene("sphere")
     t = s.with_camera(width_px=32, height_px=16, fov_y_deg=50.0)
     assert (t.camera.width_px, t.camera.height_px, t.camera.fov_y_deg) == (32, 16, 50.0)
-    assert (s.camera.width_px, s.camera.fov_y_deg) == (128, 42.0)  # original untouched
+    assert (s.camera.width_px, s.camera.fov_y_deg) == (128, 28.0)  # original untouched
     assert t.mesh is s.mesh and t.transfer is s.transfer
     with pytest.raises(ConfigError, match=r"width_px: 0 is outside"):
         s.with_camera(width_px=0)

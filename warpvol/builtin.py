@@ -175,10 +175,10 @@ def builtin_transfer(name: str) -> TransferFunction:
         return TransferFunction([
             [0.00, 0.0, 0.0, 0.0, 0.0],
             [0.45, 0.0, 0.0, 0.0, 0.0],
-            [0.50, 1.0, 0.35, 0.1, 4.0],
+            [0.50, 4.0, 1.4, 0.4, 4.0],
             [0.55, 0.0, 0.0, 0.0, 0.0],
             [0.85, 0.0, 0.0, 0.0, 0.0],
-            [0.90, 0.2, 0.5, 1.0, 2.0],
+            [0.90, 0.6, 1.5, 3.0, 2.0],
             [0.95, 0.0, 0.0, 0.0, 0.0],
             [1.80, 0.0, 0.0, 0.0, 0.0],
         ], "emission_density", where=w)
@@ -208,7 +208,7 @@ def builtin_camera(name: str) -> Camera:
     if name in ("box", "linear_box"):
         return Camera(projection="orthographic", eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), height=3.0, **px)
     if name == "sphere":
-        return Camera(eye=(3.0, 2.0, 4.0), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=42.0, **px)
+        return Camera(eye=(3.0, 2.0, 4.0), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=28.0, **px)
     if name == "concave":
         return Camera(eye=(6.0, 0.5, 1.0), target=(0.0, 0.0, -0.3), up=(0, 1, 0), fov_y_deg=26.0, **px)
     return Camera(eye=(3.5, 2.5, 4.5), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=38.0, **px)
