@@ -16,7 +16,7 @@ contributes nothing.
 
 import warp as wp
 
-from .tf import tf_eval, tf_upper
+from .tf import tf_eval, tf_first_break, tf_next_break
 
 wp.set_module_options({"enable_backward": False})
 
@@ -89,38 +89,16 @@ def integrate_segment(sf: float, sb: float, length: float, tf_s: wp.array(dtype=
     tau = float(0.0)
     u0 = float(0.0)
     v0 = tf_eval(sf, tf_s, tf_v)
-    n = tf_s.shape[0]
-    if ds > 0.0:
-        k = tf_upper(sf, tf_s)
-        while k < n:
-            sk = tf_s[k]
-            if sk >= sb:
-                break
-            u1 = (sk - sf) / ds
-            v1 = tf_v[k]
-            p = integrate_piece((u1 - u0) * length, v0, v1, model)
-            rgb += wp.exp(-tau) * wp.vec3(p[0], p[1], p[2])
-            tau += p[3]
-            u0 = u1
-            v0 = v1
-            k += 1
-    elif ds < 0.0:
-        k = tf_upper(sf, tf_s) - 1  # largest k with tf_s[k] <= sf
-        if k >= 0:
-            if tf_s[k] >= sf:  # a control point exactly at sf starts no new piece
-                k -= 1
-        while k >= 0:
-            sk = tf_s[k]
-            if sk <= sb:
-                break
-            u1 = (sk - sf) / ds
-            v1 = tf_v[k]
-            p = integrate_piece((u1 - u0) * length, v0, v1, model)
-            rgb += wp.exp(-tau) * wp.vec3(p[0], p[1], p[2])
-            tau += p[3]
-            u0 = u1
-            v0 = v1
-            k -= 1
+    k = tf_first_break(sf, sb, tf_s)
+    while k >= 0:
+        u1 = (tf_s[k] - sf) / ds
+        v1 = tf_v[k]
+        p = integrate_piece((u1 - u0) * length, v0, v1, model)
+        rgb += wp.exp(-tau) * wp.vec3(p[0], p[1], p[2])
+        tau += p[3]
+        u0 = u1
+        v0 = v1
+        k = tf_next_break(k, sf, sb, tf_s)
     v1 = tf_eval(sb, tf_s, tf_v)
     p = integrate_piece((1.0 - u0) * length, v0, v1, model)
     rgb += wp.exp(-tau) * wp.vec3(p[0], p[1], p[2])

@@ -11,7 +11,7 @@ integrator for the whole project: the ray caster and the table builders agree by
 import warp as wp
 
 from .integrate import integrate_piece, integrate_segment
-from .tf import tf_eval, tf_upper
+from .tf import tf_eval, tf_first_break, tf_lower, tf_next_break, tf_upper
 
 wp.set_module_options({"enable_backward": False})
 
@@ -85,37 +85,17 @@ def segment_moments(sf: float, sb: float, tf_s: wp.array(dtype=float), tf_v: wp.
     piece of unit length (no division).
     """
     ds = sb - sf
-    n = tf_s.shape[0]
     u0 = float(0.0)
     v0 = tf_eval(sf, tf_s, tf_v)
     acc = vec7()
-    if ds > 0.0:
-        k = tf_upper(sf, tf_s)
-        while k < n:
-            sk = tf_s[k]
-            if sk >= sb:
-                break
-            u1 = (sk - sf) / ds
-            v1 = tf_v[k]
-            acc += _piece_moments(u1 - u0, v0, v1)
-            u0 = u1
-            v0 = v1
-            k += 1
-    elif ds < 0.0:
-        k = tf_upper(sf, tf_s) - 1
-        if k >= 0:
-            if tf_s[k] >= sf:
-                k -= 1
-        while k >= 0:
-            sk = tf_s[k]
-            if sk <= sb:
-                break
-            u1 = (sk - sf) / ds
-            v1 = tf_v[k]
-            acc += _piece_moments(u1 - u0, v0, v1)
-            u0 = u1
-            v0 = v1
-            k -= 1
+    k = tf_first_break(sf, sb, tf_s)
+    while k >= 0:
+        u1 = (tf_s[k] - sf) / ds
+        v1 = tf_v[k]
+        acc += _piece_moments(u1 - u0, v0, v1)
+        u0 = u1
+        v0 = v1
+        k = tf_next_break(k, sf, sb, tf_s)
     acc += _piece_moments(1.0 - u0, v0, tf_eval(sb, tf_s, tf_v))
     return acc
 
@@ -406,31 +386,14 @@ def iso_table(x: wp.array(dtype=float), iso: wp.array(dtype=float), limit: int, 
     first = float(-1.0)
     nxt = float(-1.0)
     if sb > sf:
-        # smallest k with iso[k] >= sf
-        lo = int(0)
-        hi = n
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if iso[mid] >= sf:
-                hi = mid
-            else:
-                lo = mid + 1
+        lo = tf_lower(sf, iso)  # smallest k with iso[k] >= sf
         if lo < n:
             if limit == 0 or iso[lo] <= sb + tol:
                 first = iso[lo]
                 if lo + 1 < n:
                     nxt = iso[lo + 1]
     elif sb < sf:
-        # largest k with iso[k] <= sf
-        lo = int(0)
-        hi = n
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if iso[mid] > sf:
-                hi = mid
-            else:
-                lo = mid + 1
-        k = lo - 1
+        k = tf_upper(sf, iso) - 1  # largest k with iso[k] <= sf
         if k >= 0:
             if limit == 0 or iso[k] >= sb - tol:
                 first = iso[k]

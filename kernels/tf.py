@@ -25,6 +25,52 @@ def tf_upper(s: float, tf_s: wp.array(dtype=float)) -> int:
 
 
 @wp.func
+def tf_lower(s: float, tf_s: wp.array(dtype=float)) -> int:
+    """Smallest index k with ``tf_s[k] >= s`` (K if none)."""
+    lo = int(0)
+    hi = tf_s.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if tf_s[mid] >= s:
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo
+
+
+@wp.func
+def tf_first_break(sf: float, sb: float, tf_s: wp.array(dtype=float)) -> int:
+    """Index of the first control point strictly between ``sf`` and ``sb``, walking from ``sf``
+    towards ``sb`` (either direction); -1 if the segment crosses none."""
+    n = tf_s.shape[0]
+    if sb > sf:
+        k = tf_upper(sf, tf_s)
+        if k < n:
+            if tf_s[k] < sb:
+                return k
+    elif sb < sf:
+        k = tf_lower(sf, tf_s) - 1
+        if k >= 0:
+            if tf_s[k] > sb:
+                return k
+    return -1
+
+
+@wp.func
+def tf_next_break(k: int, sf: float, sb: float, tf_s: wp.array(dtype=float)) -> int:
+    """The control point after ``k`` on the walk from ``sf`` to ``sb``; -1 past ``sb``."""
+    if sb > sf:
+        if k + 1 < tf_s.shape[0]:
+            if tf_s[k + 1] < sb:
+                return k + 1
+    else:
+        if k - 1 >= 0:
+            if tf_s[k - 1] > sb:
+                return k - 1
+    return -1
+
+
+@wp.func
 def tf_eval(s: float, tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp.vec4)) -> wp.vec4:
     """(r, g, b, extinction) at scalar ``s``; clamped to the end values outside the range."""
     n = tf_s.shape[0]
