@@ -4,17 +4,17 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from warpvol.builtin import grid_points
 from warpvol.mesh import TetMesh, structured_to_tets
 
 
-def grid_points(lo, hi, dims):
-    axes = [np.linspace(lo[k], hi[k], dims[k]) for k in range(3)]
-    x, y, z = np.meshgrid(*axes, indexing="ij")
-    return np.stack([x, y, z], -1).transpose(2, 1, 0, 3).reshape(-1, 3)
+def box_points(lo, hi, dims):
+    """Points of a regular grid over the box [lo, hi] with ``dims`` points per axis."""
+    return grid_points(*(np.linspace(lo[k], hi[k], dims[k]) for k in range(3)))
 
 
 def box_mesh(lo=(-1, -1, -1), hi=(1, 1, 1), dims=(4, 4, 4), scalar=None, name="box"):
-    pts = grid_points(lo, hi, dims)
+    pts = box_points(lo, hi, dims)
     s = np.ones(len(pts)) if scalar is None else scalar(pts)
     return TetMesh(pts, structured_to_tets(dims), s, name=name)
 

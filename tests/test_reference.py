@@ -10,6 +10,8 @@ import math
 import numpy as np
 import pytest
 
+from helpers import merge
+from warpvol.builtin import grid_points
 from warpvol.camera import Camera
 from warpvol.mesh import TetMesh, structured_to_tets
 from warpvol.reference import (
@@ -30,8 +32,7 @@ def grid_mesh(xs, ys, zs, scalar=None, drop_cells=()):
     (ci, cj, ck) cells to leave out (non-convex meshes)."""
     xs, ys, zs = (np.asarray(a, dtype=np.float64) for a in (xs, ys, zs))
     dims = (len(xs), len(ys), len(zs))
-    z, y, x = np.meshgrid(zs, ys, xs, indexing="ij")
-    pts = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    pts = grid_points(xs, ys, zs)
     tets = structured_to_tets(dims)
     if drop_cells:
         nci, ncj = dims[0] - 1, dims[1] - 1
@@ -44,16 +45,6 @@ def grid_mesh(xs, ys, zs, scalar=None, drop_cells=()):
         pts, tets = pts[used], remap[tets]
     s = np.ones(len(pts)) if scalar is None else scalar(pts)
     return TetMesh(pts, tets, s)
-
-
-def merge(*meshes):
-    pts, tets, sc, off = [], [], [], 0
-    for m in meshes:
-        pts.append(m.points)
-        tets.append(m.tets + off)
-        sc.append(m.scalars)
-        off += m.n_points
-    return TetMesh(np.vstack(pts), np.vstack(tets), np.concatenate(sc))
 
 
 def const_tf(rho, c=(0.9, 0.5, 0.1), emission="color_extinction"):
