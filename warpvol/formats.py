@@ -118,7 +118,39 @@ class NumberFormat:
         return f"<format {self.name}>"
 
 
-class UNorm(NumberFormat):
+class _FixedPoint(NumberFormat):
+    """Shared construction and scaling of the fixed-point formats (:class:`UNorm`, :class:`SNorm`)."""
+
+    prefix = ""
+    min_bits = 1
+
+    def __init__(self, bits: int, rounding: str = "nearest", overflow: str = "saturate"):
+        self.bits = check_number("bits", bits, lo=self.min_bits, hi=16, integer=True)
+        self.rounding = check_choice("rounding", rounding, ROUNDINGS)
+        self.overflow = check_choice("overflow", overflow, OVERFLOWS)
+        self.max_code = self._max_code()
+        suffix = "" if rounding == "nearest" else ("_even" if rounding == "nearest_even" else "_trunc")
+        suffix += "" if overflow == "saturate" else "_wrap"
+        self.name = f"{self.prefix}{self.bits}{suffix}"
+
+    def _max_code(self) -> int:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    @property
+    def epsilon(self) -> float:
+        return 1.0 / self.max_code
+
+    def _scaled_codes(self, x: Any) -> np.ndarray:
+        """``float32(x) * float32(max_code)`` rounded per ``rounding`` (NaN -> 0), as int64 before
+        the overflow policy; the product is clamped to +-2^30 first (casts do not saturate)."""
+        x = np.asarray(x, dtype=np.float32)
+        with np.errstate(invalid="ignore", over="ignore"):
+            v = x * np.float32(self.max_code)
+        v = np.clip(np.where(np.isnan(v), 0.0, v), -(2.0**30), 2.0**30)
+        return _round_np(v, self.rounding).astype(np.int64)
+
+
+class UNorm(_FixedPoint):
     """Unsigned normalised fixed point of ``bits`` bits.
 
     ==========  ===========================================  ==================================
@@ -139,28 +171,15 @@ class UNorm(NumberFormat):
     """
 
     kind = KIND_UNORM
+    prefix = "unorm"
+    min_bits = 1
 
-    def __init__(self, bits: int, rounding: str = "nearest", overflow: str = "saturate"):
-        self.bits = check_number("bits", bits, lo=1, hi=16, integer=True)
-        self.rounding = check_choice("rounding", rounding, ROUNDINGS)
-        self.overflow = check_choice("overflow", overflow, OVERFLOWS)
-        self.max_code = (1 << self.bits) - 1
-        suffix = "" if rounding == "nearest" else ("_even" if rounding == "nearest_even" else "_trunc")
-        suffix += "" if overflow == "saturate" else "_wrap"
-        self.name = f"unorm{self.bits}{suffix}"
-
-    @property
-    def epsilon(self) -> float:
-        return 1.0 / self.max_code
+    def _max_code(self) -> int:
+        return (1 << self.bits) - 1
 
     def encode(self, x: Any) -> np.ndarray:
         """Codes (int64) of ``x``: ``float32(x) * float32(2^n - 1)``, rounded, saturated or wrapped."""
-        x = np.asarray(x, dtype=np.float32)
-        with np.errstate(invalid="ignore", over="ignore"):
-            v = x * np.float32(self.max_code)
-        nan = np.isnan(v)
-        v = np.clip(np.where(nan, 0.0, v), -(2.0**30), 2.0**30)
-        c = _round_np(v, self.rounding).astype(np.int64)
+        c = self._scaled_codes(x)
         if self.overflow == "wrap":
             c = c & self.max_code
         else:
@@ -173,7 +192,7 @@ class UNorm(NumberFormat):
         return (c.astype(np.float32) / np.float32(self.max_code)).astype(np.float32)
 
 
-class SNorm(NumberFormat):
+class SNorm(_FixedPoint):
     """Signed normalised fixed point of ``bits`` bits (two's complement codes).
 
     ==========  ===========================================  ==================================
@@ -193,26 +212,16 @@ class SNorm(NumberFormat):
     """
 
     kind = KIND_SNORM
+    prefix = "snorm"
+    min_bits = 2
 
-    def __init__(self, bits: int, rounding: str = "nearest", overflow: str = "saturate"):
-        self.bits = check_number("bits", bits, lo=2, hi=16, integer=True)
-        self.rounding = check_choice("rounding", rounding, ROUNDINGS)
-        self.overflow = check_choice("overflow", overflow, OVERFLOWS)
-        self.max_code = (1 << (self.bits - 1)) - 1
-        suffix = "" if rounding == "nearest" else ("_even" if rounding == "nearest_even" else "_trunc")
-        suffix += "" if overflow == "saturate" else "_wrap"
-        self.name = f"snorm{self.bits}{suffix}"
-
-    @property
-    def epsilon(self) -> float:
-        return 1.0 / self.max_code
+    def _max_code(self) -> int:
+        return (1 << (self.bits - 1)) - 1
 
     def encode(self, x: Any) -> np.ndarray:
-        x = np.asarray(x, dtype=np.float32)
-        with np.errstate(invalid="ignore", over="ignore"):
-            v = x * np.float32(self.max_code)
-        v = np.clip(np.where(np.isnan(v), 0.0, v), -(2.0**30), 2.0**30)
-        c = _round_np(v, self.rounding).astype(np.int64)
+        """Two's complement codes (int64) of ``x``: ``float32(x) * float32(M)``, rounded, saturated
+        to [-M, M] or wrapped to n bits."""
+        c = self._scaled_codes(x)
         if self.overflow == "wrap":
             h = 1 << (self.bits - 1)
             return ((c + h) & ((1 << self.bits) - 1)) - h
