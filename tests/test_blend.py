@@ -11,7 +11,7 @@ from warpvol.gpu.dither import dither_codes_np, dither_index_np, dither_table
 from warpvol.gpu.raster import draw_textured_quads
 from warpvol.gpu.texture import Texture1D
 
-DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
+from helpers import DEVICES
 
 
 # ------------------------------------------------------------------------------------------------

@@ -31,10 +31,10 @@ def scene_file(tmp_path):
 
 
 def test_render_reference_and_report(scene_file, tmp_path, capsys):
-    ref, out, rep, png = (tmp_path / n for n in ("ref.exr", "out.exr", "r.json", "p.png"))
+    ref, out, rep, png, err = (tmp_path / n for n in ("ref.exr", "out.exr", "r.json", "p.png", "e.png"))
     assert main(["reference", str(scene_file), "-o", str(ref), "--quiet"]) == 0
     assert main(["render", str(scene_file), "--pipeline", "raycast", "-o", str(out), "--reference", str(ref),
-                 "--report", str(rep), "--png", str(png), "--quiet"]) == 0
+                 "--report", str(rep), "--png", str(png), "--error-image", str(err), "--quiet"]) == 0
     img, r = read_exr(out), read_exr(ref)
     assert img.shape == r.shape == (20, 24, 4)
     assert img[..., 3].max() > 0.05  # the sphere is visible
@@ -44,7 +44,8 @@ def test_render_reference_and_report(scene_file, tmp_path, capsys):
     assert report["skipped"][0]["stage"] == "peel"
     assert report["error"]["rmse"] < 1e-4 and report["error"]["psnr"] > 80
     assert report["error"]["max_abs"] == pytest.approx(float(np.abs(img - r).max()), rel=1e-6)
-    assert png.stat().st_size > 0
+    assert png.stat().st_size > 0 and err.stat().st_size > 0
+    assert report["error"]["error_image_scale"] == pytest.approx(report["error"]["max_abs"], rel=1e-6)
 
 
 def test_pipelines_lists_presets(capsys):

@@ -8,7 +8,7 @@ from warpvol.errors import ConfigError
 from warpvol.formats import (FP16, FP32, Pair16, SNorm, Split12, UNorm, decode_warp, encode_warp, get_format,
                              quantize_warp)
 
-DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
+from helpers import DEVICES
 BITS = (8, 12, 16)
 
 

@@ -10,7 +10,7 @@ from warpvol.gpu.blend import BlendUnit, FrameBuffer
 from warpvol.gpu.raster import Rasterizer, rasterize
 from warpvol.gpu.vertex import VertexStage, transform_vertices, viewport_matrix
 
-DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
+from helpers import DEVICES
 
 
 def icosphere(level: int) -> tuple[np.ndarray, np.ndarray]:

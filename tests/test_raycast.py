@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from helpers import box_mesh, merge, scene
+from helpers import DEVICES, box_mesh, merge, scene
 from tolerances import TOLERANCES
 from warpvol.camera import Camera
 from warpvol.pipeline import Pipeline
@@ -12,10 +12,10 @@ from warpvol.transfer import TransferFunction
 TOL = TOLERANCES["raycast/fp32"]
 
 
-def render(sc, **raycast_params):
+def render(sc, device="cpu", **raycast_params):
     stages = [{"stage": "cell_setup"}, {"stage": "entry_bins"}, {"stage": "raycast", **raycast_params},
               {"stage": "peel", **raycast_params}]
-    return Pipeline.from_config({"name": "t", "stages": stages}).render(sc, quiet=True)
+    return Pipeline.from_config({"name": "t", "stages": stages}, device=device).render(sc, quiet=True)
 
 
 def ortho(w=24, h=24, height=3.0, eye=(0.1, 0.05, 6.0)):
@@ -23,12 +23,13 @@ def ortho(w=24, h=24, height=3.0, eye=(0.1, 0.05, 6.0)):
                   width_px=w, height_px=h)
 
 
+@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("emission", ["color_extinction", "emission_density"])
-def test_constant_box_is_slab_formula(emission):
+def test_constant_box_is_slab_formula(emission, device):
     rho, c = 1.5, np.array([0.8, 0.6, 0.4])
     tf = TransferFunction([[0, *c, rho], [2, *c, rho]], emission)
     cam = ortho()
-    res = render(scene(box_mesh(), tf, cam))
+    res = render(scene(box_mesh(), tf, cam), device=device)
     o, _ = cam.rays()
     inside = (np.abs(o[..., 0]) < 0.98) & (np.abs(o[..., 1]) < 0.98)
     outside = (np.abs(o[..., 0]) > 1.02) | (np.abs(o[..., 1]) > 1.02)
@@ -41,13 +42,14 @@ def test_constant_box_is_slab_formula(emission):
     assert res.report["skipped"] and res.report["skipped"][0]["stage"] == "peel"
 
 
-def test_disconnected_boxes_need_peeling():
+@pytest.mark.parametrize("device", DEVICES)
+def test_disconnected_boxes_need_peeling(device):
     rho = 0.9
     tf = TransferFunction([[0, 1, 1, 1, rho], [2, 1, 1, 1, rho]])
     m = merge(box_mesh((-1, -1, -2), (1, 1, -1.5), (3, 3, 2)), box_mesh((-1, -1, 0), (1, 1, 1), (3, 3, 3)))
     assert not m.is_convex
     cam = ortho(16, 16)
-    res = render(scene(m, tf, cam))
+    res = render(scene(m, tf, cam), device=device)
     o, _ = cam.rays()
     inside = (np.abs(o[..., 0]) < 0.95) & (np.abs(o[..., 1]) < 0.95)
     np.testing.assert_allclose(res.image[inside][:, 3], 1 - np.exp(-rho * 1.5), atol=1e-6)

@@ -9,7 +9,7 @@ from warpvol.formats import Pair16, UNorm
 from warpvol.gpu.texture import (TEXEL_FORMATS, Texture1D, Texture2D, Texture3D, TextureAtlas, expand_rgba,
                                  sample_dependent)
 
-DEVICES = ["cpu"] + (["cuda:0"] if wp.is_cuda_available() else [])
+from helpers import DEVICES
 FORMATS = sorted(TEXEL_FORMATS)
 
 

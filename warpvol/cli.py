@@ -78,6 +78,9 @@ def cmd_render(args) -> int:
     out = _check_out(args.output, "-o")
     report_path = _check_out(args.report, "--report") if args.report else None
     png_path = _check_out(args.png, "--png") if args.png else None
+    err_path = _check_out(args.error_image, "--error-image") if args.error_image else None
+    if err_path and not args.reference:
+        raise ConfigError("--error-image: needs --reference")
     scene = _load_scene(args.scene, args)
     ref = None
     if args.reference:
@@ -90,6 +93,12 @@ def cmd_render(args) -> int:
     write_exr(out, res.image)
     if png_path:
         write_png(png_path, res.image, background=args.background)
+    if err_path:
+        from .metrics import error_image
+
+        err = error_image(res.image, ref)
+        write_png(err_path, err / max(float(err.max()), 1e-30))
+        res.report["error"]["error_image_scale"] = float(err.max())
     if report_path:
         res.write_report(report_path)
     _summary(res.report)
@@ -173,6 +182,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--reference", help="reference EXR: adds the error to the report")
     r.add_argument("--report", help="write the JSON report here")
     r.add_argument("--png", help="also write an 8-bit PNG preview")
+    r.add_argument("--error-image", help="with --reference: PNG of the per-pixel max |error|, scaled to its maximum")
     r.add_argument("--background", type=float, nargs=3, default=(0.0, 0.0, 0.0), help="PNG background RGB")
     r.add_argument("--width", type=int, help="override camera.width_px")
     r.add_argument("--height", type=int, help="override camera.height_px")

@@ -71,7 +71,9 @@ class Param:
         if self.choices:
             rng = " | ".join(map(str, self.choices))
         elif self.lo is not None or self.hi is not None:
-            rng = f"{'(' if self.lo_open else '['}{self.lo}, {self.hi}{')' if self.hi_open else ']'}"
+            lo = "-inf" if self.lo is None else self.lo
+            hi = "inf" if self.hi is None else self.hi
+            rng = f"{'(' if self.lo_open else '['}{lo}, {hi}{')' if self.hi_open else ']'}"
         return f"{self.name:<18} {self.kind.__name__:<6} {self.default!r:<12} {rng:<22} {self.doc}"
 
 
