@@ -13,7 +13,9 @@ import warp as wp
 from .integrate import integrate_piece, integrate_segment
 from .tf import tf_eval, tf_first_break, tf_lower, tf_next_break, tf_upper
 
-wp.set_module_options({"enable_backward": False})
+# fuse_fp off: the hardware builders inline the blending unit and formats, whose results must not
+# depend on FMA contraction (CPU and CUDA give the same codes)
+wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
 vec7 = wp.types.vector(length=7, dtype=wp.float32)
 
