@@ -83,6 +83,7 @@ def march(
     model: int,
     max_steps: int,
     t_eps: float,
+    strict_tol: float,
     inside_tol: float,
     t_min: float,
     row0: int,
@@ -105,10 +106,17 @@ def march(
     t_start = tcur[idx]
 
     # ---- next entry: nearest front-facing boundary face hit beyond t_start in this tile ----
+    # Two tiers: a hit inside its triangle up to float32 rounding (strict_tol) wins over one that
+    # needs the looser tolerance; the loose tier only catches rays through shared edges/vertices
+    # that rounding pushes just outside every face. Without the tiers a grazing ray could enter a
+    # cell it misses by more than rounding, and walk a bogus segment.
     tile_id = (py // tile) * tiles_x + (px // tile)
     best_t = float(1.0e30)
     cell = int(-1)
     face_in = int(-1)
+    loose_t = float(1.0e30)
+    loose_cell = int(-1)
+    loose_face = int(-1)
     for it in range(tile_start[tile_id], tile_start[tile_id + 1]):
         bf = tile_items[it]
         c = int(bface_tet[bf])
@@ -117,17 +125,26 @@ def march(
         den = plane_dot(pl, d)
         if den < 0.0:
             t = -plane_dist(pl, e) / den
-            if t > t_start + t_eps and t < best_t:
+            if t > t_start + t_eps and (t < best_t or t < loose_t):
                 x = e + d * t
-                inside = int(1)
+                worst = float(-1.0e30)
                 for k in range(4):
                     if k != f:
-                        if plane_dist(planes[c, k], x) > inside_tol:
-                            inside = 0
-                if inside == 1:
-                    best_t = t
-                    cell = c
-                    face_in = f
+                        worst = wp.max(worst, plane_dist(planes[c, k], x))
+                if worst <= strict_tol:
+                    if t < best_t:
+                        best_t = t
+                        cell = c
+                        face_in = f
+                elif worst <= inside_tol:
+                    if t < loose_t:
+                        loose_t = t
+                        loose_cell = c
+                        loose_face = f
+    if cell < 0:
+        best_t = loose_t
+        cell = loose_cell
+        face_in = loose_face
     if cell < 0:
         status[idx] = STATUS_DONE
         return

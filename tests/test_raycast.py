@@ -115,3 +115,23 @@ def test_builtin_scenes_match_reference(name):
     assert ref[..., 3].max() > 0.05, "scene must show something"
     assert err["rmse"] <= TOL["rmse"], err
     assert err["max_abs"] <= TOL["max_abs"], err
+
+
+def test_grazing_ray_does_not_enter_a_face_it_misses():
+    # Tet A's front face ends 3e-6 beside the pixel ray: more than float32 rounding, less than the
+    # loose edge tolerance. The ray must skip A and enter tet B behind it (regression: a single
+    # tolerance let such rays walk a bogus segment through A; seen on the LOX post's silhouette).
+    from warpvol.mesh import TetMesh
+    from warpvol.reference import render_reference
+
+    dlt = 3e-6
+    pts = np.array([[dlt, -0.5, 1.0], [1.0, -0.5, 1.0], [dlt, 0.5, 1.0], [dlt, -0.5, 0.5],
+                    [-2, -2, 0], [2, -2, 0], [0, 2, 0], [0.3, 0.2, -2]], dtype=float)
+    m = TetMesh(pts, [[0, 1, 2, 3], [4, 5, 6, 7]], np.ones(8))
+    tf = TransferFunction([[0, 1, 1, 1, 0.8], [2, 1, 1, 1, 0.8]])
+    cam = Camera(projection="orthographic", eye=[0, 0, 5], target=[0, 0, 0], height=1.0, width_px=1, height_px=1)
+    sc = scene(m, tf, cam)
+    ref = render_reference(m, tf, cam)
+    img = render(sc).image
+    assert ref[0, 0, 3] > 0.5
+    np.testing.assert_allclose(img[0, 0], ref[0, 0], atol=1e-6)
