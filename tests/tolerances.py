@@ -6,14 +6,17 @@ accuracy each pipeline promises is stated in one place. Values are on premultipl
 =====================  ===========  ===========  ==================================================
 key                    rmse         max_abs      why
 =====================  ===========  ===========  ==================================================
-raycast/fp32           2e-5         5e-4         float32 geometry (plane distances, s = g.x + g0),
-                                                 exact segment integrals; silhouette pixels whose
-                                                 rays graze faces dominate max_abs
+raycast/fp32           2e-6         1e-4         float32 geometry relative to the mesh centre
+                                                 (plane distances, s = g.x + g0), segment integrals
+                                                 to ~1e-7; rays grazing boundary faces (entry t
+                                                 error ~ rounding / |d.n|) dominate max_abs. Seen:
+                                                 rmse <= 4.3e-7, max_abs <= 3.2e-5 (built-ins,
+                                                 Blunt Fin, LOX post, combustor)
 segment/fp32           (rel) 2e-5   --           one segment integral in float32 vs float64 closed form
 =====================  ===========  ===========  ==================================================
 """
 
 TOLERANCES = {
-    "raycast/fp32": {"rmse": 2e-5, "max_abs": 5e-4},
+    "raycast/fp32": {"rmse": 2e-6, "max_abs": 1e-4},
     "segment/fp32": {"rtol": 2e-5, "atol": 1e-6},
 }

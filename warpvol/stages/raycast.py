@@ -58,18 +58,21 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
     else:
         half_h = cam.height / 2.0
     diam = float(np.linalg.norm(mesh.bounds[1] - mesh.bounds[0]))
-    # float32 rounding of a point on the ray: a couple of ulps of the largest coordinate in play
-    coord = max(float(np.abs(cam.eye).max()), float(np.abs(mesh.bounds[0]).max()), float(np.abs(mesh.bounds[1]).max()))
-    scale = diam + float(np.linalg.norm(cam.eye - 0.5 * (mesh.bounds[0] + mesh.bounds[1])))
+    # the kernel works relative to the cell origin; float32 rounding of a point on the ray is a
+    # couple of ulps of the largest coordinate in play there
+    origin = cells["origin"]
+    eye = cam.eye - origin
+    coord = max(float(np.abs(eye).max()), float(np.abs(mesh.bounds[0] - origin).max()),
+                float(np.abs(mesh.bounds[1] - origin).max()))
     on_cpu = str(ctx.device).startswith("cpu")
     rows = blocks(h, rows_per_block if on_cpu else h)
     counters = wp.zeros((len(rows), 3), dtype=wp.int32, device=ctx.device)
-    common = [w, h, wp.vec3(*cam.eye), wp.vec3(*cam.forward), wp.vec3(*cam.right), wp.vec3(*cam.true_up),
+    common = [w, h, wp.vec3(*eye), wp.vec3(*cam.forward), wp.vec3(*cam.right), wp.vec3(*cam.true_up),
               int(cam.projection == "orthographic"), half_h, float(cam.aspect),
               cells["planes"], cells["grad"], cells["adj"], bins["bface_tet"], bins["bface_local"],
               bins["tile_start"], bins["tile_items"], bins["tile"], bins["tiles_x"],
               cells["tf_s"], cells["tf_v"], cells["model"], max_steps,
-              1e-6 * scale, 2.5e-7 * coord, 1e-6 * diam, t_min]
+              1e-6 * (diam + float(np.linalg.norm(eye))), 2.5e-7 * coord, 1e-6 * diam, t_min]
 
     def launch(b: int) -> None:
         r0, nr = rows[b]
