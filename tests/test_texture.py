@@ -77,7 +77,7 @@ def test_weight_quantisation_is_visible_and_documented(device):
     assert t4.sample([u])[0, 0] == pytest.approx(np.floor(0.3 * 16) / 16, abs=1e-7)  # 0.25
 
 
-@pytest.mark.parametrize("fmt", ["rgba8", "la8", "hilo16", "rgba16f", "rgba8s"])
+@pytest.mark.parametrize("fmt", ["rgba8", "la8", "rgba12", "hilo16", "rgba16f", "rgba8s"])
 @pytest.mark.parametrize("device", DEVICES)
 def test_2d_and_3d_filtering_against_hand_weights(fmt, device):
     rng = np.random.default_rng(5)

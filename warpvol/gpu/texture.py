@@ -35,7 +35,7 @@ import numpy as np
 import warp as wp
 
 from warpvol.errors import ConfigError, check_choice, check_number
-from warpvol.formats import FP16, FP32, SNORM8, UNORM8, UNORM16, NumberFormat
+from warpvol.formats import FP16, FP32, SNORM8, UNORM8, UNORM12, UNORM16, NumberFormat
 from warpvol.kernels import texture as ktex
 
 FILTERS = ("nearest", "linear")
@@ -47,6 +47,7 @@ TEXEL_FORMATS: dict[str, tuple[NumberFormat, int, str]] = {
     "l8": (UNORM8, 1, "l"),
     "a8": (UNORM8, 1, "a"),
     "rgba8s": (SNORM8, 4, "rgba"),
+    "rgba12": (UNORM12, 4, "rgba"),  # 12 bits per channel (SGI Octane MXI 12-bit visual, Roettger 2002)
     "hilo16": (UNORM16, 2, "hilo"),
     "rgba16": (UNORM16, 4, "rgba"),
     "r16f": (FP16, 1, "r"),

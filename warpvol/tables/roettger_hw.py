@@ -19,9 +19,8 @@ frame buffer of 8 or 12 bits per channel (every blend rounds: that is the method
 precision, the final combiner's output stored into an 8-bit buffer (4 steps per blend).
 
 The texture has ``n_tex`` texels at ``(k + 0.5) / n_tex`` of the normalised scalar (default: the TF's
-number of control points, ``m``), in the frame buffer's precision (8-bit ``rgba8``; 12-bit values
-via :data:`warpvol.formats.UNORM12` held in an ``rgba32f`` texture, since the texture unit has no
-12-bit texel format), linear filtering.
+number of control points, ``m``), in the frame buffer's precision (``rgba8`` or ``rgba12``), linear
+filtering.
 """
 
 from __future__ import annotations
@@ -51,13 +50,11 @@ def tf_texture_values(tf, n_tex: int, l: float, n: int) -> np.ndarray:
 
 def make_tf_texture(values: np.ndarray, bits: int, device: str):
     """The TF as a texture of the emulated texture unit, in ``bits`` precision."""
-    from ..formats import UNORM12
     from ..gpu.texture import Texture1D
 
     if bits == 8:
         return Texture1D(values, fmt="rgba8", filter="linear", device=device)
-    # 12-bit texels: quantised by the 12-bit number format, stored exactly in an fp32 texture
-    return Texture1D(UNORM12.quantize(values.astype(np.float32)), fmt="rgba32f", filter="linear", device=device)
+    return Texture1D(values, fmt="rgba12", filter="linear", device=device)
 
 
 def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, steps: int | None = None,
