@@ -86,6 +86,7 @@ def march(
     strict_tol: float,
     inside_tol: float,
     t_min: float,
+    start_cell: int,
     row0: int,
     rgb: wp.array(dtype=wp.vec3),
     trans: wp.array(dtype=float),
@@ -110,41 +111,46 @@ def march(
     # needs the looser tolerance; the loose tier only catches rays through shared edges/vertices
     # that rounding pushes just outside every face. Without the tiers a grazing ray could enter a
     # cell it misses by more than rounding, and walk a bogus segment.
-    tile_id = (py // tile) * tiles_x + (px // tile)
     best_t = float(1.0e30)
     cell = int(-1)
     face_in = int(-1)
-    loose_t = float(1.0e30)
-    loose_cell = int(-1)
-    loose_face = int(-1)
-    for it in range(tile_start[tile_id], tile_start[tile_id + 1]):
-        bf = tile_items[it]
-        c = int(bface_tet[bf])
-        f = int(bface_local[bf])
-        pl = planes[c, f]
-        den = plane_dot(pl, d)
-        if den < 0.0:
-            t = -plane_dist(pl, e) / den
-            if t > t_start + t_eps and (t < best_t or t < loose_t):
-                x = e + d * t
-                worst = float(-1.0e30)
-                for k in range(4):
-                    if k != f:
-                        worst = wp.max(worst, plane_dist(planes[c, k], x))
-                if worst <= strict_tol:
-                    if t < best_t:
-                        best_t = t
-                        cell = c
-                        face_in = f
-                elif worst <= inside_tol:
-                    if t < loose_t:
-                        loose_t = t
-                        loose_cell = c
-                        loose_face = f
-    if cell < 0:
-        best_t = loose_t
-        cell = loose_cell
-        face_in = loose_face
+    if start_cell >= 0:
+        # the perspective eye lies inside the mesh: every ray starts in that cell at t = 0
+        best_t = t_start
+        cell = start_cell
+    else:
+        tile_id = (py // tile) * tiles_x + (px // tile)
+        loose_t = float(1.0e30)
+        loose_cell = int(-1)
+        loose_face = int(-1)
+        for it in range(tile_start[tile_id], tile_start[tile_id + 1]):
+            bf = tile_items[it]
+            c = int(bface_tet[bf])
+            f = int(bface_local[bf])
+            pl = planes[c, f]
+            den = plane_dot(pl, d)
+            if den < 0.0:
+                t = -plane_dist(pl, e) / den
+                if t > t_start + t_eps and (t < best_t or t < loose_t):
+                    x = e + d * t
+                    worst = float(-1.0e30)
+                    for k in range(4):
+                        if k != f:
+                            worst = wp.max(worst, plane_dist(planes[c, k], x))
+                    if worst <= strict_tol:
+                        if t < best_t:
+                            best_t = t
+                            cell = c
+                            face_in = f
+                    elif worst <= inside_tol:
+                        if t < loose_t:
+                            loose_t = t
+                            loose_cell = c
+                            loose_face = f
+        if cell < 0:
+            best_t = loose_t
+            cell = loose_cell
+            face_in = loose_face
     if cell < 0:
         status[idx] = STATUS_DONE
         return

@@ -43,9 +43,21 @@ class MarchState:
         return out.numpy().reshape(height, width, 4)
 
 
+def locate_point(mesh, p: np.ndarray) -> int:
+    """Index of a tet containing point ``p`` (float64, boundary inclusive up to rounding), -1 if none."""
+    fp = mesh.face_planes
+    dist = fp[..., :3] @ np.asarray(p, dtype=np.float64) + fp[..., 3]  # (M, 4), <= 0 inside
+    tol = 1e-12 * float(np.linalg.norm(mesh.bounds[1] - mesh.bounds[0]))
+    inside = np.nonzero((dist <= tol).all(axis=1))[0]
+    return int(inside[0]) if len(inside) else -1
+
+
 def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float, threads: int,
-               rows_per_block: int = 16) -> np.ndarray:
-    """One propagation pass over all active rays; returns summed counters (entries, steps, stuck)."""
+               start_cell: int = -1, rows_per_block: int = 16) -> np.ndarray:
+    """One propagation pass over all active rays; returns summed counters (entries, steps, stuck).
+
+    ``start_cell >= 0`` (first pass of a perspective view whose eye lies in that cell): rays start
+    walking there at ``t = 0`` instead of searching the boundary."""
     import warp as wp
 
     from ..kernels import raycast as k
@@ -72,7 +84,7 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
               cells["planes"], cells["grad"], cells["adj"], bins["bface_tet"], bins["bface_local"],
               bins["tile_start"], bins["tile_items"], bins["tile"], bins["tiles_x"],
               cells["tf_s"], cells["tf_v"], cells["model"], max_steps,
-              1e-6 * (diam + float(np.linalg.norm(eye))), 2.5e-7 * coord, 1e-6 * diam, t_min]
+              1e-6 * (diam + float(np.linalg.norm(eye))), 2.5e-7 * coord, 1e-6 * diam, t_min, start_cell]
 
     def launch(b: int) -> None:
         r0, nr = rows[b]
@@ -94,6 +106,10 @@ RAY_PARAMS = (
 class Raycast(Stage):
     """First ray-propagation pass (entry at the nearest boundary face, walk to the boundary exit).
 
+    A perspective eye inside the mesh starts every ray in the cell that contains it (point location
+    on the host). An orthographic eye plane that cuts the mesh is reported as a warning in the
+    report's ``stats`` (rays then start at the boundary in front of the plane).
+
     ==========  =====  =========  =============================================================
     parameter   type   default    meaning
     ==========  =====  =========  =============================================================
@@ -114,6 +130,22 @@ class Raycast(Stage):
         state = MarchState(cam.width_px * cam.height_px, ctx.device)
         ctx.buffers["march"] = state
         threads = self.threads or cpu_threads()
-        c = march_pass(ctx, state, max_steps=self.max_steps, t_min=self.t_min, threads=threads)
-        ctx.stats["raycast"] = {"entries": int(c[0]), "cell_steps": int(c[1]), "unfinished_rays": int(c[2])}
+        start = -1
+        if cam.projection == "perspective":
+            lo, hi = ctx.scene.mesh.bounds
+            if (cam.eye >= lo).all() and (cam.eye <= hi).all():
+                start = locate_point(ctx.scene.mesh, cam.eye)
+        elif self._eye_plane_cuts_mesh(ctx):
+            ctx.stats["warning"] = ("orthographic eye plane cuts the mesh: rays start at the boundary "
+                                    "faces in front of it, the part of the mesh the eye plane lies in is missed")
+            ctx.progress("warning: " + ctx.stats["warning"])
+        c = march_pass(ctx, state, max_steps=self.max_steps, t_min=self.t_min, threads=threads, start_cell=start)
+        ctx.stats["raycast"] = {"entries": int(c[0]), "cell_steps": int(c[1]), "unfinished_rays": int(c[2]),
+                                "eye_cell": start}
         ctx.image = state.image(cam.height_px, cam.width_px)
+
+    @staticmethod
+    def _eye_plane_cuts_mesh(ctx: Context) -> bool:
+        cam, mesh = ctx.scene.camera, ctx.scene.mesh
+        depth = (mesh.points - cam.eye) @ cam.forward
+        return bool(depth.min() < 0.0 < depth.max())
