@@ -81,3 +81,8 @@ def test_top_level_kernels_package_is_not_importable(tmp_path):
     code = "import importlib.util, sys; print(importlib.util.find_spec('kernels') is None, importlib.util.find_spec('warpvol.kernels') is not None)"
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["True", "True"]
+
+
+def test_unavailable_device_is_a_named_error():
+    with pytest.raises(ConfigError, match=r"device 'cuda:7' is not available here; available: cpu"):
+        Pipeline.load("raycast", device="cuda:7")

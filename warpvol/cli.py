@@ -215,6 +215,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if args.cmd in ("render", "demo"):
+        import warp as wp
+
+        # Warp's start-up banner and module-load lines go to stdout; the CLI keeps stdout for its
+        # summary and reports progress on stderr itself
+        wp.config.quiet = True
+        if hasattr(wp, "LOG_WARNING"):
+            wp.config.log_level = wp.LOG_WARNING
     try:
         return args.func(args)
     except WarpvolError as e:

@@ -195,6 +195,20 @@ def _sync(device: str) -> None:
         pass
 
 
+def check_device(device: str, where: str = "device") -> str:
+    """Validate a Warp device name (``cpu``, ``cuda:0``, ...) against the devices present."""
+    import warp as wp
+
+    names = [d.alias for d in wp.get_devices()]
+    if str(device) not in names:
+        try:
+            return str(wp.get_device(device))
+        except (ValueError, RuntimeError):
+            raise ConfigError(f"{where}: device {device!r} is not available here; available: "
+                              f"{', '.join(names)}") from None
+    return str(device)
+
+
 class Pipeline:
     """Ordered stages plus a name; :meth:`render` runs the planner, the stages and the report."""
 
@@ -206,6 +220,7 @@ class Pipeline:
     @classmethod
     def from_config(cls, cfg: dict, device: str = "cpu", where: str = "pipeline") -> "Pipeline":
         check_keys(where, cfg, ["name", "description", "stages"])
+        device = check_device(device, "--device" if where.startswith("preset") else f"{where}: device")
         stages_cfg = cfg.get("stages")
         if not isinstance(stages_cfg, list) or not stages_cfg:
             raise ConfigError(f"{where}.stages: expected a non-empty list of [[stages]] tables")
