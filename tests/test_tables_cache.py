@@ -90,3 +90,24 @@ def test_stage_rejects_bad_parameters():
         get_stage_class("table_roettger_hw")(variant="geforce3", bits=12)
     with pytest.raises(ConfigError, match="unknown key"):
         get_stage_class("table_psi")(n=8, foo=1)
+
+
+def test_pipeline_keeps_its_table_cache_across_renders_and_tf_edits():
+    from warpvol.pipeline import Pipeline
+
+    pipe = Pipeline.from_config({"stages": [{"stage": "table_exact", "n_s": 8, "n_l": 2},
+                                            {"stage": "table_iso", "n": 8}, {"stage": "table_psi", "n": 8}]})
+
+    def render(tf):
+        ctx = Context(scene=_Scene(tf), quiet=True, persistent=pipe.persistent)
+        for st in pipe.stages:
+            st.run(ctx)
+        return {k: v["built"] for k, v in ctx.stats["tables"].items()}
+
+    tf = smooth_tf()
+    assert render(tf) == {"table3d": True, "iso": True, "psi": True}
+    assert render(tf) == {"table3d": False, "iso": False, "psi": False}  # second render: all cached
+    recoloured = TransferFunction(np.column_stack([tf.points[:, 0], tf.points[:, 1:4][::-1], tf.points[:, 4]]),
+                                  tf.emission)
+    # a colour edit keeps the control-point positions: only the TF-dependent 3D table is rebuilt
+    assert render(recoloured) == {"table3d": True, "iso": False, "psi": False}

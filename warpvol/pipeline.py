@@ -169,6 +169,9 @@ class Context:
     stats: dict[str, Any] = field(default_factory=dict)
     image: np.ndarray | None = None
     quiet: bool = False
+    #: state that outlives one render and belongs to the pipeline (e.g. the table cache), so
+    #: rendering again, or after a TF edit, rebuilds only what changed
+    persistent: dict[str, Any] = field(default_factory=dict)
 
     def progress(self, msg: str) -> None:
         if not self.quiet:
@@ -216,6 +219,7 @@ class Pipeline:
         if not stages:
             raise ConfigError(f"pipeline {name!r}: no stages")
         self.stages, self.name, self.description = stages, name, description
+        self.persistent: dict[str, Any] = {}
 
     @classmethod
     def from_config(cls, cfg: dict, device: str = "cpu", where: str = "pipeline") -> "Pipeline":
@@ -248,7 +252,7 @@ class Pipeline:
     def render(self, scene: Any, *, reference: np.ndarray | None = None, quiet: bool = False,
                device: str | None = None) -> RenderResult:
         device = device or self.stages[0].device
-        ctx = Context(scene=scene, device=device, quiet=quiet)
+        ctx = Context(scene=scene, device=device, quiet=quiet, persistent=self.persistent)
         report: dict[str, Any] = {"pipeline": self.name, "device": device, "scene": getattr(scene, "name", None),
                                   "image": [scene.camera.height_px, scene.camera.width_px],
                                   "stages": {}, "skipped": []}

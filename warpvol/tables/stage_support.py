@@ -1,6 +1,7 @@
 """Thin stage wrapper shared by ``warpvol/stages/table_*.py``: each stage validates its parameters,
-then fetches its table from the render's :class:`~warpvol.tables.cache.TableCache`
-(``ctx.buffers["table_cache"]``, created on first use) and stores it in ``ctx.buffers[output]``.
+then fetches its table from the pipeline's :class:`~warpvol.tables.cache.TableCache`
+(``ctx.persistent["table_cache"]``, created on first use and kept across renders of the same
+pipeline, so a TF edit rebuilds only the TF-dependent tables) and stores it in ``ctx.buffers[output]``.
 
 ``lmax = 0`` (the default everywhere) means the mesh's longest edge (``scene.mesh.lmax``).
 """
@@ -40,7 +41,7 @@ class TableStage(Stage):
         return float(mesh.lmax)
 
     def run(self, ctx: Context) -> None:
-        cache = ctx.buffers.setdefault("table_cache", TableCache())
+        cache = ctx.persistent.setdefault("table_cache", TableCache())
         tf = getattr(ctx.scene, "transfer", None) if self.uses_tf else None
         if self.uses_tf and tf is None:
             raise ValueError(f"{self.where}: the scene has no transfer function")
