@@ -86,3 +86,11 @@ def test_demo_writes_image_reference_and_report(tmp_path, capsys):
         assert (d / n).is_file(), n
     rep = json.loads((d / "report.json").read_text())
     assert rep["error"]["rmse"] < 1e-4
+
+
+def test_render_with_computed_reference(scene_file, tmp_path):
+    rep = tmp_path / "r.json"
+    assert main(["render", str(scene_file), "--pipeline", "raycast", "-o", str(tmp_path / "o.exr"),
+                 "--compute-reference", "--report", str(rep), "--quiet"]) == 0
+    report = json.loads(rep.read_text())
+    assert report["error"]["rmse"] < 1e-5 and report["reference_s"] > 0

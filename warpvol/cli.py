@@ -79,17 +79,23 @@ def cmd_render(args) -> int:
     report_path = _check_out(args.report, "--report") if args.report else None
     png_path = _check_out(args.png, "--png") if args.png else None
     err_path = _check_out(args.error_image, "--error-image") if args.error_image else None
-    if err_path and not args.reference:
-        raise ConfigError("--error-image: needs --reference")
+    if err_path and not (args.reference or args.compute_reference):
+        raise ConfigError("--error-image: needs --reference or --compute-reference")
     scene = _load_scene(args.scene, args)
     ref = None
+    if args.reference and args.compute_reference:
+        raise ConfigError("--compute-reference: give either it or --reference, not both")
     if args.reference:
         ref = read_exr(args.reference)
         want = (scene.camera.height_px, scene.camera.width_px, 4)
         if ref.shape != want:
             raise ConfigError(f"--reference: {args.reference} has shape {ref.shape}, expected {want}")
+    elif args.compute_reference:
+        ref, ref_s = compute_reference(scene, args.quiet)
     pipe = Pipeline.load(args.pipeline, device=args.device)
     res = pipe.render(scene, reference=ref, quiet=args.quiet)
+    if args.compute_reference:
+        res.report["reference_s"] = ref_s
     write_exr(out, res.image)
     if png_path:
         write_png(png_path, res.image, background=args.background)
@@ -180,6 +186,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--pipeline", required=True, help="preset name or pipeline TOML file")
     r.add_argument("-o", "--output", required=True, help="output OpenEXR file")
     r.add_argument("--reference", help="reference EXR: adds the error to the report")
+    r.add_argument("--compute-reference", action="store_true",
+                   help="compute the exact reference in this run (instead of --reference) for the report's error")
     r.add_argument("--report", help="write the JSON report here")
     r.add_argument("--png", help="also write an 8-bit PNG preview")
     r.add_argument("--error-image", help="with --reference: PNG of the per-pixel max |error|, scaled to its maximum")
