@@ -269,6 +269,31 @@ def fragment_weights(pos: wp.array(dtype=wp.vec4), v: wp.vec3i, l: wp.vec3, mode
     return l
 
 
+@wp.func
+def fragment_prologue(s: TriSetup, pos: wp.array(dtype=wp.vec4), t: int, j: int, i: int, px: float, py: float,
+                      depth_func: int, depth_write: int, depth_clip: int, zb: float):
+    """Per-fragment front end of triangle ``t`` at pixel (row i, column j), centre (px, py): coverage,
+    screen barycentrics, depth interpolation, depth clip, depth test and write.
+
+    Returns ``(passed, l, zb)``: whether a fragment survives, its screen barycentrics, and the depth
+    buffer value after it (``z`` if it passed with depth writes on, else ``zb`` unchanged).
+    """
+    ok = coverage(s, t, j, i)
+    l = wp.vec3(0.0, 0.0, 0.0)
+    zn = zb
+    if ok:
+        v = s.vidx[t]
+        l = screen_bary(pos, v, px, py)
+        z = interp_depth(pos, v, l)
+        if depth_clip != 0 and (z < 0.0 or z > 1.0):
+            ok = False
+        elif not depth_pass(depth_func, z, zb):
+            ok = False
+        elif depth_write != 0:
+            zn = z
+    return ok, l, zn
+
+
 # ------------------------------------------------------------------------------------------------
 # per-pixel kernels (launch dim = (H, W))
 # ------------------------------------------------------------------------------------------------
@@ -343,18 +368,11 @@ def k_draw_colors(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dtyp
     py = float(i) + 0.5
     for e in range(s.tile_start[tile], s.tile_end[tile]):
         t = s.tri_of[e]
-        if coverage(s, t, j, i):
-            v = s.vidx[t]
-            l = screen_bary(pos, v, px, py)
-            z = interp_depth(pos, v, l)
-            if depth_clip != 0 and (z < 0.0 or z > 1.0):
-                continue
-            if not depth_pass(depth_func, z, zb):
-                continue
-            if depth_write != 0:
-                zb = z
+        ok, l, zb = fragment_prologue(s, pos, t, j, i, px, py, depth_func, depth_write, depth_clip, zb)
+        if ok:
             c = colors[tris[t][2]]
             if mode != 2:
+                v = s.vidx[t]
                 w = fragment_weights(pos, v, l, mode)
                 c = w[0] * colors[v[0]] + w[1] * colors[v[1]] + w[2] * colors[v[2]]
             d = blend(bs, c, d, j, i, prim0 + t)
@@ -456,16 +474,8 @@ def k_draw_ids(s: TriSetup, pos: wp.array(dtype=wp.vec4), ids: wp.array(dtype=wp
     py = float(i) + 0.5
     for e in range(s.tile_start[tile], s.tile_end[tile]):
         t = s.tri_of[e]
-        if coverage(s, t, j, i):
-            v = s.vidx[t]
-            l = screen_bary(pos, v, px, py)
-            z = interp_depth(pos, v, l)
-            if depth_clip != 0 and (z < 0.0 or z > 1.0):
-                continue
-            if not depth_pass(depth_func, z, zb):
-                continue
-            if depth_write != 0:
-                zb = z
+        ok, l, zb = fragment_prologue(s, pos, t, j, i, px, py, depth_func, depth_write, depth_clip, zb)
+        if ok:
             idv = ids[t] & 16777215
     idbuf[i, j] = idv
     depth[i, j] = zb

@@ -36,3 +36,14 @@ def launch_blocks(device: str, n_blocks: int, launch: Callable[[int], None], thr
     else:
         for b in range(n_blocks):
             launch(b)
+
+
+def row_blocks(n_rows: int, n_jobs: int, threads: int, device: str) -> list[tuple[int, int]]:
+    """Row blocks splitting each of ``n_jobs`` equal-cost slice draws so the CPU cores get >= 4 jobs
+    each (one block, all rows, on other devices or when there are enough slices)."""
+    threads = threads or cpu_threads()
+    if not str(device).startswith("cpu") or threads == 1:
+        return [(0, n_rows)]
+    want = 4 * threads
+    per = max(1, -(-want // max(1, n_jobs)))
+    return blocks(n_rows, -(-n_rows // min(per, n_rows)))

@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, check_number
+from ..parallel import launch_blocks, row_blocks
 from .base import TABLE_FORMATS, Axis
 from .common import check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, scalar_axis, table_key, timed
 
@@ -44,7 +45,7 @@ def split_texture_values(tf, n_tex: int, l: float, m: int, channel: int) -> np.n
 
 
 def build_pingpong(tf, *, n_s: int = 128, lengths=(1.0,), lmax: float = 1.0, m: int = 128, gpu: str = "radeon8500",
-                   per_pass: int = 4, n_tex: int = 2048, format: str = "fp32", device: str = "cpu"):
+                   per_pass: int = 4, n_tex: int = 2048, format: str = "fp32", device: str = "cpu", threads: int = 0):
     """Ping-pong filtered slices ``data[k, sb, sf] = (C rgb, alpha)`` at thicknesses ``lengths`` (x lmax).
 
     Parameters
@@ -65,6 +66,9 @@ def build_pingpong(tf, *, n_s: int = 128, lengths=(1.0,), lmax: float = 1.0, m: 
     n_tex : int
         TF texture resolution ("the highest possible": 2048 on the Radeon 8500).
     format, device : str
+    threads : int
+        Host threads running the slices' channels (and row blocks of them) concurrently on the CPU
+        (0: all cores); the result does not depend on it. Other devices run them in order.
     """
     import warp as wp
 
@@ -81,6 +85,7 @@ def build_pingpong(tf, *, n_s: int = 128, lengths=(1.0,), lmax: float = 1.0, m: 
     check_choice("gpu", gpu, tuple(OVERFLOW))
     per_pass = check_res("per_pass", per_pass, 1, 16)
     n_tex = check_res("n_tex", n_tex, 2, 1 << 16)
+    threads = int(check_number("threads", threads, lo=0, hi=256, integer=True))
     check_choice("format", format, TABLE_FORMATS)
     ls = np.asarray(lengths, dtype=np.float64).ravel()
     if ls.size == 0 or not np.all((ls >= 0) & (ls <= 1)):
@@ -93,22 +98,36 @@ def build_pingpong(tf, *, n_s: int = 128, lengths=(1.0,), lmax: float = 1.0, m: 
     meta = {"builder": "pingpong", "lmax": lmax, "m": m, "gpu": gpu, "passes": 0}
     fmt = UNorm(8, rounding="truncate", overflow=OVERFLOW[gpu]).kernel_params()
     x = farr(ax_f.nodes, device)
-    out = wp.zeros((n_s, n_s), dtype=wp.float32, device=device)
     data = np.zeros((ls.size, n_s, n_s, 4), dtype=np.float32)
+    out = wp.zeros((3 * ls.size, n_s, n_s), dtype=wp.float32, device=device)  # one per (slice, channel)
     mom = wp.zeros((n_s, n_s), dtype=wp.vec4, device=device)
     tf_s, tf_v = tf.to_warp(device)
     lo, hi = tf.srange
     with timed(meta, device=device):
-        wp.launch(k.guthe_moments, dim=(n_s, n_s), device=device, inputs=[x, x, lo, hi - lo, tf_s, tf_v, mom])
+        # one job per (slice, colour channel), each with its own texture and output; textures built
+        # up front on this thread, the draws (and the moments) split into row blocks run concurrently
+        jobs = [(si, c, Texture1D(split_texture_values(tf, n_tex, float(l) * lmax, m, c), fmt="rgba8",
+                                  filter="linear", device=device))
+                for si, l in enumerate(ls) for c in range(3)]
+        rows = row_blocks(n_s, len(jobs) + 1, threads, device)
+
+        def launch(b: int) -> None:
+            q = b // len(rows)
+            r0, nr = rows[b % len(rows)]
+            if q == len(jobs):
+                wp.launch(k.guthe_moments, dim=(nr, n_s), device=device,
+                          inputs=[x, x[r0:r0 + nr], lo, hi - lo, tf_s, tf_v, mom[r0:r0 + nr]])
+            else:
+                wp.launch(k.pingpong_slice, dim=(nr, n_s), device=device,
+                          inputs=[jobs[q][2].struct, x, x[r0:r0 + nr], m, per_pass, fmt, fmt, out[q][r0:r0 + nr]])
+
+        launch_blocks(device, (len(jobs) + 1) * len(rows), launch, threads)
+        res = out.numpy()
+        for q, (si, c, _) in enumerate(jobs):
+            data[si, ..., c] = res[q]
+            meta["passes"] += -(-m // per_pass)
         rho_hat = mom.numpy()[..., 3].astype(np.float64)
         for si, l in enumerate(ls):
-            for c in range(3):
-                tex = Texture1D(split_texture_values(tf, n_tex, float(l) * lmax, m, c), fmt="rgba8", filter="linear",
-                                device=device)
-                wp.launch(k.pingpong_slice, dim=(n_s, n_s), device=device,
-                          inputs=[tex.struct, x, x, m, per_pass, fmt, fmt, out])
-                data[si, ..., c] = out.numpy()
-                meta["passes"] += -(-m // per_pass)
             data[si, ..., 3] = -np.expm1(-float(l) * lmax * rho_hat)
     return finish("pingpong", data, (Axis("l", ls.size, "centred", scale=lmax), ax_b, ax_f), ("r", "g", "b", "a"),
                   format, key, meta, extra={"lengths": ls})

@@ -28,11 +28,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import check_number
+from ..parallel import launch_blocks, row_blocks
 from .base import AXIS_KINDS, TABLE_FORMATS
 from .common import check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, scalar_axis, table_key, timed
 from .exact import length_axis
 
 VARIANTS = ("blend", "geforce3")
+FB_BUDGET = 256 << 20  # bytes of frame buffers (colour + depth) alive at once: slices are drawn in waves
 
 
 def tf_texture_values(tf, n_tex: int, l: float, n: int) -> np.ndarray:
@@ -59,7 +61,8 @@ def make_tf_texture(values: np.ndarray, bits: int, device: str):
 
 def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, steps: int | None = None,
                       bits: int = 12, passes: str = "two", variant: str = "blend", n_tex: int | None = None,
-                      l_axis: str = "centred", draw: int | None = None, format: str = "fp32", device: str = "cpu"):
+                      l_axis: str = "centred", draw: int | None = None, format: str = "fp32", device: str = "cpu",
+                      threads: int = 0):
     """Hardware-emulated per-slice pre-integration.
 
     Parameters
@@ -81,6 +84,9 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
     draw : int, optional
         Draw only the first ``draw`` rectangles (intermediate frame buffers, the paper's Fig. 4).
     l_axis, format, device : str
+    threads : int
+        Host threads drawing slices (and row blocks of them) concurrently on the CPU (0: all cores);
+        the result does not depend on it. Other devices draw in order.
 
     Returns
     -------
@@ -106,6 +112,7 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
     check_choice("l_axis", l_axis, AXIS_KINDS[:2])
     check_choice("format", format, TABLE_FORMATS)
     draw = steps if draw is None else check_res("draw", draw, 0, steps)
+    threads = int(check_number("threads", threads, lo=0, hi=256, integer=True))
 
     k = kernels()
     ax_f = scalar_axis("sf", tf, n_s)
@@ -119,35 +126,47 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
     group = 4 if variant == "geforce3" else 1
     comb = UNORM12.kernel_params()
     x = farr(ax_f.nodes, device)
-    fb = FrameBuffer(n_s, n_s, fb_fmt, device)
-    over = BlendUnit.over()
-    one_pass = BlendUnit("constant_color", "one_minus_src_alpha", constant=(1, 1, 1, 0))
+    # one draw per (slice, pass), each into its own frame buffer: (clear colour, blend unit, modulate)
+    if passes == "two":
+        draws = [((0, 0, 0, 0), BlendUnit.over(), wp.vec4(1.0, 1.0, 1.0, 1.0)),
+                 ((1, 1, 1, 1), BlendUnit.over(), wp.vec4(0.0, 0.0, 0.0, 1.0))]
+    else:
+        draws = [((0, 0, 0, 1), BlendUnit("constant_color", "one_minus_src_alpha", constant=(1, 1, 1, 0)),
+                  wp.vec4(1.0, 1.0, 1.0, 1.0))]
     data = np.zeros((n_l, n_s, n_s, 4), dtype=np.float32)
     nblend = -(-draw // group)
+    wave = max(1, min(n_l, FB_BUDGET // (len(draws) * n_s * n_s * 20)))  # slices per wave
     with timed(meta, device=device):
-        for li, l in enumerate(ax_l.physical):
-            tex = make_tf_texture(tf_texture_values(tf, n_tex, float(l), steps), bits, device)
-            if passes == "two":
-                fb.clear((0, 0, 0, 0))
-                wp.launch(k.hw_preint_slice, dim=(n_s, n_s), device=device,
-                          inputs=[tex.struct, over.state(fb), fb.array, x, x, steps, draw, group, comb,
-                                  wp.vec4(1.0, 1.0, 1.0, 1.0)])
-                rgb = fb.readback()[..., :3]
-                fb.clear((1, 1, 1, 1))
-                wp.launch(k.hw_preint_slice, dim=(n_s, n_s), device=device,
-                          inputs=[tex.struct, over.state(fb), fb.array, x, x, steps, draw, group, comb,
-                                  wp.vec4(0.0, 0.0, 0.0, 1.0)])
-                theta = fb.readback()[..., 0]
-                meta["blends"] += 2 * nblend * n_s * n_s
-            else:
-                fb.clear((0, 0, 0, 1))
-                wp.launch(k.hw_preint_slice, dim=(n_s, n_s), device=device,
-                          inputs=[tex.struct, one_pass.state(fb), fb.array, x, x, steps, draw, group, comb,
-                                  wp.vec4(1.0, 1.0, 1.0, 1.0)])
-                v = fb.readback()
-                rgb, theta = v[..., :3], v[..., 3]
-                meta["blends"] += nblend * n_s * n_s
-            data[li, ..., :3] = rgb
-            data[li, ..., 3] = 1.0 - theta
+        for w0 in range(0, n_l, wave):
+            lis = range(w0, min(n_l, w0 + wave))
+            jobs = []  # (texture, frame buffer, blend state, modulate), built up front on this thread
+            for li in lis:
+                tex = make_tf_texture(tf_texture_values(tf, n_tex, float(ax_l.physical[li]), steps), bits, device)
+                for clear, unit, mod in draws:
+                    fb = FrameBuffer(n_s, n_s, fb_fmt, device)
+                    fb.clear(clear)
+                    jobs.append((tex, fb, unit.state(fb), mod))
+            # rows of a slice are independent too (no dithering here, so a pixel's blends do not
+            # depend on its row): split them when there are fewer slices than cores
+            rows = row_blocks(n_s, len(jobs), threads, device)
+
+            def launch(b: int, jobs=jobs, rows=rows) -> None:
+                tex, fb, st, mod = jobs[b // len(rows)]
+                r0, nr = rows[b % len(rows)]
+                wp.launch(k.hw_preint_slice, dim=(nr, n_s), device=device,
+                          inputs=[tex.struct, st, fb.array[r0:r0 + nr], x, x[r0:r0 + nr], steps, draw, group, comb,
+                                  mod])
+
+            launch_blocks(device, len(jobs) * len(rows), launch, threads)
+            for q, li in enumerate(lis):
+                if passes == "two":
+                    rgb = jobs[2 * q][1].readback()[..., :3]
+                    theta = jobs[2 * q + 1][1].readback()[..., 0]
+                else:
+                    v = jobs[q][1].readback()
+                    rgb, theta = v[..., :3], v[..., 3]
+                data[li, ..., :3] = rgb
+                data[li, ..., 3] = 1.0 - theta
+                meta["blends"] += len(draws) * nblend * n_s * n_s
     meta["fragments"] = meta["blends"] * group
     return finish("roettger_hw", data, (ax_l, ax_b, ax_f), ("r", "g", "b", "a"), format, key, meta)
