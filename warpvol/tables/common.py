@@ -52,6 +52,23 @@ def farr(x, device: str):
     return wp.array(np.ascontiguousarray(x, dtype=np.float32), dtype=wp.float32, device=device)
 
 
+def launch_l_slices(kernel, n_l: int, n_s: int, device: str, inputs) -> None:
+    """Launch a table kernel of dim ``(n_l, n_s, n_s)`` one l-slice at a time, the slices running
+    concurrently on the CPU cores; ``inputs(l0, nl)`` returns the kernel inputs for slices
+    ``l0 .. l0 + nl`` (with the l-indexed arrays sliced accordingly)."""
+    import warp as wp
+
+    from ..parallel import blocks, launch_blocks
+
+    slabs = blocks(n_l, 1)
+
+    def launch(b: int) -> None:
+        l0, nl = slabs[b]
+        wp.launch(kernel, dim=(nl, n_s, n_s), device=device, inputs=inputs(l0, nl))
+
+    launch_blocks(device, len(slabs), launch)
+
+
 def tf_arrays(tf: TransferFunction, device: str):
     return tf.to_warp(device)
 

@@ -17,8 +17,8 @@ reported (``tests/test_tables_software.py``), not hidden. ``n_min`` raises the f
 from __future__ import annotations
 
 from .base import AXIS_KINDS, TABLE_FORMATS
-from .common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, model_id, scalar_axis,
-                     table_key, tf_arrays, timed)
+from .common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_l_slices, model_id,
+                     scalar_axis, table_key, tf_arrays, timed)
 from .exact import length_axis
 from ..errors import check_number
 
@@ -67,7 +67,7 @@ def build_roettger_sw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, m:
     tf_s, tf_v = tf_arrays(tf, device)
     lo, hi = tf.srange
     with timed(meta, device=device):
-        wp.launch(k.roettger_sw_table3d, dim=(n_l, n_s, n_s), device=device,
-                  inputs=[farr(ax_f.nodes, device), farr(ax_b.nodes, device), farr(ax_l.physical, device),
-                          lo, hi - lo, tf_s, tf_v, model_id(tf), float(m), o, n_min, out])
+        xf, xb, ls = farr(ax_f.nodes, device), farr(ax_b.nodes, device), farr(ax_l.physical, device)
+        launch_l_slices(k.roettger_sw_table3d, n_l, n_s, device, lambda l0, nl: [
+            xf, xb, ls[l0:l0 + nl], lo, hi - lo, tf_s, tf_v, model_id(tf), float(m), o, n_min, out[l0:l0 + nl]])
     return finish("roettger_sw", out.numpy(), (ax_l, ax_b, ax_f), ("r", "g", "b", "a"), format, key, meta)
