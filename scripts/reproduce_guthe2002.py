@@ -110,7 +110,7 @@ def main(argv=None):
         p = PAPER_T4[deg]
         print(f"  {deg:>2} | {p[0]:>7.1f}s {p[1]:>4.1f}s {p[0] / p[1]:>5.1f} | {tsw:>14.3f}s {thw:>18.3f}s "
               f"{tsw / thw:>6.2f} | {g.meta['pingpong_passes']}")
-    print("\nNotes: 'software' here is the exact piecewise-linear integrator (Warp kernel, one CPU thread), much "
+    print("\nNotes: 'software' here is the exact piecewise-linear integrator (Warp kernel, all CPU cores, as the emulated ping-pong), much "
           "faster than 2002's numerical integration; the emulated ping-pong runs every shader step on the CPU, "
           "so the ratio measures emulation cost, not the Radeon's fill rate.")
 

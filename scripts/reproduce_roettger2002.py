@@ -113,7 +113,7 @@ def main(argv=None):
         print(f"{N:>4}x{N}x{N // 2:<4} | {p[0]:>8.3f}s {p[1]:>6.3f}s {p[2]:>6.2f} | {tsw:>7.3f}s {thw:>7.3f}s "
               f"{tsw / thw:>6.2f} | {tex:>6.3f}s | {hw.meta['blends']:>15,d}")
     print("\nNotes: the emulated hardware runs every blend as integer arithmetic on the CPU (one thread per "
-          "pixel, serial on the CPU device), so its time measures emulation cost, not a 2002 GPU; the paper's "
+          "pixel; both builders use all CPU cores), so its time measures emulation cost, not a 2002 GPU; the paper's "
           "70-100x came from the GPU's parallel fill rate.")
 
 
