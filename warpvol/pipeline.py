@@ -26,7 +26,7 @@ import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any, Callable, ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -322,12 +322,3 @@ def list_presets() -> list[tuple[str, str]]:
 
 
 DEFAULT_PIPELINE = "raycast"
-
-
-def run_stage_standalone(stage: Stage, ctx: Context) -> None:
-    """Run one stage outside a pipeline (tests), honouring its planner hook."""
-    if stage.skip_reason(ctx) is None:
-        stage.run(ctx)
-
-
-Progress = Callable[[str], None]
