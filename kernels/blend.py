@@ -91,31 +91,31 @@ def dither_code(a: float, n: int, q: float) -> int:
 @wp.func
 def factor_i(mode: int, n: int, sc: int, sa: int, dc: int, da: int, kc: int, ka: int) -> int:
     r = 0
-    if mode == 1:
+    if mode == ONE:
         r = n
-    elif mode == 2:
+    elif mode == SRC_COLOR:
         r = sc
-    elif mode == 3:
+    elif mode == ONE_MINUS_SRC_COLOR:
         r = n - sc
-    elif mode == 4:
+    elif mode == SRC_ALPHA:
         r = sa
-    elif mode == 5:
+    elif mode == ONE_MINUS_SRC_ALPHA:
         r = n - sa
-    elif mode == 6:
+    elif mode == DST_COLOR:
         r = dc
-    elif mode == 7:
+    elif mode == ONE_MINUS_DST_COLOR:
         r = n - dc
-    elif mode == 8:
+    elif mode == DST_ALPHA:
         r = da
-    elif mode == 9:
+    elif mode == ONE_MINUS_DST_ALPHA:
         r = n - da
-    elif mode == 10:
+    elif mode == CONSTANT_COLOR:
         r = kc
-    elif mode == 11:
+    elif mode == ONE_MINUS_CONSTANT_COLOR:
         r = n - kc
-    elif mode == 12:
+    elif mode == CONSTANT_ALPHA:
         r = ka
-    elif mode == 13:
+    elif mode == ONE_MINUS_CONSTANT_ALPHA:
         r = n - ka
     return r
 
@@ -123,31 +123,31 @@ def factor_i(mode: int, n: int, sc: int, sa: int, dc: int, da: int, kc: int, ka:
 @wp.func
 def factor_f(mode: int, sc: float, sa: float, dc: float, da: float, kc: float, ka: float) -> float:
     r = 0.0
-    if mode == 1:
+    if mode == ONE:
         r = 1.0
-    elif mode == 2:
+    elif mode == SRC_COLOR:
         r = sc
-    elif mode == 3:
+    elif mode == ONE_MINUS_SRC_COLOR:
         r = 1.0 - sc
-    elif mode == 4:
+    elif mode == SRC_ALPHA:
         r = sa
-    elif mode == 5:
+    elif mode == ONE_MINUS_SRC_ALPHA:
         r = 1.0 - sa
-    elif mode == 6:
+    elif mode == DST_COLOR:
         r = dc
-    elif mode == 7:
+    elif mode == ONE_MINUS_DST_COLOR:
         r = 1.0 - dc
-    elif mode == 8:
+    elif mode == DST_ALPHA:
         r = da
-    elif mode == 9:
+    elif mode == ONE_MINUS_DST_ALPHA:
         r = 1.0 - da
-    elif mode == 10:
+    elif mode == CONSTANT_COLOR:
         r = kc
-    elif mode == 11:
+    elif mode == ONE_MINUS_CONSTANT_COLOR:
         r = 1.0 - kc
-    elif mode == 12:
+    elif mode == CONSTANT_ALPHA:
         r = ka
-    elif mode == 13:
+    elif mode == ONE_MINUS_CONSTANT_ALPHA:
         r = 1.0 - ka
     return r
 

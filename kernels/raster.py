@@ -128,9 +128,9 @@ def k_setup(pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i), width:
     front = ccw_gl
     if front_ccw == 0:
         front = not ccw_gl
-    if cull == 1 and not front:
+    if cull == CULL_BACK and not front:
         return
-    if cull == 2 and front:
+    if cull == CULL_FRONT and front:
         return
     i0 = tri[0]
     i1 = tri[1]
@@ -244,15 +244,15 @@ def persp_bary(pos: wp.array(dtype=wp.vec4), v: wp.vec3i, l: wp.vec3) -> wp.vec3
 @wp.func
 def depth_pass(func: int, z: float, zbuf: float) -> bool:
     r = True
-    if func == 1:
+    if func == DEPTH_LESS:
         r = z < zbuf
-    elif func == 2:
+    elif func == DEPTH_GREATER:
         r = z > zbuf
-    elif func == 3:
+    elif func == DEPTH_LEQUAL:
         r = z <= zbuf
-    elif func == 4:
+    elif func == DEPTH_GEQUAL:
         r = z >= zbuf
-    elif func == 5:
+    elif func == DEPTH_NEVER:
         r = False
     return r
 
@@ -264,7 +264,7 @@ def interp_depth(pos: wp.array(dtype=wp.vec4), v: wp.vec3i, l: wp.vec3) -> float
 
 @wp.func
 def fragment_weights(pos: wp.array(dtype=wp.vec4), v: wp.vec3i, l: wp.vec3, mode: int) -> wp.vec3:
-    if mode == 1:
+    if mode == INTERP_PERSPECTIVE:
         return persp_bary(pos, v, l)
     return l
 
@@ -338,11 +338,11 @@ def k_fragments(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=
                 for a in range(na):
                     m = modes[a]
                     val = float(0.0)
-                    if m == 2:
+                    if m == INTERP_FLAT:
                         val = attrs[last, a]
                     else:
                         w = wl
-                        if m == 1:
+                        if m == INTERP_PERSPECTIVE:
                             w = wpc
                         val = w[0] * attrs[v[0], a] + w[1] * attrs[v[1], a] + w[2] * attrs[v[2], a]
                     frag_attrs[o, a] = val
@@ -371,7 +371,7 @@ def k_draw_colors(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dtyp
         ok, l, zb = fragment_prologue(s, pos, t, j, i, px, py, depth_func, depth_write, depth_clip, zb)
         if ok:
             c = colors[tris[t][2]]
-            if mode != 2:
+            if mode != INTERP_FLAT:
                 v = s.vidx[t]
                 w = fragment_weights(pos, v, l, mode)
                 c = w[0] * colors[v[0]] + w[1] * colors[v[1]] + w[2] * colors[v[2]]
@@ -443,9 +443,9 @@ def k_draw_colors_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.arra
                         if depth_write != 0:
                             depth[i, j] = z
                         c = cflat
-                        if mode != 2:
+                        if mode != INTERP_FLAT:
                             w = l
-                            if mode == 1:
+                            if mode == INTERP_PERSPECTIVE:
                                 q0 = l[0] / pa[3]
                                 q1 = l[1] / pb[3]
                                 q2 = l[2] / pc[3]
