@@ -303,6 +303,36 @@ def cylindrical_lookup(planes: wp.array3d(dtype=wp.vec4), sf: wp.array(dtype=flo
     out[k] = v0 * (1.0 - w) + v1 * w
 
 
+from .texture import Atlas, atlas_sample  # noqa: E402
+
+
+@wp.kernel
+def cylindrical_lookup_tex(atlas: Atlas, sf: wp.array(dtype=float), sb: wp.array(dtype=float),
+                           l: wp.array(dtype=float), ua: float, ub: float, va: float, vb: float,
+                           out: wp.array(dtype=wp.vec4)):
+    """Reconstruction as the 2002 hardware computed it: inverse mapping (eq. 10, one division), the two
+    nearest planes each sampled by the texture unit (atlas tile = plane, bilinear with the unit's
+    filter-weight quantisation and texel-centre convention), blended linearly in ``alpha``.
+
+    ``(ua, ub)``, ``(va, vb)`` map normalised ``s``, ``t`` to in-tile texture coordinates
+    (``u = ua * clamp(s, 0, 1) + ub``: the planes' axis kind, ``centred`` 1, 0; ``endpoint``
+    ``(n - 1)/n``, ``0.5/n``), so texel centres coincide with the planes' nodes as in
+    :func:`cylindrical_lookup`. The inter-plane weight stays fp32 (the second pass's blend).
+    """
+    k = wp.tid()
+    c = table_to_cyl(sf[k], sb[k], l[k])
+    np_ = atlas.ntiles
+    pa = wp.clamp(c[0], 0.0, 1.0) * float(np_ - 1)
+    p0 = wp.min(int(wp.floor(pa)), wp.max(np_ - 2, 0))
+    p1 = wp.min(p0 + 1, np_ - 1)
+    w = pa - float(p0)
+    u = ua * wp.clamp(c[1], 0.0, 1.0) + ub
+    v = va * wp.clamp(c[2], 0.0, 1.0) + vb
+    v0 = atlas_sample(atlas, p0, u, v)
+    v1 = atlas_sample(atlas, p1, u, v)
+    out[k] = v0 * (1.0 - w) + v1 * w
+
+
 # ------------------------------------------------------------------------------------------------
 # 6. Guthe 2002 2D tables
 # ------------------------------------------------------------------------------------------------

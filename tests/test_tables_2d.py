@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 from test_tables_common import TOLERANCES, reference_at_nodes, report, smooth_tf
+from warpvol.errors import ConfigError
 from warpvol.tables.base import sample3d
-from warpvol.tables.cylindrical import build_cylindrical, from_cylinder, reconstruct, to_cylinder
+from warpvol.tables.cylindrical import build_cylindrical, from_cylinder, plane_texture, reconstruct, to_cylinder
 from warpvol.tables.exact import build_exact3d
 from warpvol.tables.guthe2d import build_guthe2d, reconstruct as guthe_reconstruct
 from warpvol.tables.incremental import build_incremental
@@ -50,21 +51,81 @@ def test_cylindrical_4x_reconstructs_3d_table():
     rng = np.random.default_rng(5)
     p = rng.random((3000, 3))
     look = sample3d(t3, p[:, 0], p[:, 1], p[:, 2])
-    errs = {}
+    errs, errs_float = {}, {}
     for f in ("4x", "2x", "1x"):
         cyl = build_cylindrical(tf, table=t3, planes=f)
-        errs[f] = float(np.abs(reconstruct(cyl, p[:, 0], p[:, 1], p[:, 2]) - look).max())
+        # through the emulated texture unit (what the 2002 hardware computed) ...
+        errs[f] = float(np.abs(reconstruct(cyl, p[:, 0], p[:, 1], p[:, 2], via="texture") - look).max())
+        # ... and the fp32 analysis path (interpolation error of the mapping alone)
+        errs_float[f] = float(np.abs(reconstruct(cyl, p[:, 0], p[:, 1], p[:, 2], via="float") - look).max())
     # interpolation error scale of the 3D table itself: trilinear vs exact at the same points
     from test_tables_common import integrate_segments
     lo, hi = tf.srange
     rgb, tau = integrate_segments(lo + p[:, 0] * (hi - lo), lo + p[:, 1] * (hi - lo), p[:, 2], tf)
     exact = np.column_stack([rgb, -np.expm1(-tau)])
     own = float(np.abs(look - exact).max())
-    report("cylindrical vs trilinear 3D table", **errs, table_vs_exact=own)
-    assert errs["4x"] <= TOLERANCES["cylindrical/4x"]["max"]
-    assert errs["4x"] <= own  # within the table's own interpolation error
-    assert errs["4x"] <= errs["2x"] <= errs["1x"]
+    report("cylindrical (texture unit) vs trilinear 3D table", **errs, table_vs_exact=own)
+    report("cylindrical (float path) vs trilinear 3D table", **errs_float)
+    for e in (errs, errs_float):
+        assert e["4x"] <= TOLERANCES["cylindrical/4x"]["max"]
+        assert e["4x"] <= own  # within the table's own interpolation error
+        assert e["4x"] <= e["2x"] <= e["1x"]
     assert cyl.extra["atlas"].shape[0] * cyl.extra["atlas"].shape[1] >= 16 * 16 * 16
+
+
+@pytest.mark.parametrize("s_axis", ["centred", "endpoint"])
+def test_cylindrical_texture_path_matches_float_path(s_axis):
+    """The texture-unit path differs from the fp32 path only by the unit's 8-bit filter weights.
+
+    Bound: the unit truncates each bilinear fraction to 8 bits, an error in [0, 2^-8) of the weight
+    on one axis; a linear step with weight error e changes the result by e * |T1 - T0|. With D the
+    largest difference of adjacent texels in any plane, the x pass errs by < D 2^-8; the y pass
+    lerps two rows (whose difference is itself <= D, being lerps of adjacent rows at the same
+    weight) with a weight off by < 2^-8, another D 2^-8: < 2 D 2^-8 per plane. The blend of the two
+    planes is convex with the same fp32 weight in both paths, so the bound holds for the result.
+    Slack 1e-5 for fp32 rounding of the atlas coordinates (a half-texel misalignment of the texel
+    centres would instead show as ~D / 2, far above the bound).
+    """
+    tf = smooth_tf(rho_max=2.0)
+    t3 = build_exact3d(tf, n_s=16, n_l=16, lmax=1.0, s_axis=s_axis)
+    cyl = build_cylindrical(tf, table=t3, planes="4x")
+    assert cyl.axes[2].kind == s_axis
+    rng = np.random.default_rng(11)
+    p = rng.random((4000, 3))
+    p[:200, 2] = 0.0                      # silhouette / l = 0 plane
+    p[200:400, 1] = p[200:400, 0]         # sf = sb
+    rt = reconstruct(cyl, p[:, 0], p[:, 1], p[:, 2], via="texture")
+    rf = reconstruct(cyl, p[:, 0], p[:, 1], p[:, 2], via="float")
+    d = cyl.data.astype(np.float64)
+    D = max(np.abs(np.diff(d, axis=1)).max(), np.abs(np.diff(d, axis=2)).max())
+    diff = float(np.abs(rt - rf).max())
+    report(f"cylindrical texture vs float path ({s_axis})", max=diff, bound=2 * D / 256, D=D)
+    assert 0.0 < diff <= 2 * D / 256 + 1e-5
+    # fp32 filter weights: the texture unit computes the float path's bilinear filter; what remains
+    # is fp32 rounding of the texel coordinate in the atlas (width W texels: ulp(W) ~ W 2^-23 of a
+    # texel per axis, times D), ~1e-6 here
+    rn = reconstruct(cyl, p[:, 0], p[:, 1], p[:, 2], via="texture", weight_bits=None)
+    W = plane_texture(cyl).texture.shape[1]
+    np.testing.assert_allclose(rn, rf, rtol=0, atol=2 * D * W * 2.0 ** -23 + 1e-6)
+
+
+@pytest.mark.parametrize("fmt,texel", [("rgba8", "rgba8"), ("hilo16", "rgba16"), ("fp16", "rgba16f"),
+                                       ("fp32", "rgba32f")])
+def test_cylindrical_planes_as_texture_atlas(fmt, texel):
+    tf = smooth_tf(rho_max=2.0)
+    cyl = build_cylindrical(tf, n_s=8, planes="2x", format=fmt)
+    assert "texture" not in cyl.extra  # uploaded on first use only
+    tex = plane_texture(cyl)
+    assert cyl.extra["texture"] is tex and plane_texture(cyl) is tex
+    assert (tex.texture.fmt, tex.texture.filter, tex.texture.weight_bits) == (texel, "linear", 8)
+    assert (tex.ntiles, tex.tile_h, tex.tile_w) == cyl.data.shape[:3]
+    # texels hold exactly the stored planes (the format round trip is exact); tile p at (p // cols, p % cols)
+    v = tex.texture.values
+    for p in (0, 5, cyl.data.shape[0] - 1):
+        r, c = divmod(p, tex.cols)
+        np.testing.assert_array_equal(v[r * 10 + 1:r * 10 + 9, c * 10 + 1:c * 10 + 9], cyl.data[p])
+    with pytest.raises(ConfigError, match="via"):
+        reconstruct(cyl, 0.5, 0.5, 0.5, via="bilinear")
 
 
 @pytest.mark.parametrize("degree", [1, 2, 4])

@@ -22,6 +22,19 @@ instead of dividing 0 by 0. Reconstruction blends the two nearest planes linearl
 within interpolation error; ``2N`` and ``N`` trade accuracy for memory. The planes are also tiled
 into one atlas texture (``extra["atlas"]``, tile ``p`` at row ``p // cols``, column ``p % cols``,
 row 0 = GL bottom, so ``alpha = 0`` is the bottom-left tile as in the paper's Fig. 10).
+
+The same tiling is uploaded to the emulated texture unit on first use: :func:`plane_texture` returns
+a :class:`warpvol.gpu.texture.TextureAtlas` (linear filtering, 8-bit filter weights, texel format of
+the stored table, :data:`TEXEL_FORMAT`), kept in ``extra["texture"]`` (uploaded lazily: a large
+plane set is not held twice unless it is sampled), or a fresh one for another device / weight
+precision / format. :func:`reconstruct` has two paths:
+
+* ``via="texture"`` (default): what the 2002 hardware computed; each plane is sampled by the
+  texture unit (its filter-weight quantisation, texel-centre and clamp conventions).
+* ``via="float"``: fp32 bilinear filtering of the decoded planes, i.e. the interpolation error of
+  the mapping alone (an analysis path, no texture unit).
+
+Both share the inverse mapping, the plane choice and the fp32 blend of the two planes.
 """
 
 from __future__ import annotations
@@ -36,6 +49,13 @@ from .common import (check_choice, check_lmax, check_res, check_tf, farr, finish
 from .exact import build_exact3d
 
 PLANE_FACTORS = {"4x": 4, "2x": 2, "1x": 1}
+
+# stored table format -> texel format of the emulated texture unit holding the planes. HILO16 has two
+# channels per texture, so four 16-bit channels are rgba16; al16 (Guthe's A/L byte pairs, not a
+# 2002 cylindrical format) keeps its decoded values exactly in rgba32f texels.
+TEXEL_FORMAT = {"rgba8": "rgba8", "hilo16": "rgba16", "fp16": "rgba16f", "fp32": "rgba32f",
+                "snorm8": "rgba8s", "al16": "rgba32f"}
+RECONSTRUCT_VIA = ("texture", "float")
 
 
 def to_cylinder(sf, sb, l) -> np.ndarray:
@@ -138,6 +158,32 @@ def build_cylindrical(tf, *, n_s: int = 64, n_l: int | None = None, lmax: float 
     return t
 
 
+def _make_texture(planes: Table, device: str, weight_bits: int | None):
+    from ..gpu.texture import TextureAtlas
+
+    return TextureAtlas(planes.data, fmt=TEXEL_FORMAT[planes.format], filter="linear", device=device,
+                        weight_bits=weight_bits)
+
+
+def plane_texture(planes: Table, device: str = "cpu", weight_bits: int | None = 8):
+    """The planes as an emulated :class:`~warpvol.gpu.texture.TextureAtlas` (tile ``p`` = plane ``p``).
+
+    Returns ``planes.extra["texture"]`` when it matches (device, texel format of ``planes.format``,
+    linear filtering, ``weight_bits``), else uploads a new atlas; the first one uploaded is kept
+    there. ``weight_bits=None`` gives fp32 filter weights (the texture unit's analysis mode).
+    """
+    if planes.name != "cylindrical" or planes.data.ndim != 4:
+        raise ValueError("planes: expected a table from build_cylindrical")
+    tex = planes.extra.get("texture")
+    fmt = TEXEL_FORMAT[planes.format]
+    if (tex is not None and tex.device == device and tex.texture.fmt == fmt and tex.texture.filter == "linear"
+            and tex.texture.weight_bits == weight_bits and tex.ntiles == planes.data.shape[0]):
+        return tex
+    tex = _make_texture(planes, device, weight_bits)
+    planes.extra.setdefault("texture", tex)
+    return tex
+
+
 def atlas(planes: np.ndarray) -> np.ndarray:
     """Tile ``planes[P, N, N, C]`` into one ``(rows N, cols N, C)`` texture, ``cols = ceil(sqrt(P))``."""
     P, N, M, C = planes.shape
@@ -150,19 +196,37 @@ def atlas(planes: np.ndarray) -> np.ndarray:
     return out
 
 
-def reconstruct(planes: Table, sf, sb, l, device: str = "cpu") -> np.ndarray:
+def reconstruct(planes: Table, sf, sb, l, device: str = "cpu", via: str = "texture",
+                weight_bits: int | None = 8) -> np.ndarray:
     """Colour and opacity at normalised ``(sf, sb, l)`` from the planes: inverse mapping (eq. 10),
-    bilinear in each of the two nearest planes, linear between them. Returns float32 (..., 4)."""
+    bilinear in each of the two nearest planes, linear between them. Returns float32 (..., 4).
+
+    via : str
+        ``"texture"`` (default): the planes are sampled by the emulated texture unit
+        (:func:`plane_texture`, 8-bit filter weights unless ``weight_bits`` says otherwise), i.e. what
+        the 2002 hardware computed. ``"float"``: fp32 bilinear filtering of the decoded planes, the
+        interpolation error of the mapping alone (``weight_bits`` unused).
+    """
     import warp as wp
 
+    via = check_choice("via", via, RECONSTRUCT_VIA)
     k = kernels()
     sf, sb, l = np.broadcast_arrays(*(np.asarray(v, dtype=np.float32) for v in (sf, sb, l)))
     shape = sf.shape
     n = int(sf.size)
     out = wp.zeros(n, dtype=wp.vec4, device=device)
+    if n == 0:
+        return out.numpy().reshape(shape + (4,))
     sa, sb_ = linear_index_map(planes.axes[2])
     ta, tb = linear_index_map(planes.axes[1])
-    wp.launch(k.cylindrical_lookup, dim=n, device=device,
-              inputs=[planes.to_warp(device), farr(sf.ravel(), device), farr(sb.ravel(), device),
-                      farr(l.ravel(), device), sa, sb_, ta, tb, out])
+    coords = [farr(sf.ravel(), device), farr(sb.ravel(), device), farr(l.ravel(), device)]
+    if via == "float":
+        wp.launch(k.cylindrical_lookup, dim=n, device=device,
+                  inputs=[planes.to_warp(device), *coords, sa, sb_, ta, tb, out])
+    else:
+        tex = plane_texture(planes, device, weight_bits)
+        ns, nt = planes.axes[2].n, planes.axes[1].n
+        # continuous texel index a x + b  ->  in-tile texture coordinate (a x + b + 0.5) / n
+        wp.launch(k.cylindrical_lookup_tex, dim=n, device=device,
+                  inputs=[tex.struct, *coords, sa / ns, (sb_ + 0.5) / ns, ta / nt, (tb + 0.5) / nt, out])
     return out.numpy().reshape(shape + (4,))
