@@ -1,8 +1,6 @@
 """Root pytest configuration: doctests in the package run with Warp's start-up and module-load
 messages silenced (they go to stdout and would be read as doctest output)."""
 
-import warp as wp
+from warpvol.pipeline import quiet_warp
 
-wp.config.quiet = True
-if hasattr(wp, "LOG_WARNING"):
-    wp.config.log_level = wp.LOG_WARNING
+quiet_warp()

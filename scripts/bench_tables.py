@@ -27,9 +27,9 @@ def main(argv=None):
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--repeat", type=int, default=3)
     a = ap.parse_args(argv)
-    import warp as wp
+    from warpvol.pipeline import quiet_warp
 
-    wp.config.quiet = True
+    quiet_warp()
     from warpvol.tables.exact import build_exact3d
     from warpvol.tables.isocross import build_isocross
     from warpvol.tables.psi import build_psi

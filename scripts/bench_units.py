@@ -20,6 +20,7 @@ import warp as wp
 
 from warpvol.gpu.blend import BlendUnit, FrameBuffer
 from warpvol.gpu.raster import Rasterizer
+from warpvol.pipeline import quiet_warp
 
 
 def make_soup(n_tris: int, width: int, height: int, seed: int = 0, size: float = 24.0):
@@ -93,7 +94,7 @@ def main() -> None:
     ap.add_argument("--tile", type=int, default=16)
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args()
-    wp.config.quiet = True
+    quiet_warp()
     W = H = args.size
     pos, tris, cols = make_soup(args.tris, W, H, size=args.tri_size)
 

@@ -46,9 +46,9 @@ def main(argv=None):
     ap.add_argument("--device", default="cpu")
     a = ap.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
-    import warp as wp
+    from warpvol.pipeline import quiet_warp
 
-    wp.config.quiet = True
+    quiet_warp()
     from warpvol.tables.exact import build_exact3d
     from warpvol.tables.guthe2d import build_guthe2d, reconstruct
     from warpvol.tables.pingpong import build_pingpong

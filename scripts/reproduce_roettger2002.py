@@ -52,9 +52,9 @@ def main(argv=None):
     ap.add_argument("--device", default="cpu")
     a = ap.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
-    import warp as wp
+    from warpvol.pipeline import quiet_warp
 
-    wp.config.quiet = True
+    quiet_warp()
     from warpvol.tables.exact import build_exact3d
     from warpvol.tables.roettger_hw import build_roettger_hw
     from warpvol.tables.roettger_sw import build_roettger_sw

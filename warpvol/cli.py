@@ -100,11 +100,9 @@ def cmd_render(args) -> int:
     if png_path:
         write_png(png_path, res.image, background=args.background)
     if err_path:
-        from .metrics import error_image
+        from .metrics import write_error_png
 
-        err = error_image(res.image, ref)
-        write_png(err_path, err / max(float(err.max()), 1e-30))
-        res.report["error"]["error_image_scale"] = float(err.max())
+        res.report["error"]["error_image_scale"] = write_error_png(err_path, res.image, ref)
     if report_path:
         res.write_report(report_path)
     _summary(res.report)
@@ -146,7 +144,7 @@ def cmd_pipelines(args) -> int:
 def cmd_demo(args) -> int:
     from .builtin import BUILTIN_SCENES, builtin_scene
     from .io import atomic_write_text, write_exr, write_png
-    from .metrics import error_image
+    from .metrics import write_error_png
     from .pipeline import DEFAULT_PIPELINE, Pipeline
 
     if args.scene not in BUILTIN_SCENES:
@@ -164,11 +162,10 @@ def cmd_demo(args) -> int:
     write_exr(outdir / "image.exr", res.image)
     write_exr(outdir / "reference.exr", ref.astype(np.float32))
     write_png(outdir / "image.png", res.image, background=(0.1, 0.1, 0.1))
-    err = error_image(res.image, ref)
-    write_png(outdir / "error.png", err / max(float(err.max()), 1e-30))
+    err_max = write_error_png(outdir / "error.png", res.image, ref)
     atomic_write_text(outdir / "report.json", json.dumps(res.report, indent=2) + "\n")
     _summary(res.report)
-    print(f"wrote {outdir}/image.exr, image.png, reference.exr, error.png (scaled to max {err.max():.2e}), report.json")
+    print(f"wrote {outdir}/image.exr, image.png, reference.exr, error.png (scaled to max {err_max:.2e}), report.json")
     return 0
 
 
@@ -224,13 +221,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if args.cmd in ("render", "demo"):
-        import warp as wp
+        from .pipeline import quiet_warp
 
-        # Warp's start-up banner and module-load lines go to stdout; the CLI keeps stdout for its
-        # summary and reports progress on stderr itself
-        wp.config.quiet = True
-        if hasattr(wp, "LOG_WARNING"):
-            wp.config.log_level = wp.LOG_WARNING
+        # the CLI keeps stdout for its summary and reports progress on stderr itself
+        quiet_warp()
     try:
         return args.func(args)
     except WarpvolError as e:

@@ -32,3 +32,13 @@ def image_error(image: np.ndarray, reference: np.ndarray) -> dict:
 def error_image(image: np.ndarray, reference: np.ndarray) -> np.ndarray:
     """Per-pixel max absolute error over the RGBA channels, (H, W)."""
     return np.abs(np.asarray(image, np.float64) - np.asarray(reference, np.float64)).max(axis=-1)
+
+
+def write_error_png(path, image: np.ndarray, reference: np.ndarray) -> float:
+    """PNG of :func:`error_image` scaled so its maximum is white; returns that maximum."""
+    from .io import write_png
+
+    err = error_image(image, reference)
+    scale = float(err.max())
+    write_png(path, err / max(scale, 1e-30))
+    return scale

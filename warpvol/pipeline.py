@@ -198,6 +198,15 @@ def _sync(device: str) -> None:
         pass
 
 
+def quiet_warp() -> None:
+    """Keep Warp's start-up banner and module-load lines off stdout (CLI, scripts, doctests)."""
+    import warp as wp
+
+    wp.config.quiet = True
+    if hasattr(wp, "LOG_WARNING"):
+        wp.config.log_level = wp.LOG_WARNING
+
+
 def check_device(device: str, where: str = "device") -> str:
     """Validate a Warp device name (``cpu``, ``cuda:0``, ...) against the devices present."""
     import warp as wp
