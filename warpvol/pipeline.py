@@ -116,6 +116,10 @@ class Stage:
     name: ClassVar[str] = ""
     summary: ClassVar[str] = ""
     params: ClassVar[tuple[Param, ...]] = ()
+    #: names of what the stage reads (``ctx.buffers`` keys; ``"image"`` for ``ctx.image``) and what it
+    #: writes; a pipeline whose stages lack what they need is rejected when it is built
+    needs: ClassVar[tuple[str, ...]] = ()
+    provides: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, device: str = "cpu", where: str | None = None, **params: Any):
         self.device = device
@@ -172,6 +176,16 @@ class Context:
     #: state that outlives one render and belongs to the pipeline (e.g. the table cache), so
     #: rendering again, or after a TF edit, rebuilds only what changed
     persistent: dict[str, Any] = field(default_factory=dict)
+    #: counted work per stage (report key -> counter name -> integer), filled through :meth:`count`
+    counters: dict[str, dict[str, int]] = field(default_factory=dict)
+    #: report key of the stage now running (``None`` outside a stage)
+    stage_key: str | None = None
+
+    def count(self, **amounts: int) -> None:
+        """Add to the running stage's counters, e.g. ``ctx.count(cell_steps=n, fragments=m)``."""
+        d = self.counters.setdefault(self.stage_key or "_host", {})
+        for k, v in amounts.items():
+            d[k] = d.get(k, 0) + int(v)
 
     def progress(self, msg: str) -> None:
         if not self.quiet:
@@ -278,7 +292,9 @@ class Pipeline:
                 continue
             ctx.progress(f"{key} ...")
             t0 = time.perf_counter()
+            ctx.stage_key = key
             st.run(ctx)
+            ctx.stage_key = None
             _sync(device)
             dt = time.perf_counter() - t0
             report["stages"][key] = dt
@@ -289,6 +305,7 @@ class Pipeline:
         img = np.asarray(ctx.image, dtype=np.float32)
         if not np.isfinite(img).all():
             raise RuntimeError(f"pipeline {self.name!r} produced NaN/Inf pixels")
+        report["counters"] = ctx.counters
         if ctx.stats:
             report["stats"] = ctx.stats
         if reference is not None:

@@ -45,6 +45,7 @@ class Peel(Stage):
         for _ in range(self.max_passes):
             c = march_pass(ctx, state, max_steps=self.max_steps, t_min=self.t_min, threads=threads)
             passes += 1
+            ctx.count(passes=1, entries=int(c[0]), cell_steps=int(c[1]))
             if c[0] == 0:
                 break
             entries += int(c[0])

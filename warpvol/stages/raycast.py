@@ -140,6 +140,7 @@ class Raycast(Stage):
                                     "faces in front of it, the part of the mesh the eye plane lies in is missed")
             ctx.progress("warning: " + ctx.stats["warning"])
         c = march_pass(ctx, state, max_steps=self.max_steps, t_min=self.t_min, threads=threads, start_cell=start)
+        ctx.count(rays=cam.width_px * cam.height_px, entries=int(c[0]), cell_steps=int(c[1]))
         ctx.stats["raycast"] = {"entries": int(c[0]), "cell_steps": int(c[1]), "unfinished_rays": int(c[2]),
                                 "eye_cell": start}
         ctx.image = state.image(cam.height_px, cam.width_px)
