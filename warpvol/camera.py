@@ -58,9 +58,10 @@ class Camera:
     def __post_init__(self):
         w = self.where
         self.projection = check_choice(f"{w}.projection", self.projection, PROJECTIONS)
-        self.eye = check_vec3(f"{w}.eye", self.eye)
-        self.target = check_vec3(f"{w}.target", self.target)
-        self.up = check_vec3(f"{w}.up", self.up)
+        # copies: the camera never aliases the caller's arrays
+        self.eye = check_vec3(f"{w}.eye", self.eye).copy()
+        self.target = check_vec3(f"{w}.target", self.target).copy()
+        self.up = check_vec3(f"{w}.up", self.up).copy()
         self.fov_y_deg = check_number(f"{w}.fov_y_deg", self.fov_y_deg, lo=0, hi=180, lo_open=True, hi_open=True)
         self.height = check_number(f"{w}.height", self.height, lo=0, lo_open=True)
         self.width_px = check_number(f"{w}.width_px", self.width_px, lo=1, integer=True)

@@ -32,6 +32,20 @@ def signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", a, np.cross(b, c))
 
 
+def _as_array(name: str, arg: str, value, dtype) -> np.ndarray:
+    """A fresh numpy copy of ``value``; ragged or non-numeric input is an error naming ``arg``."""
+    if isinstance(value, (str, bytes, dict, set)) or value is None:
+        raise MeshError(f"{name}: {arg} must be an array of numbers, got {type(value).__name__} {value!r:.60}")
+    try:
+        arr = np.array(value, dtype=dtype, copy=True)
+    except (TypeError, ValueError) as e:
+        raise MeshError(f"{name}: {arg} must be a rectangular array of numbers (ragged or non-numeric "
+                        f"input: {e})") from None
+    if arr.dtype == object or arr.dtype.kind in "USV":
+        raise MeshError(f"{name}: {arg} must be an array of numbers, got dtype {arr.dtype}")
+    return arr
+
+
 class TetMesh:
     """A validated tetrahedral mesh with point scalars.
 
@@ -57,9 +71,10 @@ class TetMesh:
     def __init__(self, points, tets, scalars, *, name: str = "mesh", strict: bool = False,
                  zero_volume_rtol: float = 1e-12):
         self.name = name
-        points = np.asarray(points, dtype=np.float64)
-        tets = np.asarray(tets)
-        scalars = np.asarray(scalars, dtype=np.float64)
+        # copies: the caller's arrays stay writable and later edits to them cannot reach the mesh
+        points = _as_array(name, "points", points, np.float64)
+        tets = _as_array(name, "tets", tets, None)
+        scalars = _as_array(name, "scalars", scalars, np.float64)
         if points.ndim != 2 or points.shape[1] != 3:
             raise MeshError(f"{name}: points must have shape (N, 3), got {points.shape}")
         if tets.ndim != 2 or tets.shape[1] != 4:
@@ -67,7 +82,7 @@ class TetMesh:
         if len(points) == 0 or len(tets) == 0:
             raise MeshError(f"{name}: empty mesh ({len(points)} points, {len(tets)} tets)")
         if not np.issubdtype(tets.dtype, np.integer):
-            raise MeshError(f"{name}: tet indices must be integers, got dtype {tets.dtype}")
+            raise MeshError(f"{name}: tets: indices must be integers, got dtype {tets.dtype}")
         if scalars.shape != (len(points),):
             raise MeshError(f"{name}: scalars must have one value per point ({len(points)}), got shape {scalars.shape}")
         check_finite_array(f"{name}: points", points)
