@@ -61,6 +61,9 @@ def test_transfer_ragged_points_name_the_argument():
 def test_pipeline_render_validates_device_and_reference_before_rendering():
     scene = builtin_scene("box").with_camera(width_px=8, height_px=6)
     pipe = Pipeline.load("raycast")
+    ran = []
+    for st in pipe.stages:
+        st.run = lambda ctx, name=st.name: ran.append(name)
     with pytest.raises(ConfigError, match=r"render\(device\).*'no_such_device'"):
         pipe.render(scene, device="no_such_device", quiet=True)
     with pytest.raises(ConfigError, match=r"render\(device\)"):
@@ -69,4 +72,4 @@ def test_pipeline_render_validates_device_and_reference_before_rendering():
         pipe.render(scene, reference=np.zeros((8, 6, 4)), quiet=True)
     with pytest.raises(ConfigError, match=r"render\(reference\)"):
         pipe.render(scene, reference=[[1, 2], [3]], quiet=True)
-    assert not pipe.persistent  # nothing ran (a render fills the per-mesh cache)
+    assert ran == []  # rejected before any stage ran
