@@ -86,6 +86,44 @@ class Camera:
         check_keys(where, cfg, keys)
         return cls(**cfg, where=where)
 
+    @classmethod
+    def from_pyvista(cls, plotter_or_camera, window_size=None) -> "Camera":
+        """The camera of a pyvista view, so warpvol renders what pyvista shows.
+
+        Parameters
+        ----------
+        plotter_or_camera : pyvista.Plotter, pyvista.Camera or vtkCamera
+            With a plotter, its active renderer's camera (pyvista's default view when none was set,
+            as ``show()`` would use) and its window size (times the renderer's viewport).
+        window_size : (int, int), optional
+            ``(width, height)`` in pixels; required with a bare camera, overrides a plotter's.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> c = pv.Camera(); c.position = (0, 0, 5); c.focal_point = (0, 0, 0); c.view_angle = 40.0
+        >>> cam = Camera.from_pyvista(c, window_size=(64, 48))
+        >>> cam.eye.tolist(), cam.fov_y_deg, (cam.width_px, cam.height_px)
+        ([0.0, 0.0, 5.0], 40.0, (64, 48))
+        """
+        from .interop import camera_from_pyvista
+
+        return camera_from_pyvista(plotter_or_camera, window_size)
+
+    def to_pyvista(self, plotter=None):
+        """This camera as a ``pyvista.Camera``; with ``plotter``, also set as its camera together
+        with ``window_size = (width_px, height_px)``, so pyvista shows the view warpvol renders.
+
+        Examples
+        --------
+        >>> c = Camera(eye=[1, 2, 3], fov_y_deg=25.0).to_pyvista()
+        >>> c.position, c.view_angle
+        ((1.0, 2.0, 3.0), 25.0)
+        """
+        from .interop import camera_to_pyvista
+
+        return camera_to_pyvista(self, plotter)
+
     def replace(self, **kw) -> "Camera":
         d = dict(projection=self.projection, eye=self.eye, target=self.target, up=self.up,
                  fov_y_deg=self.fov_y_deg, height=self.height, width_px=self.width_px,

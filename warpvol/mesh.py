@@ -275,6 +275,55 @@ class TetMesh:
     def __repr__(self) -> str:
         return f"TetMesh({self.name!r}, {self.n_points} points, {self.n_tets} tets)"
 
+    # -- pyvista in and out (conversion in warpvol.loaders / warpvol.interop) -------------------
+    @classmethod
+    def from_pyvista(cls, dataset, scalars: str | None = None, split: int | None = None, *,
+                     strict: bool = False, name: str | None = None) -> "TetMesh":
+        """A tetrahedral mesh from a pyvista (or VTK) data set, converted as scene files are.
+
+        Parameters
+        ----------
+        dataset : pyvista.UnstructuredGrid, StructuredGrid, ImageData or RectilinearGrid
+            Tet-only unstructured grids are taken as they are; other cells are split into tets by
+            ``vtkDataSetTriangleFilter`` (conforming); structured grids by ``split``.
+        scalars : str, optional
+            Name of a point-data array (one component); default: the active point scalars, or
+            the only point array. Cell data is refused with the hint to convert it with
+            ``dataset.cell_data_to_point_data()``.
+        split : {None, 6, 5}
+            Tets per hex cell of a structured grid: 6 (Kuhn split, the default) or 5 (alternating
+            5-tet split). Not allowed for unstructured grids.
+        strict : bool
+            Zero-volume tets are an error instead of being dropped with a warning.
+        name : str, optional
+            Used in messages.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> grid = pv.ImageData(dimensions=(3, 3, 3))
+        >>> grid.point_data["x"] = grid.points[:, 0]
+        >>> TetMesh.from_pyvista(grid, scalars="x").n_tets, TetMesh.from_pyvista(grid, "x", split=5).n_tets
+        (48, 40)
+        """
+        from .interop import mesh_from_pyvista
+
+        return mesh_from_pyvista(dataset, scalars, split, strict=strict, name=name)
+
+    def to_pyvista(self, scalars_name: str = "scalars"):
+        """This mesh as a ``pyvista.UnstructuredGrid`` of tets with the scalars as active point data.
+
+        Examples
+        --------
+        >>> m = TetMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], [[0, 1, 2, 3]], [0, 1, 2, 3])
+        >>> g = m.to_pyvista()
+        >>> g.n_cells, g.point_data["scalars"].tolist()
+        (1, [0.0, 1.0, 2.0, 3.0])
+        """
+        from .interop import mesh_to_pyvista
+
+        return mesh_to_pyvista(self, scalars_name)
+
 
 # -- structured grids -> tets --------------------------------------------------------------------
 # Kuhn/Freudenthal split: 6 tets around the main diagonal (0,0,0)-(1,1,1) of each hex, one per
