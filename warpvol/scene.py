@@ -2,6 +2,9 @@
 
 Top-level keys: ``[mesh]`` (required, see :func:`warpvol.loaders.load_mesh`), ``[transfer]``
 (:meth:`TransferFunction.from_config`), ``[camera]`` (:meth:`Camera.from_config`) and ``name``.
+``[transfer]`` takes ``points``, ``table`` or a ParaView preset, ``paraview = "preset.json"`` or
+``paraview = { file = "preset.json", name = "...", range = [smin, smax], unit_distance = 1.0 }``
+(see :meth:`TransferFunction.from_paraview`; an addition to Contract 1, older files read as before).
 With ``[mesh] builtin = "NAME"``, ``[transfer]`` and ``[camera]`` may be omitted and the built-in
 scene's defaults are used; a ``[camera]`` that is given replaces the default camera entirely (keys
 it leaves out take :class:`Camera`'s defaults, not the built-in's).
