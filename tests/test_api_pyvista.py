@@ -157,3 +157,15 @@ def test_camera_from_pyvista_horizontal_view_angle_and_errors():
     s.SetWindowCenter(0.2, 0.0)
     with pytest.raises(ConfigError, match="window centre"):
         Camera.from_pyvista(s, window_size=(8, 8))
+
+
+@pytest.mark.parametrize("kind, ext", [("ImageData", "vti"), ("StructuredGrid", "vts"), ("UnstructuredGrid", "vtu")])
+def test_render_pyvista_dataset_identical_to_scene_file(tmp_path, kind, ext):
+    import warpvol
+
+    ds = datasets()[kind]
+    scene = load_scene(write_scene(tmp_path, ds, ext))
+    from_file = warpvol.render(scene)
+    from_memory = warpvol.render(ds, scene.transfer, scene.camera, scalars="rho")
+    assert from_file.image[..., 3].max() > 0.3  # the mesh is in view
+    assert np.array_equal(from_memory.image, from_file.image)
