@@ -21,7 +21,7 @@ import numpy as np
 from .camera import Camera
 from .errors import ConfigError
 from .mesh import TetMesh
-from .pipeline import DEFAULT_PIPELINE, Pipeline, RenderResult, check_device, list_presets
+from .pipeline import DEFAULT_PIPELINE, Pipeline, RenderResult, check_device, list_presets, quiet_warp
 from .scene import Scene, load_scene, scene_from_config
 from .transfer import TransferFunction
 
@@ -129,6 +129,13 @@ def _pipeline(pipeline: Any, device: str, arg: str = "pipeline") -> Pipeline:
     except ConfigError as e:
         msg = str(e)
         raise ConfigError(msg.replace("--pipeline:", f"{arg}:", 1) if msg.startswith("--pipeline") else msg) from None
+
+
+def _quiet(quiet: Any) -> None:
+    if not isinstance(quiet, bool):
+        raise ConfigError(f"quiet: expected True or False, got {quiet!r}")
+    if quiet:
+        quiet_warp()
 
 
 def _device(device: Any) -> str:
@@ -281,7 +288,8 @@ def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = 
     split : {None, 6, 5}, optional
         Tets per hex cell of a structured pyvista ``mesh``.
     quiet : bool
-        Keep per-stage progress lines off stderr.
+        Keep per-stage progress lines and Warp's start-up and module-load messages off the output
+        (the latter through ``warp.config``, as the command line does).
 
     Returns
     -------
@@ -300,8 +308,7 @@ def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = 
     """
     gpu_profile(gpu)
     device = _device(device)
-    if not isinstance(quiet, bool):
-        raise ConfigError(f"quiet: expected True or False, got {quiet!r}")
+    _quiet(quiet)
     scene = as_scene(mesh, transfer, camera, scalars=scalars, split=split)
     pipe = _pipeline(pipeline, device)  # unknown pipelines fail before the reference spends time
     ref, ref_s = _reference(reference, scene)
@@ -389,6 +396,7 @@ def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, refere
 
     gpu_profile(gpu)
     device = _device(device)
+    _quiet(quiet)
     if reference is False or reference is None:
         raise ConfigError("reference: compare needs a reference (True to compute it, or an image)")
     names = [pipelines] if isinstance(pipelines, (str, Path, Pipeline)) else list(pipelines) \
