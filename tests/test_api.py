@@ -13,7 +13,8 @@ from tolerances import TOLERANCES  # noqa: E402
 
 import warpvol  # noqa: E402
 from warpvol import Camera, ConfigError, Pipeline, TransferFunction  # noqa: E402
-from warpvol.io import read_exr  # noqa: E402
+from warpvol.io import read_exr, write_exr  # noqa: E402
+from warpvol.metrics import image_error  # noqa: E402
 
 TOL = TOLERANCES["raycast/fp32"]
 
@@ -47,6 +48,13 @@ def test_render_box_closed_form_and_result_object(tmp_path):
     fig = r.show()
     assert len([ax for ax in fig.axes if ax.images]) == 2  # image and error map
     matplotlib.pyplot.close(fig)
+    write_exr(tmp_path / "ref.exr", r.reference)
+    again = warpvol.render(small("box"), reference=tmp_path / "ref.exr")  # a reference given as an EXR file
+    assert again.error == image_error(r.image, read_exr(tmp_path / "ref.exr")) and again.error["rmse"] > 0
+    rows = warpvol.render(small("box"), {"points": [[0, 0.8, 0.6, 0.4, 1.5], [2, 0.8, 0.6, 0.4, 1.5]]})
+    assert np.array_equal(rows.image, r.image)  # a scene file's [transfer] table as a dict
+    with pytest.raises(ConfigError, match=r"^Scene: camera: expected a Camera, got dict"):
+        warpvol.Scene(mesh=r.scene.mesh, transfer=r.scene.transfer, camera={"eye": [0, 0, 5]}, name="x")
     plain = warpvol.render(small("box"))
     assert plain.error is None and plain.error_image is None and np.array_equal(plain.image, r.image)
 
@@ -106,8 +114,7 @@ def test_render_errors_name_the_argument(kw, match):
 
 def test_compare_one_panel_pair_per_pipeline(tmp_path, monkeypatch):
     custom = tmp_path / "raycast_tile4.toml"
-    custom.write_text(Pipeline.load("raycast").__class__.__name__ and
-                      '[[stages]]\nstage = "cell_setup"\n[[stages]]\nstage = "entry_bins"\ntile = 4\n'
+    custom.write_text('[[stages]]\nstage = "cell_setup"\n[[stages]]\nstage = "entry_bins"\ntile = 4\n'
                       '[[stages]]\nstage = "raycast"\n[[stages]]\nstage = "peel"\n')
     cmp = warpvol.compare(small("concave", 24), ["raycast", str(custom)])
     fig, table = cmp

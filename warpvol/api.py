@@ -53,11 +53,14 @@ def as_mesh(mesh: Any, scalars: str | None = None, split: int | None = None) -> 
 
 def as_transfer(transfer: Any) -> TransferFunction:
     """``transfer`` as a :class:`TransferFunction`: one already, a ParaView preset (``.json`` file or
-    parsed dict), a ``(vtkColorTransferFunction, vtkPiecewiseFunction)`` pair (opacity per unit
+    parsed dict), a scene file's ``[transfer]`` table as a dict, a
+    ``(vtkColorTransferFunction, vtkPiecewiseFunction)`` pair (opacity per unit
     length), a ``vtkVolumeProperty`` (pyvista's ``add_volume(...).prop``: its scalar-opacity unit
     distance is used), or ``[s, r, g, b, extinction]`` rows."""
     if isinstance(transfer, TransferFunction):
         return transfer
+    if isinstance(transfer, dict) and any(k in transfer for k in ("points", "table", "paraview")):
+        return TransferFunction.from_config(transfer, where="transfer")  # a scene file's [transfer] table
     if isinstance(transfer, (str, Path, dict)):
         return TransferFunction.from_paraview(transfer, where="transfer")
     if isinstance(transfer, (tuple, list)) and len(transfer) == 2 and not np.isscalar(transfer[0]) \

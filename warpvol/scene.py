@@ -58,6 +58,15 @@ class Scene:
     name: str
     source: Path | None = None
 
+    def __post_init__(self):
+        for field_name, kind in (("mesh", TetMesh), ("transfer", TransferFunction), ("camera", Camera)):
+            value = getattr(self, field_name)
+            if not isinstance(value, kind):
+                raise ConfigError(f"Scene: {field_name}: expected a {kind.__name__}, got {type(value).__name__} "
+                                  "(warpvol.render converts pyvista meshes, presets and plotters)")
+        if not isinstance(self.name, str) or not self.name:
+            raise ConfigError(f"Scene: name: expected a non-empty string, got {self.name!r}")
+
     def with_camera(self, **overrides: Any) -> "Scene":
         """A copy whose camera has the given fields replaced (e.g. ``width_px=64``)."""
         return dataclasses.replace(self, camera=self.camera.replace(**overrides))
