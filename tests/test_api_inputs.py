@@ -42,6 +42,9 @@ def test_camera_copies_its_inputs():
     cam = Camera(eye=eye, width_px=4, height_px=4)
     eye[2] = 1.0
     assert cam.eye[2] == 5.0 and cam.eye is not eye
+    with pytest.raises(ValueError):  # in place would leave forward/right/up stale: use replace()
+        cam.eye[0] = 1.0
+    assert cam.replace(eye=[0, 1, 5]).eye.tolist() == [0.0, 1.0, 5.0]
 
 
 @pytest.mark.parametrize("kw, name", [

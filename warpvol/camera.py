@@ -21,6 +21,12 @@ from .errors import ConfigError, check_choice, check_keys, check_number, check_v
 PROJECTIONS = ("perspective", "orthographic")
 
 
+def _frozen_vec3(name: str, value: Any) -> np.ndarray:
+    v = check_vec3(name, value).copy()
+    v.setflags(write=False)
+    return v
+
+
 @dataclass
 class Camera:
     """Pinhole (perspective) or orthographic camera.
@@ -58,10 +64,9 @@ class Camera:
     def __post_init__(self):
         w = self.where
         self.projection = check_choice(f"{w}.projection", self.projection, PROJECTIONS)
-        # copies: the camera never aliases the caller's arrays
-        self.eye = check_vec3(f"{w}.eye", self.eye).copy()
-        self.target = check_vec3(f"{w}.target", self.target).copy()
-        self.up = check_vec3(f"{w}.up", self.up).copy()
+        # read-only copies: the camera never aliases the caller's arrays, and an in-place edit cannot
+        # leave the derived frame (forward, right, true_up) stale; use replace() for a changed camera
+        self.eye, self.target, self.up = (_frozen_vec3(f"{w}.{k}", getattr(self, k)) for k in ("eye", "target", "up"))
         self.fov_y_deg = check_number(f"{w}.fov_y_deg", self.fov_y_deg, lo=0, hi=180, lo_open=True, hi_open=True)
         self.height = check_number(f"{w}.height", self.height, lo=0, lo_open=True)
         self.width_px = check_number(f"{w}.width_px", self.width_px, lo=1, integer=True)
