@@ -45,9 +45,11 @@ def test_render_box_closed_form_and_result_object(tmp_path):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" == r._repr_png_()[:8]
     with pytest.raises(ConfigError, match=r"path: .*'\.jpg'; supported: \.exr, \.png"):
         r.save(tmp_path / "a.jpg")
-    fig = r.show()
+    fig = r.plot()
     assert len([ax for ax in fig.axes if ax.images]) == 2  # image and error map
-    matplotlib.pyplot.close(fig)
+    assert "RMSE" in fig.axes[0].get_title()
+    assert r.show() is None and matplotlib.pyplot.get_fignums()  # drawn with pyplot (Agg keeps it)
+    matplotlib.pyplot.close("all")
     write_exr(tmp_path / "ref.exr", r.reference)
     again = warpvol.render(small("box"), reference=tmp_path / "ref.exr")  # a reference given as an EXR file
     assert again.error == image_error(r.image, read_exr(tmp_path / "ref.exr")) and again.error["rmse"] > 0

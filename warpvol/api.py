@@ -196,7 +196,7 @@ def _draw(ax_img, ax_err, res: "Rendering", title: str) -> None:
 class Rendering(RenderResult):
     """What :func:`render` returns: ``image`` (premultiplied RGBA float32, row 0 at the top),
     ``report`` (the render report of Contract 3), ``error`` against the reference when one was asked
-    for, and ways to look at it: :meth:`save`, :meth:`show`, and a PNG for Jupyter."""
+    for, and ways to look at it: :meth:`save`, :meth:`show` / :meth:`plot`, and a PNG for Jupyter."""
 
     scene: Scene | None = None
     reference: np.ndarray | None = field(default=None, repr=False)
@@ -231,17 +231,28 @@ class Rendering(RenderResult):
             write_png(p, self.image, background=background)
         return p
 
-    def show(self, *, background=(0.0, 0.0, 0.0)):
-        """Show the image (and its error map when there is a reference) with matplotlib; returns
-        the figure."""
+    def plot(self):
+        """A matplotlib figure of the image (over black; title: pipeline, time, RMSE) and, when there
+        is a reference, its error map."""
+        from matplotlib.figure import Figure
+
+        return self._fill(Figure(figsize=self._figsize(), layout="constrained"))
+
+    def show(self) -> None:
+        """Show :meth:`plot`'s figure with matplotlib (inline in Jupyter, a window elsewhere)."""
         import matplotlib.pyplot as plt
 
-        n = 1 if self.reference is None else 2
-        fig, axes = plt.subplots(1, n, figsize=(4.2 * n, 4.2), squeeze=False)
-        _draw(axes[0, 0], axes[0, 1] if n == 2 else None, self, self.report.get("pipeline", ""))
+        self._fill(plt.figure(figsize=self._figsize(), layout="constrained"))
         with warnings.catch_warnings():  # a non-interactive backend (scripts, tests) just keeps the figure
             warnings.filterwarnings("ignore", message=".*non-interactive.*")
             plt.show()
+
+    def _figsize(self) -> tuple[float, float]:
+        return (4.2 if self.reference is None else 8.4), 4.2
+
+    def _fill(self, fig):
+        axes = fig.subplots(1, 1 if self.reference is None else 2, squeeze=False)
+        _draw(axes[0, 0], axes[0, 1] if self.reference is not None else None, self, self.report.get("pipeline", ""))
         return fig
 
     def _repr_png_(self) -> bytes:
