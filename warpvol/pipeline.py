@@ -274,7 +274,18 @@ class Pipeline:
 
     def render(self, scene: Any, *, reference: np.ndarray | None = None, quiet: bool = False,
                device: str | None = None) -> RenderResult:
-        device = device or self.stages[0].device
+        if device is not None and not isinstance(device, str):
+            raise ConfigError(f"render(device): expected a device name such as 'cpu' or 'cuda:0', got {device!r}")
+        device = self.stages[0].device if device is None else check_device(device, "render(device)")
+        if reference is not None:
+            want = (int(scene.camera.height_px), int(scene.camera.width_px), 4)
+            try:
+                shape = np.shape(reference)
+            except ValueError:
+                shape = "ragged"
+            if shape != want:
+                raise ConfigError(f"render(reference): shape {shape} does not match the image {want} "
+                                  "(height_px, width_px, RGBA)")
         ctx = Context(scene=scene, device=device, quiet=quiet, persistent=self.persistent)
         report: dict[str, Any] = {"pipeline": self.name, "device": device, "scene": getattr(scene, "name", None),
                                   "image": [scene.camera.height_px, scene.camera.width_px],
