@@ -16,6 +16,20 @@ import numpy as np
 from .errors import ConfigError
 
 
+def _umask() -> int:
+    """The process's umask; read from /proc where possible (``os.umask`` can only be read by setting
+    it, which races with other threads creating files)."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    old = os.umask(0o022)
+    os.umask(old)
+    return old
+
+
 @contextmanager
 def _atomic_target(path: str | Path):
     path = Path(path)
@@ -23,6 +37,8 @@ def _atomic_target(path: str | Path):
         raise ConfigError(f"output folder does not exist: {path.parent}")
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent or ".")
     os.close(fd)
+    # mkstemp creates 0600; an output file gets what open() would give it: 0666 less the umask
+    os.chmod(tmp, 0o666 & ~_umask())
     try:
         yield tmp
         os.replace(tmp, path)
