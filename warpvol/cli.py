@@ -113,7 +113,8 @@ def _summary(report: dict) -> None:
     line = f"{report['pipeline']}: {report['total_s']:.3f} s"
     if "error" in report:
         e = report["error"]
-        line += f"  rmse={e['rmse']:.3e} max_abs={e['max_abs']:.3e} psnr={e['psnr']:.1f} dB"
+        psnr = "exact" if e["psnr"] is None else f"{e['psnr']:.1f} dB"
+        line += f"  rmse={e['rmse']:.3e} max_abs={e['max_abs']:.3e} psnr={psnr}"
     print(line)
 
 
@@ -145,7 +146,7 @@ def cmd_demo(args) -> int:
     from .builtin import BUILTIN_SCENES, builtin_scene
     from .io import atomic_write_text, write_exr, write_png
     from .metrics import write_error_png
-    from .pipeline import DEFAULT_PIPELINE, Pipeline
+    from .pipeline import DEFAULT_PIPELINE, Pipeline, report_json
 
     if args.scene not in BUILTIN_SCENES:
         raise ConfigError(f"--scene: unknown built-in scene {args.scene!r}; allowed: {', '.join(BUILTIN_SCENES)}")
@@ -163,7 +164,7 @@ def cmd_demo(args) -> int:
     write_exr(outdir / "reference.exr", ref.astype(np.float32))
     write_png(outdir / "image.png", res.image, background=(0.1, 0.1, 0.1))
     err_max = write_error_png(outdir / "error.png", res.image, ref)
-    atomic_write_text(outdir / "report.json", json.dumps(res.report, indent=2) + "\n")
+    atomic_write_text(outdir / "report.json", report_json(res.report))
     _summary(res.report)
     print(f"wrote {outdir}/image.exr, image.png, reference.exr, error.png (scaled to max {err_max:.2e}), report.json")
     return 0

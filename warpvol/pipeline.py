@@ -200,7 +200,49 @@ class RenderResult:
     def write_report(self, path: str | Path) -> None:
         from .io import atomic_write_text
 
-        atomic_write_text(path, json.dumps(self.report, indent=2) + "\n")
+        atomic_write_text(path, report_json(self.report))
+
+
+def report_json(report: dict) -> str:
+    """The report as strict JSON (RFC 8259: no ``Infinity``/``NaN``).
+
+    Non-finite numbers have no JSON form: the PSNR of an exact match is already ``None`` (see
+    :func:`warpvol.metrics.image_error`); any other non-finite float becomes ``null`` and its key path
+    is listed under ``"non_finite"``, so nothing is dropped silently.
+
+    Examples
+    --------
+    >>> print(report_json({"a": 1.5, "b": [float("inf")]}), end="")
+    {
+      "a": 1.5,
+      "b": [
+        null
+      ],
+      "non_finite": [
+        "b[0]"
+      ]
+    }
+    """
+    bad: list[str] = []
+
+    def clean(v: Any, where: str) -> Any:
+        if isinstance(v, dict):
+            return {k: clean(x, f"{where}.{k}" if where else str(k)) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [clean(x, f"{where}[{i}]") for i, x in enumerate(v)]
+        if isinstance(v, (float, np.floating)):
+            if not np.isfinite(v):
+                bad.append(where)
+                return None
+            return float(v)
+        if isinstance(v, np.integer):
+            return int(v)
+        return v
+
+    out = clean(report, "")
+    if bad:
+        out["non_finite"] = bad
+    return json.dumps(out, indent=2, allow_nan=False) + "\n"
 
 
 def _sync(device: str) -> None:
