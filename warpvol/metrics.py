@@ -39,11 +39,18 @@ def error_image(image: np.ndarray, reference: np.ndarray) -> np.ndarray:
     return np.abs(np.asarray(image, np.float64) - np.asarray(reference, np.float64)).max(axis=-1)
 
 
-def write_error_png(path, image: np.ndarray, reference: np.ndarray) -> float:
-    """PNG of :func:`error_image` scaled so its maximum is white; returns that maximum."""
-    from .io import write_png
+def write_error_png(path, image: np.ndarray, reference: np.ndarray, outputs=None) -> float:
+    """PNG of :func:`error_image` scaled so its maximum is white; returns that maximum.
+
+    With ``outputs`` (a :class:`warpvol.io.Outputs`) the file is staged there instead of written now.
+    """
+    from .io import Outputs
 
     err = error_image(image, reference)
     scale = float(err.max())
-    write_png(path, err / max(scale, 1e-30))
+    if outputs is None:
+        with Outputs() as out:
+            out.png(path, err / max(scale, 1e-30))
+    else:
+        outputs.png(path, err / max(scale, 1e-30))
     return scale
