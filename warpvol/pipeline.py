@@ -117,7 +117,8 @@ class Stage:
     summary: ClassVar[str] = ""
     params: ClassVar[tuple[Param, ...]] = ()
     #: names of what the stage reads (``ctx.buffers`` keys; ``"image"`` for ``ctx.image``) and what it
-    #: writes; a pipeline whose stages lack what they need is rejected when it is built
+    #: writes; a pipeline whose stages lack what they need is rejected when it is built. A name may
+    #: refer to a parameter as ``"{param}"`` (e.g. a table stage's ``"{output}"`` key).
     needs: ClassVar[tuple[str, ...]] = ()
     provides: ClassVar[tuple[str, ...]] = ()
 
@@ -277,12 +278,45 @@ def check_device(device: str, where: str = "device") -> str:
     return str(device)
 
 
+def _names(names: tuple[str, ...], config: dict) -> list[str]:
+    return [n.format(**config) for n in names]
+
+
+def check_stage_order(stages: list[Stage], where: str = "pipeline") -> None:
+    """Reject stages that need what no earlier stage provides, and a pipeline that writes no image.
+
+    Examples
+    --------
+    >>> check_stage_order([get_stage_class("raycast")()])
+    Traceback (most recent call last):
+    ...
+    warpvol.errors.ConfigError: pipeline: stage 'raycast' needs 'cells', 'entry_bins', which no stage before it provides (stages that provide it: 'cell_setup', 'entry_bins')
+    """
+    have: set[str] = set()
+    for st in stages:
+        missing = [n for n in _names(st.needs, st.config) if n not in have]
+        if missing:
+            raise ConfigError(f"{where}: {st.where} needs {', '.join(map(repr, missing))}, which no stage before it "
+                              f"provides ({_providers(missing)})")
+        have.update(_names(st.provides, st.config))
+    if "image" not in have:
+        raise ConfigError(f"{where}: no stage writes the image ({_providers(['image'])})")
+
+
+def _providers(names: list[str]) -> str:
+    _load_builtin_stages()
+    found = sorted(c.name for c in STAGES.values()
+                   if set(names) & set(_names(c.provides, {p.name: p.default for p in c.params})))
+    return f"stages that provide it: {', '.join(map(repr, found))}" if found else "no registered stage provides it"
+
+
 class Pipeline:
     """Ordered stages plus a name; :meth:`render` runs the planner, the stages and the report."""
 
     def __init__(self, stages: list[Stage], name: str = "custom", description: str = ""):
         if not stages:
             raise ConfigError(f"pipeline {name!r}: no stages")
+        check_stage_order(stages, f"pipeline {name!r}")
         self.stages, self.name, self.description = stages, name, description
         self.persistent: dict[str, Any] = {}
 
