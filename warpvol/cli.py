@@ -310,19 +310,23 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    if args.cmd in ("render", "demo"):
-        from .pipeline import quiet_warp
-
-        # the CLI keeps stdout for its summary and reports progress on stderr itself
-        quiet_warp()
     try:
+        if args.cmd in ("render", "demo"):
+            from .pipeline import quiet_warp
+
+            # the CLI keeps stdout for its summary and reports progress on stderr itself
+            quiet_warp(cuda=str(args.device).startswith("cuda"))
         return args.func(args)
-    except WarpvolError as e:
+    except (WarpvolError, OSError) as e:
         print(f"warpvol: error: {e}", file=sys.stderr)
         return 2
-    except OSError as e:
-        print(f"warpvol: error: {e}", file=sys.stderr)
+    except MemoryError:
+        print("warpvol: error: out of memory; render a smaller image (--width/--height)", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        # Ctrl-C: queued work is cancelled (warpvol.parallel), staged outputs removed (warpvol.io.Outputs)
+        print("warpvol: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

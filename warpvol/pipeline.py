@@ -255,13 +255,35 @@ def _sync(device: str) -> None:
         pass
 
 
-def quiet_warp() -> None:
-    """Keep Warp's start-up banner and module-load lines off stdout (CLI, scripts, doctests)."""
+def quiet_warp(cuda: bool = False) -> None:
+    """Keep Warp's start-up banner and module-load lines off stdout (CLI, scripts, doctests).
+
+    Unless ``cuda`` is asked for, Warp is also initialised here with its native "Could not find or
+    load the NVIDIA CUDA driver" line (printed by the C library on a machine without a GPU, before any
+    Python-level option applies) filtered out of stderr; anything else Warp prints there passes.
+    """
     import warp as wp
 
     wp.config.quiet = True
     if hasattr(wp, "LOG_WARNING"):
         wp.config.log_level = wp.LOG_WARNING
+    if cuda:
+        return
+    import os
+    import tempfile
+
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as captured:
+        os.dup2(captured.fileno(), 2)
+        try:
+            wp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        captured.seek(0)
+        lines = captured.read().decode(errors="replace").splitlines(keepends=True)
+    sys.stderr.write("".join(ln for ln in lines if "load the NVIDIA CUDA driver" not in ln))
 
 
 def check_device(device: str, where: str = "device") -> str:
