@@ -6,6 +6,7 @@ import stat
 import numpy as np
 import pytest
 
+from test_cli import scene_file  # noqa: F401  (fixture: a small scene file)
 from warpvol.io import atomic_write_text, write_exr, write_png
 
 
@@ -25,26 +26,6 @@ def test_outputs_get_the_users_umask(tmp_path, umask, mask, mode):
     atomic_write_text(tmp_path / "a.json", "{}\n")
     for n in ("a.exr", "a.png", "a.json"):
         assert stat.S_IMODE((tmp_path / n).stat().st_mode) == mode, n
-
-
-SCENE = """
-name = "tiny"
-[mesh]
-builtin = "box"
-[camera]
-projection = "orthographic"
-eye = [0.3, 0.4, 5.0]
-height = 3.0
-width_px = 12
-height_px = 10
-"""
-
-
-@pytest.fixture
-def scene_file(tmp_path):
-    p = tmp_path / "scene.toml"
-    p.write_text(SCENE)
-    return p
 
 
 def _leftovers(folder):
@@ -166,3 +147,13 @@ def test_an_image_too_large_for_memory_is_refused_up_front(scene_file, tmp_path,
     monkeypatch.setattr(cli, "_available_memory", lambda: want)
     assert cli.main(["render", str(scene_file), "--pipeline", "raycast", "-o", str(tmp_path / "o.exr"),
                      "--width", "20", "--height", "10", "--quiet"]) == 0
+
+
+def test_demo_size_zero_or_too_large_is_refused_before_its_folder_is_made(tmp_path, capsys):
+    from warpvol.cli import main
+
+    for size, message in (("0", "--size: 0 is outside the allowed range [1, inf]"),
+                          ("50000", "--size: 50000x50000 = 2500000000 pixels; at most 2147483647")):
+        assert main(["demo", "--size", size, "-o", str(tmp_path / "demo"), "--quiet"]) == 2
+        assert message in capsys.readouterr().err
+        assert list(tmp_path.iterdir()) == []

@@ -1,7 +1,6 @@
 """Ctrl-C and terminal hygiene: queued blocks cancelled, one line, exit 130, no traceback; no CUDA
 warning on the terminal unless CUDA was asked for."""
 
-import os
 import signal
 import subprocess
 import sys

@@ -109,16 +109,16 @@ def _available_memory() -> int | None:
         return None
 
 
-def check_image_memory(camera, parts: list[str]) -> None:
+def check_image_memory(camera, parts: list[str], flag: str = "--width/--height") -> None:
     """Refuse an image too large to index or to hold in memory, before any work on it."""
     w, h = camera.width_px, camera.height_px
     n = w * h
     if n > MAX_PIXELS:
-        raise ConfigError(f"--width/--height: {w}x{h} = {n} pixels; at most {MAX_PIXELS} (int32 pixel indices)")
+        raise ConfigError(f"{flag}: {w}x{h} = {n} pixels; at most {MAX_PIXELS} (int32 pixel indices)")
     need = n * sum(BYTES_PER_PIXEL[p] for p in parts)
     have = _available_memory()
     if have is not None and need > have:
-        raise ConfigError(f"--width/--height: a {w}x{h} image needs about {_size(need)} for this run "
+        raise ConfigError(f"{flag}: a {w}x{h} image needs about {_size(need)} for this run "
                           f"({need // n} bytes per pixel), more than the {_size(have)} of memory "
                           "available; render a smaller image")
 
@@ -238,11 +238,11 @@ def cmd_demo(args) -> int:
     if outdir.exists() and not outdir.is_dir():
         raise ConfigError(f"-o: {outdir} exists and is not a folder")
     pipe = Pipeline.load(args.pipeline or DEFAULT_PIPELINE, device=args.device)
-    outdir.mkdir(parents=True, exist_ok=True)
-    _check_writable("-o", outdir)
     scene = builtin_scene(args.scene)
     scene.camera = scene.camera.replace(width_px=args.size, height_px=args.size)
-    check_image_memory(scene.camera, ["render", "png", "reference", "error_image"])
+    check_image_memory(scene.camera, ["render", "png", "reference", "error_image"], "--size")
+    outdir.mkdir(parents=True, exist_ok=True)
+    _check_writable("-o", outdir)
     print(f"demo: scene {args.scene!r} ({scene.mesh.n_tets} tets, {args.size}x{args.size}), "
           f"pipeline {pipe.name!r}", file=sys.stderr)
     ref, ref_s = compute_reference(scene, args.quiet)
