@@ -53,6 +53,7 @@ def test_pipelines_lists_presets(capsys):
     out = capsys.readouterr().out
     assert out.startswith("raycast") or "\nraycast" in out
     assert "max_steps" in out and "entry_bins" in out
+    assert "needs: cells, entry_bins; provides: march, image" in out
 
 
 @pytest.mark.parametrize("args, message", [

@@ -14,7 +14,8 @@ A *pipeline* is an ordered list of stages built from a plain config (TOML or dic
     stage = "raycast"
     max_steps = 100000
 
-Unknown stage names, unknown keys and bad values are errors that name them and list what is allowed.
+Unknown stage names, unknown keys and bad values are errors that name them and list what is allowed;
+so is a stage that needs a buffer no stage before it provides, or a pipeline that writes no image.
 """
 
 from __future__ import annotations
@@ -151,7 +152,8 @@ class Stage:
     @classmethod
     def doc_table(cls) -> str:
         """Plain-text parameter table (used by ``warpvol pipelines --stages``)."""
-        lines = [f"{cls.name}: {cls.summary}"]
+        lines = [f"{cls.name}: {cls.summary}",
+                 f"    needs: {', '.join(cls.needs) or '-'}; provides: {', '.join(cls.provides) or '-'}"]
         lines += ["    " + p.describe() for p in cls.params] or ["    (no parameters)"]
         return "\n".join(lines)
 
@@ -273,7 +275,11 @@ def quiet_warp(cuda: bool = False) -> None:
     import tempfile
 
     sys.stderr.flush()
-    saved = os.dup(2)
+    try:
+        saved = os.dup(2)
+    except OSError:  # no stderr file descriptor: nothing reaches a terminal anyway
+        wp.init()
+        return
     with tempfile.TemporaryFile() as captured:
         os.dup2(captured.fileno(), 2)
         try:
