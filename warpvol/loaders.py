@@ -123,6 +123,26 @@ def _structured_mesh(dims, points, scalars, *, name: str, strict: bool, weld: bo
 
 
 # -- files pyvista reads --------------------------------------------------------------------------
+def _read_quietly(p: Path):
+    """``pyvista.read(p)`` and the VTK errors it raised, with VTK's logger, pyvista's logging and
+    warnings kept off the terminal (the caller reports the errors in one line)."""
+    import logging
+    import warnings
+
+    import pyvista as pv
+
+    disabled = logging.root.manager.disable
+    logging.disable(logging.CRITICAL)
+    try:
+        with pv.vtk_verbosity("off"), pv.VtkErrorCatcher(send_to_logging=False) as caught, \
+                warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ds = pv.read(p)
+    finally:
+        logging.disable(disabled)
+    return ds, [" ".join(e.alert.split()) for e in caught.events if e.kind == "ERROR"]
+
+
 def read_mesh_file(path: Path | str, scalars: str | None, *, strict: bool = False,
                    where: str = "mesh") -> TetMesh:
     """Read any data set pyvista can read and turn it into a :class:`TetMesh`.
@@ -135,9 +155,12 @@ def read_mesh_file(path: Path | str, scalars: str | None, *, strict: bool = Fals
 
     p = Path(path)
     try:
-        ds = pv.read(p)
+        ds, errors = _read_quietly(p)
     except Exception as e:  # pyvista raises assorted types for unknown or corrupt files
         raise ConfigError(f"{where}.path: cannot read {p}: {e}") from None
+    if errors:  # VTK readers report a corrupt or truncated file as errors and return an empty data set
+        raise ConfigError(f"{where}.path: cannot read {p}: the file is corrupt or truncated "
+                          f"(VTK: {errors[0]})")
     if isinstance(ds, pv.MultiBlock):
         blocks = [b for b in ds if b is not None]
         if len(blocks) != 1:
