@@ -3,14 +3,17 @@
 Window coordinates: x in [0, W] left to right, y in [0, H] top to bottom (row index), z depth,
 w the clip-space w (1 for orthographic). Pixel (row i, column j) has its centre at (j + .5, i + .5).
 
-* **Snapping**: x, y are snapped to fixed point with ``SUBPIX`` = 8 fractional bits (round to nearest,
-  ties away from zero), and edge functions are evaluated *exactly* in int64. Triangles with a vertex
+* **Snapping**: x, y are snapped to fixed point with ``SUBPIX`` = 8 fractional bits (round to nearest;
+  ties to even (``snap_even=1``, ``wp.rint``, as Mesa's ``lrintf``) or away from zero (``wp.round``)),
+  and edge functions are evaluated *exactly* in int64. Triangles with a vertex
   outside the guard band |x|, |y| <= 2^20 px, a non-finite coordinate or ``w <= 0`` are discarded
   (there is no geometric clipping; the vertex stage's users keep geometry in front of the eye).
-* **Fill rule**: top-left. After orienting every triangle clockwise on screen (positive area in
-  y-down coordinates), a pixel centre on an edge belongs to the triangle iff the edge is a *top*
-  edge (horizontal, interior below) or a *left* edge (going up the screen). So a closed mesh covers
-  each pixel centre exactly once per layer.
+* **Fill rule**: after orienting every triangle clockwise on screen (positive area in y-down
+  coordinates), a pixel centre on an edge belongs to the triangle iff the edge is a *left* edge
+  (going up the screen, interior to its right) or the inclusive horizontal edge: with
+  ``fill_bottom=1`` the *bottom* edge as displayed (interior above; in GL window coordinates, y up,
+  the horizontal edge with the smaller y, as Mesa llvmpipe), else the *top* edge (interior below).
+  Either way a closed mesh covers each pixel centre exactly once per layer.
 * **Interpolation**: barycentrics at the pixel centre from the *unsnapped* fp32 positions;
   ``linear`` (screen space) ``a = sum l_i a_i``; ``perspective`` ``a = sum (l_i/w_i) a_i / sum l_i/w_i``;
   ``flat`` takes the last vertex of the triangle as given (OpenGL provoking vertex). Depth is always
@@ -72,8 +75,12 @@ def floordiv(a: int, b: int) -> int:
 
 
 @wp.func
-def snap(x: float) -> int:
-    return int(wp.round(x * float(SUBPIX)))
+def snap(x: float, even: int) -> int:
+    """Fixed-point position (``SUBPIX`` steps per pixel); exact ties to even if ``even`` else away from zero."""
+    v = x * float(SUBPIX)  # exact: a power-of-two scale of a coordinate inside the guard band
+    if even != 0:
+        return int(wp.rint(v))
+    return int(wp.round(v))
 
 
 @wp.func
@@ -82,17 +89,22 @@ def edge(ax: int, ay: int, bx: int, by: int, px: int, py: int) -> wp.int64:
 
 
 @wp.func
-def top_left_bias(ax: int, ay: int, bx: int, by: int) -> int:
+def edge_bias(ax: int, ay: int, bx: int, by: int, fill_bottom: int) -> int:
+    """0 if edge a -> b of a clockwise (y-down) triangle is inclusive, else 1: left edges (going up the
+    screen) and the bottom (``fill_bottom``: dx < 0, interior above) or top (dx > 0) horizontal edge."""
     dx = bx - ax
     dy = by - ay
-    if dy < 0 or (dy == 0 and dx > 0):
+    if dy < 0:
         return 0
+    if dy == 0:
+        if (fill_bottom != 0 and dx < 0) or (fill_bottom == 0 and dx > 0):
+            return 0
     return 1
 
 
 @wp.kernel
 def k_setup(pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i), width: int, height: int,
-            tile_size: int, cull: int, front_ccw: int,
+            tile_size: int, cull: int, front_ccw: int, snap_even: int, fill_bottom: int,
             vidx: wp.array(dtype=wp.vec3i), sx: wp.array(dtype=wp.vec3i), sy: wp.array(dtype=wp.vec3i),
             bias: wp.array(dtype=wp.vec3i), bbox: wp.array(dtype=wp.vec4i), counts: wp.array(dtype=wp.int32)):
     t = wp.tid()
@@ -113,12 +125,12 @@ def k_setup(pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i), width:
             ok = False
     if not ok:
         return
-    x0 = snap(p0[0])
-    y0 = snap(p0[1])
-    x1 = snap(p1[0])
-    y1 = snap(p1[1])
-    x2 = snap(p2[0])
-    y2 = snap(p2[1])
+    x0 = snap(p0[0], snap_even)
+    y0 = snap(p0[1], snap_even)
+    x1 = snap(p1[0], snap_even)
+    y1 = snap(p1[1], snap_even)
+    x2 = snap(p2[0], snap_even)
+    y2 = snap(p2[1], snap_even)
     area = edge(x0, y0, x1, y1, x2, y2)
     if area == wp.int64(0):
         return
@@ -149,7 +161,8 @@ def k_setup(pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i), width:
     sx[t] = wp.vec3i(x0, x1, x2)
     sy[t] = wp.vec3i(y0, y1, y2)
     # edge k is opposite vertex k: e0 = (v1 -> v2), e1 = (v2 -> v0), e2 = (v0 -> v1)
-    bias[t] = wp.vec3i(top_left_bias(x1, y1, x2, y2), top_left_bias(x2, y2, x0, y0), top_left_bias(x0, y0, x1, y1))
+    fb = fill_bottom
+    bias[t] = wp.vec3i(edge_bias(x1, y1, x2, y2, fb), edge_bias(x2, y2, x0, y0, fb), edge_bias(x0, y0, x1, y1, fb))
     h = SUBPIX / 2
     xmin = wp.min(x0, wp.min(x1, x2))
     xmax = wp.max(x0, wp.max(x1, x2))
@@ -197,7 +210,7 @@ def k_tile_ranges(keys: wp.array(dtype=wp.int32), total: int, start: wp.array(dt
 
 @wp.func
 def coverage(s: TriSetup, t: int, j: int, i: int) -> bool:
-    """Does triangle ``t`` cover the centre of pixel (row i, column j)? Exact, top-left rule."""
+    """Does triangle ``t`` cover the centre of pixel (row i, column j)? Exact, with the set-up fill rule."""
     b = s.bbox[t]
     if j < b[0] or j > b[2] or i < b[1] or i > b[3]:
         return False
