@@ -57,7 +57,7 @@ class TriSetup:
     vidx: wp.array(dtype=wp.vec3i)  # vertex indices, reordered clockwise on screen
     sx: wp.array(dtype=wp.vec3i)  # snapped x (fixed point, SUBPIX per pixel)
     sy: wp.array(dtype=wp.vec3i)
-    bias: wp.array(dtype=wp.vec3i)  # 0 if the edge opposite vertex k is top-left (E == 0 counts), else 1
+    bias: wp.array(dtype=wp.vec3i)  # 0 if the edge opposite vertex k is inclusive (E == 0 counts), else 1
     bbox: wp.array(dtype=wp.vec4i)  # j0, i0, j1, i1 pixel range (inclusive)
     tile_start: wp.array(dtype=wp.int32)
     tile_end: wp.array(dtype=wp.int32)

@@ -8,8 +8,9 @@ by llvmpipe and by the emulated rasteriser + blending unit, and the script print
 
 * per-triangle coverage differences, (triangle, pixel) pairs, in the display orientation (warpvol's
   picture = GL's picture) and in GL memory order (mirrored), for four rule sets;
-* the snapping-tie group separately (exact ties only on power-of-two canvases: elsewhere VTK's fp32
-  orthographic matrix moves tie vertices by an ulp before llvmpipe snaps them);
+* the snapping-tie group separately (exact ties only on power-of-two canvases: elsewhere the fp32
+  vertex path, VTK's orthographic matrix and llvmpipe's viewport scale, is not exact, so tie
+  vertices no longer reach llvmpipe's snapping as ties);
 * hit counts in the tiling (max per pixel, GL and emulated; pixels whose counts differ);
 * blended RGBA8 buffers, premultiplied (ONE, ONE_MINUS_SRC_ALPHA) and straight alpha
   (SRC_ALPHA, ONE_MINUS_SRC_ALPHA; alpha ONE, ONE_MINUS_SRC_ALPHA), flat colours over a random

@@ -8,12 +8,12 @@ import pytest
 
 from warpvol.gpu.glref import GLCanvas, conformance_figures, gl_unavailable_reason
 
-_reason = gl_unavailable_reason()
-pytestmark = pytest.mark.skipif(_reason is not None, reason=_reason or "")
-
 
 @pytest.fixture(scope="module")
 def figures():
+    reason = gl_unavailable_reason()
+    if reason:
+        pytest.skip(reason)
     out = {}
     for w, h, seeds in ((64, 64, (0, 1)), (32, 32, (2,)), (64, 48, (0,))):
         canvas = GLCanvas(w, h)

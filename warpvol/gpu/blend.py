@@ -244,6 +244,16 @@ class BlendUnit:
     >>> bu.blend_layers(fb, np.array([[[[0.2, 0.2, 0.2, 0.2]]]]))
     >>> fb.codes()[0, 0].tolist()
     [51, 51, 51, 51]
+
+    Colour 152 times alpha 229 is 136.502 codes: rounded once (``exact``) 137; llvmpipe's multiply gives 136.
+
+    >>> src = np.array([[[[152, 0, 0, 229]]]]) / 255
+    >>> for arith in ("exact", "llvmpipe"):
+    ...     fb.clear((0, 0, 0, 0))
+    ...     BlendUnit("src_alpha", "zero", arithmetic=arith).blend_layers(fb, src)
+    ...     print(arith, fb.codes()[0, 0, 0])
+    exact 137
+    llvmpipe 136
     """
 
     def __init__(self, src: str = "one", dst: str = "zero", fmt: Any = None, constant: Sequence[float] = (0, 0, 0, 0),

@@ -19,6 +19,7 @@ it), within about 1e-6 px otherwise.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -32,19 +33,17 @@ GL_BLEND_FACTORS = {
 }
 _GL_BLEND = 0x0BE2
 _GL_DEPTH_TEST = 0x0B71
-_REASON: list = []
 
 
+@lru_cache(maxsize=1)
 def gl_unavailable_reason() -> str | None:
     """``None`` if VTK can make an offscreen (EGL) GL context here and draw with it, else why not."""
-    if not _REASON:
-        try:
-            c = GLCanvas(4, 4)
-            img = c.draw(np.array([[[0, 0], [4, 0], [0, 4]]], np.float32), np.full((1, 3, 4), 255, np.uint8))
-            _REASON.append(None if img[0, 0, 0] == 255 else "VTK's offscreen GL drew nothing")
-        except Exception as e:  # any failure to load VTK or make a context is the reason to skip
-            _REASON.append(f"VTK cannot create an offscreen OpenGL context: {type(e).__name__}: {e}")
-    return _REASON[0]
+    try:
+        c = GLCanvas(4, 4)
+        img = c.draw(np.array([[[0, 0], [4, 0], [0, 4]]], np.float32), np.full((1, 3, 4), 255, np.uint8))
+    except Exception as e:  # any failure to load VTK or make a context is the reason to skip
+        return f"VTK cannot create an offscreen OpenGL context: {type(e).__name__}: {e}"
+    return None if img[0, 0, 0] == 255 else "VTK's offscreen GL context drew nothing"
 
 
 class GLCanvas:

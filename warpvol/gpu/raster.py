@@ -212,6 +212,13 @@ class Rasterizer:
     ...                     attrs=[[0.0], [1.0], [0.0]])
     >>> frags.count                      # 36 centres with x + y <= 8; the 8 on the hypotenuse (a right edge) excluded
     28
+
+    A horizontal edge through the centres of row 2, interior above it (the triangle's bottom edge as
+    displayed, the smaller GL window y): owned under ``bottom_left`` (the default), not under ``top_left``:
+
+    >>> tri = [[0, 2.5, .5, 1], [4, 2.5, .5, 1], [0, 0, .5, 1]]
+    >>> [Rasterizer(4, 4, fill_rule=f).fragments(tri, [[0, 1, 2]]).count for f in ("bottom_left", "top_left")]
+    [7, 3]
     """
 
     def __init__(self, width: int, height: int, device: str = "cpu", tile_size: int = 16, cull: str = "none",
