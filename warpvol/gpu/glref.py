@@ -19,6 +19,9 @@ it), within about 1e-6 px otherwise.
 
 from __future__ import annotations
 
+import re
+import subprocess
+import sys
 from functools import lru_cache
 from typing import Any
 
@@ -35,15 +38,36 @@ _GL_BLEND = 0x0BE2
 _GL_DEPTH_TEST = 0x0B71
 
 
+_PROBE_TAG = "glref-probe:"
+
+
+def _probe() -> None:
+    """Make a context, draw one triangle, print the renderer (run in a child process by the check)."""
+    c = GLCanvas(4, 4)
+    img = c.draw(np.array([[[0, 0], [4, 0], [0, 4]]], np.float32), np.full((1, 3, 4), 255, np.uint8))
+    print(_PROBE_TAG + (c.renderer if img[0, 0, 0] == 255 else "drew nothing"), flush=True)
+
+
 @lru_cache(maxsize=1)
 def gl_unavailable_reason() -> str | None:
-    """``None`` if VTK can make an offscreen (EGL) GL context here and draw with it, else why not."""
+    """``None`` if VTK can make an offscreen (EGL) context on Mesa llvmpipe here and draw with it, else why not.
+
+    The probe runs in a child process, so a VTK or driver that crashes without a display costs a
+    skip, not the test run; a GL other than llvmpipe (a hardware driver) is a reason too, as the
+    conformance figures are llvmpipe's.
+    """
+    cmd = [sys.executable, "-c", "from warpvol.gpu.glref import _probe; _probe()"]
     try:
-        c = GLCanvas(4, 4)
-        img = c.draw(np.array([[[0, 0], [4, 0], [0, 4]]], np.float32), np.full((1, 3, 4), 255, np.uint8))
-    except Exception as e:  # any failure to load VTK or make a context is the reason to skip
-        return f"VTK cannot create an offscreen OpenGL context: {type(e).__name__}: {e}"
-    return None if img[0, 0, 0] == 255 else "VTK's offscreen GL context drew nothing"
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    except (OSError, subprocess.TimeoutExpired) as e:
+        return f"offscreen GL probe did not finish: {e}"
+    found = [ln[len(_PROBE_TAG):] for ln in r.stdout.splitlines() if ln.startswith(_PROBE_TAG)]
+    if r.returncode != 0 or not found:
+        tail = re.sub(r"\x1b\[[0-9;]*m", "", (r.stderr.strip().splitlines() or ["no message"])[-1])
+        return f"VTK cannot create an offscreen OpenGL context (probe exit {r.returncode}): {tail}"
+    if "llvmpipe" not in found[0]:
+        return f"the offscreen GL is {found[0]!r}, not Mesa llvmpipe"
+    return None
 
 
 class GLCanvas:
