@@ -16,12 +16,14 @@ Rasterisation rules (named choices, :class:`Rasterizer` parameters ``fill_rule``
   ``"even"`` (round half to even) or ``"away"`` (half away from zero).
 
 **Defaults, and why**: ``bottom_left`` + ``even``, the rules of Mesa's llvmpipe (:data:`LLVMPIPE_RULES`).
-OpenGL (1.x-4.x, "Polygon Rasterization") leaves the ownership of pixel centres on edges to the
-implementation, asking only that adjacent polygons sharing an edge do not both draw such a pixel;
-NVIDIA (GeForce3/4) and ATI (Radeon 8500) never documented their OpenGL choice or snapping ties
-for the papers' hardware, so warpvol defaults to the one GL implementation it can observe:
-llvmpipe, through VTK offscreen (Gallium's ``bottom_edge_rule`` for GL, ``lrintf`` snapping to
-8 sub-pixel bits). ``scripts/gl_conformance.py`` checks them pixel for pixel.
+OpenGL ("Polygon Rasterization", 1.x to 4.x) leaves the ownership of pixel centres on edges to the
+implementation, asking only that of two polygons sharing an edge exactly one produces the fragment;
+NVIDIA (GeForce3/4) and ATI (Radeon 8500) never documented their OpenGL choice or their snapping
+ties for the papers' hardware, so warpvol defaults to the one GL implementation it can observe:
+llvmpipe, through VTK offscreen. Mesa's GL state tracker picks Gallium's edge rule per buffer
+orientation so that, in GL window coordinates, the horizontal edge with the smaller y owns its
+centres in window-system buffers and FBOs alike; llvmpipe snaps with ``lrintf`` (ties to even) to
+8 sub-pixel bits. ``scripts/gl_conformance.py`` checks both pixel for pixel.
 
 Three ways to draw:
 
