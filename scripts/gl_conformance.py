@@ -15,8 +15,9 @@ by llvmpipe and by the emulated rasteriser + blending unit, and the script print
 * blended RGBA8 buffers, premultiplied (ONE, ONE_MINUS_SRC_ALPHA) and straight alpha
   (SRC_ALPHA, ONE_MINUS_SRC_ALPHA; alpha ONE, ONE_MINUS_SRC_ALPHA), flat colours over a random
   background, with the blending unit's ``exact`` and ``llvmpipe`` arithmetic;
-* fragment codes: Gouraud colours with blending off, and how many differing codes sit within 1e-3
-  code of an exact k + 1/2 tie in warpvol's fp32 interpolation.
+* fragment codes: Gouraud colours with blending off, under the rasteriser's ``barycentric`` and
+  ``llvmpipe`` (plane equation) interpolation rules, and how many differing codes sit within 1e-3
+  code of an exact k + 1/2 tie in the barycentric fp32 value.
 
     ./run.sh python scripts/gl_conformance.py [--seeds 0 1 2] [--sizes 64x64 128x64 64x48 100x75]
 """
@@ -77,7 +78,8 @@ def main(argv=None) -> int:
         vals = [f"{n} / {m}" for n, m in (f["blend"][k] for k in keys)]
         print(f"| {w}x{h} | {seed} | {'yes' if f['ties_in_buffers'] else 'no'} | " + " | ".join(vals) + " |")
 
-    print("\nFragment codes (Gouraud, blending off): codes differing / of all, max difference, differing at k+1/2 ties")
+    print("\nFragment codes (Gouraud, blending off), interp_rule/arithmetic: codes differing / of all, "
+          "max difference, differing at k+1/2 ties")
     for (w, h), seed, f in rows:
         s = "; ".join(f"{a}: {n}/{tot}, max {m}, {ties} at ties" for a, (n, m, tot, ties) in f["gouraud"].items())
         print(f"  {w}x{h} seed {seed}: {s}")

@@ -53,8 +53,13 @@ def test_blended_buffers(figures):
         assert b["straight/exact"][0] > 0.05 * key[0] * key[1], key
 
 
-def test_fragment_codes_differ_only_at_interpolation_ties(figures):
-    for key, f in figures.items():
-        n, worst, total, at_ties = f["gouraud"]["llvmpipe"]
-        # llvmpipe's fixed-point interpolation sends exact k + 1/2 ties either way; nothing else differs
-        assert worst <= 1 and n == at_ties and n <= 1e-3 * total, key
+def test_fragment_codes(figures):
+    for (w, h, seed), f in figures.items():
+        # llvmpipe's plane equations reproduced: Gouraud codes identical (where the vertex path is exact)
+        n, worst, total, _ = f["gouraud"]["llvmpipe/llvmpipe"]
+        if w & (w - 1) == 0 and h & (h - 1) == 0:
+            assert n == 0, (w, h, seed)
+        assert worst <= 1 and n <= 1e-3 * total, (w, h, seed)
+        # warpvol's barycentrics: llvmpipe sends exact k + 1/2 ties the other way; nothing else differs
+        n, worst, total, at_ties = f["gouraud"]["barycentric/llvmpipe"]
+        assert worst <= 1 and n == at_ties and n <= 1e-3 * total, (w, h, seed)

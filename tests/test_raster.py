@@ -339,6 +339,44 @@ def test_fused_draw_equals_fragment_list_and_is_tile_size_independent(device):
 
 
 @pytest.mark.parametrize("device", DEVICES)
+def test_llvmpipe_interpolation_rule(device):
+    """The llvmpipe plane-equation rule: the same fragments in the fragment list and both draw
+    traversals, values within fp32 rounding of the barycentric ones (linear and perspective), and
+    constant attributes exact (linear). (Code-for-code agreement with llvmpipe: tests/test_gl_conformance.py.)"""
+    rng = np.random.default_rng(12)
+    W, H, T = 40, 30, 120
+    pos = np.concatenate([rng.uniform([0, 0], [W, H], (3 * T, 2)), rng.uniform(0, 1, (3 * T, 1)),
+                          rng.uniform(0.5, 2, (3 * T, 1))], 1).astype(np.float32)
+    tris = np.arange(3 * T).reshape(T, 3)
+    tris[::2] = tris[::2, ::-1]  # both windings (llvmpipe reorders clockwise triangles)
+    cols = rng.uniform(0, 1, (3 * T, 4)).astype(np.float32)
+    cols[:, 3] = 0.75  # a constant attribute
+    for mode in ("linear", "perspective"):
+        fr = {rule: Rasterizer(W, H, device=device, interp_rule=rule).fragments(pos, tris, cols, interpolation=mode)
+              for rule in ("barycentric", "llvmpipe")}
+        a, b = fr["barycentric"], fr["llvmpipe"]
+        assert a.count == b.count > 0.5 * W * H
+        va, vb = a.attrs.numpy()[: a.count], b.attrs.numpy()[: b.count]
+        np.testing.assert_allclose(vb, va, atol=2e-5)
+        assert (vb != va).any()  # a different rule, not the same arithmetic
+        if mode == "linear":  # zero gradients: exact (perspective divides a/w by 1/w, rounded)
+            np.testing.assert_array_equal(vb[:, 3], 0.75)
+        draws = []
+        for trav in ("tile", "pixel"):
+            fb = FrameBuffer(W, H, "fp32", device)
+            fb.clear((0, 0, 0, 0))
+            Rasterizer(W, H, device=device, interp_rule="llvmpipe", traversal=trav).draw(
+                pos, tris, cols, fb, BlendUnit.replace(), interpolation=mode)
+            draws.append(fb.readback())
+        np.testing.assert_array_equal(draws[0], draws[1])
+        last = b.offsets.numpy()
+        has = np.diff(last) > 0
+        np.testing.assert_array_equal(draws[0].reshape(-1, 4)[has], vb[last[1:][has] - 1])
+    with pytest.raises(ConfigError, match="interp_rule"):
+        Rasterizer(4, 4, interp_rule="plane")
+
+
+@pytest.mark.parametrize("device", DEVICES)
 def test_id_buffer_flat_24bit_ids_with_depth(device):
     pos = np.array([[0, 0, 0.7, 1], [16, 0, 0.7, 1], [0, 16, 0.7, 1],
                     [0, 0, 0.2, 1], [16, 0, 0.9, 1], [0, 16, 0.2, 1]], np.float32)

@@ -273,7 +273,6 @@ def conformance_soup(seed: int, width: int, height: int) -> tuple[np.ndarray, np
 # the conformance comparison: llvmpipe (through GLCanvas) vs the emulated rasteriser + blending unit
 # ------------------------------------------------------------------------------------------------
 
-LLVMPIPE = {"fill_rule": "bottom_left", "snap_ties": "even"}
 BLEND_MODES = {"premultiplied": ("one", "one_minus_src_alpha", "one", "one_minus_src_alpha"),
                "straight": ("src_alpha", "one_minus_src_alpha", "one", "one_minus_src_alpha")}
 
@@ -307,18 +306,19 @@ def emulated_draw(xy: np.ndarray, colors: np.ndarray, width: int, height: int, b
     fb = FrameBuffer(width, height, "unorm8")
     fb.write(background.astype(np.float32) / 255)
     bu = BlendUnit(blend[0], blend[1], src_alpha=blend[2], dst_alpha=blend[3], arithmetic=arithmetic)
-    Rasterizer(width, height, **rules).draw(pos, tris, colors.reshape(-1, 4).astype(np.float32) / 255, fb, bu,
-                                            interpolation=interpolation)
+    # vertex colours as GL's fetch of normalised bytes delivers them: code * fp32(1/255)
+    rgba = colors.reshape(-1, 4).astype(np.float32) * np.float32(1 / 255)
+    Rasterizer(width, height, **rules).draw(pos, tris, rgba, fb, bu, interpolation=interpolation)
     return fb.codes().astype(np.int64)
 
 
 def _last_fragment_values(xy: np.ndarray, colors: np.ndarray, width: int, height: int) -> np.ndarray:
-    """fp32 Gouraud colour (H, W, 4) of the last fragment at each pixel (NaN where none)."""
+    """fp32 barycentric Gouraud colour (H, W, 4) of the last fragment at each pixel (NaN where none)."""
     from .raster import Rasterizer
 
     pos, tris = _positions(xy)
-    fr = Rasterizer(width, height, **LLVMPIPE).fragments(pos, tris, colors.reshape(-1, 4).astype(np.float32) / 255,
-                                                        interpolation="linear")
+    rgba = colors.reshape(-1, 4).astype(np.float32) * np.float32(1 / 255)
+    fr = Rasterizer(width, height).fragments(pos, tris, rgba, interpolation="linear")
     off = fr.offsets.numpy()
     out = np.full((height * width, 4), np.nan)
     has = np.diff(off) > 0
@@ -334,15 +334,17 @@ def conformance_figures(canvas: GLCanvas, seed: int) -> dict:
     (pairs, triangles)} in the snapping-tie group,
     ``tiling_hits`` (GL, emulated) max hits per pixel in the tiling, ``tiling_diff`` pixels whose
     hit counts differ, ``blend`` {mode/arithmetic: (pixels differing, max code difference)},
-    ``gouraud`` {arithmetic: (codes differing, max difference, codes, how many of the differing
-    were within 1e-3 code of an exact k + 1/2 tie in warpvol's fp32 value)}.
+    ``gouraud`` {interp_rule/arithmetic: (codes differing, max difference, codes, how many of the
+    differing were within 1e-3 code of an exact k + 1/2 tie in the barycentric fp32 value)}.
     """
+    from .raster import LLVMPIPE_RULES
+
     w, h = canvas.width, canvas.height
     xy, group, names = conformance_soup(seed, w, h)
     tie = group == names.index("snap_tie")
     rng = np.random.default_rng(1000 + seed)
     fig: dict = {"triangles": int(xy.shape[0]), "snap_tie_triangles": int(tie.sum())}
-    rule_sets = {"llvmpipe": LLVMPIPE, "top_left+even": {"fill_rule": "top_left", "snap_ties": "even"},
+    rule_sets = {"llvmpipe": LLVMPIPE_RULES, "top_left+even": {"fill_rule": "top_left", "snap_ties": "even"},
                  "top_left+away": {"fill_rule": "top_left", "snap_ties": "away"},
                  "bottom_left+away": {"fill_rule": "bottom_left", "snap_ties": "away"}}
     for orient in ("display", "memory"):
@@ -382,7 +384,7 @@ def conformance_figures(canvas: GLCanvas, seed: int) -> dict:
     for mode, col in (("premultiplied", premult), ("straight", straight)):
         gl_img = canvas.draw(gxy, col, BLEND_MODES[mode], background=bg[::-1])[::-1].astype(np.int64)
         for arith in ("exact", "llvmpipe"):
-            d = np.abs(emulated_draw(xy, col, w, h, BLEND_MODES[mode], bg, arith, "flat", **LLVMPIPE) - gl_img)
+            d = np.abs(emulated_draw(xy, col, w, h, BLEND_MODES[mode], bg, arith, "flat", **LLVMPIPE_RULES) - gl_img)
             fig["blend"][f"{mode}/{arith}"] = (int((d.max(-1) > 0).sum()), int(d.max()))
     # fragment codes: Gouraud colours, blending off (the last fragment per pixel stays)
     gcol = rng.integers(0, 256, (t, 3, 4)).astype(np.uint8)
@@ -392,8 +394,10 @@ def conformance_figures(canvas: GLCanvas, seed: int) -> dict:
     val = _last_fragment_values(xy, gcol, w, h) * 255
     near_tie = np.abs(val - np.floor(val) - 0.5) < 1e-3
     fig["gouraud"] = {}
-    for arith in ("exact", "llvmpipe"):
-        d = np.abs(emulated_draw(xy, gcol, w, h, ("one", "zero", "one", "zero"), zero, arith, "linear", **LLVMPIPE)
+    for interp, arith in (("barycentric", "exact"), ("barycentric", "llvmpipe"), ("llvmpipe", "llvmpipe")):
+        rules = dict(LLVMPIPE_RULES, interp_rule=interp)
+        d = np.abs(emulated_draw(xy, gcol, w, h, ("one", "zero", "one", "zero"), zero, arith, "linear", **rules)
                    - gl_img)
-        fig["gouraud"][arith] = (int((d > 0).sum()), int(d.max()), int(d.size), int((near_tie & (d > 0)).sum()))
+        fig["gouraud"][f"{interp}/{arith}"] = (int((d > 0).sum()), int(d.max()), int(d.size),
+                                               int((near_tie & (d > 0)).sum()))
     return fig

@@ -15,6 +15,12 @@ Rasterisation rules (named choices, :class:`Rasterizer` parameters ``fill_rule``
 * ``snap_ties`` says how a vertex exactly half-way between two 1/256-pixel steps snaps:
   ``"even"`` (round half to even) or ``"away"`` (half away from zero).
 
+* ``interp_rule`` says how attributes are interpolated: ``"barycentric"`` (fp32 barycentrics at the
+  pixel centre from the unsnapped positions) or ``"llvmpipe"`` (llvmpipe's plane equations
+  ``a0 + dadx x + dady y`` in GL window coordinates, from the frame buffer's origin, FMA per pixel;
+  :mod:`warpvol.kernels.raster`). They differ only where a value lands within an fp32 rounding of a
+  code boundary (exact k + 1/2 ties at 8 bits).
+
 **Defaults, and why**: ``bottom_left`` + ``even``, the rules of Mesa's llvmpipe (:data:`LLVMPIPE_RULES`).
 OpenGL ("Polygon Rasterization", 1.x to 4.x) leaves the ownership of pixel centres on edges to the
 implementation, asking only that of two polygons sharing an edge exactly one produces the fragment;
@@ -23,7 +29,10 @@ ties for the papers' hardware, so warpvol defaults to the one GL implementation 
 llvmpipe, through VTK offscreen. Mesa's GL state tracker picks Gallium's edge rule per buffer
 orientation so that, in GL window coordinates, the horizontal edge with the smaller y owns its
 centres in window-system buffers and FBOs alike; llvmpipe snaps with ``lrintf`` (ties to even) to
-8 sub-pixel bits. ``scripts/gl_conformance.py`` checks both pixel for pixel.
+8 sub-pixel bits. ``scripts/gl_conformance.py`` checks both pixel for pixel. Interpolation
+defaults to ``barycentric``: its error does not depend on the distance to the frame buffer's origin
+(llvmpipe's plane equations lose accuracy far from it, as its own source notes), and the two rules
+agree but for exact ties; ``interp_rule="llvmpipe"`` reproduces llvmpipe's fragment values code for code.
 
 Three ways to draw:
 
@@ -73,8 +82,9 @@ TILE_SIZES = (4, 8, 16, 32, 64)
 TRAVERSALS = ("auto", "pixel", "tile")
 FILL_RULES = ("bottom_left", "top_left")
 SNAP_TIES = ("even", "away")
-#: The rules of Mesa's llvmpipe (checked by ``scripts/gl_conformance.py``); the defaults.
-LLVMPIPE_RULES = {"fill_rule": "bottom_left", "snap_ties": "even"}
+INTERP_RULES = {"barycentric": 0, "llvmpipe": 1}
+#: The rules of Mesa's llvmpipe (checked by ``scripts/gl_conformance.py``); the defaults but ``interp_rule``.
+LLVMPIPE_RULES = {"fill_rule": "bottom_left", "snap_ties": "even", "interp_rule": "llvmpipe"}
 
 
 @dataclass
@@ -143,6 +153,7 @@ class Triangles:
         s.vidx, s.sx, s.sy, s.bias, s.bbox = self.vidx, self.sx, self.sy, self.bias, self.bbox
         s.tile_start, s.tile_end, s.tri_of = start, end, vals
         s.tile_size, s.tiles_x = ts, tiles_x
+        s.interp_rule, s.height = INTERP_RULES[rast.interp_rule], rast.height
         self.struct = s
         self.n_tiles = n_tiles
         self._keys = keys
@@ -198,10 +209,12 @@ class Rasterizer:
                  coordinates (y up), as displayed (module docstring)
     snap_ties    vertices half-way between 1/256-pixel steps snap to           ``even`` | ``away``
                  the even step or away from zero
+    interp_rule  attribute interpolation: fp32 barycentrics, or llvmpipe's     ``barycentric`` |
+                 plane equations in GL window coordinates                      ``llvmpipe``
     ===========  ============================================================  =============================
 
     The defaults of ``fill_rule`` and ``snap_ties`` are Mesa llvmpipe's (:data:`LLVMPIPE_RULES`;
-    the module docstring gives the reason).
+    the module docstring gives the reason); ``interp_rule`` defaults to ``barycentric``.
 
     Positions are window coordinates ``(x, y, z, w)`` (see :class:`~warpvol.gpu.vertex.VertexStage`):
     x right, y *down* (row index), z in [0, 1], w the clip-space w (for perspective correction).
@@ -226,7 +239,7 @@ class Rasterizer:
     def __init__(self, width: int, height: int, device: str = "cpu", tile_size: int = 16, cull: str = "none",
                  front_face: str = "ccw", depth_func: str = "always", depth_write: bool = False,
                  depth_clip: bool = True, traversal: str = "auto", fill_rule: str = "bottom_left",
-                 snap_ties: str = "even"):
+                 snap_ties: str = "even", interp_rule: str = "barycentric"):
         self.width = check_number("width", width, lo=1, hi=65536, integer=True)
         self.height = check_number("height", height, lo=1, hi=65536, integer=True)
         self.device = device
@@ -243,6 +256,7 @@ class Rasterizer:
         self.traversal = check_choice("traversal", traversal, TRAVERSALS)
         self.fill_rule = check_choice("fill_rule", fill_rule, FILL_RULES)
         self.snap_ties = check_choice("snap_ties", snap_ties, SNAP_TIES)
+        self.interp_rule = check_choice("interp_rule", interp_rule, INTERP_RULES)
 
     @property
     def shape(self) -> tuple[int, int]:
