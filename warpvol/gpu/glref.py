@@ -206,6 +206,14 @@ def conformance_soup(seed: int, width: int, height: int) -> tuple[np.ndarray, np
     the 1/256 grid, shared edges), slivers (< 0.1 px wide), sub-pixel triangles, off-grid vertices
     (arbitrary fp32), snapping ties (every coordinate half-way between 1/256 steps) and horizontal
     edges through pixel centres. All vertices lie inside the canvas.
+
+    Example
+    -------
+    >>> xy, group, names = conformance_soup(0, 64, 48)
+    >>> xy.shape, int((group == names.index("snap_tie")).sum())
+    ((262, 3, 2), 24)
+    >>> bool(np.all((xy[group == names.index("snap_tie")] * 512) % 2 == 1))   # odd multiples of 1/512
+    True
     """
     rng = np.random.default_rng(seed)
     w, h = float(width), float(height)
