@@ -223,6 +223,21 @@ def cell_interval(cells: VsbCells, cid: int, o: wp.vec3, d: wp.vec3, tol: float)
 
 
 @wp.func
+def cell_entry(cells: VsbCells, cid: int, o: wp.vec3, d: wp.vec3, tol: float) -> wp.vec3:
+    """``(t_entry, piece, face)`` of the cell's first piece along the ray; piece -1 if the ray misses."""
+    ta = float(BIG)
+    pq = int(-1)
+    pf = int(-1)
+    for q in range(cells.cell_start[cid], cells.cell_start[cid + 1]):
+        iv = piece_interval(cells, q, o, d, tol)
+        if iv[1] > iv[0] and iv[0] < ta:
+            ta = iv[0]
+            pq = q
+            pf = int(iv[2])
+    return wp.vec3(ta, float(pq), float(pf))
+
+
+@wp.func
 def buffer_row(w: Walk, p: wp.vec3) -> int:
     z = wp.dot(p - w.eye, w.fwd)
     c = z
@@ -257,6 +272,7 @@ def column_walk(cells: VsbCells, w: Walk, vsb: wp.array2d(dtype=wp.int32), ray_o
     k = int(0)
     queued = int(-1)        # cell to integrate next (from the column, the neighbour check or recovery)
     from_nbr = int(0)
+    k_run = int(0)
     if w.nbr == 1:
         # the neighbour check applied where the ray leaves empty space: a cell in front of the
         # column's first cell that the discretisation left out of this column (a column lying on an
@@ -283,6 +299,7 @@ def column_walk(cells: VsbCells, w: Walk, vsb: wp.array2d(dtype=wp.int32), ray_o
             from_nbr = 1
     while trans >= w.t_min:
         cid = int(-1)
+        col_cell = int(0)   # cid came from the column at row k_run (else from queued)
         if queued >= 0:
             cid = queued
             queued = -1
@@ -305,6 +322,7 @@ def column_walk(cells: VsbCells, w: Walk, vsb: wp.array2d(dtype=wp.int32), ray_o
                     break
             else:
                 v = vsb[row0 + k, col]
+                k_run = k
                 k += 1
                 if v < 0 or v == cur:
                     continue
@@ -316,6 +334,7 @@ def column_walk(cells: VsbCells, w: Walk, vsb: wp.array2d(dtype=wp.int32), ray_o
                     counters[tid, 3] += 1
                     continue
                 cid = v
+                col_cell = 1
         # a cell behind the last interior exit face that the buffer missed leaves a gap before cid
         if pend >= 0 and pend != cid:
             hp = list_has(done, tid, nd, pend)
@@ -326,13 +345,53 @@ def column_walk(cells: VsbCells, w: Walk, vsb: wp.array2d(dtype=wp.int32), ray_o
                     ivp = cell_interval(cells, pend, o, d, w.eps)
                     if ivp[1] - wp.max(ivp[0], t_last) > w.eps:
                         if w.adjacency == ADJ_RECOVER:
-                            queued = cid
+                            if col_cell == 1:
+                                k = k_run
+                                cur = -1
+                            else:
+                                queued = cid
                             cid = pend
+                            col_cell = 0
                             from_nbr = 0
                             counters[tid, 8] += 1
                         else:
                             counters[tid, 7] += 1
         pend = -1
+        # a cell in front of cid, behind its interior entry face, that the buffer missed (also where
+        # the column's first cells were lost); chains backwards one cell per loop turn
+        for chain in range(64):
+            ent = cell_entry(cells, cid, o, d, w.eps)
+            nbc = int(-1)
+            if ent[1] >= 0.0:
+                nbp = cells.adj[4 * int(ent[1]) + int(ent[2])]
+                if nbp >= 0:
+                    nbc = cells.piece_cell[nbp]
+            if nbc < 0 or nbc == cid:
+                break
+            hb = list_has(done, tid, nd, nbc)
+            counters[tid, 9] += hb[1]
+            if hb[0] == 1:
+                break
+            ivb = cell_interval(cells, nbc, o, d, w.eps)
+            if not (ivb[0] < ent[0] - w.eps and ivb[1] - wp.max(ivb[0], t_last) > w.eps):
+                break
+            if w.adjacency != ADJ_RECOVER:
+                counters[tid, 7] += 1
+                break
+            counters[tid, 8] += 1
+            if col_cell == 1:
+                k = k_run
+                cur = -1
+            elif queued >= 0:
+                # queued holds the column cell deferred by the gap check above: re-read it from the column
+                k = k_run
+                cur = -1
+                queued = cid
+            else:
+                queued = cid
+            cid = nbc
+            col_cell = 0
+            from_nbr = 0
         # ---- integrate cell cid: its pieces in ray order between entry and exit ----
         if nd < w.max_list:
             done[tid, nd] = cid

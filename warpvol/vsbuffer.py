@@ -291,7 +291,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     w.steps, w.model = int(steps), 0 if transfer.emission == "color_extinction" else 1
     w.t_min, w.nbr, w.adjacency = float(t_min), int(bool(neighbour_check)), ADJACENCY_MODES.index(adjacency)
     w.max_list = int(max_list)
-    w.eps = 1e-5 * diam
+    w.eps = 1e-6 * diam
     rules = dict(raster_rules or {})
     P = max(1, min(int(planes_per_batch), H))
     threads = threads or cpu_threads()
