@@ -102,39 +102,57 @@ class Octree:
         return len(self.parent)
 
 
-def build_octree(cell_lo: np.ndarray, cell_hi: np.ndarray, depth: int) -> Octree:
-    """Octree of ``depth`` levels below the root over the cells' bounding boxes; each cell at the
-    deepest node whose box contains the cell's box. Only non-empty nodes and their ancestors are kept.
+def build_octree(cell_lo: np.ndarray, cell_hi: np.ndarray, depth: int, insert: str = "centroid") -> Octree:
+    """Regular octree of ``depth`` levels below the root over the cells' bounding boxes.
+
+    ``insert="centroid"``: every cell in the leaf holding its box centre; a node's box is the union of
+    the boxes of the cells below it (the bounding box of its primitives, as the paper describes the
+    tree of [22]), so a plane draws the cells of leaves whose boxes it cuts.
+    ``insert="containing"``: every cell at the deepest node whose region contains the cell's box,
+    node boxes the regions (cells straddling a split stay high and are drawn for many planes).
+    Only non-empty nodes and their ancestors are kept.
 
     Examples
     --------
     >>> lo = np.array([[0, 0, 0], [0.6, 0.6, 0.6], [0.4, 0, 0]]); hi = lo + 0.3
-    >>> t = build_octree(lo, hi, 2)
+    >>> t = build_octree(lo, hi, 2, "containing")
     >>> t.n_nodes, [int(n) for n in np.diff(t.cell_start)]        # root holds the straddling cell
-    (5, [1, 0, 0, 1, 1])
+    (3, [1, 1, 1])
+    >>> t = build_octree(lo, hi, 2)
+    >>> [int(n) for n in np.diff(t.cell_start)], t.hi[0].round(6).tolist()  # cells in leaves; tight root box
+    ([0, 0, 0, 0, 1, 1, 1], [0.9, 0.9, 0.9])
     """
     glo, ghi = cell_lo.min(axis=0), cell_hi.max(axis=0)
     ext = np.maximum(ghi - glo, 1e-300)
-    level = np.zeros(len(cell_lo), np.int64)
-    idx = np.zeros((len(cell_lo), 3), np.int64)
-    for lv in range(1, depth + 1):
-        n = 2 ** lv
-        a = np.clip(np.floor((cell_lo - glo) / ext * n), 0, n - 1).astype(np.int64)
-        b = np.clip(np.floor((cell_hi - glo) / ext * n), 0, n - 1).astype(np.int64)
-        ok = (a == b).all(axis=1) & (level == lv - 1)
-        level[ok], idx[ok] = lv, a[ok]
+    n_leaf = 2 ** depth
+    if insert == "centroid":
+        level = np.full(len(cell_lo), depth, np.int64)
+        idx = np.clip(np.floor((0.5 * (cell_lo + cell_hi) - glo) / ext * n_leaf), 0, n_leaf - 1).astype(np.int64)
+    elif insert == "containing":
+        level = np.zeros(len(cell_lo), np.int64)
+        idx = np.zeros((len(cell_lo), 3), np.int64)
+        for lv in range(1, depth + 1):
+            n = 2 ** lv
+            a = np.clip(np.floor((cell_lo - glo) / ext * n), 0, n - 1).astype(np.int64)
+            b = np.clip(np.floor((cell_hi - glo) / ext * n), 0, n - 1).astype(np.int64)
+            ok = (a == b).all(axis=1) & (level == lv - 1)
+            level[ok], idx[ok] = lv, a[ok]
+    else:
+        raise ConfigError(f"insert: {insert!r} not allowed; allowed: centroid, containing")
     # node keys: (level, ix, iy, iz) for every cell's node and all its ancestors
     keys = []
     for lv in range(depth + 1):
         sel = level >= lv
         keys.append(np.column_stack([np.full(sel.sum(), lv), idx[sel] >> (level[sel] - lv)[:, None]]))
-    allk = np.unique(np.concatenate(keys), axis=0)
-    code = lambda k: ((k[:, 0] * (1 << 20) + k[:, 1]) * (1 << 20) + k[:, 2]) * (1 << 20) + k[:, 3]  # noqa: E731
-    ncode = code(allk)
-    order = np.argsort(ncode)
-    ncode, allk = ncode[order], allk[order]
+    def code(k: np.ndarray) -> np.ndarray:  # (level, ix, iy, iz) -> one int64, ordered by level first
+        return ((k[:, 0] * (1 << 20) + k[:, 1]) * (1 << 20) + k[:, 2]) * (1 << 20) + k[:, 3]
+
+    allk = np.concatenate(keys)
+    ncode, first = np.unique(code(allk), return_index=True)
+    allk = allk[first]
     size = ext / (2.0 ** allk[:, 0])[:, None]
     nlo = glo + allk[:, 1:] * size
+    nhi = nlo + size
     par = allk.copy()
     par[:, 0] -= 1
     par[:, 1:] >>= 1
@@ -142,7 +160,17 @@ def build_octree(cell_lo: np.ndarray, cell_hi: np.ndarray, depth: int) -> Octree
     node_of_cell = np.searchsorted(ncode, code(np.column_stack([level, idx])))
     cells = np.argsort(node_of_cell, kind="stable")
     start = np.concatenate([[0], np.cumsum(np.bincount(node_of_cell, minlength=len(allk)))])
-    return Octree(nlo, nlo + size, parent, start, cells, depth)
+    if insert == "centroid":
+        # tight boxes: union of the cells' boxes, propagated from the leaves up (deepest level first)
+        nlo = np.full((len(allk), 3), np.inf)
+        nhi = np.full((len(allk), 3), -np.inf)
+        np.minimum.at(nlo, node_of_cell, cell_lo)
+        np.maximum.at(nhi, node_of_cell, cell_hi)
+        for lv in range(depth, 0, -1):
+            sel = np.nonzero(allk[:, 0] == lv)[0]
+            np.minimum.at(nlo, parent[sel], nlo[sel])
+            np.maximum.at(nhi, parent[sel], nhi[sel])
+    return Octree(nlo, nhi, parent, start, cells, depth)
 
 
 def plane_node_hits(tree: Octree, camera, rows: np.ndarray) -> np.ndarray:
@@ -204,7 +232,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
                     tree_depth: int = 5, integration: str = "trapezoid", steps: int = 1,
                     neighbour_check: bool = True, adjacency: str = "count", t_min: float = 0.0,
                     max_list: int = 1024, planes_per_batch: int = 16, threads: int = 0,
-                    raster_rules: dict | None = None, count=None) -> tuple[np.ndarray, dict]:
+                    tile_size: int = 4, tree_insert: str = "centroid", raster_rules: dict | None = None, count=None) -> tuple[np.ndarray, dict]:
     """Render ``cells`` with the VSBUFFER algorithm; returns ``(image (H, W, 4) premultiplied, stats)``.
 
     Parameters
@@ -216,6 +244,8 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         VSBUFFER rows along the view direction (0: the image height, as in the paper).
     tree_depth : int
         Octree levels below the root (the paper: 5 for the Blunt Fin).
+    tree_insert : {"centroid", "containing"}
+        Where a cell is stored in the octree (:func:`build_octree`).
     integration : {"trapezoid", "exact"}
         The paper's trapezoidal rule with attenuation (``steps`` equal sub-steps per piece) or the
         exact segment integral (:func:`warpvol.kernels.integrate.integrate_segment`).
@@ -230,6 +260,8 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         Length of the per-ray list of integrated cells (overflow is counted).
     planes_per_batch : int
         Sweep planes drawn per rasteriser call (emulation only; results do not depend on it).
+    tile_size : int
+        Rasteriser bin size (emulation only).
     raster_rules : dict, optional
         ``fill_rule`` / ``snap_ties`` for the rasteriser (default: its defaults).
     count : callable, optional
@@ -272,7 +304,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         o = fl[np.argsort(fc[fl], kind="stable")]
         cnt = np.bincount(fc[o], minlength=cells.n_cells)
         csr[name] = (o, np.concatenate([[0], np.cumsum(cnt)])[:-1], cnt)
-    tree = build_octree(*cells.cell_bounds, tree_depth)
+    tree = build_octree(*cells.cell_bounds, tree_depth, tree_insert)
     node_cnt = np.diff(tree.cell_start)
     dc = _device_cells(cells, origin, device)
     o_np, d_np = camera.rays(normalise=True)
@@ -315,24 +347,32 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         own, item = _expand(tree.cell_start[nd], node_cnt[nd])
         pc_plane, pc_cell = pl[own], tree.cells[item]
         cnt["drawn_cells"] += len(pc_cell)
-        bufs = []
+        jobs = []
         for name, func, zoff in (("back", "less", 0.0), ("front", "greater", 1.0)):
             order, fst, fcnt = csr[name]
             own2, item2 = _expand(fst[pc_cell], fcnt[pc_cell])
             f = order[item2]
             plane = pc_plane[own2]
-            tri = cells.boundary[f]  # (n, 3)
-            v = abc[tri]  # (n, 3, 3)
-            pos = np.empty((len(f), 3, 4), np.float64)
+            v = abc[cells.boundary[f]]  # (n, 3 vertices, abc)
+            pos = np.empty((len(f), 3, 4), np.float32)
             pos[..., 0] = v[..., 0]
-            pos[..., 1] = (v[..., 2] - cmin) / cspan * R + (plane * stride)[:, None]
-            pos[..., 2] = (v[..., 1] - (rows[plane] + 0.5)[:, None]) / brange + zoff
+            pos[..., 1] = (v[..., 2] - cmin) * (R / cspan) + (plane * stride)[:, None]
+            pos[..., 2] = (v[..., 1] - (rows[plane] + 0.5)[:, None]) * (1.0 / brange) + zoff
             pos[..., 3] = 1.0
-            rast = Rasterizer(W, np_ * stride, device=device, depth_func=func, depth_write=True, depth_clip=True, **rules)
-            ids, _ = rast.draw_ids(pos.reshape(-1, 4).astype(np.float32), np.arange(3 * len(f)).reshape(-1, 3),
-                                   fc[f].astype(np.int64))
             cnt[f"id_triangles_{name}"] += len(f)
-            bufs.append(wp.array(ids, dtype=wp.int32, device=device))
+            jobs.append((func, pos.reshape(-1, 4), fc[f]))
+        bufs = [None, None]
+
+        def draw(b: int, jobs=jobs, np_=np_, bufs=bufs) -> None:
+            func, pos, ids = jobs[b]
+            rast = Rasterizer(W, np_ * stride, device=device, depth_func=func, depth_write=True, depth_clip=True,
+                              tile_size=tile_size, **rules)
+            idbuf = wp.full((np_ * stride, W), -1, dtype=wp.int32, device=device)
+            rast.draw_ids(pos, np.arange(len(pos), dtype=np.int32).reshape(-1, 3), ids, id_buffer=idbuf)
+            bufs[b] = idbuf
+
+        # the two passes are independent draws: on the CPU each runs on its own host thread
+        launch_blocks(device, 2, draw, threads)
         cnt["id_pixels_read"] += 2 * np_ * R * W
         vsb = wp.empty((np_ * stride, W), dtype=wp.int32, device=device)
         wp.launch(kv.vsb_compare, dim=(np_ * stride, W), inputs=[bufs[0], bufs[1], vsb], device=device)
