@@ -238,12 +238,120 @@ def cell_entry(cells: VsbCells, cid: int, o: wp.vec3, d: wp.vec3, tol: float) ->
 
 
 @wp.func
+def empty_space_check(cells: VsbCells, w: Walk, vsb: wp.array2d(dtype=wp.int32), row0: int, col: int,
+                      o: wp.vec3, d: wp.vec3, done: wp.array2d(dtype=wp.int32), tid: int, nd: int, k_from: int,
+                      t_from: float) -> int:
+    """The neighbour check where the ray leaves empty space (in front of the mesh, or after leaving it
+    through a boundary face): the first cell after ``t_from`` in the 3-column neighbourhood, between
+    buffer row ``k_from`` and the column's own next cell, if it lies in front of that cell (a column
+    running along an edge of the ID buffers can miss cells the ray crosses). Returns -1 if none."""
+    k_next = k_from
+    t_next = float(BIG)
+    found = int(0)
+    while k_next < w.rows and found == 0:
+        v = vsb[row0 + k_next, col]
+        if v >= 0:
+            if list_has(done, tid, nd, v)[0] == 0:
+                found = 1
+                t_next = cell_interval(cells, v, o, d, w.eps)[0]
+        if found == 0:
+            k_next += 1
+    best_t = float(BIG)
+    best = int(-1)
+    for di in range(-1, 2):
+        cc = wp.clamp(col + di, 0, w.width - 1)
+        prev = int(-1)
+        for rr in range(wp.max(k_from - 1, 0), wp.min(k_next + 2, w.rows)):
+            cand = vsb[row0 + rr, cc]
+            if cand >= 0 and cand != prev:
+                prev = cand
+                ivs = cell_interval(cells, cand, o, d, w.eps)
+                if (ivs[1] > wp.max(ivs[0], t_from) + w.eps and ivs[0] < t_next - w.eps and ivs[0] < best_t
+                        and list_has(done, tid, nd, cand)[0] == 0):
+                    best_t = ivs[0]
+                    best = cand
+    return best
+
+
+@wp.func
 def buffer_row(w: Walk, p: wp.vec3) -> int:
     z = wp.dot(p - w.eye, w.fwd)
     c = z
     if w.ortho == 0:
         c = -1.0 / wp.max(z, 1.0e-30)
     return wp.clamp(int(wp.floor((c - w.cmin) * w.cscale)), 0, w.rows - 1)
+
+
+@wp.func
+def integrate_cell(cells: VsbCells, w: Walk, cid: int, o: wp.vec3, d: wp.vec3, rgb_in: wp.vec3, trans_in: float,
+                   t_in: float, s_in: float, key_last: wp.vec3i, tf_s: wp.array(dtype=float),
+                   tf_v: wp.array(dtype=wp.vec4), counters: wp.array2d(dtype=wp.int32), tid: int):
+    """Integrate cell ``cid``: its pieces in ray order between entry and exit (entry point reused from
+    the previous exit across a shared face). Returns the updated ``(rgb, trans, t_last, s_last,
+    key_last, exit piece, exit face)``; exit piece -1 if the ray misses the cell."""
+    rgb = wp.vec3(rgb_in)
+    trans = float(trans_in)
+    t_last = float(t_in)
+    s_last = float(s_in)
+    q0 = cells.cell_start[cid]
+    q1 = cells.cell_start[cid + 1]
+    t_prev = float(-BIG)
+    exit_q = int(-1)
+    exit_f = int(-1)
+    first = int(1)
+    npieces = q1 - q0
+    for it in range(npieces):
+        # next piece in ray order (a cell has at most a few pieces: selection by entry parameter)
+        best = int(-1)
+        bt = float(BIG)
+        for q in range(q0, q1):
+            iv = piece_interval(cells, q, o, d, w.eps)
+            if iv[1] > iv[0] and iv[0] > t_prev and iv[0] < bt:
+                bt = iv[0]
+                best = q
+        if best < 0:
+            if it == 0:
+                counters[tid, 12] += 1  # drawn in this column, but the ray misses it (rounding)
+            break
+        iv = piece_interval(cells, best, o, d, w.eps)
+        t_prev = iv[0]
+        fa = int(iv[2])
+        fb = int(iv[3])
+        ta = wp.max(iv[0], 0.0)
+        tb = iv[1]
+        sa = float(0.0)
+        key = sorted3(face_tri(cells.tets[best], fa))
+        if first == 1 and key[0] == key_last[0] and key[1] == key_last[1] and key[2] == key_last[2]:
+            ta = t_last
+            sa = s_last
+            counters[tid, 4] += 1
+        else:
+            ta = wp.max(ta, t_last)
+            r = robust_scalar(cells, best, fa, o + d * ta)
+            sa = r[0]
+            counters[tid, 5] += 1
+            counters[tid, 11] += int(r[1])
+        first = 0
+        rb = robust_scalar(cells, best, fb, o + d * tb)
+        counters[tid, 11] += int(rb[1])
+        length = tb - ta
+        if length > 0.0:
+            seg = wp.vec4(0.0, 0.0, 0.0, 0.0)
+            if w.integ == INTEG_EXACT:
+                seg = integrate_segment(sa, rb[0], length, tf_s, tf_v, w.model)
+            else:
+                seg = trapezoid(sa, rb[0], length, w.steps, tf_s, tf_v, w.model)
+            rgb += trans * wp.vec3(seg[0], seg[1], seg[2])
+            trans = trans * wp.exp(-seg[3])
+            t_last = tb
+        s_last = rb[0]
+        exit_q = best
+        exit_f = fb
+        counters[tid, 2] += 1
+    kl = key_last
+    if exit_q >= 0:
+        kl = sorted3(face_tri(cells.tets[exit_q], exit_f))
+    return rgb, trans, t_last, s_last, kl, exit_q, exit_f
 
 
 @wp.kernel
@@ -274,27 +382,7 @@ def column_walk(cells: VsbCells, w: Walk, vsb: wp.array2d(dtype=wp.int32), ray_o
     from_nbr = int(0)
     k_run = int(0)
     if w.nbr == 1:
-        # the neighbour check applied where the ray leaves empty space: a cell in front of the
-        # column's first cell that the discretisation left out of this column (a column lying on an
-        # edge in the ID buffers can be empty although the ray crosses cells)
-        k_first = int(0)
-        while k_first < w.rows and vsb[row0 + k_first, col] < 0:
-            k_first += 1
-        t_first = float(BIG)
-        if k_first < w.rows:
-            t_first = cell_interval(cells, vsb[row0 + k_first, col], o, d, w.eps)[0]
-        best_t = float(BIG)
-        for di in range(-1, 2):
-            cc = wp.clamp(col + di, 0, w.width - 1)
-            prev = int(-1)
-            for rr in range(wp.min(k_first + 2, w.rows)):
-                cand = vsb[row0 + rr, cc]
-                if cand >= 0 and cand != prev:
-                    prev = cand
-                    ivs = cell_interval(cells, cand, o, d, w.eps)
-                    if ivs[1] > wp.max(ivs[0], 0.0) and ivs[0] < t_first - w.eps and ivs[0] < best_t:
-                        best_t = ivs[0]
-                        queued = cand
+        queued = empty_space_check(cells, w, vsb, row0, col, o, d, done, tid, nd, 0, 0.0)
         if queued >= 0:
             from_nbr = 1
     while trans >= w.t_min:
@@ -402,67 +490,19 @@ def column_walk(cells: VsbCells, w: Walk, vsb: wp.array2d(dtype=wp.int32), ray_o
         if from_nbr == 1:
             counters[tid, 6] += 1
             from_nbr = 0
-        q0 = cells.cell_start[cid]
-        q1 = cells.cell_start[cid + 1]
-        t_prev = float(-BIG)
-        exit_q = int(-1)
-        exit_f = int(-1)
-        first = int(1)
-        npieces = q1 - q0
-        for it in range(npieces):
-            # next piece in ray order (a cell has at most a few pieces: selection by entry parameter)
-            best = int(-1)
-            bt = float(BIG)
-            for q in range(q0, q1):
-                iv = piece_interval(cells, q, o, d, w.eps)
-                if iv[1] > iv[0] and iv[0] > t_prev and iv[0] < bt:
-                    bt = iv[0]
-                    best = q
-            if best < 0:
-                if it == 0:
-                    counters[tid, 12] += 1  # drawn in this column, but the ray misses it (rounding)
-                break
-            iv = piece_interval(cells, best, o, d, w.eps)
-            t_prev = iv[0]
-            fa = int(iv[2])
-            fb = int(iv[3])
-            ta = wp.max(iv[0], 0.0)
-            tb = iv[1]
-            sa = float(0.0)
-            key = sorted3(face_tri(cells.tets[best], fa))
-            if first == 1 and key[0] == key_last[0] and key[1] == key_last[1] and key[2] == key_last[2]:
-                ta = t_last
-                sa = s_last
-                counters[tid, 4] += 1
-            else:
-                ta = wp.max(ta, t_last)
-                r = robust_scalar(cells, best, fa, o + d * ta)
-                sa = r[0]
-                counters[tid, 5] += 1
-                counters[tid, 11] += int(r[1])
-            first = 0
-            rb = robust_scalar(cells, best, fb, o + d * tb)
-            counters[tid, 11] += int(rb[1])
-            length = tb - ta
-            if length > 0.0:
-                seg = wp.vec4(0.0, 0.0, 0.0, 0.0)
-                if w.integ == INTEG_EXACT:
-                    seg = integrate_segment(sa, rb[0], length, tf_s, tf_v, w.model)
-                else:
-                    seg = trapezoid(sa, rb[0], length, w.steps, tf_s, tf_v, w.model)
-                rgb += trans * wp.vec3(seg[0], seg[1], seg[2])
-                trans = trans * wp.exp(-seg[3])
-                t_last = tb
-            s_last = rb[0]
-            exit_q = best
-            exit_f = fb
-            counters[tid, 2] += 1
+        rgb, trans, t_last, s_last, key_last, exit_q, exit_f = integrate_cell(
+            cells, w, cid, o, d, rgb, trans, t_last, s_last, key_last, tf_s, tf_v, counters, tid)
         if exit_q >= 0:
-            key_last = sorted3(face_tri(cells.tets[exit_q], exit_f))
             nb = cells.adj[4 * exit_q + exit_f]
             pend = -1
             if nb >= 0:
                 pend = cells.piece_cell[nb]
+        if w.nbr == 1 and queued < 0 and exit_q >= 0 and pend < 0:
+            # left the mesh through a boundary face: the next component may start in a missed column
+            queued = empty_space_check(cells, w, vsb, row0, col, o, d, done, tid, nd,
+                                       buffer_row(w, o + d * t_last), t_last)
+            if queued >= 0:
+                from_nbr = 1
         # ---- neighbour check on leaving the cell: cells the discretisation missed in this column ----
         # (only where the column itself does not continue at the exit point)
         cont = int(0)
@@ -498,3 +538,34 @@ def column_walk(cells: VsbCells, w: Walk, vsb: wp.array2d(dtype=wp.int32), ray_o
             if queued >= 0 and queued == pend:
                 pend = -1
     out[pix] = wp.vec4(rgb[0], rgb[1], rgb[2], 1.0 - trans)
+
+
+@wp.kernel
+def audit_pairs(cells: VsbCells, w: Walk, plane: wp.array(dtype=wp.int32), column: wp.array(dtype=wp.int32),
+                cell: wp.array(dtype=wp.int32), ray_o: wp.array(dtype=wp.vec3), ray_d: wp.array(dtype=wp.vec3),
+                done: wp.array2d(dtype=wp.int32), missed: wp.array(dtype=wp.int32),
+                missed_len: wp.array(dtype=float), ray_missed: wp.array(dtype=wp.int32)):
+    """Audit after the walk: for a (plane, column, cell) with the cell cut by the plane over that
+    column, whether the ray crosses the cell for more than ``eps`` and the cell is missing from the
+    ray's list of integrated cells (a loss nothing in the walk could see). One thread per pair."""
+    i = wp.tid()
+    p = plane[i]
+    col = column[i]
+    pix = (w.j0 + p) * w.width + col
+    o = ray_o[pix]
+    d = ray_d[pix]
+    iv = cell_interval(cells, cell[i], o, d, w.eps)
+    length = iv[1] - wp.max(iv[0], 0.0)
+    missed[i] = 0
+    missed_len[i] = 0.0
+    if length > w.eps:
+        tid = p * w.width + col
+        for n in range(w.max_list):
+            v = done[tid, n]
+            if v == cell[i]:
+                return
+            if v < 0:
+                break
+        missed[i] = 1
+        missed_len[i] = length
+        wp.atomic_add(ray_missed, pix, 1)

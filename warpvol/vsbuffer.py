@@ -232,7 +232,8 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
                     tree_depth: int = 5, integration: str = "trapezoid", steps: int = 1,
                     neighbour_check: bool = True, adjacency: str = "count", t_min: float = 0.0,
                     max_list: int = 1024, planes_per_batch: int = 16, threads: int = 0,
-                    tile_size: int = 4, tree_insert: str = "centroid", raster_rules: dict | None = None, count=None) -> tuple[np.ndarray, dict]:
+                    tile_size: int = 4, tree_insert: str = "centroid", raster_rules: dict | None = None, count=None,
+                    keep_lists: bool = False, audit: bool = True) -> tuple[np.ndarray, dict]:
     """Render ``cells`` with the VSBUFFER algorithm; returns ``(image (H, W, 4) premultiplied, stats)``.
 
     Parameters
@@ -264,6 +265,14 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         Rasteriser bin size (emulation only).
     raster_rules : dict, optional
         ``fill_rule`` / ``snap_ties`` for the rasteriser (default: its defaults).
+    audit : bool
+        After each plane's walk, check every (ray, cell) pair the plane cuts: a cell the ray crosses
+        for more than ``1e-6`` of the mesh diagonal but never integrated is counted in
+        ``missed_cells`` (its length in ``stats["missed_length"]``, the count per ray in
+        ``stats["missed_per_ray"]``): no loss goes unreported.
+    keep_lists : bool
+        Return every ray's list of integrated cells, in order (``stats["lists"]``, (H, W, max_list),
+        -1 padded; for inspection of small images).
     count : callable, optional
         ``count(name=int, ...)`` receives the work counters (a stage passes ``ctx.count``).
 
@@ -295,6 +304,9 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     cb_lo = np.minimum.reduceat(pb.min(axis=1), cells.cell_start[:-1])
     cb_hi = np.maximum.reduceat(pb.max(axis=1), cells.cell_start[:-1])
     brange = float((cb_hi - cb_lo).max()) * (1.0 + 1e-6) + 1e-9
+    pa = abc[cells.pieces.tets][..., 0]
+    ca_lo = np.minimum.reduceat(pa.min(axis=1), cells.cell_start[:-1])
+    ca_hi = np.maximum.reduceat(pa.max(axis=1), cells.cell_start[:-1])
     side = _face_sides(cells, abc)
     fc = cells.face_cell
     back_f, front_f = np.nonzero(side > 0)[0], np.nonzero(side < 0)[0]
@@ -329,11 +341,14 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     threads = threads or cpu_threads()
     cnt = {k: 0 for k in kv.COUNTERS}
     cnt.update(planes=H, drawn_cells=0, tree_nodes_tested=0, id_triangles_back=0, id_triangles_front=0,
-               id_pixels_read=0, vsb_pixels_compared=0)
+               id_pixels_read=0, vsb_pixels_compared=0, audit_pairs=0, missed_cells=0)
+    missed_length = 0.0
+    ray_missed = wp.zeros(W * H, dtype=wp.int32, device=device)
     t_setup = time.perf_counter() - t0
     id_s, walk_s = t_setup, 0.0
-    done = wp.zeros((P * W, max(1, int(max_list))), dtype=wp.int32, device=device)
+    done = wp.full((P * W, max(1, int(max_list))), -1, dtype=wp.int32, device=device)
     counters = wp.zeros((P * W, kv.NCOUNT), dtype=wp.int32, device=device)
+    lists = np.full((H, W, max(1, int(max_list))), -1, np.int32) if keep_lists else None
     for j0 in range(0, H, P):
         t1 = time.perf_counter()
         rows = np.arange(j0, min(H, j0 + P))
@@ -390,6 +405,27 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
 
         # each block writes its own rows of ``done``/``counters`` (thread id = plane-in-batch * W + column)
         launch_blocks(device, len(pblocks), launch, threads)
+        if audit:
+            # (plane, column, cell) for cells the plane cuts whose column range holds column centres
+            cut = (cb_lo[pc_cell] <= rows[pc_plane] + 0.5) & (rows[pc_plane] + 0.5 <= cb_hi[pc_cell])
+            ap, ac = pc_plane[cut], pc_cell[cut]
+            c0 = np.clip(np.ceil(ca_lo[ac] - 0.5), 0, W).astype(np.int64)
+            c1 = np.clip(np.floor(ca_hi[ac] - 0.5), -1, W - 1).astype(np.int64)
+            n = np.maximum(c1 - c0 + 1, 0)
+            own3, col3 = _expand(c0, n)
+            if len(own3):
+                dev = lambda a: wp.array(a.astype(np.int32), dtype=wp.int32, device=device)  # noqa: E731
+                missed = wp.zeros(len(own3), dtype=wp.int32, device=device)
+                mlen = wp.zeros(len(own3), dtype=wp.float32, device=device)
+                wp.launch(kv.audit_pairs, dim=len(own3), device=device,
+                          inputs=[dc, w, dev(ap[own3]), dev(col3), dev(ac[own3]), ray_o, ray_d, done, missed, mlen,
+                                  ray_missed])
+                cnt["audit_pairs"] += len(own3)
+                cnt["missed_cells"] += int(missed.numpy().sum())
+                missed_length += float(mlen.numpy().astype(np.float64).sum())
+        if lists is not None:
+            lists[j0:j0 + np_] = done.numpy()[:np_ * W].reshape(np_, W, -1)
+        done.fill_(-1)
         c = counters.numpy().sum(axis=0)
         for k, name in enumerate(kv.COUNTERS):
             cnt[name] += int(c[k])
@@ -400,4 +436,5 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         count(**cnt)
     img = out.numpy().reshape(H, W, 4)
     return img, {"counters": cnt, "id_s": id_s, "walk_s": walk_s, "setup_s": t_setup, "depth_res": R,
-                 "range": brange, "octree_nodes": tree.n_nodes, "cells": cells.n_cells, "tets": cells.n_tets}
+                 "range": brange, "lists": lists, "missed_length": missed_length,
+                 "missed_per_ray": ray_missed.numpy().reshape(H, W) if audit else None, "octree_nodes": tree.n_nodes, "cells": cells.n_cells, "tets": cells.n_tets}

@@ -29,6 +29,7 @@ class VsbSweep(Stage):
     t_min             float  0.0         early ray termination below this transmittance (0: off)
     max_list          int    1024        per-ray list of integrated cells (overflow counted)
     planes_per_batch  int    16          planes per rasteriser call (emulation only)
+    audit             bool   true        count ray/cell crossings the walk missed (``missed_cells``)
     threads           int    0           host threads for the column walk on the CPU (0: all cores)
     ================  =====  ==========  ==============================================================
     """
@@ -47,6 +48,7 @@ class VsbSweep(Stage):
         Param("t_min", float, 0.0, "early ray termination below this transmittance", lo=0.0, hi=1.0),
         Param("max_list", int, 1024, "per-ray list of integrated cells", lo=1, hi=1 << 20),
         Param("planes_per_batch", int, 16, "sweep planes per rasteriser call (emulation only)", lo=1, hi=4096),
+        Param("audit", bool, True, "count ray/cell crossings the walk missed (missed_cells)"),
         Param("threads", int, 0, "host threads for the column walk (0: all cores)", lo=0, hi=256),
     )
 
@@ -54,6 +56,12 @@ class VsbSweep(Stage):
         sc = ctx.scene
         img, st = render_vsbuffer(ctx.buffers["vsb_cells"], sc.transfer, sc.camera, device=ctx.device,
                                   count=ctx.count, **self.config)
-        ctx.stats["vsbuffer"] = {k: v for k, v in st.items() if k != "counters"}
-        ctx.stats["vsbuffer"]["lost_segments"] = st["counters"]["lost_segments"]
+        ctx.stats["vsbuffer"] = {k: v for k, v in st.items() if k not in ("counters", "lists", "missed_per_ray")}
+        c = st["counters"]
+        ctx.stats["vsbuffer"].update(lost_segments=c["lost_segments"], missed_cells=c["missed_cells"])
+        if c["lost_segments"] or c["missed_cells"]:
+            ctx.stats["vsbuffer"]["warning"] = (
+                f"{c['missed_cells']} ray/cell crossings missed by the VSBUFFER "
+                f"({int((st['missed_per_ray'] > 0).sum()) if st['missed_per_ray'] is not None else '?'} rays), "
+                f"{c['lost_segments']} gaps behind interior faces; raise depth_res or use vsbuffer_best")
         ctx.image = img
