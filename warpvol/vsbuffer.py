@@ -233,7 +233,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
                     neighbour_check: bool = True, adjacency: str = "count", t_min: float = 0.0,
                     max_list: int = 1024, planes_per_batch: int = 16, threads: int = 0,
                     tile_size: int = 4, tree_insert: str = "centroid", raster_rules: dict | None = None, count=None,
-                    keep_lists: bool = False, audit: bool = True) -> tuple[np.ndarray, dict]:
+                    keep_lists: bool = False, audit: bool = True, rewalk: bool = False) -> tuple[np.ndarray, dict]:
     """Render ``cells`` with the VSBUFFER algorithm; returns ``(image (H, W, 4) premultiplied, stats)``.
 
     Parameters
@@ -270,6 +270,9 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         for more than ``1e-6`` of the mesh diagonal but never integrated is counted in
         ``missed_cells`` (its length in ``stats["missed_length"]``, the count per ray in
         ``stats["missed_per_ray"]``): no loss goes unreported.
+    rewalk : bool
+        Integrate every ray the audit flagged again, from all cells its plane cuts over its column
+        sorted by entry (an improvement over the paper, which does not sort; needs ``audit``).
     keep_lists : bool
         Return every ray's list of integrated cells, in order (``stats["lists"]``, (H, W, max_list),
         -1 padded; for inspection of small images).
@@ -341,7 +344,8 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     threads = threads or cpu_threads()
     cnt = {k: 0 for k in kv.COUNTERS}
     cnt.update(planes=H, drawn_cells=0, tree_nodes_tested=0, id_triangles_back=0, id_triangles_front=0,
-               id_pixels_read=0, vsb_pixels_compared=0, audit_pairs=0, missed_cells=0)
+               id_pixels_read=0, vsb_pixels_compared=0, audit_pairs=0, missed_cells=0, rays_rewalked=0,
+               rewalk_candidates=0)
     missed_length = 0.0
     ray_missed = wp.zeros(W * H, dtype=wp.int32, device=device)
     t_setup = time.perf_counter() - t0
@@ -421,8 +425,25 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
                           inputs=[dc, w, dev(ap[own3]), dev(col3), dev(ac[own3]), ray_o, ray_d, done, missed, mlen,
                                   ray_missed])
                 cnt["audit_pairs"] += len(own3)
-                cnt["missed_cells"] += int(missed.numpy().sum())
+                miss = missed.numpy()
+                cnt["missed_cells"] += int(miss.sum())
                 missed_length += float(mlen.numpy().astype(np.float64).sum())
+                if rewalk and miss.any():
+                    key = ap[own3] * W + col3
+                    flagged = np.unique(key[miss > 0])
+                    sel = np.nonzero(np.isin(key, flagged))[0]
+                    sel = sel[np.argsort(key[sel], kind="stable")]
+                    keys, first = np.unique(key[sel], return_index=True)
+                    starts = np.append(first, len(sel))
+                    counters.zero_()
+                    wp.launch(kv.rewalk, dim=len(keys), device=device,
+                              inputs=[dc, w, dev(keys), dev(starts), dev(ac[own3][sel]), ray_o, ray_d, tf_s, tf_v,
+                                      out, counters])
+                    c = counters.numpy().sum(axis=0)
+                    for k, name in enumerate(kv.COUNTERS):
+                        cnt[name] += int(c[k])
+                    cnt["rays_rewalked"] += len(keys)
+                    cnt["rewalk_candidates"] += len(sel)
         if lists is not None:
             lists[j0:j0 + np_] = done.numpy()[:np_ * W].reshape(np_, W, -1)
         done.fill_(-1)

@@ -30,6 +30,7 @@ class VsbSweep(Stage):
     max_list          int    1024        per-ray list of integrated cells (overflow counted)
     planes_per_batch  int    16          planes per rasteriser call (emulation only)
     audit             bool   true        count ray/cell crossings the walk missed (``missed_cells``)
+    rewalk            bool   false       integrate flagged rays again from their cut cells, sorted
     threads           int    0           host threads for the column walk on the CPU (0: all cores)
     ================  =====  ==========  ==============================================================
     """
@@ -49,6 +50,7 @@ class VsbSweep(Stage):
         Param("max_list", int, 1024, "per-ray list of integrated cells", lo=1, hi=1 << 20),
         Param("planes_per_batch", int, 16, "sweep planes per rasteriser call (emulation only)", lo=1, hi=4096),
         Param("audit", bool, True, "count ray/cell crossings the walk missed (missed_cells)"),
+        Param("rewalk", bool, False, "integrate rays the audit flagged again from their sorted cut cells"),
         Param("threads", int, 0, "host threads for the column walk (0: all cores)", lo=0, hi=256),
     )
 
@@ -59,7 +61,8 @@ class VsbSweep(Stage):
         ctx.stats["vsbuffer"] = {k: v for k, v in st.items() if k not in ("counters", "lists", "missed_per_ray")}
         c = st["counters"]
         ctx.stats["vsbuffer"].update(lost_segments=c["lost_segments"], missed_cells=c["missed_cells"])
-        if c["lost_segments"] or c["missed_cells"]:
+        ctx.stats["vsbuffer"]["rays_rewalked"] = c["rays_rewalked"]
+        if (c["lost_segments"] or c["missed_cells"]) and not self.rewalk:
             ctx.stats["vsbuffer"]["warning"] = (
                 f"{c['missed_cells']} ray/cell crossings missed by the VSBUFFER "
                 f"({int((st['missed_per_ray'] > 0).sum()) if st['missed_per_ray'] is not None else '?'} rays), "
