@@ -159,3 +159,19 @@ def test_trapezoid_converges_to_exact_segments():
     e1 = np.abs(render_vsbuffer(cm, tf, cam, integration="trapezoid", steps=1, **kw)[0] - ex).max()
     e64 = np.abs(render_vsbuffer(cm, tf, cam, integration="trapezoid", steps=64, **kw)[0] - ex).max()
     assert e64 < 1e-4 < e1 and e64 < e1 / 100
+
+
+def test_wedge_and_pyramid_cells():
+    # a prism (wedge) and a pyramid, disconnected, each drawn as one cell; same image as their tets
+    pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [0, 1, 1],          # wedge
+                    [1.5, 0, 0], [2.5, 0, 0], [2.5, 1, 0], [1.5, 1, 0], [2.0, 0.5, 0.9]], float)  # pyramid
+    g = pv.UnstructuredGrid({13: np.array([[0, 1, 2, 3, 4, 5]]), 14: np.array([[6, 7, 8, 9, 10]])}, pts)
+    g.point_data["s"] = 0.3 + pts[:, 0] * 0.2 + pts[:, 2] ** 2
+    cells = ConvexCellMesh.from_pyvista(g, "s")
+    assert cells.n_cells == 2 and cells.n_tets == 5 and len(cells.boundary) == 8 + 6
+    tf = TransferFunction([[0.0, 0.9, 0.5, 0.2, 2.0], [2.0, 0.2, 0.5, 0.9, 4.0]], "color_extinction")
+    cam = warpvol.Camera(eye=(1.2, -2.5, 2.0), target=(1.2, 0.5, 0.4), fov_y_deg=50.0, width_px=20, height_px=20)
+    a, st = render_vsbuffer(cells, tf, cam, integration="exact", adjacency="recover", rewalk=True)
+    ref = render_reference(cells.to_tetmesh(), tf, cam)
+    assert np.abs(a - ref).max() < TOLERANCES["vsbuffer/vsbuffer_best"]["max_abs"] and a[..., 3].max() > 0.5
+    assert st["counters"]["pieces_integrated"] > st["counters"]["cells_integrated"]
