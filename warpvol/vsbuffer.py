@@ -286,6 +286,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
 
     from .gpu.raster import Rasterizer
     from .kernels import vsbuffer as kv
+    from .kernels import vsbuffer_audit as ka
 
     if not isinstance(cells, ConvexCellMesh):
         raise ConfigError(f"cells: expected a ConvexCellMesh, got {type(cells).__name__}")
@@ -421,7 +422,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
                 dev = lambda a: wp.array(a.astype(np.int32), dtype=wp.int32, device=device)  # noqa: E731
                 missed = wp.zeros(len(own3), dtype=wp.int32, device=device)
                 mlen = wp.zeros(len(own3), dtype=wp.float32, device=device)
-                wp.launch(kv.audit_pairs, dim=len(own3), device=device,
+                wp.launch(ka.audit_pairs, dim=len(own3), device=device,
                           inputs=[dc, w, dev(ap[own3]), dev(col3), dev(ac[own3]), ray_o, ray_d, done, missed, mlen,
                                   ray_missed])
                 cnt["audit_pairs"] += len(own3)
@@ -436,7 +437,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
                     keys, first = np.unique(key[sel], return_index=True)
                     starts = np.append(first, len(sel))
                     counters.zero_()
-                    wp.launch(kv.rewalk, dim=len(keys), device=device,
+                    wp.launch(ka.rewalk, dim=len(keys), device=device,
                               inputs=[dc, w, dev(keys), dev(starts), dev(ac[own3][sel]), ray_o, ray_d, tf_s, tf_v,
                                       out, counters])
                     c = counters.numpy().sum(axis=0)
