@@ -93,16 +93,18 @@ def integrate_piece(h: float, front: wp.vec4, back: wp.vec4, model: int) -> wp.v
 
 
 @wp.func
-def integrate_segment(sf: float, sb: float, length: float, tf_s: wp.array(dtype=float),
-                      tf_v: wp.array(dtype=wp.vec4), model: int) -> wp.vec4:
-    """Radiance (xyz) and optical depth (w) of one ray segment, front-to-back over TF pieces."""
+def integrate_segment_tf(sf: float, sb: float, vf: wp.vec4, vb: wp.vec4, length: float,
+                         tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp.vec4), model: int) -> wp.vec4:
+    """:func:`integrate_segment` with the TF values at both ends given (``vf = tf(sf)``,
+    ``vb = tf(sb)``), so a walker that carries the exit value into the next cell evaluates the TF
+    once per face."""
     if not (length > 0.0):
         return wp.vec4(0.0, 0.0, 0.0, 0.0)
     ds = sb - sf
     rgb = wp.vec3(0.0, 0.0, 0.0)
     tau = float(0.0)
     u0 = float(0.0)
-    v0 = tf_eval(sf, tf_s, tf_v)
+    v0 = vf
     k = tf_first_break(sf, sb, tf_s)
     while k >= 0:
         u1 = (tf_s[k] - sf) / ds
@@ -113,11 +115,21 @@ def integrate_segment(sf: float, sb: float, length: float, tf_s: wp.array(dtype=
         u0 = u1
         v0 = v1
         k = tf_next_break(k, sf, sb, tf_s)
-    v1 = tf_eval(sb, tf_s, tf_v)
+    v1 = vb
     p = integrate_piece((1.0 - u0) * length, v0, v1, model)
     rgb += wp.exp(-tau) * wp.vec3(p[0], p[1], p[2])
     tau += p[3]
     return wp.vec4(rgb[0], rgb[1], rgb[2], tau)
+
+
+@wp.func
+def integrate_segment(sf: float, sb: float, length: float, tf_s: wp.array(dtype=float),
+                      tf_v: wp.array(dtype=wp.vec4), model: int) -> wp.vec4:
+    """Radiance (xyz) and optical depth (w) of one ray segment, front-to-back over TF pieces."""
+    if not (length > 0.0):
+        return wp.vec4(0.0, 0.0, 0.0, 0.0)
+    return integrate_segment_tf(sf, sb, tf_eval(sf, tf_s, tf_v), tf_eval(sb, tf_s, tf_v), length, tf_s, tf_v,
+                                model)
 
 
 @wp.kernel

@@ -37,7 +37,8 @@ concurrently launched row block.
 
 import warp as wp
 
-from .integrate import integrate_segment
+from .integrate import integrate_segment_tf
+from .tf import tf_eval
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -122,22 +123,30 @@ def make_ray(o: wp.vec3, d: wp.vec3, right: wp.vec3, up: wp.vec3, t0: float, ort
 
 
 @wp.func
-def edge_side(a: wp.vec3, b: wp.vec3, r: Ray) -> float:
-    """Plücker side of ray ``r`` and edge ``a -> b`` (``a`` the lower global vertex index):
-    ``d . ((a - o) x (b - a))``, the same float32 value in every cell sharing the edge.
+def vertex_rel(v: wp.vec4, r: Ray) -> wp.vec3:
+    """Vertex record ``(x, y, z, s)`` -> position relative to the ray origin."""
+    return wp.vec3(v[0], v[1], v[2]) - r.o
 
-    An exact zero becomes ``TIE`` times the first (then second) order term of the ray perturbation,
-    also a property of the edge alone; it stays 0 only for an edge parallel to an orthographic ray
-    (or on a line through a perspective eye)."""
-    e = b - a
-    v = wp.dot(r.d, wp.cross(a - r.o, e))
+
+@wp.func
+def edge_side(qa: wp.vec3, ma: wp.vec3, qb: wp.vec3, r: Ray) -> float:
+    """Plücker side of ray ``r`` and edge ``a -> b`` (``a`` the lower global vertex index), from the
+    endpoints relative to the ray origin ``qa``, ``qb`` and ``ma = d x qa``:
+    ``d . (qa x qb) = qb . ma``, the same float32 value in every cell sharing the edge.
+
+    ``> 0``: the ray passes the edge counter-clockwise seen along ``d``. An exact zero becomes
+    ``TIE`` times the first (then second) order term of the ray perturbation, also a property of the
+    edge alone; it stays 0 only for an edge parallel to an orthographic ray (or on a line through a
+    perspective eye)."""
+    v = wp.dot(qb, ma)
     if v == 0.0:
+        e = qb - qa
         if r.ortho == 1:
             v = TIE * wp.dot(r.tie_x, wp.cross(r.d, e))
             if v == 0.0:
                 v = TIE * wp.dot(r.tie_y, wp.cross(r.d, e))
         else:
-            ae = wp.cross(a - r.o + r.back, e)
+            ae = wp.cross(qa + r.back, e)
             v = TIE * wp.dot(r.tie_x, ae)
             if v == 0.0:
                 v = TIE * wp.dot(r.tie_y, ae)
@@ -145,31 +154,34 @@ def edge_side(a: wp.vec3, b: wp.vec3, r: Ray) -> float:
 
 
 @wp.func
-def oriented_side(gi: int, gj: int, pi: wp.vec3, pj: wp.vec3, r: Ray) -> float:
+def oriented_side(gi: int, gj: int, qi: wp.vec3, mi: wp.vec3, qj: wp.vec3, mj: wp.vec3, r: Ray) -> float:
     """:func:`edge_side` of the directed edge ``i -> j`` (global indices ``gi``, ``gj``)."""
     if gi < gj:
-        return edge_side(pi, pj, r)
-    return -edge_side(pj, pi, r)
+        return edge_side(qi, mi, qj, r)
+    return -edge_side(qj, mj, qi, r)
 
 
 @wp.func
-def face_cross(pa: wp.vec3, pb: wp.vec3, pc: wp.vec3, sa: float, sb: float, sc: float, wab: float, wbc: float,
-               wca: float, o: wp.vec3, d: wp.vec3):
-    """Crossing of the ray with triangle ``(a, b, c)`` given the directed edge values ``wab``,
-    ``wbc``, ``wca`` (all >= 0 with a positive sum: crossed). Returns ``(crossed, t, s)``: ray
-    parameter and scalar at the crossing from the barycentric weights ``(wbc, wca, wab) / sum``."""
+def face_cross(qa: wp.vec3, qb: wp.vec3, qc: wp.vec3, sa: float, sb: float, sc: float, wab: float, wbc: float,
+               wca: float, d: wp.vec3):
+    """Crossing of the ray (direction ``d``) with triangle ``(a, b, c)`` (vertices relative to the ray
+    origin) given its directed edge values ``wab``, ``wbc``, ``wca``: crossed when all are >= 0 with a
+    positive sum. Returns ``(crossed, t, s)``: ray parameter and scalar at the crossing from the
+    barycentric weights ``(wbc, wca, wab) / sum`` -- a convex combination of the face's vertices and
+    scalars, so bounded, and the same from both cells sharing the face."""
     ssum = wab + wbc + wca
     if wab < 0.0 or wbc < 0.0 or wca < 0.0 or not (ssum > 0.0):
         return False, 0.0, 0.0
     inv = 1.0 / ssum
-    x = ((pa - o) * wbc + (pb - o) * wca + (pc - o) * wab) * inv
+    x = (qa * wbc + qb * wca + qc * wab) * inv
     s = (sa * wbc + sb * wca + sc * wab) * inv
     return True, wp.dot(x, d), s
 
 
 @wp.func
-def cell_exit(tv: wp.vec4i, pts: wp.array(dtype=wp.vec3), scal: wp.array(dtype=float), f_in: int, r: Ray):
-    """Exit of the ray from tet ``tv`` entered through local face ``f_in`` (``NO_FACE``: any face).
+def cell_exit(tv: wp.vec4i, verts: wp.array(dtype=wp.vec4), f_in: int, r: Ray):
+    """Exit of ray ``r`` from tet ``tv`` (global vertex indices) entered through local face ``f_in``
+    (``NO_FACE``: any face); ``verts`` holds ``(x, y, z, s)`` per point.
 
     Local face ``k`` is opposite vertex ``k`` with outward vertex order ``(1,2,3), (0,3,2), (0,1,3),
     (0,2,1)``. Returns ``(face, t, s)``; ``face = NO_FACE`` when no face qualifies."""
@@ -177,42 +189,46 @@ def cell_exit(tv: wp.vec4i, pts: wp.array(dtype=wp.vec3), scal: wp.array(dtype=f
     g1 = tv[1]
     g2 = tv[2]
     g3 = tv[3]
-    p0 = pts[g0]
-    p1 = pts[g1]
-    p2 = pts[g2]
-    p3 = pts[g3]
-    e01 = oriented_side(g0, g1, p0, p1, r)
-    e02 = oriented_side(g0, g2, p0, p2, r)
-    e03 = oriented_side(g0, g3, p0, p3, r)
-    e12 = oriented_side(g1, g2, p1, p2, r)
-    e13 = oriented_side(g1, g3, p1, p3, r)
-    e23 = oriented_side(g2, g3, p2, p3, r)
-    s0 = scal[g0]
-    s1 = scal[g1]
-    s2 = scal[g2]
-    s3 = scal[g3]
+    v0 = verts[g0]
+    v1 = verts[g1]
+    v2 = verts[g2]
+    v3 = verts[g3]
+    q0 = vertex_rel(v0, r)
+    q1 = vertex_rel(v1, r)
+    q2 = vertex_rel(v2, r)
+    q3 = vertex_rel(v3, r)
+    m0 = wp.cross(r.d, q0)
+    m1 = wp.cross(r.d, q1)
+    m2 = wp.cross(r.d, q2)
+    m3 = wp.cross(r.d, q3)
+    e01 = oriented_side(g0, g1, q0, m0, q1, m1, r)
+    e02 = oriented_side(g0, g2, q0, m0, q2, m2, r)
+    e03 = oriented_side(g0, g3, q0, m0, q3, m3, r)
+    e12 = oriented_side(g1, g2, q1, m1, q2, m2, r)
+    e13 = oriented_side(g1, g3, q1, m1, q3, m3, r)
+    e23 = oriented_side(g2, g3, q2, m2, q3, m3, r)
     if f_in != 0:
-        ok, t, s = face_cross(p1, p2, p3, s1, s2, s3, e12, e23, -e13, r.o, r.d)
+        ok, t, s = face_cross(q1, q2, q3, v1[3], v2[3], v3[3], e12, e23, -e13, r.d)
         if ok:
             return 0, t, s
     if f_in != 1:
-        ok, t, s = face_cross(p0, p3, p2, s0, s3, s2, e03, -e23, -e02, r.o, r.d)
+        ok, t, s = face_cross(q0, q3, q2, v0[3], v3[3], v2[3], e03, -e23, -e02, r.d)
         if ok:
             return 1, t, s
     if f_in != 2:
-        ok, t, s = face_cross(p0, p1, p3, s0, s1, s3, e01, e13, -e03, r.o, r.d)
+        ok, t, s = face_cross(q0, q1, q3, v0[3], v1[3], v3[3], e01, e13, -e03, r.d)
         if ok:
             return 2, t, s
     if f_in != 3:
-        ok, t, s = face_cross(p0, p2, p1, s0, s2, s1, e02, -e12, -e01, r.o, r.d)
+        ok, t, s = face_cross(q0, q2, q1, v0[3], v2[3], v1[3], e02, -e12, -e01, r.d)
         if ok:
             return 3, t, s
     return NO_FACE, 0.0, 0.0
 
 
 @wp.func
-def face_entry(tv: wp.vec4i, f: int, pts: wp.array(dtype=wp.vec3), scal: wp.array(dtype=float), r: Ray):
-    """Entry of the ray into tet ``tv`` through its local face ``f`` (a boundary face: all three
+def face_entry(tv: wp.vec4i, f: int, verts: wp.array(dtype=wp.vec4), r: Ray):
+    """Entry of ray ``r`` into tet ``tv`` through its local face ``f`` (a boundary face: all three
     outward-ordered edge values <= 0). Returns ``(entered, t, s)``."""
     ia = 1
     ib = 2
@@ -232,14 +248,20 @@ def face_entry(tv: wp.vec4i, f: int, pts: wp.array(dtype=wp.vec3), scal: wp.arra
     ga = tv[ia]
     gb = tv[ib]
     gc = tv[ic]
-    pa = pts[ga]
-    pb = pts[gb]
-    pc = pts[gc]
+    va = verts[ga]
+    vb = verts[gb]
+    vc = verts[gc]
+    qa = vertex_rel(va, r)
+    qb = vertex_rel(vb, r)
+    qc = vertex_rel(vc, r)
+    ma = wp.cross(r.d, qa)
+    mb = wp.cross(r.d, qb)
+    mc = wp.cross(r.d, qc)
     # entering = crossing the face reversed (a, c, b)
-    wac = oriented_side(ga, gc, pa, pc, r)
-    wcb = oriented_side(gc, gb, pc, pb, r)
-    wba = oriented_side(gb, ga, pb, pa, r)
-    return face_cross(pa, pc, pb, scal[ga], scal[gc], scal[gb], wac, wcb, wba, r.o, r.d)
+    wac = oriented_side(ga, gc, qa, ma, qc, mc, r)
+    wcb = oriented_side(gc, gb, qc, mc, qb, mb, r)
+    wba = oriented_side(gb, ga, qb, mb, qa, ma, r)
+    return face_cross(qa, qc, qb, va[3], vc[3], vb[3], wac, wcb, wba, r.d)
 
 
 @wp.func
@@ -264,8 +286,7 @@ def march(
     half_h: wp.float64,
     aspect: wp.float64,
     radius: wp.float64,
-    pts: wp.array(dtype=wp.vec3),
-    scal: wp.array(dtype=float),
+    verts: wp.array(dtype=wp.vec4),
     tets: wp.array(dtype=wp.vec4i),
     nbr: wp.array(dtype=wp.vec4i),
     bface_tet: wp.array(dtype=wp.int32),
@@ -319,7 +340,7 @@ def march(
         bf = tile_items[it]
         c = int(bface_tet[bf])
         f = int(bface_local[bf])
-        ok, t, s = face_entry(tets[c], f, pts, scal, r)
+        ok, t, s = face_entry(tets[c], f, verts, r)
         if ok and t > t_start - t_tol and t < best_t and c != prev:
             best_t = t
             best_s = s
@@ -339,13 +360,14 @@ def march(
     tr = trans[idx]
     t_in = best_t
     s_in = best_s
+    v_in = tf_eval(s_in, tf_s, tf_v)
     steps = int(0)
     stall = int(0)
     exited = int(0)
     failed = int(0)
     while steps < max_steps:
         steps += 1
-        f_out, t_out, s_out = cell_exit(tets[cell], pts, scal, face_in, r)
+        f_out, t_out, s_out = cell_exit(tets[cell], verts, face_in, r)
         if f_out < 0:
             failed = 1
             break
@@ -357,14 +379,20 @@ def march(
             if stall > STALL_STEPS:
                 failed = 1
                 break
+        v_out = tf_eval(s_out, tf_s, tf_v)
         if t_out > t_clip:
-            ta, sa = clipped_segment(t_in, t_out, s_in, s_out, t_clip)
-            seg = integrate_segment(sa, s_out, t_out - ta, tf_s, tf_v, model)
+            if t_in >= t_clip:
+                seg = integrate_segment_tf(s_in, s_out, v_in, v_out, t_out - t_in, tf_s, tf_v, model)
+            else:
+                ta, sa = clipped_segment(t_in, t_out, s_in, s_out, t_clip)
+                seg = integrate_segment_tf(sa, s_out, tf_eval(sa, tf_s, tf_v), v_out, t_out - ta, tf_s, tf_v,
+                                           model)
             acc += tr * wp.vec3(seg[0], seg[1], seg[2])
             tr = tr * wp.exp(-seg[3])
         nb = nbr[cell][f_out]
         t_in = t_out
         s_in = s_out
+        v_in = v_out
         if tr < t_min:
             break
         if nb < 0:

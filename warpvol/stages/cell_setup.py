@@ -1,9 +1,9 @@
 """Host step ``cell_setup``: per-mesh cell data for ray propagation, kept across renders.
 
-Layout (float32 / int32, 48 bytes per tet plus 16 per point): point positions relative to
-``cells["origin"]`` (the centre of the mesh's bounding box; float64 shift before the float32 cast,
-so rounding scales with the mesh's size, not with its distance from the world origin), point
-scalars, the 4 vertex indices per tet, and per local face ``4 * neighbour + (the face's local index
+Layout (float32 / int32, 32 bytes per tet plus 16 per point): per point ``(x, y, z, s)``, the
+position relative to ``cells["origin"]`` (the centre of the mesh's bounding box; float64 shift before
+the float32 cast, so rounding scales with the mesh's size, not with its distance from the world
+origin) and the scalar; per tet the 4 vertex indices and per local face ``4 * neighbour + (the face's local index
 in the neighbour)`` (``-1`` on the boundary). The walk (:mod:`warpvol.kernels.raycast`) needs no
 face planes or gradients: Plücker edge tests on the shared points decide faces, barycentric weights
 give depth and scalar. The transfer function is uploaded per render.
@@ -46,8 +46,8 @@ def mesh_arrays(mesh, device: str) -> dict:
         "origin": origin,
         "radius": float(np.sqrt((rel * rel).sum(axis=1).max())),
         "diameter": float(np.linalg.norm(hi - lo)),
-        "pts": wp.array(np.ascontiguousarray(rel, dtype=np.float32), dtype=wp.vec3, device=device),
-        "scal": wp.array(np.ascontiguousarray(mesh.scalars, dtype=np.float32), dtype=wp.float32, device=device),
+        "verts": wp.array(np.ascontiguousarray(np.c_[rel, mesh.scalars], dtype=np.float32), dtype=wp.vec4,
+                          device=device),
         "tets": wp.array(np.ascontiguousarray(mesh.tets, dtype=np.int32), dtype=wp.vec4i, device=device),
         "nbr": wp.array(neighbour_faces(mesh.adjacency), dtype=wp.vec4i, device=device),
     }

@@ -110,7 +110,7 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
     common = [w, h, v3(*eye), v3(*cam.forward), v3(*cam.right), v3(*cam.true_up),
               int(cam.projection == "orthographic"), wp.float64(half_h), wp.float64(cam.aspect),
               wp.float64(max(cells["radius"], 1e-30)),
-              cells["pts"], cells["scal"], cells["tets"], cells["nbr"], bins["bface_tet"], bins["bface_local"],
+              cells["verts"], cells["tets"], cells["nbr"], bins["bface_tet"], bins["bface_local"],
               bins["tile_start"], bins["tile_items"], bins["tile"], bins["tiles_x"],
               cells["tf_s"], cells["tf_v"], cells["model"], max_steps, t_min, 1e-6 * cells["radius"]]
 
