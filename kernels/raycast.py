@@ -8,8 +8,8 @@ One thread per pixel. Building blocks (``@wp.func``, reused by other ray walkers
   when the eye / orthographic eye plane lies inside the sphere: the walk starts before it and
   segments are clipped at ``t_clip``), and whether the ray meets the sphere at all beyond its start.
 * :class:`Ray` / :func:`make_ray` -- the float32 ray and its tie-breaking perturbation.
-* :func:`edge_side` -- Plücker side of the ray against a mesh edge, ``d . ((a - o) x (b - a))`` with
-  ``a, b`` in ascending global vertex order, so every cell sharing the edge gets the *same* float32
+* :func:`edge_side` -- Plücker side of the ray against a mesh edge, ``(b - a) . (d x (a - o))`` with
+  ``a, b`` in ascending global vertex order (rounding error ~ the edge's length, not its distance), so every cell sharing the edge gets the *same* float32
   value; exact zeros are replaced by the sign of the reference's ray perturbation (scaled by
   :data:`TIE`), also a property of the edge alone.
 * :func:`oriented_side` -- that value for the directed edge ``i -> j`` (negated when ``i > j``).
@@ -123,24 +123,24 @@ def make_ray(o: wp.vec3, d: wp.vec3, right: wp.vec3, up: wp.vec3, t0: float, ort
 
 
 @wp.func
-def vertex_rel(v: wp.vec4, r: Ray) -> wp.vec3:
-    """Vertex record ``(x, y, z, s)`` -> position relative to the ray origin."""
-    return wp.vec3(v[0], v[1], v[2]) - r.o
+def vertex_pos(v: wp.vec4) -> wp.vec3:
+    """Position of a vertex record ``(x, y, z, s)``."""
+    return wp.vec3(v[0], v[1], v[2])
 
 
 @wp.func
-def edge_side(qa: wp.vec3, ma: wp.vec3, qb: wp.vec3, r: Ray) -> float:
-    """Plücker side of ray ``r`` and edge ``a -> b`` (``a`` the lower global vertex index), from the
-    endpoints relative to the ray origin ``qa``, ``qb`` and ``ma = d x qa``:
-    ``d . (qa x qb) = qb . ma``, the same float32 value in every cell sharing the edge.
+def edge_side(qa: wp.vec3, ma: wp.vec3, e: wp.vec3, r: Ray) -> float:
+    """Plücker side of ray ``r`` and edge ``a -> b`` (``a`` the lower global vertex index), from
+    ``qa = a - o``, ``ma = d x qa`` and the edge vector ``e = b - a`` taken from the stored points:
+    ``d . (qa x e) = e . ma``. Every cell sharing the edge computes the same float32 value, and its
+    rounding error scales with ``|qa| |e|`` (the edge's length, not its distance from the origin).
 
     ``> 0``: the ray passes the edge counter-clockwise seen along ``d``. An exact zero becomes
     ``TIE`` times the first (then second) order term of the ray perturbation, also a property of the
     edge alone; it stays 0 only for an edge parallel to an orthographic ray (or on a line through a
     perspective eye)."""
-    v = wp.dot(qb, ma)
+    v = wp.dot(e, ma)
     if v == 0.0:
-        e = qb - qa
         if r.ortho == 1:
             v = TIE * wp.dot(r.tie_x, wp.cross(r.d, e))
             if v == 0.0:
@@ -154,11 +154,13 @@ def edge_side(qa: wp.vec3, ma: wp.vec3, qb: wp.vec3, r: Ray) -> float:
 
 
 @wp.func
-def oriented_side(gi: int, gj: int, qi: wp.vec3, mi: wp.vec3, qj: wp.vec3, mj: wp.vec3, r: Ray) -> float:
-    """:func:`edge_side` of the directed edge ``i -> j`` (global indices ``gi``, ``gj``)."""
+def oriented_side(gi: int, gj: int, pi: wp.vec3, qi: wp.vec3, mi: wp.vec3, pj: wp.vec3, qj: wp.vec3,
+                  mj: wp.vec3, r: Ray) -> float:
+    """:func:`edge_side` of the directed edge ``i -> j`` (global indices ``gi``, ``gj``; points
+    ``p``, relative ``q = p - o``, ``m = d x q``)."""
     if gi < gj:
-        return edge_side(qi, mi, qj, r)
-    return -edge_side(qj, mj, qi, r)
+        return edge_side(qi, mi, pj - pi, r)
+    return -edge_side(qj, mj, pi - pj, r)
 
 
 @wp.func
@@ -193,20 +195,24 @@ def cell_exit(tv: wp.vec4i, verts: wp.array(dtype=wp.vec4), f_in: int, r: Ray):
     v1 = verts[g1]
     v2 = verts[g2]
     v3 = verts[g3]
-    q0 = vertex_rel(v0, r)
-    q1 = vertex_rel(v1, r)
-    q2 = vertex_rel(v2, r)
-    q3 = vertex_rel(v3, r)
+    p0 = vertex_pos(v0)
+    p1 = vertex_pos(v1)
+    p2 = vertex_pos(v2)
+    p3 = vertex_pos(v3)
+    q0 = p0 - r.o
+    q1 = p1 - r.o
+    q2 = p2 - r.o
+    q3 = p3 - r.o
     m0 = wp.cross(r.d, q0)
     m1 = wp.cross(r.d, q1)
     m2 = wp.cross(r.d, q2)
     m3 = wp.cross(r.d, q3)
-    e01 = oriented_side(g0, g1, q0, m0, q1, m1, r)
-    e02 = oriented_side(g0, g2, q0, m0, q2, m2, r)
-    e03 = oriented_side(g0, g3, q0, m0, q3, m3, r)
-    e12 = oriented_side(g1, g2, q1, m1, q2, m2, r)
-    e13 = oriented_side(g1, g3, q1, m1, q3, m3, r)
-    e23 = oriented_side(g2, g3, q2, m2, q3, m3, r)
+    e01 = oriented_side(g0, g1, p0, q0, m0, p1, q1, m1, r)
+    e02 = oriented_side(g0, g2, p0, q0, m0, p2, q2, m2, r)
+    e03 = oriented_side(g0, g3, p0, q0, m0, p3, q3, m3, r)
+    e12 = oriented_side(g1, g2, p1, q1, m1, p2, q2, m2, r)
+    e13 = oriented_side(g1, g3, p1, q1, m1, p3, q3, m3, r)
+    e23 = oriented_side(g2, g3, p2, q2, m2, p3, q3, m3, r)
     if f_in != 0:
         ok, t, s = face_cross(q1, q2, q3, v1[3], v2[3], v3[3], e12, e23, -e13, r.d)
         if ok:
@@ -251,16 +257,19 @@ def face_entry(tv: wp.vec4i, f: int, verts: wp.array(dtype=wp.vec4), r: Ray):
     va = verts[ga]
     vb = verts[gb]
     vc = verts[gc]
-    qa = vertex_rel(va, r)
-    qb = vertex_rel(vb, r)
-    qc = vertex_rel(vc, r)
+    pa = vertex_pos(va)
+    pb = vertex_pos(vb)
+    pc = vertex_pos(vc)
+    qa = pa - r.o
+    qb = pb - r.o
+    qc = pc - r.o
     ma = wp.cross(r.d, qa)
     mb = wp.cross(r.d, qb)
     mc = wp.cross(r.d, qc)
     # entering = crossing the face reversed (a, c, b)
-    wac = oriented_side(ga, gc, qa, ma, qc, mc, r)
-    wcb = oriented_side(gc, gb, qc, mc, qb, mb, r)
-    wba = oriented_side(gb, ga, qb, mb, qa, ma, r)
+    wac = oriented_side(ga, gc, pa, qa, ma, pc, qc, mc, r)
+    wcb = oriented_side(gc, gb, pc, qc, mc, pb, qb, mb, r)
+    wba = oriented_side(gb, ga, pb, qb, mb, pa, qa, ma, r)
     return face_cross(qa, qc, qb, va[3], vc[3], vb[3], wac, wcb, wba, r.d)
 
 
