@@ -37,11 +37,20 @@ THIN_DEPTH = wp.constant(0.05)
 
 
 @wp.func
+def exp_neg(x: float) -> float:
+    """``exp(-x)`` for ``x >= 0``; below :data:`THIN_DEPTH` by its degree-4 Taylor polynomial
+    (truncation <= x^5/120 = 2.6e-9 relative, below float32 rounding) -- the walkers' hot path."""
+    if x <= THIN_DEPTH:
+        return 1.0 - x * (1.0 - x * 0.5 * (1.0 - x * (1.0 / 3.0) * (1.0 - x * 0.25)))
+    return wp.exp(-x)
+
+
+@wp.func
 def _piece_term(x: float, v: float, a: float, b: float, r0: float, dr: float,
                 c0: wp.vec3, dc: wp.vec3, model: int) -> wp.vec3:
     # integrand at local parameter x of the piece (0..1); tau(x) = a x + b x^2 / 2
     tau = a * x + 0.5 * b * x * x
-    w = wp.exp(-tau)
+    w = exp_neg(tau)
     c = c0 + dc * x
     if model == 0:
         w = w * (r0 + dr * x)

@@ -37,8 +37,8 @@ concurrently launched row block.
 
 import warp as wp
 
-from .integrate import integrate_segment_tf
-from .tf import tf_eval
+from .integrate import exp_neg, integrate_piece, integrate_segment_tf
+from .tf import tf_eval, tf_eval_upper, tf_upper
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -369,7 +369,8 @@ def march(
     tr = trans[idx]
     t_in = best_t
     s_in = best_s
-    v_in = tf_eval(s_in, tf_s, tf_v)
+    k_in = tf_upper(s_in, tf_s)
+    v_in = tf_eval_upper(s_in, k_in, tf_s, tf_v)
     steps = int(0)
     stall = int(0)
     exited = int(0)
@@ -388,19 +389,24 @@ def march(
             if stall > STALL_STEPS:
                 failed = 1
                 break
-        v_out = tf_eval(s_out, tf_s, tf_v)
+        k_out = tf_upper(s_out, tf_s)
+        v_out = tf_eval_upper(s_out, k_out, tf_s, tf_v)
         if t_out > t_clip:
             if t_in >= t_clip:
-                seg = integrate_segment_tf(s_in, s_out, v_in, v_out, t_out - t_in, tf_s, tf_v, model)
+                if k_in == k_out:  # no control point crossed: one linear piece
+                    seg = integrate_piece(t_out - t_in, v_in, v_out, model)
+                else:
+                    seg = integrate_segment_tf(s_in, s_out, v_in, v_out, t_out - t_in, tf_s, tf_v, model)
             else:
                 ta, sa = clipped_segment(t_in, t_out, s_in, s_out, t_clip)
                 seg = integrate_segment_tf(sa, s_out, tf_eval(sa, tf_s, tf_v), v_out, t_out - ta, tf_s, tf_v,
                                            model)
             acc += tr * wp.vec3(seg[0], seg[1], seg[2])
-            tr = tr * wp.exp(-seg[3])
+            tr = tr * exp_neg(seg[3])
         nb = nbr[cell][f_out]
         t_in = t_out
         s_in = s_out
+        k_in = k_out
         v_in = v_out
         if tr < t_min:
             break
