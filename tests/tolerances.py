@@ -12,13 +12,11 @@ raycast/fp32           2e-6         1e-4         float32 geometry relative to th
                                                  error ~ rounding / |d.n|) dominate max_abs. Seen:
                                                  rmse <= 4.3e-7, max_abs <= 3.2e-5 (built-ins,
                                                  Blunt Fin, LOX post, combustor)
-raycast/fp32_sliver    2e-6         1e-4         same bounds as raycast/fp32 (placeholder, see below)
 segment/fp32           (rel) 2e-5   --           one segment integral in float32 vs float64 closed form
 =====================  ===========  ===========  ==================================================
 """
 
 TOLERANCES = {
     "raycast/fp32": {"rmse": 2e-6, "max_abs": 1e-4},
-    "raycast/fp32_sliver": {"rmse": 2e-6, "max_abs": 1e-4},
     "segment/fp32": {"rtol": 2e-5, "atol": 1e-6},
 }
