@@ -123,9 +123,11 @@ def make_ray(o: wp.vec3, d: wp.vec3, right: wp.vec3, up: wp.vec3, t0: float, ort
 
 
 @wp.func
-def vertex_pos(v: wp.vec4) -> wp.vec3:
-    """Position of a vertex record ``(x, y, z, s)``."""
-    return wp.vec3(v[0], v[1], v[2])
+def vertex_frame(v: wp.vec4, r: Ray):
+    """Vertex record ``(x, y, z, s)`` -> ``(p, q, m)``: position, ``q = p - o``, ``m = d x q``."""
+    p = wp.vec3(v[0], v[1], v[2])
+    q = p - r.o
+    return p, q, wp.cross(r.d, q)
 
 
 @wp.func
@@ -195,18 +197,10 @@ def cell_exit(tv: wp.vec4i, verts: wp.array(dtype=wp.vec4), f_in: int, r: Ray):
     v1 = verts[g1]
     v2 = verts[g2]
     v3 = verts[g3]
-    p0 = vertex_pos(v0)
-    p1 = vertex_pos(v1)
-    p2 = vertex_pos(v2)
-    p3 = vertex_pos(v3)
-    q0 = p0 - r.o
-    q1 = p1 - r.o
-    q2 = p2 - r.o
-    q3 = p3 - r.o
-    m0 = wp.cross(r.d, q0)
-    m1 = wp.cross(r.d, q1)
-    m2 = wp.cross(r.d, q2)
-    m3 = wp.cross(r.d, q3)
+    p0, q0, m0 = vertex_frame(v0, r)
+    p1, q1, m1 = vertex_frame(v1, r)
+    p2, q2, m2 = vertex_frame(v2, r)
+    p3, q3, m3 = vertex_frame(v3, r)
     e01 = oriented_side(g0, g1, p0, q0, m0, p1, q1, m1, r)
     e02 = oriented_side(g0, g2, p0, q0, m0, p2, q2, m2, r)
     e03 = oriented_side(g0, g3, p0, q0, m0, p3, q3, m3, r)
@@ -257,15 +251,9 @@ def face_entry(tv: wp.vec4i, f: int, verts: wp.array(dtype=wp.vec4), r: Ray):
     va = verts[ga]
     vb = verts[gb]
     vc = verts[gc]
-    pa = vertex_pos(va)
-    pb = vertex_pos(vb)
-    pc = vertex_pos(vc)
-    qa = pa - r.o
-    qb = pb - r.o
-    qc = pc - r.o
-    ma = wp.cross(r.d, qa)
-    mb = wp.cross(r.d, qb)
-    mc = wp.cross(r.d, qc)
+    pa, qa, ma = vertex_frame(va, r)
+    pb, qb, mb = vertex_frame(vb, r)
+    pc, qc, mc = vertex_frame(vc, r)
     # entering = crossing the face reversed (a, c, b)
     wac = oriented_side(ga, gc, pa, qa, ma, pc, qc, mc, r)
     wcb = oriented_side(gc, gb, pc, qc, mc, pb, qb, mb, r)
