@@ -9,18 +9,22 @@ One thread per pixel. Building blocks (``@wp.func``, reused by other ray walkers
   segments are clipped at ``t_clip``), and whether the ray meets the sphere at all beyond its start.
 * :class:`Ray` / :func:`make_ray` -- the float32 ray and its tie-breaking perturbation.
 * :func:`edge_side` -- Plücker side of the ray against a mesh edge, ``(b - a) . (d x (a - o))`` with
-  ``a, b`` in ascending global vertex order (rounding error ~ the edge's length, not its distance), so every cell sharing the edge gets the *same* float32
-  value; exact zeros are replaced by the sign of the reference's ray perturbation (scaled by
+  ``a, b`` in ascending global vertex order (rounding error ~ the edge's length, not its distance),
+  so every cell sharing the edge gets the *same* float32 value; exact zeros are replaced by the sign of the reference's ray perturbation (scaled by
   :data:`TIE`), also a property of the edge alone.
 * :func:`oriented_side` -- that value for the directed edge ``i -> j`` (negated when ``i > j``).
 * :func:`face_cross` -- ray through a triangle given its three directed edge values: whether it
   crosses (all values >= 0, sum > 0), and the crossing's ``t`` and scalar from the barycentric
   weights (a convex combination of the face's vertices and scalars: bounded, and the same from both
   cells sharing the face).
-* :func:`cell_exit` -- exit face of a tet entered through ``f_in``: the first other face whose three
-  outward-ordered edge values are all >= 0. A shared face is decided by the same three numbers from
-  both sides, so the walk is watertight (no skipped cells, no double counting); the scalar on a face
-  depends only on the face's vertices, so no cell's (possibly huge) gradient leaks into its neighbour.
+* :class:`Face`, :func:`make_face`, :func:`boundary_face` -- a face the ray crosses, with its
+  vertices' frames and its three edge values, oriented outward for the cell the ray leaves.
+* :func:`next_face` -- one step: the ray entered a tet through a :class:`Face`; only the three
+  edges from the tet's new vertex are evaluated (the entry face's values are reused), and the exit
+  is the first other face whose three outward-ordered edge values are all >= 0. A shared face is
+  decided by the same three numbers from both sides, so the walk is watertight (no skipped cells, no
+  double counting); the scalar on a face depends only on the face's vertices, so no cell's
+  (possibly huge) gradient leaks into its neighbour.
 
 A pass (kernel :func:`march`) finds the ray's next entry among the front-facing boundary faces binned
 to the pixel's screen tile (nearest crossing beyond the current parameter), then walks cell to cell,
@@ -182,54 +186,30 @@ def face_cross(qa: wp.vec3, qb: wp.vec3, qc: wp.vec3, sa: float, sb: float, sc: 
     return True, wp.dot(x, d), s
 
 
-@wp.func
-def cell_exit(tv: wp.vec4i, verts: wp.array(dtype=wp.vec4), f_in: int, r: Ray):
-    """Exit of ray ``r`` from tet ``tv`` (global vertex indices) entered through local face ``f_in``
-    (``NO_FACE``: any face); ``verts`` holds ``(x, y, z, s)`` per point.
+@wp.struct
+class Face:
+    """A face the ray crosses, as vertices ``A, B, C`` in the outward order of the cell the ray
+    leaves: global indices ``g``, positions ``p*``, ``q* = p* - o``, ``m* = d x q*``, scalars ``s``
+    and the directed edge values ``w = (A->B, B->C, C->A)`` (all >= 0: the ray crosses it)."""
 
-    Local face ``k`` is opposite vertex ``k`` with outward vertex order ``(1,2,3), (0,3,2), (0,1,3),
-    (0,2,1)``. Returns ``(face, t, s)``; ``face = NO_FACE`` when no face qualifies."""
-    g0 = tv[0]
-    g1 = tv[1]
-    g2 = tv[2]
-    g3 = tv[3]
-    v0 = verts[g0]
-    v1 = verts[g1]
-    v2 = verts[g2]
-    v3 = verts[g3]
-    p0, q0, m0 = vertex_frame(v0, r)
-    p1, q1, m1 = vertex_frame(v1, r)
-    p2, q2, m2 = vertex_frame(v2, r)
-    p3, q3, m3 = vertex_frame(v3, r)
-    e01 = oriented_side(g0, g1, p0, q0, m0, p1, q1, m1, r)
-    e02 = oriented_side(g0, g2, p0, q0, m0, p2, q2, m2, r)
-    e03 = oriented_side(g0, g3, p0, q0, m0, p3, q3, m3, r)
-    e12 = oriented_side(g1, g2, p1, q1, m1, p2, q2, m2, r)
-    e13 = oriented_side(g1, g3, p1, q1, m1, p3, q3, m3, r)
-    e23 = oriented_side(g2, g3, p2, q2, m2, p3, q3, m3, r)
-    if f_in != 0:
-        ok, t, s = face_cross(q1, q2, q3, v1[3], v2[3], v3[3], e12, e23, -e13, r.d)
-        if ok:
-            return 0, t, s
-    if f_in != 1:
-        ok, t, s = face_cross(q0, q3, q2, v0[3], v3[3], v2[3], e03, -e23, -e02, r.d)
-        if ok:
-            return 1, t, s
-    if f_in != 2:
-        ok, t, s = face_cross(q0, q1, q3, v0[3], v1[3], v3[3], e01, e13, -e03, r.d)
-        if ok:
-            return 2, t, s
-    if f_in != 3:
-        ok, t, s = face_cross(q0, q2, q1, v0[3], v2[3], v1[3], e02, -e12, -e01, r.d)
-        if ok:
-            return 3, t, s
-    return NO_FACE, 0.0, 0.0
+    g: wp.vec3i
+    pa: wp.vec3
+    pb: wp.vec3
+    pc: wp.vec3
+    qa: wp.vec3
+    qb: wp.vec3
+    qc: wp.vec3
+    ma: wp.vec3
+    mb: wp.vec3
+    mc: wp.vec3
+    s: wp.vec3
+    w: wp.vec3
 
 
 @wp.func
-def face_entry(tv: wp.vec4i, f: int, verts: wp.array(dtype=wp.vec4), r: Ray):
-    """Entry of ray ``r`` into tet ``tv`` through its local face ``f`` (a boundary face: all three
-    outward-ordered edge values <= 0). Returns ``(entered, t, s)``."""
+def boundary_face(tv: wp.vec4i, f: int, verts: wp.array(dtype=wp.vec4), r: Ray) -> Face:
+    """Boundary face ``f`` of tet ``tv`` as the :class:`Face` through which the ray enters the tet
+    (its outward order reversed: ``(a, c, b)``): :func:`face_hit` tells whether it does."""
     ia = 1
     ib = 2
     ic = 3
@@ -245,20 +225,103 @@ def face_entry(tv: wp.vec4i, f: int, verts: wp.array(dtype=wp.vec4), r: Ray):
         ia = 0
         ib = 2
         ic = 1
-    ga = tv[ia]
-    gb = tv[ib]
-    gc = tv[ic]
+    return make_face(tv[ia], tv[ic], tv[ib], verts, r)
+
+
+@wp.func
+def make_face(ga: int, gb: int, gc: int, verts: wp.array(dtype=wp.vec4), r: Ray) -> Face:
+    """:class:`Face` ``(A, B, C)`` from its global vertex indices."""
     va = verts[ga]
     vb = verts[gb]
     vc = verts[gc]
+    fc = Face()
+    fc.g = wp.vec3i(ga, gb, gc)
     pa, qa, ma = vertex_frame(va, r)
     pb, qb, mb = vertex_frame(vb, r)
     pc, qc, mc = vertex_frame(vc, r)
-    # entering = crossing the face reversed (a, c, b)
-    wac = oriented_side(ga, gc, pa, qa, ma, pc, qc, mc, r)
-    wcb = oriented_side(gc, gb, pc, qc, mc, pb, qb, mb, r)
-    wba = oriented_side(gb, ga, pb, qb, mb, pa, qa, ma, r)
-    return face_cross(qa, qc, qb, va[3], vc[3], vb[3], wac, wcb, wba, r.d)
+    fc.pa = pa
+    fc.qa = qa
+    fc.ma = ma
+    fc.pb = pb
+    fc.qb = qb
+    fc.mb = mb
+    fc.pc = pc
+    fc.qc = qc
+    fc.mc = mc
+    fc.s = wp.vec3(va[3], vb[3], vc[3])
+    fc.w = wp.vec3(oriented_side(ga, gb, pa, qa, ma, pb, qb, mb, r), oriented_side(gb, gc, pb, qb, mb, pc, qc, mc, r),
+                   oriented_side(gc, ga, pc, qc, mc, pa, qa, ma, r))
+    return fc
+
+
+@wp.func
+def face_hit(fc: Face, r: Ray):
+    """:func:`face_cross` of a :class:`Face`: ``(crossed, t, s)``."""
+    return face_cross(fc.qa, fc.qb, fc.qc, fc.s[0], fc.s[1], fc.s[2], fc.w[0], fc.w[1], fc.w[2], r.d)
+
+
+@wp.func
+def next_face(tv: wp.vec4i, j: int, fc: Face, verts: wp.array(dtype=wp.vec4), r: Ray):
+    """One step of the walk: the ray entered tet ``tv`` through ``fc`` (its local face ``j``).
+
+    Only the three edges from the new vertex ``N = tv[j]`` are evaluated; the entry face's edge
+    values are reused (they are the same numbers the neighbour computed). The exit is the first of
+    ``(N, A, B)``, ``(N, C, A)``, ``(N, B, C)`` whose edge values are all >= 0. Returns
+    ``(exit face, local index of the exit face in tv (-1: none qualifies), t, s)``."""
+    gn = tv[j]
+    vn = verts[gn]
+    pn, qn, mn = vertex_frame(vn, r)
+    na = oriented_side(gn, fc.g[0], pn, qn, mn, fc.pa, fc.qa, fc.ma, r)
+    nb = oriented_side(gn, fc.g[1], pn, qn, mn, fc.pb, fc.qb, fc.mb, r)
+    nc = oriented_side(gn, fc.g[2], pn, qn, mn, fc.pc, fc.qc, fc.mc, r)
+    out = Face()
+    opp = int(-1)
+    ok, t, s = face_cross(qn, fc.qa, fc.qb, vn[3], fc.s[0], fc.s[1], na, fc.w[0], -nb, r.d)
+    if ok:  # (N, A, B), opposite C
+        opp = fc.g[2]
+        out.g = wp.vec3i(gn, fc.g[0], fc.g[1])
+        out.pb = fc.pa
+        out.qb = fc.qa
+        out.mb = fc.ma
+        out.pc = fc.pb
+        out.qc = fc.qb
+        out.mc = fc.mb
+        out.s = wp.vec3(vn[3], fc.s[0], fc.s[1])
+        out.w = wp.vec3(na, fc.w[0], -nb)
+    else:
+        ok, t, s = face_cross(qn, fc.qc, fc.qa, vn[3], fc.s[2], fc.s[0], nc, fc.w[2], -na, r.d)
+        if ok:  # (N, C, A), opposite B
+            opp = fc.g[1]
+            out.g = wp.vec3i(gn, fc.g[2], fc.g[0])
+            out.pb = fc.pc
+            out.qb = fc.qc
+            out.mb = fc.mc
+            out.pc = fc.pa
+            out.qc = fc.qa
+            out.mc = fc.ma
+            out.s = wp.vec3(vn[3], fc.s[2], fc.s[0])
+            out.w = wp.vec3(nc, fc.w[2], -na)
+        else:
+            ok, t, s = face_cross(qn, fc.qb, fc.qc, vn[3], fc.s[1], fc.s[2], nb, fc.w[1], -nc, r.d)
+            if ok:  # (N, B, C), opposite A
+                opp = fc.g[0]
+                out.g = wp.vec3i(gn, fc.g[1], fc.g[2])
+                out.pb = fc.pb
+                out.qb = fc.qb
+                out.mb = fc.mb
+                out.pc = fc.pc
+                out.qc = fc.qc
+                out.mc = fc.mc
+                out.s = wp.vec3(vn[3], fc.s[1], fc.s[2])
+                out.w = wp.vec3(nb, fc.w[1], -nc)
+    out.pa = pn
+    out.qa = qn
+    out.ma = mn
+    local = int(-1)
+    for k in range(4):
+        if tv[k] == opp:
+            local = k
+    return out, local, t, s
 
 
 @wp.func
@@ -332,17 +395,20 @@ def march(
     best_s = float(0.0)
     cell = int(-1)
     face_in = int(-1)
+    fc = Face()
     tile_id = (py // tile) * tiles_x + (px // tile)
     for it in range(tile_start[tile_id], tile_start[tile_id + 1]):
         bf = tile_items[it]
         c = int(bface_tet[bf])
         f = int(bface_local[bf])
-        ok, t, s = face_entry(tets[c], f, verts, r)
+        cand = boundary_face(tets[c], f, verts, r)
+        ok, t, s = face_hit(cand, r)
         if ok and t > t_start - t_tol and t < best_t and c != prev:
             best_t = t
             best_s = s
             cell = c
             face_in = f
+            fc = cand
     flat = st >> 2
     if cell >= 0 and best_t <= t_start:
         flat += 1
@@ -365,7 +431,7 @@ def march(
     failed = int(0)
     while steps < max_steps:
         steps += 1
-        f_out, t_out, s_out = cell_exit(tets[cell], verts, face_in, r)
+        fc, f_out, t_out, s_out = next_face(tets[cell], face_in, fc, verts, r)
         if f_out < 0:
             failed = 1
             break
