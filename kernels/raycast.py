@@ -234,11 +234,20 @@ def make_face(ga: int, gb: int, gc: int, verts: wp.array(dtype=wp.vec4), r: Ray)
     va = verts[ga]
     vb = verts[gb]
     vc = verts[gc]
-    fc = Face()
-    fc.g = wp.vec3i(ga, gb, gc)
     pa, qa, ma = vertex_frame(va, r)
     pb, qb, mb = vertex_frame(vb, r)
     pc, qc, mc = vertex_frame(vc, r)
+    w = wp.vec3(oriented_side(ga, gb, pa, qa, ma, pb, qb, mb, r), oriented_side(gb, gc, pb, qb, mb, pc, qc, mc, r),
+                oriented_side(gc, ga, pc, qc, mc, pa, qa, ma, r))
+    return fan_face(wp.vec3i(ga, gb, gc), pa, qa, ma, pb, qb, mb, pc, qc, mc, wp.vec3(va[3], vb[3], vc[3]), w)
+
+
+@wp.func
+def fan_face(g: wp.vec3i, pa: wp.vec3, qa: wp.vec3, ma: wp.vec3, pb: wp.vec3, qb: wp.vec3, mb: wp.vec3,
+             pc: wp.vec3, qc: wp.vec3, mc: wp.vec3, sv: wp.vec3, w: wp.vec3) -> Face:
+    """:class:`Face` from already evaluated vertex frames, scalars and edge values."""
+    fc = Face()
+    fc.g = g
     fc.pa = pa
     fc.qa = qa
     fc.ma = ma
@@ -248,9 +257,8 @@ def make_face(ga: int, gb: int, gc: int, verts: wp.array(dtype=wp.vec4), r: Ray)
     fc.pc = pc
     fc.qc = qc
     fc.mc = mc
-    fc.s = wp.vec3(va[3], vb[3], vc[3])
-    fc.w = wp.vec3(oriented_side(ga, gb, pa, qa, ma, pb, qb, mb, r), oriented_side(gb, gc, pb, qb, mb, pc, qc, mc, r),
-                   oriented_side(gc, ga, pc, qc, mc, pa, qa, ma, r))
+    fc.s = sv
+    fc.w = w
     return fc
 
 
@@ -279,44 +287,20 @@ def next_face(tv: wp.vec4i, j: int, fc: Face, verts: wp.array(dtype=wp.vec4), r:
     ok, t, s = face_cross(qn, fc.qa, fc.qb, vn[3], fc.s[0], fc.s[1], na, fc.w[0], -nb, r.d)
     if ok:  # (N, A, B), opposite C
         opp = fc.g[2]
-        out.g = wp.vec3i(gn, fc.g[0], fc.g[1])
-        out.pb = fc.pa
-        out.qb = fc.qa
-        out.mb = fc.ma
-        out.pc = fc.pb
-        out.qc = fc.qb
-        out.mc = fc.mb
-        out.s = wp.vec3(vn[3], fc.s[0], fc.s[1])
-        out.w = wp.vec3(na, fc.w[0], -nb)
+        out = fan_face(wp.vec3i(gn, fc.g[0], fc.g[1]), pn, qn, mn, fc.pa, fc.qa, fc.ma, fc.pb, fc.qb, fc.mb,
+                       wp.vec3(vn[3], fc.s[0], fc.s[1]), wp.vec3(na, fc.w[0], -nb))
     else:
         ok, t, s = face_cross(qn, fc.qc, fc.qa, vn[3], fc.s[2], fc.s[0], nc, fc.w[2], -na, r.d)
         if ok:  # (N, C, A), opposite B
             opp = fc.g[1]
-            out.g = wp.vec3i(gn, fc.g[2], fc.g[0])
-            out.pb = fc.pc
-            out.qb = fc.qc
-            out.mb = fc.mc
-            out.pc = fc.pa
-            out.qc = fc.qa
-            out.mc = fc.ma
-            out.s = wp.vec3(vn[3], fc.s[2], fc.s[0])
-            out.w = wp.vec3(nc, fc.w[2], -na)
+            out = fan_face(wp.vec3i(gn, fc.g[2], fc.g[0]), pn, qn, mn, fc.pc, fc.qc, fc.mc, fc.pa, fc.qa, fc.ma,
+                           wp.vec3(vn[3], fc.s[2], fc.s[0]), wp.vec3(nc, fc.w[2], -na))
         else:
             ok, t, s = face_cross(qn, fc.qb, fc.qc, vn[3], fc.s[1], fc.s[2], nb, fc.w[1], -nc, r.d)
             if ok:  # (N, B, C), opposite A
                 opp = fc.g[0]
-                out.g = wp.vec3i(gn, fc.g[1], fc.g[2])
-                out.pb = fc.pb
-                out.qb = fc.qb
-                out.mb = fc.mb
-                out.pc = fc.pc
-                out.qc = fc.qc
-                out.mc = fc.mc
-                out.s = wp.vec3(vn[3], fc.s[1], fc.s[2])
-                out.w = wp.vec3(nb, fc.w[1], -nc)
-    out.pa = pn
-    out.qa = qn
-    out.ma = mn
+                out = fan_face(wp.vec3i(gn, fc.g[1], fc.g[2]), pn, qn, mn, fc.pb, fc.qb, fc.mb, fc.pc, fc.qc,
+                               fc.mc, wp.vec3(vn[3], fc.s[1], fc.s[2]), wp.vec3(nb, fc.w[1], -nc))
     local = int(-1)
     for k in range(4):
         if tv[k] == opp:
