@@ -13,7 +13,7 @@ import warnings
 import numpy as np
 import pytest
 
-from helpers import box_mesh, scene
+from helpers import DEVICES, box_mesh, scene
 from tolerances import TOLERANCES
 from warpvol.camera import Camera
 from warpvol.mesh import TetMesh
@@ -28,13 +28,13 @@ TF = TransferFunction([[-1.0, 0.1, 0.2, 1.0, 0.4], [0.0, 1.0, 0.6, 0.1, 1.5], [1
                        [3.0, 1.0, 0.2, 0.2, 2.0]])
 
 
-def render(sc):
-    return Pipeline.load("raycast").render(sc, quiet=True)
+def render(sc, device="cpu"):
+    return Pipeline.load("raycast", device=device).render(sc, quiet=True)
 
 
-def check(sc, tol=TOL, visible=True):
+def check(sc, tol=TOL, visible=True, device="cpu"):
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
-    res = render(sc)
+    res = render(sc, device)
     err = image_error(res.image, ref)
     if visible:
         assert ref[..., 3].max() > 0.05, "the scene must show something"
@@ -61,9 +61,10 @@ def jittered_delaunay(n: int, jitter: float, seed: int) -> TetMesh:
         return TetMesh(pts, tets, s, name=f"delaunay_{jitter:g}_{seed}")
 
 
+@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("jitter", [1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7])
 @pytest.mark.parametrize("seed", [0, 1])
-def test_jittered_delaunay(jitter, seed):
+def test_jittered_delaunay(jitter, seed, device):
     m = jittered_delaunay(5, jitter, seed)
     rng = np.random.default_rng(100 + seed)
     ctr = np.full(3, 2.0)
@@ -71,7 +72,7 @@ def test_jittered_delaunay(jitter, seed):
     eye = ctr + 9.0 * (eye - ctr) / np.linalg.norm(eye - ctr)
     proj = "perspective" if seed == 0 else "orthographic"
     cam = Camera(projection=proj, eye=eye, target=ctr, fov_y_deg=45, height=8.0, width_px=40, height_px=40)
-    check(scene(m, TF, cam))
+    check(scene(m, TF, cam), device=device)
 
 
 def cap_mesh(eps: float) -> TetMesh:
@@ -136,9 +137,10 @@ def test_random_rays_through_vertices():
         check(scene(m, TF, cam))
 
 
+@pytest.mark.parametrize("device", DEVICES)
 @pytest.mark.parametrize("distance", [1e2, 1e4, 1e6])
 @pytest.mark.parametrize("projection", ["perspective", "orthographic"])
-def test_distant_eye(distance, projection):
+def test_distant_eye(distance, projection, device):
     m = grid_scene_mesh()
     d = np.array([0.3, 0.5, 1.0])
     d /= np.linalg.norm(d)
@@ -147,7 +149,7 @@ def test_distant_eye(distance, projection):
     fov = float(np.degrees(2 * np.arctan(0.6 * size / (distance * size))))
     cam = Camera(projection=projection, eye=eye, target=[0, 0, 0], fov_y_deg=fov, height=1.2 * size,
                  width_px=32, height_px=32)
-    check(scene(m, TF, cam))
+    check(scene(m, TF, cam), device=device)
 
 
 @pytest.mark.parametrize("projection", ["perspective", "orthographic"])

@@ -36,9 +36,10 @@ def entry_face_mask(mesh, camera) -> np.ndarray:
 
 
 def window_xy(camera, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Window coordinates (x right in pixels, y down in rows) of points ``p`` (n, 3) and a mask of
-    points too close to the eye plane to project (perspective). A point behind the eye projects to
-    the pixel whose ray *line* passes through it."""
+    """``(wx, wy, bad, z)``: window coordinates (x right in pixels, y down in rows) of points ``p``
+    (n, 3), a mask of points too close to the eye plane to project (perspective) and their depth
+    along the view direction. A point behind the eye projects to the pixel whose ray *line* passes
+    through it."""
     rel = p - camera.eye
     x, y, z = rel @ camera.right, rel @ camera.true_up, rel @ camera.forward
     if camera.projection == "perspective":
@@ -107,7 +108,7 @@ def bin_boundary_faces(mesh, camera, tile: int) -> dict:
 
 @register_stage
 class EntryBins(Stage):
-    """Bin front-facing boundary faces into screen tiles (ray start / re-entry search).
+    """Bin the boundary faces rays may enter through into screen tiles (ray start / re-entry search).
 
     ==========  =====  =======  ======================================
     parameter   type   default  meaning
