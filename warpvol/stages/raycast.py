@@ -1,10 +1,11 @@
 """Stage ``raycast``: float32 ray propagation through the cell adjacency (first pass).
 
-Each pixel's ray enters at the nearest front-facing boundary face of its screen tile (from
-``entry_bins``), walks cell to cell (exit face = smallest positive plane distance among faces the ray
-leaves through; next cell = neighbour across it), integrates each segment exactly for the
-piecewise-linear transfer function and composites front to back. The pass ends where the ray leaves
-the mesh; for non-convex meshes the ``peel`` stage continues from there.
+Each pixel's ray (origin moved to the mesh in float64) enters at the nearest boundary face of its
+screen tile (from ``entry_bins``) and walks cell to cell with consistent Plücker edge tests (see
+:mod:`warpvol.kernels.raycast`), integrates each segment exactly for the piecewise-linear transfer
+function and composites front to back. The pass ends where the ray leaves the mesh; for non-convex
+meshes the ``peel`` stage continues from there. Rays the float32 walk cannot resolve are redone in
+float64 on the host (:func:`redo_pixels_float64`) and counted.
 
 On the CPU a Warp launch runs its threads serially, so the image is cut into row blocks that a pool
 of host threads launches concurrently (``threads``); Warp releases the GIL while a CPU kernel runs.
