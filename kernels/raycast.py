@@ -54,7 +54,8 @@ TIE = wp.constant(1.0e-30)
 #: consecutive steps without progress in ``t`` after which a ray counts as unresolved
 STALL_STEPS = wp.constant(4096)
 NO_FACE = wp.constant(-1)
-#: re-entries without progress in ``t`` (cracks, touching pieces) allowed per ray before it stops
+#: consecutive re-entries without progress in ``t`` (cracks, touching pieces) before a ray counts as
+#: unresolved
 MAX_FLAT_REENTRIES = wp.constant(8)
 
 
@@ -397,8 +398,12 @@ def march(
     if cell >= 0 and best_t <= t_start:
         flat += 1
         best_t = t_start
-    if cell < 0 or flat > MAX_FLAT_REENTRIES:
+    if cell < 0:
         status[idx] = STATUS_DONE
+        return
+    if flat > MAX_FLAT_REENTRIES:
+        status[idx] = STATUS_FAILED  # re-entering without progress: unresolved, redone in float64
+        wp.atomic_add(counters, chunk, 3, 1)
         return
     wp.atomic_add(counters, chunk, 0, 1)  # entries made in this pass
 
@@ -462,6 +467,8 @@ def march(
     trans[idx] = tr
     tcur[idx] = t_in
     last[idx] = cell
+    if t_in > best_t:
+        flat = 0  # the walk advanced: only consecutive re-entries without progress count
     status[idx] = STATUS_ACTIVE + 4 * flat
     if exited == 0:
         status[idx] = STATUS_DONE
