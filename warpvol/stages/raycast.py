@@ -176,7 +176,8 @@ class Raycast(Stage):
     """
 
     name = "raycast"
-    summary = "float32 ray propagation through cell adjacency, exact piecewise-linear segment integrals"
+    summary = ("float32 ray propagation through cell adjacency (consistent Plücker walk, unresolved rays redone "
+               "in float64), exact piecewise-linear segment integrals")
     params = RAY_PARAMS
 
     def run(self, ctx: Context) -> None:
