@@ -275,7 +275,7 @@ def next_face(tv: wp.vec4i, j: int, fc: Face, verts: wp.array(dtype=wp.vec4), r:
 
     Only the three edges from the new vertex ``N = tv[j]`` are evaluated; the entry face's edge
     values are reused (they are the same numbers the neighbour computed). The exit is the first of
-    ``(N, A, B)``, ``(N, C, A)``, ``(N, B, C)`` whose edge values are all >= 0. Returns
+    ``(N, A, B)``, ``(N, B, C)``, ``(N, C, A)`` whose edge values are all >= 0. Returns
     ``(exit face, local index of the exit face in tv (-1: none qualifies), t, s)``."""
     gn = tv[j]
     vn = verts[gn]
@@ -283,25 +283,26 @@ def next_face(tv: wp.vec4i, j: int, fc: Face, verts: wp.array(dtype=wp.vec4), r:
     na = oriented_side(gn, fc.g[0], pn, qn, mn, fc.pa, fc.qa, fc.ma, r)
     nb = oriented_side(gn, fc.g[1], pn, qn, mn, fc.pb, fc.qb, fc.mb, r)
     nc = oriented_side(gn, fc.g[2], pn, qn, mn, fc.pc, fc.qc, fc.mc, r)
+    # candidates (N, A, B), (N, B, C), (N, C, A): the face record rotated (A, B, C) -> (B, C, A)
     out = Face()
     opp = int(-1)
-    ok, t, s = face_cross(qn, fc.qa, fc.qb, vn[3], fc.s[0], fc.s[1], na, fc.w[0], -nb, r.d)
-    if ok:  # (N, A, B), opposite C
-        opp = fc.g[2]
-        out = fan_face(wp.vec3i(gn, fc.g[0], fc.g[1]), pn, qn, mn, fc.pa, fc.qa, fc.ma, fc.pb, fc.qb, fc.mb,
-                       wp.vec3(vn[3], fc.s[0], fc.s[1]), wp.vec3(na, fc.w[0], -nb))
-    else:
-        ok, t, s = face_cross(qn, fc.qc, fc.qa, vn[3], fc.s[2], fc.s[0], nc, fc.w[2], -na, r.d)
-        if ok:  # (N, C, A), opposite B
-            opp = fc.g[1]
-            out = fan_face(wp.vec3i(gn, fc.g[2], fc.g[0]), pn, qn, mn, fc.pc, fc.qc, fc.mc, fc.pa, fc.qa, fc.ma,
-                           wp.vec3(vn[3], fc.s[2], fc.s[0]), wp.vec3(nc, fc.w[2], -na))
-        else:
-            ok, t, s = face_cross(qn, fc.qb, fc.qc, vn[3], fc.s[1], fc.s[2], nb, fc.w[1], -nc, r.d)
-            if ok:  # (N, B, C), opposite A
-                opp = fc.g[0]
-                out = fan_face(wp.vec3i(gn, fc.g[1], fc.g[2]), pn, qn, mn, fc.pb, fc.qb, fc.mb, fc.pc, fc.qc,
-                               fc.mc, wp.vec3(vn[3], fc.s[1], fc.s[2]), wp.vec3(nb, fc.w[1], -nc))
+    t = float(0.0)
+    s = float(0.0)
+    cur = fc
+    nv = wp.vec3(na, nb, nc)
+    for k in range(3):
+        ok, tk, sk = face_cross(qn, cur.qa, cur.qb, vn[3], cur.s[0], cur.s[1], nv[0], cur.w[0], -nv[1], r.d)
+        if ok:
+            opp = cur.g[2]
+            t = tk
+            s = sk
+            out = fan_face(wp.vec3i(gn, cur.g[0], cur.g[1]), pn, qn, mn, cur.pa, cur.qa, cur.ma, cur.pb, cur.qb,
+                           cur.mb, wp.vec3(vn[3], cur.s[0], cur.s[1]), wp.vec3(nv[0], cur.w[0], -nv[1]))
+            break
+        cur = fan_face(wp.vec3i(cur.g[1], cur.g[2], cur.g[0]), cur.pb, cur.qb, cur.mb, cur.pc, cur.qc, cur.mc,
+                       cur.pa, cur.qa, cur.ma, wp.vec3(cur.s[1], cur.s[2], cur.s[0]),
+                       wp.vec3(cur.w[1], cur.w[2], cur.w[0]))
+        nv = wp.vec3(nv[1], nv[2], nv[0])
     local = int(-1)
     for k in range(4):
         if tv[k] == opp:
