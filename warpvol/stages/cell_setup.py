@@ -84,6 +84,8 @@ class CellSetup(Stage):
 
     name = "cell_setup"
     summary = "upload points, scalars, tets, neighbour faces (cached per mesh) and the TF"
+    needs = ()
+    provides = ("cells",)
 
     def run(self, ctx: Context) -> None:
         cache = ctx.persistent.setdefault("cells", {})

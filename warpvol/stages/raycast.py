@@ -178,6 +178,8 @@ class Raycast(Stage):
     name = "raycast"
     summary = ("float32 ray propagation through cell adjacency (consistent Plücker walk, unresolved rays redone "
                "in float64), exact piecewise-linear segment integrals")
+    needs = ("cells", "entry_bins")
+    provides = ("march", "image")
     params = RAY_PARAMS
 
     def run(self, ctx: Context) -> None:
