@@ -1,0 +1,56 @@
+"""Host step ``sort``: visibility order of the cells for cell projection (:mod:`warpvol.sort`).
+
+Stores the back-to-front order (int32 cell indices) in ``ctx.buffers["order"]`` and what is known
+about it in ``ctx.stats["sort"]`` (method run, whether it is exact, why not); counts
+``cells_sorted``, ``graph_edges`` and ``cycles_broken``.
+"""
+
+from __future__ import annotations
+
+from ..pipeline import Context, Param, Stage, register_stage
+from ..sort import METHODS, METRICS, visibility_order
+
+
+@register_stage
+class SortCells(Stage):
+    """Centroid, MPVO or MPVONC visibility sort (back to front).
+
+    ==========  =====  ========  ========================================  =========================
+    parameter   type   default   allowed                                   meaning
+    ==========  =====  ========  ========================================  =========================
+    method      str    auto      ``auto`` ``centroid`` ``mpvo`` ``mpvonc``  ``auto``: MPVO for convex
+                                                                           meshes, else MPVONC
+    metric      str    distance  ``distance`` | ``view``                   centroid key (perspective)
+    ==========  =====  ========  ========================================  =========================
+
+    Example
+    -------
+    >>> from warpvol.builtin import builtin_scene
+    >>> ctx = Context(scene=builtin_scene("concave"), quiet=True)
+    >>> SortCells(method="auto").run(ctx)
+    >>> ctx.stats["sort"]["method"], ctx.stats["sort"]["exact"]
+    ('mpvonc', False)
+    """
+
+    name = "sort"
+    summary = "visibility sort of the cells: centroid (numeric), MPVO (convex) or MPVONC (non-convex)"
+    params = (
+        Param("method", str, "auto", "sorting method (auto: MPVO if the mesh is convex, else MPVONC)",
+              choices=METHODS),
+        Param("metric", str, "distance", "centroid key: distance to the eye or depth along the view",
+              choices=METRICS),
+    )
+    provides = ("order",)
+
+    def run(self, ctx: Context) -> None:
+        mesh = ctx.scene.mesh
+        r = visibility_order(mesh, ctx.scene.camera, self.config["method"], self.config["metric"])
+        ctx.buffers["order"] = r.order
+        info = {"method": r.method, "exact": r.exact}
+        if r.note:
+            info["approximate"] = r.note
+        if self.config["method"] == "auto":
+            info["planner"] = ("convex boundary: MPVO" if mesh.is_convex
+                               else "non-convex boundary: MPVONC")
+        ctx.stats["sort"] = info
+        ctx.count(cells_sorted=len(r.order), graph_edges=r.edges, cycles_broken=r.cycles_broken)
