@@ -1,0 +1,297 @@
+"""Projected tetrahedra (Shirley & Tuchman 1990): classification, decomposition, fragment programs.
+
+``k_classify`` (one thread per tet, in visibility order) works on the rasteriser's snapped window
+coordinates (``snap``: 1/256 pixel, exact int64 orientation tests), so the decomposition agrees with
+what the rasteriser will cover:
+
+* **class 2 (3 triangles)**: one vertex projects inside (or onto the boundary of) the triangle of the
+  other three. It becomes the *thick vertex*; the other three are silhouette vertices.
+  Degenerate members: the vertex on an edge (one triangle of zero area) or on another vertex.
+* **class 1 (4 triangles)**: the projection is a convex quadrilateral whose diagonals are two
+  opposite tet edges; the thick vertex is where they cross, rounded to the 1/256 grid. If rounding
+  would put it outside the quadrilateral (a sliver), a neighbouring grid point inside is taken, else
+  the nearest diagonal end (counted in ``stats[3]``): coverage stays exact, attributes move by < 1/256 px.
+* **flat**: all four projections collinear (the tet projects to a segment or a point): nothing is
+  drawn.
+* **culled**: a vertex at or behind the eye (``w <= 0``): nothing is drawn (no clipping).
+
+The thick vertex carries ``(sf, sb, l)``: the scalars at the front and back points on the ray
+through it and their eye-space distance (world units). The two points are found with
+perspective-correct weights (interpolate ``a/w`` and ``1/w``), so ``l`` is right in perspective
+and orthographic views alike; silhouette vertices carry ``(s, s, 0)``. Output vertex ``V + k`` is the
+thick vertex of the k-th tet in the order; its triangles are ``4k .. 4k+3`` (unused ones degenerate).
+
+Fragment programs (one thread per fragment of :meth:`warpvol.gpu.raster.Rasterizer.fragments`):
+
+* ``k_frag_vertex_color``: Shirley & Tuchman / Stein et al. — per-vertex averaged colour and
+  extinction ``(c̄, τ̄, l)`` interpolated linearly; ``α = 1 - exp(-τ̄ l)``;
+* ``k_frag_table3d``: Röttger, Kraus & Ertl 2000 — ``(sf, sb, l)`` interpolated linearly, the RGBA of
+  the pre-integration table looked up through the emulated 3D texture unit.
+"""
+
+import warp as wp
+
+from .raster import snap
+from .texture import Tex3D, tex3d
+from .tf import tf_eval
+
+wp.set_module_options({"enable_backward": False})
+
+CLASS_FOUR = wp.constant(0)
+CLASS_THREE = wp.constant(1)
+CLASS_FLAT = wp.constant(2)
+CLASS_CULLED = wp.constant(3)
+
+
+@wp.func
+def orient(ax: wp.int64, ay: wp.int64, bx: wp.int64, by: wp.int64, cx: wp.int64, cy: wp.int64) -> wp.int64:
+    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+
+
+@wp.func
+def sgn(v: wp.int64) -> int:
+    if v > wp.int64(0):
+        return 1
+    if v < wp.int64(0):
+        return -1
+    return 0
+
+
+@wp.func
+def in_closed_tri(x: wp.vec4l, y: wp.vec4l, i: int, j: int, k: int, l: int) -> bool:
+    """Is vertex i inside or on the boundary of the non-degenerate triangle (j, k, l)?"""
+    a = sgn(orient(x[j], y[j], x[k], y[k], x[l], y[l]))
+    if a == 0:
+        return False
+    s0 = sgn(orient(x[j], y[j], x[k], y[k], x[i], y[i])) * a
+    s1 = sgn(orient(x[k], y[k], x[l], y[l], x[i], y[i])) * a
+    s2 = sgn(orient(x[l], y[l], x[j], y[j], x[i], y[i])) * a
+    return s0 >= 0 and s1 >= 0 and s2 >= 0
+
+
+@wp.func
+def in_closed_quad(x: wp.vec4l, y: wp.vec4l, a: int, c: int, b: int, d: int, tx: wp.int64, ty: wp.int64) -> bool:
+    """Is (tx, ty) inside or on the convex quadrilateral a, c, b, d (in this cyclic order)?"""
+    s0 = sgn(orient(x[a], y[a], x[c], y[c], tx, ty))
+    s1 = sgn(orient(x[c], y[c], x[b], y[b], tx, ty))
+    s2 = sgn(orient(x[b], y[b], x[d], y[d], tx, ty))
+    s3 = sgn(orient(x[d], y[d], x[a], y[a], tx, ty))
+    pos = s0 >= 0 and s1 >= 0 and s2 >= 0 and s3 >= 0
+    neg = s0 <= 0 and s1 <= 0 and s2 <= 0 and s3 <= 0
+    return pos or neg
+
+
+@wp.func
+def crossing(x: wp.vec4l, y: wp.vec4l, a: int, b: int, c: int, d: int) -> bool:
+    """Do the segments a-b and c-d cross at a point interior to both?"""
+    o1 = sgn(orient(x[a], y[a], x[b], y[b], x[c], y[c]))
+    o2 = sgn(orient(x[a], y[a], x[b], y[b], x[d], y[d]))
+    o3 = sgn(orient(x[c], y[c], x[d], y[d], x[a], y[a]))
+    o4 = sgn(orient(x[c], y[c], x[d], y[d], x[b], y[b]))
+    return o1 * o2 < 0 and o3 * o4 < 0
+
+
+@wp.func
+def persp_param(t: float, wa: float, wb: float) -> float:
+    """Parameter along a 3D segment a-b of the point whose projection is at screen parameter t."""
+    q = t / wb
+    return q / ((1.0 - t) / wa + q)
+
+
+@wp.kernel
+def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal: wp.array(dtype=wp.float32),
+               tets: wp.array2d(dtype=wp.int32), order: wp.array(dtype=wp.int32), n_points: int,
+               thick_pos: wp.array(dtype=wp.vec4), thick_attr: wp.array(dtype=wp.vec3),
+               tris: wp.array(dtype=wp.vec3i), klass: wp.array(dtype=wp.int32), moved: wp.array(dtype=wp.int32)):
+    k = wp.tid()
+    c = order[k]
+    v = wp.vec4i(tets[c, 0], tets[c, 1], tets[c, 2], tets[c, 3])
+    tv = n_points + k
+    moved[k] = 0
+    for q in range(4):
+        tris[4 * k + q] = wp.vec3i(tv, tv, tv)
+    thick_pos[k] = win[v[0]]
+    s0 = scal[v[0]]
+    thick_attr[k] = wp.vec3(s0, s0, 0.0)
+    ok = True
+    for q in range(4):
+        if not (win[v[q]][3] > 0.0):
+            ok = False
+    if not ok:
+        klass[k] = CLASS_CULLED
+        return
+    x = wp.vec4l(wp.int64(snap(win[v[0]][0])), wp.int64(snap(win[v[1]][0])), wp.int64(snap(win[v[2]][0])),
+                 wp.int64(snap(win[v[3]][0])))
+    y = wp.vec4l(wp.int64(snap(win[v[0]][1])), wp.int64(snap(win[v[1]][1])), wp.int64(snap(win[v[2]][1])),
+                 wp.int64(snap(win[v[3]][1])))
+    # class 2: a vertex inside the triangle of the other three
+    inner = int(-1)
+    for i in range(4):
+        if inner < 0:
+            j = (i + 1) % 4
+            kk = (i + 2) % 4
+            l = (i + 3) % 4
+            if in_closed_tri(x, y, i, j, kk, l):
+                inner = i
+    if inner >= 0:
+        i = inner
+        j = (i + 1) % 4
+        kk = (i + 2) % 4
+        l = (i + 3) % 4
+        # perspective-correct weights of the inner vertex's projection on the face (j, kk, l)
+        pj = win[v[j]]
+        pk = win[v[kk]]
+        pl = win[v[l]]
+        pi = win[v[i]]
+        area = (pk[0] - pj[0]) * (pl[1] - pj[1]) - (pk[1] - pj[1]) * (pl[0] - pj[0])
+        bj = ((pk[0] - pi[0]) * (pl[1] - pi[1]) - (pk[1] - pi[1]) * (pl[0] - pi[0])) / area
+        bk = ((pl[0] - pi[0]) * (pj[1] - pi[1]) - (pl[1] - pi[1]) * (pj[0] - pi[0])) / area
+        bj = wp.clamp(bj, 0.0, 1.0)
+        bk = wp.clamp(bk, 0.0, 1.0 - bj)
+        bl = 1.0 - bj - bk
+        qj = bj / pj[3]
+        qk = bk / pk[3]
+        ql = bl / pl[3]
+        qs = qj + qk + ql
+        qj = qj / qs
+        qk = qk / qs
+        ql = ql / qs
+        ej = eye[v[j]]
+        ek = eye[v[kk]]
+        el = eye[v[l]]
+        ef = ej * qj + ek * qk + el * ql
+        sface = scal[v[j]] * qj + scal[v[kk]] * qk + scal[v[l]] * ql
+        ei = eye[v[i]]
+        thick = wp.length(wp.vec3(ef[0] - ei[0], ef[1] - ei[1], ef[2] - ei[2]))
+        si = scal[v[i]]
+        if ei[2] >= ef[2]:  # the inner vertex is nearer the eye (eye space looks down -z)
+            thick_attr[k] = wp.vec3(si, sface, thick)
+        else:
+            thick_attr[k] = wp.vec3(sface, si, thick)
+        thick_pos[k] = pi
+        tris[4 * k + 0] = wp.vec3i(tv, v[j], v[kk])
+        tris[4 * k + 1] = wp.vec3i(tv, v[kk], v[l])
+        tris[4 * k + 2] = wp.vec3i(tv, v[l], v[j])
+        klass[k] = CLASS_THREE
+        return
+    # class 1: two opposite edges a-b and c-d cross
+    a = int(-1)
+    b = int(-1)
+    cc = int(-1)
+    d = int(-1)
+    if crossing(x, y, 0, 1, 2, 3):
+        a = 0
+        b = 1
+        cc = 2
+        d = 3
+    elif crossing(x, y, 0, 2, 1, 3):
+        a = 0
+        b = 2
+        cc = 1
+        d = 3
+    elif crossing(x, y, 0, 3, 1, 2):
+        a = 0
+        b = 3
+        cc = 1
+        d = 2
+    if a < 0:
+        klass[k] = CLASS_FLAT  # all four projections on one line
+        return
+    oca = orient(x[cc], y[cc], x[d], y[d], x[a], y[a])
+    ocb = orient(x[cc], y[cc], x[d], y[d], x[b], y[b])
+    oac = orient(x[a], y[a], x[b], y[b], x[cc], y[cc])
+    oad = orient(x[a], y[a], x[b], y[b], x[d], y[d])
+    t = float(wp.float64(oca) / (wp.float64(oca) - wp.float64(ocb)))  # along a -> b
+    u = float(wp.float64(oac) / (wp.float64(oac) - wp.float64(oad)))  # along c -> d
+    fx = wp.float64(x[a]) + wp.float64(t) * wp.float64(x[b] - x[a])
+    fy = wp.float64(y[a]) + wp.float64(t) * wp.float64(y[b] - y[a])
+    tx = wp.int64(wp.round(fx))
+    ty = wp.int64(wp.round(fy))
+    if not in_closed_quad(x, y, a, cc, b, d, tx, ty):
+        found = False
+        fx0 = wp.int64(wp.floor(fx))
+        fy0 = wp.int64(wp.floor(fy))
+        for q in range(4):
+            cx = fx0 + wp.int64(q % 2)
+            cy = fy0 + wp.int64(q / 2)
+            if (not found) and in_closed_quad(x, y, a, cc, b, d, cx, cy):
+                tx = cx
+                ty = cy
+                found = True
+        if not found:
+            tx = x[a]
+            ty = y[a]
+            if t > 0.5:
+                tx = x[b]
+                ty = y[b]
+        moved[k] = 1
+    wa = win[v[a]]
+    wb = win[v[b]]
+    wc = win[v[cc]]
+    wd = win[v[d]]
+    t3 = persp_param(t, wa[3], wb[3])
+    u3 = persp_param(u, wc[3], wd[3])
+    e1 = eye[v[a]] * (1.0 - t3) + eye[v[b]] * t3
+    e2 = eye[v[cc]] * (1.0 - u3) + eye[v[d]] * u3
+    s1 = scal[v[a]] * (1.0 - t3) + scal[v[b]] * t3
+    s2 = scal[v[cc]] * (1.0 - u3) + scal[v[d]] * u3
+    thick = wp.length(wp.vec3(e1[0] - e2[0], e1[1] - e2[1], e1[2] - e2[2]))
+    z1 = wa[2] * (1.0 - t) + wb[2] * t
+    z2 = wc[2] * (1.0 - u) + wd[2] * u
+    w1 = wa[3] * (1.0 - t) + wb[3] * t
+    if e1[2] >= e2[2]:
+        thick_attr[k] = wp.vec3(s1, s2, thick)
+    else:
+        thick_attr[k] = wp.vec3(s2, s1, thick)
+        z1 = z2
+    thick_pos[k] = wp.vec4(float(tx) / 256.0, float(ty) / 256.0, z1, w1)
+    tris[4 * k + 0] = wp.vec3i(tv, v[a], v[cc])
+    tris[4 * k + 1] = wp.vec3i(tv, v[cc], v[b])
+    tris[4 * k + 2] = wp.vec3i(tv, v[b], v[d])
+    tris[4 * k + 3] = wp.vec3i(tv, v[d], v[a])
+    klass[k] = CLASS_FOUR
+
+
+@wp.kernel
+def k_vertex_colors(attr: wp.array(dtype=wp.vec3), tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp.vec4),
+                    out: wp.array2d(dtype=wp.float32)):
+    """Per output vertex: averaged colour and extinction of its front and back scalars, and l."""
+    i = wp.tid()
+    a = attr[i]
+    c = (tf_eval(a[0], tf_s, tf_v) + tf_eval(a[1], tf_s, tf_v)) * 0.5
+    out[i, 0] = c[0]
+    out[i, 1] = c[1]
+    out[i, 2] = c[2]
+    out[i, 3] = c[3]
+    out[i, 4] = a[2]
+
+
+@wp.kernel
+def k_frag_vertex_color(attrs: wp.array2d(dtype=wp.float32), emission_density: int, out: wp.array(dtype=wp.vec4)):
+    """Stein et al.: alpha = 1 - exp(-tau l) per fragment from the interpolated (tau, l); colour
+    c alpha (colour times extinction) or c (1 - exp(-tau l)) / tau (emission density)."""
+    f = wp.tid()
+    tau = wp.max(attrs[f, 3], 0.0)
+    l = wp.max(attrs[f, 4], 0.0)
+    x = tau * l
+    alpha = 1.0 - wp.exp(-x)
+    g = alpha
+    if emission_density != 0:
+        g = l
+        if x > 1.0e-4:
+            g = alpha / tau
+        else:
+            g = l * (1.0 - 0.5 * x)
+    out[f] = wp.vec4(attrs[f, 0] * g, attrs[f, 1] * g, attrs[f, 2] * g, alpha)
+
+
+@wp.kernel
+def k_frag_table3d(attrs: wp.array2d(dtype=wp.float32), tex: Tex3D, s_scale: float, s_bias: float,
+                   l_scale: float, l_bias: float, out: wp.array(dtype=wp.vec4)):
+    """Röttger et al. 2000: texture coordinates u = sf s_scale + s_bias (likewise sb), r = l l_scale +
+    l_bias, RGBA = the 3D pre-integration table through the texture unit."""
+    f = wp.tid()
+    u = attrs[f, 0] * s_scale + s_bias
+    v = attrs[f, 1] * s_scale + s_bias
+    r = attrs[f, 2] * l_scale + l_bias
+    out[f] = tex3d(tex, u, v, r)
