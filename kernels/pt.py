@@ -285,13 +285,29 @@ def k_frag_vertex_color(attrs: wp.array2d(dtype=wp.float32), emission_density: i
     out[f] = wp.vec4(attrs[f, 0] * g, attrs[f, 1] * g, attrs[f, 2] * g, alpha)
 
 
+@wp.func
+def axis_coord(x: float, a: float, b: float, log2_n: int) -> float:
+    """Texture coordinate of a normalised table value x (clamped to [0, 1]): ``a x + b`` for centred
+    and endpoint axes; Kraus et al.'s logarithmic axis when ``log2_n`` (its resolution) is > 0."""
+    x = wp.clamp(x, 0.0, 1.0)
+    if log2_n > 0:
+        n = float(log2_n)
+        dl = wp.pow(2.0, -(n - 2.0))
+        lg = float(0.0)
+        if x > 0.0:
+            lg = wp.max(wp.log2(x / dl), 0.0)
+        return (lg + wp.min(x / dl, 1.0)) / n + 0.5 / n
+    return x * a + b
+
+
 @wp.kernel
-def k_frag_table3d(attrs: wp.array2d(dtype=wp.float32), tex: Tex3D, s_scale: float, s_bias: float,
-                   l_scale: float, l_bias: float, out: wp.array(dtype=wp.vec4)):
-    """Röttger et al. 2000: texture coordinates u = sf s_scale + s_bias (likewise sb), r = l l_scale +
-    l_bias, RGBA = the 3D pre-integration table through the texture unit."""
+def k_frag_table3d(attrs: wp.array2d(dtype=wp.float32), tex: Tex3D, s_off: float, s_inv: float, s_a: float,
+                   s_b: float, l_inv: float, l_a: float, l_b: float, l_log2: int, out: wp.array(dtype=wp.vec4)):
+    """Röttger et al. 2000: the interpolated (sf, sb, l) normalised (``(s - s_off) s_inv``,
+    ``l l_inv``), mapped to texture coordinates of the table's axes and looked up through the 3D
+    texture unit; the table's RGBA (premultiplied C, alpha) is the fragment colour."""
     f = wp.tid()
-    u = attrs[f, 0] * s_scale + s_bias
-    v = attrs[f, 1] * s_scale + s_bias
-    r = attrs[f, 2] * l_scale + l_bias
+    u = axis_coord((attrs[f, 0] - s_off) * s_inv, s_a, s_b, 0)
+    v = axis_coord((attrs[f, 1] - s_off) * s_inv, s_a, s_b, 0)
+    r = axis_coord(attrs[f, 2] * l_inv, l_a, l_b, l_log2)
     out[f] = tex3d(tex, u, v, r)

@@ -141,3 +141,46 @@ def vertex_color_program(emission_density: bool, device: str = "cpu") -> Callabl
         return out
 
     return run
+
+
+TEXEL_FOR_TABLE = {"fp32": "rgba32f", "fp16": "rgba16f", "rgba8": "rgba8", "hilo16": "rgba16"}
+
+
+def _axis_affine(ax) -> tuple[float, float, int]:
+    """``(a, b, log2_n)`` of an axis' normalised value -> texture coordinate map."""
+    if ax.kind == "centred":
+        return 1.0, 0.0, 0
+    if ax.kind == "endpoint":
+        return 1.0 - 1.0 / ax.n, 0.5 / ax.n, 0
+    return 1.0, 0.0, ax.n
+
+
+def table3d_program(table, texel_format: str = "auto", filter: str = "linear", weight_bits: int | None = 8,
+                    device: str = "cpu") -> tuple[Callable, str]:
+    """Fragment program looking up ``table`` (layout ``data[l, sb, sf]``, any 3D table builder) through
+    an emulated 3D texture of ``texel_format`` (``auto``: the format that holds the table's stored
+    values: fp32 -> rgba32f, fp16 -> rgba16f, rgba8 -> rgba8, hilo16 -> rgba16). Returns the program
+    and the texel format used."""
+    from .gpu.texture import Texture3D
+    from .kernels import pt as kpt
+
+    if table.data.ndim != 4 or table.data.shape[-1] != 4 or len(table.axes) != 3:
+        raise ConfigError(f"table: expected a 3D RGBA table data[l, sb, sf, 4], got {table!r}")
+    ax_l, ax_b, ax_f = table.axes
+    if (ax_b.kind, ax_b.n, ax_b.scale, ax_b.offset) != (ax_f.kind, ax_f.n, ax_f.scale, ax_f.offset):
+        raise ConfigError(f"table: the sf and sb axes differ ({ax_f.describe()} vs {ax_b.describe()})")
+    if texel_format == "auto":
+        if table.format not in TEXEL_FOR_TABLE:
+            raise ConfigError(f"table: no 3D texel format holds a {table.format!r} table; give texel_format")
+        texel_format = TEXEL_FOR_TABLE[table.format]
+    tex = Texture3D(table.data, fmt=texel_format, filter=filter, device=device, weight_bits=weight_bits)
+    sa, sb, _ = _axis_affine(ax_f)
+    la, lb, llog = _axis_affine(ax_l)
+    consts = [float(ax_f.offset), 1.0 / float(ax_f.scale), sa, sb, 1.0 / float(ax_l.scale), la, lb, llog]
+
+    def run(frags):
+        out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
+        wp.launch(kpt.k_frag_table3d, dim=frags.count, inputs=[frags.attrs, tex.struct, *consts, out], device=device)
+        return out
+
+    return run, texel_format
