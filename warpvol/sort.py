@@ -92,19 +92,17 @@ def face_directions(mesh, camera) -> np.ndarray:
     """(M, 4) int32 ``dirs``: +1 where the cell is drawn before its neighbour across local face i
     (the eye is on the neighbour's side), -1 where after, 0 on boundary faces and faces whose plane
     contains the eye. Each shared face is decided once, so both sides always agree."""
+    from .mesh import FACE_VERTS
+
     origin, eye, fwd, persp = _frame(mesh, camera)
     adj = mesh.adjacency
     a, f = np.nonzero(adj > np.arange(mesh.n_tets, dtype=np.int32)[:, None])  # each shared face once
     b = adj[a, f]
-    planes = mesh.face_planes[a, f]  # unit outward normal of cell a, offset in world coordinates
-    n = planes[:, :3]
-    if persp:
-        from .mesh import FACE_VERTS
-
-        p0 = mesh.points[mesh.tets[a, FACE_VERTS[f, 0]]] - origin
-        side = np.einsum("ij,ij->i", n, eye - p0)
-    else:
-        side = -(n @ fwd)
+    # FACE_VERTS winds each face so that the cross product is the outward normal of cell a
+    tri = mesh.tets[a[:, None], FACE_VERTS[f]]
+    p0 = mesh.points[tri[:, 0]] - origin
+    n = np.cross(mesh.points[tri[:, 1]] - origin - p0, mesh.points[tri[:, 2]] - origin - p0)
+    side = np.einsum("ij,ij->i", n, eye - p0) if persp else -(n @ fwd)
     s = np.sign(side).astype(np.int32)
     dirs = np.zeros(adj.shape, np.int32)
     dirs[a, f] = s
