@@ -311,3 +311,36 @@ def k_frag_table3d(attrs: wp.array2d(dtype=wp.float32), tex: Tex3D, s_off: float
     v = axis_coord((attrs[f, 1] - s_off) * s_inv, s_a, s_b, 0)
     r = axis_coord(attrs[f, 2] * l_inv, l_a, l_b, l_log2)
     out[f] = tex3d(tex, u, v, r)
+
+
+@wp.kernel
+def k_snap_positions(win: wp.array(dtype=wp.vec4), out: wp.array(dtype=wp.vec4)):
+    """Window x, y snapped to the rasteriser's 1/256 grid (attribute set-up from snapped vertices,
+    as the hardware did; exact in float32)."""
+    i = wp.tid()
+    p = win[i]
+    out[i] = wp.vec4(float(snap(p[0])) / 256.0, float(snap(p[1])) / 256.0, p[2], p[3])
+
+
+@wp.kernel
+def k_clamp_attrs(prim: wp.array(dtype=wp.int32), tris: wp.array(dtype=wp.vec3i),
+                  vattrs: wp.array2d(dtype=wp.float32), attrs: wp.array2d(dtype=wp.float32),
+                  clamped: wp.array(dtype=wp.int32)):
+    """Clamp each interpolated attribute into the range of its triangle's three vertex values
+    (barycentrics of a sub-pixel sliver computed in fp32 can leave [0, 1]); count clamped fragments."""
+    f = wp.tid()
+    t = tris[prim[f]]
+    moved = int(0)
+    for a in range(attrs.shape[1]):
+        v0 = vattrs[t[0], a]
+        v1 = vattrs[t[1], a]
+        v2 = vattrs[t[2], a]
+        lo = wp.min(v0, wp.min(v1, v2))
+        hi = wp.max(v0, wp.max(v1, v2))
+        x = attrs[f, a]
+        y = wp.clamp(x, lo, hi)
+        if wp.abs(y - x) > 1.0e-5 * (hi - lo) + 1.0e-7:
+            moved = 1
+        attrs[f, a] = y
+    if moved != 0:
+        wp.atomic_add(clamped, 0, 1)

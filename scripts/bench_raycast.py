@@ -32,7 +32,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def vtk_render(scene, repeat: int):
+def vtk_render(scene, repeat: int, mapper=None):
     import pyvista as pv
     import vtk
 
@@ -54,12 +54,13 @@ def vtk_render(scene, repeat: int):
     prop.ShadeOff()
     prop.SetInterpolationTypeToLinear()
 
-    mapper = vtk.vtkUnstructuredGridVolumeRayCastMapper()
+    if mapper is None:  # default: the unstructured-grid ray caster (scripts/bench_pt.py passes its PT mapper)
+        mapper = vtk.vtkUnstructuredGridVolumeRayCastMapper()
+        mapper.SetRayIntegrator(vtk.vtkUnstructuredGridLinearRayIntegrator())
+        mapper.SetAutoAdjustSampleDistances(0)
+        mapper.SetImageSampleDistance(1.0)
+        mapper.SetNumberOfThreads(len(__import__("os").sched_getaffinity(0)))
     mapper.SetInputData(grid)
-    mapper.SetRayIntegrator(vtk.vtkUnstructuredGridLinearRayIntegrator())
-    mapper.SetAutoAdjustSampleDistances(0)
-    mapper.SetImageSampleDistance(1.0)
-    mapper.SetNumberOfThreads(len(__import__("os").sched_getaffinity(0)))
     vol = vtk.vtkVolume()
     vol.SetMapper(mapper)
     vol.SetProperty(prop)
@@ -103,16 +104,40 @@ def vtk_render(scene, repeat: int):
     return img, times[0], statistics.median(times[1:])
 
 
-def warpvol_render(scene, repeat: int, device: str):
+def warpvol_render(scene, repeat: int, device: str, preset: str = "raycast"):
     from warpvol.pipeline import Pipeline
 
-    pipe = Pipeline.load("raycast", device=device)
+    pipe = Pipeline.load(preset, device=device)
     times, res = [], None
     for k in range(repeat + 1):
         t0 = time.perf_counter()
         res = pipe.render(scene, quiet=True)
         times.append(time.perf_counter() - t0)
     return res, times[0], statistics.median(times[1:])
+
+
+def scene_and_reference(scene_path: str, size: int, out: Path):
+    """The scene (file or ``builtin:NAME``) at ``size`` x ``size`` and its exact reference (cached as
+    EXR in ``out``)."""
+    from warpvol.builtin import builtin_scene
+    from warpvol.io import read_exr, write_exr
+    from warpvol.reference import render_reference
+    from warpvol.scene import load_scene
+
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    scene = builtin_scene(scene_path[8:]) if scene_path.startswith("builtin:") else load_scene(scene_path)
+    scene.camera = scene.camera.replace(width_px=size, height_px=size)
+    print(f"scene {scene.name}: {scene.mesh.n_tets} tets, {size}x{size}, loaded in "
+          f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    ref_path = out / f"reference_{scene.name}_{size}.exr"
+    if ref_path.exists():
+        return scene, read_exr(ref_path)
+    t0 = time.perf_counter()
+    ref = render_reference(scene.mesh, scene.transfer, scene.camera).astype(np.float32)
+    print(f"reference: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    write_exr(ref_path, ref)
+    return scene, ref
 
 
 def main(argv=None) -> int:
@@ -124,27 +149,11 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=str(ROOT / "out" / "bench_raycast"))
     args = ap.parse_args(argv)
 
-    from warpvol.io import read_exr, write_exr, write_png
+    from warpvol.io import write_png
     from warpvol.metrics import image_error
-    from warpvol.reference import render_reference
-    from warpvol.scene import load_scene
 
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
-    scene = load_scene(args.scene)
-    scene.camera = scene.camera.replace(width_px=args.size, height_px=args.size)
-    print(f"scene {scene.name}: {scene.mesh.n_tets} tets, {args.size}x{args.size}, loaded in "
-          f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)
-    ref_path = out / f"reference_{scene.name}_{args.size}.exr"
-    if ref_path.exists():
-        ref = read_exr(ref_path)
-    else:
-        t0 = time.perf_counter()
-        ref = render_reference(scene.mesh, scene.transfer, scene.camera).astype(np.float32)
-        print(f"reference: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-        write_exr(ref_path, ref)
-
+    scene, ref = scene_and_reference(args.scene, args.size, out)
     ours, ours_first, ours_t = warpvol_render(scene, args.repeat, args.device)
     theirs, vtk_first, vtk_t = vtk_render(scene, args.repeat)
     e_ours = image_error(ours.image, ref)

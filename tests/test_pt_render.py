@@ -101,3 +101,13 @@ def test_roettger2002_hw_small_table(name):
     res = p.render(sc, reference=ref_of(sc), quiet=True)
     check(res, "roettger2002_hw/32x32x32")
     assert res.report["stats"]["pt"]["texel_format"] == "rgba12"
+
+
+def test_sliver_fragments_keep_their_triangle_range():
+    """Concave at 128^2 once had a sub-pixel sliver whose fp32 barycentrics extrapolated a fragment to
+    (-26, -4, 31); attributes are now set up from snapped vertices and clamped to the triangle's range."""
+    sc = builtin_scene("concave")
+    res = preset("pt_vertex_color", pt_vertex_color={"format": "fp32"}).render(sc, reference=ref_of(sc), quiet=True)
+    check(res, "pt_vertex_color/fp32")
+    c = res.report["counters"]["pt_vertex_color"]
+    assert c["attrs_clamped"] < 1e-3 * c["fragments"]

@@ -84,7 +84,9 @@ def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
                   inputs=[win, eye, scal, wp.array(mesh.tets.astype(np.int32), dtype=wp.int32, device=device),
                           wp.array(order, dtype=wp.int32, device=device), v, tp, ta, tris, klass, moved],
                   device=device)
-    pos = np.concatenate([vertices.window.astype(np.float32), tp.numpy()[:m]])
+    snapped = wp.zeros(max(v, 1), dtype=wp.vec4, device=device)
+    wp.launch(kpt.k_snap_positions, dim=v, inputs=[win, snapped], device=device)
+    pos = np.concatenate([snapped.numpy()[:v], tp.numpy()[:m]])
     s = mesh.scalars.astype(np.float32)
     attrs = np.concatenate([np.stack([s, s, np.zeros_like(s)], axis=1), ta.numpy()[:m]])
     counts = np.bincount(klass.numpy()[:m], minlength=len(CLASS_NAMES))
@@ -102,18 +104,26 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
     """
     from .gpu.raster import Rasterizer
 
+    from .kernels import pt as kpt
+
     rast = Rasterizer(fb.width, fb.height, device=device, depth_clip=False)
     n_frag = n_batch = 0
     m = geo.n_tets
+    va = wp.array(np.ascontiguousarray(vertex_attrs, dtype=np.float32), dtype=wp.float32, device=device)
+    clamped = wp.zeros(1, dtype=wp.int32, device=device)
     for k0 in range(0, m, batch_tets):
         k1 = min(m, k0 + batch_tets)
-        frags = rast.fragments(geo.positions, geo.tris[4 * k0:4 * k1], vertex_attrs, interpolation="linear")
+        tris = geo.tris[4 * k0:4 * k1]
+        frags = rast.fragments(geo.positions, tris, vertex_attrs, interpolation="linear")
         n_batch += 1
         if frags.count == 0:
             continue
         n_frag += frags.count
+        wp.launch(kpt.k_clamp_attrs, dim=frags.count,
+                  inputs=[frags.prim, wp.array(tris, dtype=wp.vec3i, device=device), va, frags.attrs, clamped],
+                  device=device)
         blend.blend_fragments(fb, frags, program(frags))
-    return {"fragments": n_frag, "batches": n_batch}
+    return {"fragments": n_frag, "batches": n_batch, "attrs_clamped": int(clamped.numpy()[0])}
 
 
 def vertex_colors(geo: PTGeometry, tf, device: str = "cpu") -> np.ndarray:
