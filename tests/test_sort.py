@@ -116,3 +116,14 @@ def test_sort_stage_counts_and_reports():
     # axis-aligned orthographic view: faces parallel to the view direction constrain nothing
     edges = ctx.counters["sort"]["graph_edges"]
     assert edges == int((face_directions(sc.mesh, sc.camera) > 0).sum()) < int((sc.mesh.adjacency >= 0).sum() // 2)
+
+
+@pytest.mark.parametrize("name, ran, skipped", [("box", "mpvo", "sort#2"), ("concave", "mpvonc", "sort")])
+def test_planner_picks_mpvo_for_convex_meshes(name, ran, skipped):
+    from warpvol.pipeline import Pipeline
+
+    res = Pipeline.load("pt_vertex_color").render(builtin_scene(name).with_camera(width_px=8, height_px=8),
+                                                  quiet=True)
+    assert res.report["stats"]["sort"]["method"] == ran
+    (sk,) = res.report["skipped"]
+    assert sk["stage"] == skipped and ("convex boundary" in sk["reason"])

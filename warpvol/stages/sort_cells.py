@@ -21,7 +21,14 @@ class SortCells(Stage):
     method      str    auto      ``auto`` ``centroid`` ``mpvo`` ``mpvonc``  ``auto``: MPVO for convex
                                                                            meshes, else MPVONC
     metric      str    distance  ``distance`` | ``view``                   centroid key (perspective)
+    applies_to  str    any       ``any`` ``convex`` ``non_convex``         planner: run only for
+                                                                           meshes of this kind, else
+                                                                           skipped with the reason
     ==========  =====  ========  ========================================  =========================
+
+    A preset lists ``sort`` twice (``method = "mpvo"``, ``applies_to = "convex"`` and
+    ``method = "mpvonc"``, ``applies_to = "non_convex"``): the planner runs one and reports the
+    other under ``skipped``.
 
     Example
     -------
@@ -39,8 +46,21 @@ class SortCells(Stage):
               choices=METHODS),
         Param("metric", str, "distance", "centroid key: distance to the eye or depth along the view",
               choices=METRICS),
+        Param("applies_to", str, "any", "planner: run only for convex / non-convex meshes",
+              choices=("any", "convex", "non_convex")),
     )
     provides = ("order",)
+
+    def skip_reason(self, ctx: Context) -> str | None:
+        want = self.config["applies_to"]
+        if want == "any":
+            return None
+        convex = ctx.scene.mesh.is_convex
+        if want == "convex" and not convex:
+            return f"non-convex boundary: {self.config['method']} applies to convex meshes only"
+        if want == "non_convex" and convex:
+            return (f"convex boundary: MPVO gives an exact order, {self.config['method']} not needed")
+        return None
 
     def run(self, ctx: Context) -> None:
         mesh = ctx.scene.mesh
