@@ -26,13 +26,18 @@ Fragment programs (one thread per fragment of :meth:`warpvol.gpu.raster.Rasteriz
 * ``k_frag_vertex_color``: Shirley & Tuchman / Stein et al. — per-vertex averaged colour and
   extinction ``(c̄, τ̄, l)`` interpolated linearly; ``α = 1 - exp(-τ̄ l)``;
 * ``k_frag_table3d``: Röttger, Kraus & Ertl 2000 — ``(sf, sb, l)`` interpolated linearly, the RGBA of
-  the pre-integration table looked up through the emulated 3D texture unit.
+  the pre-integration table looked up through the emulated 3D texture unit;
+* ``k_frag_cylindrical``: Roettger & Ertl 2002 §4 — per vertex ``(α, s, t)`` (eq. 10, one division,
+  ``k_cyl_vertices``); ``α`` is constant over each triangle (all its points lie on one plane through
+  the front diagonal) and taken from the triangle's thick vertex, ``(s, t)`` interpolated linearly;
+  the two nearest α-planes are sampled from the atlas by the 2D texture unit and blended.
 """
 
 import warp as wp
 
+from .preint import table_to_cyl
 from .raster import snap
-from .texture import Tex3D, tex3d
+from .texture import Atlas, Tex3D, atlas_sample, tex3d
 from .tf import tf_eval
 
 wp.set_module_options({"enable_backward": False})
@@ -344,3 +349,35 @@ def k_clamp_attrs(prim: wp.array(dtype=wp.int32), tris: wp.array(dtype=wp.vec3i)
         attrs[f, a] = y
     if moved != 0:
         wp.atomic_add(clamped, 0, 1)
+
+
+@wp.kernel
+def k_cyl_vertices(attr: wp.array(dtype=wp.vec3), s_off: float, s_inv: float, l_inv: float,
+                   out: wp.array2d(dtype=wp.float32)):
+    """Per output vertex ``(α, s, t)`` of its normalised ``(sf, sb, l)`` (each clamped to [0, 1]);
+    silhouette vertices (``sf = sb``, ``l = 0``) get ``(0, 0, sb)``."""
+    i = wp.tid()
+    a = attr[i]
+    c = table_to_cyl(wp.clamp((a[0] - s_off) * s_inv, 0.0, 1.0), wp.clamp((a[1] - s_off) * s_inv, 0.0, 1.0),
+                     wp.clamp(a[2] * l_inv, 0.0, 1.0))
+    out[i, 0] = c[0]
+    out[i, 1] = c[1]
+    out[i, 2] = c[2]
+
+
+@wp.kernel
+def k_frag_cylindrical(attrs: wp.array2d(dtype=wp.float32), prim: wp.array(dtype=wp.int32),
+                       tris: wp.array(dtype=wp.vec3i), vattrs: wp.array2d(dtype=wp.float32), atlas: Atlas,
+                       ua: float, ub: float, va: float, vb: float, out: wp.array(dtype=wp.vec4)):
+    """Two-plane reconstruction: ``α`` of the triangle's thick vertex (its first vertex), ``(s, t)``
+    interpolated, in-tile coordinates ``u = ua s + ub``, ``v = va t + vb``, planes blended in fp32."""
+    f = wp.tid()
+    a = vattrs[tris[prim[f]][0], 0]
+    np_ = atlas.ntiles
+    pa = wp.clamp(a, 0.0, 1.0) * float(np_ - 1)
+    p0 = wp.min(int(wp.floor(pa)), wp.max(np_ - 2, 0))
+    p1 = wp.min(p0 + 1, np_ - 1)
+    w = pa - float(p0)
+    u = ua * wp.clamp(attrs[f, 1], 0.0, 1.0) + ub
+    v = va * wp.clamp(attrs[f, 2], 0.0, 1.0) + vb
+    out[f] = atlas_sample(atlas, p0, u, v) * (1.0 - w) + atlas_sample(atlas, p1, u, v) * w

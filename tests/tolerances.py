@@ -36,6 +36,11 @@ roettger2002_hw/        4e-2         0.3            emulated 12-bit per-slice ta
   32x32x32                                          rgba12 texture, 12-bit buffer; every blend rounds
                                                     (error grows with steps, Roettger & Ertl Table 1);
                                                     box, sphere 48^2; seen <= 2.9e-2 / 0.24
+roettger2002_cylindrical  2.5e-2     0.2            preset as shipped (64 planes of 64^2 = 1x, RGBA8 atlas,
+                                                    8-bit buffer); linear_box, sphere, concave 64^2; seen
+                                                    <= 1.6e-2 / 0.165 (sphere; 4x planes: 1.2e-2 / 0.12).
+                                                    stiff uses the roettger2000_3d/stiff row (seen 2.95e-2
+                                                    / 0.224)
 =====================  ===========  ===========  ==================================================
 """
 
@@ -52,4 +57,5 @@ TOLERANCES = {
     "roettger2000_3d/stiff": {"rmse": 5e-2, "max_abs": 0.3},
     "pt_table3d/exact/fp32": {"rmse": 4e-3, "max_abs": 4e-2},
     "roettger2002_hw/32x32x32": {"rmse": 4e-2, "max_abs": 0.3},
+    "roettger2002_cylindrical": {"rmse": 2.5e-2, "max_abs": 0.2},
 }

@@ -96,8 +96,9 @@ def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
 
 def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend, *, batch_tets: int = 65536,
          device: str = "cpu") -> dict:
-    """Rasterise ``geo`` in batches of ``batch_tets`` tets, run ``program(fragments) -> colours``
-    (a ``wp.array`` of vec4, premultiplied RGBA) on each batch and blend into ``fb`` in order.
+    """Rasterise ``geo`` in batches of ``batch_tets`` tets, run ``program(fragments, tris) -> colours``
+    (a ``wp.array`` of vec4, premultiplied RGBA; ``tris`` the batch's triangles on the device, indexed
+    by ``fragments.prim``) on each batch and blend into ``fb`` in order.
 
     ``vertex_attrs`` (V+M, A) are interpolated linearly in screen space. Returns counts
     (``fragments``, ``batches``).
@@ -119,10 +120,10 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
         if frags.count == 0:
             continue
         n_frag += frags.count
-        wp.launch(kpt.k_clamp_attrs, dim=frags.count,
-                  inputs=[frags.prim, wp.array(tris, dtype=wp.vec3i, device=device), va, frags.attrs, clamped],
+        tris_w = wp.array(tris, dtype=wp.vec3i, device=device)
+        wp.launch(kpt.k_clamp_attrs, dim=frags.count, inputs=[frags.prim, tris_w, va, frags.attrs, clamped],
                   device=device)
-        blend.blend_fragments(fb, frags, program(frags))
+        blend.blend_fragments(fb, frags, program(frags, tris_w))
     return {"fragments": n_frag, "batches": n_batch, "attrs_clamped": int(clamped.numpy()[0])}
 
 
@@ -144,7 +145,7 @@ def vertex_color_program(emission_density: bool, device: str = "cpu") -> Callabl
     """Fragment program of :func:`vertex_colors` attributes: ``α = 1 - exp(-τ̄ l)`` per fragment."""
     from .kernels import pt as kpt
 
-    def run(frags):
+    def run(frags, tris):
         out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
         wp.launch(kpt.k_frag_vertex_color, dim=frags.count, inputs=[frags.attrs, int(emission_density), out],
                   device=device)
@@ -188,9 +189,41 @@ def table3d_program(table, texel_format: str = "auto", filter: str = "linear", w
     la, lb, llog = _axis_affine(ax_l)
     consts = [float(ax_f.offset), 1.0 / float(ax_f.scale), sa, sb, 1.0 / float(ax_l.scale), la, lb, llog]
 
-    def run(frags):
+    def run(frags, tris):
         out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
         wp.launch(kpt.k_frag_table3d, dim=frags.count, inputs=[frags.attrs, tex.struct, *consts, out], device=device)
         return out
 
     return run, texel_format
+
+
+def cylindrical_program(planes, tf, geo: PTGeometry, weight_bits: int | None = 8,
+                        device: str = "cpu") -> tuple[np.ndarray, Callable]:
+    """Per-vertex ``(α, s, t)`` attributes of ``geo`` and the two-plane fragment program for the
+    cylindrical ``planes`` (:func:`warpvol.tables.cylindrical.build_cylindrical`, built for ``tf``)."""
+    from .kernels import pt as kpt
+    from .tables.common import linear_index_map
+    from .tables.cylindrical import plane_texture
+
+    if getattr(planes, "name", None) != "cylindrical":
+        raise ConfigError(f"planes: expected cylindrical planes (stage table_cylindrical), got {planes!r}")
+    lo, hi = tf.srange
+    lmax = float(planes.meta["lmax"])
+    n = geo.attrs.shape[0]
+    vattrs = wp.zeros((n, 3), dtype=wp.float32, device=device)
+    wp.launch(kpt.k_cyl_vertices, dim=n, inputs=[wp.array(geo.attrs, dtype=wp.vec3, device=device), float(lo),
+                                                 1.0 / (hi - lo), 1.0 / lmax, vattrs], device=device)
+    tex = plane_texture(planes, device, weight_bits)
+    sa, sb = linear_index_map(planes.axes[2])
+    ta, tb = linear_index_map(planes.axes[1])
+    ns, nt = planes.axes[2].n, planes.axes[1].n
+    # continuous texel index a x + b  ->  in-tile texture coordinate (a x + b + 0.5) / n
+    consts = [sa / ns, (sb + 0.5) / ns, ta / nt, (tb + 0.5) / nt]
+
+    def run(frags, tris):
+        out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
+        wp.launch(kpt.k_frag_cylindrical, dim=frags.count,
+                  inputs=[frags.attrs, frags.prim, tris, vattrs, tex.struct, *consts, out], device=device)
+        return out
+
+    return vattrs.numpy(), run
