@@ -3,7 +3,8 @@
 ``k_priority_topo`` runs Kahn's topological sort with a priority queue (a binary max-heap on a
 per-cell depth key) in one thread. Edges come from the mesh adjacency and per-face directions
 ``dirs[c, i]`` (+1: cell ``c`` is drawn before its neighbour across local face ``i``; -1: after;
-0: no constraint). Among the cells whose predecessors are all drawn, the one with the largest key
+0: no constraint), plus optional extra edges in CSR form (``extra_dst[extra_off[c]:extra_off[c+1]]``
+are drawn after ``c``; XMPVO's constraints between boundary faces along pixel rays). Among the cells whose predecessors are all drawn, the one with the largest key
 (the farthest) goes next: for convex meshes any choice gives Williams' MPVO order; for non-convex
 meshes the depth priority is the MPVONC heuristic. When the queue runs empty while cells remain, the
 graph has a cycle: the farthest remaining cell (``by_key`` lists cells by decreasing key) is emitted
@@ -64,6 +65,7 @@ def heap_pop(heap: wp.array(dtype=wp.int32), size: int, key: wp.array(dtype=wp.f
 
 @wp.kernel
 def k_priority_topo(adj: wp.array2d(dtype=wp.int32), dirs: wp.array2d(dtype=wp.int32),
+                    extra_off: wp.array(dtype=wp.int32), extra_dst: wp.array(dtype=wp.int32),
                     key: wp.array(dtype=wp.float64), by_key: wp.array(dtype=wp.int32),
                     indeg: wp.array(dtype=wp.int32), heap: wp.array(dtype=wp.int32),
                     done: wp.array(dtype=wp.int32), order: wp.array(dtype=wp.int32),
@@ -96,4 +98,9 @@ def k_priority_topo(adj: wp.array2d(dtype=wp.int32), dirs: wp.array2d(dtype=wp.i
                     indeg[b] = indeg[b] - 1
                     if indeg[b] == 0 and done[b] == 0:
                         size = heap_push(heap, size, key, b)
+            for e in range(extra_off[v], extra_off[v + 1]):
+                b = extra_dst[e]
+                indeg[b] = indeg[b] - 1
+                if indeg[b] == 0 and done[b] == 0:
+                    size = heap_push(heap, size, key, b)
     stats[0] = cycles

@@ -127,3 +127,19 @@ def test_planner_picks_mpvo_for_convex_meshes(name, ran, skipped):
     assert res.report["stats"]["sort"]["method"] == ran
     (sk,) = res.report["skipped"]
     assert sk["stage"] == skipped and ("convex boundary" in sk["reason"])
+
+
+def test_xmpvo_no_violation_at_any_pixel():
+    """Same random non-convex meshes as the MPVONC test: MPVONC misorders a few pixels, XMPVO none."""
+    rng = np.random.default_rng(3)
+    acyclic = mpvonc_bad = 0
+    for _ in range(10):
+        mesh, cam = jittered_box(rng, drop=0.3), random_camera(rng)
+        r = visibility_order(mesh, cam, "xmpvo")
+        assert r.method == "xmpvo" and sorted(r.order.tolist()) == list(range(mesh.n_tets))
+        assert r.extra["ray_constraints"] > 0
+        mpvonc_bad += occlusion_violations(mesh, cam, visibility_order(mesh, cam, "mpvonc").order)[0]
+        if r.cycles_broken == 0:
+            acyclic += 1
+            assert r.exact and occlusion_violations(mesh, cam, r.order)[0] == 0
+    assert acyclic >= 8 and mpvonc_bad > 0

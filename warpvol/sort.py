@@ -15,6 +15,13 @@ Three orders, all *back to front* (draw ``order[0]`` first):
   see each other across empty space (a concavity or a gap) have no edge between them; the depth
   priority orders them heuristically, so the order is *approximate* for non-convex meshes.
 
+* **XMPVO** (Silva, Mitchell & Williams 1998): MPVO's graph plus ordering constraints between
+  boundary faces that are consecutive along the pixel rays, found with the emulated rasteriser: all
+  boundary faces are rasterised into fragment lists; along each pixel's ray, a back-facing boundary
+  face (the ray leaves the mesh) followed by a front-facing one (it re-enters) makes the re-entered
+  cell precede the left one. Exact at the pixel centres of the camera for any mesh whose visibility
+  relation is acyclic.
+
 Cycles (possible in non-Delaunay meshes) are detected by the sort running out of ready cells: the
 farthest remaining cell is drawn next, the break is counted (``cycles_broken``) and the order is
 marked approximate. The topological sort runs as one Warp thread on the CPU with a binary heap
@@ -38,7 +45,7 @@ import numpy as np
 
 from .errors import check_choice
 
-METHODS = ("centroid", "mpvo", "mpvonc", "auto")
+METHODS = ("centroid", "mpvo", "mpvonc", "xmpvo", "auto")
 METRICS = ("distance", "view")
 
 
@@ -111,9 +118,10 @@ def face_directions(mesh, camera) -> np.ndarray:
     return dirs
 
 
-def topological_order(mesh, dirs: np.ndarray, key: np.ndarray) -> tuple[np.ndarray, int]:
-    """Priority topological sort of the face graph (one Warp thread on the CPU); returns
-    ``(order, cycles_broken)``."""
+def topological_order(mesh, dirs: np.ndarray, key: np.ndarray,
+                      extra: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, int]:
+    """Priority topological sort of the face graph (one Warp thread on the CPU) with optional extra
+    edges ``extra = (src, dst)`` (``src`` drawn before ``dst``); returns ``(order, cycles_broken)``."""
     import warp as wp
 
     from .kernels import sort as ks
@@ -121,11 +129,18 @@ def topological_order(mesh, dirs: np.ndarray, key: np.ndarray) -> tuple[np.ndarr
     m = mesh.n_tets
     dev = "cpu"
     indeg = (dirs < 0).sum(axis=1).astype(np.int32)
+    src, dst = (np.zeros(0, np.int64), np.zeros(0, np.int64)) if extra is None else extra
+    indeg += np.bincount(dst, minlength=m).astype(np.int32)
+    o = np.argsort(src, kind="stable")
+    off = np.zeros(m + 1, np.int32)
+    np.cumsum(np.bincount(src, minlength=m), out=off[1:])
     by_key = np.argsort(-key, kind="stable").astype(np.int32)
     order = wp.zeros(m, dtype=wp.int32, device=dev)
     stats = wp.zeros(2, dtype=wp.int32, device=dev)
     wp.launch(ks.k_priority_topo, dim=1,
               inputs=[wp.array(mesh.adjacency, dtype=wp.int32, device=dev), wp.array(dirs, dtype=wp.int32, device=dev),
+                      wp.array(off, dtype=wp.int32, device=dev),
+                      wp.array(np.append(dst[o], 0).astype(np.int32), dtype=wp.int32, device=dev),
                       wp.array(key.astype(np.float64), dtype=wp.float64, device=dev),
                       wp.array(by_key, dtype=wp.int32, device=dev), wp.array(indeg, dtype=wp.int32, device=dev),
                       wp.zeros(m, dtype=wp.int32, device=dev), wp.zeros(m, dtype=wp.int32, device=dev), order, stats],
@@ -133,31 +148,76 @@ def topological_order(mesh, dirs: np.ndarray, key: np.ndarray) -> tuple[np.ndarr
     return order.numpy(), int(stats.numpy()[0])
 
 
-def mpvo_order(mesh, camera, nonconvex: bool | None = None, metric: str = "distance") -> SortResult:
-    """MPVO (``nonconvex=False``) or MPVONC (``True``; default: ``not mesh.is_convex``) order."""
+def boundary_ray_constraints(mesh, camera, device: str = "cpu") -> tuple[np.ndarray, np.ndarray, int]:
+    """XMPVO's extra edges ``(src, dst)`` (``src`` drawn before ``dst``, deduplicated) from the boundary
+    faces consecutive along the camera's pixel rays, and the number of boundary fragments rasterised."""
+    from .gpu.raster import Rasterizer
+    from .gpu.vertex import VertexStage
+    from .mesh import FACE_VERTS
+
+    bf = mesh.boundary_faces
+    empty = np.zeros(0, np.int64)
+    if len(bf) == 0:
+        return empty, empty, 0
+    origin, eye, fwd, persp = _frame(mesh, camera)
+    tri = mesh.tets[bf[:, 0][:, None], FACE_VERTS[bf[:, 1]]]
+    p0 = mesh.points[tri[:, 0]] - origin
+    n = np.cross(mesh.points[tri[:, 1]] - origin - p0, mesh.points[tri[:, 2]] - origin - p0)
+    front = (np.einsum("ij,ij->i", n, eye - p0) if persp else -(n @ fwd)) > 0  # the ray enters here
+    vs = VertexStage.from_camera(camera, *camera.depth_range(*mesh.bounds), device=device)
+    frags = Rasterizer(camera.width_px, camera.height_px, device=device, depth_clip=False).fragments(
+        vs.transform(mesh.points).window_array, tri)
+    if frags.count < 2:
+        return empty, empty, frags.count
+    pix = frags.pixel_index()
+    prim = frags.prim.numpy()[:frags.count]
+    depth = frags.depth.numpy()[:frags.count]
+    fr = front[prim]
+    o = np.lexsort((fr, depth, pix))  # along each ray; at equal depth the exit before the entry
+    pix, prim, fr = pix[o], prim[o], fr[o]
+    gap = (pix[1:] == pix[:-1]) & ~fr[:-1] & fr[1:]  # leave the mesh, then re-enter it
+    cell = bf[:, 0]
+    src, dst = cell[prim[1:][gap]], cell[prim[:-1][gap]]  # the farther cell is drawn first
+    keep = src != dst
+    pair = np.unique(src[keep] * mesh.n_tets + dst[keep])
+    return pair // mesh.n_tets, pair % mesh.n_tets, frags.count
+
+
+def mpvo_order(mesh, camera, nonconvex: bool | None = None, metric: str = "distance",
+               exact_rays: bool = False) -> SortResult:
+    """MPVO (``nonconvex=False``), MPVONC (``True``; default: ``not mesh.is_convex``) or, with
+    ``exact_rays``, XMPVO order."""
     if nonconvex is None:
         nonconvex = not mesh.is_convex
     dirs = face_directions(mesh, camera)
     key = centroid_keys(mesh, camera, metric)
-    order, cycles = topological_order(mesh, dirs, key)
-    method = "mpvonc" if nonconvex else "mpvo"
+    extra, info = None, {}
+    if exact_rays:
+        src, dst, nfrag = boundary_ray_constraints(mesh, camera)
+        extra, info = (src, dst), {"boundary_fragments": nfrag, "ray_constraints": len(src)}
+    order, cycles = topological_order(mesh, dirs, key, extra)
+    method = "xmpvo" if exact_rays else "mpvonc" if nonconvex else "mpvo"
     notes = []
     if cycles:
         notes.append(f"{cycles} cycle(s) in the face graph broken at the farthest remaining cell")
-    if not mesh.is_convex:
+    if not mesh.is_convex and not exact_rays:
         notes.append("non-convex mesh: cells facing each other across empty space are ordered by depth "
                      "priority only (MPVONC heuristic)")
-    return SortResult(order, method, not notes, cycles, int((dirs > 0).sum()), "; ".join(notes))
+    edges = int((dirs > 0).sum()) + (len(extra[0]) if extra else 0)
+    return SortResult(order, method, not notes, cycles, edges, "; ".join(notes), info)
 
 
 def visibility_order(mesh, camera, method: str = "auto", metric: str = "distance") -> SortResult:
-    """Back-to-front order by ``method``: ``centroid`` | ``mpvo`` | ``mpvonc`` | ``auto`` (MPVO
-    for convex meshes, MPVONC otherwise)."""
+    """Back-to-front order by ``method``: ``centroid`` | ``mpvo`` | ``mpvonc`` | ``xmpvo`` |
+    ``auto`` (MPVO for convex meshes, MPVONC otherwise). XMPVO's order is exact at the camera's
+    pixel centres."""
     method = check_choice("method", method, METHODS)
     if method == "centroid":
         return centroid_order(mesh, camera, metric)
     if method == "auto":
         return mpvo_order(mesh, camera, None, metric)
+    if method == "xmpvo":
+        return mpvo_order(mesh, camera, True, metric, exact_rays=True)
     return mpvo_order(mesh, camera, method == "mpvonc", metric)
 
 

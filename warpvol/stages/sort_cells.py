@@ -1,8 +1,10 @@
-"""Host step ``sort``: visibility order of the cells for cell projection (:mod:`warpvol.sort`).
+"""Host step ``sort``: visibility order of the cells for cell projection (:mod:`warpvol.sort`):
+centroid (numeric), MPVO, MPVONC or XMPVO.
 
 Stores the back-to-front order (int32 cell indices) in ``ctx.buffers["order"]`` and what is known
 about it in ``ctx.stats["sort"]`` (method run, whether it is exact, why not); counts
-``cells_sorted``, ``graph_edges`` and ``cycles_broken``.
+``cells_sorted``, ``graph_edges`` and ``cycles_broken`` (XMPVO also ``boundary_fragments`` and
+``ray_constraints``).
 """
 
 from __future__ import annotations
@@ -18,8 +20,10 @@ class SortCells(Stage):
     ==========  =====  ========  ========================================  =========================
     parameter   type   default   allowed                                   meaning
     ==========  =====  ========  ========================================  =========================
-    method      str    auto      ``auto`` ``centroid`` ``mpvo`` ``mpvonc``  ``auto``: MPVO for convex
-                                                                           meshes, else MPVONC
+    method      str    auto      ``auto`` ``centroid`` ``mpvo``            ``auto``: MPVO for convex
+                                 ``mpvonc`` ``xmpvo``                      meshes, else MPVONC;
+                                                                           ``xmpvo``: exact at the
+                                                                           pixel centres
     metric      str    distance  ``distance`` | ``view``                   centroid key (perspective)
     applies_to  str    any       ``any`` ``convex`` ``non_convex``         planner: run only for
                                                                            meshes of this kind, else
@@ -40,7 +44,7 @@ class SortCells(Stage):
     """
 
     name = "sort"
-    summary = "visibility sort of the cells: centroid (numeric), MPVO (convex) or MPVONC (non-convex)"
+    summary = "visibility sort of the cells: centroid (numeric), MPVO (convex), MPVONC or XMPVO (non-convex)"
     params = (
         Param("method", str, "auto", "sorting method (auto: MPVO if the mesh is convex, else MPVONC)",
               choices=METHODS),
@@ -73,4 +77,4 @@ class SortCells(Stage):
             info["planner"] = ("convex boundary: MPVO" if mesh.is_convex
                                else "non-convex boundary: MPVONC")
         ctx.stats["sort"] = info
-        ctx.count(cells_sorted=len(r.order), graph_edges=r.edges, cycles_broken=r.cycles_broken)
+        ctx.count(cells_sorted=len(r.order), graph_edges=r.edges, cycles_broken=r.cycles_broken, **r.extra)
