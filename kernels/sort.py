@@ -25,18 +25,26 @@ def before(key: wp.array(dtype=wp.float64), a: int, b: int) -> bool:
 
 
 @wp.func
+def swap_up(heap: wp.array(dtype=wp.int32), key: wp.array(dtype=wp.float64), child: int, parent: int) -> bool:
+    """Swap ``child`` above ``parent`` if it must come first; returns whether it did."""
+    a = heap[child]
+    b = heap[parent]
+    if before(key, a, b):
+        heap[parent] = a
+        heap[child] = b
+        return True
+    return False
+
+
+@wp.func
 def heap_push(heap: wp.array(dtype=wp.int32), size: int, key: wp.array(dtype=wp.float64), v: int) -> int:
     i = size
     heap[i] = v
     while i > 0:
         p = (i - 1) / 2
-        if before(key, heap[i], heap[p]):
-            t = heap[p]
-            heap[p] = heap[i]
-            heap[i] = t
-            i = p
-        else:
+        if not swap_up(heap, key, i, p):
             break
+        i = p
     return size + 1
 
 
@@ -53,13 +61,9 @@ def heap_pop(heap: wp.array(dtype=wp.int32), size: int, key: wp.array(dtype=wp.f
         c = l
         if l + 1 < n and before(key, heap[l + 1], heap[l]):
             c = l + 1
-        if before(key, heap[c], heap[i]):
-            t = heap[c]
-            heap[c] = heap[i]
-            heap[i] = t
-            i = c
-        else:
+        if not swap_up(heap, key, c, i):
             break
+        i = c
     return n
 
 
