@@ -3,7 +3,8 @@
 Renders a scene (default: NASA Blunt Fin, perspective, 512x512, ``scenes/bluntfin.toml``) with each
 PT preset (``pt_vertex_color``, ``roettger2000_3d``, ``roettger2002_hw`` by default) and with VTK's
 projected-tetrahedra mapper (OpenGL, offscreen; on a machine without a GPU that is Mesa's software
-rasteriser) in one run; prints times (median of ``--repeat`` renders after a first render that
+rasteriser) in one run (PNGs of each, and ``side_by_side_pt_vertex_color_vtk.png``: reference, warpvol
+``pt_vertex_color``, VTK, 4x their difference); prints times (median of ``--repeat`` renders after a first render that
 includes kernel compilation, table builds and mesh derived data), the ratio to VTK and the errors
 against the exact reference (cached in ``--out``). VTK's transfer function gets the same control
 points, colour and extinction (scalar opacity unit distance 1), as in ``scripts/bench_raycast.py``.
@@ -19,6 +20,8 @@ import argparse
 import json
 import sys
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -56,6 +59,11 @@ def main(argv=None) -> int:
     for name in args.presets.split(","):
         res, first, t = warpvol_render(scene, args.repeat, args.device, preset=name)
         write_png(out / f"{name}.png", res.image)
+        if name == "pt_vertex_color":  # reference | warpvol | VTK | 4 x |warpvol - VTK| (RGBA)
+            diff = 4.0 * np.abs(res.image - theirs).max(axis=-1)
+            write_png(out / "side_by_side_pt_vertex_color_vtk.png",
+                      np.concatenate([ref[..., :3], res.image[..., :3], theirs[..., :3],
+                                      np.repeat(diff[..., None], 3, axis=-1)], axis=1))
         rows.append({"renderer": f"warpvol {name}", "time_s": t, "first_s": first, "error": image_error(res.image, ref),
                      "stages": res.report["stages"], "counters": res.report["counters"],
                      "stats": res.report.get("stats", {})})
