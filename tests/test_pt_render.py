@@ -29,7 +29,7 @@ def preset(name, device="cpu", **overrides):
 
 
 def ref_of(sc):
-    key = (sc.name, tuple(sc.camera.eye), sc.camera.projection, sc.camera.width_px)
+    key = (sc.name, sc.transfer.hash, tuple(sc.camera.eye), sc.camera.projection, sc.camera.width_px)
     if key not in _REFS:
         _REFS[key] = render_reference(sc.mesh, sc.transfer, sc.camera)
     return _REFS[key]
@@ -140,3 +140,13 @@ def test_cylindrical_planes_reconstruct_the_3d_table():
     # interpolant than trilinear in (sf, sb, l); both converge: 2.3e-3 vs 3.5e-3 at 128)
     assert errs["4x"] < 2.0 * t3d.report["error"]["rmse"]
     assert errs["4x"] < errs["1x"]
+
+
+def test_constant_tf_emission_density_orthographic():
+    """Emission density (Roettger & Ertl's model): the fragment colour is c (1 - exp(-tau l)) / tau."""
+    from warpvol.transfer import TransferFunction
+
+    sc = builtin_scene("box").with_camera(width_px=48, height_px=48, **BOX_VIEWS["ortho"])
+    sc.transfer = TransferFunction([[0.0, 0.8, 0.6, 0.4, 1.5], [2.0, 0.8, 0.6, 0.4, 1.5]], "emission_density")
+    res = preset("pt_vertex_color", pt_vertex_color={"format": "fp32"}).render(sc, reference=ref_of(sc), quiet=True)
+    check(res, "pt/constant_tf/ortho/fp32")
