@@ -6,7 +6,8 @@ what the rasteriser will cover:
 
 * **class 2 (3 triangles)**: one vertex projects inside (or onto the boundary of) the triangle of the
   other three. It becomes the *thick vertex*; the other three are silhouette vertices.
-  Degenerate members: the vertex on an edge (one triangle of zero area) or on another vertex.
+  Degenerate members, classified apart: the vertex on an edge (one triangle of zero area) or on
+  another vertex (two).
 * **class 1 (4 triangles)**: the projection is a convex quadrilateral whose diagonals are two
   opposite tet edges; the thick vertex is where they cross, rounded to the 1/256 grid. If rounding
   would put it outside the quadrilateral (a sliver), a neighbouring grid point inside is taken, else
@@ -46,6 +47,8 @@ CLASS_FOUR = wp.constant(0)
 CLASS_THREE = wp.constant(1)
 CLASS_FLAT = wp.constant(2)
 CLASS_CULLED = wp.constant(3)
+CLASS_ON_EDGE = wp.constant(4)
+CLASS_ON_VERTEX = wp.constant(5)
 
 
 @wp.func
@@ -72,6 +75,20 @@ def in_closed_tri(x: wp.vec4l, y: wp.vec4l, i: int, j: int, k: int, l: int) -> b
     s1 = sgn(orient(x[k], y[k], x[l], y[l], x[i], y[i])) * a
     s2 = sgn(orient(x[l], y[l], x[j], y[j], x[i], y[i])) * a
     return s0 >= 0 and s1 >= 0 and s2 >= 0
+
+
+@wp.func
+def zero_subtriangles(x: wp.vec4l, y: wp.vec4l, i: int, j: int, k: int, l: int) -> int:
+    """How many of the triangles (i, j, k), (i, k, l), (i, l, j) have zero area (i on an edge: 1,
+    on a vertex: 2)."""
+    n = int(0)
+    if orient(x[j], y[j], x[k], y[k], x[i], y[i]) == wp.int64(0):
+        n += 1
+    if orient(x[k], y[k], x[l], y[l], x[i], y[i]) == wp.int64(0):
+        n += 1
+    if orient(x[l], y[l], x[j], y[j], x[i], y[i]) == wp.int64(0):
+        n += 1
+    return n
 
 
 @wp.func
@@ -173,11 +190,16 @@ def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal:
             thick_attr[k] = wp.vec3(si, sface, thick)
         else:
             thick_attr[k] = wp.vec3(sface, si, thick)
-        thick_pos[k] = pi
+        thick_pos[k] = wp.vec4(float(x[i]) / 256.0, float(y[i]) / 256.0, pi[2], pi[3])  # = the snapped vertex
         tris[4 * k + 0] = wp.vec3i(tv, v[j], v[kk])
         tris[4 * k + 1] = wp.vec3i(tv, v[kk], v[l])
         tris[4 * k + 2] = wp.vec3i(tv, v[l], v[j])
+        z = zero_subtriangles(x, y, i, j, kk, l)
         klass[k] = CLASS_THREE
+        if z == 1:
+            klass[k] = CLASS_ON_EDGE
+        elif z >= 2:
+            klass[k] = CLASS_ON_VERTEX
         return
     # class 1: two opposite edges a-b and c-d cross
     a = int(-1)

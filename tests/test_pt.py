@@ -66,7 +66,7 @@ def test_one_fragment_per_tet_and_pixel_degenerate_views():
     from helpers import box_mesh
 
     mesh = box_mesh(dims=(4, 4, 4))
-    seen = {"three_triangle": 0, "flat": 0, "four_triangle": 0}
+    seen = {"three_triangle": 0, "flat": 0, "four_triangle": 0, "vertex_on_edge": 0, "vertex_on_vertex": 0}
     for cam in degenerate_views():
         pt, ff, geo = coverage_pairs(mesh, cam)
         assert len(ff) > 100 and np.array_equal(pt, ff)

@@ -33,7 +33,7 @@ import warp as wp
 
 from .errors import ConfigError
 
-CLASS_NAMES = ("four_triangle", "three_triangle", "flat", "culled")
+CLASS_NAMES = ("four_triangle", "three_triangle", "flat", "culled", "vertex_on_edge", "vertex_on_vertex")
 
 
 @dataclass

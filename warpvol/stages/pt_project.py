@@ -3,8 +3,9 @@
 
 Reads ``ctx.buffers["vertices"]`` (stage ``vertex``) and ``ctx.buffers["order"]`` (stage ``sort``);
 stores :class:`warpvol.pt.PTGeometry` in ``ctx.buffers["pt_geometry"]``. Counts ``tets_projected``,
-one counter per class (``class_four_triangle``, ``class_three_triangle``, ``class_flat``,
-``class_culled``), ``triangles`` (non-degenerate triangles emitted) and ``thick_vertex_moved``.
+one counter per class (``class_four_triangle``, ``class_three_triangle``, the degenerate 3-triangle
+cases ``class_vertex_on_edge`` and ``class_vertex_on_vertex``, ``class_flat`` (projection a segment or
+a point), ``class_culled``), ``triangles`` (non-degenerate triangles emitted) and ``thick_vertex_moved``.
 """
 
 from __future__ import annotations
