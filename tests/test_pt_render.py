@@ -150,3 +150,21 @@ def test_constant_tf_emission_density_orthographic():
     sc.transfer = TransferFunction([[0.0, 0.8, 0.6, 0.4, 1.5], [2.0, 0.8, 0.6, 0.4, 1.5]], "emission_density")
     res = preset("pt_vertex_color", pt_vertex_color={"format": "fp32"}).render(sc, reference=ref_of(sc), quiet=True)
     check(res, "pt/constant_tf/ortho/fp32")
+
+
+def test_planner_reuses_cached_table_and_says_so():
+    from warpvol.transfer import TransferFunction
+
+    sc = builtin_scene("linear_box").with_camera(width_px=16, height_px=16)
+    pipe = preset("roettger2000_3d", table_roettger_sw={"n_s": 16, "n_l": 8, "m": 16})
+    first = pipe.render(sc, quiet=True)
+    assert "table_roettger_sw" in first.report["stages"]
+    again = pipe.render(sc, quiet=True)
+    skipped = {s["stage"]: s["reason"] for s in again.report["skipped"]}
+    assert "unchanged" in skipped["table_roettger_sw"] and "table_roettger_sw" not in again.report["stages"]
+    assert np.array_equal(first.image, again.image)
+    p = sc.transfer.points.copy()
+    p[:, 4] *= 2.0
+    sc.transfer = TransferFunction(p, sc.transfer.emission)
+    edited = pipe.render(sc, quiet=True)
+    assert "table_roettger_sw" in edited.report["stages"] and not np.array_equal(first.image, edited.image)
