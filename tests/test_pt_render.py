@@ -168,3 +168,17 @@ def test_planner_reuses_cached_table_and_says_so():
     sc.transfer = TransferFunction(p, sc.transfer.emission)
     edited = pipe.render(sc, quiet=True)
     assert "table_roettger_sw" in edited.report["stages"] and not np.array_equal(first.image, edited.image)
+
+
+def test_log2_thickness_axis_fixes_thin_cells():
+    """Stiff (cells 2e-5 thin): Kraus et al.'s logarithmic thickness axis (table_incremental) through
+    the same 3D-texture fragment program beats a uniform axis of the same table size."""
+    sc = builtin_scene("stiff").with_camera(width_px=48, height_px=48)
+    fp = {"format": "fp32", "texel_format": "auto"}
+    err = {}
+    for axis, table in (("uniform", {"stage": "table_exact", "n_s": 64, "n_l": 16, "format": "fp32"}),
+                        ("log2", {"stage": "table_incremental", "n_s": 64, "n_l": 16, "format": "fp32"})):
+        res = preset("roettger2000_3d", table_roettger_sw=table, pt_table3d=fp).render(sc, reference=ref_of(sc),
+                                                                                         quiet=True)
+        err[axis] = res.report["error"]["rmse"]
+    assert err["log2"] < 0.1 * err["uniform"]  # seen: 3.7e-3 vs 8.4e-2
