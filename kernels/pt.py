@@ -1,7 +1,8 @@
 """Projected tetrahedra (Shirley & Tuchman 1990): classification, decomposition, fragment programs.
 
 ``k_classify`` (one thread per tet, in visibility order) works on the rasteriser's snapped window
-coordinates (``snap``: 1/256 pixel, exact int64 orientation tests), so the decomposition agrees with
+coordinates (``snap``: 1/256 pixel with the rasteriser's tie rule ``even``; orientations are the
+rasteriser's exact int64 edge functions ``edge``), so the decomposition agrees with
 what the rasteriser will cover:
 
 * **class 2 (3 triangles)**: one vertex projects inside (or onto the boundary of) the triangle of the
@@ -37,7 +38,7 @@ Fragment programs (one thread per fragment of :meth:`warpvol.gpu.raster.Rasteriz
 import warp as wp
 
 from .preint import table_to_cyl
-from .raster import snap
+from .raster import edge, snap
 from .texture import Atlas, Tex3D, atlas_sample, tex3d
 from .tf import tf_eval
 
@@ -52,11 +53,6 @@ CLASS_ON_VERTEX = wp.constant(5)
 
 
 @wp.func
-def orient(ax: wp.int64, ay: wp.int64, bx: wp.int64, by: wp.int64, cx: wp.int64, cy: wp.int64) -> wp.int64:
-    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
-
-
-@wp.func
 def sgn(v: wp.int64) -> int:
     if v > wp.int64(0):
         return 1
@@ -66,50 +62,50 @@ def sgn(v: wp.int64) -> int:
 
 
 @wp.func
-def in_closed_tri(x: wp.vec4l, y: wp.vec4l, i: int, j: int, k: int, l: int) -> bool:
+def in_closed_tri(x: wp.vec4i, y: wp.vec4i, i: int, j: int, k: int, l: int) -> bool:
     """Is vertex i inside or on the boundary of the non-degenerate triangle (j, k, l)?"""
-    a = sgn(orient(x[j], y[j], x[k], y[k], x[l], y[l]))
+    a = sgn(edge(x[j], y[j], x[k], y[k], x[l], y[l]))
     if a == 0:
         return False
-    s0 = sgn(orient(x[j], y[j], x[k], y[k], x[i], y[i])) * a
-    s1 = sgn(orient(x[k], y[k], x[l], y[l], x[i], y[i])) * a
-    s2 = sgn(orient(x[l], y[l], x[j], y[j], x[i], y[i])) * a
+    s0 = sgn(edge(x[j], y[j], x[k], y[k], x[i], y[i])) * a
+    s1 = sgn(edge(x[k], y[k], x[l], y[l], x[i], y[i])) * a
+    s2 = sgn(edge(x[l], y[l], x[j], y[j], x[i], y[i])) * a
     return s0 >= 0 and s1 >= 0 and s2 >= 0
 
 
 @wp.func
-def zero_subtriangles(x: wp.vec4l, y: wp.vec4l, i: int, j: int, k: int, l: int) -> int:
+def zero_subtriangles(x: wp.vec4i, y: wp.vec4i, i: int, j: int, k: int, l: int) -> int:
     """How many of the triangles (i, j, k), (i, k, l), (i, l, j) have zero area (i on an edge: 1,
     on a vertex: 2)."""
     n = int(0)
-    if orient(x[j], y[j], x[k], y[k], x[i], y[i]) == wp.int64(0):
+    if edge(x[j], y[j], x[k], y[k], x[i], y[i]) == wp.int64(0):
         n += 1
-    if orient(x[k], y[k], x[l], y[l], x[i], y[i]) == wp.int64(0):
+    if edge(x[k], y[k], x[l], y[l], x[i], y[i]) == wp.int64(0):
         n += 1
-    if orient(x[l], y[l], x[j], y[j], x[i], y[i]) == wp.int64(0):
+    if edge(x[l], y[l], x[j], y[j], x[i], y[i]) == wp.int64(0):
         n += 1
     return n
 
 
 @wp.func
-def in_closed_quad(x: wp.vec4l, y: wp.vec4l, a: int, c: int, b: int, d: int, tx: wp.int64, ty: wp.int64) -> bool:
+def in_closed_quad(x: wp.vec4i, y: wp.vec4i, a: int, c: int, b: int, d: int, tx: int, ty: int) -> bool:
     """Is (tx, ty) inside or on the convex quadrilateral a, c, b, d (in this cyclic order)?"""
-    s0 = sgn(orient(x[a], y[a], x[c], y[c], tx, ty))
-    s1 = sgn(orient(x[c], y[c], x[b], y[b], tx, ty))
-    s2 = sgn(orient(x[b], y[b], x[d], y[d], tx, ty))
-    s3 = sgn(orient(x[d], y[d], x[a], y[a], tx, ty))
+    s0 = sgn(edge(x[a], y[a], x[c], y[c], tx, ty))
+    s1 = sgn(edge(x[c], y[c], x[b], y[b], tx, ty))
+    s2 = sgn(edge(x[b], y[b], x[d], y[d], tx, ty))
+    s3 = sgn(edge(x[d], y[d], x[a], y[a], tx, ty))
     pos = s0 >= 0 and s1 >= 0 and s2 >= 0 and s3 >= 0
     neg = s0 <= 0 and s1 <= 0 and s2 <= 0 and s3 <= 0
     return pos or neg
 
 
 @wp.func
-def crossing(x: wp.vec4l, y: wp.vec4l, a: int, b: int, c: int, d: int) -> bool:
+def crossing(x: wp.vec4i, y: wp.vec4i, a: int, b: int, c: int, d: int) -> bool:
     """Do the segments a-b and c-d cross at a point interior to both?"""
-    o1 = sgn(orient(x[a], y[a], x[b], y[b], x[c], y[c]))
-    o2 = sgn(orient(x[a], y[a], x[b], y[b], x[d], y[d]))
-    o3 = sgn(orient(x[c], y[c], x[d], y[d], x[a], y[a]))
-    o4 = sgn(orient(x[c], y[c], x[d], y[d], x[b], y[b]))
+    o1 = sgn(edge(x[a], y[a], x[b], y[b], x[c], y[c]))
+    o2 = sgn(edge(x[a], y[a], x[b], y[b], x[d], y[d]))
+    o3 = sgn(edge(x[c], y[c], x[d], y[d], x[a], y[a]))
+    o4 = sgn(edge(x[c], y[c], x[d], y[d], x[b], y[b]))
     return o1 * o2 < 0 and o3 * o4 < 0
 
 
@@ -122,7 +118,7 @@ def persp_param(t: float, wa: float, wb: float) -> float:
 
 @wp.kernel
 def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal: wp.array(dtype=wp.float32),
-               tets: wp.array2d(dtype=wp.int32), order: wp.array(dtype=wp.int32), n_points: int,
+               tets: wp.array2d(dtype=wp.int32), order: wp.array(dtype=wp.int32), n_points: int, even: int,
                thick_pos: wp.array(dtype=wp.vec4), thick_attr: wp.array(dtype=wp.vec3),
                tris: wp.array(dtype=wp.vec3i), klass: wp.array(dtype=wp.int32), moved: wp.array(dtype=wp.int32)):
     k = wp.tid()
@@ -142,10 +138,10 @@ def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal:
     if not ok:
         klass[k] = CLASS_CULLED
         return
-    x = wp.vec4l(wp.int64(snap(win[v[0]][0])), wp.int64(snap(win[v[1]][0])), wp.int64(snap(win[v[2]][0])),
-                 wp.int64(snap(win[v[3]][0])))
-    y = wp.vec4l(wp.int64(snap(win[v[0]][1])), wp.int64(snap(win[v[1]][1])), wp.int64(snap(win[v[2]][1])),
-                 wp.int64(snap(win[v[3]][1])))
+    x = wp.vec4i(snap(win[v[0]][0], even), snap(win[v[1]][0], even), snap(win[v[2]][0], even),
+                 snap(win[v[3]][0], even))
+    y = wp.vec4i(snap(win[v[0]][1], even), snap(win[v[1]][1], even), snap(win[v[2]][1], even),
+                 snap(win[v[3]][1], even))
     # class 2: a vertex inside the triangle of the other three
     inner = int(-1)
     for i in range(4):
@@ -224,23 +220,23 @@ def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal:
     if a < 0:
         klass[k] = CLASS_FLAT  # all four projections on one line
         return
-    oca = orient(x[cc], y[cc], x[d], y[d], x[a], y[a])
-    ocb = orient(x[cc], y[cc], x[d], y[d], x[b], y[b])
-    oac = orient(x[a], y[a], x[b], y[b], x[cc], y[cc])
-    oad = orient(x[a], y[a], x[b], y[b], x[d], y[d])
+    oca = edge(x[cc], y[cc], x[d], y[d], x[a], y[a])
+    ocb = edge(x[cc], y[cc], x[d], y[d], x[b], y[b])
+    oac = edge(x[a], y[a], x[b], y[b], x[cc], y[cc])
+    oad = edge(x[a], y[a], x[b], y[b], x[d], y[d])
     t = float(wp.float64(oca) / (wp.float64(oca) - wp.float64(ocb)))  # along a -> b
     u = float(wp.float64(oac) / (wp.float64(oac) - wp.float64(oad)))  # along c -> d
     fx = wp.float64(x[a]) + wp.float64(t) * wp.float64(x[b] - x[a])
     fy = wp.float64(y[a]) + wp.float64(t) * wp.float64(y[b] - y[a])
-    tx = wp.int64(wp.round(fx))
-    ty = wp.int64(wp.round(fy))
+    tx = int(wp.round(fx))
+    ty = int(wp.round(fy))
     if not in_closed_quad(x, y, a, cc, b, d, tx, ty):
         found = False
-        fx0 = wp.int64(wp.floor(fx))
-        fy0 = wp.int64(wp.floor(fy))
+        fx0 = int(wp.floor(fx))
+        fy0 = int(wp.floor(fy))
         for q in range(4):
-            cx = fx0 + wp.int64(q % 2)
-            cy = fy0 + wp.int64(q / 2)
+            cx = fx0 + q % 2
+            cy = fy0 + q / 2
             if (not found) and in_closed_quad(x, y, a, cc, b, d, cx, cy):
                 tx = cx
                 ty = cy
@@ -341,12 +337,12 @@ def k_frag_table3d(attrs: wp.array2d(dtype=wp.float32), tex: Tex3D, s_off: float
 
 
 @wp.kernel
-def k_snap_positions(win: wp.array(dtype=wp.vec4), out: wp.array(dtype=wp.vec4)):
+def k_snap_positions(win: wp.array(dtype=wp.vec4), even: int, out: wp.array(dtype=wp.vec4)):
     """Window x, y snapped to the rasteriser's 1/256 grid (attribute set-up from snapped vertices,
     as the hardware did; exact in float32)."""
     i = wp.tid()
     p = win[i]
-    out[i] = wp.vec4(float(snap(p[0])) / 256.0, float(snap(p[1])) / 256.0, p[2], p[3])
+    out[i] = wp.vec4(float(snap(p[0], even)) / 256.0, float(snap(p[1], even)) / 256.0, p[2], p[3])
 
 
 @wp.kernel

@@ -12,7 +12,7 @@ from warpvol.camera import Camera
 from warpvol.gpu.raster import Rasterizer
 from warpvol.gpu.vertex import VertexStage
 from warpvol.mesh import FACE_VERTS
-from warpvol.pt import decompose
+from warpvol.pt import RASTER_RULES, decompose
 from warpvol.sort import visibility_order
 
 
@@ -29,11 +29,11 @@ def coverage_pairs(mesh, cam, device="cpu"):
     vt = vs.transform(mesh.points)
     order = visibility_order(mesh, cam, "centroid").order
     geo = decompose(mesh, vt, order, device=device)
-    r = Rasterizer(cam.width_px, cam.height_px, device=device, depth_clip=False)
+    r = Rasterizer(cam.width_px, cam.height_px, device=device, **RASTER_RULES)
     pt = pixel_tet_pairs(r.fragments(geo.positions, geo.tris), np.repeat(order, 4))
     # independent: every tet's front faces tile its projection exactly once (same snapped vertices)
     faces = mesh.tets[:, FACE_VERTS].reshape(-1, 3)
-    rf = Rasterizer(cam.width_px, cam.height_px, device=device, depth_clip=False, cull="back")
+    rf = Rasterizer(cam.width_px, cam.height_px, device=device, cull="back", **RASTER_RULES)
     ff = pixel_tet_pairs(rf.fragments(vt.window_array, faces), np.repeat(np.arange(mesh.n_tets), 4))
     return pt, ff, geo
 

@@ -33,6 +33,9 @@ import warp as wp
 
 from .errors import ConfigError
 
+#: rasteriser rules the decomposition snaps with and :func:`draw` rasterises with (they must agree)
+RASTER_RULES = {"snap_ties": "even", "depth_clip": False}
+
 CLASS_NAMES = ("four_triangle", "three_triangle", "flat", "culled", "vertex_on_edge", "vertex_on_vertex")
 
 
@@ -71,6 +74,7 @@ def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
     m, v = len(order), mesh.n_points
     if vertices.window.shape[0] != v:
         raise ConfigError(f"vertices: expected {v} transformed points, got {vertices.window.shape[0]}")
+    even = int(RASTER_RULES["snap_ties"] == "even")
     win = wp.array(vertices.window.astype(np.float32), dtype=wp.vec4, device=device)
     eye = wp.array(vertices.eye.astype(np.float32), dtype=wp.vec4, device=device)
     scal = wp.array(mesh.scalars.astype(np.float32), dtype=wp.float32, device=device)
@@ -82,10 +86,10 @@ def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
     if m:
         wp.launch(kpt.k_classify, dim=m,
                   inputs=[win, eye, scal, wp.array(mesh.tets.astype(np.int32), dtype=wp.int32, device=device),
-                          wp.array(order, dtype=wp.int32, device=device), v, tp, ta, tris, klass, moved],
+                          wp.array(order, dtype=wp.int32, device=device), v, even, tp, ta, tris, klass, moved],
                   device=device)
     snapped = wp.zeros(max(v, 1), dtype=wp.vec4, device=device)
-    wp.launch(kpt.k_snap_positions, dim=v, inputs=[win, snapped], device=device)
+    wp.launch(kpt.k_snap_positions, dim=v, inputs=[win, even, snapped], device=device)
     pos = np.concatenate([snapped.numpy()[:v], tp.numpy()[:m]])
     s = mesh.scalars.astype(np.float32)
     attrs = np.concatenate([np.stack([s, s, np.zeros_like(s)], axis=1), ta.numpy()[:m]])
@@ -107,7 +111,7 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
 
     from .kernels import pt as kpt
 
-    rast = Rasterizer(fb.width, fb.height, device=device, depth_clip=False)
+    rast = Rasterizer(fb.width, fb.height, device=device, **RASTER_RULES)
     n_frag = n_batch = 0
     m = geo.n_tets
     va = wp.array(np.ascontiguousarray(vertex_attrs, dtype=np.float32), dtype=wp.float32, device=device)

@@ -155,6 +155,7 @@ def boundary_ray_constraints(mesh, camera, device: str = "cpu") -> tuple[np.ndar
     from .gpu.raster import Rasterizer
     from .gpu.vertex import VertexStage
     from .mesh import FACE_VERTS
+    from .pt import RASTER_RULES
 
     bf = mesh.boundary_faces
     empty = np.zeros(0, np.int64)
@@ -166,7 +167,7 @@ def boundary_ray_constraints(mesh, camera, device: str = "cpu") -> tuple[np.ndar
     n = np.cross(mesh.points[tri[:, 1]] - origin - p0, mesh.points[tri[:, 2]] - origin - p0)
     front = (np.einsum("ij,ij->i", n, eye - p0) if persp else -(n @ fwd)) > 0  # the ray enters here
     vs = VertexStage.from_camera(camera, *camera.depth_range(*mesh.bounds), device=device)
-    frags = Rasterizer(camera.width_px, camera.height_px, device=device, depth_clip=False).fragments(
+    frags = Rasterizer(camera.width_px, camera.height_px, device=device, **RASTER_RULES).fragments(
         vs.transform(mesh.points).window_array, tri)
     if frags.count < 2:
         return empty, empty, frags.count
