@@ -108,3 +108,34 @@ def k_priority_topo(adj: wp.array2d(dtype=wp.int32), dirs: wp.array2d(dtype=wp.i
                 if indeg[b] == 0 and done[b] == 0:
                     size = heap_push(heap, size, key, b)
     stats[0] = cycles
+
+
+@wp.kernel
+def k_face_directions(points: wp.array(dtype=wp.vec3d), tets: wp.array2d(dtype=wp.int32),
+                      adj: wp.array2d(dtype=wp.int32), face_verts: wp.array2d(dtype=wp.int32), eye: wp.vec3d,
+                      fwd: wp.vec3d, persp: int, dirs: wp.array2d(dtype=wp.int32)):
+    """One thread per cell ``a``: for each shared face with ``adj[a, f] = b > a`` the side of the
+    face's plane the eye is on (float64, points relative to the mesh centre), written to both
+    ``dirs[a, f]`` and ``-dirs[b, f']`` (each face decided once, so both sides agree)."""
+    a = wp.tid()
+    for f in range(4):
+        b = adj[a, f]
+        if b > a:
+            p0 = points[tets[a, face_verts[f, 0]]]
+            p1 = points[tets[a, face_verts[f, 1]]]
+            p2 = points[tets[a, face_verts[f, 2]]]
+            n = wp.cross(p1 - p0, p2 - p0)  # outward normal of cell a
+            side = float(0.0)
+            if persp != 0:
+                side = float(wp.dot(n, eye - p0))
+            else:
+                side = -float(wp.dot(n, fwd))
+            s = int(0)
+            if side > 0.0:
+                s = 1
+            elif side < 0.0:
+                s = -1
+            dirs[a, f] = s
+            for g in range(4):
+                if adj[b, g] == a:
+                    dirs[b, g] = -s

@@ -99,24 +99,23 @@ def centroid_order(mesh, camera, metric: str = "distance") -> SortResult:
 def face_directions(mesh, camera) -> np.ndarray:
     """(M, 4) int32 ``dirs``: +1 where the cell is drawn before its neighbour across local face i
     (the eye is on the neighbour's side), -1 where after, 0 on boundary faces and faces whose plane
-    contains the eye. Each shared face is decided once, so both sides always agree."""
+    contains the eye. Each shared face is decided once (float64, one Warp thread per cell on the
+    CPU, :func:`warpvol.kernels.sort.k_face_directions`), so both sides always agree."""
+    import warp as wp
+
+    from .kernels import sort as ks
     from .mesh import FACE_VERTS
 
     origin, eye, fwd, persp = _frame(mesh, camera)
-    adj = mesh.adjacency
-    a, f = np.nonzero(adj > np.arange(mesh.n_tets, dtype=np.int32)[:, None])  # each shared face once
-    b = adj[a, f]
-    # FACE_VERTS winds each face so that the cross product is the outward normal of cell a
-    tri = mesh.tets[a[:, None], FACE_VERTS[f]]
-    p0 = mesh.points[tri[:, 0]] - origin
-    n = np.cross(mesh.points[tri[:, 1]] - origin - p0, mesh.points[tri[:, 2]] - origin - p0)
-    side = np.einsum("ij,ij->i", n, eye - p0) if persp else -(n @ fwd)
-    s = np.sign(side).astype(np.int32)
-    dirs = np.zeros(adj.shape, np.int32)
-    dirs[a, f] = s
-    fb = np.argmax(adj[b] == a[:, None], axis=1)
-    dirs[b, fb] = -s
-    return dirs
+    dev = "cpu"
+    dirs = wp.zeros(mesh.adjacency.shape, dtype=wp.int32, device=dev)
+    wp.launch(ks.k_face_directions, dim=mesh.n_tets,
+              inputs=[wp.array(mesh.points - origin, dtype=wp.vec3d, device=dev),
+                      wp.array(mesh.tets.astype(np.int32), dtype=wp.int32, device=dev),
+                      wp.array(mesh.adjacency, dtype=wp.int32, device=dev),
+                      wp.array(FACE_VERTS.astype(np.int32), dtype=wp.int32, device=dev),
+                      wp.vec3d(*eye), wp.vec3d(*fwd), int(persp), dirs], device=dev)
+    return dirs.numpy()
 
 
 def topological_order(mesh, dirs: np.ndarray, key: np.ndarray,
