@@ -182,3 +182,10 @@ def test_log2_thickness_axis_fixes_thin_cells():
                                                                                          quiet=True)
         err[axis] = res.report["error"]["rmse"]
     assert err["log2"] < 0.1 * err["uniform"]  # seen: 3.7e-3 vs 8.4e-2
+
+
+def test_roettger2002_hw_preset_as_shipped():
+    """The shipped 64^3 table (128 steps, 12 bit; ~67 M emulated blends) on one built-in."""
+    sc = builtin_scene("concave").with_camera(width_px=64, height_px=64)
+    res = Pipeline.load("roettger2002_hw").render(sc, reference=ref_of(sc), quiet=True)
+    check(res, "roettger2002_hw")

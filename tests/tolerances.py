@@ -41,6 +41,10 @@ roettger2002_cylindrical  2.5e-2     0.2            preset as shipped (64 planes
                                                     <= 1.6e-2 / 0.165 (sphere; 4x planes: 1.2e-2 / 0.12).
                                                     stiff uses the roettger2000_3d/stiff row (seen 2.95e-2
                                                     / 0.224)
+roettger2002_hw         2e-2         0.15           preset as shipped (64^3, 128 steps, 12 bit), concave
+                                                    64^2; seen at 128^2: box 1.0e-2 / 0.064, linear_box
+                                                    4.9e-3 / 0.031, sphere 1.2e-2 / 0.099, concave 9.1e-3
+                                                    / 0.071, stiff 6.3e-3 / 0.082
 =====================  ===========  ===========  ==================================================
 """
 
@@ -57,5 +61,6 @@ TOLERANCES = {
     "roettger2000_3d/stiff": {"rmse": 5e-2, "max_abs": 0.3},
     "pt_table3d/exact/fp32": {"rmse": 4e-3, "max_abs": 4e-2},
     "roettger2002_hw/32x32x32": {"rmse": 4e-2, "max_abs": 0.3},
+    "roettger2002_hw": {"rmse": 2e-2, "max_abs": 0.15},
     "roettger2002_cylindrical": {"rmse": 2.5e-2, "max_abs": 0.2},
 }
