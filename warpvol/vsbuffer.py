@@ -350,7 +350,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     missed_length = 0.0
     ray_missed = wp.zeros(W * H, dtype=wp.int32, device=device)
     t_setup = time.perf_counter() - t0
-    id_s, walk_s = t_setup, 0.0
+    id_s, walk_s = 0.0, 0.0
     done = wp.full((P * W, max(1, int(max_list))), -1, dtype=wp.int32, device=device)
     counters = wp.zeros((P * W, kv.NCOUNT), dtype=wp.int32, device=device)
     lists = np.full((H, W, max(1, int(max_list))), -1, np.int32) if keep_lists else None
