@@ -11,11 +11,12 @@ wp.set_module_options({"enable_backward": False})
 @wp.kernel
 def audit_pairs(cells: VsbCells, w: Walk, plane: wp.array(dtype=wp.int32), column: wp.array(dtype=wp.int32),
                 cell: wp.array(dtype=wp.int32), ray_o: wp.array(dtype=wp.vec3), ray_d: wp.array(dtype=wp.vec3),
-                done: wp.array2d(dtype=wp.int32), missed: wp.array(dtype=wp.int32),
+                done: wp.array2d(dtype=wp.int32), out: wp.array(dtype=wp.vec4), missed: wp.array(dtype=wp.int32),
                 missed_len: wp.array(dtype=float), ray_missed: wp.array(dtype=wp.int32)):
     """Audit after the walk: for a (plane, column, cell) with the cell cut by the plane over that
     column, whether the ray crosses the cell for more than ``eps`` and the cell is missing from the
-    ray's list of integrated cells (a loss nothing in the walk could see). One thread per pair."""
+    ray's list of integrated cells (a loss nothing in the walk could see); rays stopped by early
+    termination (transmittance below ``t_min``) are complete. One thread per pair."""
     i = wp.tid()
     p = plane[i]
     col = column[i]
@@ -26,7 +27,7 @@ def audit_pairs(cells: VsbCells, w: Walk, plane: wp.array(dtype=wp.int32), colum
     length = iv[1] - wp.max(iv[0], 0.0)
     missed[i] = 0
     missed_len[i] = 0.0
-    if length > w.eps:
+    if length > w.eps and 1.0 - out[pix][3] >= w.t_min:
         tid = p * w.width + col
         for n in range(w.max_list):
             v = done[tid, n]

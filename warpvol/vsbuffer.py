@@ -410,6 +410,9 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
 
         # each block writes its own rows of ``done``/``counters`` (thread id = plane-in-batch * W + column)
         launch_blocks(device, len(pblocks), launch, threads)
+        c = counters.numpy().sum(axis=0)
+        for k, name in enumerate(kv.COUNTERS):
+            cnt[name] += int(c[k])
         if audit:
             # (plane, column, cell) for cells the plane cuts whose column range holds column centres
             cut = (cb_lo[pc_cell] <= rows[pc_plane] + 0.5) & (rows[pc_plane] + 0.5 <= cb_hi[pc_cell])
@@ -423,8 +426,8 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
                 missed = wp.zeros(len(own3), dtype=wp.int32, device=device)
                 mlen = wp.zeros(len(own3), dtype=wp.float32, device=device)
                 wp.launch(ka.audit_pairs, dim=len(own3), device=device,
-                          inputs=[dc, w, dev(ap[own3]), dev(col3), dev(ac[own3]), ray_o, ray_d, done, missed, mlen,
-                                  ray_missed])
+                          inputs=[dc, w, dev(ap[own3]), dev(col3), dev(ac[own3]), ray_o, ray_d, done, out, missed,
+                                  mlen, ray_missed])
                 cnt["audit_pairs"] += len(own3)
                 miss = missed.numpy()
                 cnt["missed_cells"] += int(miss.sum())
@@ -448,9 +451,6 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         if lists is not None:
             lists[j0:j0 + np_] = done.numpy()[:np_ * W].reshape(np_, W, -1)
         done.fill_(-1)
-        c = counters.numpy().sum(axis=0)
-        for k, name in enumerate(kv.COUNTERS):
-            cnt[name] += int(c[k])
         t3 = time.perf_counter()
         id_s += t2 - t1
         walk_s += t3 - t2
