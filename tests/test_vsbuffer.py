@@ -133,6 +133,9 @@ def test_parameters_checked():
     with pytest.raises(ConfigError, match="integration"):
         warpvol.pipeline.Pipeline.from_config({"name": "x", "stages": [
             {"stage": "vsb_setup"}, {"stage": "vsb_sweep", "integration": "simpson"}]})
+    with pytest.raises(ConfigError, match="rewalk: needs audit"):
+        warpvol.pipeline.Pipeline.from_config({"name": "x", "stages": [
+            {"stage": "vsb_setup"}, {"stage": "vsb_sweep", "rewalk": True, "audit": False}]})
     s = warpvol.builtin_scene("sphere").with_camera(width_px=8, height_px=8)
     with pytest.raises(ConfigError, match="in front of the eye"):
         render_vsbuffer(ConvexCellMesh.from_tetmesh(s.mesh), s.transfer, s.camera.replace(eye=(0.1, 0.0, 0.0)))

@@ -22,6 +22,8 @@ class VsbSweep(Stage):
     ================  =====  ==========  ==============================================================
     depth_res         int    0           VSBUFFER rows along the view (0: the image height, the paper's)
     tree_depth        int    5           octree levels below the root (the paper: 5), [0, 10]
+    tree_insert       str    centroid    ``centroid`` (leaf of the box centre, tight node boxes) |
+                                         ``containing`` (deepest node containing the box)
     integration       str    trapezoid   ``trapezoid`` (the paper's, with attenuation) | ``exact``
     steps             int    1           trapezoid sub-steps per cell segment, [1, 1024]
     neighbour_check   bool   true        check the 3x3 buffer neighbours when leaving a cell
@@ -42,6 +44,7 @@ class VsbSweep(Stage):
     params = (
         Param("depth_res", int, 0, "VSBUFFER rows along the view (0: image height)", lo=0, hi=65536),
         Param("tree_depth", int, 5, "octree levels below the root", lo=0, hi=10),
+        Param("tree_insert", str, "centroid", "cell placement in the octree", choices=("centroid", "containing")),
         Param("integration", str, "trapezoid", "integration rule", choices=INTEGRATIONS),
         Param("steps", int, 1, "trapezoid sub-steps per cell segment", lo=1, hi=1024),
         Param("neighbour_check", bool, True, "check buffer neighbours when leaving a cell"),
@@ -53,6 +56,12 @@ class VsbSweep(Stage):
         Param("rewalk", bool, False, "integrate rays the audit flagged again from their sorted cut cells"),
         Param("threads", int, 0, "host threads for the column walk (0: all cores)", lo=0, hi=256),
     )
+
+    def validate(self) -> None:
+        if self.rewalk and not self.audit:
+            from ..errors import ConfigError
+
+            raise ConfigError(f"{self.where}.rewalk: needs audit = true (the audit finds the rays to walk again)")
 
     def run(self, ctx: Context) -> None:
         sc = ctx.scene
