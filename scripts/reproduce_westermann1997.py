@@ -138,6 +138,8 @@ def main(argv=None):
                        grops_s=st["id_s"], int_s=st["walk_s"], setup_s=st["setup_s"], total_s=total,
                        grops_model_s=gr_m, rmse=rmse, max_abs=float(np.abs(res.image - ref).max()),
                        lost=c["lost_segments"], recovered=c["recovered_by_adjacency"],
+                       missed=c["missed_cells"],
+                       rewalked=c["rays_rewalked"],
                        neighbour_found=c["neighbour_found"], cells_integrated=c["cells_integrated"],
                        id_triangles=c["id_triangles_back"] + c["id_triangles_front"], ref_s=t_ref)
             rows.append(row)
@@ -149,8 +151,9 @@ def main(argv=None):
     print(f"\nTable 1 at {a.size}x{a.size}, {a.size} scanlines, VSBUFFER depth rows {a.size} "
           f"(emulated on {os.cpu_count()} CPU cores, device {a.device})")
     print("| data set | preset | tets | drawn tets | GrOps [s] | Int [s] | total [s] | GrOps model [s] | RMSE | "
-          "lost / recovered | paper: tets, drawn, GrOps, Int, total | drawn ratio | GrOps model / paper |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+          "gaps lost / recovered | audit: missed crossings / rays rewalked | paper: tets, drawn, GrOps, Int, total | "
+          "drawn ratio | GrOps model / paper |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for r in rows:
         p = PAPER.get(PAPER_ROW[r["dataset"]] or "")
         paper = f"{p[0]:,}, {p[1]:,}, {p[2]}, {p[3]}, {p[4]}" if p else "-"
@@ -158,7 +161,7 @@ def main(argv=None):
         gm = f"{r['grops_model_s'] / p[2]:.2f}" if p else "-"
         print(f"| {r['dataset']} | {r['preset']} | {r['tets']:,} | {r['drawn']:,} | {r['grops_s']:.1f} | "
               f"{r['int_s']:.1f} | {r['total_s']:.1f} | {r['grops_model_s']:.1f} | {r['rmse']:.2e} | "
-              f"{r['lost']:,} / {r['recovered']:,} | {paper} | {ratio} | {gm} |")
+              f"{r['lost']:,} / {r['recovered']:,} | {r['missed']:,} / {r['rewalked']:,} | {paper} | {ratio} | {gm} |")
     print(f"\nModel: GrOps = 5.6 s x pixels read / (450*450*2*450) + {k * 1e6:.2f} us x drawn tets "
           f"(slope through the paper's rows, spread {ks * 1e6:.2f} us): calibrated on the paper itself, "
           "so it checks our drawn-tet counts against the paper's timings, not the hardware. Int is not "
