@@ -346,7 +346,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     cnt = {k: 0 for k in kv.COUNTERS}
     cnt.update(planes=H, drawn_cells=0, tree_nodes_tested=0, id_triangles_back=0, id_triangles_front=0,
                id_pixels_read=0, vsb_pixels_compared=0, audit_pairs=0, missed_cells=0, rays_rewalked=0,
-               rewalk_candidates=0)
+               rewalk_candidates=0, passes=0, readbacks=0, bytes_down=0, clears=0, clear_pixels=0, vertices=0)
     missed_length = 0.0
     ray_missed = wp.zeros(W * H, dtype=wp.int32, device=device)
     t_setup = time.perf_counter() - t0
@@ -394,6 +394,14 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         # the two passes are independent draws: on the CPU each runs on its own host thread
         launch_blocks(device, 2, draw, threads)
         cnt["id_pixels_read"] += 2 * np_ * R * W
+        # in the vocabulary of the hardware counters: per plane two passes, each cleared (colour and
+        # depth), drawn and read back as RGBA8 (glReadPixels(..., RGBA, BYTE) in the paper's Fig. 7)
+        cnt["passes"] += 2 * np_
+        cnt["readbacks"] += 2 * np_
+        cnt["bytes_down"] += 4 * 2 * np_ * R * W
+        cnt["clears"] += 4 * np_
+        cnt["clear_pixels"] += 4 * np_ * R * W
+        cnt["vertices"] += 3 * (len(jobs[0][2]) + len(jobs[1][2]))
         vsb = wp.empty((np_ * stride, W), dtype=wp.int32, device=device)
         wp.launch(kv.vsb_compare, dim=(np_ * stride, W), inputs=[bufs[0], bufs[1], vsb], device=device)
         cnt["vsb_pixels_compared"] += np_ * R * W
