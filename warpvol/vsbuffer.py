@@ -36,6 +36,7 @@ Example
 from __future__ import annotations
 
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -196,6 +197,21 @@ def _expand(starts: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndar
 # ------------------------------------------------------------------------------------------------
 # the renderer
 # ------------------------------------------------------------------------------------------------
+
+
+@contextmanager
+def _unit_counters():
+    """The hardware counters the emulated units add on this thread, as a dict (empty where the
+    units do not count)."""
+    try:
+        from .gpu.counters import Counters
+    except ImportError:  # units without hardware counters
+        yield {}
+        return
+    out: dict[str, int] = {}
+    with Counters() as c:
+        yield out
+    out.update(c.as_dict())
 
 
 def _device_cells(cm: ConvexCellMesh, origin: np.ndarray, device: str):
@@ -381,18 +397,23 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
             pos[..., 3] = 1.0
             cnt[f"id_triangles_{name}"] += len(f)
             jobs.append((func, pos.reshape(-1, 4), fc[f]))
-        bufs = [None, None]
+        bufs, unit_counts = [None, None], [{}, {}]
 
-        def draw(b: int, jobs=jobs, np_=np_, bufs=bufs) -> None:
+        def draw(b: int, jobs=jobs, np_=np_, bufs=bufs, unit_counts=unit_counts) -> None:
             func, pos, ids = jobs[b]
             rast = Rasterizer(W, np_ * stride, device=device, depth_func=func, depth_write=True, depth_clip=True,
                               tile_size=tile_size, **rules)
             idbuf = wp.full((np_ * stride, W), -1, dtype=wp.int32, device=device)
-            rast.draw_ids(pos, np.arange(len(pos), dtype=np.int32).reshape(-1, 3), ids, id_buffer=idbuf)
+            with _unit_counters() as uc:  # what the rasteriser counts on this thread (fragments, ...)
+                rast.draw_ids(pos, np.arange(len(pos), dtype=np.int32).reshape(-1, 3), ids, id_buffer=idbuf)
+            unit_counts[b] = uc
             bufs[b] = idbuf
 
         # the two passes are independent draws: on the CPU each runs on its own host thread
         launch_blocks(device, 2, draw, threads)
+        for uc in unit_counts:
+            for k, v in uc.items():
+                cnt[k] = cnt.get(k, 0) + int(v)
         cnt["id_pixels_read"] += 2 * np_ * R * W
         # in the vocabulary of the hardware counters: per plane two passes, each cleared (colour and
         # depth), drawn and read back as RGBA8 (glReadPixels(..., RGBA, BYTE) in the paper's Fig. 7)
