@@ -45,8 +45,8 @@ from .errors import ConfigError
 from .parallel import blocks, cpu_threads, launch_blocks
 from .vsbuffer_cells import ConvexCellMesh
 
-__all__ = ["ConvexCellMesh", "Octree", "build_octree", "ray_space", "render_vsbuffer", "INTEGRATIONS",
-           "ADJACENCY_MODES"]
+__all__ = ["ConvexCellMesh", "Octree", "build_octree", "ray_space", "render_vsbuffer", "walk_column",
+           "INTEGRATIONS", "ADJACENCY_MODES"]
 
 INTEGRATIONS = ("trapezoid", "exact")
 ADJACENCY_MODES = ("count", "recover")
@@ -244,6 +244,68 @@ def _face_sides(cm: ConvexCellMesh, abc: np.ndarray) -> np.ndarray:
     return np.sign(nb) * np.sign(vol)
 
 
+def _walk_inputs(cells: ConvexCellMesh, transfer, camera, device: str, rows: int, cmin: float, cspan: float,
+                 integration: str, steps: int, neighbour_check: bool, adjacency: str, t_min: float, max_list: int):
+    """``(Walk, VsbCells, ray origins, ray directions, tf_s, tf_v)`` on ``device`` for one frame."""
+    import warp as wp
+
+    from .kernels import vsbuffer as kv
+
+    origin = 0.5 * (cells.bounds[0] + cells.bounds[1])
+    dc = _device_cells(cells, origin, device)
+    o_np, d_np = camera.rays(normalise=True)
+    ray_o = wp.array((o_np - origin).reshape(-1, 3).astype(np.float32), dtype=wp.vec3, device=device)
+    ray_d = wp.array(d_np.reshape(-1, 3).astype(np.float32), dtype=wp.vec3, device=device)
+    tf_s, tf_v = transfer.to_warp(device)
+    w = kv.Walk()
+    w.rows, w.stride, w.width, w.height = rows, rows + 2, camera.width_px, camera.height_px
+    w.eye = wp.vec3(*(camera.eye - origin))
+    w.fwd = wp.vec3(*camera.forward)
+    w.ortho = int(camera.projection == "orthographic")
+    w.cmin, w.cscale = cmin, rows / cspan
+    w.integ = INTEGRATIONS.index(integration)
+    w.steps, w.model = int(steps), 0 if transfer.emission == "color_extinction" else 1
+    w.t_min, w.nbr, w.adjacency = float(t_min), int(bool(neighbour_check)), ADJACENCY_MODES.index(adjacency)
+    w.max_list = int(max_list)
+    w.eps = 1e-6 * float(np.linalg.norm(cells.bounds[1] - cells.bounds[0]))
+    return w, dc, ray_o, ray_d, tf_s, tf_v
+
+
+def walk_column(cells: ConvexCellMesh, transfer, camera, column, row: int, col: int, *, device: str = "cpu",
+                integration: str = "exact", neighbour_check: bool = False, adjacency: str = "count",
+                max_list: int = 256) -> tuple[np.ndarray, dict, list[int]]:
+    """Walk one given VSBUFFER column for the ray of pixel ``(row, col)``: ``column`` lists the cell ID
+    of each depth row front to back (-1 empty); the other columns of the plane are empty. Returns the
+    pixel's premultiplied RGBA, the walk's counters and the ray's list of integrated cells, in order.
+
+    For inspecting the walk on hand-made buffers (split runs, missing rows); the depth rows map onto
+    the mesh's depth range as in :func:`render_vsbuffer`.
+    """
+    import warp as wp
+
+    from .kernels import vsbuffer as kv
+
+    ids = np.asarray(column, dtype=np.int32).reshape(-1)
+    R, W = len(ids), camera.width_px
+    abc = ray_space(cells.points, camera)
+    cmin, cmax = float(abc[:, 2].min()), float(abc[:, 2].max())
+    w, dc, ray_o, ray_d, tf_s, tf_v = _walk_inputs(cells, transfer, camera, device, R, cmin,
+                                                   max(cmax - cmin, 1e-30), integration, 1, neighbour_check,
+                                                   adjacency, 0.0, max_list)
+    w.j0 = int(row)
+    vsb = np.full((R + 2, W), -1, np.int32)
+    vsb[:R, col] = ids
+    out = wp.zeros(W * camera.height_px, dtype=wp.vec4, device=device)
+    done = wp.full((W, max_list), -1, dtype=wp.int32, device=device)
+    counters = wp.zeros((W, kv.NCOUNT), dtype=wp.int32, device=device)
+    wp.launch(kv.column_walk, dim=(1, W), device=device,
+              inputs=[dc, w, wp.array(vsb, dtype=wp.int32, device=device), ray_o, ray_d, tf_s, tf_v, done, out,
+                      counters, 0])
+    lst = done.numpy()[col]
+    c = counters.numpy()[col]
+    return out.numpy()[row * W + col], dict(zip(kv.COUNTERS, map(int, c))), lst[lst >= 0].tolist()
+
+
 def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "cpu", depth_res: int = 0,
                     tree_depth: int = 5, integration: str = "trapezoid", steps: int = 1,
                     neighbour_check: bool = True, adjacency: str = "count", t_min: float = 0.0,
@@ -316,7 +378,6 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     R = int(depth_res) or H
     stride = R + 2
     t0 = time.perf_counter()
-    origin = 0.5 * (cells.bounds[0] + cells.bounds[1])
     abc = ray_space(cells.points, camera)
     cmin, cmax = float(abc[:, 2].min()), float(abc[:, 2].max())
     cspan = max(cmax - cmin, 1e-30 * max(1.0, abs(cmax)))
@@ -338,24 +399,9 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         csr[name] = (o, np.concatenate([[0], np.cumsum(cnt)])[:-1], cnt)
     tree = build_octree(*cells.cell_bounds, tree_depth, tree_insert)
     node_cnt = np.diff(tree.cell_start)
-    dc = _device_cells(cells, origin, device)
-    o_np, d_np = camera.rays(normalise=True)
-    ray_o = wp.array((o_np - origin).reshape(-1, 3).astype(np.float32), dtype=wp.vec3, device=device)
-    ray_d = wp.array(d_np.reshape(-1, 3).astype(np.float32), dtype=wp.vec3, device=device)
-    tf_s, tf_v = transfer.to_warp(device)
+    w, dc, ray_o, ray_d, tf_s, tf_v = _walk_inputs(cells, transfer, camera, device, R, cmin, cspan, integration,
+                                                   steps, neighbour_check, adjacency, t_min, max_list)
     out = wp.zeros(W * H, dtype=wp.vec4, device=device)
-    diam = float(np.linalg.norm(cells.bounds[1] - cells.bounds[0]))
-    w = kv.Walk()
-    w.rows, w.stride, w.width, w.height = R, stride, W, H
-    w.eye = wp.vec3(*(camera.eye - origin))
-    w.fwd = wp.vec3(*camera.forward)
-    w.ortho = int(camera.projection == "orthographic")
-    w.cmin, w.cscale = cmin, R / cspan
-    w.integ = INTEGRATIONS.index(integration)
-    w.steps, w.model = int(steps), 0 if transfer.emission == "color_extinction" else 1
-    w.t_min, w.nbr, w.adjacency = float(t_min), int(bool(neighbour_check)), ADJACENCY_MODES.index(adjacency)
-    w.max_list = int(max_list)
-    w.eps = 1e-6 * diam
     rules = dict(raster_rules or {})
     P = max(1, min(int(planes_per_batch), H))
     threads = threads or cpu_threads()
