@@ -293,7 +293,10 @@ class Pipeline:
             ctx.progress(f"{key} ...")
             t0 = time.perf_counter()
             ctx.stage_key = key
-            st.run(ctx)
+            from .gpu.counters import Counters
+
+            with Counters(ctx.counters.setdefault(key, {})):  # units used by the stage count into its entry
+                st.run(ctx)
             ctx.stage_key = None
             _sync(device)
             dt = time.perf_counter() - t0

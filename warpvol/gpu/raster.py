@@ -44,6 +44,8 @@ import warp as wp
 from warpvol.errors import ConfigError, check_choice, check_number
 from warpvol.kernels import raster as kr
 
+from . import counters as _cnt
+
 CULL_MODES = {"none": 0, "back": 1, "front": 2}
 FRONT_FACES = ("ccw", "cw")
 DEPTH_FUNCS = {"always": 0, "less": 1, "greater": 2, "lequal": 3, "gequal": 4, "never": 5}
@@ -104,6 +106,9 @@ class Triangles:
             wp.utils.array_scan(counts, offsets, inclusive=False)
             total = int(offsets[t - 1:t].numpy()[0] + counts[t - 1:t].numpy()[0])
         self.bin_entries = total
+        c = _cnt.active()
+        if c is not None:  # triangles with no bin entry were culled or cover no tile
+            c.add(primitives=t, primitives_culled=int((counts.numpy()[:t] == 0).sum()) if t else 0)
         keys = wp.zeros(max(2 * total, 2), dtype=wp.int32, device=dev)
         vals = wp.zeros(max(2 * total, 2), dtype=wp.int32, device=dev)
         start = wp.zeros(n_tiles, dtype=wp.int32, device=dev)
@@ -225,6 +230,32 @@ class Rasterizer:
     def _dflags(self) -> list:
         return [DEPTH_FUNCS[self.depth_func], int(self.depth_write), int(self.depth_clip)]
 
+    def _coverage(self, tr: Triangles, dbuf: wp.array, depth_test: bool) -> int:
+        """Fragments of ``tr`` (counting launch; the depth buffer is not changed): all generated
+        ones, or those passing the depth test against ``dbuf``. Used only while counting."""
+        dev = self.device
+        npx = self.width * self.height
+        counts = wp.zeros(npx, dtype=wp.int32, device=dev)
+        one_i = wp.zeros(1, dtype=wp.int32, device=dev)
+        flags = self._dflags() if depth_test else [DEPTH_FUNCS["always"], 0, int(self.depth_clip)]
+        wp.launch(kr.k_fragments, dim=self.shape,
+                  inputs=[tr.struct, tr.positions, tr.tris, wp.zeros((1, 1), dtype=wp.float32, device=dev),
+                          wp.zeros(1, dtype=wp.int32, device=dev), 0, wp.clone(dbuf) if depth_test else dbuf, *flags,
+                          0, counts, wp.zeros(npx + 1, dtype=wp.int32, device=dev), one_i,
+                          wp.zeros(1, dtype=wp.float32, device=dev), wp.zeros((1, 1), dtype=wp.float32, device=dev)],
+                  device=dev)
+        return int(counts.numpy().sum())
+
+    def _count_draw(self, tr: Triangles, dbuf: wp.array) -> int | None:
+        """While counting: add ``fragments`` / ``fragments_passed`` of a draw; returns the passed ones."""
+        c = _cnt.active()
+        if c is None:
+            return None
+        gen = self._coverage(tr, dbuf, False)
+        passed = gen if self.depth_func == "always" else self._coverage(tr, dbuf, True)
+        c.add(fragments=gen, fragments_passed=passed)
+        return passed
+
     def fragments(self, positions: Any, tris: Any = None, attrs: Any = None,
                   interpolation: str | Sequence[str] = "perspective", depth: Any = None) -> Fragments:
         """Rasterise into a fragment list with attributes ``attrs`` (V, A) interpolated per fragment.
@@ -264,6 +295,10 @@ class Rasterizer:
         wp.utils.array_scan(counts, offsets[:npx], inclusive=False)
         total = int(offsets[npx - 1:npx].numpy()[0] + counts[npx - 1:npx].numpy()[0])
         offsets[npx:].fill_(total)
+        c = _cnt.active()
+        if c is not None:  # the list holds the fragments that passed; generated ones need a count without the test
+            gen = total if self.depth_func == "always" else self._coverage(tr, dbuf, False)
+            c.add(fragments=gen, fragments_passed=total)
         prim = wp.zeros(max(total, 1), dtype=wp.int32, device=dev)
         fdepth = wp.zeros(max(total, 1), dtype=wp.float32, device=dev)
         fattr = wp.zeros((max(total, 1), max(na, 1)), dtype=wp.float32, device=dev)
@@ -293,6 +328,9 @@ class Rasterizer:
         dbuf = fb.depth if depth is None else self._depth(depth)
         per_tile = self.traversal == "tile" or (self.traversal == "auto" and wp.get_device(self.device).is_cpu)
         kern, dim = (kr.k_draw_colors_tiles, tr.n_tiles) if per_tile else (kr.k_draw_colors, self.shape)
+        passed = self._count_draw(tr, dbuf)  # counting only: one coverage launch (two with a depth test)
+        if passed is not None:
+            blend.count(fb, passed)
         wp.launch(kern, dim=dim,
                   inputs=[tr.struct, tr.positions, tr.tris, wp.array(c, dtype=wp.vec4, device=self.device), mode,
                           dbuf, *self._dflags(), st, fb.array, int(prim0)], device=self.device)
@@ -313,6 +351,9 @@ class Rasterizer:
         if id_buffer is None:
             id_buffer = wp.full(self.shape, int(clear_id), dtype=wp.int32, device=self.device)
         dbuf = self._depth(depth)
+        passed = self._count_draw(tr, dbuf)
+        if passed is not None:
+            _cnt.active().blend("rgb8", passed, blending=False)  # 24-bit ID written as an RGB8 colour
         wp.launch(kr.k_draw_ids, dim=self.shape,
                   inputs=[tr.struct, tr.positions,
                           wp.array(ids_np.astype(np.int32) if ids_np.size else np.zeros(1, np.int32),
@@ -366,6 +407,12 @@ def draw_textured_quads(fb, blend, texture, corners: Any, modulate: Sequence[flo
     st = blend.state(fb)
     if c.shape[0] == 0:
         return
+    cnt = _cnt.active()
+    if cnt is not None:  # n full-viewport rectangles (two triangles each): every pixel covered n times
+        n, npx = c.shape[0], fb.width * fb.height
+        cnt.add(vertices=4 * n, primitives=2 * n, fragments=n * npx, fragments_passed=n * npx)
+        texture.count(n * npx, cnt)
+        blend.count(fb, n * npx, cnt)
     wp.launch(_kr.k_draw_quads_1d, dim=fb.shape,
               inputs=[st, fb.array, texture.struct, wp.array(c, dtype=wp.vec4, device=fb.device),
                       wp.vec4(*map(float, m)), int(prim0)], device=fb.device)

@@ -44,6 +44,33 @@ def split_texture_values(tf, n_tex: int, l: float, m: int, channel: int) -> np.n
     return np.column_stack(cols)
 
 
+def count_pingpong(jobs, m: int, per_pass: int, n_s: int) -> None:
+    """Counters of the ping-pong passes: per (slice, channel) ``ceil(m / per_pass)`` passes of one
+    full-slice quad; a fragment fetches the ping texel (2D RGBA8, nearest) and one TF texel per step,
+    runs ``per_pass`` shader steps and writes RGBA8 (no blending); the pong buffer is copied to the
+    ping texture after each pass (on the card) and the channel's last pass is read back."""
+    from ..gpu import counters as cnt
+
+    c = cnt.active()
+    if c is None:
+        return
+    npx = n_s * n_s
+    for _, _, tex in jobs:
+        np_ = -(-m // per_pass)
+        c.add(passes=np_, vertices=4 * np_, primitives=2 * np_, fragments=np_ * npx, fragments_passed=np_ * npx,
+              tex_2d_rgba8_nearest=np_ * npx, texels=np_ * npx, combiner_ops=m * npx, clears=1, clear_pixels=npx,
+              readbacks=1, bytes_down=4 * npx)
+        tex.count(m * npx, c)
+        c.blend("unorm8", np_ * npx, blending=False)
+
+
+def count_moments(n_s: int) -> None:
+    """Host work of the exact opacity (and colour) moments: one software integral per texel."""
+    from ..gpu import counters as cnt
+
+    cnt.count(host_texels=n_s * n_s)
+
+
 def build_pingpong(tf, *, n_s: int = 128, lengths=(1.0,), lmax: float = 1.0, m: int = 128, gpu: str = "radeon8500",
                    per_pass: int = 4, n_tex: int = 2048, format: str = "fp32", device: str = "cpu", threads: int = 0):
     """Ping-pong filtered slices ``data[k, sb, sf] = (C rgb, alpha)`` at thicknesses ``lengths`` (x lmax).
@@ -126,6 +153,8 @@ def build_pingpong(tf, *, n_s: int = 128, lengths=(1.0,), lmax: float = 1.0, m: 
         for q, (si, c, _) in enumerate(jobs):
             data[si, ..., c] = res[q]
             meta["passes"] += -(-m // per_pass)
+        count_pingpong(jobs, m, per_pass, n_s)
+        count_moments(n_s)
         rho_hat = mom.numpy()[..., 3].astype(np.float64)
         for si, l in enumerate(ls):
             data[si, ..., 3] = -np.expm1(-float(l) * lmax * rho_hat)

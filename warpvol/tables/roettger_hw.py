@@ -50,6 +50,24 @@ def tf_texture_values(tf, n_tex: int, l: float, n: int) -> np.ndarray:
     return np.clip(np.column_stack([e, a]), 0.0, 1.0)
 
 
+def count_slice_draws(jobs, nblend: int, draw: int, group: int, n_s: int) -> None:
+    """Counters of one wave of slice draws (each job: one pass of ``nblend`` full-slice rectangles,
+    ``group`` texture fetches per fragment, GeForce3: ``group`` combiner steps, read back at the end)."""
+    from ..gpu import counters as cnt
+
+    c = cnt.active()
+    if c is None:
+        return
+    npx = n_s * n_s
+    for tex, fb, _, _ in jobs:
+        c.add(passes=1, vertices=4 * nblend, primitives=2 * nblend, fragments=nblend * npx,
+              fragments_passed=nblend * npx)
+        tex.count(draw * npx, c)
+        c.blend(fb.fmt, nblend * npx)
+        if group > 1:
+            c.add(combiner_ops=nblend * group * npx)
+
+
 def make_tf_texture(values: np.ndarray, bits: int, device: str):
     """The TF as a texture of the emulated texture unit, in ``bits`` precision."""
     from ..gpu.texture import Texture1D
@@ -168,5 +186,7 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
                 data[li, ..., :3] = rgb
                 data[li, ..., 3] = 1.0 - theta
                 meta["blends"] += len(draws) * nblend * n_s * n_s
-    meta["fragments"] = meta["blends"] * group
+            count_slice_draws(jobs, nblend, draw, group, n_s)
+    meta["fragments"] = meta["blends"]
+    meta["steps_integrated"] = meta["blends"] * group
     return finish("roettger_hw", data, (ax_l, ax_b, ax_f), ("r", "g", "b", "a"), format, key, meta)
