@@ -108,7 +108,7 @@ def test_roettger_hw_builder_counts(variant, bits, passes):
     assert c["passes"] == c["readbacks"] == c["clears"] == npass
     assert c["fragments"] == c[f"blends_unorm{bits}"] == npass * rects * n_s * n_s == t.meta["blends"]
     assert c[f"tex_1d_rgba{bits}_linear"] == npass * steps * n_s * n_s  # one fetch per step
-    assert c["combiner_ops"] == (npass * rects * 4 * n_s * n_s if group == 4 else 0)
+    assert c["combiner_ops"] == (npass * rects * 3 * n_s * n_s if group == 4 else 0)  # 3 general stages
 
 
 def test_pingpong_and_software_counts():

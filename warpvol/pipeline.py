@@ -140,6 +140,11 @@ class Stage:
             return cfg[item]
         raise AttributeError(item)
 
+    def requires_caps(self) -> dict[str, Any]:
+        """Capabilities a modelled GPU must have for this stage (``render(gpu=...)``): ``{cap: True,
+        a minimum number, or a value the profile's list holds}``; names in :mod:`warpvol.model`."""
+        return {}
+
     def skip_reason(self, ctx: "Context") -> str | None:
         """Planner hook: return a reason if this scene does not need the stage, else ``None``."""
         return None
@@ -273,8 +278,17 @@ class Pipeline:
         return cls.from_config(cfg, device=device, where=where)
 
     def render(self, scene: Any, *, reference: np.ndarray | None = None, quiet: bool = False,
-               device: str | None = None) -> RenderResult:
+               device: str | None = None, gpu: str | None = None) -> RenderResult:
+        """Run the stages; ``gpu``: a GPU profile name (:mod:`warpvol.model`): checks every stage's
+        capabilities first and adds ``gpu`` and ``modelled_s`` to the report."""
         device = device or self.stages[0].device
+        model = None
+        if gpu is not None:
+            from . import model
+
+            profile = model.load_profile(gpu)
+            for st in self.stages:
+                model.check_caps(profile, st.where, st.requires_caps())
         ctx = Context(scene=scene, device=device, quiet=quiet, persistent=self.persistent)
         report: dict[str, Any] = {"pipeline": self.name, "device": device, "scene": getattr(scene, "name", None),
                                   "image": [scene.camera.height_px, scene.camera.width_px],
@@ -298,6 +312,8 @@ class Pipeline:
             with Counters(ctx.counters.setdefault(key, {})):  # units used by the stage count into its entry
                 st.run(ctx)
             ctx.stage_key = None
+            if model is not None:  # work the card cannot do (e.g. fp16 blends) is an error naming the stage
+                model.check_caps(profile, st.where, model.counter_needs(ctx.counters[key]))
             _sync(device)
             dt = time.perf_counter() - t0
             report["stages"][key] = dt
@@ -309,6 +325,9 @@ class Pipeline:
         if not np.isfinite(img).all():
             raise RuntimeError(f"pipeline {self.name!r} produced NaN/Inf pixels")
         report["counters"] = ctx.counters
+        if model is not None:
+            report["gpu"] = gpu
+            report["modelled_s"] = model.model_report(ctx.counters, profile)
         if ctx.stats:
             report["stats"] = ctx.stats
         if reference is not None:

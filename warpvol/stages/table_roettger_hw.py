@@ -48,6 +48,15 @@ class TableRoettgerHw(TableStage):
 
             raise ConfigError(f"{self.where}.bits: variant 'geforce3' stores into an 8-bit buffer; set bits = 8")
 
+    def requires_caps(self) -> dict:
+        c = self.config
+        caps: dict = {"fb_formats": f"unorm{c['bits']}"}
+        if c["passes"] == "one" and c["bits"] == 12:
+            caps["rgba12_visual"] = True  # one pass keeps transparency in alpha
+        if c["variant"] == "geforce3":
+            caps.update(texture_units=4, combiner_stages=3)
+        return caps
+
     def builder_kwargs(self, ctx):
         kw = super().builder_kwargs(ctx)
         if kw["steps"] == 0:

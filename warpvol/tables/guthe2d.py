@@ -36,7 +36,7 @@ ALPHA_MIN = 1e-6
 
 def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_alpha: int = 1024,
                   format: str = "snorm8", alpha_format: str = "al16", slices: str = "exact", m: int = 128,
-                  device: str = "cpu") -> Table:
+                  device: str = "cpu", emulate: bool = True) -> Table:
     """Guthe 2D tables.
 
     Parameters
@@ -63,6 +63,8 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
     m : int
         Integration steps of the ping-pong slices.
     device : str
+    emulate : bool
+        ``slices="pingpong"`` only: False counts the ping-pong work without running it (throughput model).
 
     Returns
     -------
@@ -90,6 +92,7 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
     ax_b = scalar_axis("sb", tf, n_s)
     key = table_key("guthe2d", tf.hash, n_s=n_s, degree=degree, lmax=lmax, n_alpha=n_alpha,
                     alpha_format=alpha_format, slices=slices, m=m if slices == "pingpong" else 0, format=format)
+    key = key if emulate else key + (("emulate", False),)
     meta = {"builder": "guthe2d", "emission": tf.emission, "lmax": lmax, "degree": degree}
     x = farr(ax_f.nodes, device)
     tf_s, tf_v = tf_arrays(tf, device)
@@ -107,7 +110,7 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
             from .pingpong import build_pingpong
 
             pp = build_pingpong(tf, n_s=n_s, lengths=tuple(np.arange(1, degree + 1) / degree), lmax=lmax, m=m,
-                                device=device)
+                                device=device, emulate=emulate)
             s = pp.data.astype(np.float64)
             meta["pingpong_passes"] = pp.meta["passes"]
         mo = mom.numpy().astype(np.float64)

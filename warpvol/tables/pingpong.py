@@ -72,7 +72,8 @@ def count_moments(n_s: int) -> None:
 
 
 def build_pingpong(tf, *, n_s: int = 128, lengths=(1.0,), lmax: float = 1.0, m: int = 128, gpu: str = "radeon8500",
-                   per_pass: int = 4, n_tex: int = 2048, format: str = "fp32", device: str = "cpu", threads: int = 0):
+                   per_pass: int = 4, n_tex: int = 2048, format: str = "fp32", device: str = "cpu", threads: int = 0,
+                   emulate: bool = True):
     """Ping-pong filtered slices ``data[k, sb, sf] = (C rgb, alpha)`` at thicknesses ``lengths`` (x lmax).
 
     Parameters
@@ -96,6 +97,8 @@ def build_pingpong(tf, *, n_s: int = 128, lengths=(1.0,), lmax: float = 1.0, m: 
     threads : int
         Host threads running the slices' channels (and row blocks of them) concurrently on the CPU
         (0: all cores); the result does not depend on it. Other devices run them in order.
+    emulate : bool
+        False: count the work but run no pass (zero colour); for the throughput model.
     """
     import warp as wp
 
@@ -122,6 +125,7 @@ def build_pingpong(tf, *, n_s: int = 128, lengths=(1.0,), lmax: float = 1.0, m: 
     ax_b = scalar_axis("sb", tf, n_s)
     key = table_key("pingpong", tf.hash, n_s=n_s, lengths=tuple(ls.tolist()), lmax=lmax, m=m, gpu=gpu,
                     per_pass=per_pass, n_tex=n_tex, format=format)
+    key = key if emulate else key + (("emulate", False),)  # counting-only tables never pass for real ones
     meta = {"builder": "pingpong", "lmax": lmax, "m": m, "gpu": gpu, "passes": 0}
     fmt = UNorm(8, rounding="truncate", overflow=OVERFLOW[gpu]).kernel_params()
     x = farr(ax_f.nodes, device)
@@ -148,7 +152,8 @@ def build_pingpong(tf, *, n_s: int = 128, lengths=(1.0,), lmax: float = 1.0, m: 
                 wp.launch(k.pingpong_slice, dim=(nr, n_s), device=device,
                           inputs=[jobs[q][2].struct, x, x[r0:r0 + nr], m, per_pass, fmt, fmt, out[q][r0:r0 + nr]])
 
-        launch_blocks(device, (len(jobs) + 1) * len(rows), launch, threads)
+        if emulate:
+            launch_blocks(device, (len(jobs) + 1) * len(rows), launch, threads)
         res = out.numpy()
         for q, (si, c, _) in enumerate(jobs):
             data[si, ..., c] = res[q]

@@ -64,8 +64,8 @@ def count_slice_draws(jobs, nblend: int, draw: int, group: int, n_s: int) -> Non
               fragments_passed=nblend * npx)
         tex.count(draw * npx, c)
         c.blend(fb.fmt, nblend * npx)
-        if group > 1:
-            c.add(combiner_ops=nblend * group * npx)
+        if group > 1:  # general combiner stages (the final combiner's step is free)
+            c.add(combiner_ops=nblend * (group - 1) * npx)
 
 
 def make_tf_texture(values: np.ndarray, bits: int, device: str):
@@ -80,7 +80,7 @@ def make_tf_texture(values: np.ndarray, bits: int, device: str):
 def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, steps: int | None = None,
                       bits: int = 12, passes: str = "two", variant: str = "blend", n_tex: int | None = None,
                       l_axis: str = "centred", draw: int | None = None, format: str = "fp32", device: str = "cpu",
-                      threads: int = 0):
+                      threads: int = 0, emulate: bool = True):
     """Hardware-emulated per-slice pre-integration.
 
     Parameters
@@ -105,6 +105,9 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
     threads : int
         Host threads drawing slices (and row blocks of them) concurrently on the CPU (0: all cores);
         the result does not depend on it. Other devices draw in order.
+    emulate : bool
+        False: set everything up and count the work (:mod:`warpvol.gpu.counters`) but draw nothing
+        (the table is the cleared buffers); what the throughput model needs at the papers' sizes.
 
     Returns
     -------
@@ -138,6 +141,7 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
     ax_l = length_axis(n_l, lmax, l_axis)
     key = table_key("roettger_hw", tf.hash, n_s=n_s, n_l=n_l, lmax=lmax, steps=steps, bits=bits, passes=passes,
                     variant=variant, n_tex=n_tex, l_axis=l_axis, draw=draw, format=format)
+    key = key if emulate else key + (("emulate", False),)  # counting-only tables never pass for real ones
     meta = {"builder": "roettger_hw", "emission": tf.emission, "lmax": lmax, "steps": steps, "bits": bits,
             "passes": passes, "variant": variant, "fragments": 0, "blends": 0}
     fb_fmt = f"unorm{bits}"
@@ -175,7 +179,8 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
                           inputs=[tex.struct, st, fb.array[r0:r0 + nr], x, x[r0:r0 + nr], steps, draw, group, comb,
                                   mod])
 
-            launch_blocks(device, len(jobs) * len(rows), launch, threads)
+            if emulate:
+                launch_blocks(device, len(jobs) * len(rows), launch, threads)
             for q, li in enumerate(lis):
                 if passes == "two":
                     rgb = jobs[2 * q][1].readback()[..., :3]
