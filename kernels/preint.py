@@ -460,14 +460,16 @@ def rect_coord(sf: float, sb: float, s: int, n: int) -> float:
 @wp.kernel
 def hw_preint_slice(tex: Tex1D, bs: BlendState, fb: wp.array2d(dtype=wp.vec4), xf: wp.array(dtype=float),
                     xb: wp.array(dtype=float), n_steps: int, n_draw: int, group: int, comb: NumFmt,
-                    modulate: wp.vec4):
+                    modulate: wp.vec4, ua: float, ub: float):
     """Draw the n rectangles of one slice (Roettger & Ertl 2002 §3) into ``fb[sb, sf]``.
 
     ``group = 1``: one textured rectangle per step, fragment = texel * ``modulate`` (primary colour).
     ``group = 4``: GeForce3 register combiners: 4 texture units sample 4 consecutive steps, 3 general
     combiner steps fold them back to front, each rounded to ``comb`` (12-bit internal precision), and
     the final combiner outputs ``(C, 1 - theta)`` (the blending unit rounds it to the 8-bit buffer).
-    Only the first ``n_draw`` rectangles are drawn (intermediate frame buffers, Fig. 4).
+    Only the first ``n_draw`` rectangles are drawn (intermediate frame buffers, Fig. 4). The texture
+    coordinate of scalar ``w`` is ``ua w + ub`` (eq. 8: texel k of m holds TF entry k at w = k/(m-1),
+    so ``ua = (m-1)/m``, ``ub = 1/(2m)``; the affine map is what the rectangles' corner coordinates carry).
     """
     j, i = wp.tid()
     sf = xf[i]
@@ -476,12 +478,12 @@ def hw_preint_slice(tex: Tex1D, bs: BlendState, fb: wp.array2d(dtype=wp.vec4), x
     s = int(0)
     prim = int(0)
     while s < n_draw:
-        t = tex1d(tex, rect_coord(sf, sb, s, n_steps))
+        t = tex1d(tex, ua * rect_coord(sf, sb, s, n_steps) + ub)
         rgb = wp.vec3(t[0], t[1], t[2])
         th = 1.0 - t[3]
         for g in range(1, group):
             if s + g < n_draw:
-                u = tex1d(tex, rect_coord(sf, sb, s + g, n_steps))
+                u = tex1d(tex, ua * rect_coord(sf, sb, s + g, n_steps) + ub)
                 a = u[3]
                 rgb = wp.vec3(fmt_quantize(comb, u[0] + (1.0 - a) * rgb[0]),
                               fmt_quantize(comb, u[1] + (1.0 - a) * rgb[1]),

@@ -23,6 +23,10 @@ def test_incremental_matches_exact_at_nodes(axis):
     report(f"incremental/{axis}", max=d.max(), rms=np.sqrt((d ** 2).mean()))
     assert d.max() <= TOLERANCES[f"incremental/{axis}"]["max"]
     assert np.all(inc.data[0] == 0)  # l = 0 contributes nothing
+    # Kraus' texel-centre range on the scalar axes: the TF's ends at the first and last texel centres
+    for ax in inc.axes[1:]:
+        assert ax.kind == "endpoint" and ax.coord(0.0) == 0.5 / 48 and ax.coord(1.0) == 1 - 0.5 / 48
+        assert ax.physical[0] == tf.srange[0] and ax.physical[-1] == tf.srange[1]
 
 
 def test_log_axis_mapping_kraus_eq1():

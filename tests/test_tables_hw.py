@@ -106,3 +106,29 @@ def test_concurrent_slices_match_serial_bit_for_bit(monkeypatch):
     serial = build_pingpong(tf, threads=1, **kw)
     assert np.array_equal(build_pingpong(tf, threads=3, **kw).data, serial.data)
     assert build_pingpong(tf, threads=3, **kw).meta["passes"] == serial.meta["passes"] == 2 * 3 * 4
+
+
+def test_tf_texture_texel_k_is_tf_entry_k():
+    """Roettger & Ertl eq. 8: texel k of m holds TF entry k, and the scalar w = k/(m-1) is read at
+    texel k's centre. With one step per slice the table at (sf, sb) is T1D(sb) blended once."""
+    from warpvol.formats import UNorm
+    from warpvol.transfer import TransferFunction
+
+    kap = np.array([0.1, 0.9, 0.2, 0.7, 0.4])
+    tf = TransferFunction.from_table(np.column_stack([kap, kap, kap, np.ones(5)]), (0.0, 1.0), "emission_density")
+    # sb nodes (j + 0.5) / 2 = 0.25, 0.75 are TF entries 1 and 3 of 5
+    hw = build_roettger_hw(tf, n_s=2, n_l=1, lmax=0.5, steps=1, bits=12)
+    u12 = UNorm(12)
+    for j, k in ((0, 1), (1, 3)):
+        want = u12.quantize(u12.quantize(np.float32(0.25 * kap[k])))
+        np.testing.assert_array_equal(hw.data[0, j, :, 0], np.full(2, want, np.float32))
+
+
+def test_pingpong_values_are_split12_values():
+    """One definition of the 12-bit hi/lo pair: every ping-pong result is a Split12 value k / 4080."""
+    from warpvol.formats import Split12
+
+    pp = build_pingpong(smooth_tf("color_extinction"), n_s=8, lengths=(1.0,), m=8)
+    c = pp.data[..., :3].astype(np.float64)
+    np.testing.assert_allclose(c * 4080, np.round(c * 4080), atol=1e-3)
+    np.testing.assert_allclose(Split12().quantize(c), c, atol=1e-7)

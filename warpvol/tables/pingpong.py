@@ -27,19 +27,19 @@ OVERFLOW = {"radeon8500": "wrap", "geforce4": "saturate"}
 
 
 def split_texture_values(tf, n_tex: int, l: float, m: int, channel: int) -> np.ndarray:
-    """RGBA8 texel values (n_tex, 4) of the TF texture for one colour channel (hi/lo split)."""
-    from ..formats import UNorm
+    """RGBA8 texel values (n_tex, 4) of the TF texture for one colour channel (hi/lo split,
+    :class:`warpvol.formats.Split12` truncating, as the shader's 8-bit writes)."""
+    from ..formats import Split12
 
     lo_s, hi_s = tf.srange
     x = (np.arange(n_tex) + 0.5) / n_tex
     v = tf.evaluate(lo_s + x * (hi_s - lo_s))
     kap = np.clip(v[:, channel], 0, 1).astype(np.float32)
     a = (-np.expm1(-(l / m) * v[:, 3])).astype(np.float32)
-    tr = UNorm(8, rounding="truncate", overflow="wrap")
+    split = Split12(rounding="truncate")
     cols = []
     for q in (kap, a):
-        hi = tr.encode(q)
-        lo = (tr.encode(np.float32(256.0) * q) >> 4) << 4
+        hi, lo = split.channels(q)
         cols += [hi / 255.0, lo / 255.0]
     return np.column_stack(cols)
 

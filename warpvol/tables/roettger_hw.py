@@ -18,9 +18,10 @@ frame buffer of 8 or 12 bits per channel (every blend rounds: that is the method
 ``variant="geforce3"``: 4 texture units per pass, 3 general register-combiner steps at 12-bit internal
 precision, the final combiner's output stored into an 8-bit buffer (4 steps per blend).
 
-The texture has ``n_tex`` texels at ``(k + 0.5) / n_tex`` of the normalised scalar (default: the TF's
-number of control points, ``m``), in the frame buffer's precision (``rgba8`` or ``rgba12``), linear
-filtering.
+The texture has ``n_tex`` texels (default: the TF's number of control points, ``m``); texel k holds the
+TF at ``k / (n_tex - 1)`` of the normalised scalar (eq. 8: texel k of m is TF entry k), sampled at
+texture coordinate ``(n_tex - 1)/n_tex w + 1/(2 n_tex)`` so that w = k/(m-1) hits texel k's centre;
+texels in the frame buffer's precision (``rgba8`` or ``rgba12``), linear filtering.
 """
 
 from __future__ import annotations
@@ -38,9 +39,11 @@ FB_BUDGET = 256 << 20  # bytes of frame buffers (colour + depth) alive at once: 
 
 
 def tf_texture_values(tf, n_tex: int, l: float, n: int) -> np.ndarray:
-    """``T1D`` texel values (n_tex, 4), float64, unquantised (eq. 8)."""
+    """``T1D`` texel values (n_tex, 4), float64, unquantised (eq. 8): texel k is the TF at
+    ``k / (n_tex - 1)`` of its range, i.e. TF entry k when ``n_tex`` is the TF's number of entries
+    (the kernel maps a scalar w to the texture coordinate ``(n_tex - 1)/n_tex w + 1/(2 n_tex)``)."""
     lo, hi = tf.srange
-    x = (np.arange(n_tex) + 0.5) / n_tex
+    x = np.arange(n_tex) / (n_tex - 1)
     v = tf.evaluate(lo + x * (hi - lo))
     a = -np.expm1(-(l / n) * v[:, 3])
     if tf.emission == "emission_density":
@@ -148,6 +151,7 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
     group = 4 if variant == "geforce3" else 1
     comb = UNORM12.kernel_params()
     x = farr(ax_f.nodes, device)
+    ua, ub = (n_tex - 1) / n_tex, 0.5 / n_tex  # eq. 8 texel placement: TF entry k at texel k's centre
     # one draw per (slice, pass), each into its own frame buffer: (clear colour, blend unit, modulate)
     if passes == "two":
         draws = [((0, 0, 0, 0), BlendUnit.over(), wp.vec4(1.0, 1.0, 1.0, 1.0)),
@@ -177,7 +181,7 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
                 r0, nr = rows[b % len(rows)]
                 wp.launch(k.hw_preint_slice, dim=(nr, n_s), device=device,
                           inputs=[tex.struct, st, fb.array[r0:r0 + nr], x, x[r0:r0 + nr], steps, draw, group, comb,
-                                  mod])
+                                  mod, ua, ub])
 
             if emulate:
                 launch_blocks(device, len(jobs) * len(rows), launch, threads)
