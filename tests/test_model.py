@@ -134,3 +134,21 @@ def test_check_caps_kinds():
     check_caps(p, "s", {"texture_units": 6, "fb_formats": "unorm8", "tex3d": True, "fp16_blend": False})
     with pytest.raises(ConfigError, match="s: needs texture units >= 7"):
         check_caps(p, "s", {"texture_units": 7})
+
+
+def test_cli_gpus_and_render_gpu(tmp_path, capsys):
+    import json
+
+    from warpvol.cli import main
+
+    assert main(["gpus"]) == 0
+    out = capsys.readouterr().out
+    assert "radeon8500" in out and "Pentium 4" in out
+    rep = tmp_path / "r.json"
+    args = ["render", "builtin:sphere", "--pipeline", "raycast", "-o", str(tmp_path / "i.exr"), "--width", "16",
+            "--height", "12", "--quiet", "--report", str(rep)]
+    assert main(args + ["--gpu", "geforce6800gt"]) == 0
+    r = json.loads(rep.read_text())
+    assert r["gpu"] == "geforce6800gt" and r["modelled_s"]["total"] > 0 and "raycast" in r["counters"]
+    assert main(args + ["--gpu", "voodoo2"]) == 2
+    assert "unknown GPU profile 'voodoo2'" in capsys.readouterr().err

@@ -281,6 +281,8 @@ class Pipeline:
                device: str | None = None, gpu: str | None = None) -> RenderResult:
         """Run the stages; ``gpu``: a GPU profile name (:mod:`warpvol.model`): checks every stage's
         capabilities first and adds ``gpu`` and ``modelled_s`` to the report."""
+        from .gpu.counters import Counters
+
         device = device or self.stages[0].device
         model = None
         if gpu is not None:
@@ -307,8 +309,6 @@ class Pipeline:
             ctx.progress(f"{key} ...")
             t0 = time.perf_counter()
             ctx.stage_key = key
-            from .gpu.counters import Counters
-
             with Counters(ctx.counters.setdefault(key, {})):  # units used by the stage count into its entry
                 st.run(ctx)
             ctx.stage_key = None
