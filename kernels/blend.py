@@ -12,6 +12,12 @@ Arithmetic (``blend(bs, src, dst, x, y, prim)``):
   ``R = round((S Fs + D Fd) / N)`` exactly in integers (int32 up to 14 bits, else int64; N is odd, so exact ties cannot occur; the
   ``truncate`` rounding mode floors instead), then the out-of-range policy: saturate ``min(R, N)`` or
   wrap ``R & N``. The buffer is thus re-quantised after every blend.
+* **fixed point, llvmpipe arithmetic** (``BlendState.arith = ARITH_LLVMPIPE``): Mesa llvmpipe's
+  integer blend. The fragment colour converts as llvmpipe's ``float -> unorm`` does
+  (``rint(fp32(x (2^n - 1) / 2^n) 2^n)``: ties to even, after an fp32 product), each *product* is
+  rounded on its own with llvmpipe's normalised multiply ``(ab + (ab >> n) + 2^(n-1)) >> n`` (which
+  misses ``round(ab / N)`` for 24 of the 65,536 byte pairs at n = 8), and the two terms are added
+  with saturation (or the wrap policy). Dithering, if on, still decides the alpha code.
 * **fp16**: S, D, K are rounded to binary16 (fragment colours are not clamped, as with float buffers);
   ``S Fs`` and ``D Fd`` are exact in fp32 (11-bit x 11-bit significands); their fp32 sum is rounded
   to binary16 (round to nearest even).
@@ -44,6 +50,9 @@ ONE_MINUS_CONSTANT_COLOR = wp.constant(11)
 CONSTANT_ALPHA = wp.constant(12)
 ONE_MINUS_CONSTANT_ALPHA = wp.constant(13)
 
+ARITH_EXACT = wp.constant(0)
+ARITH_LLVMPIPE = wp.constant(1)
+
 
 @wp.struct
 class BlendState:
@@ -57,6 +66,24 @@ class BlendState:
     dither_table: wp.array(dtype=wp.float32)
     dither_mask: int  # table size - 1 (power of two)
     dither_seed: int
+    arith: int  # ARITH_EXACT (one rounding per channel) or ARITH_LLVMPIPE (one per product)
+
+
+@wp.func
+def llvmpipe_encode(x: float, bits: int) -> int:
+    """llvmpipe's fp32 -> unorm conversion of ``x`` in [0, 1]: ``rint(fp32(x (2^n - 1) / 2^n) 2^n)``."""
+    s = float(1 << bits)
+    v = wp.clamp(x, 0.0, 1.0)
+    if wp.isnan(x):
+        v = 0.0
+    return int(wp.rint((v * (float((1 << bits) - 1) / s)) * s))
+
+
+@wp.func
+def llvmpipe_mul(a: wp.int64, b: wp.int64, bits: int) -> wp.int64:
+    """llvmpipe's normalised multiply ``a b / (2^n - 1) ~ (ab + (ab >> n) + 2^(n-1)) >> n``."""
+    ab = a * b
+    return (ab + (ab >> wp.int64(bits)) + (wp.int64(1) << wp.int64(bits - 1))) >> wp.int64(bits)
 
 
 @wp.func
@@ -161,6 +188,11 @@ def blend_unorm(bs: BlendState, src: wp.vec4, dst: wp.vec4, q: float) -> wp.vec4
     s1 = unorm_encode(wp.clamp(src[1], 0.0, 1.0), bits, rnd, 0)
     s2 = unorm_encode(wp.clamp(src[2], 0.0, 1.0), bits, rnd, 0)
     sa = unorm_encode(wp.clamp(src[3], 0.0, 1.0), bits, rnd, 0)
+    if bs.arith == ARITH_LLVMPIPE:
+        s0 = llvmpipe_encode(src[0], bits)
+        s1 = llvmpipe_encode(src[1], bits)
+        s2 = llvmpipe_encode(src[2], bits)
+        sa = llvmpipe_encode(src[3], bits)
     if q >= 0.0:
         sa = dither_code(src[3], n, q)
     d0 = unorm_encode(dst[0], bits, 0, 0)
@@ -202,7 +234,13 @@ def blend_unorm(bs: BlendState, src: wp.vec4, dst: wp.vec4, q: float) -> wp.vec4
         fs = factor_i(ms, n, sc, sa, dc, da, kc, ka)
         fd = factor_i(md, n, sc, sa, dc, da, kc, ka)
         ri = 0
-        if bits <= 14:
+        if bs.arith == ARITH_LLVMPIPE:
+            r64 = llvmpipe_mul(wp.int64(sc), wp.int64(fs), bits) + llvmpipe_mul(wp.int64(dc), wp.int64(fd), bits)
+            if bs.fmt.ovf == 1:
+                ri = int(r64 & wp.int64(n))
+            else:
+                ri = int(wp.min(r64, wp.int64(n)))
+        elif bits <= 14:
             # 2 (S Fs + D Fd) + N < 2^31: exact in int32 (faster division)
             num = sc * fs + dc * fd
             r = (2 * num + n) / (2 * n)

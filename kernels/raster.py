@@ -3,18 +3,25 @@
 Window coordinates: x in [0, W] left to right, y in [0, H] top to bottom (row index), z depth,
 w the clip-space w (1 for orthographic). Pixel (row i, column j) has its centre at (j + .5, i + .5).
 
-* **Snapping**: x, y are snapped to fixed point with ``SUBPIX`` = 8 fractional bits (round to nearest,
-  ties away from zero), and edge functions are evaluated *exactly* in int64. Triangles with a vertex
+* **Snapping**: x, y are snapped to fixed point with ``SUBPIX`` = 8 fractional bits (round to nearest;
+  ties to even (``snap_even=1``, ``wp.rint``, as Mesa's ``lrintf``) or away from zero (``wp.round``)),
+  and edge functions are evaluated *exactly* in int64. Triangles with a vertex
   outside the guard band |x|, |y| <= 2^20 px, a non-finite coordinate or ``w <= 0`` are discarded
   (there is no geometric clipping; the vertex stage's users keep geometry in front of the eye).
-* **Fill rule**: top-left. After orienting every triangle clockwise on screen (positive area in
-  y-down coordinates), a pixel centre on an edge belongs to the triangle iff the edge is a *top*
-  edge (horizontal, interior below) or a *left* edge (going up the screen). So a closed mesh covers
-  each pixel centre exactly once per layer.
-* **Interpolation**: barycentrics at the pixel centre from the *unsnapped* fp32 positions;
-  ``linear`` (screen space) ``a = sum l_i a_i``; ``perspective`` ``a = sum (l_i/w_i) a_i / sum l_i/w_i``;
-  ``flat`` takes the last vertex of the triangle as given (OpenGL provoking vertex). Depth is always
-  screen-space linear (window z is affine in screen space).
+* **Fill rule**: after orienting every triangle clockwise on screen (positive area in y-down
+  coordinates), a pixel centre on an edge belongs to the triangle iff the edge is a *left* edge
+  (going up the screen, interior to its right) or the inclusive horizontal edge: with
+  ``fill_bottom=1`` the *bottom* edge as displayed (interior above; in GL window coordinates, y up,
+  the horizontal edge with the smaller y, as Mesa llvmpipe), else the *top* edge (interior below).
+  Either way a closed mesh covers each pixel centre exactly once per layer.
+* **Interpolation** (``TriSetup.interp_rule``): ``INTERP_RULE_BARYCENTRIC``: barycentrics at the
+  pixel centre from the *unsnapped* fp32 positions; ``linear`` (screen space) ``a = sum l_i a_i``;
+  ``perspective`` ``a = sum (l_i/w_i) a_i / sum l_i/w_i``. ``INTERP_RULE_LLVMPIPE``: Mesa llvmpipe's
+  plane equations (:func:`plane_attr`), evaluated in GL window coordinates (y up, GL y = H - y,
+  pixel (row i, column j) at integer (j, H - 1 - i)) with llvmpipe's vertex order and fp32 operation
+  order, FMA in the per-pixel step; ``perspective`` interpolates ``a/w`` and ``1/w`` the same way and
+  multiplies by ``1 / (1/w)``. ``flat`` takes the last vertex of the triangle as given (OpenGL
+  provoking vertex) under both rules. Depth is always barycentric (window z is affine in screen space).
 * **Order**: triangles are binned to square tiles by a stable radix sort on the tile key, so each
   tile lists its triangles in submission order; one thread per pixel walks its tile's list, which
   keeps primitive order per pixel with no atomics.
@@ -46,6 +53,9 @@ INTERP_LINEAR = wp.constant(0)
 INTERP_PERSPECTIVE = wp.constant(1)
 INTERP_FLAT = wp.constant(2)
 
+INTERP_RULE_BARYCENTRIC = wp.constant(0)
+INTERP_RULE_LLVMPIPE = wp.constant(1)
+
 
 @wp.struct
 class TriSetup:
@@ -54,13 +64,15 @@ class TriSetup:
     vidx: wp.array(dtype=wp.vec3i)  # vertex indices, reordered clockwise on screen
     sx: wp.array(dtype=wp.vec3i)  # snapped x (fixed point, SUBPIX per pixel)
     sy: wp.array(dtype=wp.vec3i)
-    bias: wp.array(dtype=wp.vec3i)  # 0 if the edge opposite vertex k is top-left (E == 0 counts), else 1
+    bias: wp.array(dtype=wp.vec3i)  # 0 if the edge opposite vertex k is inclusive (E == 0 counts), else 1
     bbox: wp.array(dtype=wp.vec4i)  # j0, i0, j1, i1 pixel range (inclusive)
     tile_start: wp.array(dtype=wp.int32)
     tile_end: wp.array(dtype=wp.int32)
     tri_of: wp.array(dtype=wp.int32)  # sorted bin entries -> triangle index
     tile_size: int
     tiles_x: int
+    interp_rule: int  # INTERP_RULE_BARYCENTRIC or INTERP_RULE_LLVMPIPE
+    height: int  # viewport height (GL window y = height - y for the llvmpipe rule)
 
 
 @wp.func
@@ -72,8 +84,12 @@ def floordiv(a: int, b: int) -> int:
 
 
 @wp.func
-def snap(x: float) -> int:
-    return int(wp.round(x * float(SUBPIX)))
+def snap(x: float, even: int) -> int:
+    """Fixed-point position (``SUBPIX`` steps per pixel); exact ties to even if ``even`` else away from zero."""
+    v = x * float(SUBPIX)  # exact: a power-of-two scale of a coordinate inside the guard band
+    if even != 0:
+        return int(wp.rint(v))
+    return int(wp.round(v))
 
 
 @wp.func
@@ -82,17 +98,22 @@ def edge(ax: int, ay: int, bx: int, by: int, px: int, py: int) -> wp.int64:
 
 
 @wp.func
-def top_left_bias(ax: int, ay: int, bx: int, by: int) -> int:
+def edge_bias(ax: int, ay: int, bx: int, by: int, fill_bottom: int) -> int:
+    """0 if edge a -> b of a clockwise (y-down) triangle is inclusive, else 1: left edges (going up the
+    screen) and the bottom (``fill_bottom``: dx < 0, interior above) or top (dx > 0) horizontal edge."""
     dx = bx - ax
     dy = by - ay
-    if dy < 0 or (dy == 0 and dx > 0):
+    if dy < 0:
         return 0
+    if dy == 0:
+        if (fill_bottom != 0 and dx < 0) or (fill_bottom == 0 and dx > 0):
+            return 0
     return 1
 
 
 @wp.kernel
 def k_setup(pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i), width: int, height: int,
-            tile_size: int, cull: int, front_ccw: int,
+            tile_size: int, cull: int, front_ccw: int, snap_even: int, fill_bottom: int,
             vidx: wp.array(dtype=wp.vec3i), sx: wp.array(dtype=wp.vec3i), sy: wp.array(dtype=wp.vec3i),
             bias: wp.array(dtype=wp.vec3i), bbox: wp.array(dtype=wp.vec4i), counts: wp.array(dtype=wp.int32)):
     t = wp.tid()
@@ -113,12 +134,12 @@ def k_setup(pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i), width:
             ok = False
     if not ok:
         return
-    x0 = snap(p0[0])
-    y0 = snap(p0[1])
-    x1 = snap(p1[0])
-    y1 = snap(p1[1])
-    x2 = snap(p2[0])
-    y2 = snap(p2[1])
+    x0 = snap(p0[0], snap_even)
+    y0 = snap(p0[1], snap_even)
+    x1 = snap(p1[0], snap_even)
+    y1 = snap(p1[1], snap_even)
+    x2 = snap(p2[0], snap_even)
+    y2 = snap(p2[1], snap_even)
     area = edge(x0, y0, x1, y1, x2, y2)
     if area == wp.int64(0):
         return
@@ -149,7 +170,8 @@ def k_setup(pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i), width:
     sx[t] = wp.vec3i(x0, x1, x2)
     sy[t] = wp.vec3i(y0, y1, y2)
     # edge k is opposite vertex k: e0 = (v1 -> v2), e1 = (v2 -> v0), e2 = (v0 -> v1)
-    bias[t] = wp.vec3i(top_left_bias(x1, y1, x2, y2), top_left_bias(x2, y2, x0, y0), top_left_bias(x0, y0, x1, y1))
+    bias[t] = wp.vec3i(edge_bias(x1, y1, x2, y2, fill_bottom), edge_bias(x2, y2, x0, y0, fill_bottom),
+                       edge_bias(x0, y0, x1, y1, fill_bottom))
     h = SUBPIX / 2
     xmin = wp.min(x0, wp.min(x1, x2))
     xmax = wp.max(x0, wp.max(x1, x2))
@@ -197,7 +219,7 @@ def k_tile_ranges(keys: wp.array(dtype=wp.int32), total: int, start: wp.array(dt
 
 @wp.func
 def coverage(s: TriSetup, t: int, j: int, i: int) -> bool:
-    """Does triangle ``t`` cover the centre of pixel (row i, column j)? Exact, top-left rule."""
+    """Does triangle ``t`` cover the centre of pixel (row i, column j)? Exact, with the set-up fill rule."""
     b = s.bbox[t]
     if j < b[0] or j > b[2] or i < b[1] or i > b[3]:
         return False
@@ -239,6 +261,76 @@ def persp_bary(pos: wp.array(dtype=wp.vec4), v: wp.vec3i, l: wp.vec3) -> wp.vec3
     q2 = l[2] / pos[v[2]][3]
     s = q0 + q1 + q2
     return wp.vec3(q0 / s, q1 / s, q2 / s)
+
+
+@wp.func
+def fma32(a: float, b: float, c: float) -> float:
+    """``a b + c`` rounded once to fp32 (as an FMA): the float64 product of two fp32 values is exact,
+    so only the sum is rounded twice (float64, then fp32), which differs from one rounding only when
+    the float64 sum falls exactly half-way between two fp32 values."""
+    return float(wp.float64(a) * wp.float64(b) + wp.float64(c))
+
+
+@wp.func
+def plane_attr(g0: wp.vec2, g1: wp.vec2, g2: wp.vec2, a0: float, a1: float, a2: float, px: float,
+               py: float) -> float:
+    """llvmpipe's plane-equation value of attribute (a0, a1, a2) at integer pixel (px, py), vertices in
+    GL window coordinates in llvmpipe's order: ``a0' = a0 - (dadx (x0 - .5) + dady (y0 - .5))``, then
+    ``fma(dady, py, fma(dadx, px, a0'))`` (its triangle set-up and fragment interpolation, fp32)."""
+    x0c = g0[0] - 0.5
+    y0c = g0[1] - 0.5
+    d01x = g0[0] - g1[0]
+    d01y = g0[1] - g1[1]
+    d20x = g2[0] - g0[0]
+    d20y = g2[1] - g0[1]
+    ooa = 1.0 / (d01x * d20y - d01y * d20x)
+    da01 = a0 - a1
+    da20 = a2 - a0
+    dadx = da01 * (d20y * ooa) - da20 * (d01y * ooa)
+    dady = da20 * (d01x * ooa) - da01 * (d20x * ooa)
+    c0 = a0 - (dadx * x0c + dady * y0c)
+    return fma32(dady, py, fma32(dadx, px, c0))
+
+
+@wp.func
+def llvmpipe_order(s: TriSetup, tris: wp.array(dtype=wp.vec3i), t: int) -> wp.vec3i:
+    """Vertices in llvmpipe's set-up order: as submitted, with the first two swapped for triangles
+    clockwise in GL window coordinates (those :func:`k_setup` reordered; last vertex provoking)."""
+    o = tris[t]
+    if s.vidx[t][1] != o[1]:
+        return wp.vec3i(o[1], o[0], o[2])
+    return o
+
+
+@wp.func
+def plane_value(s: TriSetup, pos: wp.array(dtype=wp.vec4), o: wp.vec3i, a0: float, a1: float, a2: float,
+                mode: int, j: int, i: int) -> float:
+    """Attribute at pixel (row i, column j) under the llvmpipe rule (``linear`` or ``perspective``)."""
+    h = float(s.height)
+    p0 = pos[o[0]]
+    p1 = pos[o[1]]
+    p2 = pos[o[2]]
+    g0 = wp.vec2(p0[0], h - p0[1])
+    g1 = wp.vec2(p1[0], h - p1[1])
+    g2 = wp.vec2(p2[0], h - p2[1])
+    px = float(j)
+    py = float(s.height - 1 - i)
+    if mode == INTERP_PERSPECTIVE:
+        q0 = 1.0 / p0[3]
+        q1 = 1.0 / p1[3]
+        q2 = 1.0 / p2[3]
+        a = plane_attr(g0, g1, g2, a0 * q0, a1 * q1, a2 * q2, px, py)
+        return a * (1.0 / plane_attr(g0, g1, g2, q0, q1, q2, px, py))
+    return plane_attr(g0, g1, g2, a0, a1, a2, px, py)
+
+
+@wp.func
+def plane_color(s: TriSetup, pos: wp.array(dtype=wp.vec4), o: wp.vec3i, c0: wp.vec4, c1: wp.vec4, c2: wp.vec4,
+                mode: int, j: int, i: int) -> wp.vec4:
+    out = wp.vec4()
+    for k in range(4):
+        out[k] = plane_value(s, pos, o, c0[k], c1[k], c2[k], mode, j, i)
+    return out
 
 
 @wp.func
@@ -340,6 +432,9 @@ def k_fragments(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=
                     val = float(0.0)
                     if m == INTERP_FLAT:
                         val = attrs[last, a]
+                    elif s.interp_rule == INTERP_RULE_LLVMPIPE:
+                        ov = llvmpipe_order(s, tris, t)
+                        val = plane_value(s, pos, ov, attrs[ov[0], a], attrs[ov[1], a], attrs[ov[2], a], m, j, i)
                     else:
                         w = wl
                         if m == INTERP_PERSPECTIVE:
@@ -371,7 +466,10 @@ def k_draw_colors(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dtyp
         ok, l, zb = fragment_prologue(s, pos, t, j, i, px, py, depth_func, depth_write, depth_clip, zb)
         if ok:
             c = colors[tris[t][2]]
-            if mode != INTERP_FLAT:
+            if mode != INTERP_FLAT and s.interp_rule == INTERP_RULE_LLVMPIPE:
+                ov = llvmpipe_order(s, tris, t)
+                c = plane_color(s, pos, ov, colors[ov[0]], colors[ov[1]], colors[ov[2]], mode, j, i)
+            elif mode != INTERP_FLAT:
                 v = s.vidx[t]
                 w = fragment_weights(pos, v, l, mode)
                 c = w[0] * colors[v[0]] + w[1] * colors[v[1]] + w[2] * colors[v[2]]
@@ -411,6 +509,7 @@ def k_draw_colors_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.arra
         cb = colors[v[1]]
         cc = colors[v[2]]
         cflat = colors[tris[t][2]]
+        ov = llvmpipe_order(s, tris, t)
         x = s.sx[t]
         y = s.sy[t]
         bi = s.bias[t]
@@ -443,7 +542,9 @@ def k_draw_colors_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.arra
                         if depth_write != 0:
                             depth[i, j] = z
                         c = cflat
-                        if mode != INTERP_FLAT:
+                        if mode != INTERP_FLAT and s.interp_rule == INTERP_RULE_LLVMPIPE:
+                            c = plane_color(s, pos, ov, colors[ov[0]], colors[ov[1]], colors[ov[2]], mode, j, i)
+                        elif mode != INTERP_FLAT:
                             w = l
                             if mode == INTERP_PERSPECTIVE:
                                 q0 = l[0] / pa[3]

@@ -99,7 +99,8 @@ def main() -> None:
     pos, tris, cols = make_soup(args.tris, W, H, size=args.tri_size)
 
     fb = FrameBuffer(W, H, "unorm8", args.device)
-    rast = Rasterizer(W, H, device=args.device, tile_size=args.tile)
+    rast = Rasterizer(W, H, device=args.device, tile_size=args.tile,
+                      fill_rule="top_left", snap_ties="away")  # the NumPy reference's rules
     blend = BlendUnit.over()
 
     def warp_run():

@@ -296,3 +296,33 @@ def test_blend_validation_names_the_argument():
     with pytest.raises(ConfigError, match=r"size: 1000 is not a power of two"):
         dither_table(0, 1000)
     assert BlendUnit("GL_ONE", "GL_ONE_MINUS_SRC_ALPHA").dst_code == FACTORS["one_minus_src_alpha"]
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_llvmpipe_arithmetic_exhaustive_8bit(device):
+    """Every (colour, alpha) byte pair through (src_alpha, zero) and premultiplied "over": the
+    ``llvmpipe`` arithmetic rounds each product with ``(ab + (ab >> 8) + 128) >> 8`` and adds with
+    saturation; ``exact`` rounds ``ab / 255`` once. They differ in exactly 24 products."""
+    s, a = np.meshgrid(np.arange(256), np.arange(256), indexing="ij")
+    layer = np.stack([s, s, s, a], -1)[None].astype(np.float32) / 255
+    ab = s * a
+    per_product = (ab + (ab >> 8) + 128) >> 8
+    exact = (2 * ab + 255) // 510
+    got = {}
+    for arith in ("exact", "llvmpipe"):
+        fb = FrameBuffer(256, 256, "unorm8", device)
+        fb.clear((0, 0, 0, 0))
+        BlendUnit("src_alpha", "zero", arithmetic=arith).blend_layers(fb, layer)
+        got[arith] = fb.codes()[..., 0]
+    np.testing.assert_array_equal(got["exact"], exact)
+    np.testing.assert_array_equal(got["llvmpipe"], per_product)
+    assert (per_product != exact).sum() == 24 and np.abs(per_product - exact).max() == 1
+    # premultiplied "over" of colour s, alpha a onto destination d = 200: s + mul(d, 255 - a), saturated
+    fb = FrameBuffer(256, 256, "unorm8", device)
+    fb.clear((200 / 255, 200 / 255, 200 / 255, 200 / 255))
+    pm = np.stack([np.minimum(s, a)] * 3 + [a], -1)[None].astype(np.float32) / 255
+    BlendUnit.over(arithmetic="llvmpipe").blend_layers(fb, pm)
+    p = 200 * (255 - a)
+    np.testing.assert_array_equal(fb.codes()[..., 0], np.minimum(np.minimum(s, a) + ((p + (p >> 8) + 128) >> 8), 255))
+    with pytest.raises(ConfigError, match="arithmetic"):
+        BlendUnit("one", "zero", arithmetic="approximate")

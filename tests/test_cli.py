@@ -53,6 +53,7 @@ def test_pipelines_lists_presets(capsys):
     out = capsys.readouterr().out
     assert out.startswith("raycast") or "\nraycast" in out
     assert "max_steps" in out and "entry_bins" in out
+    assert "needs: cells, entry_bins; provides: march, image" in out
 
 
 @pytest.mark.parametrize("args, message", [
@@ -94,3 +95,27 @@ def test_render_with_computed_reference(scene_file, tmp_path):
                  "--compute-reference", "--report", str(rep), "--quiet"]) == 0
     report = json.loads(rep.read_text())
     assert report["error"]["rmse"] < 1e-5 and report["reference_s"] > 0
+
+
+def _strict_json(text):
+    def no_constant(name):
+        raise AssertionError(f"report holds {name}: not strict JSON")
+
+    return json.loads(text, parse_constant=no_constant)
+
+
+def test_report_is_strict_json_for_an_exact_match(scene_file, tmp_path, capsys):
+    first, second, rep = tmp_path / "a.exr", tmp_path / "b.exr", tmp_path / "r.json"
+    assert main(["render", str(scene_file), "--pipeline", "raycast", "-o", str(first), "--quiet"]) == 0
+    assert main(["render", str(scene_file), "--pipeline", "raycast", "-o", str(second), "--reference", str(first),
+                 "--report", str(rep), "--quiet"]) == 0
+    e = _strict_json(rep.read_text())["error"]
+    assert e["rmse"] == 0 and e["psnr"] is None and "unbounded" in e["psnr_note"]
+    assert "psnr=exact" in capsys.readouterr().out
+
+
+def test_report_json_turns_any_non_finite_number_into_a_listed_null():
+    from warpvol.pipeline import report_json
+
+    r = _strict_json(report_json({"stats": {"x": float("nan"), "y": [1.0, float("-inf")]}, "n": np.int64(3)}))
+    assert r == {"stats": {"x": None, "y": [1.0, None]}, "n": 3, "non_finite": ["stats.x", "stats.y[1]"]}

@@ -61,6 +61,7 @@ class _Fp16Composite(Stage):
 
     name = "_test_fp16_composite"
     summary = "test only"
+    provides = ("image",)
     params = (Param("tex3d", int, 0, "3D texture size it asks for", lo=0),)
 
     def requires_caps(self):

@@ -64,7 +64,8 @@ def test_report_has_contract_fields_and_skips():
     assert all(v >= 0 for v in r["stages"].values()) and r["total_s"] >= sum(r["stages"].values()) * 0.99
     assert r["skipped"] == [{"stage": "peel", "reason": "mesh boundary is convex: every ray enters the mesh at most once"}]
     res2 = Pipeline.load("raycast").render(scene(box_mesh(), tf, cam), quiet=True, reference=res.image)
-    assert res2.report["error"]["rmse"] == 0 and res2.report["error"]["psnr"] == float("inf")
+    assert res2.report["error"]["rmse"] == 0 and res2.report["error"]["psnr"] is None
+    assert "exact match" in res2.report["error"]["psnr_note"]
 
 
 def test_every_registered_stage_documents_its_parameters():
@@ -86,3 +87,40 @@ def test_top_level_kernels_package_is_not_importable(tmp_path):
 def test_unavailable_device_is_a_named_error():
     with pytest.raises(ConfigError, match=r"device 'cuda:7' is not available here; available: cpu"):
         Pipeline.load("raycast", device="cuda:7")
+
+
+@pytest.mark.parametrize("stages, message", [
+    (["raycast"], r"stages\[0\] \(raycast\) needs 'cells', 'entry_bins', which no stage before it provides "
+                  r"\(stages that provide it: 'cell_setup', 'entry_bins'\)"),
+    (["entry_bins", "raycast", "peel"], r"stages\[1\] \(raycast\) needs 'cells',"),
+    (["cell_setup", "entry_bins", "peel"], r"stages\[2\] \(peel\) needs 'march'.*'raycast'"),
+    (["raycast", "cell_setup", "entry_bins"], r"stages\[0\] \(raycast\) needs 'cells', 'entry_bins'"),  # order counts
+    (["cell_setup", "entry_bins"], r"no stage writes the image \(stages that provide it: 'peel', 'raycast'\)"),
+    (["table_exact", "vertex"], r"no stage writes the image"),
+])
+def test_stages_lacking_what_they_need_are_rejected_when_loaded(stages, message, tmp_path):
+    with pytest.raises(ConfigError, match=message):
+        Pipeline.from_config({"stages": [{"stage": s} for s in stages]})
+    p = tmp_path / "p.toml"
+    p.write_text("".join(f'[[stages]]\nstage = "{s}"\n' for s in stages))
+    with pytest.raises(ConfigError, match=message):
+        Pipeline.load(p)
+    with pytest.raises(ConfigError, match=message.split(r"\) needs ")[-1]):  # stages built directly
+        Pipeline([get_stage_class(s)() for s in stages])
+
+
+def test_every_stage_declares_what_it_needs_and_provides():
+    get_stage_class("raycast")
+    for name, cls in STAGES.items():
+        assert cls.provides, f"stage {name} provides nothing"
+    # a parameter-named key resolves per instance: a table stored under another name is provided under it
+    assert get_stage_class("table_exact")(output="t2").config["output"] == "t2"
+    from warpvol.pipeline import _names
+
+    st = get_stage_class("table_exact")(output="t2")
+    assert _names(st.provides, st.config) == ["t2"]
+
+
+def test_the_raycast_preset_passes_the_check_and_its_stages_chain():
+    pipe = Pipeline.load("raycast")
+    assert [s.name for s in pipe.stages] == ["cell_setup", "entry_bins", "raycast", "peel"]

@@ -99,7 +99,8 @@ def test_closed_mesh_is_watertight(device, seed, bumpy):
 
 
 @pytest.mark.parametrize("device", DEVICES)
-def test_pixel_centre_aligned_grid_mesh_covers_each_centre_once(device):
+@pytest.mark.parametrize("fill_rule", ["bottom_left", "top_left"])
+def test_pixel_centre_aligned_grid_mesh_covers_each_centre_once(device, fill_rule):
     """A jittered planar grid whose vertices sit on pixel centres and edges: shared edges pass through
     many pixel centres; each centre strictly inside the boundary is covered exactly once."""
     rng = np.random.default_rng(3)
@@ -123,38 +124,75 @@ def test_pixel_centre_aligned_grid_mesh_covers_each_centre_once(device):
                 tris += [[a, b, d], [b, e, d]]
     tris = np.array(tris)
     tris[::3] = tris[::3, ::-1]  # mixed windings must not matter with culling off
-    cnt = counts_per_pixel(rasterize(pos, tris, W, H, device=device, tile_size=4), (H, W))
-    # boundary square from 4.5 to 36.5: top/left boundary centres included, bottom/right excluded
+    cnt = counts_per_pixel(rasterize(pos, tris, W, H, device=device, tile_size=4, fill_rule=fill_rule), (H, W))
+    # boundary square from 4.5 to 36.5: left boundary centres included, right excluded; the bottom
+    # row as displayed (row 36, the smaller GL window y) is owned under bottom_left, the top (row 4)
+    # under top_left
     expect = np.zeros((H, W), int)
-    expect[4:36, 4:36] = 1
+    if fill_rule == "bottom_left":
+        expect[5:37, 4:36] = 1
+    else:
+        expect[4:36, 4:36] = 1
     np.testing.assert_array_equal(cnt, expect)
 
 
 @pytest.mark.parametrize("device", DEVICES)
-def test_top_left_fill_rule_on_pixel_centre_edges(device):
+@pytest.mark.parametrize("fill_rule", ["bottom_left", "top_left"])
+def test_fill_rules_on_pixel_centre_edges(device, fill_rule):
     # a square with corners on pixel centres (2.5, 1.5)-(6.5, 5.5), split along its diagonal
     pos = np.array([[2.5, 1.5, 0, 1], [6.5, 1.5, 0, 1], [2.5, 5.5, 0, 1], [6.5, 5.5, 0, 1]], np.float32)
+    kw = dict(device=device, fill_rule=fill_rule)
     for tris in ([[0, 1, 2], [1, 3, 2]], [[0, 1, 3], [0, 3, 2]], [[2, 1, 0], [2, 3, 1]]):
-        fr = rasterize(pos, np.array(tris), 9, 8, device=device)
+        fr = rasterize(pos, np.array(tris), 9, 8, **kw)
         cnt = counts_per_pixel(fr, (8, 9))
         expect = np.zeros((8, 9), int)
-        expect[1:5, 2:6] = 1  # top row (y = 1.5) and left column (x = 2.5) in; bottom / right out
+        # left column (x = 2.5) in, right out; bottom_left: the bottom row as displayed (y = 5.5, the
+        # smaller GL window y) in and the top row out; top_left: the other way round
+        if fill_rule == "bottom_left":
+            expect[2:6, 2:6] = 1
+        else:
+            expect[1:5, 2:6] = 1
         np.testing.assert_array_equal(cnt, expect)
     # single triangle: which diagonal centres belong to it depends on the edge's side
-    lower_left = counts_per_pixel(rasterize(pos, np.array([[0, 3, 2]]), 9, 8, device=device), (8, 9))
-    upper_right = counts_per_pixel(rasterize(pos, np.array([[0, 1, 3]]), 9, 8, device=device), (8, 9))
-    diag = [(1 + k, 2 + k) for k in range(4)]
+    lower_left = counts_per_pixel(rasterize(pos, np.array([[0, 3, 2]]), 9, 8, **kw), (8, 9))
+    upper_right = counts_per_pixel(rasterize(pos, np.array([[0, 1, 3]]), 9, 8, **kw), (8, 9))
+    # (the diagonal's first centre (2.5, 1.5) lies on the top edge too, owned under top_left only)
+    diag = [(1 + k, 2 + k) for k in range(0 if fill_rule == "top_left" else 1, 4)]
     # the diagonal is a left edge of the upper-right triangle (interior to its right), a right edge
     # of the lower-left one
     assert all(upper_right[r, c] == 1 for r, c in diag)
     assert all(lower_left[r, c] == 0 for r, c in diag)
-    assert lower_left.sum() == 6 and upper_right.sum() == 10  # 16 centres in the square, each once
-    # a horizontal edge shared by two triangles above/below it: the lower triangle owns it (top edge)
+    # 16 centres in the square, each once; the upper-right triangle owns the top row under top_left,
+    # the lower-left one the bottom row under bottom_left
+    if fill_rule == "bottom_left":
+        assert lower_left.sum() == 1 + 2 + 3 + 4 and upper_right.sum() == 3 + 2 + 1
+    else:
+        assert lower_left.sum() == 6 and upper_right.sum() == 10
+    # a horizontal edge shared by two triangles above/below it: bottom_left gives it to the triangle
+    # above (its bottom edge), top_left to the one below (its top edge)
     pos2 = np.array([[0, 2.5, 0, 1], [8, 2.5, 0, 1], [4, -3, 0, 1], [4, 8, 0, 1]], np.float32)
-    above = counts_per_pixel(rasterize(pos2, np.array([[0, 2, 1]]), 8, 8, device=device), (8, 8))
-    below = counts_per_pixel(rasterize(pos2, np.array([[0, 1, 3]]), 8, 8, device=device), (8, 8))
-    assert above[2].sum() == 0 and below[2].sum() > 0
+    above = counts_per_pixel(rasterize(pos2, np.array([[0, 2, 1]]), 8, 8, **kw), (8, 8))
+    below = counts_per_pixel(rasterize(pos2, np.array([[0, 1, 3]]), 8, 8, **kw), (8, 8))
+    owner, other = (above, below) if fill_rule == "bottom_left" else (below, above)
+    assert other[2].sum() == 0 and owner[2].sum() == 8
     assert (above + below).max() == 1
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_snapping_ties(device):
+    # x = 2.5 + 1/512 is half-way between the 1/256 steps 640 and 641 (2.5 + 1/256 = 641/256):
+    # ties to even snap it onto the pixel centres' column (640/256 = 2.5), ties away one step right
+    d = 1 / 512
+    for ties, on_centre in (("even", True), ("away", False)):
+        pos = np.array([[2.5 + d, 0.0, 0, 1], [2.5 + d, 8.0, 0, 1], [8.0, 0.0, 0, 1]], np.float32)
+        cnt = counts_per_pixel(rasterize(pos, [[0, 1, 2]], 8, 8, device=device, snap_ties=ties), (8, 8))
+        # the vertical edge is a left edge: column 2 (centre x = 2.5) is in iff the edge snapped onto it
+        assert (cnt[:, 2].sum() > 0) == on_centre
+        assert cnt[:, 3].sum() > 0 and cnt[:, :2].sum() == 0
+    with pytest.raises(ConfigError, match="snap_ties"):
+        Rasterizer(4, 4, snap_ties="up")
+    with pytest.raises(ConfigError, match="fill_rule"):
+        Rasterizer(4, 4, fill_rule="top_right")
 
 
 def _plane_setup(device, width=64, height=48):
@@ -298,6 +336,44 @@ def test_fused_draw_equals_fragment_list_and_is_tile_size_independent(device):
     starts = np.zeros(fr.count, bool)
     starts[off[:-1][off[:-1] < fr.count]] = True
     assert np.all(inc | starts[1:])
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_llvmpipe_interpolation_rule(device):
+    """The llvmpipe plane-equation rule: the same fragments in the fragment list and both draw
+    traversals, values within fp32 rounding of the barycentric ones (linear and perspective), and
+    constant attributes exact (linear). (Code-for-code agreement with llvmpipe: tests/test_gl_conformance.py.)"""
+    rng = np.random.default_rng(12)
+    W, H, T = 40, 30, 120
+    pos = np.concatenate([rng.uniform([0, 0], [W, H], (3 * T, 2)), rng.uniform(0, 1, (3 * T, 1)),
+                          rng.uniform(0.5, 2, (3 * T, 1))], 1).astype(np.float32)
+    tris = np.arange(3 * T).reshape(T, 3)
+    tris[::2] = tris[::2, ::-1]  # both windings (llvmpipe reorders clockwise triangles)
+    cols = rng.uniform(0, 1, (3 * T, 4)).astype(np.float32)
+    cols[:, 3] = 0.75  # a constant attribute
+    for mode in ("linear", "perspective"):
+        fr = {rule: Rasterizer(W, H, device=device, interp_rule=rule).fragments(pos, tris, cols, interpolation=mode)
+              for rule in ("barycentric", "llvmpipe")}
+        a, b = fr["barycentric"], fr["llvmpipe"]
+        assert a.count == b.count > 0.5 * W * H
+        va, vb = a.attrs.numpy()[: a.count], b.attrs.numpy()[: b.count]
+        np.testing.assert_allclose(vb, va, atol=2e-5)
+        assert (vb != va).any()  # a different rule, not the same arithmetic
+        if mode == "linear":  # zero gradients: exact (perspective divides a/w by 1/w, rounded)
+            np.testing.assert_array_equal(vb[:, 3], 0.75)
+        draws = []
+        for trav in ("tile", "pixel"):
+            fb = FrameBuffer(W, H, "fp32", device)
+            fb.clear((0, 0, 0, 0))
+            Rasterizer(W, H, device=device, interp_rule="llvmpipe", traversal=trav).draw(
+                pos, tris, cols, fb, BlendUnit.replace(), interpolation=mode)
+            draws.append(fb.readback())
+        np.testing.assert_array_equal(draws[0], draws[1])
+        last = b.offsets.numpy()
+        has = np.diff(last) > 0
+        np.testing.assert_array_equal(draws[0].reshape(-1, 4)[has], vb[last[1:][has] - 1])
+    with pytest.raises(ConfigError, match="interp_rule"):
+        Rasterizer(4, 4, interp_rule="plane")
 
 
 @pytest.mark.parametrize("device", DEVICES)

@@ -93,14 +93,14 @@ def test_stage_rejects_bad_parameters():
 
 
 def test_pipeline_keeps_its_table_cache_across_renders_and_tf_edits():
-    from warpvol.pipeline import Pipeline
-
-    pipe = Pipeline.from_config({"stages": [{"stage": "table_exact", "n_s": 8, "n_l": 2},
-                                            {"stage": "table_iso", "n": 8}, {"stage": "table_psi", "n": 8}]})
+    # the table stages of one pipeline (a Pipeline itself must also write an image)
+    stages = [get_stage_class("table_exact")(n_s=8, n_l=2), get_stage_class("table_iso")(n=8),
+              get_stage_class("table_psi")(n=8)]
+    persistent = {}
 
     def render(tf):
-        ctx = Context(scene=_Scene(tf), quiet=True, persistent=pipe.persistent)
-        for st in pipe.stages:
+        ctx = Context(scene=_Scene(tf), quiet=True, persistent=persistent)
+        for st in stages:
             st.run(ctx)
         return {k: v["built"] for k, v in ctx.stats["tables"].items()}
 

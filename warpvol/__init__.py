@@ -4,16 +4,31 @@ Stages emulate the hardware units (rasteriser, texture units, blending into fixe
 buffers, ray propagation through cell adjacency, ...) as NVIDIA Warp kernels; pipelines chain them.
 Every render can be compared with an exact float64 reference.
 
+In a notebook::
+
+    import warpvol
+    scene = warpvol.builtin_scene("sphere")
+    r = warpvol.render(scene, reference=True)      # or render(pyvista_grid, preset_json, plotter, scalars=...)
+    r.error, r.save("sphere.png")
+    fig, table = warpvol.compare(scene, list(warpvol.presets()))
+
 Nothing is initialised at import time: Warp is initialised on first use.
 """
 
 __version__ = "0.1.0"
 
+# the preset folder is a subpackage named like the presets() function below: import it first, so
+# later imports of ``warpvol.presets`` (by importlib.resources) find it loaded and leave the name alone
+from . import presets as _presets_package  # noqa: F401
+from .api import Comparison, Rendering, compare, presets, render
+from .builtin import builtin_scene
 from .camera import Camera
 from .errors import ConfigError, MeshError, WarpvolError
 from .mesh import TetMesh
 from .pipeline import Pipeline, Stage, list_presets, register_stage
+from .scene import Scene, load_scene
 from .transfer import TransferFunction
 
-__all__ = ["Camera", "ConfigError", "MeshError", "Pipeline", "Stage", "TetMesh", "TransferFunction",
-           "WarpvolError", "list_presets", "register_stage"]
+__all__ = ["Camera", "Comparison", "ConfigError", "MeshError", "Pipeline", "Rendering", "Scene", "Stage",
+           "TetMesh", "TransferFunction", "WarpvolError", "builtin_scene", "compare", "list_presets",
+           "load_scene", "presets", "register_stage", "render"]

@@ -215,7 +215,24 @@ def builtin_camera(name: str) -> Camera:
 
 
 def builtin_scene(name: str):
-    """Built-in scene ``name`` as a :class:`warpvol.scene.Scene` with its default TF and camera."""
+    """Built-in scene ``name`` as a :class:`warpvol.scene.Scene` with its default TF and camera.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`BUILTIN_SCENES` (``sphere``, ``box``, ``linear_box``, ``concave``, ``stiff``).
+
+    Returns
+    -------
+    Scene
+        128 x 128 pixels; change with ``.with_camera(width_px=..., height_px=...)``.
+
+    Examples
+    --------
+    >>> s = builtin_scene("sphere")
+    >>> s.mesh.n_tets, s.transfer.emission, s.camera.width_px
+    (2560, 'emission_density', 128)
+    """
     from .scene import Scene
 
     name = _check_name(name)

@@ -21,6 +21,12 @@ from .errors import ConfigError, check_choice, check_keys, check_number, check_v
 PROJECTIONS = ("perspective", "orthographic")
 
 
+def _frozen_vec3(name: str, value: Any) -> np.ndarray:
+    v = check_vec3(name, value).copy()
+    v.setflags(write=False)
+    return v
+
+
 @dataclass
 class Camera:
     """Pinhole (perspective) or orthographic camera.
@@ -58,9 +64,9 @@ class Camera:
     def __post_init__(self):
         w = self.where
         self.projection = check_choice(f"{w}.projection", self.projection, PROJECTIONS)
-        self.eye = check_vec3(f"{w}.eye", self.eye)
-        self.target = check_vec3(f"{w}.target", self.target)
-        self.up = check_vec3(f"{w}.up", self.up)
+        # read-only copies: the camera never aliases the caller's arrays, and an in-place edit cannot
+        # leave the derived frame (forward, right, true_up) stale; use replace() for a changed camera
+        self.eye, self.target, self.up = (_frozen_vec3(f"{w}.{k}", getattr(self, k)) for k in ("eye", "target", "up"))
         self.fov_y_deg = check_number(f"{w}.fov_y_deg", self.fov_y_deg, lo=0, hi=180, lo_open=True, hi_open=True)
         self.height = check_number(f"{w}.height", self.height, lo=0, lo_open=True)
         self.width_px = check_number(f"{w}.width_px", self.width_px, lo=1, integer=True)
@@ -84,6 +90,44 @@ class Camera:
         keys = ["projection", "eye", "target", "up", "fov_y_deg", "height", "width_px", "height_px"]
         check_keys(where, cfg, keys)
         return cls(**cfg, where=where)
+
+    @classmethod
+    def from_pyvista(cls, plotter_or_camera, window_size=None) -> "Camera":
+        """The camera of a pyvista view, so warpvol renders what pyvista shows.
+
+        Parameters
+        ----------
+        plotter_or_camera : pyvista.Plotter, pyvista.Camera or vtkCamera
+            With a plotter, its active renderer's camera (pyvista's default view when none was set,
+            as ``show()`` would use) and its window size (times the renderer's viewport).
+        window_size : (int, int), optional
+            ``(width, height)`` in pixels; required with a bare camera, overrides a plotter's.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> c = pv.Camera(); c.position = (0, 0, 5); c.focal_point = (0, 0, 0); c.view_angle = 40.0
+        >>> cam = Camera.from_pyvista(c, window_size=(64, 48))
+        >>> cam.eye.tolist(), cam.fov_y_deg, (cam.width_px, cam.height_px)
+        ([0.0, 0.0, 5.0], 40.0, (64, 48))
+        """
+        from .interop import camera_from_pyvista
+
+        return camera_from_pyvista(plotter_or_camera, window_size)
+
+    def to_pyvista(self, plotter=None):
+        """This camera as a ``pyvista.Camera``; with ``plotter``, also set as its camera together
+        with ``window_size = (width_px, height_px)``, so pyvista shows the view warpvol renders.
+
+        Examples
+        --------
+        >>> c = Camera(eye=[1, 2, 3], fov_y_deg=25.0).to_pyvista()
+        >>> c.position, c.view_angle
+        ((1.0, 2.0, 3.0), 25.0)
+        """
+        from .interop import camera_to_pyvista
+
+        return camera_to_pyvista(self, plotter)
 
     def replace(self, **kw) -> "Camera":
         d = dict(projection=self.projection, eye=self.eye, target=self.target, up=self.up,

@@ -15,14 +15,15 @@ file / key / value, exit status 2, and no output file.
 from __future__ import annotations
 
 import argparse
-import json
+import os
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-from .errors import ConfigError, WarpvolError
+from .errors import ConfigError, WarpvolError, check_number
 
 
 def _load_scene(spec: str, args) -> "object":
@@ -34,20 +35,97 @@ def _load_scene(spec: str, args) -> "object":
     else:
         scene = load_scene(spec, strict=getattr(args, "strict", False))
     over = {}
-    if getattr(args, "width", None):
+    if getattr(args, "width", None) is not None:
         over["width_px"] = args.width
-    if getattr(args, "height", None):
+    if getattr(args, "height", None) is not None:
         over["height_px"] = args.height
     if over:
         scene.camera = scene.camera.replace(**over)
     return scene
 
 
-def _check_out(path: str, flag: str) -> Path:
-    p = Path(path)
-    if str(p.parent) not in ("", ".") and not p.parent.exists():
-        raise ConfigError(f"{flag}: output folder does not exist: {p.parent}")
-    return p
+def _check_sizes(args) -> None:
+    """``--width`` / ``--height`` / ``--size`` are pixel counts >= 1 (0 is an error, not "unset")."""
+    for flag in ("width", "height", "size"):
+        v = getattr(args, flag, None)
+        if v is not None:
+            check_number(f"--{flag}", v, lo=1, integer=True)
+
+
+#: output flag -> allowed file extensions
+OUTPUT_EXTENSIONS = {"-o": (".exr",), "--report": (".json",), "--png": (".png",), "--error-image": (".png",)}
+
+
+def check_outputs(outputs: dict[str, str | None]) -> dict[str, Path]:
+    """Check every output path before any work is done: extension supported, not a folder, folder
+    exists and is writable, no two outputs on the same file. Returns flag -> path for those given."""
+    given = {flag: g for flag, g in outputs.items() if g is not None}  # messages show them as typed
+    seen: dict[str, str] = {}
+    for flag, g in given.items():
+        key = os.path.realpath(g)
+        if key in seen:
+            raise ConfigError(f"{flag}: {g} is also the {seen[key]} output; give each output its own file")
+        seen[key] = flag
+    for flag, g in given.items():
+        p, exts = Path(g), OUTPUT_EXTENSIONS[flag]
+        if p.suffix.lower() not in exts:
+            raise ConfigError(f"{flag}: {g}: unsupported file extension {p.suffix or '(none)'!r}; "
+                              f"expected {' or '.join(exts)}")
+        if p.is_dir():
+            raise ConfigError(f"{flag}: {g} is a folder; expected a file name")
+        if not p.parent.is_dir():
+            raise ConfigError(f"{flag}: output folder does not exist: {p.parent}")
+        _check_writable(flag, p.parent)
+    return {flag: Path(g) for flag, g in given.items()}
+
+
+def _check_writable(flag: str, folder: Path) -> None:
+    # creating a file is the only reliable test (permissions, ACLs, read-only mounts, root)
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".warpvol-probe.", dir=folder)
+    except OSError as e:
+        raise ConfigError(f"{flag}: cannot write into folder {folder}: {e.strerror or e}") from None
+    os.close(fd)
+    os.unlink(probe)
+
+
+#: conservative bytes per pixel of one render's buffers (measured on `raycast`, 4096^2: ray state and
+#: image 44 B/px, + PNG preview 77 B/px; error metrics hold ~4 float64 RGBA images at their peak)
+BYTES_PER_PIXEL = {"render": 64, "png": 128, "reference": 192, "error_image": 160}
+#: Warp launches index pixels with int32
+MAX_PIXELS = 2**31 - 1
+
+
+def _available_memory() -> int | None:
+    """Bytes of memory available to this process now (Linux ``MemAvailable``), ``None`` if unknown."""
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def check_image_memory(camera, parts: list[str], flag: str = "--width/--height") -> None:
+    """Refuse an image too large to index or to hold in memory, before any work on it."""
+    w, h = camera.width_px, camera.height_px
+    n = w * h
+    if n > MAX_PIXELS:
+        raise ConfigError(f"{flag}: {w}x{h} = {n} pixels; at most {MAX_PIXELS} (int32 pixel indices)")
+    need = n * sum(BYTES_PER_PIXEL[p] for p in parts)
+    have = _available_memory()
+    if have is not None and need > have:
+        raise ConfigError(f"{flag}: a {w}x{h} image needs about {_size(need)} for this run "
+                          f"({need // n} bytes per pixel), more than the {_size(have)} of memory "
+                          "available; render a smaller image")
+
+
+def _size(nbytes: int) -> str:
+    return f"{nbytes / 2**30:.1f} GiB" if nbytes >= 2**30 else f"{nbytes / 2**20:.0f} MiB"
 
 
 def _progress_printer(quiet: bool):
@@ -73,39 +151,42 @@ def compute_reference(scene, quiet: bool = False) -> tuple[np.ndarray, float]:
 
 
 def cmd_render(args) -> int:
-    from .io import read_exr, write_exr, write_png
-    from .pipeline import Pipeline
+    from .io import Outputs, read_exr
+    from .metrics import write_error_png
+    from .pipeline import Pipeline, report_json
 
-    out = _check_out(args.output, "-o")
-    report_path = _check_out(args.report, "--report") if args.report else None
-    png_path = _check_out(args.png, "--png") if args.png else None
-    err_path = _check_out(args.error_image, "--error-image") if args.error_image else None
-    if err_path and not (args.reference or args.compute_reference):
+    # everything a user can get wrong is checked before any costly work
+    outs = check_outputs({"-o": args.output, "--report": args.report, "--png": args.png,
+                          "--error-image": args.error_image})
+    if args.error_image and not (args.reference or args.compute_reference):
         raise ConfigError("--error-image: needs --reference or --compute-reference")
-    scene = _load_scene(args.scene, args)
-    ref = None
     if args.reference and args.compute_reference:
         raise ConfigError("--compute-reference: give either it or --reference, not both")
-    if args.reference:
-        ref = read_exr(args.reference)
+    _check_sizes(args)
+    pipe = Pipeline.load(args.pipeline, device=args.device)
+    ref = read_exr(args.reference) if args.reference else None
+    scene = _load_scene(args.scene, args)
+    check_image_memory(scene.camera, ["render"] + (["png"] if args.png else [])
+                       + (["reference"] if ref is not None or args.compute_reference else [])
+                       + (["error_image"] if args.error_image else []))
+    if ref is not None:
         want = (scene.camera.height_px, scene.camera.width_px, 4)
         if ref.shape != want:
             raise ConfigError(f"--reference: {args.reference} has shape {ref.shape}, expected {want}")
     elif args.compute_reference:
         ref, ref_s = compute_reference(scene, args.quiet)
-    pipe = Pipeline.load(args.pipeline, device=args.device)
     res = pipe.render(scene, reference=ref, quiet=args.quiet, gpu=args.gpu)
     if args.compute_reference:
         res.report["reference_s"] = ref_s
-    write_exr(out, res.image)
-    if png_path:
-        write_png(png_path, res.image, background=args.background)
-    if err_path:
-        from .metrics import write_error_png
-
-        res.report["error"]["error_image_scale"] = write_error_png(err_path, res.image, ref)
-    if report_path:
-        res.write_report(report_path)
+    # all outputs or none: each is written beside its target, then all are renamed together
+    with Outputs() as out:
+        out.exr(outs["-o"], res.image)
+        if args.png:
+            out.png(outs["--png"], res.image, background=args.background)
+        if args.error_image:
+            res.report["error"]["error_image_scale"] = write_error_png(outs["--error-image"], res.image, ref, out)
+        if args.report:
+            out.text(outs["--report"], report_json(res.report))
     _summary(res.report)
     return 0
 
@@ -114,7 +195,8 @@ def _summary(report: dict) -> None:
     line = f"{report['pipeline']}: {report['total_s']:.3f} s"
     if "error" in report:
         e = report["error"]
-        line += f"  rmse={e['rmse']:.3e} max_abs={e['max_abs']:.3e} psnr={e['psnr']:.1f} dB"
+        psnr = "exact" if e["psnr"] is None else f"{e['psnr']:.1f} dB"
+        line += f"  rmse={e['rmse']:.3e} max_abs={e['max_abs']:.3e} psnr={psnr}"
     if "modelled_s" in report:
         t = report["modelled_s"]["total"]
         line += f"  modelled on {report['gpu']}: " + ("-" if t is None else f"{t:.4f} s")
@@ -132,8 +214,10 @@ def cmd_gpus(args) -> int:
 def cmd_reference(args) -> int:
     from .io import write_exr
 
-    out = _check_out(args.output, "-o")
+    out = check_outputs({"-o": args.output})["-o"]
+    _check_sizes(args)
     scene = _load_scene(args.scene, args)
+    check_image_memory(scene.camera, ["reference"])
     img, dt = compute_reference(scene, args.quiet)
     write_exr(out, img.astype(np.float32))
     print(f"reference: {dt:.2f} s, {scene.camera.width_px}x{scene.camera.height_px}, {scene.mesh.n_tets} tets -> {out}")
@@ -155,27 +239,33 @@ def cmd_pipelines(args) -> int:
 
 def cmd_demo(args) -> int:
     from .builtin import BUILTIN_SCENES, builtin_scene
-    from .io import atomic_write_text, write_exr, write_png
+    from .io import Outputs
     from .metrics import write_error_png
-    from .pipeline import DEFAULT_PIPELINE, Pipeline
+    from .pipeline import DEFAULT_PIPELINE, Pipeline, report_json
 
     if args.scene not in BUILTIN_SCENES:
         raise ConfigError(f"--scene: unknown built-in scene {args.scene!r}; allowed: {', '.join(BUILTIN_SCENES)}")
+    _check_sizes(args)
     outdir = Path(args.output)
-    outdir.mkdir(parents=True, exist_ok=True)
+    if outdir.exists() and not outdir.is_dir():
+        raise ConfigError(f"-o: {outdir} exists and is not a folder")
+    pipe = Pipeline.load(args.pipeline or DEFAULT_PIPELINE, device=args.device)
     scene = builtin_scene(args.scene)
     scene.camera = scene.camera.replace(width_px=args.size, height_px=args.size)
-    pipe = Pipeline.load(args.pipeline or DEFAULT_PIPELINE, device=args.device)
+    check_image_memory(scene.camera, ["render", "png", "reference", "error_image"], "--size")
+    outdir.mkdir(parents=True, exist_ok=True)
+    _check_writable("-o", outdir)
     print(f"demo: scene {args.scene!r} ({scene.mesh.n_tets} tets, {args.size}x{args.size}), "
           f"pipeline {pipe.name!r}", file=sys.stderr)
     ref, ref_s = compute_reference(scene, args.quiet)
     res = pipe.render(scene, reference=ref, quiet=args.quiet)
     res.report["reference_s"] = ref_s
-    write_exr(outdir / "image.exr", res.image)
-    write_exr(outdir / "reference.exr", ref.astype(np.float32))
-    write_png(outdir / "image.png", res.image, background=(0.1, 0.1, 0.1))
-    err_max = write_error_png(outdir / "error.png", res.image, ref)
-    atomic_write_text(outdir / "report.json", json.dumps(res.report, indent=2) + "\n")
+    with Outputs() as out:
+        out.exr(outdir / "image.exr", res.image)
+        out.exr(outdir / "reference.exr", ref.astype(np.float32))
+        out.png(outdir / "image.png", res.image, background=(0.1, 0.1, 0.1))
+        err_max = write_error_png(outdir / "error.png", res.image, ref, out)
+        out.text(outdir / "report.json", report_json(res.report))
     _summary(res.report)
     print(f"wrote {outdir}/image.exr, image.png, reference.exr, error.png (scaled to max {err_max:.2e}), report.json")
     return 0
@@ -235,19 +325,23 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    if args.cmd in ("render", "demo"):
-        from .pipeline import quiet_warp
-
-        # the CLI keeps stdout for its summary and reports progress on stderr itself
-        quiet_warp()
     try:
+        if args.cmd in ("render", "demo"):
+            from .pipeline import quiet_warp
+
+            # the CLI keeps stdout for its summary and reports progress on stderr itself
+            quiet_warp(cuda=str(args.device).startswith("cuda"))
         return args.func(args)
-    except WarpvolError as e:
+    except (WarpvolError, OSError) as e:
         print(f"warpvol: error: {e}", file=sys.stderr)
         return 2
-    except OSError as e:
-        print(f"warpvol: error: {e}", file=sys.stderr)
+    except MemoryError:
+        print("warpvol: error: out of memory; render a smaller image (--width/--height)", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        # Ctrl-C: queued work is cancelled (warpvol.parallel), staged outputs removed (warpvol.io.Outputs)
+        print("warpvol: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,70 +1,168 @@
 """Image and text output: OpenEXR via OpenImageIO, PNG previews, atomic writes.
 
 Every writer goes through a temporary file in the target folder followed by :func:`os.replace`, so a
-failed or interrupted run never leaves a partial output file behind.
+failed or interrupted run never leaves a partial output file behind. :class:`Outputs` extends this to
+a whole run: all of its files are written to temporary files first and renamed together at the end,
+so a run leaves all its outputs or none. Files get the permissions ``open()`` would give them (0666
+less the umask); errors name the user's path, never the temporary file.
 """
 
 from __future__ import annotations
 
 import os
 import tempfile
-from contextlib import contextmanager
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
 from .errors import ConfigError
 
 
-@contextmanager
-def _atomic_target(path: str | Path):
-    path = Path(path)
-    if path.parent and not path.parent.exists():
-        raise ConfigError(f"output folder does not exist: {path.parent}")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent or ".")
-    os.close(fd)
+def _umask() -> int:
+    """The process's umask; read from /proc where possible (``os.umask`` can only be read by setting
+    it, which races with other threads creating files)."""
     try:
-        yield tmp
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    old = os.umask(0o022)
+    os.umask(old)
+    return old
+
+
+class Outputs:
+    """A set of output files written all together or not at all.
+
+    Each ``exr`` / ``png`` / ``text`` call writes a temporary file beside its target; leaving the
+    ``with`` block normally renames them all onto their targets, an exception (``KeyboardInterrupt``
+    included) removes them and leaves the targets untouched.
+
+    Examples
+    --------
+    >>> import tempfile; d = Path(tempfile.mkdtemp())
+    >>> with Outputs() as out:
+    ...     out.text(d / "a.json", "{}")
+    ...     out.exr(d / "a.exr", np.zeros((2, 2, 4)))
+    ...     sorted(p.name for p in d.iterdir() if not p.name.startswith("."))
+    []
+    >>> sorted(p.name for p in d.iterdir())
+    ['a.exr', 'a.json']
+    """
+
+    def __init__(self) -> None:
+        self._staged: list[tuple[str, Path]] = []
+
+    def __enter__(self) -> "Outputs":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.commit()
+        else:
+            self.discard()
+
+    def _stage(self, path: str | Path, write: Callable[[str, Path], None]) -> None:
+        path = Path(path)
+        folder = path.parent if str(path.parent) else Path(".")
+        if not folder.is_dir():
+            raise ConfigError(f"output folder does not exist: {folder} (for {path})")
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=folder)
+        except OSError as e:
+            raise OSError(f"cannot write {path}: {e.strerror or e}") from None
+        os.close(fd)
+        self._staged.append((tmp, path))
+        try:
+            # mkstemp creates 0600; an output file gets what open() would give it: 0666 less the umask
+            os.chmod(tmp, 0o666 & ~_umask())
+            write(tmp, path)
+        except OSError as e:
+            self.discard()
+            raise OSError(f"cannot write {path}: {e.strerror or e}") from None
+        except BaseException:
+            self.discard()
+            raise
+
+    def text(self, path: str | Path, text: str) -> None:
+        """Stage a UTF-8 text file."""
+        self._stage(path, lambda tmp, _: Path(tmp).write_text(text, encoding="utf-8"))
+
+    def exr(self, path: str | Path, image: np.ndarray) -> None:
+        """Stage a float RGBA (H, W, 4) image (row 0 = top) as a float32 OpenEXR file."""
+        import OpenImageIO as oiio
+
+        img = np.ascontiguousarray(image, dtype=np.float32)
+        if img.ndim != 3 or img.shape[2] not in (1, 3, 4):
+            raise ValueError(f"write_exr: expected (H, W, 1|3|4) image, got shape {img.shape}")
+        self._stage(path, lambda tmp, shown: _write_oiio(tmp, img, oiio.FLOAT, shown))
+
+    def png(self, path: str | Path, image: np.ndarray, background=(0.0, 0.0, 0.0), exposure: float = 1.0) -> None:
+        """Stage an 8-bit PNG preview: premultiplied RGBA over ``background`` (or a grey/RGB image)."""
+        import OpenImageIO as oiio
+
+        img = np.asarray(image, dtype=np.float64)
+        if img.ndim == 2:
+            img = np.repeat(img[..., None], 3, axis=2)
+        rgb = composite_over(img, background) if img.shape[2] == 4 else img[..., :3]
+        codes = np.ascontiguousarray(np.clip(np.rint(np.clip(rgb * exposure, 0, 1) * 255.0), 0, 255).astype(np.uint8))
+        self._stage(path, lambda tmp, shown: _write_oiio(tmp, codes, oiio.UINT8, shown))
+
+    def commit(self) -> None:
+        """Rename every staged file onto its target (targets were checked up front, so a failure here
+        is rare; the files not yet renamed are then removed)."""
+        try:
+            while self._staged:
+                tmp, path = self._staged[0]
+                try:
+                    os.replace(tmp, path)
+                except OSError as e:
+                    raise OSError(f"cannot write {path}: {e.strerror or e}") from None
+                self._staged.pop(0)
+        finally:
+            self.discard()
+
+    def discard(self) -> None:
+        """Remove every staged temporary file."""
+        for tmp, _ in self._staged:
+            try:
+                os.unlink(tmp)
+            except FileNotFoundError:
+                pass
+        self._staged.clear()
 
 
 def atomic_write_text(path: str | Path, text: str) -> None:
-    with _atomic_target(path) as tmp:
-        Path(tmp).write_text(text)
+    """Write a text file atomically (temporary file + rename)."""
+    with Outputs() as out:
+        out.text(path, text)
 
 
-def _write_oiio(path: str, pixels: np.ndarray, fmt) -> None:
+def _write_oiio(tmp: str, pixels: np.ndarray, fmt, shown: Path) -> None:
     import OpenImageIO as oiio
 
     h, w, c = pixels.shape
-    out = oiio.ImageOutput.create(path)
+    out = oiio.ImageOutput.create(tmp)
     if out is None:
-        raise OSError(f"OpenImageIO cannot create {path}: {oiio.geterror()}")
+        raise OSError(f"OpenImageIO cannot create {shown}: {oiio.geterror()}")
     spec = oiio.ImageSpec(w, h, c, fmt)
     if c == 4:
         spec.channelnames = ("R", "G", "B", "A")
         spec.alpha_channel = 3
-    if not out.open(path, spec):
-        raise OSError(f"OpenImageIO cannot open {path}: {out.geterror()}")
+    if not out.open(tmp, spec):
+        raise OSError(f"OpenImageIO cannot open {shown}: {out.geterror().replace(tmp, str(shown))}")
     ok = out.write_image(pixels)
     out.close()
     if not ok:
-        raise OSError(f"OpenImageIO failed writing {path}: {out.geterror()}")
+        raise OSError(f"OpenImageIO failed writing {shown}: {out.geterror().replace(tmp, str(shown))}")
 
 
 def write_exr(path: str | Path, image: np.ndarray) -> None:
     """Write a float RGBA (H, W, 4) image (row 0 = top) as a float32 OpenEXR file."""
-    import OpenImageIO as oiio
-
-    img = np.ascontiguousarray(image, dtype=np.float32)
-    if img.ndim != 3 or img.shape[2] not in (1, 3, 4):
-        raise ValueError(f"write_exr: expected (H, W, 1|3|4) image, got shape {img.shape}")
-    with _atomic_target(path) as tmp:
-        _write_oiio(tmp, img, oiio.FLOAT)
+    with Outputs() as out:
+        out.exr(path, image)
 
 
 def read_exr(path: str | Path) -> np.ndarray:
@@ -92,12 +190,5 @@ def composite_over(image: np.ndarray, background=(0.0, 0.0, 0.0)) -> np.ndarray:
 
 def write_png(path: str | Path, image: np.ndarray, background=(0.0, 0.0, 0.0), exposure: float = 1.0) -> None:
     """8-bit PNG preview: premultiplied RGBA composited over ``background`` (or a grey/RGB image)."""
-    import OpenImageIO as oiio
-
-    img = np.asarray(image, dtype=np.float64)
-    if img.ndim == 2:
-        img = np.repeat(img[..., None], 3, axis=2)
-    rgb = composite_over(img, background) if img.shape[2] == 4 else img[..., :3]
-    codes = np.clip(np.rint(np.clip(rgb * exposure, 0, 1) * 255.0), 0, 255).astype(np.uint8)
-    with _atomic_target(path) as tmp:
-        _write_oiio(tmp, np.ascontiguousarray(codes), oiio.UINT8)
+    with Outputs() as out:
+        out.png(path, image, background, exposure)

@@ -98,18 +98,51 @@ def weld_coincident_points(points: np.ndarray, tets: np.ndarray, scalars: np.nda
     return rep[tets], mean[inv], n_welded
 
 
-def _structured_mesh(dims, points, scalars, *, name: str, strict: bool, weld: bool) -> TetMesh:
+#: how to turn cell data into the point data warpvol needs (said in every cell-data error)
+CELL_TO_POINT = ("convert it with pyvista's dataset.cell_data_to_point_data() "
+                 "(ParaView: the Cell Data to Point Data filter)")
+
+#: tets per hex cell of a structured grid -> splitter (6: Kuhn split, the default; 5: alternating)
+SPLITS = (6, 5)
+
+
+def _structured_mesh(dims, points, scalars, *, name: str, strict: bool, weld: bool, split: int = 6) -> TetMesh:
     dims = tuple(int(d) for d in dims)
     if min(dims) < 2:
         raise MeshError(f"{name}: structured grid dims {list(dims)} have an axis with fewer than 2 points; "
                         "a volume needs at least 2 points along each axis")
-    tets = structured_to_tets(dims)
+    if split == 5:
+        from .builtin import structured_to_tets5
+
+        tets = structured_to_tets5(dims)
+    else:
+        tets = structured_to_tets(dims)
     if weld:
         tets, scalars, _ = weld_coincident_points(points, tets, scalars)
     return TetMesh(points, tets, scalars, name=name, strict=strict)
 
 
 # -- files pyvista reads --------------------------------------------------------------------------
+def _read_quietly(p: Path):
+    """``pyvista.read(p)`` and the VTK errors it raised, with VTK's logger, pyvista's logging and
+    warnings kept off the terminal (the caller reports the errors in one line)."""
+    import logging
+    import warnings
+
+    import pyvista as pv
+
+    disabled = logging.root.manager.disable
+    logging.disable(logging.CRITICAL)
+    try:
+        with pv.vtk_verbosity("off"), pv.VtkErrorCatcher(send_to_logging=False) as caught, \
+                warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            ds = pv.read(p)
+    finally:
+        logging.disable(disabled)
+    return ds, [" ".join(e.alert.split()) for e in caught.events if e.kind == "ERROR"]
+
+
 def read_mesh_file(path: Path | str, scalars: str | None, *, strict: bool = False,
                    where: str = "mesh") -> TetMesh:
     """Read any data set pyvista can read and turn it into a :class:`TetMesh`.
@@ -122,45 +155,72 @@ def read_mesh_file(path: Path | str, scalars: str | None, *, strict: bool = Fals
 
     p = Path(path)
     try:
-        ds = pv.read(p)
+        ds, errors = _read_quietly(p)
     except Exception as e:  # pyvista raises assorted types for unknown or corrupt files
         raise ConfigError(f"{where}.path: cannot read {p}: {e}") from None
+    if errors:  # VTK readers report a corrupt or truncated file as errors and return an empty data set
+        raise ConfigError(f"{where}.path: cannot read {p}: the file is corrupt or truncated "
+                          f"(VTK: {errors[0]})")
     if isinstance(ds, pv.MultiBlock):
         blocks = [b for b in ds if b is not None]
         if len(blocks) != 1:
             raise ConfigError(f"{where}.path: {p} holds {len(blocks)} blocks; warpvol needs a single data set")
         ds = blocks[0]
-    name = str(p)
+    return mesh_from_dataset(ds, scalars, strict=strict, name=str(p), source=str(p),
+                             scalars_key=f"{where}.scalars", dataset_key=f"{where}.path")
+
+
+def mesh_from_dataset(ds, scalars: str | None, *, strict: bool = False, name: str = "mesh",
+                      source: str | None = None, split: int | None = None, scalars_key: str = "scalars",
+                      dataset_key: str = "mesh") -> TetMesh:
+    """Turn an in-memory pyvista data set into a :class:`TetMesh` (see the module docstring).
+
+    ``scalars`` names a point-data array (one component). ``split`` (structured grids only) is the
+    number of tets per hex cell: 6 (Kuhn split, the default) or 5 (alternating 5-tet split).
+    ``source`` names the data set in messages (default: its type); ``scalars_key`` and
+    ``dataset_key`` are the argument or key names errors start with.
+    """
+    import pyvista as pv
+
+    p = source or f"the {type(ds).__name__}"
+    if split is not None and split not in SPLITS:
+        raise ConfigError(f"split: expected 6 (Kuhn) or 5 (alternating) tets per hex cell, got {split!r}")
+    structured = isinstance(ds, (pv.StructuredGrid, pv.ImageData, pv.RectilinearGrid))
+    if split is not None and not structured:
+        raise ConfigError(f"split: only applies to structured grids (StructuredGrid, ImageData, RectilinearGrid); "
+                          f"{p} is a {type(ds).__name__}, whose non-tet cells vtkDataSetTriangleFilter splits")
 
     # scalars first: the error lists what the file has
     pkeys = list(ds.point_data.keys())
     ckeys = list(ds.cell_data.keys())
     if scalars is None:
         if not pkeys and ckeys:
-            raise ConfigError(f"{where}.scalars: {p} has cell data only ({', '.join(map(repr, ckeys))}); "
-                              "warpvol needs a point-data array (values at the vertices)")
-        raise ConfigError(f"{where}.scalars: required with 'path' (name of a point-data array); "
-                          f"available point arrays in {p}: {pkeys}")
+            raise ConfigError(f"{scalars_key}: {p} has cell data only ({', '.join(map(repr, ckeys))}); "
+                              f"warpvol needs a point-data array (values at the vertices); {CELL_TO_POINT}")
+        raise ConfigError(f"{scalars_key}: required{' with ' + repr('path') if source else ''} (name of a "
+                          f"point-data array); available point arrays in {p}: {pkeys}")
     if not isinstance(scalars, str):
-        raise ConfigError(f"{where}.scalars: expected an array name, got {scalars!r}")
+        raise ConfigError(f"{scalars_key}: expected an array name, got {scalars!r}")
     if scalars not in pkeys:
         if not pkeys and ckeys:
-            raise ConfigError(f"{where}.scalars: {p} has cell data only ({', '.join(map(repr, ckeys))}); "
-                              f"warpvol needs {scalars!r} as a point-data array (values at the vertices)")
-        hint = f" ({scalars!r} is a cell-data array; warpvol needs point data)" if scalars in ckeys else ""
-        raise ConfigError(f"{where}.scalars: point-data array {scalars!r} not found in {p}{hint}; "
+            raise ConfigError(f"{scalars_key}: {p} has cell data only ({', '.join(map(repr, ckeys))}); "
+                              f"warpvol needs {scalars!r} as a point-data array (values at the vertices); "
+                              f"{CELL_TO_POINT}")
+        hint = (f" ({scalars!r} is a cell-data array; warpvol needs point data: {CELL_TO_POINT})"
+                if scalars in ckeys else "")
+        raise ConfigError(f"{scalars_key}: point-data array {scalars!r} not found in {p}{hint}; "
                           f"available point arrays: {pkeys}")
     arr = np.asarray(ds.point_data[scalars])
     if arr.ndim > 1 and arr.shape[1] != 1:
-        raise ConfigError(f"{where}.scalars: array {scalars!r} in {p} has {arr.shape[1]} components; "
+        raise ConfigError(f"{scalars_key}: array {scalars!r} in {p} has {arr.shape[1]} components; "
                           "expected a scalar (1 component)")
 
-    if isinstance(ds, (pv.StructuredGrid, pv.ImageData, pv.RectilinearGrid)):
+    if structured:
         return _structured_mesh(ds.dimensions, np.asarray(ds.points, dtype=np.float64),
                                 arr.reshape(-1).astype(np.float64), name=name, strict=strict,
-                                weld=isinstance(ds, pv.StructuredGrid))
+                                weld=isinstance(ds, pv.StructuredGrid), split=split or 6)
     if not isinstance(ds, pv.UnstructuredGrid):
-        raise ConfigError(f"{where}.path: {p} is a {type(ds).__name__}, which has no volume cells; "
+        raise ConfigError(f"{dataset_key}: {p} is a {type(ds).__name__}, which has no volume cells; "
                           "expected an unstructured, structured, image or rectilinear grid")
 
     points = np.asarray(ds.points, dtype=np.float64)

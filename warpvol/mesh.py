@@ -32,6 +32,20 @@ def signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", a, np.cross(b, c))
 
 
+def _as_array(name: str, arg: str, value, dtype) -> np.ndarray:
+    """A fresh numpy copy of ``value``; ragged or non-numeric input is an error naming ``arg``."""
+    if isinstance(value, (str, bytes, dict, set)) or value is None:
+        raise MeshError(f"{name}: {arg} must be an array of numbers, got {type(value).__name__} {value!r:.60}")
+    try:
+        arr = np.array(value, dtype=dtype, copy=True)
+    except (TypeError, ValueError) as e:
+        raise MeshError(f"{name}: {arg} must be a rectangular array of numbers (ragged or non-numeric "
+                        f"input: {e})") from None
+    if arr.dtype == object or arr.dtype.kind in "USV":
+        raise MeshError(f"{name}: {arg} must be an array of numbers, got dtype {arr.dtype}")
+    return arr
+
+
 class TetMesh:
     """A validated tetrahedral mesh with point scalars.
 
@@ -57,9 +71,10 @@ class TetMesh:
     def __init__(self, points, tets, scalars, *, name: str = "mesh", strict: bool = False,
                  zero_volume_rtol: float = 1e-12):
         self.name = name
-        points = np.asarray(points, dtype=np.float64)
-        tets = np.asarray(tets)
-        scalars = np.asarray(scalars, dtype=np.float64)
+        # copies: the caller's arrays stay writable and later edits to them cannot reach the mesh
+        points = _as_array(name, "points", points, np.float64)
+        tets = _as_array(name, "tets", tets, None)
+        scalars = _as_array(name, "scalars", scalars, np.float64)
         if points.ndim != 2 or points.shape[1] != 3:
             raise MeshError(f"{name}: points must have shape (N, 3), got {points.shape}")
         if tets.ndim != 2 or tets.shape[1] != 4:
@@ -67,7 +82,7 @@ class TetMesh:
         if len(points) == 0 or len(tets) == 0:
             raise MeshError(f"{name}: empty mesh ({len(points)} points, {len(tets)} tets)")
         if not np.issubdtype(tets.dtype, np.integer):
-            raise MeshError(f"{name}: tet indices must be integers, got dtype {tets.dtype}")
+            raise MeshError(f"{name}: tets: indices must be integers, got dtype {tets.dtype}")
         if scalars.shape != (len(points),):
             raise MeshError(f"{name}: scalars must have one value per point ({len(points)}), got shape {scalars.shape}")
         check_finite_array(f"{name}: points", points)
@@ -259,6 +274,55 @@ class TetMesh:
 
     def __repr__(self) -> str:
         return f"TetMesh({self.name!r}, {self.n_points} points, {self.n_tets} tets)"
+
+    # -- pyvista in and out (conversion in warpvol.loaders / warpvol.interop) -------------------
+    @classmethod
+    def from_pyvista(cls, dataset, scalars: str | None = None, split: int | None = None, *,
+                     strict: bool = False, name: str | None = None) -> "TetMesh":
+        """A tetrahedral mesh from a pyvista (or VTK) data set, converted as scene files are.
+
+        Parameters
+        ----------
+        dataset : pyvista.UnstructuredGrid, StructuredGrid, ImageData or RectilinearGrid
+            Tet-only unstructured grids are taken as they are; other cells are split into tets by
+            ``vtkDataSetTriangleFilter`` (conforming); structured grids by ``split``.
+        scalars : str, optional
+            Name of a point-data array (one component); default: the active point scalars, or
+            the only point array. Cell data is refused with the hint to convert it with
+            ``dataset.cell_data_to_point_data()``.
+        split : {None, 6, 5}
+            Tets per hex cell of a structured grid: 6 (Kuhn split, the default) or 5 (alternating
+            5-tet split). Not allowed for unstructured grids.
+        strict : bool
+            Zero-volume tets are an error instead of being dropped with a warning.
+        name : str, optional
+            Used in messages.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> grid = pv.ImageData(dimensions=(3, 3, 3))
+        >>> grid.point_data["x"] = grid.points[:, 0]
+        >>> TetMesh.from_pyvista(grid, scalars="x").n_tets, TetMesh.from_pyvista(grid, "x", split=5).n_tets
+        (48, 40)
+        """
+        from .interop import mesh_from_pyvista
+
+        return mesh_from_pyvista(dataset, scalars, split, strict=strict, name=name)
+
+    def to_pyvista(self, scalars_name: str = "scalars"):
+        """This mesh as a ``pyvista.UnstructuredGrid`` of tets with the scalars as active point data.
+
+        Examples
+        --------
+        >>> m = TetMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], [[0, 1, 2, 3]], [0, 1, 2, 3])
+        >>> g = m.to_pyvista()
+        >>> g.n_cells, g.point_data["scalars"].tolist()
+        (1, [0.0, 1.0, 2.0, 3.0])
+        """
+        from .interop import mesh_to_pyvista
+
+        return mesh_to_pyvista(self, scalars_name)
 
 
 # -- structured grids -> tets --------------------------------------------------------------------

@@ -27,12 +27,22 @@ def blocks(n: int, size: int) -> list[tuple[int, int]]:
 
 def launch_blocks(device: str, n_blocks: int, launch: Callable[[int], None], threads: int = 0) -> None:
     """Call ``launch(b)`` for every block ``b``; concurrently from ``threads`` host threads on the CPU
-    (0: all cores), in order on other devices."""
+    (0: all cores), in order on other devices.
+
+    An exception in the calling thread while it waits (``KeyboardInterrupt`` from Ctrl-C) or in a block
+    cancels the blocks not yet started; a CPU launch in flight cannot be interrupted, so the wait is
+    one block's time."""
     threads = threads or cpu_threads()
     if str(device).startswith("cpu") and threads > 1 and n_blocks > 1:
-        with ThreadPoolExecutor(max_workers=min(threads, n_blocks)) as pool:
+        pool = ThreadPoolExecutor(max_workers=min(threads, n_blocks))
+        try:
             for f in [pool.submit(launch, b) for b in range(n_blocks)]:
                 f.result()
+        except BaseException:
+            # Ctrl-C (or a failed block): drop the queued blocks; only launches in flight finish
+            pool.shutdown(wait=True, cancel_futures=True)
+            raise
+        pool.shutdown(wait=True)
     else:
         for b in range(n_blocks):
             launch(b)

@@ -14,7 +14,8 @@ A *pipeline* is an ordered list of stages built from a plain config (TOML or dic
     stage = "raycast"
     max_steps = 100000
 
-Unknown stage names, unknown keys and bad values are errors that name them and list what is allowed.
+Unknown stage names, unknown keys and bad values are errors that name them and list what is allowed;
+so is a stage that needs a buffer no stage before it provides, or a pipeline that writes no image.
 """
 
 from __future__ import annotations
@@ -117,7 +118,8 @@ class Stage:
     summary: ClassVar[str] = ""
     params: ClassVar[tuple[Param, ...]] = ()
     #: names of what the stage reads (``ctx.buffers`` keys; ``"image"`` for ``ctx.image``) and what it
-    #: writes; a pipeline whose stages lack what they need is rejected when it is built
+    #: writes; a pipeline whose stages lack what they need is rejected when it is built. A name may
+    #: refer to a parameter as ``"{param}"`` (e.g. a table stage's ``"{output}"`` key).
     needs: ClassVar[tuple[str, ...]] = ()
     provides: ClassVar[tuple[str, ...]] = ()
 
@@ -155,7 +157,8 @@ class Stage:
     @classmethod
     def doc_table(cls) -> str:
         """Plain-text parameter table (used by ``warpvol pipelines --stages``)."""
-        lines = [f"{cls.name}: {cls.summary}"]
+        lines = [f"{cls.name}: {cls.summary}",
+                 f"    needs: {', '.join(cls.needs) or '-'}; provides: {', '.join(cls.provides) or '-'}"]
         lines += ["    " + p.describe() for p in cls.params] or ["    (no parameters)"]
         return "\n".join(lines)
 
@@ -205,7 +208,49 @@ class RenderResult:
     def write_report(self, path: str | Path) -> None:
         from .io import atomic_write_text
 
-        atomic_write_text(path, json.dumps(self.report, indent=2) + "\n")
+        atomic_write_text(path, report_json(self.report))
+
+
+def report_json(report: dict) -> str:
+    """The report as strict JSON (RFC 8259: no ``Infinity``/``NaN``).
+
+    Non-finite numbers have no JSON form: the PSNR of an exact match is already ``None`` (see
+    :func:`warpvol.metrics.image_error`); any other non-finite float becomes ``null`` and its key path
+    is listed under ``"non_finite"``, so nothing is dropped silently.
+
+    Examples
+    --------
+    >>> print(report_json({"a": 1.5, "b": [float("inf")]}), end="")
+    {
+      "a": 1.5,
+      "b": [
+        null
+      ],
+      "non_finite": [
+        "b[0]"
+      ]
+    }
+    """
+    bad: list[str] = []
+
+    def clean(v: Any, where: str) -> Any:
+        if isinstance(v, dict):
+            return {k: clean(x, f"{where}.{k}" if where else str(k)) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [clean(x, f"{where}[{i}]") for i, x in enumerate(v)]
+        if isinstance(v, (float, np.floating)):
+            if not np.isfinite(v):
+                bad.append(where)
+                return None
+            return float(v)
+        if isinstance(v, np.integer):
+            return int(v)
+        return v
+
+    out = clean(report, "")
+    if bad:
+        out["non_finite"] = bad
+    return json.dumps(out, indent=2, allow_nan=False) + "\n"
 
 
 def _sync(device: str) -> None:
@@ -217,13 +262,39 @@ def _sync(device: str) -> None:
         pass
 
 
-def quiet_warp() -> None:
-    """Keep Warp's start-up banner and module-load lines off stdout (CLI, scripts, doctests)."""
+def quiet_warp(cuda: bool = False) -> None:
+    """Keep Warp's start-up banner and module-load lines off stdout (CLI, scripts, doctests).
+
+    Unless ``cuda`` is asked for, Warp is also initialised here with its native "Could not find or
+    load the NVIDIA CUDA driver" line (printed by the C library on a machine without a GPU, before any
+    Python-level option applies) filtered out of stderr; anything else Warp prints there passes.
+    """
     import warp as wp
 
     wp.config.quiet = True
     if hasattr(wp, "LOG_WARNING"):
         wp.config.log_level = wp.LOG_WARNING
+    if cuda:
+        return
+    import os
+    import tempfile
+
+    sys.stderr.flush()
+    try:
+        saved = os.dup(2)
+    except OSError:  # no stderr file descriptor: nothing reaches a terminal anyway
+        wp.init()
+        return
+    with tempfile.TemporaryFile() as captured:
+        os.dup2(captured.fileno(), 2)
+        try:
+            wp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        captured.seek(0)
+        lines = captured.read().decode(errors="replace").splitlines(keepends=True)
+    sys.stderr.write("".join(ln for ln in lines if "load the NVIDIA CUDA driver" not in ln))
 
 
 def check_device(device: str, where: str = "device") -> str:
@@ -240,12 +311,45 @@ def check_device(device: str, where: str = "device") -> str:
     return str(device)
 
 
+def _names(names: tuple[str, ...], config: dict) -> list[str]:
+    return [n.format(**config) for n in names]
+
+
+def check_stage_order(stages: list[Stage], where: str = "pipeline") -> None:
+    """Reject stages that need what no earlier stage provides, and a pipeline that writes no image.
+
+    Examples
+    --------
+    >>> check_stage_order([get_stage_class("raycast")()])
+    Traceback (most recent call last):
+    ...
+    warpvol.errors.ConfigError: pipeline: stage 'raycast' needs 'cells', 'entry_bins', which no stage before it provides (stages that provide it: 'cell_setup', 'entry_bins')
+    """
+    have: set[str] = set()
+    for st in stages:
+        missing = [n for n in _names(st.needs, st.config) if n not in have]
+        if missing:
+            raise ConfigError(f"{where}: {st.where} needs {', '.join(map(repr, missing))}, which no stage before it "
+                              f"provides ({_providers(missing)})")
+        have.update(_names(st.provides, st.config))
+    if "image" not in have:
+        raise ConfigError(f"{where}: no stage writes the image ({_providers(['image'])})")
+
+
+def _providers(names: list[str]) -> str:
+    _load_builtin_stages()
+    found = sorted(c.name for c in STAGES.values()
+                   if set(names) & set(_names(c.provides, {p.name: p.default for p in c.params})))
+    return f"stages that provide it: {', '.join(map(repr, found))}" if found else "no registered stage provides it"
+
+
 class Pipeline:
     """Ordered stages plus a name; :meth:`render` runs the planner, the stages and the report."""
 
     def __init__(self, stages: list[Stage], name: str = "custom", description: str = ""):
         if not stages:
             raise ConfigError(f"pipeline {name!r}: no stages")
+        check_stage_order(stages, f"pipeline {name!r}")
         self.stages, self.name, self.description = stages, name, description
         self.persistent: dict[str, Any] = {}
 
@@ -283,7 +387,18 @@ class Pipeline:
         capabilities first and adds ``gpu`` and ``modelled_s`` to the report."""
         from .gpu.counters import Counters
 
-        device = device or self.stages[0].device
+        if device is not None and not isinstance(device, str):
+            raise ConfigError(f"render(device): expected a device name such as 'cpu' or 'cuda:0', got {device!r}")
+        device = self.stages[0].device if device is None else check_device(device, "render(device)")
+        if reference is not None:
+            want = (int(scene.camera.height_px), int(scene.camera.width_px), 4)
+            try:
+                shape = np.shape(reference)
+            except ValueError:
+                shape = "ragged"
+            if shape != want:
+                raise ConfigError(f"render(reference): shape {shape} does not match the image {want} "
+                                  "(height_px, width_px, RGBA)")
         model = None
         if gpu is not None:
             from . import model

@@ -2,6 +2,9 @@
 
 Top-level keys: ``[mesh]`` (required, see :func:`warpvol.loaders.load_mesh`), ``[transfer]``
 (:meth:`TransferFunction.from_config`), ``[camera]`` (:meth:`Camera.from_config`) and ``name``.
+``[transfer]`` takes ``points``, ``table`` or a ParaView preset, ``paraview = "preset.json"`` or
+``paraview = { file = "preset.json", name = "...", range = [smin, smax], unit_distance = 1.0 }``
+(see :meth:`TransferFunction.from_paraview`; an addition to Contract 1, older files read as before).
 With ``[mesh] builtin = "NAME"``, ``[transfer]`` and ``[camera]`` may be omitted and the built-in
 scene's defaults are used; a ``[camera]`` that is given replaces the default camera entirely (keys
 it leaves out take :class:`Camera`'s defaults, not the built-in's).
@@ -55,6 +58,15 @@ class Scene:
     name: str
     source: Path | None = None
 
+    def __post_init__(self):
+        for field_name, kind in (("mesh", TetMesh), ("transfer", TransferFunction), ("camera", Camera)):
+            value = getattr(self, field_name)
+            if not isinstance(value, kind):
+                raise ConfigError(f"Scene: {field_name}: expected a {kind.__name__}, got {type(value).__name__} "
+                                  "(warpvol.render converts pyvista meshes, presets and plotters)")
+        if not isinstance(self.name, str) or not self.name:
+            raise ConfigError(f"Scene: name: expected a non-empty string, got {self.name!r}")
+
     def with_camera(self, **overrides: Any) -> "Scene":
         """A copy whose camera has the given fields replaced (e.g. ``width_px=64``)."""
         return dataclasses.replace(self, camera=self.camera.replace(**overrides))
@@ -101,7 +113,36 @@ def scene_from_config(cfg: dict, base_dir: Path | str = ".", where: str = "scene
 
 
 def load_scene(path: Path | str, *, strict: bool = False) -> Scene:
-    """Read a TOML scene file (Contract 1). ``strict`` turns zero-volume tets into an error."""
+    r"""Read a TOML scene file (Contract 1), or a built-in scene given as ``"builtin:NAME"``.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The scene file; relative file names inside it are relative to its folder.
+    strict : bool
+        Zero-volume tets are an error instead of being dropped with a warning.
+
+    Returns
+    -------
+    Scene
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> f = pathlib.Path(tempfile.mkdtemp()) / "box.toml"
+    >>> _ = f.write_text('[mesh]\nbuiltin = "box"\n[camera]\nwidth_px = 32\nheight_px = 16\n')
+    >>> s = load_scene(f)
+    >>> s.name, s.mesh.n_tets, (s.camera.width_px, s.camera.height_px)
+    ('box', 384, (32, 16))
+    >>> load_scene("builtin:sphere").mesh.n_tets
+    2560
+    """
+    if isinstance(path, str) and path.startswith("builtin:"):
+        from .builtin import builtin_scene
+
+        return builtin_scene(path.split(":", 1)[1])
+    if not isinstance(path, (str, Path)):
+        raise ConfigError(f"path: expected a scene file name, got {type(path).__name__}")
     p = Path(path)
     if not p.is_file():
         raise ConfigError(f"scene file not found: {p}")

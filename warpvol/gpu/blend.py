@@ -12,6 +12,22 @@ Factor names (case-insensitive, optional ``GL_`` prefix): ``zero``, ``one``, ``s
 ``one_minus_dst_color``, ``dst_alpha``, ``one_minus_dst_alpha``, ``constant_color``,
 ``one_minus_constant_color``, ``constant_alpha``, ``one_minus_constant_alpha``.
 
+Blend arithmetic (named choice, :class:`BlendUnit` parameter ``arithmetic``; fixed-point buffers):
+
+* ``"exact"`` (default): each channel ``round((S Fs + D Fd) / N)`` exactly, one rounding per
+  channel and blend, on 8-bit codes S, D, Fs, Fd (N = 2^n - 1);
+* ``"llvmpipe"``: Mesa llvmpipe's integer blend: each product rounded on its own,
+  ``(ab + (ab >> n) + 2^(n-1)) >> n``, then a saturating add; fragment colours converted to codes
+  as llvmpipe does (ties to even). Premultiplied "over" differs from ``exact`` only where the
+  multiply is inexact (24 of 65,536 byte pairs); straight alpha ``(src_alpha, one_minus_src_alpha)``
+  by up to 2 codes (two roundings instead of one).
+
+**Default, and why**: ``exact``. OpenGL specifies blending "as if carried out in floating point"
+with the result converted to the buffer's fixed point once, which ``exact`` is. What the papers'
+NVIDIA (GeForce3/4) and ATI (Radeon 8500) blenders did internally is not documented; the one GL
+implementation we can observe, llvmpipe, takes a cheaper per-product shortcut, available by name and
+checked code for code by ``scripts/gl_conformance.py``. Float buffers blend in float either way.
+
 Compositing with premultiplied colours: back to front "over" = ``(one, one_minus_src_alpha)``
 (:meth:`BlendUnit.over`); front to back "under" = ``(one_minus_dst_alpha, one)``
 (:meth:`BlendUnit.under`). Roettger & Ertl's one-pass hardware pre-integration:
@@ -36,7 +52,7 @@ from typing import Any, Sequence
 import numpy as np
 import warp as wp
 
-from warpvol.errors import ConfigError, check_number
+from warpvol.errors import ConfigError, check_choice, check_number
 from warpvol.formats import NumberFormat, SNorm, UNorm, get_format
 
 from . import counters as _cnt
@@ -49,6 +65,7 @@ FACTORS = {
     "dst_color": 6, "one_minus_dst_color": 7, "dst_alpha": 8, "one_minus_dst_alpha": 9,
     "constant_color": 10, "one_minus_constant_color": 11, "constant_alpha": 12, "one_minus_constant_alpha": 13,
 }
+ARITHMETICS = {"exact": 0, "llvmpipe": 1}
 
 
 def factor_code(name: str, arg: str) -> int:
@@ -224,6 +241,8 @@ class BlendUnit:
     src_alpha,    separate alpha factors (``glBlendFuncSeparate``);             factor name or None
     dst_alpha     default: same as ``src``/``dst``
     table_size    dither table entries                                          power of two <= 2^24
+    arithmetic    fixed-point rounding: once per channel (``exact``, the GL     ``exact`` | ``llvmpipe``
+                  spec's) or per product (``llvmpipe``; module docstring)
     ============  ============================================================  =========================
 
     Examples
@@ -234,12 +253,23 @@ class BlendUnit:
     >>> bu.blend_layers(fb, np.array([[[[0.2, 0.2, 0.2, 0.2]]]]))
     >>> fb.codes()[0, 0].tolist()
     [51, 51, 51, 51]
+
+    Colour 152 times alpha 229 is 136.502 codes: rounded once (``exact``) 137; llvmpipe's multiply gives 136.
+
+    >>> src = np.array([[[[152, 0, 0, 229]]]]) / 255
+    >>> for arith in ("exact", "llvmpipe"):
+    ...     fb.clear((0, 0, 0, 0))
+    ...     BlendUnit("src_alpha", "zero", arithmetic=arith).blend_layers(fb, src)
+    ...     print(arith, fb.codes()[0, 0, 0])
+    exact 137
+    llvmpipe 136
     """
 
     def __init__(self, src: str = "one", dst: str = "zero", fmt: Any = None, constant: Sequence[float] = (0, 0, 0, 0),
                  dither: bool = False, seed: int = 0, src_alpha: str | None = None, dst_alpha: str | None = None,
-                 table_size: int = 65536):
+                 table_size: int = 65536, arithmetic: str = "exact"):
         self.src, self.dst = src, dst
+        self.arithmetic = check_choice("arithmetic", arithmetic, ARITHMETICS)
         self.src_code = factor_code(src, "src")
         self.dst_code = factor_code(dst, "dst")
         self.src_alpha_code = self.src_code if src_alpha is None else factor_code(src_alpha, "src_alpha")
@@ -290,6 +320,7 @@ class BlendUnit:
         s.dither_table = self._tables[dev]
         s.dither_mask = int(self.table.shape[0] - 1)
         s.dither_seed = self.seed
+        s.arith = ARITHMETICS[self.arithmetic]
         return s
 
     def blend_layers(self, fb: FrameBuffer, layers: Any, prim0: int = 0) -> None:

@@ -1,8 +1,38 @@
 """Rasteriser of the emulated GPU: triangles in window coordinates -> ordered fragments.
 
-Conventions and exactness (snapping to 1/256 pixel, exact int64 edge functions, top-left fill rule,
+Conventions and exactness (snapping to 1/256 pixel, exact int64 edge functions, fill rule,
 screen-space linear / perspective-correct / flat interpolation, stable tile binning that keeps
 primitive order per pixel) are documented in :mod:`warpvol.kernels.raster`.
+
+Rasterisation rules (named choices, :class:`Rasterizer` parameters ``fill_rule`` and ``snap_ties``):
+
+* ``fill_rule`` says which edges own the pixel centres lying exactly on them, in **GL window
+  coordinates (y up)**, for the picture as displayed (warpvol's row 0 is the top row, GL's window
+  y = 0 the bottom row: warpvol y = H - GL y). ``"bottom_left"``: left edges and the horizontal
+  edge with the smaller GL window y (the triangle's bottom edge as displayed); ``"top_left"``: left
+  edges and the horizontal edge with the larger GL y (Direct3D's top-left rule as displayed; the rule
+  warpvol used before the conformance suite). Both are watertight: shared edges are owned once.
+* ``snap_ties`` says how a vertex exactly half-way between two 1/256-pixel steps snaps:
+  ``"even"`` (round half to even) or ``"away"`` (half away from zero).
+
+* ``interp_rule`` says how attributes are interpolated: ``"barycentric"`` (fp32 barycentrics at the
+  pixel centre from the unsnapped positions) or ``"llvmpipe"`` (llvmpipe's plane equations
+  ``a0 + dadx x + dady y`` in GL window coordinates, from the frame buffer's origin, FMA per pixel;
+  :mod:`warpvol.kernels.raster`). They differ only where a value lands within an fp32 rounding of a
+  code boundary (exact k + 1/2 ties at 8 bits).
+
+**Defaults, and why**: ``bottom_left`` + ``even``, the rules of Mesa's llvmpipe (:data:`LLVMPIPE_RULES`).
+OpenGL ("Polygon Rasterization", 1.x to 4.x) leaves the ownership of pixel centres on edges to the
+implementation, asking only that of two polygons sharing an edge exactly one produces the fragment;
+NVIDIA (GeForce3/4) and ATI (Radeon 8500) never documented their OpenGL choice or their snapping
+ties for the papers' hardware, so warpvol defaults to the one GL implementation it can observe:
+llvmpipe, through VTK offscreen. Mesa's GL state tracker picks Gallium's edge rule per buffer
+orientation so that, in GL window coordinates, the horizontal edge with the smaller y owns its
+centres in window-system buffers and FBOs alike; llvmpipe snaps with ``lrintf`` (ties to even) to
+8 sub-pixel bits. ``scripts/gl_conformance.py`` checks both pixel for pixel. Interpolation
+defaults to ``barycentric``: its error does not depend on the distance to the frame buffer's origin
+(llvmpipe's plane equations lose accuracy far from it, as its own source notes), and the two rules
+agree but for exact ties; ``interp_rule="llvmpipe"`` reproduces llvmpipe's fragment values code for code.
 
 Three ways to draw:
 
@@ -52,6 +82,11 @@ DEPTH_FUNCS = {"always": 0, "less": 1, "greater": 2, "lequal": 3, "gequal": 4, "
 INTERPOLATIONS = {"linear": 0, "perspective": 1, "flat": 2}
 TILE_SIZES = (4, 8, 16, 32, 64)
 TRAVERSALS = ("auto", "pixel", "tile")
+FILL_RULES = ("bottom_left", "top_left")
+SNAP_TIES = ("even", "away")
+INTERP_RULES = {"barycentric": 0, "llvmpipe": 1}
+#: The rules of Mesa's llvmpipe (checked by ``scripts/gl_conformance.py``); the defaults but ``interp_rule``.
+LLVMPIPE_RULES = {"fill_rule": "bottom_left", "snap_ties": "even", "interp_rule": "llvmpipe"}
 
 
 @dataclass
@@ -98,6 +133,7 @@ class Triangles:
         if t:
             wp.launch(kr.k_setup, dim=t, inputs=[self.positions, self.tris, rast.width, rast.height, ts,
                                                    CULL_MODES[rast.cull], 1 if rast.front_face == "ccw" else 0,
+                                                   int(rast.snap_ties == "even"), int(rast.fill_rule == "bottom_left"),
                                                    self.vidx, self.sx, self.sy, self.bias, self.bbox, counts],
                       device=dev)
         offsets = wp.zeros(max(t, 1), dtype=wp.int32, device=dev)
@@ -122,6 +158,7 @@ class Triangles:
         s.vidx, s.sx, s.sy, s.bias, s.bbox = self.vidx, self.sx, self.sy, self.bias, self.bbox
         s.tile_start, s.tile_end, s.tri_of = start, end, vals
         s.tile_size, s.tiles_x = ts, tiles_x
+        s.interp_rule, s.height = INTERP_RULES[rast.interp_rule], rast.height
         self.struct = s
         self.n_tiles = n_tiles
         self._keys = keys
@@ -173,7 +210,16 @@ class Rasterizer:
     depth_clip   drop fragments with window z outside [0, 1]                   bool
     traversal    :meth:`draw`: one thread per ``pixel`` or per ``tile``         ``auto`` | ``pixel`` | ``tile``
                  (``auto``: tile on CPU, pixel on CUDA); same result
+    fill_rule    edges owning the pixel centres on them, in GL window           ``bottom_left`` | ``top_left``
+                 coordinates (y up), as displayed (module docstring)
+    snap_ties    vertices half-way between 1/256-pixel steps snap to           ``even`` | ``away``
+                 the even step or away from zero
+    interp_rule  attribute interpolation: fp32 barycentrics, or llvmpipe's     ``barycentric`` |
+                 plane equations in GL window coordinates                      ``llvmpipe``
     ===========  ============================================================  =============================
+
+    The defaults of ``fill_rule`` and ``snap_ties`` are Mesa llvmpipe's (:data:`LLVMPIPE_RULES`;
+    the module docstring gives the reason); ``interp_rule`` defaults to ``barycentric``.
 
     Positions are window coordinates ``(x, y, z, w)`` (see :class:`~warpvol.gpu.vertex.VertexStage`):
     x right, y *down* (row index), z in [0, 1], w the clip-space w (for perspective correction).
@@ -186,11 +232,19 @@ class Rasterizer:
     ...                     attrs=[[0.0], [1.0], [0.0]])
     >>> frags.count                      # 36 centres with x + y <= 8; the 8 on the hypotenuse (a right edge) excluded
     28
+
+    A horizontal edge through the centres of row 2, interior above it (the triangle's bottom edge as
+    displayed, the smaller GL window y): owned under ``bottom_left`` (the default), not under ``top_left``:
+
+    >>> tri = [[0, 2.5, .5, 1], [4, 2.5, .5, 1], [0, 0, .5, 1]]
+    >>> [Rasterizer(4, 4, fill_rule=f).fragments(tri, [[0, 1, 2]]).count for f in ("bottom_left", "top_left")]
+    [7, 3]
     """
 
     def __init__(self, width: int, height: int, device: str = "cpu", tile_size: int = 16, cull: str = "none",
                  front_face: str = "ccw", depth_func: str = "always", depth_write: bool = False,
-                 depth_clip: bool = True, traversal: str = "auto"):
+                 depth_clip: bool = True, traversal: str = "auto", fill_rule: str = "bottom_left",
+                 snap_ties: str = "even", interp_rule: str = "barycentric"):
         self.width = check_number("width", width, lo=1, hi=65536, integer=True)
         self.height = check_number("height", height, lo=1, hi=65536, integer=True)
         self.device = device
@@ -205,6 +259,9 @@ class Rasterizer:
                 raise ConfigError(f"{nm}: expected true or false, got {val!r}")
         self.depth_write, self.depth_clip = depth_write, depth_clip
         self.traversal = check_choice("traversal", traversal, TRAVERSALS)
+        self.fill_rule = check_choice("fill_rule", fill_rule, FILL_RULES)
+        self.snap_ties = check_choice("snap_ties", snap_ties, SNAP_TIES)
+        self.interp_rule = check_choice("interp_rule", interp_rule, INTERP_RULES)
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -51,6 +51,8 @@ class CellSetup(Stage):
 
     name = "cell_setup"
     summary = "upload face planes, scalar gradients, adjacency and the TF (HARC cell layout)"
+    needs = ()
+    provides = ("cells",)
 
     def run(self, ctx: Context) -> None:
         ctx.buffers["cells"] = cell_arrays(ctx.scene.mesh, ctx.scene.transfer, ctx.device)

@@ -82,6 +82,8 @@ class EntryBins(Stage):
 
     name = "entry_bins"
     summary = "bin front-facing boundary faces into screen tiles for ray entry"
+    needs = ()
+    provides = ("entry_bins",)
     params = (Param("tile", int, 8, "tile edge in pixels", lo=1, hi=256),)
 
     def run(self, ctx: Context) -> None:

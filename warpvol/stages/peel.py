@@ -29,6 +29,8 @@ class Peel(Stage):
 
     name = "peel"
     summary = "re-enter non-convex meshes: repeat propagation passes until no ray re-enters"
+    needs = ("cells", "entry_bins", "march")
+    provides = ("image",)
     params = (Param("max_passes", int, 256, "upper bound on re-entry passes", lo=1),) + RAY_PARAMS
 
     def skip_reason(self, ctx: Context) -> str | None:

@@ -123,6 +123,8 @@ class Raycast(Stage):
 
     name = "raycast"
     summary = "float32 ray propagation through cell adjacency, exact piecewise-linear segment integrals"
+    needs = ("cells", "entry_bins")
+    provides = ("march", "image")
     params = RAY_PARAMS
 
     def run(self, ctx: Context) -> None:

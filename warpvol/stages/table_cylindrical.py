@@ -26,6 +26,8 @@ class TableCylindrical(TableStage):
 
     name = "table_cylindrical"
     summary = "cylindrical alpha-planes of the 3D table, tiled atlas (2D texturing)"
+    needs = ()
+    provides = ("{output}",)
     builder = "cylindrical"
     params = (
         Param("n_s", int, 64, "plane resolution", lo=2, hi=4096),

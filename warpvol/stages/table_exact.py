@@ -25,6 +25,8 @@ class TableExact(TableStage):
 
     name = "table_exact"
     summary = "exact 3D pre-integration table (piecewise-linear TF integrated exactly)"
+    needs = ()
+    provides = ("{output}",)
     builder = "exact3d"
     params = (
         Param("n_s", int, 64, "resolution of the sf and sb axes", lo=2, hi=4096),

@@ -25,6 +25,8 @@ class TableGuthe(TableStage):
 
     name = "table_guthe"
     summary = "Guthe et al. 2002 2D multi-texturing tables (exact opacity, polynomial colour)"
+    needs = ()
+    provides = ("{output}",)
     builder = "guthe2d"
     params = (
         Param("n_s", int, 512, "2D texture resolution", lo=2, hi=4096),

@@ -26,6 +26,8 @@ class TableIncremental(TableStage):
 
     name = "table_incremental"
     summary = "incremental pre-integration with logarithmic or uniform thickness axis"
+    needs = ()
+    provides = ("{output}",)
     builder = "incremental"
     params = (
         Param("n_s", int, 64, "resolution of the sf and sb axes", lo=2, hi=4096),

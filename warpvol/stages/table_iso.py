@@ -23,6 +23,8 @@ class TableIso(TableStage):
 
     name = "table_iso"
     summary = "iso-crossing table (first and next TF control point between sf and sb)"
+    needs = ()
+    provides = ("{output}",)
     builder = "isocross"
     params = (
         Param("n", int, 256, "resolution of both axes", lo=2, hi=4096),

@@ -28,6 +28,8 @@ class TablePingPong(TableStage):
 
     name = "table_pingpong"
     summary = "Guthe et al. 2002 ping-pong filtering (12-bit hi/lo split, Radeon masking vs GeForce saturation)"
+    needs = ()
+    provides = ("{output}",)
     builder = "pingpong"
     params = (
         Param("n_s", int, 128, "slice resolution", lo=2, hi=4096),

@@ -21,6 +21,8 @@ class TablePsi(TableStage):
 
     name = "table_psi"
     summary = "partial pre-integration psi(gamma_f, gamma_b) table (TF-independent)"
+    needs = ()
+    provides = ("{output}",)
     builder = "psi"
     uses_tf = False
     params = (

@@ -29,6 +29,8 @@ class TableRoettgerHw(TableStage):
 
     name = "table_roettger_hw"
     summary = "Roettger & Ertl 2002 hardware pre-integration (emulated blending into 8/12-bit buffers)"
+    needs = ()
+    provides = ("{output}",)
     builder = "roettger_hw"
     params = (
         Param("n_s", int, 64, "slice resolution", lo=2, hi=4096),

@@ -27,6 +27,8 @@ class TableRoettgerSw(TableStage):
 
     name = "table_roettger_sw"
     summary = "Roettger & Ertl 2002 software pre-integration (eqs. 5-7)"
+    needs = ()
+    provides = ("{output}",)
     builder = "roettger_sw"
     params = (
         Param("n_s", int, 64, "resolution of the sf and sb axes", lo=2, hi=4096),

@@ -34,6 +34,8 @@ class Vertex(Stage):
 
     name = "vertex"
     summary = "vertex stage: model-view / projection transform, perspective division, viewport"
+    needs = ()
+    provides = ("vertex_stage", "vertices")
     params = (
         Param("near", float, 0.0, "near plane distance (0: enclose the mesh bounds)", lo=0.0),
         Param("far", float, 0.0, "far plane distance (0: enclose the mesh bounds)", lo=0.0),
