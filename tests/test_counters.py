@@ -60,6 +60,22 @@ def test_depth_test_counts_generated_and_passed_fragments():
     assert c["primitives_culled"] == 2 and c["fragments"] == 0
 
 
+@pytest.mark.parametrize("traversal", ["tile", "pixel"])
+def test_fused_draws_count_in_the_kernel(traversal):
+    """draw / draw_ids count generated and passed fragments in the kernel (no extra launch)."""
+    near, tris = quad(0, 0, 6, 4, 0.2)   # 24 fragments
+    far, _ = quad(2, 0, 8, 2, 0.8)       # 12 fragments, 8 of them behind the first quad
+    r = Rasterizer(8, 4, depth_func="less", depth_write=True, traversal=traversal)
+    fb = FrameBuffer(8, 4, "unorm8")
+    with Counters() as c:
+        r.draw(near, tris, np.full((4, 4), 0.2), fb, BlendUnit.over())
+        r.draw(far, tris, np.full((4, 4), 0.2), fb, BlendUnit.over())
+    assert (c["fragments"], c["fragments_passed"], c["blends_unorm8"]) == (36, 28, 28)
+    with Counters() as c:
+        r.draw_ids(near, tris, [1, 2])
+    assert (c["fragments"], c["fragments_passed"], c["writes_rgb8"]) == (24, 24, 24)
+
+
 def test_textured_quads_fetches_texels_blends():
     fb = FrameBuffer(4, 2, "unorm12")
     tex = Texture1D([[0.1, 0.1, 0.1, 0.1]] * 4, fmt="rgba8", filter="linear")

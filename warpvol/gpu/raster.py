@@ -287,30 +287,33 @@ class Rasterizer:
     def _dflags(self) -> list:
         return [DEPTH_FUNCS[self.depth_func], int(self.depth_write), int(self.depth_clip)]
 
-    def _coverage(self, tr: Triangles, dbuf: wp.array, depth_test: bool) -> int:
-        """Fragments of ``tr`` (counting launch; the depth buffer is not changed): all generated
-        ones, or those passing the depth test against ``dbuf``. Used only while counting."""
+    def _coverage(self, tr: Triangles) -> int:
+        """Pixel centres covered by ``tr`` (the fragments generated, before depth clip and test): one
+        counting launch, used by :meth:`fragments` only while counting with a depth test or clip."""
         dev = self.device
         npx = self.width * self.height
         counts = wp.zeros(npx, dtype=wp.int32, device=dev)
-        one_i = wp.zeros(1, dtype=wp.int32, device=dev)
-        flags = self._dflags() if depth_test else [DEPTH_FUNCS["always"], 0, int(self.depth_clip)]
+        f1 = wp.zeros(1, dtype=wp.float32, device=dev)
+        a1 = wp.zeros((1, 1), dtype=wp.float32, device=dev)
         wp.launch(kr.k_fragments, dim=self.shape,
-                  inputs=[tr.struct, tr.positions, tr.tris, wp.zeros((1, 1), dtype=wp.float32, device=dev),
-                          wp.zeros(1, dtype=wp.int32, device=dev), 0, wp.clone(dbuf) if depth_test else dbuf, *flags,
-                          0, counts, wp.zeros(npx + 1, dtype=wp.int32, device=dev), one_i,
-                          wp.zeros(1, dtype=wp.float32, device=dev), wp.zeros((1, 1), dtype=wp.float32, device=dev)],
-                  device=dev)
+                  inputs=[tr.struct, tr.positions, tr.tris, a1, wp.zeros(1, dtype=wp.int32, device=dev), 0,
+                          wp.zeros(self.shape, dtype=wp.float32, device=dev), DEPTH_FUNCS["always"], 0, 0, 0, counts,
+                          wp.zeros(npx + 1, dtype=wp.int32, device=dev), wp.zeros(1, dtype=wp.int32, device=dev),
+                          f1, a1], device=dev)
         return int(counts.numpy().sum())
 
-    def _count_draw(self, tr: Triangles, dbuf: wp.array) -> int | None:
-        """While counting: add ``fragments`` / ``fragments_passed`` of a draw; returns the passed ones."""
-        c = _cnt.active()
-        if c is None:
-            return None
-        gen = self._coverage(tr, dbuf, False)
-        passed = gen if self.depth_func == "always" else self._coverage(tr, dbuf, True)
-        c.add(fragments=gen, fragments_passed=passed)
+    def _count_slots(self, n: int) -> tuple[int, wp.array]:
+        """``(counting flag, per-thread (generated, passed) slots)`` for a fused draw kernel."""
+        on = _cnt.active() is not None
+        return int(on), wp.zeros(n if on else 1, dtype=wp.vec2i, device=self.device)
+
+    @staticmethod
+    def _add_counts(flag: int, slots: wp.array) -> int:
+        """Add the kernel's per-thread counts to the active counters; returns the fragments passed."""
+        if not flag:
+            return 0
+        gen, passed = (int(v) for v in slots.numpy().astype(np.int64).sum(axis=0))
+        _cnt.active().add(fragments=gen, fragments_passed=passed)
         return passed
 
     def fragments(self, positions: Any, tris: Any = None, attrs: Any = None,
@@ -354,7 +357,7 @@ class Rasterizer:
         offsets[npx:].fill_(total)
         c = _cnt.active()
         if c is not None:  # the list holds the fragments that passed; generated ones need a count without the test
-            gen = total if self.depth_func == "always" else self._coverage(tr, dbuf, False)
+            gen = total if self.depth_func == "always" and not self.depth_clip else self._coverage(tr)
             c.add(fragments=gen, fragments_passed=total)
         prim = wp.zeros(max(total, 1), dtype=wp.int32, device=dev)
         fdepth = wp.zeros(max(total, 1), dtype=wp.float32, device=dev)
@@ -385,12 +388,12 @@ class Rasterizer:
         dbuf = fb.depth if depth is None else self._depth(depth)
         per_tile = self.traversal == "tile" or (self.traversal == "auto" and wp.get_device(self.device).is_cpu)
         kern, dim = (kr.k_draw_colors_tiles, tr.n_tiles) if per_tile else (kr.k_draw_colors, self.shape)
-        passed = self._count_draw(tr, dbuf)  # counting only: one coverage launch (two with a depth test)
-        if passed is not None:
-            blend.count(fb, passed)
+        flag, slots = self._count_slots(dim if per_tile else self.width * self.height)
         wp.launch(kern, dim=dim,
                   inputs=[tr.struct, tr.positions, tr.tris, wp.array(c, dtype=wp.vec4, device=self.device), mode,
-                          dbuf, *self._dflags(), st, fb.array, int(prim0)], device=self.device)
+                          dbuf, *self._dflags(), st, fb.array, int(prim0), flag, slots], device=self.device)
+        if flag:
+            blend.count(fb, self._add_counts(flag, slots))
 
     def draw_ids(self, positions: Any, tris: Any, ids: Any, id_buffer: wp.array | None = None,
                  depth: Any = None, clear_id: int = -1) -> tuple[np.ndarray, np.ndarray]:
@@ -408,14 +411,14 @@ class Rasterizer:
         if id_buffer is None:
             id_buffer = wp.full(self.shape, int(clear_id), dtype=wp.int32, device=self.device)
         dbuf = self._depth(depth)
-        passed = self._count_draw(tr, dbuf)
-        if passed is not None:
-            _cnt.active().blend("rgb8", passed, blending=False)  # 24-bit ID written as an RGB8 colour
+        flag, slots = self._count_slots(self.width * self.height)
         wp.launch(kr.k_draw_ids, dim=self.shape,
                   inputs=[tr.struct, tr.positions,
                           wp.array(ids_np.astype(np.int32) if ids_np.size else np.zeros(1, np.int32),
                                    dtype=wp.int32, device=self.device),
-                          dbuf, *self._dflags(), id_buffer], device=self.device)
+                          dbuf, *self._dflags(), id_buffer, flag, slots], device=self.device)
+        if flag:  # 24-bit IDs written as RGB8 colours
+            _cnt.active().blend("rgb8", self._add_counts(flag, slots), blending=False)
         return id_buffer.numpy(), dbuf.numpy()
 
 
