@@ -43,7 +43,7 @@ the stage *unmodelled* (``modelled_s`` None, the counters named), never a silent
 Capabilities (``[caps]``): a stage declares what it needs with :meth:`Stage.requires_caps
 <warpvol.pipeline.Stage.requires_caps>` (``{cap: needed}``: True, a minimum number, or a value the
 profile's list must hold); counted work is checked too (fp16 blends need ``fp16_blend``, 3D fetches
-``tex3d``, filtered float fetches ``float_filter``). A missing capability raises
+``tex3d``, filtered float fetches ``float_filter``, ray-walk cell steps ``fragment_loops``). A missing capability raises
 :class:`~warpvol.errors.ConfigError` naming the stage and the capability.
 
 Example
@@ -255,7 +255,8 @@ CAP_DOCS = {"fb_formats": "frame-buffer format", "tex3d": "3D textures", "max_te
             "max_tex2d": "2D texture size", "texture_units": "texture units", "combiner_stages": "combiner stages",
             "fp16_blend": "fp16 blending", "float_textures": "float textures",
             "float_filter": "filtering of float textures", "hilo": "HILO textures",
-            "fb_overflow": "frame-buffer overflow behaviour", "fragment_program": "fragment-program instructions"}
+            "fb_overflow": "frame-buffer overflow behaviour", "fragment_program": "fragment-program instructions",
+            "fragment_loops": "dynamic loops in fragment programs"}
 
 
 def check_caps(profile: Profile, where: str, needs: dict[str, Any] | list[tuple[str, Any]]) -> None:
@@ -286,6 +287,8 @@ def counter_needs(counters: dict[str, int]) -> list[tuple[str, Any]]:
         k = k.rpartition("/")[2]
         if k == "blends_fp16":
             needs.append(("fp16_blend", True))
+        elif k == "cell_steps":  # GPU ray casting (HARC) walks cells in a fragment-program loop
+            needs.append(("fragment_loops", True))
         elif (m := _ROP.match(k)) and m.group(2).startswith("unorm"):
             needs.append(("fb_formats", m.group(2)))
         elif (m := _TEX.match(k)):
