@@ -158,7 +158,6 @@ def model_counters(counters: dict[str, int], profile: Profile) -> dict[str, Any]
     gpu = host = 0.0
     unmodelled: list[str] = []
     units_all: dict[str, float] = {}
-    bound = None
     for gname, c in _group(counters).items():
         units = {"vertex": 0.0, "raster": 0.0, "texture": 0.0, "shader": 0.0, "rop": 0.0, "memory": 0.0}
         serial = 0.0
@@ -222,11 +221,11 @@ def model_counters(counters: dict[str, int], profile: Profile) -> dict[str, Any]
             else:
                 serial += passes * o
         top = max(units, key=units.get)
-        if units[top] > 0 and (bound is None or units[top] > units_all.get(bound, 0.0)):
-            bound = top
         for u, t in units.items():
             units_all[u] = units_all.get(u, 0.0) + t
         gpu += units[top] + serial
+    busy = {u: t for u, t in units_all.items() if t > 0}
+    bound = max(busy, key=busy.get) if busy else None  # the unit with the most time over all groups
     return {"s": None if unmodelled else gpu + host, "gpu_s": gpu, "host_s": host, "bound": bound,
             "units": {u: t for u, t in units_all.items() if t}, "unmodelled": unmodelled}
 
