@@ -367,9 +367,10 @@ def fragment_prologue(s: TriSetup, pos: wp.array(dtype=wp.vec4), t: int, j: int,
     """Per-fragment front end of triangle ``t`` at pixel (row i, column j), centre (px, py): coverage,
     screen barycentrics, depth interpolation, depth clip, depth test and write.
 
-    Returns ``(passed, covered, l, zb)``: whether a fragment survives, whether the pixel centre is
-    covered (a fragment was generated: the hardware counters), its screen barycentrics, and the depth
-    buffer value after it (``z`` if it passed with depth writes on, else ``zb`` unchanged).
+    Returns ``(passed, generated, l, zb)``: whether a fragment survives, whether one was generated
+    (pixel centre covered and not depth-clipped: what reaches the depth test; the hardware counters),
+    its screen barycentrics, and the depth buffer value after it (``z`` if it passed with depth writes
+    on, else ``zb`` unchanged).
     """
     cov = coverage(s, t, j, i)
     ok = cov
@@ -381,6 +382,7 @@ def fragment_prologue(s: TriSetup, pos: wp.array(dtype=wp.vec4), t: int, j: int,
         z = interp_depth(pos, v, l)
         if depth_clip != 0 and (z < 0.0 or z > 1.0):
             ok = False
+            cov = False
         elif not depth_pass(depth_func, z, zb):
             ok = False
         elif depth_write != 0:
@@ -546,12 +548,13 @@ def k_draw_colors_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.arra
             e2 = r2
             for j in range(j0, j1 + 1):
                 if e0 >= wp.int64(0) and e1 >= wp.int64(0) and e2 >= wp.int64(0):
-                    ng += 1
                     l = bary_from(pa, pb, pc, float(j) + 0.5, float(i) + 0.5)
                     z = l[0] * pa[2] + l[1] * pb[2] + l[2] * pc[2]
                     ok = True
                     if depth_clip != 0 and (z < 0.0 or z > 1.0):
                         ok = False
+                    else:
+                        ng += 1
                     if ok and depth_func != 0:
                         ok = depth_pass(depth_func, z, depth[i, j])
                     if ok:

@@ -73,6 +73,8 @@ def test_fused_draws_count_in_the_kernel(traversal):
     assert (c["fragments"], c["fragments_passed"], c["blends_unorm8"]) == (36, 28, 28)
     with Counters() as c:
         r.draw_ids(near, tris, [1, 2])
+        r.draw(quad(0, 0, 2, 2, 1.5)[0], tris, np.full((4, 4), 0.2), fb, BlendUnit.over())  # depth-clipped
+        r.fragments(quad(0, 0, 2, 2, -0.5)[0], tris)
     assert (c["fragments"], c["fragments_passed"], c["writes_rgb8"]) == (24, 24, 24)
 
 

@@ -288,8 +288,8 @@ class Rasterizer:
         return [DEPTH_FUNCS[self.depth_func], int(self.depth_write), int(self.depth_clip)]
 
     def _coverage(self, tr: Triangles) -> int:
-        """Pixel centres covered by ``tr`` (the fragments generated, before depth clip and test): one
-        counting launch, used by :meth:`fragments` only while counting with a depth test or clip."""
+        """Fragments ``tr`` generates (pixel centres covered, not depth-clipped; before the depth test):
+        one counting launch, used by :meth:`fragments` only while counting with a depth test."""
         dev = self.device
         npx = self.width * self.height
         counts = wp.zeros(npx, dtype=wp.int32, device=dev)
@@ -297,7 +297,8 @@ class Rasterizer:
         a1 = wp.zeros((1, 1), dtype=wp.float32, device=dev)
         wp.launch(kr.k_fragments, dim=self.shape,
                   inputs=[tr.struct, tr.positions, tr.tris, a1, wp.zeros(1, dtype=wp.int32, device=dev), 0,
-                          wp.zeros(self.shape, dtype=wp.float32, device=dev), DEPTH_FUNCS["always"], 0, 0, 0, counts,
+                          wp.zeros(self.shape, dtype=wp.float32, device=dev), DEPTH_FUNCS["always"], 0,
+                          int(self.depth_clip), 0, counts,
                           wp.zeros(npx + 1, dtype=wp.int32, device=dev), wp.zeros(1, dtype=wp.int32, device=dev),
                           f1, a1], device=dev)
         return int(counts.numpy().sum())
@@ -357,7 +358,7 @@ class Rasterizer:
         offsets[npx:].fill_(total)
         c = _cnt.active()
         if c is not None:  # the list holds the fragments that passed; generated ones need a count without the test
-            gen = total if self.depth_func == "always" and not self.depth_clip else self._coverage(tr)
+            gen = total if self.depth_func == "always" else self._coverage(tr)
             c.add(fragments=gen, fragments_passed=total)
         prim = wp.zeros(max(total, 1), dtype=wp.int32, device=dev)
         fdepth = wp.zeros(max(total, 1), dtype=wp.float32, device=dev)
