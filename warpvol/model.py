@@ -114,7 +114,7 @@ def _entries(where: str, d: dict) -> dict:
 def load_profile(name: str) -> Profile:
     """A shipped GPU profile by name (``warpvol gpus`` lists them)."""
     files = _profile_files()
-    if name not in files:
+    if not isinstance(name, str) or name not in files:
         raise ConfigError(f"--gpu: unknown GPU profile {name!r}; available: {', '.join(sorted(files))}")
     cfg = tomllib.loads(files[name].read_text())
     host = dict(cfg.get("host", {}))
