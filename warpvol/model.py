@@ -35,7 +35,8 @@ memory       frame-buffer bytes: (2 blends + writes + clears) x       ``memory_b
 ===========  =======================================================  =======================================
 
 Host counters: ``sw_samples`` (``sw_sample_rate``), ``host_texels`` (``host_texel_rate``),
-``cells_sorted`` (``cell_sort_rate``); ``cell_steps`` of GPU ray walks use ``[rates] cell_step_rate``.
+``cells_sorted`` (``cell_sort_rate``), ``host_cell_steps`` (``host_cell_rate``: cells intersected and
+integrated by a host ray walk, the VSBUFFER's); ``cell_steps`` of GPU ray walks use ``[rates] cell_step_rate``.
 Counters that carry no time of their own (``fragments_passed``, ``primitives``, ``texels``,
 ``readbacks`` ...) are listed in :data:`INFORMATIONAL`. Work for which the profile has no rate makes
 the stage *unmodelled* (``modelled_s`` None, the counters named), never a silent zero.
@@ -67,8 +68,9 @@ from typing import Any
 from .errors import ConfigError
 
 INFORMATIONAL = frozenset({"fragments_passed", "primitives", "primitives_culled", "texels", "texture_bytes",
-                           "readbacks", "clears", "dependent_fetches", "rays", "entries", "passes"})
-HOST_RATES = {"sw_samples": "sw_sample_rate", "host_texels": "host_texel_rate", "cells_sorted": "cell_sort_rate"}
+                           "readbacks", "clears", "dependent_fetches", "rays", "entries", "passes", "drawn_cells"})
+HOST_RATES = {"sw_samples": "sw_sample_rate", "host_texels": "host_texel_rate", "cells_sorted": "cell_sort_rate",
+              "host_cell_steps": "host_cell_rate"}
 _TEX = re.compile(r"^tex_(\d)d_([a-z0-9]+)_(nearest|linear)$")
 _ROP = re.compile(r"^(blends|writes)_([a-z0-9]+)$")
 

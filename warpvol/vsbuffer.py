@@ -244,6 +244,28 @@ def _face_sides(cm: ConvexCellMesh, abc: np.ndarray) -> np.ndarray:
     return np.sign(nb) * np.sign(vol)
 
 
+#: what the sweep reports as hardware work (:mod:`warpvol.gpu.counters` names, so the throughput model of
+#: :mod:`warpvol.model` can time it): the units' own counts (fragments, primitives, ID writes), plus
+#: these, plus ``host_cell_steps`` (cells intersected and integrated on the host) and ``drawn_cells``
+#: (the paper's "drawn tetra", informational: ``vertices`` carry its cost)
+WORK_COUNTERS = ("passes", "vertices", "readbacks", "bytes_down", "clears", "clear_pixels", "drawn_cells")
+UNIT_COUNTERS = ("fragments", "fragments_passed", "primitives", "primitives_culled")
+
+
+def work_counters(c: dict) -> dict:
+    """The hardware-work subset of :func:`render_vsbuffer`'s counters (what the stage passes to
+    ``ctx.count``); every other count is a detail of the walk, reported under ``stats``.
+
+    Examples
+    --------
+    >>> work_counters({"passes": 2, "cells_integrated": 5, "lost_segments": 1, "writes_rgb8": 9})
+    {'passes': 2, 'writes_rgb8': 9, 'host_cell_steps': 5}
+    """
+    out = {k: v for k, v in c.items() if k in WORK_COUNTERS or k in UNIT_COUNTERS or k.startswith("writes_")}
+    out["host_cell_steps"] = int(c.get("cells_integrated", 0))
+    return out
+
+
 def _walk_inputs(cells: ConvexCellMesh, transfer, camera, device: str, rows: int, cmin: float, cspan: float,
                  integration: str, steps: int, neighbour_check: bool, adjacency: str, t_min: float, max_list: int):
     """``(Walk, VsbCells, ray origins, ray directions, tf_s, tf_v)`` on ``device`` for one frame."""
@@ -355,7 +377,8 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         Return every ray's list of integrated cells, in order (``stats["lists"]``, (H, W, max_list),
         -1 padded; for inspection of small images).
     count : callable, optional
-        ``count(name=int, ...)`` receives the work counters (a stage passes ``ctx.count``).
+        ``count(name=int, ...)`` receives the hardware work (:func:`work_counters`; a stage passes
+        ``ctx.count``).
 
     ``stats`` holds ``counters`` (all counted work), ``id_s`` (octree query + both ID passes + read-back
     + comparison) and ``walk_s`` (column walk and integration), ``depth_res``, ``range``.
@@ -530,7 +553,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         id_s += t2 - t1
         walk_s += t3 - t2
     if count is not None:
-        count(**cnt)
+        count(**work_counters(cnt))
     img = out.numpy().reshape(H, W, 4)
     return img, {"counters": cnt, "id_s": id_s, "walk_s": walk_s, "setup_s": t_setup, "depth_res": R,
                  "range": brange, "lists": lists, "missed_length": missed_length,

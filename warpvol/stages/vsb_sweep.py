@@ -2,9 +2,12 @@
 
 Per plane: octree query, two ID passes on the emulated rasteriser (back faces LESS / front faces
 GREATER, near/far clipping at the plane), buffer comparison, front-to-back column walk and
-integration (:func:`warpvol.vsbuffer.render_vsbuffer`). Counts every piece of work (``drawn_cells``
-is the paper's "drawn tetra"; ``lost_segments`` the gaps the buffer left behind interior faces) and
-reports the time in ID-buffer generation and in integration under ``stats["vsbuffer"]``.
+integration (:func:`warpvol.vsbuffer.render_vsbuffer`). Counts the hardware work in the counters'
+vocabulary (passes, vertices, fragments, ID writes, read-backs, clears; ``host_cell_steps`` for the
+host's intersections and integration; ``drawn_cells``, the paper's "drawn tetra"), so ``--gpu
+indigo2_impact`` models it; every count of the walk (runs, reused exit points, ``lost_segments``,
+``missed_cells`` ...) and the time in ID-buffer generation and in integration go to
+``stats["vsbuffer"]``.
 """
 
 from __future__ import annotations
@@ -69,6 +72,7 @@ class VsbSweep(Stage):
                                   count=ctx.count, **self.config)
         ctx.stats["vsbuffer"] = {k: v for k, v in st.items() if k not in ("counters", "lists", "missed_per_ray")}
         c = st["counters"]
+        ctx.stats["vsbuffer"]["walk"] = c  # every count of the sweep; the hardware work is in ``counters``
         ctx.stats["vsbuffer"].update(lost_segments=c["lost_segments"], missed_cells=c["missed_cells"])
         ctx.stats["vsbuffer"]["rays_rewalked"] = c["rays_rewalked"]
         if (c["lost_segments"] or c["missed_cells"]) and not self.rewalk:
