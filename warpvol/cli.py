@@ -259,6 +259,65 @@ def cmd_demo(args) -> int:
     return 0
 
 
+def _outdir(path: str) -> Path:
+    """An output folder: created if missing, refused if a file, checked writable."""
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise ConfigError(f"-o: {p} exists and is not a folder")
+    p.mkdir(parents=True, exist_ok=True)
+    _check_writable("-o", p)
+    return p
+
+
+def cmd_bench(args) -> int:
+    from .bench import gpu_support, resolve_pipelines, run_bench, write_bench
+    from .pipeline import Pipeline
+    from .report_html import table_markdown
+
+    _check_sizes(args)
+    check_number("--repeats", args.repeats, lo=1, integer=True)
+    names = resolve_pipelines(args.pipelines)
+    plan_pipes = {n: Pipeline.load(n, device=args.device) for n in names}  # bad names fail before any work
+    scene = _load_scene(args.scene, args)
+    check_image_memory(scene.camera, ["render", "png", "reference", "error_image"])
+    outdir = _outdir(args.output)
+    if args.gpu and gpu_support(args.gpu):
+        print(f"warpvol: {gpu_support(args.gpu)}", file=sys.stderr)
+    res = run_bench(scene, names, repeats=args.repeats, gpu=args.gpu, device=args.device, quiet=args.quiet,
+                    cache_dir=args.cache_dir or outdir / "reference-cache", audit=not args.no_audit)
+    write_bench(res, outdir, plan={n: p.plan(scene) for n, p in plan_pipes.items()})
+    print(table_markdown(res.rows))
+    print(f"wrote {outdir}/index.html, table.csv, table.json, table.md, pareto.png, pareto.svg")
+    return 0
+
+
+def cmd_plan(args) -> int:
+    from .bench import bench_pipeline, resolve_pipelines
+    from .pipeline import Pipeline
+
+    _check_sizes(args)
+    check_number("--repeats", args.repeats, lo=1, integer=True)
+    pipes = [Pipeline.load(n, device=args.device) for n in resolve_pipelines(args.pipeline)]
+    scene = _load_scene(args.scene, args)
+    check_image_memory(scene.camera, ["render"])
+    for pipe in pipes:
+        print(f"{pipe.name} on {scene.name}:")
+        for s in pipe.plan(scene):
+            state = {True: "runs", False: "skipped", None: "decided at render time"}[s["run"]]
+            print(f"  {s['stage']:<20} {state}" + (f": {s['reason']}" if s["reason"] else ""))
+        if args.no_measure:
+            continue
+        row = bench_pipeline(pipe, scene, None, repeats=args.repeats)
+        print(f"  render: {row['total_s']:.4f} s (median of {row['repeats']})")
+        for a in row["planner"]:
+            if a.get("saved_s") is None:
+                print(f"  {a['stage']}: {a['note']}")
+            else:
+                print(f"  {a['stage']} forced on: {a['forced_total_s']:.4f} s (stage {a['forced_stage_s']:.4f} s); "
+                      f"leaving it out saves {a['saved_s']:.4f} s; images differ by max {a['diff_max_abs']:.2e}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="warpvol", description=__doc__.split("\n\n")[0])
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -305,13 +364,38 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--size", type=int, default=256, help="image width and height in pixels")
     common(d)
     d.set_defaults(func=cmd_demo)
+
+    b = sub.add_parser("bench", help="every pipeline on one scene: table, error-vs-time plot, HTML page")
+    b.add_argument("scene", help="scene TOML file or builtin:NAME")
+    b.add_argument("--pipelines", nargs="+", default=["all"], help="'all' (every preset) or names/files")
+    b.add_argument("--gpu", help="GPU profile for modelled times (where the build has GPU profiles)")
+    b.add_argument("-o", "--output", required=True, help="output folder")
+    b.add_argument("--repeats", type=int, default=3, help="timed renders per pipeline after a warm-up (median)")
+    b.add_argument("--cache-dir", help="reference cache folder (default OUTDIR/reference-cache)")
+    b.add_argument("--no-audit", action="store_true", help="skip the planner audit (forced-stage renders)")
+    b.add_argument("--width", type=int)
+    b.add_argument("--height", type=int)
+    b.add_argument("--strict", action="store_true")
+    common(b)
+    b.set_defaults(func=cmd_bench)
+
+    pl = sub.add_parser("plan", help="which stages a preset leaves out for a scene, why, and the time saved")
+    pl.add_argument("scene", help="scene TOML file or builtin:NAME")
+    pl.add_argument("--pipeline", nargs="+", default=["all"], help="preset(s) or 'all'")
+    pl.add_argument("--repeats", type=int, default=3)
+    pl.add_argument("--no-measure", action="store_true", help="dry run only: no renders")
+    pl.add_argument("--width", type=int)
+    pl.add_argument("--height", type=int)
+    pl.add_argument("--strict", action="store_true")
+    common(pl)
+    pl.set_defaults(func=cmd_plan)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        if args.cmd in ("render", "demo"):
+        if args.cmd in ("render", "demo", "bench", "plan", "stress", "sweep"):
             from .pipeline import quiet_warp
 
             # the CLI keeps stdout for its summary and reports progress on stderr itself
