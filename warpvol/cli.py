@@ -318,6 +318,28 @@ def cmd_plan(args) -> int:
     return 0
 
 
+def cmd_stress(args) -> int:
+    from .io import Outputs
+    from .pipeline import report_json
+    from .report_html import table_csv
+    from .stress import run_stress, stress_markdown
+
+    outdir = _outdir(args.output) if args.output else None
+    rows = run_stress(quick=args.quick, cases=args.cases, pipelines=args.pipelines, device=args.device,
+                      quiet=args.quiet)
+    md = stress_markdown(rows)
+    if outdir is not None:
+        with Outputs() as out:
+            out.text(outdir / "stress.json", report_json({"quick": args.quick, "rows": rows}))
+            out.text(outdir / "stress.csv", table_csv(rows))
+            out.text(outdir / "stress.md", md + "\n")
+    print(md)
+    failed = [r for r in rows if r["status"] == "failed"]
+    for r in failed:
+        print(f"warpvol: stress: {r['case']} / {r['pipeline']} failed: {r['message']}", file=sys.stderr)
+    return 1 if failed else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="warpvol", description=__doc__.split("\n\n")[0])
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -389,6 +411,14 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--strict", action="store_true")
     common(pl)
     pl.set_defaults(func=cmd_plan)
+
+    st = sub.add_parser("stress", help="stiff and extreme scenes x every pipeline: finite? error? time? (exit 1 on a failure)")
+    st.add_argument("--quick", action="store_true", help="the same cases at reduced sizes (CI)")
+    st.add_argument("--cases", nargs="+", help="case names (default: all; see warpvol.stress.CASES)")
+    st.add_argument("--pipelines", nargs="+", default=["all"], help="'all' (every preset) or names/files")
+    st.add_argument("-o", "--output", help="folder for stress.json / stress.csv / stress.md")
+    common(st)
+    st.set_defaults(func=cmd_stress)
     return p
 
 

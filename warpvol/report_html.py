@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 #: leading CSV / Markdown columns, in this order, where rows have them
-LEAD = ("scene", "view", "options", "pipeline", "status", "total_s", "first_s", "repeats", "modelled_s", "rmse",
+LEAD = ("case", "scene", "view", "options", "pipeline", "status", "finite", "time_s", "total_s", "first_s", "repeats", "modelled_s", "rmse",
         "max_abs", "psnr", "table_bytes", "pareto", "gpu_note", "message")
 
 
