@@ -340,6 +340,29 @@ def cmd_stress(args) -> int:
     return 1 if failed else 0
 
 
+def cmd_sweep(args) -> int:
+    from .report_html import table_markdown
+    from .sweep import load_config, run_sweep, write_sweep
+
+    check_number("--workers", args.workers, lo=1, integer=True)
+    if args.scheduler is not None and not args.scheduler.startswith(("tcp://", "tls://", "inproc://")):
+        raise ConfigError(f"--scheduler: expected tcp://HOST:PORT, got {args.scheduler!r}")
+    if args.scheduler and args.serial:
+        raise ConfigError("--serial: give either it or --scheduler, not both")
+    cfg = load_config(args.config)
+    outdir = _outdir(args.output)
+    res = run_sweep(cfg, outdir, scheduler=args.scheduler, workers=args.workers, serial=args.serial, quiet=args.quiet)
+    write_sweep(res, outdir)
+    failed = [r for r in res.rows if r["status"] == "failed"]
+    print(table_markdown([{**r, "pipeline": f"{r['scene']} {r['view']} {r['pipeline']} [{r['options']}]"}
+                          for r in res.rows]))
+    print(f"{len(res.rows)} rows ({res.skipped_done} done before, {len(failed)} failed) in {res.wall_s:.1f} s; "
+          f"wrote {outdir}/index.html, table.csv, table.json, table.md, pareto.png, pareto.svg")
+    for r in failed:
+        print(f"warpvol: sweep: {r['task']} failed: {r['message']}", file=sys.stderr)
+    return 1 if failed else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="warpvol", description=__doc__.split("\n\n")[0])
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -419,6 +442,15 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("-o", "--output", help="folder for stress.json / stress.csv / stress.md")
     common(st)
     st.set_defaults(func=cmd_stress)
+
+    sw = sub.add_parser("sweep", help="scenes x views x presets x options as tasks on Dask (resumable)")
+    sw.add_argument("config", help="sweep TOML (see warpvol.sweep)")
+    sw.add_argument("-o", "--output", required=True, help="output folder (tasks/, references/, table, plots, HTML)")
+    sw.add_argument("--scheduler", help="tcp://HOST:PORT of a running Dask scheduler (default: a local cluster)")
+    sw.add_argument("--workers", type=int, default=2, help="worker processes of the local cluster")
+    sw.add_argument("--serial", action="store_true", help="run the tasks one after another in this process")
+    sw.add_argument("--quiet", action="store_true", help="no progress output on stderr")
+    sw.set_defaults(func=cmd_sweep, device="cpu")
     return p
 
 
