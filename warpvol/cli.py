@@ -6,6 +6,10 @@
     warpvol reference SCENE.toml -o REF.exr          # exact float64 ray integral
     warpvol pipelines                                 # list presets with one line each
     warpvol demo                                      # built-in scene, default pipeline, image + report
+    warpvol bench SCENE [--pipelines all|NAME...] [--gpu NAME] -o OUTDIR   # table, plots, HTML
+    warpvol plan SCENE [--pipeline NAME...]           # stages each preset leaves out, why, time saved
+    warpvol stress [--quick]                          # stiff and extreme cases x every preset
+    warpvol sweep CONFIG.toml [--scheduler tcp://HOST:PORT] -o OUTDIR   # Dask, resumable
 
 ``SCENE`` is a scene file or ``builtin:NAME``. Bad input ends with ``warpvol: error: ...`` naming the
 file / key / value, exit status 2, and no output file.
@@ -410,29 +414,28 @@ def build_parser() -> argparse.ArgumentParser:
     common(d)
     d.set_defaults(func=cmd_demo)
 
+    def scene_args(sp):
+        sp.add_argument("scene", help="scene TOML file or builtin:NAME")
+        sp.add_argument("--width", type=int, help="override camera.width_px")
+        sp.add_argument("--height", type=int, help="override camera.height_px")
+        sp.add_argument("--strict", action="store_true", help="zero-volume tets are an error")
+        common(sp)
+
     b = sub.add_parser("bench", help="every pipeline on one scene: table, error-vs-time plot, HTML page")
-    b.add_argument("scene", help="scene TOML file or builtin:NAME")
     b.add_argument("--pipelines", nargs="+", default=["all"], help="'all' (every preset) or names/files")
     b.add_argument("--gpu", help="GPU profile for modelled times (where the build has GPU profiles)")
     b.add_argument("-o", "--output", required=True, help="output folder")
     b.add_argument("--repeats", type=int, default=3, help="timed renders per pipeline after a warm-up (median)")
     b.add_argument("--cache-dir", help="reference cache folder (default OUTDIR/reference-cache)")
     b.add_argument("--no-audit", action="store_true", help="skip the planner audit (forced-stage renders)")
-    b.add_argument("--width", type=int)
-    b.add_argument("--height", type=int)
-    b.add_argument("--strict", action="store_true")
-    common(b)
+    scene_args(b)
     b.set_defaults(func=cmd_bench)
 
     pl = sub.add_parser("plan", help="which stages a preset leaves out for a scene, why, and the time saved")
-    pl.add_argument("scene", help="scene TOML file or builtin:NAME")
     pl.add_argument("--pipeline", nargs="+", default=["all"], help="preset(s) or 'all'")
     pl.add_argument("--repeats", type=int, default=3)
     pl.add_argument("--no-measure", action="store_true", help="dry run only: no renders")
-    pl.add_argument("--width", type=int)
-    pl.add_argument("--height", type=int)
-    pl.add_argument("--strict", action="store_true")
-    common(pl)
+    scene_args(pl)
     pl.set_defaults(func=cmd_plan)
 
     st = sub.add_parser("stress", help="stiff and extreme scenes x every pipeline: finite? error? time? (exit 1 on a failure)")

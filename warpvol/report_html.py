@@ -214,7 +214,7 @@ CSS = """body{font-family:sans-serif;margin:1.5em;color:#222}table{border-collap
 td,th{border:1px solid #ccc;padding:3px 6px;text-align:left}th{background:#f0f0f0}
 .grid{display:flex;flex-wrap:wrap;gap:12px}.card{border:1px solid #ddd;padding:6px;font-size:12px}
 .card img{width:220px;image-rendering:pixelated;display:block}.fail{color:#b00}.ok{color:#070}
-.plots{display:flex;flex-wrap:wrap;gap:16px;align-items:flex-start}"""
+.plots{display:flex;flex-wrap:wrap;gap:16px;align-items:flex-start}.plots img{width:560px}"""
 
 
 def html_table(head: list[str], body: list[list[Any]]) -> str:
