@@ -165,3 +165,40 @@ def test_bench_page_opens_in_a_headless_browser(bench_dir, tmp_path):
 
     img = read_exr(tmp_path / "shot.png")
     assert img.shape[0] > 900 and img[..., :3].std() > 0.05  # a page with content, not a blank screen
+
+
+class _ModelledPipeline(Pipeline):
+    """A pipeline whose render takes a GPU profile, as in builds with the throughput model."""
+
+    def __init__(self, base, seconds):
+        super().__init__(base.stages, name=base.name)
+        self.seconds = seconds
+
+    def render(self, scene, *, gpu=None, **kw):
+        res = super().render(scene, **kw)
+        if gpu is not None:
+            res.report["modelled_s"] = {"stages": {k: self.seconds / 2 for k in res.report["stages"]},
+                                        "total": self.seconds, "unmodelled": {}}
+        return res
+
+
+def test_modelled_times_have_their_own_pareto_front(tmp_path):
+    from warpvol.bench import BenchResult, bench_pipeline, describe_scene, mark_pareto, write_bench
+
+    scene = warpvol.builtin_scene("box").with_camera(width_px=6, height_px=6)
+    base = Pipeline.load("raycast")
+    ref = np.zeros((6, 6, 4))
+    rows = []
+    for k, secs in enumerate((2e-3, 1e-3)):
+        r = bench_pipeline(_ModelledPipeline(base, secs), scene, ref, repeats=1, gpu="somegpu", audit=False)
+        r.pop("_image")
+        r["pipeline"] = f"p{k}"
+        rows.append(r)
+    assert [r["modelled_s"] for r in rows] == [2e-3, 1e-3] and rows[0]["gpu_note"] is None
+    rows[1]["rmse"] = rows[0]["rmse"] * 2  # p1: faster when modelled, less accurate
+    rows[0]["total_s"], rows[1]["total_s"] = 1.0, 2.0  # p0: faster when emulated
+    mark_pareto(rows)
+    assert [r["pareto"] for r in rows] == [True, False] and [r["pareto_modelled"] for r in rows] == [True, True]
+    write_bench(BenchResult(describe_scene(scene), rows, ref, 0.0, False, {}, "somegpu"), tmp_path)
+    assert (tmp_path / "pareto_modelled.svg").read_text().count("(Pareto front)") == 2
+    assert "modelled_s.raycast" in (tmp_path / "table.csv").read_text()

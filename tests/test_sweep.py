@@ -142,3 +142,17 @@ def test_bad_configs_name_the_key(tmp_path, text, message):
     f.write_text(text)
     with pytest.raises(ConfigError, match=message):
         load_config(f)
+
+
+def test_sweep_on_an_existing_scheduler(tmp_path, capsys):
+    distributed = pytest.importorskip("dask.distributed")
+    cfg = tmp_path / "s.toml"
+    cfg.write_text('scenes = ["builtin:linear_box"]\n[[views]]\nname = "v"\nwidth_px = 8\nheight_px = 6\n')
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None, silence_logs=40) as cluster:
+        assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
+        assert main(["sweep", str(cfg), "--scheduler", cluster.scheduler_address, "--quiet", "-o", str(tmp_path / "o")]) == 0
+    rows = json.loads((tmp_path / "o" / "table.json").read_text())["rows"]
+    assert [r["status"] for r in rows] == ["ok"] * len(list_presets()) and rows[0]["host"]
+    assert main(["sweep", str(cfg), "--scheduler", "127.0.0.1:1", "-o", str(tmp_path / "o")]) == 2
+    assert "--scheduler: expected tcp://HOST:PORT" in capsys.readouterr().err

@@ -42,7 +42,7 @@ from .errors import ConfigError, WarpvolError
 #: row fields every bench / sweep table has (stage times, counters and options come on top)
 ROW_FIELDS = ("pipeline", "status", "message", "total_s", "first_s", "repeats", "stages_s", "modelled_s",
               "modelled_stages_s", "gpu_note", "rmse", "max_abs", "psnr", "table_bytes", "counters",
-              "skipped", "planner", "pareto")
+              "skipped", "planner", "pareto", "pareto_modelled")
 
 
 # ------------------------------------------------------------------------------------------------
@@ -129,7 +129,7 @@ def resolve_pipelines(names: list[str] | tuple[str, ...] | str | None) -> list[s
     return names
 
 
-def gpu_support(gpu: str | None) -> str | None:
+def gpu_support(gpu: str | None, pipe: Any = None) -> str | None:
     """``None`` if ``gpu`` can be modelled here, else a sentence saying why not.
 
     GPU profiles arrive with the throughput model (``Pipeline.render(gpu=...)``); in a build without
@@ -139,7 +139,7 @@ def gpu_support(gpu: str | None) -> str | None:
 
     if gpu is None:
         return "no --gpu given: emulated times only"
-    if "gpu" not in inspect.signature(Pipeline.render).parameters:
+    if "gpu" not in inspect.signature(type(pipe).render if pipe is not None else Pipeline.render).parameters:
         return (f"--gpu {gpu}: GPU profiles (modelled time) are not part of this build; "
                 "emulated times only")
     return None
@@ -204,7 +204,7 @@ def bench_pipeline(pipe: Any, scene: Any, ref: np.ndarray | None, *, repeats: in
 
     step = on_step or (lambda _msg: None)
     kw: dict[str, Any] = {"quiet": True, "device": device}
-    gpu_note = gpu_support(gpu) if gpu is not None else None
+    gpu_note = gpu_support(gpu, pipe) if gpu is not None else None
     if gpu is not None and gpu_note is None:
         kw["gpu"] = gpu
     t0 = time.perf_counter()
@@ -299,13 +299,20 @@ def describe_scene(scene: Any) -> dict:
 
 
 def mark_pareto(rows: list[dict]) -> None:
-    """Set ``row["pareto"]`` on every row: rows that rendered, by (total_s, rmse)."""
-    ok = [r for r in rows if r.get("status") == "ok" and r.get("rmse") is not None]
-    front = pareto_front([(r["total_s"], r["rmse"]) for r in ok])
-    for r in rows:
-        r["pareto"] = False
-    for r, f in zip(ok, front):
-        r["pareto"] = bool(f)
+    """Set ``row["pareto"]`` on every row (front of rows that rendered, by median time and RMSE) and,
+    where rows have a modelled GPU time, ``row["pareto_modelled"]`` (by modelled time and RMSE)."""
+    for time_key, flag in FRONTS.items():
+        ok = [r for r in rows if r.get("status") == "ok" and r.get("rmse") is not None and r.get(time_key) is not None]
+        front = pareto_front([(r[time_key], r["rmse"]) for r in ok])
+        for r in rows:
+            if time_key == "total_s" or ok:
+                r[flag] = False
+        for r, f in zip(ok, front):
+            r[flag] = bool(f)
+
+
+#: time column -> the row flag of its Pareto front
+FRONTS = {"total_s": "pareto", "modelled_s": "pareto_modelled"}
 
 
 def run_bench(scene: Any, pipelines: Any = "all", *, repeats: int = 3, gpu: str | None = None,
@@ -356,8 +363,12 @@ def write_bench(result: BenchResult, outdir: str | Path, *, plan: dict | None = 
         for name, text in files.items():
             out.text(out_dir / name, text)
             paths.append(out_dir / name)
-        png = rh.pareto_png(result.rows)
-        out.bytes(out_dir / "pareto.png", png)
+        out.bytes(out_dir / "pareto.png", rh.pareto_png(result.rows))
+        paths.append(out_dir / "pareto.png")
+        if any(r.get("modelled_s") for r in result.rows):
+            out.bytes(out_dir / "pareto_modelled.png", rh.pareto_png(result.rows, tk="modelled_s"))
+            out.text(out_dir / "pareto_modelled.svg", rh.pareto_svg(result.rows, tk="modelled_s"))
+            paths += [out_dir / "pareto_modelled.png", out_dir / "pareto_modelled.svg"]
         out.text(out_dir / "index.html", rh.bench_page(result, plan=plan))
-        paths += [out_dir / "pareto.png", out_dir / "index.html"]
+        paths.append(out_dir / "index.html")
     return paths

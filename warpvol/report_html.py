@@ -97,8 +97,8 @@ def table_markdown(rows: list[dict]) -> str:
 # ------------------------------------------------------------------------------------------------
 # plots
 # ------------------------------------------------------------------------------------------------
-def _plot_points(rows: list[dict]) -> tuple[list[dict], float]:
-    pts = [r for r in rows if r.get("status") == "ok" and r.get("rmse") is not None and r.get("total_s")]
+def _plot_points(rows: list[dict], tk: str) -> tuple[list[dict], float]:
+    pts = [r for r in rows if r.get("status") == "ok" and r.get("rmse") is not None and r.get(tk)]
     pos = [r["rmse"] for r in pts if r["rmse"] > 0]
     floor = (min(pos) / 10.0) if pos else 1e-12  # an exact match (rmse 0) is drawn at this floor
     return pts, floor
@@ -109,18 +109,22 @@ def _label(r: dict) -> str:
     return " ".join([str(r["pipeline"])] + extra)
 
 
-def pareto_png(rows: list[dict], title: str = "error against run time") -> bytes:
-    """Log-log PNG of RMSE against median run time; the Pareto front is joined and ringed."""
+def pareto_png(rows: list[dict], title: str = "error against run time", tk: str = "total_s") -> bytes:
+    """Log-log PNG of RMSE against median run time (``tk="modelled_s"``: modelled GPU time); the
+    Pareto front is joined and red."""
     from matplotlib.figure import Figure
 
-    pts, floor = _plot_points(rows)
+    from .bench import FRONTS
+
+    flag = FRONTS[tk]
+    pts, floor = _plot_points(rows, tk)
     fig = Figure(figsize=(6.4, 4.4), layout="constrained")
     ax = fig.subplots()
     for r in pts:
         y = max(r["rmse"], floor)
-        ax.scatter([r["total_s"]], [y], s=40, color="tab:red" if r.get("pareto") else "tab:blue", zorder=3)
-        ax.annotate(_label(r), (r["total_s"], y), textcoords="offset points", xytext=(4, 4), fontsize=7)
-    front = sorted((r["total_s"], max(r["rmse"], floor)) for r in pts if r.get("pareto"))
+        ax.scatter([r[tk]], [y], s=40, color="tab:red" if r.get(flag) else "tab:blue", zorder=3)
+        ax.annotate(_label(r), (r[tk], y), textcoords="offset points", xytext=(4, 4), fontsize=7)
+    front = sorted((r[tk], max(r["rmse"], floor)) for r in pts if r.get(flag))
     if front:
         ax.plot(*zip(*front), color="tab:red", lw=1.2, label="Pareto front", drawstyle="steps-post")
         ax.legend(fontsize=8)
@@ -129,7 +133,7 @@ def pareto_png(rows: list[dict], title: str = "error against run time") -> bytes
         ax.set_yscale("log")
     else:
         ax.text(0.5, 0.5, "no pipeline rendered", ha="center", transform=ax.transAxes)
-    ax.set_xlabel("median run time [s] (emulated)")
+    ax.set_xlabel("median run time [s] (emulated)" if tk == "total_s" else "modelled GPU time [s]")
     ax.set_ylabel("RMSE against the exact reference")
     ax.set_title(title, fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
@@ -138,16 +142,19 @@ def pareto_png(rows: list[dict], title: str = "error against run time") -> bytes
     return buf.getvalue()
 
 
-def pareto_svg(rows: list[dict], width: int = 640, height: int = 420) -> str:
+def pareto_svg(rows: list[dict], width: int = 640, height: int = 420, tk: str = "total_s") -> str:
     """The same plot as self-contained SVG; each point has a ``<title>`` shown on hover."""
-    pts, floor = _plot_points(rows)
+    from .bench import FRONTS
+
+    flag = FRONTS[tk]
+    pts, floor = _plot_points(rows, tk)
     ml, mr, mt, mb = 70, 20, 20, 50
     head = (f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
             f'viewBox="0 0 {width} {height}" font-family="sans-serif" font-size="11">'
             f'<rect width="{width}" height="{height}" fill="white"/>')
     if not pts:
         return head + f'<text x="{width / 2}" y="{height / 2}" text-anchor="middle">no pipeline rendered</text></svg>\n'
-    xs = [math.log10(r["total_s"]) for r in pts]
+    xs = [math.log10(r[tk]) for r in pts]
     ys = [math.log10(max(r["rmse"], floor)) for r in pts]
     x0, x1 = math.floor(min(xs) - 0.05), math.ceil(max(xs) + 0.05)
     y0, y1 = math.floor(min(ys) - 0.05), math.ceil(max(ys) + 0.05)
@@ -165,16 +172,17 @@ def pareto_svg(rows: list[dict], width: int = 640, height: int = 420) -> str:
     for d in range(y0, y1 + 1):
         parts.append(f'<line x1="{ml}" x2="{width - mr}" y1="{py(d):.1f}" y2="{py(d):.1f}" stroke="#ddd"/>'
                      f'<text x="{ml - 5}" y="{py(d) + 4:.1f}" text-anchor="end">1e{d}</text>')
-    parts.append(f'<text x="{(width + ml) / 2}" y="{height - 12}" text-anchor="middle">median run time [s]</text>'
+    parts.append(f'<text x="{(width + ml) / 2}" y="{height - 12}" text-anchor="middle">'
+                 f'{"median run time" if tk == "total_s" else "modelled GPU time"} [s]</text>'
                  f'<text transform="translate(16 {(height - mb + mt) / 2}) rotate(-90)" text-anchor="middle">RMSE</text>')
-    front = sorted((px(x), py(y)) for x, y, r in zip(xs, ys, pts) if r.get("pareto"))
+    front = sorted((px(x), py(y)) for x, y, r in zip(xs, ys, pts) if r.get(flag))
     if len(front) > 1:
         path = " ".join(f"{a:.1f},{b:.1f}" for a, b in front)
         parts.append(f'<polyline points="{path}" fill="none" stroke="#c0392b" stroke-width="1.5"/>')
     for x, y, r in zip(xs, ys, pts):
-        tip = (f"{_label(r)}: {r['total_s']:.4g} s, RMSE {r['rmse']:.3e}, max {_fmt(r.get('max_abs'))}, "
-               f"PSNR {_fmt(r.get('psnr'))}" + (" (Pareto front)" if r.get("pareto") else ""))
-        colour = "#c0392b" if r.get("pareto") else "#2e6fb0"
+        tip = (f"{_label(r)}: {r[tk]:.4g} s, RMSE {r['rmse']:.3e}, max {_fmt(r.get('max_abs'))}, "
+               f"PSNR {_fmt(r.get('psnr'))}" + (" (Pareto front)" if r.get(flag) else ""))
+        colour = "#c0392b" if r.get(flag) else "#2e6fb0"
         parts.append(f'<g class="pt"><circle cx="{px(x):.1f}" cy="{py(y):.1f}" r="6" fill="{colour}">'
                      f'<title>{html.escape(tip)}</title></circle>'
                      f'<text x="{px(x) + 8:.1f}" y="{py(y) - 6:.1f}">{html.escape(_label(r))}</text></g>')
@@ -255,9 +263,12 @@ def bench_section(result: Any, plan: dict | None = None, title: str | None = Non
                  + ").</p>")
     parts += [f"<p><b>Note:</b> {html.escape(n)}</p>" for n in result.notes]
     parts.append(html_table(list(MD_HEAD), [_md_cells(r) for r in result.rows]))
-    parts.append('<div class="plots"><div><img alt="error against time" src="data:image/png;base64,'
-                 + base64.b64encode(pareto_png(result.rows)).decode() + '"/></div><div>'
-                 + pareto_svg(result.rows) + "<br/><small>interactive: hover a point</small></div></div>")
+    for tk in ("total_s", "modelled_s"):
+        if tk == "modelled_s" and not any(r.get(tk) for r in result.rows):
+            continue
+        png = base64.b64encode(pareto_png(result.rows, tk=tk)).decode()
+        parts.append(f'<div class="plots"><div><img alt="error against {tk}" src="data:image/png;base64,{png}"/>'
+                     f'</div><div>{pareto_svg(result.rows, tk=tk)}<br/><small>interactive: hover a point</small></div></div>')
     cards = []
     if result.reference is not None:
         cards.append(f'<div class="card"><img alt="reference" src="{image_uri(result.reference)}"/>exact reference</div>')
