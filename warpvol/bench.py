@@ -129,6 +129,20 @@ def resolve_pipelines(names: list[str] | tuple[str, ...] | str | None) -> list[s
     return names
 
 
+def load_pipelines(names: Any, device: str = "cpu", flag: str = "--pipelines") -> list:
+    """:func:`resolve_pipelines` then load each (errors name ``flag``), before any work."""
+    from .pipeline import Pipeline
+
+    out = []
+    for n in resolve_pipelines(names):
+        try:
+            out.append(Pipeline.load(n, device=device))
+        except ConfigError as e:
+            msg = str(e)
+            raise ConfigError(msg.replace("--pipeline:", f"{flag}:", 1) if msg.startswith("--pipeline:") else msg) from None
+    return out
+
+
 def gpu_support(gpu: str | None, pipe: Any = None) -> str | None:
     """``None`` if ``gpu`` can be modelled here, else a sentence saying why not.
 
@@ -319,10 +333,7 @@ def run_bench(scene: Any, pipelines: Any = "all", *, repeats: int = 3, gpu: str 
               cache_dir: str | Path | None = None, audit: bool = True, device: str = "cpu",
               quiet: bool = False) -> BenchResult:
     """Bench ``scene`` with each pipeline (see the module docstring); failures become rows."""
-    from .pipeline import Pipeline
-
-    names = resolve_pipelines(pipelines)
-    pipes = [Pipeline.load(n, device=device) for n in names]  # unknown names fail before any work
+    pipes = load_pipelines(pipelines, device)  # unknown names fail before any work
     notes = [] if gpu is None else ([gpu_support(gpu)] if gpu_support(gpu) else [])
     prog = Progress(1 + len(pipes) * (2 + repeats), f"bench {scene.name}", enabled=not quiet)
     ref, ref_s, hit = cached_reference(scene, cache_dir, quiet=True)

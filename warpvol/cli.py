@@ -274,14 +274,13 @@ def _outdir(path: str) -> Path:
 
 
 def cmd_bench(args) -> int:
-    from .bench import gpu_support, resolve_pipelines, run_bench, write_bench
-    from .pipeline import Pipeline
+    from .bench import gpu_support, load_pipelines, resolve_pipelines, run_bench, write_bench
     from .report_html import table_markdown
 
     _check_sizes(args)
     check_number("--repeats", args.repeats, lo=1, integer=True)
     names = resolve_pipelines(args.pipelines)
-    plan_pipes = {n: Pipeline.load(n, device=args.device) for n in names}  # bad names fail before any work
+    plan_pipes = dict(zip(names, load_pipelines(names, args.device)))  # bad names fail before any work
     scene = _load_scene(args.scene, args)
     check_image_memory(scene.camera, ["render", "png", "reference", "error_image"])
     outdir = _outdir(args.output)
@@ -296,12 +295,11 @@ def cmd_bench(args) -> int:
 
 
 def cmd_plan(args) -> int:
-    from .bench import bench_pipeline, resolve_pipelines
-    from .pipeline import Pipeline
+    from .bench import bench_pipeline, load_pipelines
 
     _check_sizes(args)
     check_number("--repeats", args.repeats, lo=1, integer=True)
-    pipes = [Pipeline.load(n, device=args.device) for n in resolve_pipelines(args.pipeline)]
+    pipes = load_pipelines(args.pipeline, args.device, flag="--pipeline")
     scene = _load_scene(args.scene, args)
     check_image_memory(scene.camera, ["render"])
     for pipe in pipes:

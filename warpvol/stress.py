@@ -262,14 +262,13 @@ def run_case(case: Case, pipes: list[Any], device: str = "cpu") -> list[dict]:
 def run_stress(quick: bool = False, cases: list[str] | None = None, pipelines: Any = "all", device: str = "cpu",
                quiet: bool = True) -> list[dict]:
     """Every case x every pipeline; a case that cannot even be built is a failed row."""
-    from .bench import Progress, resolve_pipelines
-    from .pipeline import Pipeline
+    from .bench import Progress, load_pipelines
 
     names = cases or case_names()
     for n in names:
         if n not in CASES:
             build_case(n)  # raises the ConfigError naming the case
-    pipes = [Pipeline.load(p, device=device) for p in resolve_pipelines(pipelines)]
+    pipes = load_pipelines(pipelines, device)
     prog = Progress(len(names), "stress" + (" --quick" if quick else ""), enabled=not quiet)
     rows: list[dict] = []
     for n in names:
