@@ -239,7 +239,10 @@ def _planner_html(rows: list[dict], plan: dict | None) -> str:
             body.append([r["pipeline"], a["stage"], a["reason"], a.get("forced_stage_s"), a.get("saved_s"),
                          a.get("diff_max_abs"), a.get("note", "")])
         if r.get("status") == "ok" and not r.get("planner"):
-            body.append([r["pipeline"], "-", "no stage left out for this scene", None, None, None, ""])
+            for sk in r.get("skipped") or []:
+                body.append([r["pipeline"], sk["stage"], sk["reason"], None, None, None, "not measured (no audit run)"])
+            if not r.get("skipped"):
+                body.append([r["pipeline"], "-", "no stage left out for this scene", None, None, None, ""])
     out = ("<p>Stages each preset left out for this scene (the stages' <code>skip_reason</code>), and what "
            "forcing each back on costs: the stage's own time and the whole render's extra time (median "
            "of the same repeats), and the largest pixel difference it makes.</p>")

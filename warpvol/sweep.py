@@ -359,7 +359,8 @@ def write_sweep(result: SweepResult, outdir: str | Path) -> None:
         groups.setdefault((r["scene"], r["view"]), []).append(r)
     sections = []
     for (scene_name, view), rows in groups.items():
-        shown = [{**r, "pipeline": f"{r['pipeline']} [{r['options']}]"} for r in rows]
+        shown = [{**r, "pipeline": f"{r['pipeline']} [{r['options']}]", "scene": None, "view": None, "options": None}
+                 for r in rows]
         mark_pareto(shown)
         for r, s in zip(rows, shown):
             r["pareto"] = s["pareto"]
