@@ -3,6 +3,7 @@
 import json
 import os
 import signal
+import time
 
 import numpy as np
 import pytest
@@ -82,7 +83,11 @@ def test_dask_sweep_with_a_killed_worker_equals_the_serial_sweep(config, serial,
     def kill_one(row, client):
         if killed or client is None:
             return
-        busy = [w for w, keys in client.processing().items() if keys]
+        for _ in range(100):  # a worker between two tasks gets its next one within milliseconds
+            busy = [w for w, keys in client.processing().items() if keys]
+            if busy:
+                break
+            time.sleep(0.01)
         pids = client.run(os.getpid)
         victim = (busy or list(pids))[0]
         killed.update(worker=victim, busy=bool(busy))
