@@ -236,18 +236,19 @@ def _planner_html(rows: list[dict], plan: dict | None) -> str:
     body = []
     for r in rows:
         for a in r.get("planner") or []:
-            body.append([r["pipeline"], a["stage"], a["reason"], a.get("forced_stage_s"), a.get("saved_s"),
-                         a.get("diff_max_abs"), a.get("note", "")])
+            body.append([r["pipeline"], a["stage"], a["reason"], a.get("saved_s"), a.get("forced_total_s"),
+                         a.get("total_diff_s"), a.get("diff_max_abs"), a.get("note", "")])
         if r.get("status") == "ok" and not r.get("planner"):
             for sk in r.get("skipped") or []:
-                body.append([r["pipeline"], sk["stage"], sk["reason"], None, None, None, "not measured (no audit run)"])
+                body.append([r["pipeline"], sk["stage"], sk["reason"], None, None, None, None, "not measured (no audit run)"])
             if not r.get("skipped"):
-                body.append([r["pipeline"], "-", "no stage left out for this scene", None, None, None, ""])
+                body.append([r["pipeline"], "-", "no stage left out for this scene", None, None, None, None, ""])
     out = ("<p>Stages each preset left out for this scene (the stages' <code>skip_reason</code>), and what "
-           "forcing each back on costs: the stage's own time and the whole render's extra time (median "
-           "of the same repeats), and the largest pixel difference it makes.</p>")
-    out += html_table(["pipeline", "stage left out", "why", "stage time when forced [s]", "time saved [s]",
-                       "max |difference|", "note"], body)
+           "forcing each back on costs: the stage's own time (what leaving it out saves), the whole render's "
+           "time with it and the difference to the render without it (medians of the same repeats; the "
+           "difference also carries the other stages' timing noise), and the largest pixel difference.</p>")
+    out += html_table(["pipeline", "stage left out", "why", "time saved [s]", "render with it [s]",
+                       "render difference [s]", "max |difference|", "note"], body)
     if plan:
         plan_rows = [[p, s["stage"], {True: "runs", False: "skipped", None: "at render time"}[s["run"]], s["reason"] or ""]
                      for p, stages in plan.items() for s in stages]
