@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import hashlib
 import inspect
+import os
 import statistics
 import sys
 import time
@@ -91,7 +92,7 @@ def cached_reference(scene: Any, cache_dir: str | Path | None, quiet: bool = Tru
     img, dt = compute_reference(scene, quiet)
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.{time.monotonic_ns()}.tmp")
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.{time.monotonic_ns()}.tmp")
         with open(tmp, "wb") as fh:
             np.save(fh, img)
         tmp.replace(path)
