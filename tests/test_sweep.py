@@ -161,3 +161,21 @@ def test_sweep_on_an_existing_scheduler(tmp_path, capsys):
     assert [r["status"] for r in rows] == ["ok"] * len(list_presets()) and rows[0]["host"]
     assert main(["sweep", str(cfg), "--scheduler", "127.0.0.1:1", "-o", str(tmp_path / "o")]) == 2
     assert "--scheduler: expected tcp://HOST:PORT" in capsys.readouterr().err
+
+
+def test_an_interrupted_sweep_resumes_where_it_stopped(config, serial, tmp_path):
+    seen = []
+
+    def stop_after_three(row, client):
+        seen.append(row["task"])
+        if len(seen) == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(config, tmp_path, serial=True, on_result=stop_after_three)
+    done = {k for k in seen if (tmp_path / "tasks" / f"{k}.json").is_file()}
+    assert done  # the tasks finished before the interrupt are stored
+    rest = []
+    res = run_sweep(config, tmp_path, serial=True, on_result=lambda r, c: rest.append(r["task"]))
+    assert res.skipped_done == len(done) and not set(rest) & done  # ... and not rendered again
+    assert {k: r.get("rmse") for k, r in _by_task(res).items()} == {k: r.get("rmse") for k, r in _by_task(serial[1]).items()}
