@@ -1,77 +1,340 @@
-"""Ray propagation through cell adjacency (HARC-style ray caster, float32).
+"""Ray propagation through cell adjacency (HARC-style ray caster, float32), consistent by construction.
 
-One thread per pixel. A pass finds the ray's next entry into the mesh among the boundary faces
-binned to the pixel's screen tile (nearest front-facing hit beyond the ray's current parameter),
-then walks cell to cell: the exit face is the smallest ``lambda_i = -(e.n_i + o_i)/(d.n_i)`` over
-faces with ``d.n_i > 0``; the next cell is the neighbour across it. Each segment is integrated
-exactly for the piecewise-linear transfer function (:mod:`warpvol.kernels.integrate`) and composited
-front to back. The pass ends where the ray leaves through a boundary face; for non-convex meshes
-further passes (depth peeling of the boundary) continue from there.
+One thread per pixel. Building blocks (``@wp.func``, reused by other ray walkers):
 
-Per-pixel state (radiance, transmittance, ray parameter, active flag) lives in device arrays so the
-passes can be separate launches. A launch covers a block of rows (``row0``); the host may run
-several blocks concurrently (CPU launches are serial, so the stage uses a thread pool). Statistics go
-to ``counters[chunk]`` (entries, steps, unfinished rays) with int32 atomics, one row per block so
-concurrent CPU launches never touch the same counter.
+* :func:`ray_setup` -- the pixel's ray in **float64**: unit direction, origin moved along the ray to
+  just before the mesh's bounding sphere (so float32 rounding of points on the ray scales with the
+  mesh, not with the eye distance), the clip parameter ``t_clip`` where the true ray starts (> 0
+  when the eye / orthographic eye plane lies inside the sphere: the walk starts before it and
+  segments are clipped at ``t_clip``), and whether the ray meets the sphere at all beyond its start.
+* :class:`Ray` / :func:`make_ray` -- the float32 ray and its tie-breaking perturbation.
+* :func:`edge_side` -- Plücker side of the ray against a mesh edge, ``(b - a) . (d x (a - o))`` with
+  ``a, b`` in ascending global vertex order (rounding error ~ the edge's length, not its distance),
+  so every cell sharing the edge gets the *same* float32 value; exact zeros are replaced by the sign of the reference's ray perturbation (scaled by
+  :data:`TIE`), also a property of the edge alone.
+* :func:`oriented_side` -- that value for the directed edge ``i -> j`` (negated when ``i > j``).
+* :func:`face_cross` -- ray through a triangle given its three directed edge values: whether it
+  crosses (all values >= 0, sum > 0), and the crossing's ``t`` and scalar from the barycentric
+  weights (a convex combination of the face's vertices and scalars: bounded, and the same from both
+  cells sharing the face).
+* :class:`Face`, :func:`make_face`, :func:`boundary_face` -- a face the ray crosses, with its
+  vertices' frames and its three edge values, oriented outward for the cell the ray leaves.
+* :func:`next_face` -- one step: the ray entered a tet through a :class:`Face`; only the three
+  edges from the tet's new vertex are evaluated (the entry face's values are reused), and the exit
+  is the first other face whose three outward-ordered edge values are all >= 0. A shared face is
+  decided by the same three numbers from both sides, so the walk is watertight (no skipped cells, no
+  double counting); the scalar on a face depends only on the face's vertices, so no cell's
+  (possibly huge) gradient leaks into its neighbour.
+
+A pass (kernel :func:`march`) finds the ray's next entry among the front-facing boundary faces binned
+to the pixel's screen tile (nearest crossing beyond the current parameter), then walks cell to cell,
+integrating each segment exactly for the piecewise-linear transfer function
+(:mod:`warpvol.kernels.integrate`) and compositing front to back. A ray the float32 walk cannot
+resolve -- a cell with no exit face (float32 signs no real ray can produce), or no progress in depth
+for :data:`STALL_STEPS` steps -- is marked ``STATUS_FAILED`` and redone on the host in float64; it is
+counted, never silently wrong.
+
+Per-pixel state (radiance, transmittance, ray parameter, status) lives in device arrays so passes
+can be separate launches; ``counters[chunk]`` (entries, steps, unfinished, failed) has one row per
+concurrently launched row block.
 """
 
 import warp as wp
 
-from .integrate import integrate_segment
+from .integrate import exp_neg, integrate_piece, integrate_segment_tf
+from .tf import tf_eval, tf_eval_upper, tf_upper
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
 STATUS_ACTIVE = wp.constant(1)
 STATUS_DONE = wp.constant(0)
+STATUS_FAILED = wp.constant(2)
+#: scale of the perturbation term that breaks exact zeros of :func:`edge_side`
+TIE = wp.constant(1.0e-30)
+#: consecutive steps without progress in ``t`` after which a ray counts as unresolved
+STALL_STEPS = wp.constant(4096)
+NO_FACE = wp.constant(-1)
+#: consecutive re-entries without progress in ``t`` (cracks, touching pieces) before a ray counts as
+#: unresolved
+MAX_FLAT_REENTRIES = wp.constant(8)
 
 
 @wp.func
-def ndc_xy(px: int, py: int, width: int, height: int) -> wp.vec2:
-    """NDC coordinates of the centre of pixel (row py, column px), Contract 2."""
-    return wp.vec2(2.0 * (float(px) + 0.5) / float(width) - 1.0, 1.0 - 2.0 * (float(py) + 0.5) / float(height))
+def ndc_xy(px: int, py: int, width: int, height: int) -> wp.vec2d:
+    """NDC coordinates (float64) of the centre of pixel (row py, column px), Contract 2."""
+    return wp.vec2d(wp.float64(2.0) * (wp.float64(px) + wp.float64(0.5)) / wp.float64(width) - wp.float64(1.0),
+                    wp.float64(1.0) - wp.float64(2.0) * (wp.float64(py) + wp.float64(0.5)) / wp.float64(height))
 
 
 @wp.func
-def ray_origin(q: wp.vec2, eye: wp.vec3, right: wp.vec3, up: wp.vec3, ortho: int, half_h: float,
-               aspect: float) -> wp.vec3:
+def ray_setup(q: wp.vec2d, eye: wp.vec3d, fwd: wp.vec3d, right: wp.vec3d, up: wp.vec3d, ortho: int,
+              half_h: wp.float64, aspect: wp.float64, radius: wp.float64):
+    """Float64 ray set-up for NDC point ``q``; ``eye`` is relative to the mesh centre (the cells'
+    origin), ``radius`` bounds the mesh around it.
+
+    Returns ``(o, d, t0, t_clip, t_end)`` in float32: origin ``eye + t0 d`` relative to the mesh
+    centre, placed ``radius`` before the ray's closest approach to it, unit direction, the shift
+    ``t0``, the true start ``t_clip = max(0, -t0)`` and the end of the bounding-sphere chord
+    ``t_end`` (``t_end < t_clip``: the ray cannot meet the mesh)."""
+    sx = q[0] * half_h * aspect
+    sy = q[1] * half_h
+    o = eye
+    d = fwd
     if ortho == 1:
-        return eye + right * (q[0] * half_h * aspect) + up * (q[1] * half_h)
-    return eye
+        o = eye + right * sx + up * sy
+    else:
+        d = wp.normalize(fwd + right * sx + up * sy)
+    tc = -wp.dot(o, d)  # closest approach to the centre
+    t0 = tc - radius * wp.float64(1.001)
+    o0 = o + d * t0
+    t_clip = -t0
+    if t_clip < wp.float64(0.0):
+        t_clip = wp.float64(0.0)
+    t_end = t_clip  # relative to o0: end of the chord beyond which nothing is hit
+    miss = wp.length_sq(o + d * tc) > radius * radius
+    if not miss:
+        t_end = wp.float64(2.002) * radius
+    if miss:
+        t_end = wp.float64(-1.0)
+    return wp.vec3(float(o0[0]), float(o0[1]), float(o0[2])), wp.vec3(float(d[0]), float(d[1]), float(d[2])), \
+        float(t0), float(t_clip), float(t_end)
+
+
+@wp.struct
+class Ray:
+    """A ray in the cells' frame: origin ``o`` near the mesh, unit direction ``d``; ``tie_x``,
+    ``tie_y`` (camera right, up) and ``back = o - eye`` define the perturbation that breaks exact
+    zeros of :func:`edge_side` (the reference's: orthographic origin ``+ eps right + eps^2 up``,
+    perspective direction ``+ eps right + eps^2 up``)."""
+
+    o: wp.vec3
+    d: wp.vec3
+    tie_x: wp.vec3
+    tie_y: wp.vec3
+    back: wp.vec3
+    ortho: int
 
 
 @wp.func
-def ray_dir(q: wp.vec2, fwd: wp.vec3, right: wp.vec3, up: wp.vec3, ortho: int, half_h: float,
-            aspect: float) -> wp.vec3:
-    """Unit direction (so ray parameters are world lengths)."""
-    if ortho == 1:
-        return fwd
-    return wp.normalize(fwd + right * (q[0] * half_h * aspect) + up * (q[1] * half_h))
+def make_ray(o: wp.vec3, d: wp.vec3, right: wp.vec3, up: wp.vec3, t0: float, ortho: int) -> Ray:
+    r = Ray()
+    r.o = o
+    r.d = d
+    r.tie_x = right
+    r.tie_y = up
+    r.back = d * t0
+    r.ortho = ortho
+    return r
 
 
 @wp.func
-def plane_dist(p: wp.vec4, x: wp.vec3) -> float:
-    return p[0] * x[0] + p[1] * x[1] + p[2] * x[2] + p[3]
+def vertex_frame(v: wp.vec4, r: Ray):
+    """Vertex record ``(x, y, z, s)`` -> ``(p, q, m)``: position, ``q = p - o``, ``m = d x q``."""
+    p = wp.vec3(v[0], v[1], v[2])
+    q = p - r.o
+    return p, q, wp.cross(r.d, q)
 
 
 @wp.func
-def plane_dot(p: wp.vec4, d: wp.vec3) -> float:
-    return p[0] * d[0] + p[1] * d[1] + p[2] * d[2]
+def edge_side(qa: wp.vec3, ma: wp.vec3, e: wp.vec3, r: Ray) -> float:
+    """Plücker side of ray ``r`` and edge ``a -> b`` (``a`` the lower global vertex index), from
+    ``qa = a - o``, ``ma = d x qa`` and the edge vector ``e = b - a`` taken from the stored points:
+    ``d . (qa x e) = e . ma``. Every cell sharing the edge computes the same float32 value, and its
+    rounding error scales with ``|qa| |e|`` (the edge's length, not its distance from the origin).
+
+    ``> 0``: the ray passes the edge counter-clockwise seen along ``d``. An exact zero becomes
+    ``TIE`` times the first (then second) order term of the ray perturbation, also a property of the
+    edge alone; it stays 0 only for an edge parallel to an orthographic ray (or on a line through a
+    perspective eye)."""
+    v = wp.dot(e, ma)
+    if v == 0.0:
+        if r.ortho == 1:
+            v = TIE * wp.dot(r.tie_x, wp.cross(r.d, e))
+            if v == 0.0:
+                v = TIE * wp.dot(r.tie_y, wp.cross(r.d, e))
+        else:
+            ae = wp.cross(qa + r.back, e)
+            v = TIE * wp.dot(r.tie_x, ae)
+            if v == 0.0:
+                v = TIE * wp.dot(r.tie_y, ae)
+    return v
+
+
+@wp.func
+def oriented_side(gi: int, gj: int, pi: wp.vec3, qi: wp.vec3, mi: wp.vec3, pj: wp.vec3, qj: wp.vec3,
+                  mj: wp.vec3, r: Ray) -> float:
+    """:func:`edge_side` of the directed edge ``i -> j`` (global indices ``gi``, ``gj``; points
+    ``p``, relative ``q = p - o``, ``m = d x q``)."""
+    if gi < gj:
+        return edge_side(qi, mi, pj - pi, r)
+    return -edge_side(qj, mj, pi - pj, r)
+
+
+@wp.func
+def face_cross(qa: wp.vec3, qb: wp.vec3, qc: wp.vec3, sa: float, sb: float, sc: float, wab: float, wbc: float,
+               wca: float, d: wp.vec3):
+    """Crossing of the ray (direction ``d``) with triangle ``(a, b, c)`` (vertices relative to the ray
+    origin) given its directed edge values ``wab``, ``wbc``, ``wca``: crossed when all are >= 0 with a
+    positive sum. Returns ``(crossed, t, s)``: ray parameter and scalar at the crossing from the
+    barycentric weights ``(wbc, wca, wab) / sum`` -- a convex combination of the face's vertices and
+    scalars, so bounded, and the same from both cells sharing the face."""
+    ssum = wab + wbc + wca
+    if wab < 0.0 or wbc < 0.0 or wca < 0.0 or not (ssum > 0.0):
+        return False, 0.0, 0.0
+    inv = 1.0 / ssum
+    x = (qa * wbc + qb * wca + qc * wab) * inv
+    s = (sa * wbc + sb * wca + sc * wab) * inv
+    return True, wp.dot(x, d), s
+
+
+@wp.struct
+class Face:
+    """A face the ray crosses, as vertices ``A, B, C`` in the outward order of the cell the ray
+    leaves: global indices ``g``, positions ``p*``, ``q* = p* - o``, ``m* = d x q*``, scalars ``s``
+    and the directed edge values ``w = (A->B, B->C, C->A)`` (all >= 0: the ray crosses it)."""
+
+    g: wp.vec3i
+    pa: wp.vec3
+    pb: wp.vec3
+    pc: wp.vec3
+    qa: wp.vec3
+    qb: wp.vec3
+    qc: wp.vec3
+    ma: wp.vec3
+    mb: wp.vec3
+    mc: wp.vec3
+    s: wp.vec3
+    w: wp.vec3
+
+
+@wp.func
+def boundary_face(tv: wp.vec4i, f: int, verts: wp.array(dtype=wp.vec4), r: Ray) -> Face:
+    """Boundary face ``f`` of tet ``tv`` as the :class:`Face` through which the ray enters the tet
+    (its outward order reversed: ``(a, c, b)``): :func:`face_hit` tells whether it does."""
+    ia = 1
+    ib = 2
+    ic = 3
+    if f == 1:
+        ia = 0
+        ib = 3
+        ic = 2
+    elif f == 2:
+        ia = 0
+        ib = 1
+        ic = 3
+    elif f == 3:
+        ia = 0
+        ib = 2
+        ic = 1
+    return make_face(tv[ia], tv[ic], tv[ib], verts, r)
+
+
+@wp.func
+def make_face(ga: int, gb: int, gc: int, verts: wp.array(dtype=wp.vec4), r: Ray) -> Face:
+    """:class:`Face` ``(A, B, C)`` from its global vertex indices."""
+    va = verts[ga]
+    vb = verts[gb]
+    vc = verts[gc]
+    pa, qa, ma = vertex_frame(va, r)
+    pb, qb, mb = vertex_frame(vb, r)
+    pc, qc, mc = vertex_frame(vc, r)
+    w = wp.vec3(oriented_side(ga, gb, pa, qa, ma, pb, qb, mb, r), oriented_side(gb, gc, pb, qb, mb, pc, qc, mc, r),
+                oriented_side(gc, ga, pc, qc, mc, pa, qa, ma, r))
+    return fan_face(wp.vec3i(ga, gb, gc), pa, qa, ma, pb, qb, mb, pc, qc, mc, wp.vec3(va[3], vb[3], vc[3]), w)
+
+
+@wp.func
+def fan_face(g: wp.vec3i, pa: wp.vec3, qa: wp.vec3, ma: wp.vec3, pb: wp.vec3, qb: wp.vec3, mb: wp.vec3,
+             pc: wp.vec3, qc: wp.vec3, mc: wp.vec3, sv: wp.vec3, w: wp.vec3) -> Face:
+    """:class:`Face` from already evaluated vertex frames, scalars and edge values."""
+    fc = Face()
+    fc.g = g
+    fc.pa = pa
+    fc.qa = qa
+    fc.ma = ma
+    fc.pb = pb
+    fc.qb = qb
+    fc.mb = mb
+    fc.pc = pc
+    fc.qc = qc
+    fc.mc = mc
+    fc.s = sv
+    fc.w = w
+    return fc
+
+
+@wp.func
+def face_hit(fc: Face, r: Ray):
+    """:func:`face_cross` of a :class:`Face`: ``(crossed, t, s)``."""
+    return face_cross(fc.qa, fc.qb, fc.qc, fc.s[0], fc.s[1], fc.s[2], fc.w[0], fc.w[1], fc.w[2], r.d)
+
+
+@wp.func
+def next_face(tv: wp.vec4i, j: int, fc: Face, verts: wp.array(dtype=wp.vec4), r: Ray):
+    """One step of the walk: the ray entered tet ``tv`` through ``fc`` (its local face ``j``).
+
+    Only the three edges from the new vertex ``N = tv[j]`` are evaluated; the entry face's edge
+    values are reused (they are the same numbers the neighbour computed). The exit is the first of
+    ``(N, A, B)``, ``(N, B, C)``, ``(N, C, A)`` whose edge values are all >= 0. Returns
+    ``(exit face, local index of the exit face in tv (-1: none qualifies), t, s)``."""
+    gn = tv[j]
+    vn = verts[gn]
+    pn, qn, mn = vertex_frame(vn, r)
+    na = oriented_side(gn, fc.g[0], pn, qn, mn, fc.pa, fc.qa, fc.ma, r)
+    nb = oriented_side(gn, fc.g[1], pn, qn, mn, fc.pb, fc.qb, fc.mb, r)
+    nc = oriented_side(gn, fc.g[2], pn, qn, mn, fc.pc, fc.qc, fc.mc, r)
+    # candidates (N, A, B), (N, B, C), (N, C, A): the face record rotated (A, B, C) -> (B, C, A)
+    out = Face()
+    opp = int(-1)
+    t = float(0.0)
+    s = float(0.0)
+    cur = fc
+    nv = wp.vec3(na, nb, nc)
+    for k in range(3):
+        ok, tk, sk = face_cross(qn, cur.qa, cur.qb, vn[3], cur.s[0], cur.s[1], nv[0], cur.w[0], -nv[1], r.d)
+        if ok:
+            opp = cur.g[2]
+            t = tk
+            s = sk
+            out = fan_face(wp.vec3i(gn, cur.g[0], cur.g[1]), pn, qn, mn, cur.pa, cur.qa, cur.ma, cur.pb, cur.qb,
+                           cur.mb, wp.vec3(vn[3], cur.s[0], cur.s[1]), wp.vec3(nv[0], cur.w[0], -nv[1]))
+            break
+        cur = fan_face(wp.vec3i(cur.g[1], cur.g[2], cur.g[0]), cur.pb, cur.qb, cur.mb, cur.pc, cur.qc, cur.mc,
+                       cur.pa, cur.qa, cur.ma, wp.vec3(cur.s[1], cur.s[2], cur.s[0]),
+                       wp.vec3(cur.w[1], cur.w[2], cur.w[0]))
+        nv = wp.vec3(nv[1], nv[2], nv[0])
+    local = int(-1)
+    for k in range(4):
+        if tv[k] == opp:
+            local = k
+    return out, local, t, s
+
+
+@wp.func
+def clipped_segment(t_in: float, t_out: float, s_in: float, s_out: float, t_clip: float):
+    """The part ``t >= t_clip`` of segment ``[t_in, t_out]`` with linear scalar; ``(t0, s0)``."""
+    if t_in >= t_clip:
+        return t_in, s_in
+    if t_out <= t_clip:
+        return t_out, s_out
+    return t_clip, s_in + (s_out - s_in) * ((t_clip - t_in) / (t_out - t_in))
 
 
 @wp.kernel
 def march(
     width: int,
     height: int,
-    eye: wp.vec3,
-    fwd: wp.vec3,
-    right: wp.vec3,
-    up: wp.vec3,
+    eye: wp.vec3d,
+    fwd: wp.vec3d,
+    right: wp.vec3d,
+    up: wp.vec3d,
     ortho: int,
-    half_h: float,
-    aspect: float,
-    planes: wp.array2d(dtype=wp.vec4),
-    grad: wp.array(dtype=wp.vec4),
-    adj: wp.array2d(dtype=wp.int32),
+    half_h: wp.float64,
+    aspect: wp.float64,
+    radius: wp.float64,
+    verts: wp.array(dtype=wp.vec4),
+    tets: wp.array(dtype=wp.vec4i),
+    nbr: wp.array(dtype=wp.vec4i),
     bface_tet: wp.array(dtype=wp.int32),
     bface_local: wp.array(dtype=wp.int32),
     tile_start: wp.array(dtype=wp.int32),
@@ -82,77 +345,66 @@ def march(
     tf_v: wp.array(dtype=wp.vec4),
     model: int,
     max_steps: int,
-    t_eps: float,
-    strict_tol: float,
-    inside_tol: float,
     t_min: float,
-    start_cell: int,
+    t_tol: float,
     row0: int,
     rgb: wp.array(dtype=wp.vec3),
     trans: wp.array(dtype=float),
     tcur: wp.array(dtype=float),
     status: wp.array(dtype=wp.int32),
+    last: wp.array(dtype=wp.int32),
     counters: wp.array2d(dtype=wp.int32),
     chunk: int,
 ):
     tid = wp.tid()
     idx = row0 * width + tid
-    if status[idx] != STATUS_ACTIVE:
+    st = status[idx]
+    if (st & 3) != STATUS_ACTIVE:
         return
     py = idx // width
     px = idx - py * width
-    q = ndc_xy(px, py, width, height)
-    e = ray_origin(q, eye, right, up, ortho, half_h, aspect)
-    d = ray_dir(q, fwd, right, up, ortho, half_h, aspect)
+    o, d, t0, t_clip, t_end = ray_setup(ndc_xy(px, py, width, height), eye, fwd, right, up, ortho, half_h,
+                                        aspect, radius)
+    if t_end < t_clip:
+        status[idx] = STATUS_DONE  # the ray misses the mesh's bounding sphere
+        return
+    r = make_ray(o, d, wp.vec3(float(right[0]), float(right[1]), float(right[2])),
+                 wp.vec3(float(up[0]), float(up[1]), float(up[2])), t0, ortho)
     t_start = tcur[idx]
 
-    # ---- next entry: nearest front-facing boundary face hit beyond t_start in this tile ----
-    # Two tiers: a hit inside its triangle up to float32 rounding (strict_tol) wins over one that
-    # needs the looser tolerance; the loose tier only catches rays through shared edges/vertices
-    # that rounding pushes just outside every face. Without the tiers a grazing ray could enter a
-    # cell it misses by more than rounding, and walk a bogus segment.
+    # ---- next entry: nearest boundary face crossed (entering) beyond t_start in this tile ----
+    # A face up to t_tol before t_start counts (a crack left by a dropped sliver, touching pieces:
+    # the exit and the re-entry are at the same depth up to rounding), except faces of the cell
+    # just left (a tet is convex: a ray never re-enters it).
+    prev = last[idx]
     best_t = float(1.0e30)
+    best_s = float(0.0)
     cell = int(-1)
     face_in = int(-1)
-    if start_cell >= 0:
-        # the perspective eye lies inside the mesh: every ray starts in that cell at t = 0
+    fc = Face()
+    tile_id = (py // tile) * tiles_x + (px // tile)
+    for it in range(tile_start[tile_id], tile_start[tile_id + 1]):
+        bf = tile_items[it]
+        c = int(bface_tet[bf])
+        f = int(bface_local[bf])
+        cand = boundary_face(tets[c], f, verts, r)
+        ok, t, s = face_hit(cand, r)
+        if ok and t > t_start - t_tol and t < best_t and c != prev:
+            best_t = t
+            best_s = s
+            cell = c
+            face_in = f
+            fc = cand
+    flat = st >> 2
+    if cell >= 0 and best_t <= t_start:
+        flat += 1
         best_t = t_start
-        cell = start_cell
-    else:
-        tile_id = (py // tile) * tiles_x + (px // tile)
-        loose_t = float(1.0e30)
-        loose_cell = int(-1)
-        loose_face = int(-1)
-        for it in range(tile_start[tile_id], tile_start[tile_id + 1]):
-            bf = tile_items[it]
-            c = int(bface_tet[bf])
-            f = int(bface_local[bf])
-            pl = planes[c, f]
-            den = plane_dot(pl, d)
-            if den < 0.0:
-                t = -plane_dist(pl, e) / den
-                if t > t_start + t_eps and (t < best_t or t < loose_t):
-                    x = e + d * t
-                    worst = float(-1.0e30)
-                    for k in range(4):
-                        if k != f:
-                            worst = wp.max(worst, plane_dist(planes[c, k], x))
-                    if worst <= strict_tol:
-                        if t < best_t:
-                            best_t = t
-                            cell = c
-                            face_in = f
-                    elif worst <= inside_tol:
-                        if t < loose_t:
-                            loose_t = t
-                            loose_cell = c
-                            loose_face = f
-        if cell < 0:
-            best_t = loose_t
-            cell = loose_cell
-            face_in = loose_face
     if cell < 0:
         status[idx] = STATUS_DONE
+        return
+    if flat > MAX_FLAT_REENTRIES:
+        status[idx] = STATUS_FAILED  # re-entering without progress: unresolved, redone in float64
+        wp.atomic_add(counters, chunk, 3, 1)
         return
     wp.atomic_add(counters, chunk, 0, 1)  # entries made in this pass
 
@@ -160,62 +412,78 @@ def march(
     acc = rgb[idx]
     tr = trans[idx]
     t_in = best_t
-    g = grad[cell]
-    x_in = e + d * t_in
-    s_in = g[0] * x_in[0] + g[1] * x_in[1] + g[2] * x_in[2] + g[3]
+    s_in = best_s
+    k_in = tf_upper(s_in, tf_s)
+    v_in = tf_eval_upper(s_in, k_in, tf_s, tf_v)
     steps = int(0)
+    stall = int(0)
     exited = int(0)
+    failed = int(0)
     while steps < max_steps:
         steps += 1
-        t_out = float(1.0e30)
-        f_out = int(-1)
-        for k in range(4):
-            if k != face_in:
-                pl = planes[cell, k]
-                den = plane_dot(pl, d)
-                if den > 0.0:
-                    lam = -plane_dist(pl, e) / den
-                    if lam < t_out:
-                        t_out = lam
-                        f_out = k
+        fc, f_out, t_out, s_out = next_face(tets[cell], face_in, fc, verts, r)
         if f_out < 0:
-            break  # degenerate: no exit face (cannot happen for a valid tet and a finite ray)
-        t_out = wp.max(t_out, t_in)
-        g = grad[cell]
-        x_out = e + d * t_out
-        s_out = g[0] * x_out[0] + g[1] * x_out[1] + g[2] * x_out[2] + g[3]
-        seg = integrate_segment(s_in, s_out, t_out - t_in, tf_s, tf_v, model)
-        acc += tr * wp.vec3(seg[0], seg[1], seg[2])
-        tr = tr * wp.exp(-seg[3])
-        nxt = int(adj[cell, f_out])
+            failed = 1
+            break
+        if t_out > t_in:
+            stall = 0
+        else:
+            t_out = t_in
+            stall += 1
+            if stall > STALL_STEPS:
+                failed = 1
+                break
+        k_out = tf_upper(s_out, tf_s)
+        v_out = tf_eval_upper(s_out, k_out, tf_s, tf_v)
+        if t_out > t_clip:
+            if t_in >= t_clip:
+                if k_in == k_out:  # no control point crossed: one linear piece
+                    seg = integrate_piece(t_out - t_in, v_in, v_out, model)
+                else:
+                    seg = integrate_segment_tf(s_in, s_out, v_in, v_out, t_out - t_in, tf_s, tf_v, model)
+            else:
+                ta, sa = clipped_segment(t_in, t_out, s_in, s_out, t_clip)
+                seg = integrate_segment_tf(sa, s_out, tf_eval(sa, tf_s, tf_v), v_out, t_out - ta, tf_s, tf_v,
+                                           model)
+            acc += tr * wp.vec3(seg[0], seg[1], seg[2])
+            tr = tr * exp_neg(seg[3])
+        nb = nbr[cell][f_out]
         t_in = t_out
         s_in = s_out
+        k_in = k_out
+        v_in = v_out
         if tr < t_min:
             break
-        if nxt < 0:
+        if nb < 0:
             exited = 1
             break
-        # local index of the shared face in the neighbour
-        fi = int(-1)
-        for k in range(4):
-            if int(adj[nxt, k]) == cell:
-                fi = k
-        cell = nxt
-        face_in = fi
+        cell = nb >> 2
+        face_in = nb & 3
     wp.atomic_add(counters, chunk, 1, steps)
+    if failed == 1:
+        status[idx] = STATUS_FAILED
+        wp.atomic_add(counters, chunk, 3, 1)
+        return
     rgb[idx] = acc
     trans[idx] = tr
     tcur[idx] = t_in
+    last[idx] = cell
+    if t_in > best_t:
+        flat = 0  # the walk advanced: only consecutive re-entries without progress count
+    status[idx] = STATUS_ACTIVE + 4 * flat
     if exited == 0:
         status[idx] = STATUS_DONE
         if tr >= t_min:
-            wp.atomic_add(counters, chunk, 2, 1)  # rays stopped by max_steps / degeneracy
+            wp.atomic_add(counters, chunk, 2, 1)  # rays stopped by max_steps
+    elif t_in >= t_end:
+        status[idx] = STATUS_DONE  # left the bounding sphere: no further entry possible
 
 
 @wp.kernel
 def init_state(rgb: wp.array(dtype=wp.vec3), trans: wp.array(dtype=float), tcur: wp.array(dtype=float),
-               status: wp.array(dtype=wp.int32), t0: float):
+               status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32), t0: float):
     i = wp.tid()
+    last[i] = -1
     rgb[i] = wp.vec3(0.0, 0.0, 0.0)
     trans[i] = 1.0
     tcur[i] = t0

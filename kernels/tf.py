@@ -73,8 +73,14 @@ def tf_next_break(k: int, sf: float, sb: float, tf_s: wp.array(dtype=float)) -> 
 @wp.func
 def tf_eval(s: float, tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp.vec4)) -> wp.vec4:
     """(r, g, b, extinction) at scalar ``s``; clamped to the end values outside the range."""
+    return tf_eval_upper(s, tf_upper(s, tf_s), tf_s, tf_v)
+
+
+@wp.func
+def tf_eval_upper(s: float, k: int, tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp.vec4)) -> wp.vec4:
+    """:func:`tf_eval` given ``k = tf_upper(s, tf_s)`` (a walker keeping ``k`` knows whether a
+    segment crosses a control point: it does iff ``k`` differs at its ends)."""
     n = tf_s.shape[0]
-    k = tf_upper(s, tf_s)
     if k == 0:
         return tf_v[0]
     if k >= n:

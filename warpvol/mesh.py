@@ -95,6 +95,7 @@ class TetMesh:
                 f"{name}: tet index out of range: tets[{c}][{k}] = {tets[c, k]}, expected 0 <= index < {len(points)}"
             )
         self.n_input_tets = len(tets)
+        check_duplicate_tets(name, tets)
         vol6 = signed_volumes(points, tets)
         edges = points[tets[:, EDGE_VERTS[:, 1]]] - points[tets[:, EDGE_VERTS[:, 0]]]
         longest = np.sqrt((edges ** 2).sum(-1).max(axis=1))
@@ -104,6 +105,7 @@ class TetMesh:
             if strict:
                 raise MeshError(msg + "; strict mode forbids them")
             warnings.warn(msg + " dropped", stacklevel=2)
+            self.dropped_tets = tets[zero]
             tets, vol6 = tets[~zero], vol6[~zero]
             if len(tets) == 0:
                 raise MeshError(f"{name}: empty mesh (every tet has zero volume)")
@@ -234,7 +236,7 @@ class TetMesh:
         inward, and the boundary must form a single connected component.
         """
         tris = self.boundary_triangles()
-        if len(tris) == 0:
+        if len(tris) == 0 or len(self.crack_faces):
             return False
         p = self.points
         # each directed edge (a->b) of an outward triangle; its twin (b->a) belongs to the neighbour
@@ -271,6 +273,38 @@ class TetMesh:
                 break
             lab = new
         return bool((lab == lab[0]).all())
+
+    #: tets dropped on load as zero-volume (empty when none were)
+    dropped_tets = np.zeros((0, 4), dtype=np.int64)
+
+    @cached_property
+    def crack_faces(self) -> np.ndarray:
+        """(K, 2) rows ``(tet, local face)`` of boundary faces left by dropped zero-volume tets.
+
+        A dropped sliver between other tets leaves a crack: faces that were interior are now on the
+        boundary, so a ray leaves the mesh there and must re-enter on the other side (``peel``).
+        A tet collapsed onto repeated points leaves none (its two copies of a face pair up).
+
+        Examples
+        --------
+        >>> import warnings
+        >>> pts = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 1e-14], [0.3, 0.3, 1], [0.3, 0.3, -1]]
+        >>> with warnings.catch_warnings():
+        ...     warnings.simplefilter("ignore")
+        ...     m = TetMesh(pts, [[0, 1, 2, 3], [1, 3, 2, 4], [0, 1, 2, 5]], [0, 1, 2, 3, 4, 5])
+        >>> len(m.crack_faces), m.is_convex
+        (2, False)
+        """
+        bf = self.boundary_faces
+        if len(self.dropped_tets) == 0 or len(bf) == 0:
+            return np.zeros((0, 2), dtype=np.int64)
+        dropped = np.sort(self.dropped_tets[:, FACE_VERTS].reshape(-1, 3), axis=1)
+        dropped = dropped[(dropped[:, 0] != dropped[:, 1]) & (dropped[:, 1] != dropped[:, 2])]
+        faces = np.sort(self.tets[bf[:, 0][:, None], FACE_VERTS[bf[:, 1]]], axis=1)
+        hit = (faces[:, None, :] == dropped[None, :, :]).all(-1).any(1) if len(dropped) < 64 else \
+            np.isin(faces.view([("", faces.dtype)] * 3).ravel(),
+                    np.ascontiguousarray(dropped).view([("", dropped.dtype)] * 3).ravel())
+        return bf[hit]
 
     def __repr__(self) -> str:
         return f"TetMesh({self.name!r}, {self.n_points} points, {self.n_tets} tets)"
@@ -323,6 +357,28 @@ class TetMesh:
         from .interop import mesh_to_pyvista
 
         return mesh_to_pyvista(self, scalars_name)
+
+
+def check_duplicate_tets(name: str, tets: np.ndarray) -> None:
+    """Raise :class:`MeshError` naming the first tets listed twice (same four points, any order).
+
+    Examples
+    --------
+    >>> check_duplicate_tets("m", np.array([[0, 1, 2, 3], [4, 5, 6, 7], [3, 2, 1, 0]]))
+    Traceback (most recent call last):
+    ...
+    warpvol.errors.MeshError: m: tets[0] and tets[2] are the same tet (points [0, 1, 2, 3]); 1 duplicated tet(s)
+    """
+    key = np.sort(np.asarray(tets), axis=1)
+    _, first, inv, counts = np.unique(key, axis=0, return_index=True, return_inverse=True, return_counts=True)
+    inv = inv.ravel()
+    dup = np.flatnonzero(counts[inv] > 1)
+    if len(dup):
+        i = int(dup[0])
+        j = int(dup[1]) if inv[dup[1]] == inv[i] else int(dup[np.argmax(inv[dup[1:]] == inv[i]) + 1])
+        n = int(len(dup) - (counts > 1).sum())
+        raise MeshError(f"{name}: tets[{i}] and tets[{j}] are the same tet (points {key[i].tolist()}); "
+                        f"{n} duplicated tet(s)")
 
 
 # -- structured grids -> tets --------------------------------------------------------------------

@@ -1,46 +1,79 @@
-"""Host step ``cell_setup``: upload per-tet data for ray propagation (HARC layout, 96 bytes/tet).
+"""Host step ``cell_setup``: per-mesh cell data for ray propagation, kept across renders.
 
-Per tet: 4 face planes ``(n, o)`` with unit outward normals, the scalar gradient and offset
-``(g, g0)`` (both relative to ``cells["origin"]``, the mesh's bounding-box centre) and 4 neighbour
-indices — float32 / int32, as Weiler's HARC stored them in textures.
-Also uploads the transfer function. Buffers: ``ctx.buffers["cells"]``.
+Layout (float32 / int32, 32 bytes per tet plus 16 per point): per point ``(x, y, z, s)``, the
+position relative to ``cells["origin"]`` (the centre of the mesh's bounding box; float64 shift before
+the float32 cast, so rounding scales with the mesh's size, not with its distance from the world
+origin) and the scalar; per tet the 4 vertex indices and per local face ``4 * neighbour + (the face's local index
+in the neighbour)`` (``-1`` on the boundary). The walk (:mod:`warpvol.kernels.raycast`) needs no
+face planes or gradients: Plücker edge tests on the shared points decide faces, barycentric weights
+give depth and scalar. The transfer function is uploaded per render.
+
+The mesh arrays are built once per (mesh, device) and kept in the pipeline's persistent state
+(``ctx.persistent["cells"]``), so re-rendering (new camera, TF edit) skips them; a different mesh
+object rebuilds them.
 """
 
 from __future__ import annotations
+
+import weakref
 
 import numpy as np
 
 from ..pipeline import Context, Stage, register_stage
 
 
-def cell_arrays(mesh, tf, device: str) -> dict:
-    """Device arrays of the HARC cell layout for ``mesh`` and ``tf`` (plain function for tests)."""
+def neighbour_faces(adjacency: np.ndarray) -> np.ndarray:
+    """``(M, 4)`` int32: ``4 * n + j`` for the neighbour ``n`` across each local face and the local
+    index ``j`` of the same face in ``n``; ``-1`` on the boundary."""
+    adj = np.asarray(adjacency, dtype=np.int64)
+    m = len(adj)
+    c, i = np.nonzero(adj >= 0)
+    n = adj[c, i]
+    j = np.argmax(adj[n] == c[:, None], axis=1)
+    out = np.full((m, 4), -1, dtype=np.int64)
+    out[c, i] = 4 * n + j
+    return out.astype(np.int32)
+
+
+def mesh_arrays(mesh, device: str) -> dict:
+    """Device arrays of the per-mesh cell layout (plain function for tests and other walkers)."""
     import warp as wp
 
-    # Cell data are stored relative to the centre of the mesh's bounding box (float64 shift before
-    # the float32 cast): float32 rounding then scales with the mesh's size, not with its distance
-    # from the world origin (the combustor sits at z ~ 30).
-    origin = 0.5 * (mesh.bounds[0] + mesh.bounds[1])
-    fp = mesh.face_planes.copy()
-    fp[..., 3] += np.einsum("mfk,k->mf", fp[..., :3], origin)
-    planes = np.ascontiguousarray(fp, dtype=np.float32)  # (M,4,4)
-    offsets = mesh.offsets + mesh.gradients @ origin
-    grad = np.concatenate([mesh.gradients, offsets[:, None]], axis=1).astype(np.float32)
-    tf_s, tf_v = tf.to_warp(device)
+    lo, hi = mesh.bounds
+    origin = 0.5 * (lo + hi)
+    rel = mesh.points - origin
     return {
         "origin": origin,
-        "planes": wp.array(planes, dtype=wp.vec4, device=device),
-        "grad": wp.array(grad, dtype=wp.vec4, device=device),
-        "adj": wp.array(np.ascontiguousarray(mesh.adjacency, dtype=np.int32), dtype=wp.int32, device=device),
-        "tf_s": tf_s,
-        "tf_v": tf_v,
-        "model": 0 if tf.emission == "color_extinction" else 1,
+        "radius": float(np.sqrt((rel * rel).sum(axis=1).max())),
+        "diameter": float(np.linalg.norm(hi - lo)),
+        "verts": wp.array(np.ascontiguousarray(np.c_[rel, mesh.scalars], dtype=np.float32), dtype=wp.vec4,
+                          device=device),
+        "tets": wp.array(np.ascontiguousarray(mesh.tets, dtype=np.int32), dtype=wp.vec4i, device=device),
+        "nbr": wp.array(neighbour_faces(mesh.adjacency), dtype=wp.vec4i, device=device),
     }
+
+
+def cell_arrays(mesh, tf, device: str, cache: dict | None = None) -> dict:
+    """Mesh arrays (from ``cache`` when it holds them for this mesh and device) plus the TF."""
+    key = str(device)
+    hit = None if cache is None else cache.get(key)
+    if hit is not None and hit["mesh"]() is mesh:
+        cells = dict(hit["arrays"])
+        cells["cached"] = True
+    else:
+        arrays = mesh_arrays(mesh, device)
+        if cache is not None:
+            cache[key] = {"mesh": weakref.ref(mesh), "arrays": arrays}
+        cells = dict(arrays)
+        cells["cached"] = False
+    tf_s, tf_v = tf.to_warp(device)
+    cells.update(tf_s=tf_s, tf_v=tf_v, model=0 if tf.emission == "color_extinction" else 1)
+    return cells
 
 
 @register_stage
 class CellSetup(Stage):
-    """Upload cell planes, gradients, adjacency and the transfer function.
+    """Per-mesh cell data (points, scalars, tets, neighbour faces; cached per mesh) and the TF.
 
     ==========  =====  =========  ===========================
     parameter   type   default    meaning
@@ -50,9 +83,12 @@ class CellSetup(Stage):
     """
 
     name = "cell_setup"
-    summary = "upload face planes, scalar gradients, adjacency and the TF (HARC cell layout)"
+    summary = "upload points, scalars, tets, neighbour faces (cached per mesh) and the TF"
     needs = ()
     provides = ("cells",)
 
     def run(self, ctx: Context) -> None:
-        ctx.buffers["cells"] = cell_arrays(ctx.scene.mesh, ctx.scene.transfer, ctx.device)
+        cache = ctx.persistent.setdefault("cells", {})
+        cells = cell_arrays(ctx.scene.mesh, ctx.scene.transfer, ctx.device, cache)
+        ctx.buffers["cells"] = cells
+        ctx.stats["cell_setup"] = {"cached": cells["cached"]}

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from ..pipeline import Context, Param, Stage, register_stage
 from ..parallel import cpu_threads
-from .raycast import RAY_PARAMS, march_pass
+from .raycast import RAY_PARAMS, march_pass, resolve_failed
 
 
 @register_stage
@@ -52,6 +52,8 @@ class Peel(Stage):
                 break
             entries += int(c[0])
             ctx.progress(f"peel pass {passes}: {int(c[0])} rays re-entered")
-        ctx.stats["peel"] = {"passes": passes, "reentries": entries}
+        redone = resolve_failed(ctx, state)
+        ctx.count(float64_rays=redone)
+        ctx.stats["peel"] = {"passes": passes, "reentries": entries, "float64_rays": redone}
         cam = ctx.scene.camera
         ctx.image = state.image(cam.height_px, cam.width_px)

@@ -1,10 +1,11 @@
 """Stage ``raycast``: float32 ray propagation through the cell adjacency (first pass).
 
-Each pixel's ray enters at the nearest front-facing boundary face of its screen tile (from
-``entry_bins``), walks cell to cell (exit face = smallest positive plane distance among faces the ray
-leaves through; next cell = neighbour across it), integrates each segment exactly for the
-piecewise-linear transfer function and composites front to back. The pass ends where the ray leaves
-the mesh; for non-convex meshes the ``peel`` stage continues from there.
+Each pixel's ray (origin moved to the mesh in float64) enters at the nearest boundary face of its
+screen tile (from ``entry_bins``) and walks cell to cell with consistent Plücker edge tests (see
+:mod:`warpvol.kernels.raycast`), integrates each segment exactly for the piecewise-linear transfer
+function and composites front to back. The pass ends where the ray leaves the mesh; for non-convex
+meshes the ``peel`` stage continues from there. Rays the float32 walk cannot resolve are redone in
+float64 on the host (:func:`redo_pixels_float64`) and counted.
 
 On the CPU a Warp launch runs its threads serially, so the image is cut into row blocks that a pool
 of host threads launches concurrently (``threads``); Warp releases the GIL while a CPU kernel runs.
@@ -31,7 +32,9 @@ class MarchState:
         self.trans = wp.zeros(n, dtype=wp.float32, device=device)
         self.tcur = wp.zeros(n, dtype=wp.float32, device=device)
         self.status = wp.zeros(n, dtype=wp.int32, device=device)
-        wp.launch(k.init_state, dim=n, inputs=[self.rgb, self.trans, self.tcur, self.status, 0.0], device=device)
+        self.last = wp.zeros(n, dtype=wp.int32, device=device)  # cell each ray last left
+        wp.launch(k.init_state, dim=n, inputs=[self.rgb, self.trans, self.tcur, self.status, self.last, 0.0],
+                  device=device)
 
     def image(self, height: int, width: int) -> np.ndarray:
         import warp as wp
@@ -43,56 +46,105 @@ class MarchState:
         return out.numpy().reshape(height, width, 4)
 
 
-def locate_point(mesh, p: np.ndarray) -> int:
-    """Index of a tet containing point ``p`` (float64, boundary inclusive up to rounding), -1 if none."""
-    fp = mesh.face_planes
-    dist = fp[..., :3] @ np.asarray(p, dtype=np.float64) + fp[..., 3]  # (M, 4), <= 0 inside
-    tol = 1e-12 * float(np.linalg.norm(mesh.bounds[1] - mesh.bounds[0]))
-    inside = np.nonzero((dist <= tol).all(axis=1))[0]
-    return int(inside[0]) if len(inside) else -1
+def redo_pixels_float64(mesh, tf, camera, pixels: np.ndarray, max_pairs: int = 1_000_000) -> np.ndarray:
+    """Exact float64 colours (n, 4) of the pixels ``pixels`` (flat indices), for rays the float32
+    walk could not resolve: the reference's watertight tracer (exact edge signs, simulation of
+    simplicity) on just the candidate (tet, pixel) pairs of those pixels, integrated and composited
+    in float64."""
+    from .. import reference as ref
+
+    pixels = np.asarray(pixels, dtype=np.int64)
+    out = np.zeros((len(pixels), 4))
+    if len(pixels) == 0:
+        return out
+    fr, pc, tsorted, orient, ids, i0, i1, j0, j1 = ref._plan(mesh, camera)
+    grad, offs = (mesh.gradients, mesh.offsets) if fr.persp else (None, None)
+    rows, cols = np.divmod(pixels, camera.width_px)
+    cand = [np.flatnonzero((i0 <= r) & (i1 >= r) & (j0 <= c) & (j1 >= c)) for r, c in zip(rows, cols)]
+    segs = []
+    start = 0
+    while start < len(pixels):
+        stop, n = start, 0
+        while stop < len(pixels) and (n == 0 or n + len(cand[stop]) <= max_pairs):
+            n += len(cand[stop])
+            stop += 1
+        k = np.concatenate(cand[start:stop])
+        who = np.repeat(np.arange(start, stop), [len(c) for c in cand[start:stop]])
+        if len(k):
+            ch = ref._trace_chunk(fr, pc, np.asarray(mesh.scalars, np.float64), tsorted, orient, ids[k],
+                                  rows[who], rows[who], cols[who], cols[who], grad, offs)
+            # the tracer reports flat pixel indices; map them back to positions in ``pixels``
+            lookup = dict(zip(pixels[start:stop].tolist(), range(start, stop)))
+            pos = np.array([lookup[p] for p in ch["pixel"].tolist()], dtype=np.int64)
+            segs.append((pos, ch))
+        start = stop
+    if not segs:
+        return out
+    pos = np.concatenate([p for p, _ in segs])
+    cat = {key: np.concatenate([c[key] for _, c in segs]) for key in ("t_in", "t_out", "s_in", "s_out")}
+    rgb, tau = ref.integrate_segments(cat["s_in"], cat["s_out"], cat["t_out"] - cat["t_in"], tf)
+    return ref.composite_front_to_back(pos, cat["t_in"], rgb, tau, len(pixels), cat["t_out"])
 
 
 def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float, threads: int,
-               start_cell: int = -1, rows_per_block: int = 16) -> np.ndarray:
-    """One propagation pass over all active rays; returns summed counters (entries, steps, stuck).
-
-    ``start_cell >= 0`` (first pass of a perspective view whose eye lies in that cell): rays start
-    walking there at ``t = 0`` instead of searching the boundary."""
+               rows_per_block: int = 16) -> np.ndarray:
+    """One propagation pass over all active rays; returns summed counters
+    ``(entries, steps, unfinished, failed)``. Failed rays keep ``STATUS_FAILED`` for
+    :func:`resolve_failed`."""
     import warp as wp
 
     from ..kernels import raycast as k
 
-    cam, mesh = ctx.scene.camera, ctx.scene.mesh
+    cam = ctx.scene.camera
     cells, bins = ctx.buffers["cells"], ctx.buffers["entry_bins"]
     w, h = cam.width_px, cam.height_px
     if cam.projection == "perspective":
         half_h = float(np.tan(np.radians(cam.fov_y_deg) / 2.0))
     else:
         half_h = cam.height / 2.0
-    diam = float(np.linalg.norm(mesh.bounds[1] - mesh.bounds[0]))
-    # the kernel works relative to the cell origin; float32 rounding of a point on the ray is a
-    # couple of ulps of the largest coordinate in play there
-    origin = cells["origin"]
-    eye = cam.eye - origin
-    coord = max(float(np.abs(eye).max()), float(np.abs(mesh.bounds[0] - origin).max()),
-                float(np.abs(mesh.bounds[1] - origin).max()))
+    # float64 camera relative to the cells' origin; the kernel moves each ray's origin to the mesh
+    eye = np.asarray(cam.eye, dtype=np.float64) - cells["origin"]
     on_cpu = str(ctx.device).startswith("cpu")
     rows = blocks(h, rows_per_block if on_cpu else h)
-    counters = wp.zeros((len(rows), 3), dtype=wp.int32, device=ctx.device)
-    common = [w, h, wp.vec3(*eye), wp.vec3(*cam.forward), wp.vec3(*cam.right), wp.vec3(*cam.true_up),
-              int(cam.projection == "orthographic"), half_h, float(cam.aspect),
-              cells["planes"], cells["grad"], cells["adj"], bins["bface_tet"], bins["bface_local"],
+    counters = wp.zeros((len(rows), 4), dtype=wp.int32, device=ctx.device)
+    v3 = wp.vec3d
+    common = [w, h, v3(*eye), v3(*cam.forward), v3(*cam.right), v3(*cam.true_up),
+              int(cam.projection == "orthographic"), wp.float64(half_h), wp.float64(cam.aspect),
+              wp.float64(max(cells["radius"], 1e-30)),
+              cells["verts"], cells["tets"], cells["nbr"], bins["bface_tet"], bins["bface_local"],
               bins["tile_start"], bins["tile_items"], bins["tile"], bins["tiles_x"],
-              cells["tf_s"], cells["tf_v"], cells["model"], max_steps,
-              1e-6 * (diam + float(np.linalg.norm(eye))), 2.5e-7 * coord, 1e-6 * diam, t_min, start_cell]
+              cells["tf_s"], cells["tf_v"], cells["model"], max_steps, t_min, 1e-6 * cells["radius"]]
 
     def launch(b: int) -> None:
         r0, nr = rows[b]
         wp.launch(k.march, dim=nr * w, device=ctx.device,
-                  inputs=common + [r0, state.rgb, state.trans, state.tcur, state.status, counters, b])
+                  inputs=common + [r0, state.rgb, state.trans, state.tcur, state.status, state.last, counters, b])
 
     launch_blocks(ctx.device, len(rows), launch, threads)
     return counters.numpy().sum(axis=0)
+
+
+def resolve_failed(ctx: Context, state: MarchState) -> int:
+    """Redo the rays marked ``STATUS_FAILED`` in float64 on the host (whole ray), store them as done;
+    returns how many."""
+    import warp as wp
+
+    from ..kernels import raycast as k
+
+    status = state.status.numpy()
+    failed = np.flatnonzero(status == int(k.STATUS_FAILED))
+    if len(failed) == 0:
+        return 0
+    sc = ctx.scene
+    val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, failed)
+    rgb, trans = state.rgb.numpy(), state.trans.numpy()
+    rgb[failed] = val[:, :3]
+    trans[failed] = 1.0 - val[:, 3]
+    status[failed] = int(k.STATUS_DONE)
+    state.rgb = wp.array(rgb, dtype=wp.vec3, device=state.device)
+    state.trans = wp.array(trans, dtype=wp.float32, device=state.device)
+    state.status = wp.array(status, dtype=wp.int32, device=state.device)
+    return int(len(failed))
 
 
 RAY_PARAMS = (
@@ -106,9 +158,11 @@ RAY_PARAMS = (
 class Raycast(Stage):
     """First ray-propagation pass (entry at the nearest boundary face, walk to the boundary exit).
 
-    A perspective eye inside the mesh starts every ray in the cell that contains it (point location
-    on the host). An orthographic eye plane that cuts the mesh is reported as a warning in the
-    report's ``stats`` (rays then start at the boundary in front of the plane).
+    Every ray's origin is moved in float64 to just before the mesh's bounding sphere. A perspective
+    eye or orthographic eye plane inside the mesh is handled by walking from the boundary behind it
+    and integrating only from the ray's true start (``t_clip``); a mesh behind or beside the camera
+    gives a transparent image. Rays the float32 walk cannot resolve are redone in float64 on the
+    host (:func:`redo_pixels_float64`) and counted (``float64_rays`` in the stats and counters).
 
     ==========  =====  =========  =============================================================
     parameter   type   default    meaning
@@ -122,7 +176,8 @@ class Raycast(Stage):
     """
 
     name = "raycast"
-    summary = "float32 ray propagation through cell adjacency, exact piecewise-linear segment integrals"
+    summary = ("float32 ray propagation through cell adjacency (consistent Plücker walk, unresolved rays redone "
+               "in float64), exact piecewise-linear segment integrals")
     needs = ("cells", "entry_bins")
     provides = ("march", "image")
     params = RAY_PARAMS
@@ -132,23 +187,12 @@ class Raycast(Stage):
         state = MarchState(cam.width_px * cam.height_px, ctx.device)
         ctx.buffers["march"] = state
         threads = self.threads or cpu_threads()
-        start = -1
-        if cam.projection == "perspective":
-            lo, hi = ctx.scene.mesh.bounds
-            if (cam.eye >= lo).all() and (cam.eye <= hi).all():
-                start = locate_point(ctx.scene.mesh, cam.eye)
-        elif self._eye_plane_cuts_mesh(ctx):
-            ctx.stats["warning"] = ("orthographic eye plane cuts the mesh: rays start at the boundary "
-                                    "faces in front of it, the part of the mesh the eye plane lies in is missed")
-            ctx.progress("warning: " + ctx.stats["warning"])
-        c = march_pass(ctx, state, max_steps=self.max_steps, t_min=self.t_min, threads=threads, start_cell=start)
-        ctx.count(rays=cam.width_px * cam.height_px, entries=int(c[0]), cell_steps=int(c[1]))
+        c = march_pass(ctx, state, max_steps=self.max_steps, t_min=self.t_min, threads=threads)
+        redone = resolve_failed(ctx, state)
+        ctx.count(rays=cam.width_px * cam.height_px, entries=int(c[0]), cell_steps=int(c[1]),
+                  float64_rays=redone)
         ctx.stats["raycast"] = {"entries": int(c[0]), "cell_steps": int(c[1]), "unfinished_rays": int(c[2]),
-                                "eye_cell": start}
+                                "float64_rays": redone}
+        if redone:
+            ctx.progress(f"raycast: {redone} rays the float32 walk could not resolve were redone in float64")
         ctx.image = state.image(cam.height_px, cam.width_px)
-
-    @staticmethod
-    def _eye_plane_cuts_mesh(ctx: Context) -> bool:
-        cam, mesh = ctx.scene.camera, ctx.scene.mesh
-        depth = (mesh.points - cam.eye) @ cam.forward
-        return bool(depth.min() < 0.0 < depth.max())
