@@ -326,7 +326,7 @@ def cmd_stress(args) -> int:
     from .io import Outputs
     from .pipeline import report_json
     from .report_html import table_csv
-    from .stress import run_stress, stress_markdown
+    from .stress import run_stress, stress_markdown, stress_page
 
     outdir = _outdir(args.output) if args.output else None
     rows = run_stress(quick=args.quick, cases=args.cases, pipelines=args.pipelines, device=args.device,
@@ -337,6 +337,7 @@ def cmd_stress(args) -> int:
             out.text(outdir / "stress.json", report_json({"quick": args.quick, "rows": rows}))
             out.text(outdir / "stress.csv", table_csv(rows))
             out.text(outdir / "stress.md", md + "\n")
+            out.text(outdir / "stress.html", stress_page(rows, args.quick))
     print(md)
     failed = [r for r in rows if r["status"] == "failed"]
     for r in failed:
@@ -442,7 +443,7 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--quick", action="store_true", help="the same cases at reduced sizes (CI)")
     st.add_argument("--cases", nargs="+", help="case names (default: all; see warpvol.stress.CASES)")
     st.add_argument("--pipelines", nargs="+", default=["all"], help="'all' (every preset) or names/files")
-    st.add_argument("-o", "--output", help="folder for stress.json / stress.csv / stress.md")
+    st.add_argument("-o", "--output", help="folder for stress.json / .csv / .md / .html")
     common(st)
     st.set_defaults(func=cmd_stress)
 

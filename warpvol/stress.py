@@ -303,3 +303,15 @@ def stress_markdown(rows: list[dict]) -> str:
     ok = sum(r["status"] == "ok" for r in rows)
     lines.append(f"\n{len({r['case'] for r in rows})} cases: {ok} ok, {declined} declined, {fails} failed")
     return "\n".join(lines)
+
+
+def stress_page(rows: list[dict], quick: bool) -> str:
+    """The summary as a self-contained HTML page: one table, failed rows in red, case descriptions."""
+    from .report_html import _fmt, html_table, page
+
+    body = [[r["case"], r["pipeline"], r["status"], _fmt(r.get("finite")), _fmt(r.get("time_s")), _fmt(r.get("rmse")),
+             _fmt(r.get("max_abs")), r.get("message") or ""] for r in rows]
+    table = html_table(list(STRESS_HEAD), body).replace("<td>failed</td>", '<td class="fail">failed</td>')
+    cases = html_table(["case", "what it tests"], [[k, v] for k, v in CASES.items()])
+    summary = stress_markdown(rows).rsplit("\n", 1)[-1]
+    return page("warpvol stress" + (" --quick" if quick else ""), [f"<p>{summary}</p>", table, "<h2>Cases</h2>", cases])
