@@ -108,17 +108,54 @@ def vtk_renderer(scene, mapper_name: str = "raycast"):
     return win.Render, image
 
 
-def warpvol_renderer(scene, device: str):
-    """``(render, image, result)``: the ``raycast`` preset; ``result()`` is the last render's result."""
+def warpvol_renderer(scene, device: str, preset: str = "raycast"):
+    """``(render, image, result)``: a preset (default ``raycast``); ``result()`` is the last render's result."""
     from warpvol.pipeline import Pipeline
 
-    pipe = Pipeline.load("raycast", device=device)
+    pipe = Pipeline.load(preset, device=device)
     last = {}
 
     def render():
         last["res"] = pipe.render(scene, quiet=True)
 
     return render, lambda: last["res"].image, lambda: last["res"]
+
+
+def interleaved_times(renderers, repeat: int) -> dict[str, list[float]]:
+    """Seconds per render of every ``(name, render, image)`` renderer: ``repeat + 1`` rounds (the first
+    a warm-up), each round rendering once with every renderer in turn, so that load from other
+    processes on a shared machine hits all of them alike."""
+    times = {name: [] for name, _, _ in renderers}
+    for _ in range(repeat + 1):
+        for name, render, _ in renderers:
+            t0 = time.perf_counter()
+            render()
+            times[name].append(time.perf_counter() - t0)
+    return times
+
+
+def scene_and_reference(scene_path: str, size: int, out: Path):
+    """The scene (file or ``builtin:NAME``) at ``size`` x ``size`` and its exact reference (cached as
+    EXR in ``out``)."""
+    from warpvol.builtin import builtin_scene
+    from warpvol.io import read_exr, write_exr
+    from warpvol.reference import render_reference
+    from warpvol.scene import load_scene
+
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    scene = builtin_scene(scene_path[8:]) if scene_path.startswith("builtin:") else load_scene(scene_path)
+    scene.camera = scene.camera.replace(width_px=size, height_px=size)
+    print(f"scene {scene.name}: {scene.mesh.n_tets} tets, {size}x{size}, loaded in "
+          f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    ref_path = out / f"reference_{scene.name}_{size}.exr"
+    if ref_path.exists():
+        return scene, read_exr(ref_path)
+    t0 = time.perf_counter()
+    ref = render_reference(scene.mesh, scene.transfer, scene.camera).astype(np.float32)
+    print(f"reference: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    write_exr(ref_path, ref)
+    return scene, ref
 
 
 def main(argv=None) -> int:
@@ -130,26 +167,11 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=str(ROOT / "out" / "bench_raycast"))
     args = ap.parse_args(argv)
 
-    from warpvol.io import read_exr, write_exr, write_png
+    from warpvol.io import write_png
     from warpvol.metrics import image_error
-    from warpvol.reference import render_reference
-    from warpvol.scene import load_scene
 
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
-    scene = load_scene(args.scene)
-    scene.camera = scene.camera.replace(width_px=args.size, height_px=args.size)
-    print(f"scene {scene.name}: {scene.mesh.n_tets} tets, {args.size}x{args.size}, loaded in "
-          f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)
-    ref_path = out / f"reference_{scene.name}_{args.size}.exr"
-    if ref_path.exists():
-        ref = read_exr(ref_path)
-    else:
-        t0 = time.perf_counter()
-        ref = render_reference(scene.mesh, scene.transfer, scene.camera).astype(np.float32)
-        print(f"reference: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
-        write_exr(ref_path, ref)
+    scene, ref = scene_and_reference(args.scene, args.size, out)
 
     # renders are interleaved (one of each per round, after a warm-up round) so that load from other
     # processes on a shared machine hits every renderer alike
@@ -157,12 +179,7 @@ def main(argv=None) -> int:
     renderers = [("warpvol raycast", w_render, w_image)]
     for name, key in (("VTK ray caster", "raycast"), ("VTK proj. tetra", "projected_tetrahedra")):
         renderers.append((name, *vtk_renderer(scene, key)))
-    times = {name: [] for name, _, _ in renderers}
-    for _ in range(args.repeat + 1):
-        for name, render, _ in renderers:
-            t0 = time.perf_counter()
-            render()
-            times[name].append(time.perf_counter() - t0)
+    times = interleaved_times(renderers, args.repeat)
     ours = w_result()
     ours_t = statistics.median(times["warpvol raycast"][1:])
     ours_min = min(times["warpvol raycast"][1:])

@@ -19,6 +19,38 @@ planner/skip           1e-6         1e-5         a render with a stage the plann
                                                  on vs the render without it (same pipeline, same
                                                  scene): the skip rule claims the stage changes
                                                  nothing. Seen: 0 / 0 (raycast, peel on convex meshes)
+pt/constant_tf/ortho/   1e-4 / 5e-4  1e-3 / 2.5e-3  projected tetrahedra, constant TF (averaged colour exact):
+  fp32 / fp16                            thick vertex rounded to 1/256 px while its (sf, sb, l)
+                                         are the exact crossing's; fp32 seen 3.4e-5 / 3.6e-4,
+                                         fp16 1.8e-4 / 1.2e-3 (box, 48^2, random orthographic view)
+pt/constant_tf/ortho/   4e-4 / 4e-3  2e-3 / 2e-2    + frame-buffer rounding after every blend; seen unorm12
+  unorm12 / unorm8                                  1.6e-4 / 8.8e-4, unorm8 2.2e-3 / 1.2e-2
+pt/constant_tf/         4e-3         4e-2           l interpolated linearly in screen space is not
+  perspective/fp32                                  perspective-correct (Kraus et al. 2004); seen 2.1e-3
+                                                    / 2.4e-2
+pt_vertex_color/fp32    1.2e-2       0.1            Shirley-Tuchman/Stein averaged colour on smooth TFs
+                                                    (linear_box, concave, stiff 64^2); seen <= 7.3e-3 /
+                                                    7.7e-2. Not for narrow TF peaks (sphere: 0.10 / 0.63)
+roettger2000_3d         1.5e-2       0.12           preset as shipped (software 64^3 table, RGBA8 table,
+                                                    8-bit buffer); box, linear_box, sphere, concave 64^2;
+                                                    seen <= 8.4e-3 / 8.7e-2
+roettger2000_3d/stiff   5e-2         0.3            cells 2e-5 thin read the first l texel centre
+                                                    (lmax / 128) of the uniform l axis; seen 2.9e-2 / 0.22
+pt_table3d/exact/fp32   4e-3         4e-2           exact 128x128x64 table, fp32 texture and buffer, sphere
+                                                    64^2 (screen-linear sf, sb, l); seen 2.3e-3 / 2.3e-2
+roettger2002_hw/        4e-2         0.3            emulated 12-bit per-slice table 32x32x32, 128 steps,
+  32x32x32                                          rgba12 texture, 12-bit buffer; every blend rounds
+                                                    (error grows with steps, Roettger & Ertl Table 1);
+                                                    box, sphere 48^2; seen <= 2.9e-2 / 0.24
+roettger2002_cylindrical  2.5e-2     0.2            preset as shipped (64 planes of 64^2 = 1x, RGBA8 atlas,
+                                                    8-bit buffer); linear_box, sphere, concave 64^2; seen
+                                                    <= 1.6e-2 / 0.165 (sphere; 4x planes: 1.2e-2 / 0.12).
+                                                    stiff uses the roettger2000_3d/stiff row (seen 2.95e-2
+                                                    / 0.224)
+roettger2002_hw         2e-2         0.15           preset as shipped (64^3, 128 steps, 12 bit), concave
+                                                    64^2; seen at 128^2: box 1.0e-2 / 0.064, linear_box
+                                                    4.9e-3 / 0.031, sphere 1.2e-2 / 0.099, concave 9.1e-3
+                                                    / 0.071, stiff 6.3e-3 / 0.082
 =====================  ===========  ===========  ==================================================
 """
 
@@ -26,4 +58,16 @@ TOLERANCES = {
     "raycast/fp32": {"rmse": 2e-6, "max_abs": 1e-4},
     "segment/fp32": {"rtol": 2e-5, "atol": 1e-6},
     "planner/skip": {"rmse": 1e-6, "max_abs": 1e-5},
+    "pt/constant_tf/ortho/fp32": {"rmse": 1e-4, "max_abs": 1e-3},
+    "pt/constant_tf/ortho/fp16": {"rmse": 5e-4, "max_abs": 2.5e-3},
+    "pt/constant_tf/ortho/unorm12": {"rmse": 4e-4, "max_abs": 2e-3},
+    "pt/constant_tf/ortho/unorm8": {"rmse": 4e-3, "max_abs": 2e-2},
+    "pt/constant_tf/perspective/fp32": {"rmse": 4e-3, "max_abs": 4e-2},
+    "pt_vertex_color/fp32": {"rmse": 1.2e-2, "max_abs": 0.1},
+    "roettger2000_3d": {"rmse": 1.5e-2, "max_abs": 0.12},
+    "roettger2000_3d/stiff": {"rmse": 5e-2, "max_abs": 0.3},
+    "pt_table3d/exact/fp32": {"rmse": 4e-3, "max_abs": 4e-2},
+    "roettger2002_hw/32x32x32": {"rmse": 4e-2, "max_abs": 0.3},
+    "roettger2002_hw": {"rmse": 2e-2, "max_abs": 0.15},
+    "roettger2002_cylindrical": {"rmse": 2.5e-2, "max_abs": 0.2},
 }

@@ -19,6 +19,7 @@ class TableRoettgerHw(TableStage):
     n_l         int    32         number of slices
     lmax        float  0          thickness at l = 1; 0 = the mesh's longest edge
     steps       int    0          rectangles per slice (n = o m, o = 1); 0 = TF points
+    n_tex       int    0          TF (1D texture) entries m; 0 = TF points
     bits        int    12         frame-buffer depth: 8 | 12
     passes      str    two        ``two`` (RGB + opacity pass) | ``one`` (constant colour)
     variant     str    blend      ``blend`` | ``geforce3`` (4 combiner steps per blend, 8 bit)
@@ -37,6 +38,7 @@ class TableRoettgerHw(TableStage):
         Param("n_l", int, 32, "number of slices", lo=1, hi=4096),
         LMAX,
         Param("steps", int, 0, "rectangles per slice; 0 = number of TF points", lo=0, hi=65536),
+        Param("n_tex", int, 0, "TF texture entries m; 0 = number of TF points", lo=0, hi=65536),
         Param("bits", int, 12, "frame-buffer depth", choices=(8, 12)),
         Param("passes", str, "two", "RGB + opacity passes, or one with constant blend colour", choices=("two", "one")),
         Param("variant", str, "blend", "plain blending or GeForce3 register combiners", choices=("blend", "geforce3")),
@@ -52,6 +54,7 @@ class TableRoettgerHw(TableStage):
 
     def builder_kwargs(self, ctx):
         kw = super().builder_kwargs(ctx)
-        if kw["steps"] == 0:
-            kw["steps"] = None
+        for k in ("steps", "n_tex"):
+            if kw[k] == 0:
+                kw[k] = None
         return kw

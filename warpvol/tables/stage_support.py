@@ -40,6 +40,18 @@ class TableStage(Stage):
             raise ValueError(f"{self.where}: lmax = 0 needs a scene with a mesh (or give lmax > 0)")
         return float(mesh.lmax)
 
+    def skip_reason(self, ctx: Context) -> str | None:
+        """Planner: a table already in the pipeline's cache for this TF and these parameters is not
+        rebuilt; it is put into ``ctx.buffers`` here and the stage is reported as skipped."""
+        cache = ctx.persistent.get("table_cache")
+        tf = getattr(ctx.scene, "transfer", None) if self.uses_tf else None
+        if cache is None or (self.uses_tf and tf is None):
+            return None
+        if cache.key(self.builder, tf, **self.builder_kwargs(ctx)) not in cache:
+            return None
+        self.run(ctx)
+        return "transfer function and parameters unchanged: table reused from the pipeline's cache"
+
     def run(self, ctx: Context) -> None:
         cache = ctx.persistent.setdefault("table_cache", TableCache())
         tf = getattr(ctx.scene, "transfer", None) if self.uses_tf else None

@@ -1,0 +1,401 @@
+"""Projected tetrahedra (Shirley & Tuchman 1990): classification, decomposition, fragment programs.
+
+``k_classify`` (one thread per tet, in visibility order) works on the rasteriser's snapped window
+coordinates (``snap``: 1/256 pixel with the rasteriser's tie rule ``even``; orientations are the
+rasteriser's exact int64 edge functions ``edge``), so the decomposition agrees with
+what the rasteriser will cover:
+
+* **class 2 (3 triangles)**: one vertex projects inside (or onto the boundary of) the triangle of the
+  other three. It becomes the *thick vertex*; the other three are silhouette vertices.
+  Degenerate members, classified apart: the vertex on an edge (one triangle of zero area) or on
+  another vertex (two).
+* **class 1 (4 triangles)**: the projection is a convex quadrilateral whose diagonals are two
+  opposite tet edges; the thick vertex is where they cross, rounded to the 1/256 grid. If rounding
+  would put it outside the quadrilateral (a sliver), a neighbouring grid point inside is taken, else
+  the nearest diagonal end (counted in ``stats[3]``): coverage stays exact, attributes move by < 1/256 px.
+* **flat**: all four projections collinear (the tet projects to a segment or a point): nothing is
+  drawn.
+* **culled**: a vertex at or behind the eye (``w <= 0``): nothing is drawn (no clipping).
+
+The thick vertex carries ``(sf, sb, l)``: the scalars at the front and back points on the ray
+through it and their eye-space distance (world units). The two points are found with
+perspective-correct weights (interpolate ``a/w`` and ``1/w``), so ``l`` is right in perspective
+and orthographic views alike; silhouette vertices carry ``(s, s, 0)``. Output vertex ``V + k`` is the
+thick vertex of the k-th tet in the order; its triangles are ``4k .. 4k+3`` (unused ones degenerate).
+
+Fragment programs (one thread per fragment of :meth:`warpvol.gpu.raster.Rasterizer.fragments`):
+
+* ``k_frag_vertex_color``: Shirley & Tuchman / Stein et al. — per-vertex averaged colour and
+  extinction ``(c̄, τ̄, l)`` interpolated linearly; ``α = 1 - exp(-τ̄ l)``;
+* ``k_frag_table3d``: Röttger, Kraus & Ertl 2000 — ``(sf, sb, l)`` interpolated linearly, the RGBA of
+  the pre-integration table looked up through the emulated 3D texture unit;
+* ``k_frag_cylindrical``: Roettger & Ertl 2002 §4 — per vertex ``(α, s, t)`` (eq. 10, one division,
+  ``k_cyl_vertices``); ``α`` is constant over each triangle (all its points lie on one plane through
+  the front diagonal) and taken from the triangle's thick vertex, ``(s, t)`` interpolated linearly;
+  the two nearest α-planes are sampled from the atlas by the 2D texture unit and blended.
+"""
+
+import warp as wp
+
+from .preint import table_to_cyl
+from .raster import edge, snap
+from .texture import Atlas, Tex3D, atlas_sample, tex3d
+from .tf import tf_eval
+
+wp.set_module_options({"enable_backward": False})
+
+CLASS_FOUR = wp.constant(0)
+CLASS_THREE = wp.constant(1)
+CLASS_FLAT = wp.constant(2)
+CLASS_CULLED = wp.constant(3)
+CLASS_ON_EDGE = wp.constant(4)
+CLASS_ON_VERTEX = wp.constant(5)
+
+
+@wp.func
+def sgn(v: wp.int64) -> int:
+    if v > wp.int64(0):
+        return 1
+    if v < wp.int64(0):
+        return -1
+    return 0
+
+
+@wp.func
+def in_closed_tri(x: wp.vec4i, y: wp.vec4i, i: int, j: int, k: int, l: int) -> bool:
+    """Is vertex i inside or on the boundary of the non-degenerate triangle (j, k, l)?"""
+    a = sgn(edge(x[j], y[j], x[k], y[k], x[l], y[l]))
+    if a == 0:
+        return False
+    s0 = sgn(edge(x[j], y[j], x[k], y[k], x[i], y[i])) * a
+    s1 = sgn(edge(x[k], y[k], x[l], y[l], x[i], y[i])) * a
+    s2 = sgn(edge(x[l], y[l], x[j], y[j], x[i], y[i])) * a
+    return s0 >= 0 and s1 >= 0 and s2 >= 0
+
+
+@wp.func
+def zero_subtriangles(x: wp.vec4i, y: wp.vec4i, i: int, j: int, k: int, l: int) -> int:
+    """How many of the triangles (i, j, k), (i, k, l), (i, l, j) have zero area (i on an edge: 1,
+    on a vertex: 2)."""
+    n = int(0)
+    if edge(x[j], y[j], x[k], y[k], x[i], y[i]) == wp.int64(0):
+        n += 1
+    if edge(x[k], y[k], x[l], y[l], x[i], y[i]) == wp.int64(0):
+        n += 1
+    if edge(x[l], y[l], x[j], y[j], x[i], y[i]) == wp.int64(0):
+        n += 1
+    return n
+
+
+@wp.func
+def in_closed_quad(x: wp.vec4i, y: wp.vec4i, a: int, c: int, b: int, d: int, tx: int, ty: int) -> bool:
+    """Is (tx, ty) inside or on the convex quadrilateral a, c, b, d (in this cyclic order)?"""
+    s0 = sgn(edge(x[a], y[a], x[c], y[c], tx, ty))
+    s1 = sgn(edge(x[c], y[c], x[b], y[b], tx, ty))
+    s2 = sgn(edge(x[b], y[b], x[d], y[d], tx, ty))
+    s3 = sgn(edge(x[d], y[d], x[a], y[a], tx, ty))
+    pos = s0 >= 0 and s1 >= 0 and s2 >= 0 and s3 >= 0
+    neg = s0 <= 0 and s1 <= 0 and s2 <= 0 and s3 <= 0
+    return pos or neg
+
+
+@wp.func
+def crossing(x: wp.vec4i, y: wp.vec4i, a: int, b: int, c: int, d: int) -> bool:
+    """Do the segments a-b and c-d cross at a point interior to both?"""
+    o1 = sgn(edge(x[a], y[a], x[b], y[b], x[c], y[c]))
+    o2 = sgn(edge(x[a], y[a], x[b], y[b], x[d], y[d]))
+    o3 = sgn(edge(x[c], y[c], x[d], y[d], x[a], y[a]))
+    o4 = sgn(edge(x[c], y[c], x[d], y[d], x[b], y[b]))
+    return o1 * o2 < 0 and o3 * o4 < 0
+
+
+@wp.func
+def persp_param(t: float, wa: float, wb: float) -> float:
+    """Parameter along a 3D segment a-b of the point whose projection is at screen parameter t."""
+    q = t / wb
+    return q / ((1.0 - t) / wa + q)
+
+
+@wp.kernel
+def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal: wp.array(dtype=wp.float32),
+               tets: wp.array2d(dtype=wp.int32), order: wp.array(dtype=wp.int32), n_points: int, even: int,
+               thick_pos: wp.array(dtype=wp.vec4), thick_attr: wp.array(dtype=wp.vec3),
+               tris: wp.array(dtype=wp.vec3i), klass: wp.array(dtype=wp.int32), moved: wp.array(dtype=wp.int32)):
+    k = wp.tid()
+    c = order[k]
+    v = wp.vec4i(tets[c, 0], tets[c, 1], tets[c, 2], tets[c, 3])
+    tv = n_points + k
+    moved[k] = 0
+    for q in range(4):
+        tris[4 * k + q] = wp.vec3i(tv, tv, tv)
+    thick_pos[k] = win[v[0]]
+    s0 = scal[v[0]]
+    thick_attr[k] = wp.vec3(s0, s0, 0.0)
+    ok = True
+    for q in range(4):
+        if not (win[v[q]][3] > 0.0):
+            ok = False
+    if not ok:
+        klass[k] = CLASS_CULLED
+        return
+    x = wp.vec4i(snap(win[v[0]][0], even), snap(win[v[1]][0], even), snap(win[v[2]][0], even),
+                 snap(win[v[3]][0], even))
+    y = wp.vec4i(snap(win[v[0]][1], even), snap(win[v[1]][1], even), snap(win[v[2]][1], even),
+                 snap(win[v[3]][1], even))
+    # class 2: a vertex inside the triangle of the other three
+    inner = int(-1)
+    for i in range(4):
+        if inner < 0:
+            j = (i + 1) % 4
+            kk = (i + 2) % 4
+            l = (i + 3) % 4
+            if in_closed_tri(x, y, i, j, kk, l):
+                inner = i
+    if inner >= 0:
+        i = inner
+        j = (i + 1) % 4
+        kk = (i + 2) % 4
+        l = (i + 3) % 4
+        # perspective-correct weights of the inner vertex's projection on the face (j, kk, l)
+        pj = win[v[j]]
+        pk = win[v[kk]]
+        pl = win[v[l]]
+        pi = win[v[i]]
+        area = (pk[0] - pj[0]) * (pl[1] - pj[1]) - (pk[1] - pj[1]) * (pl[0] - pj[0])
+        bj = ((pk[0] - pi[0]) * (pl[1] - pi[1]) - (pk[1] - pi[1]) * (pl[0] - pi[0])) / area
+        bk = ((pl[0] - pi[0]) * (pj[1] - pi[1]) - (pl[1] - pi[1]) * (pj[0] - pi[0])) / area
+        bj = wp.clamp(bj, 0.0, 1.0)
+        bk = wp.clamp(bk, 0.0, 1.0 - bj)
+        bl = 1.0 - bj - bk
+        qj = bj / pj[3]
+        qk = bk / pk[3]
+        ql = bl / pl[3]
+        qs = qj + qk + ql
+        qj = qj / qs
+        qk = qk / qs
+        ql = ql / qs
+        ej = eye[v[j]]
+        ek = eye[v[kk]]
+        el = eye[v[l]]
+        ef = ej * qj + ek * qk + el * ql
+        sface = scal[v[j]] * qj + scal[v[kk]] * qk + scal[v[l]] * ql
+        ei = eye[v[i]]
+        thick = wp.length(wp.vec3(ef[0] - ei[0], ef[1] - ei[1], ef[2] - ei[2]))
+        si = scal[v[i]]
+        if ei[2] >= ef[2]:  # the inner vertex is nearer the eye (eye space looks down -z)
+            thick_attr[k] = wp.vec3(si, sface, thick)
+        else:
+            thick_attr[k] = wp.vec3(sface, si, thick)
+        thick_pos[k] = wp.vec4(float(x[i]) / 256.0, float(y[i]) / 256.0, pi[2], pi[3])  # = the snapped vertex
+        tris[4 * k + 0] = wp.vec3i(tv, v[j], v[kk])
+        tris[4 * k + 1] = wp.vec3i(tv, v[kk], v[l])
+        tris[4 * k + 2] = wp.vec3i(tv, v[l], v[j])
+        z = zero_subtriangles(x, y, i, j, kk, l)
+        klass[k] = CLASS_THREE
+        if z == 1:
+            klass[k] = CLASS_ON_EDGE
+        elif z >= 2:
+            klass[k] = CLASS_ON_VERTEX
+        return
+    # class 1: two opposite edges a-b and c-d cross
+    a = int(-1)
+    b = int(-1)
+    cc = int(-1)
+    d = int(-1)
+    if crossing(x, y, 0, 1, 2, 3):
+        a = 0
+        b = 1
+        cc = 2
+        d = 3
+    elif crossing(x, y, 0, 2, 1, 3):
+        a = 0
+        b = 2
+        cc = 1
+        d = 3
+    elif crossing(x, y, 0, 3, 1, 2):
+        a = 0
+        b = 3
+        cc = 1
+        d = 2
+    if a < 0:
+        klass[k] = CLASS_FLAT  # all four projections on one line
+        return
+    oca = edge(x[cc], y[cc], x[d], y[d], x[a], y[a])
+    ocb = edge(x[cc], y[cc], x[d], y[d], x[b], y[b])
+    oac = edge(x[a], y[a], x[b], y[b], x[cc], y[cc])
+    oad = edge(x[a], y[a], x[b], y[b], x[d], y[d])
+    t = float(wp.float64(oca) / (wp.float64(oca) - wp.float64(ocb)))  # along a -> b
+    u = float(wp.float64(oac) / (wp.float64(oac) - wp.float64(oad)))  # along c -> d
+    fx = wp.float64(x[a]) + wp.float64(t) * wp.float64(x[b] - x[a])
+    fy = wp.float64(y[a]) + wp.float64(t) * wp.float64(y[b] - y[a])
+    tx = int(wp.round(fx))
+    ty = int(wp.round(fy))
+    if not in_closed_quad(x, y, a, cc, b, d, tx, ty):
+        found = False
+        fx0 = int(wp.floor(fx))
+        fy0 = int(wp.floor(fy))
+        for q in range(4):
+            cx = fx0 + q % 2
+            cy = fy0 + q / 2
+            if (not found) and in_closed_quad(x, y, a, cc, b, d, cx, cy):
+                tx = cx
+                ty = cy
+                found = True
+        if not found:
+            tx = x[a]
+            ty = y[a]
+            if t > 0.5:
+                tx = x[b]
+                ty = y[b]
+        moved[k] = 1
+    wa = win[v[a]]
+    wb = win[v[b]]
+    wc = win[v[cc]]
+    wd = win[v[d]]
+    t3 = persp_param(t, wa[3], wb[3])
+    u3 = persp_param(u, wc[3], wd[3])
+    e1 = eye[v[a]] * (1.0 - t3) + eye[v[b]] * t3
+    e2 = eye[v[cc]] * (1.0 - u3) + eye[v[d]] * u3
+    s1 = scal[v[a]] * (1.0 - t3) + scal[v[b]] * t3
+    s2 = scal[v[cc]] * (1.0 - u3) + scal[v[d]] * u3
+    thick = wp.length(wp.vec3(e1[0] - e2[0], e1[1] - e2[1], e1[2] - e2[2]))
+    z1 = wa[2] * (1.0 - t) + wb[2] * t
+    z2 = wc[2] * (1.0 - u) + wd[2] * u
+    w1 = wa[3] * (1.0 - t) + wb[3] * t
+    if e1[2] >= e2[2]:
+        thick_attr[k] = wp.vec3(s1, s2, thick)
+    else:
+        thick_attr[k] = wp.vec3(s2, s1, thick)
+        z1 = z2
+    thick_pos[k] = wp.vec4(float(tx) / 256.0, float(ty) / 256.0, z1, w1)
+    tris[4 * k + 0] = wp.vec3i(tv, v[a], v[cc])
+    tris[4 * k + 1] = wp.vec3i(tv, v[cc], v[b])
+    tris[4 * k + 2] = wp.vec3i(tv, v[b], v[d])
+    tris[4 * k + 3] = wp.vec3i(tv, v[d], v[a])
+    klass[k] = CLASS_FOUR
+
+
+@wp.kernel
+def k_vertex_colors(attr: wp.array(dtype=wp.vec3), tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp.vec4),
+                    out: wp.array2d(dtype=wp.float32)):
+    """Per output vertex: averaged colour and extinction of its front and back scalars, and l."""
+    i = wp.tid()
+    a = attr[i]
+    c = (tf_eval(a[0], tf_s, tf_v) + tf_eval(a[1], tf_s, tf_v)) * 0.5
+    out[i, 0] = c[0]
+    out[i, 1] = c[1]
+    out[i, 2] = c[2]
+    out[i, 3] = c[3]
+    out[i, 4] = a[2]
+
+
+@wp.kernel
+def k_frag_vertex_color(attrs: wp.array2d(dtype=wp.float32), emission_density: int, out: wp.array(dtype=wp.vec4)):
+    """Stein et al.: alpha = 1 - exp(-tau l) per fragment from the interpolated (tau, l); colour
+    c alpha (colour times extinction) or c (1 - exp(-tau l)) / tau (emission density)."""
+    f = wp.tid()
+    tau = wp.max(attrs[f, 3], 0.0)
+    l = wp.max(attrs[f, 4], 0.0)
+    x = tau * l
+    alpha = 1.0 - wp.exp(-x)
+    g = alpha
+    if emission_density != 0:
+        g = l
+        if x > 1.0e-4:
+            g = alpha / tau
+        else:
+            g = l * (1.0 - 0.5 * x)
+    out[f] = wp.vec4(attrs[f, 0] * g, attrs[f, 1] * g, attrs[f, 2] * g, alpha)
+
+
+@wp.func
+def axis_coord(x: float, a: float, b: float, log2_n: int) -> float:
+    """Texture coordinate of a normalised table value x (clamped to [0, 1]): ``a x + b`` for centred
+    and endpoint axes; Kraus et al.'s logarithmic axis when ``log2_n`` (its resolution) is > 0."""
+    x = wp.clamp(x, 0.0, 1.0)
+    if log2_n > 0:
+        n = float(log2_n)
+        dl = wp.pow(2.0, -(n - 2.0))
+        lg = float(0.0)
+        if x > 0.0:
+            lg = wp.max(wp.log2(x / dl), 0.0)
+        return (lg + wp.min(x / dl, 1.0)) / n + 0.5 / n
+    return x * a + b
+
+
+@wp.kernel
+def k_frag_table3d(attrs: wp.array2d(dtype=wp.float32), tex: Tex3D, s_off: float, s_inv: float, s_a: float,
+                   s_b: float, l_inv: float, l_a: float, l_b: float, l_log2: int, out: wp.array(dtype=wp.vec4)):
+    """Röttger et al. 2000: the interpolated (sf, sb, l) normalised (``(s - s_off) s_inv``,
+    ``l l_inv``), mapped to texture coordinates of the table's axes and looked up through the 3D
+    texture unit; the table's RGBA (premultiplied C, alpha) is the fragment colour."""
+    f = wp.tid()
+    u = axis_coord((attrs[f, 0] - s_off) * s_inv, s_a, s_b, 0)
+    v = axis_coord((attrs[f, 1] - s_off) * s_inv, s_a, s_b, 0)
+    r = axis_coord(attrs[f, 2] * l_inv, l_a, l_b, l_log2)
+    out[f] = tex3d(tex, u, v, r)
+
+
+@wp.kernel
+def k_snap_positions(win: wp.array(dtype=wp.vec4), even: int, out: wp.array(dtype=wp.vec4)):
+    """Window x, y snapped to the rasteriser's 1/256 grid (attribute set-up from snapped vertices,
+    as the hardware did; exact in float32)."""
+    i = wp.tid()
+    p = win[i]
+    out[i] = wp.vec4(float(snap(p[0], even)) / 256.0, float(snap(p[1], even)) / 256.0, p[2], p[3])
+
+
+@wp.kernel
+def k_clamp_attrs(prim: wp.array(dtype=wp.int32), tris: wp.array(dtype=wp.vec3i),
+                  vattrs: wp.array2d(dtype=wp.float32), attrs: wp.array2d(dtype=wp.float32),
+                  clamped: wp.array(dtype=wp.int32)):
+    """Clamp each interpolated attribute into the range of its triangle's three vertex values
+    (barycentrics of a sub-pixel sliver computed in fp32 can leave [0, 1]); count clamped fragments."""
+    f = wp.tid()
+    t = tris[prim[f]]
+    moved = int(0)
+    for a in range(attrs.shape[1]):
+        v0 = vattrs[t[0], a]
+        v1 = vattrs[t[1], a]
+        v2 = vattrs[t[2], a]
+        lo = wp.min(v0, wp.min(v1, v2))
+        hi = wp.max(v0, wp.max(v1, v2))
+        x = attrs[f, a]
+        y = wp.clamp(x, lo, hi)
+        if wp.abs(y - x) > 1.0e-5 * (hi - lo) + 1.0e-7:
+            moved = 1
+        attrs[f, a] = y
+    if moved != 0:
+        wp.atomic_add(clamped, 0, 1)
+
+
+@wp.kernel
+def k_cyl_vertices(attr: wp.array(dtype=wp.vec3), s_off: float, s_inv: float, l_inv: float,
+                   out: wp.array2d(dtype=wp.float32)):
+    """Per output vertex ``(α, s, t)`` of its normalised ``(sf, sb, l)`` (each clamped to [0, 1]);
+    silhouette vertices (``sf = sb``, ``l = 0``) get ``(0, 0, sb)``."""
+    i = wp.tid()
+    a = attr[i]
+    c = table_to_cyl(wp.clamp((a[0] - s_off) * s_inv, 0.0, 1.0), wp.clamp((a[1] - s_off) * s_inv, 0.0, 1.0),
+                     wp.clamp(a[2] * l_inv, 0.0, 1.0))
+    out[i, 0] = c[0]
+    out[i, 1] = c[1]
+    out[i, 2] = c[2]
+
+
+@wp.kernel
+def k_frag_cylindrical(attrs: wp.array2d(dtype=wp.float32), prim: wp.array(dtype=wp.int32),
+                       tris: wp.array(dtype=wp.vec3i), vattrs: wp.array2d(dtype=wp.float32), atlas: Atlas,
+                       ua: float, ub: float, va: float, vb: float, out: wp.array(dtype=wp.vec4)):
+    """Two-plane reconstruction: ``α`` of the triangle's thick vertex (its first vertex), ``(s, t)``
+    interpolated, in-tile coordinates ``u = ua s + ub``, ``v = va t + vb``, planes blended in fp32."""
+    f = wp.tid()
+    a = vattrs[tris[prim[f]][0], 0]
+    np_ = atlas.ntiles
+    pa = wp.clamp(a, 0.0, 1.0) * float(np_ - 1)
+    p0 = wp.min(int(wp.floor(pa)), wp.max(np_ - 2, 0))
+    p1 = wp.min(p0 + 1, np_ - 1)
+    w = pa - float(p0)
+    u = ua * wp.clamp(attrs[f, 1], 0.0, 1.0) + ub
+    v = va * wp.clamp(attrs[f, 2], 0.0, 1.0) + vb
+    out[f] = atlas_sample(atlas, p0, u, v) * (1.0 - w) + atlas_sample(atlas, p1, u, v) * w

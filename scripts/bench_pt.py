@@ -1,0 +1,90 @@
+"""Benchmark: warpvol's projected-tetrahedra presets vs VTK's ``vtkProjectedTetrahedraMapper``.
+
+Renders a scene (default: NASA Blunt Fin, perspective, 512x512, ``scenes/bluntfin.toml``) with each
+PT preset (``pt_vertex_color``, ``roettger2000_3d``, ``roettger2002_hw`` by default) and with VTK's
+projected-tetrahedra mapper (OpenGL, offscreen; on a machine without a GPU that is Mesa's software
+rasteriser) in one run (PNGs of each, and ``side_by_side_pt_vertex_color_vtk.png``: reference, warpvol
+``pt_vertex_color``, VTK, 4x their difference); prints times (median of ``--repeat`` rounds, interleaved: one render of each renderer per round,
+after a first round that includes kernel compilation, table builds and mesh derived data), the ratio to VTK and the errors
+against the exact reference (cached in ``--out``). VTK's transfer function gets the same control
+points, colour and extinction (scalar opacity unit distance 1), as in ``scripts/bench_raycast.py``.
+
+Usage::
+
+    ./run.sh python scripts/bench_pt.py [--scene scenes/bluntfin.toml] [--size 512] [--repeat 1]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bench_raycast import interleaved_times, scene_and_reference, vtk_renderer, warpvol_renderer  # noqa: E402
+
+PRESETS = ("pt_vertex_color", "roettger2000_3d", "roettger2002_hw")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--scene", default=str(ROOT / "scenes" / "bluntfin.toml"))
+    ap.add_argument("--size", type=int, default=512)
+    ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--device", default="cpu")
+    ap.add_argument("--presets", default=",".join(PRESETS), help="comma-separated PT presets")
+    ap.add_argument("--out", default=str(ROOT / "out" / "bench_pt"))
+    args = ap.parse_args(argv)
+
+    from warpvol.io import write_png
+    from warpvol.metrics import image_error
+    from warpvol.pipeline import quiet_warp
+
+    quiet_warp()
+    out = Path(args.out)
+    scene, ref = scene_and_reference(args.scene, args.size, out)
+    write_png(out / "reference.png", ref)
+    renderers = [("VTK vtkProjectedTetrahedraMapper", *vtk_renderer(scene, "projected_tetrahedra"))]
+    results = {}
+    for name in args.presets.split(","):
+        render, image, result = warpvol_renderer(scene, args.device, preset=name)
+        renderers.append((f"warpvol {name}", render, image))
+        results[f"warpvol {name}"] = result
+    times = interleaved_times(renderers, args.repeat)  # renders interleaved per round, first is a warm-up
+    vtk_t = statistics.median(times[renderers[0][0]][1:])
+    rows = []
+    theirs = renderers[0][2]()
+    write_png(out / "vtk_pt.png", theirs)
+    for label, _, image in renderers:
+        img = image()
+        row = {"renderer": label, "time_s": statistics.median(times[label][1:]), "first_s": times[label][0],
+               "error": image_error(img, ref)}
+        if label in results:
+            res, name = results[label](), label.split(" ", 1)[1]
+            write_png(out / f"{name}.png", img)
+            if name == "pt_vertex_color":  # reference | warpvol | VTK | 4 x |warpvol - VTK| (RGBA)
+                diff = 4.0 * np.abs(img - theirs).max(axis=-1)
+                write_png(out / "side_by_side_pt_vertex_color_vtk.png",
+                          np.concatenate([ref[..., :3], img[..., :3], theirs[..., :3],
+                                          np.repeat(diff[..., None], 3, axis=-1)], axis=1))
+            row.update(stages=res.report["stages"], counters=res.report["counters"], stats=res.report.get("stats", {}))
+        rows.append(row)
+    (out / "result.json").write_text(json.dumps({"scene": scene.name, "tets": scene.mesh.n_tets, "size": args.size,
+                                                 "rows": rows}, indent=2))
+    print(f"{scene.name}: {scene.mesh.n_tets} tets, {args.size}x{args.size}, device {args.device}")
+    print(f"{'renderer':<36}{'time [s]':>10}{'first [s]':>11}{'/ VTK':>8}{'rmse':>12}{'max_abs':>12}{'psnr':>8}")
+    for r in rows:
+        e = r["error"]
+        print(f"{r['renderer']:<36}{r['time_s']:>10.3f}{r['first_s']:>11.3f}{r['time_s'] / vtk_t:>8.2f}"
+              f"{e['rmse']:>12.3e}{e['max_abs']:>12.3e}{e['psnr']:>8.1f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,233 @@
+"""Projected tetrahedra on the emulated GPU: decomposition, rasterisation, fragment programs, blending.
+
+Plain functions the ``pt_*`` stages are thin over (tests call them directly):
+
+* :func:`decompose` — Shirley & Tuchman classification and decomposition of every tet, in
+  visibility order, on the device (:func:`warpvol.kernels.pt.k_classify`): ``V + M`` output vertices
+  (mesh points, then one thick vertex per tet) with ``(sf, sb, l)`` attributes and ``4 M`` triangles
+  (triangles ``4k .. 4k+3`` belong to the k-th tet of the order; unused ones are degenerate);
+* :func:`draw` — rasterise the triangles in batches of tets (fragments per pixel in primitive
+  order, screen-space linear attributes, no depth test), run a fragment program on each batch, and
+  blend the fragments into a frame buffer with the blending unit, back to front.
+
+Example
+-------
+>>> import numpy as np
+>>> from warpvol.builtin import builtin_scene
+>>> from warpvol.gpu.vertex import VertexStage
+>>> from warpvol.sort import visibility_order
+>>> sc = builtin_scene("box").with_camera(width_px=16, height_px=16)
+>>> vs = VertexStage.from_camera(sc.camera, *sc.camera.depth_range(*sc.mesh.bounds))
+>>> geo = decompose(sc.mesh, vs.transform(sc.mesh.points), visibility_order(sc.mesh, sc.camera).order)
+>>> geo.tris.shape[0] == 4 * sc.mesh.n_tets, sum(geo.classes.values()) == sc.mesh.n_tets
+(True, True)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+import warp as wp
+
+from .errors import ConfigError
+
+#: rasteriser rules the decomposition snaps with and :func:`draw` rasterises with (they must agree)
+RASTER_RULES = {"snap_ties": "even", "depth_clip": False}
+
+CLASS_NAMES = ("four_triangle", "three_triangle", "flat", "culled", "vertex_on_edge", "vertex_on_vertex")
+
+
+@dataclass
+class PTGeometry:
+    """Decomposed tets: ``positions`` (V+M vec4 window coordinates, device), ``attrs`` (V+M, 3)
+    ``(sf, sb, l)`` (host), ``tris`` (4M, 3) int32 (host), ``classes`` counts per class name,
+    ``moved`` thick vertices moved off the rounded diagonal crossing, ``n_points`` V."""
+
+    positions: wp.array
+    attrs: np.ndarray
+    tris: np.ndarray
+    classes: dict
+    moved: int
+    n_points: int
+
+    @property
+    def n_tets(self) -> int:
+        return self.tris.shape[0] // 4
+
+    def live_triangles(self) -> int:
+        """Triangles whose three vertex indices differ (degenerate padding excluded)."""
+        t = self.tris
+        return int(((t[:, 0] != t[:, 1]) & (t[:, 1] != t[:, 2]) & (t[:, 0] != t[:, 2])).sum())
+
+
+def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
+    """Classify and split every tet of ``mesh`` in ``order`` (back to front) into triangles.
+
+    ``vertices`` is the vertex stage's output (:class:`warpvol.gpu.vertex.Vertices`) for
+    ``mesh.points``.
+    """
+    from .kernels import pt as kpt
+
+    order = np.asarray(order, dtype=np.int32)
+    m, v = len(order), mesh.n_points
+    if vertices.window.shape[0] != v:
+        raise ConfigError(f"vertices: expected {v} transformed points, got {vertices.window.shape[0]}")
+    even = int(RASTER_RULES["snap_ties"] == "even")
+    win = wp.array(vertices.window.astype(np.float32), dtype=wp.vec4, device=device)
+    eye = wp.array(vertices.eye.astype(np.float32), dtype=wp.vec4, device=device)
+    scal = wp.array(mesh.scalars.astype(np.float32), dtype=wp.float32, device=device)
+    tp = wp.zeros(max(m, 1), dtype=wp.vec4, device=device)
+    ta = wp.zeros(max(m, 1), dtype=wp.vec3, device=device)
+    tris = wp.zeros(max(4 * m, 1), dtype=wp.vec3i, device=device)
+    klass = wp.zeros(max(m, 1), dtype=wp.int32, device=device)
+    moved = wp.zeros(max(m, 1), dtype=wp.int32, device=device)
+    if m:
+        wp.launch(kpt.k_classify, dim=m,
+                  inputs=[win, eye, scal, wp.array(mesh.tets.astype(np.int32), dtype=wp.int32, device=device),
+                          wp.array(order, dtype=wp.int32, device=device), v, even, tp, ta, tris, klass, moved],
+                  device=device)
+    snapped = wp.zeros(max(v, 1), dtype=wp.vec4, device=device)
+    wp.launch(kpt.k_snap_positions, dim=v, inputs=[win, even, snapped], device=device)
+    pos = np.concatenate([snapped.numpy()[:v], tp.numpy()[:m]])
+    s = mesh.scalars.astype(np.float32)
+    attrs = np.concatenate([np.stack([s, s, np.zeros_like(s)], axis=1), ta.numpy()[:m]])
+    counts = np.bincount(klass.numpy()[:m], minlength=len(CLASS_NAMES))
+    return PTGeometry(wp.array(pos, dtype=wp.vec4, device=device), attrs, tris.numpy()[:4 * m].reshape(-1, 3),
+                      dict(zip(CLASS_NAMES, map(int, counts))), int(moved.numpy()[:m].sum()), v)
+
+
+def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend, *, batch_tets: int = 65536,
+         device: str = "cpu") -> dict:
+    """Rasterise ``geo`` in batches of ``batch_tets`` tets, run ``program(fragments, tris) -> colours``
+    (a ``wp.array`` of vec4, premultiplied RGBA; ``tris`` the batch's triangles on the device, indexed
+    by ``fragments.prim``) on each batch and blend into ``fb`` in order.
+
+    ``vertex_attrs`` (V+M, A) are interpolated linearly in screen space. Returns counts
+    (``fragments``, ``batches``).
+    """
+    from .gpu.raster import Rasterizer
+
+    from .kernels import pt as kpt
+
+    rast = Rasterizer(fb.width, fb.height, device=device, **RASTER_RULES)
+    n_frag = n_batch = 0
+    m = geo.n_tets
+    va = wp.array(np.ascontiguousarray(vertex_attrs, dtype=np.float32), dtype=wp.float32, device=device)
+    clamped = wp.zeros(1, dtype=wp.int32, device=device)
+    for k0 in range(0, m, batch_tets):
+        k1 = min(m, k0 + batch_tets)
+        tris = geo.tris[4 * k0:4 * k1]
+        frags = rast.fragments(geo.positions, tris, vertex_attrs, interpolation="linear")
+        n_batch += 1
+        if frags.count == 0:
+            continue
+        n_frag += frags.count
+        tris_w = wp.array(tris, dtype=wp.vec3i, device=device)
+        wp.launch(kpt.k_clamp_attrs, dim=frags.count, inputs=[frags.prim, tris_w, va, frags.attrs, clamped],
+                  device=device)
+        blend.blend_fragments(fb, frags, program(frags, tris_w))
+    return {"fragments": n_frag, "batches": n_batch, "attrs_clamped": int(clamped.numpy()[0])}
+
+
+def vertex_colors(geo: PTGeometry, tf, device: str = "cpu") -> np.ndarray:
+    """Per output vertex ``(c̄r, c̄g, c̄b, τ̄, l)``: colour and extinction averaged over the front
+    and back scalars (Shirley & Tuchman's averaged colour), thickness ``l``."""
+    from .kernels import pt as kpt
+
+    n = geo.attrs.shape[0]
+    out = wp.zeros((n, 5), dtype=wp.float32, device=device)
+    tf_s = wp.array(tf.points[:, 0].astype(np.float32), dtype=wp.float32, device=device)
+    tf_v = wp.array(tf.points[:, 1:].astype(np.float32), dtype=wp.vec4, device=device)
+    wp.launch(kpt.k_vertex_colors, dim=n, inputs=[wp.array(geo.attrs, dtype=wp.vec3, device=device), tf_s, tf_v, out],
+              device=device)
+    return out.numpy()
+
+
+def vertex_color_program(emission_density: bool, device: str = "cpu") -> Callable:
+    """Fragment program of :func:`vertex_colors` attributes: ``α = 1 - exp(-τ̄ l)`` per fragment."""
+    from .kernels import pt as kpt
+
+    def run(frags, tris):
+        out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
+        wp.launch(kpt.k_frag_vertex_color, dim=frags.count, inputs=[frags.attrs, int(emission_density), out],
+                  device=device)
+        return out
+
+    return run
+
+
+TEXEL_FOR_TABLE = {"fp32": "rgba32f", "fp16": "rgba16f", "rgba8": "rgba8", "hilo16": "rgba16"}
+
+
+def _axis_affine(ax) -> tuple[float, float, int]:
+    """``(a, b, log2_n)`` of an axis' normalised value -> texture coordinate map."""
+    if ax.kind == "centred":
+        return 1.0, 0.0, 0
+    if ax.kind == "endpoint":
+        return 1.0 - 1.0 / ax.n, 0.5 / ax.n, 0
+    return 1.0, 0.0, ax.n
+
+
+def table3d_program(table, texel_format: str = "auto", filter: str = "linear", weight_bits: int | None = 8,
+                    device: str = "cpu") -> tuple[Callable, str]:
+    """Fragment program looking up ``table`` (layout ``data[l, sb, sf]``, any 3D table builder) through
+    an emulated 3D texture of ``texel_format`` (``auto``: the format that holds the table's stored
+    values: fp32 -> rgba32f, fp16 -> rgba16f, rgba8 -> rgba8, hilo16 -> rgba16). Returns the program
+    and the texel format used."""
+    from .gpu.texture import Texture3D
+    from .kernels import pt as kpt
+
+    if table.data.ndim != 4 or table.data.shape[-1] != 4 or len(table.axes) != 3:
+        raise ConfigError(f"table: expected a 3D RGBA table data[l, sb, sf, 4], got {table!r}")
+    ax_l, ax_b, ax_f = table.axes
+    if (ax_b.kind, ax_b.n, ax_b.scale, ax_b.offset) != (ax_f.kind, ax_f.n, ax_f.scale, ax_f.offset):
+        raise ConfigError(f"table: the sf and sb axes differ ({ax_f.describe()} vs {ax_b.describe()})")
+    if texel_format == "auto":
+        if table.format not in TEXEL_FOR_TABLE:
+            raise ConfigError(f"table: no 3D texel format holds a {table.format!r} table; give texel_format")
+        texel_format = TEXEL_FOR_TABLE[table.format]
+    tex = Texture3D(table.data, fmt=texel_format, filter=filter, device=device, weight_bits=weight_bits)
+    sa, sb, _ = _axis_affine(ax_f)
+    la, lb, llog = _axis_affine(ax_l)
+    consts = [float(ax_f.offset), 1.0 / float(ax_f.scale), sa, sb, 1.0 / float(ax_l.scale), la, lb, llog]
+
+    def run(frags, tris):
+        out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
+        wp.launch(kpt.k_frag_table3d, dim=frags.count, inputs=[frags.attrs, tex.struct, *consts, out], device=device)
+        return out
+
+    return run, texel_format
+
+
+def cylindrical_program(planes, tf, geo: PTGeometry, weight_bits: int | None = 8,
+                        device: str = "cpu") -> tuple[np.ndarray, Callable]:
+    """Per-vertex ``(α, s, t)`` attributes of ``geo`` and the two-plane fragment program for the
+    cylindrical ``planes`` (:func:`warpvol.tables.cylindrical.build_cylindrical`, built for ``tf``)."""
+    from .kernels import pt as kpt
+    from .tables.common import linear_index_map
+    from .tables.cylindrical import plane_texture
+
+    if getattr(planes, "name", None) != "cylindrical":
+        raise ConfigError(f"planes: expected cylindrical planes (stage table_cylindrical), got {planes!r}")
+    lo, hi = tf.srange
+    lmax = float(planes.meta["lmax"])
+    n = geo.attrs.shape[0]
+    vattrs = wp.zeros((n, 3), dtype=wp.float32, device=device)
+    wp.launch(kpt.k_cyl_vertices, dim=n, inputs=[wp.array(geo.attrs, dtype=wp.vec3, device=device), float(lo),
+                                                 1.0 / (hi - lo), 1.0 / lmax, vattrs], device=device)
+    tex = plane_texture(planes, device, weight_bits)
+    sa, sb = linear_index_map(planes.axes[2])
+    ta, tb = linear_index_map(planes.axes[1])
+    ns, nt = planes.axes[2].n, planes.axes[1].n
+    # continuous texel index a x + b  ->  in-tile texture coordinate (a x + b + 0.5) / n
+    consts = [sa / ns, (sb + 0.5) / ns, ta / nt, (tb + 0.5) / nt]
+
+    def run(frags, tris):
+        out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
+        wp.launch(kpt.k_frag_cylindrical, dim=frags.count,
+                  inputs=[frags.attrs, frags.prim, tris, vattrs, tex.struct, *consts, out], device=device)
+        return out
+
+    return vattrs.numpy(), run
