@@ -130,17 +130,43 @@ def resolve_pipelines(names: list[str] | tuple[str, ...] | str | None) -> list[s
     return names
 
 
-def load_pipelines(names: Any, device: str = "cpu", flag: str = "--pipelines") -> list:
-    """:func:`resolve_pipelines` then load each (errors name ``flag``), before any work."""
+#: ``--quick`` (stress, bench): resolution parameters of pre-integration table stages (``table_*``) are capped here, so a
+#: table costs milliseconds instead of seconds (the cases still exercise every stage)
+QUICK_TABLE_CAPS = {"n_s": 16, "n_l": 16}
+
+
+def quick_pipeline(pipe: Any) -> Any:
+    """``pipe`` with :data:`QUICK_TABLE_CAPS` applied to its ``table_*`` stages (others unchanged).
+
+    Examples
+    --------
+    >>> from warpvol.pipeline import Pipeline
+    >>> quick_pipeline(Pipeline.load("raycast")).stages[0].name
+    'cell_setup'
+    """
+    from .pipeline import Pipeline
+
+    stages = []
+    for st in pipe.stages:
+        caps = {k: min(st.config[k], v) for k, v in QUICK_TABLE_CAPS.items()
+                if st.name.startswith("table_") and isinstance(st.config.get(k), int)}
+        stages.append(type(st)(device=st.device, where=st.where, **{**st.config, **caps}) if caps else st)
+    return Pipeline(stages, name=pipe.name, description=pipe.description)
+
+
+def load_pipelines(names: Any, device: str = "cpu", flag: str = "--pipelines", quick: bool = False) -> list:
+    """:func:`resolve_pipelines` then load each (errors name ``flag``), before any work; ``quick``:
+    through :func:`quick_pipeline`."""
     from .pipeline import Pipeline
 
     out = []
     for n in resolve_pipelines(names):
         try:
-            out.append(Pipeline.load(n, device=device))
+            pipe = Pipeline.load(n, device=device)
         except ConfigError as e:
             msg = str(e)
             raise ConfigError(msg.replace("--pipeline:", f"{flag}:", 1) if msg.startswith("--pipeline:") else msg) from None
+        out.append(quick_pipeline(pipe) if quick else pipe)
     return out
 
 
@@ -335,10 +361,13 @@ FRONTS = {"total_s": "pareto", "modelled_s": "pareto_modelled"}
 
 def run_bench(scene: Any, pipelines: Any = "all", *, repeats: int = 3, gpu: str | None = None,
               cache_dir: str | Path | None = None, audit: bool = True, device: str = "cpu",
-              quiet: bool = False) -> BenchResult:
-    """Bench ``scene`` with each pipeline (see the module docstring); failures become rows."""
-    pipes = load_pipelines(pipelines, device)  # unknown names fail before any work
+              quiet: bool = False, quick: bool = False) -> BenchResult:
+    """Bench ``scene`` with each pipeline (see the module docstring); failures become rows.
+    ``quick``: table resolutions capped (:func:`quick_pipeline`), noted in the result."""
+    pipes = load_pipelines(pipelines, device, quick=quick)  # unknown names fail before any work
     notes = [] if gpu is None else ([gpu_support(gpu)] if gpu_support(gpu) else [])
+    if quick:
+        notes.append(f"--quick: pre-integration table resolutions capped at {QUICK_TABLE_CAPS} (not the presets as shipped)")
     prog = Progress(1 + len(pipes) * (2 + repeats), f"bench {scene.name}", enabled=not quiet)
     ref, ref_s, hit = cached_reference(scene, cache_dir, quiet=True)
     prog.step("reference (cached)" if hit else f"reference {ref_s:.2f} s")

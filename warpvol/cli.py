@@ -280,14 +280,14 @@ def cmd_bench(args) -> int:
     _check_sizes(args)
     check_number("--repeats", args.repeats, lo=1, integer=True)
     names = resolve_pipelines(args.pipelines)
-    plan_pipes = dict(zip(names, load_pipelines(names, args.device)))  # bad names fail before any work
+    plan_pipes = dict(zip(names, load_pipelines(names, args.device, quick=args.quick)))  # bad names fail first
     scene = _load_scene(args.scene, args)
     check_image_memory(scene.camera, ["render", "png", "reference", "error_image"])
     outdir = _outdir(args.output)
     if args.gpu and gpu_support(args.gpu):
         print(f"warpvol: {gpu_support(args.gpu)}", file=sys.stderr)
     res = run_bench(scene, names, repeats=args.repeats, gpu=args.gpu, device=args.device, quiet=args.quiet,
-                    cache_dir=args.cache_dir or outdir / "reference-cache", audit=not args.no_audit)
+                    cache_dir=args.cache_dir or outdir / "reference-cache", audit=not args.no_audit, quick=args.quick)
     write_bench(res, outdir, plan={n: p.plan(scene) for n, p in plan_pipes.items()})
     print(table_markdown(res.rows))
     print(f"wrote {outdir}/index.html, table.csv, table.json, table.md, pareto.png, pareto.svg")
@@ -429,6 +429,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--repeats", type=int, default=3, help="timed renders per pipeline after a warm-up (median)")
     b.add_argument("--cache-dir", help="reference cache folder (default OUTDIR/reference-cache)")
     b.add_argument("--no-audit", action="store_true", help="skip the planner audit (forced-stage renders)")
+    b.add_argument("--quick", action="store_true", help="cap pre-integration table resolutions (as stress --quick)")
     scene_args(b)
     b.set_defaults(func=cmd_bench)
 

@@ -1,7 +1,8 @@
 """``warpvol stress``: a named suite of stiff and extreme scenes, each rendered with every pipeline.
 
-Each case builds a scene (at full size, or at the reduced size of ``--quick`` that CI runs) and is
-rendered with every preset (:func:`warpvol.pipeline.list_presets`). Per case and pipeline the suite
+Each case builds a scene (at full size, or at the reduced size of ``--quick`` that CI runs, which
+also caps the pre-integration tables' resolution, :data:`warpvol.bench.QUICK_TABLE_CAPS`) and is rendered with every
+preset (:func:`warpvol.pipeline.list_presets`). Per case and pipeline the suite
 records whether the output is finite, its error against the exact reference (or a closed form where
 the exact reference would take minutes), the run time and a status:
 
@@ -261,14 +262,15 @@ def run_case(case: Case, pipes: list[Any], device: str = "cpu") -> list[dict]:
 
 def run_stress(quick: bool = False, cases: list[str] | None = None, pipelines: Any = "all", device: str = "cpu",
                quiet: bool = True) -> list[dict]:
-    """Every case x every pipeline; a case that cannot even be built is a failed row."""
+    """Every case x every pipeline; a case that cannot even be built is a failed row. ``quick``: the
+    reduced sizes of each case and :func:`warpvol.bench.quick_pipeline`."""
     from .bench import Progress, load_pipelines
 
     names = cases or case_names()
     for n in names:
         if n not in CASES:
             build_case(n)  # raises the ConfigError naming the case
-    pipes = load_pipelines(pipelines, device)
+    pipes = load_pipelines(pipelines, device, quick=quick)
     prog = Progress(len(names), "stress" + (" --quick" if quick else ""), enabled=not quiet)
     rows: list[dict] = []
     for n in names:
