@@ -227,10 +227,6 @@ def _median_times(reports: list[dict]) -> tuple[float, dict]:
     return total, stages
 
 
-def _flat_counters(counters: dict) -> dict:
-    return {f"{st}.{k}": int(v) for st, c in counters.items() for k, v in c.items()}
-
-
 # ------------------------------------------------------------------------------------------------
 # one pipeline
 # ------------------------------------------------------------------------------------------------
