@@ -28,7 +28,8 @@ def test_stress_quick_runs_every_case_with_every_preset(tmp_path, capsys):
             assert r["message"]  # a pipeline that cannot handle a case says why
     assert f"{len(CASES)} cases:" in out.out and "0 failed" in out.out
     page = (tmp_path / "stress.html").read_text()
-    assert page.count("<tr>") == len(rows) + 1 + len(CASES) + 1 and "0 failed" in page
+    assert page.count("<tr>") == (len(CASES) + 1) + (len(rows) + 1) + (len(CASES) + 1) and "0 failed" in page
+    assert out.out.count("| camera_far |") == 1 + 1 + len(presets)  # matrix row + reference + one per preset
 
 
 def test_closed_form_cases_match_the_exact_reference():

@@ -326,12 +326,12 @@ def cmd_stress(args) -> int:
     from .io import Outputs
     from .pipeline import report_json
     from .report_html import table_csv
-    from .stress import run_stress, stress_markdown, stress_page
+    from .stress import run_stress, stress_markdown, stress_matrix, stress_page
 
     outdir = _outdir(args.output) if args.output else None
     rows = run_stress(quick=args.quick, cases=args.cases, pipelines=args.pipelines, device=args.device,
                       quiet=args.quiet)
-    md = stress_markdown(rows)
+    md = stress_markdown(rows) + "\n\n" + stress_matrix(rows)
     if outdir is not None:
         with Outputs() as out:
             out.text(outdir / "stress.json", report_json({"quick": args.quick, "rows": rows}))

@@ -307,6 +307,34 @@ def stress_markdown(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def stress_matrix(rows: list[dict]) -> str:
+    """Cases x pipelines as Markdown: ``RMSE / max abs (time)`` per cell, or the status in words.
+
+    Examples
+    --------
+    >>> print(stress_matrix([{"case": "c", "pipeline": "p", "status": "ok", "rmse": 1e-7, "max_abs": 2e-6,
+    ...                       "time_s": 0.5}, {"case": "d", "pipeline": "p", "status": "declined"}]))
+    | case | p |
+    | --- | --- |
+    | c | 1.0e-07 / 2e-06 (0.5 s) |
+    | d | declined |
+    """
+    pipes = list(dict.fromkeys(r["pipeline"] for r in rows if not r["pipeline"].startswith(("reference", "("))))
+    lines = ["| case | " + " | ".join(pipes) + " |", "|" + " --- |" * (len(pipes) + 1)]
+    for case in dict.fromkeys(r["case"] for r in rows):
+        cells = []
+        for p in pipes:
+            r = next((r for r in rows if r["case"] == case and r["pipeline"] == p), None)
+            if r is None:
+                cells.append("-")
+            elif r["status"] == "ok" and r.get("rmse") is not None:
+                cells.append(f"{r['rmse']:.1e} / {r['max_abs']:.2g} ({r['time_s']:.2g} s)")
+            else:
+                cells.append(r["status"] + ("" if r["status"] != "ok" else " (no reference)"))
+        lines.append(f"| {case} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def stress_page(rows: list[dict], quick: bool) -> str:
     """The summary as a self-contained HTML page: one table, failed rows in red, case descriptions."""
     from .report_html import _fmt, html_table, page
@@ -316,4 +344,8 @@ def stress_page(rows: list[dict], quick: bool) -> str:
     table = html_table(list(STRESS_HEAD), body).replace("<td>failed</td>", '<td class="fail">failed</td>')
     cases = html_table(["case", "what it tests"], [[k, v] for k, v in CASES.items()])
     summary = stress_markdown(rows).rsplit("\n", 1)[-1]
-    return page("warpvol stress" + (" --quick" if quick else ""), [f"<p>{summary}</p>", table, "<h2>Cases</h2>", cases])
+    matrix = [ln.strip("|").split(" | ") for ln in stress_matrix(rows).splitlines()]
+    grid = html_table([c.strip() for c in matrix[0]], [[c.strip() for c in ln] for ln in matrix[2:]])
+    return page("warpvol stress" + (" --quick" if quick else ""),
+                [f"<p>{summary}</p>", "<h2>RMSE / max abs (time) per case and pipeline</h2>", grid,
+                 "<h2>All rows</h2>", table, "<h2>Cases</h2>", cases])
