@@ -316,9 +316,11 @@ def cmd_plan(args) -> int:
             if a.get("saved_s") is None:
                 print(f"  {a['stage']}: {a['note']}")
             else:
+                warm = a.get("warmup_stage_s")
                 print(f"  {a['stage']} forced on: render {a['forced_total_s']:.4f} s ({a['total_diff_s']:+.4f} s); "
                       f"leaving it out saves {a['saved_s']:.4f} s (its own time); images differ by max "
-                      f"{a['diff_max_abs']:.2e}")
+                      f"{a['diff_max_abs']:.2e}" + ("" if warm is None else
+                                                   f"; it ran in the warm-up render: {warm:.4f} s"))
     return 0
 
 

@@ -236,19 +236,21 @@ def _planner_html(rows: list[dict], plan: dict | None) -> str:
     body = []
     for r in rows:
         for a in r.get("planner") or []:
-            body.append([r["pipeline"], a["stage"], a["reason"], a.get("saved_s"), a.get("forced_total_s"),
-                         a.get("total_diff_s"), a.get("diff_max_abs"), a.get("note", "")])
+            body.append([r["pipeline"], a["stage"], a["reason"], a.get("saved_s"), a.get("warmup_stage_s"),
+                         a.get("forced_total_s"), a.get("total_diff_s"), a.get("diff_max_abs"), a.get("note", "")])
         if r.get("status") == "ok" and not r.get("planner"):
             for sk in r.get("skipped") or []:
-                body.append([r["pipeline"], sk["stage"], sk["reason"], None, None, None, None, "not measured (no audit run)"])
+                body.append([r["pipeline"], sk["stage"], sk["reason"], None, None, None, None, None, "not measured (no audit run)"])
             if not r.get("skipped"):
-                body.append([r["pipeline"], "-", "no stage left out for this scene", None, None, None, None, ""])
+                body.append([r["pipeline"], "-", "no stage left out for this scene", None, None, None, None, None, ""])
     out = ("<p>Stages each preset left out for this scene (the stages' <code>skip_reason</code>), and what "
            "forcing each back on costs: the stage's own time (what leaving it out saves), the whole render's "
            "time with it and the difference to the render without it (medians of the same repeats; the "
-           "difference also carries the other stages' timing noise), and the largest pixel difference.</p>")
-    out += html_table(["pipeline", "stage left out", "why", "time saved [s]", "render with it [s]",
-                       "render difference [s]", "max |difference|", "note"], body)
+           "difference also carries the other stages' timing noise), and the largest pixel difference. A "
+           "stage left out only on re-renders (a table found in the pipeline's cache) ran in the warm-up "
+           "render: its time there is the work each later render avoids.</p>")
+    out += html_table(["pipeline", "stage left out", "why", "time saved [s]", "in the warm-up [s]",
+                       "render with it [s]", "render difference [s]", "max |difference|", "note"], body)
     if plan:
         plan_rows = [[p, s["stage"], {True: "runs", False: "skipped", None: "at render time"}[s["run"]], s["reason"] or ""]
                      for p, stages in plan.items() for s in stages]
