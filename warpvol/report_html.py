@@ -221,7 +221,7 @@ def error_uri(image: np.ndarray, reference: np.ndarray) -> tuple[str, float]:
 CSS = """body{font-family:sans-serif;margin:1.5em;color:#222}table{border-collapse:collapse;font-size:12px}
 td,th{border:1px solid #ccc;padding:3px 6px;text-align:left}th{background:#f0f0f0}
 .grid{display:flex;flex-wrap:wrap;gap:12px}.card{border:1px solid #ddd;padding:6px;font-size:12px}
-.card img{width:220px;image-rendering:pixelated;display:block}.fail{color:#b00}.ok{color:#070}
+.card img{width:220px;image-rendering:pixelated;display:block}.pair{display:flex;gap:4px}.fail{color:#b00}.ok{color:#070}
 .plots{display:flex;flex-wrap:wrap;gap:16px;align-items:flex-start}.plots img{width:560px}"""
 
 
@@ -284,12 +284,13 @@ def bench_section(result: Any, plan: dict | None = None, title: str | None = Non
             cards.append(f'<div class="card fail"><b>{html.escape(r["pipeline"])}</b><br/>'
                          f'{html.escape(r.get("message", ""))}</div>')
             continue
-        cards.append(f'<div class="card"><img alt="{html.escape(r["pipeline"])}" src="{image_uri(img)}"/>'
-                     f'<b>{html.escape(r["pipeline"])}</b> {_fmt(r.get("total_s"))} s, RMSE {_fmt(r.get("rmse"))}</div>')
+        pair = f'<img alt="{html.escape(r["pipeline"])}" src="{image_uri(img)}"/>'
+        caption = f'<b>{html.escape(r["pipeline"])}</b> {_fmt(r.get("total_s"))} s, RMSE {_fmt(r.get("rmse"))}'
         if result.reference is not None:
             uri, scale = error_uri(img, result.reference)
-            cards.append(f'<div class="card"><img alt="error {html.escape(r["pipeline"])}" src="{uri}"/>'
-                         f'|error| of {html.escape(r["pipeline"])}, white = {scale:.2e}</div>')
+            pair += f'<img alt="error {html.escape(r["pipeline"])}" src="{uri}"/>'
+            caption += f"; right: |error|, white = {scale:.2e}"
+        cards.append(f'<div class="card"><div class="pair">{pair}</div>{caption}</div>')
     parts.append('<div class="grid">' + "".join(cards) + "</div>")
     parts.append("<h3>Planner audit</h3>" + _planner_html(result.rows, plan))
     return "\n".join(parts)
