@@ -90,16 +90,23 @@ def test_bench_rejects_bad_input_before_work(tmp_path, capsys):
     assert "--repeats" in capsys.readouterr().err
 
 
-def test_gpu_without_profiles_is_reported_in_words(tmp_path):
-    from warpvol.bench import gpu_support, run_bench
+def test_gpu_profiles_give_modelled_times_or_say_why_not(tmp_path, capsys):
+    from warpvol.bench import gpu_support
 
-    note = gpu_support("geforce3")
-    if note is None:
-        pytest.skip("this build has GPU profiles: --gpu is modelled, not refused")
-    res = run_bench(warpvol.builtin_scene("box").with_camera(width_px=4, height_px=4), ["raycast"], repeats=1,
-                    gpu="geforce3", quiet=True, audit=False)
-    assert res.rows[0]["status"] == "ok" and res.rows[0]["modelled_s"] is None
-    assert "not part of this build" in res.rows[0]["gpu_note"] and res.notes == [note]
+    if gpu_support("geforce6800gt") is not None:
+        pytest.skip(f"no GPU profiles in this build: {gpu_support('geforce6800gt')}")
+    assert main(["bench", "builtin:box", "--gpu", "nope", "-o", str(tmp_path / "x")]) == 2
+    assert "unknown GPU profile 'nope'" in capsys.readouterr().err and not (tmp_path / "x").exists()
+    assert main(["bench", "builtin:box", "--width", "12", "--height", "12", "--gpu", "geforce6800gt", "--quick",
+                 "--repeats", "1", "--no-audit", "--quiet", "-o", str(tmp_path)]) == 0
+    rows = {r["pipeline"]: r for r in json.loads((tmp_path / "table.json").read_text())["rows"]}
+    assert rows["raycast"]["modelled_s"] > 0 and rows["raycast"]["gpu_note"] is None
+    assert set(rows["raycast"]["modelled_stages_s"]) == set(rows["raycast"]["stages_s"])
+    for r in rows.values():  # every row is modelled, or says in words why not
+        assert r["status"] == "ok" and (r["modelled_s"] is not None or r["gpu_note"].startswith("not modelled"))
+    front = [r for r in rows.values() if r.get("pareto_modelled")]
+    assert front and all(r["modelled_s"] is not None for r in front)
+    assert (tmp_path / "pareto_modelled.svg").read_text().count("(Pareto front)") == len(front)
 
 
 @pytest.mark.parametrize("scene_name", list(BUILTIN_SCENES))

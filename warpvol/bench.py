@@ -186,6 +186,14 @@ def gpu_support(gpu: str | None, pipe: Any = None) -> str | None:
     return None
 
 
+def check_gpu(gpu: str | None) -> None:
+    """An unknown GPU profile is an error before any work (where the build has profiles)."""
+    if gpu is not None and gpu_support(gpu) is None:
+        from .model import load_profile
+
+        load_profile(gpu)
+
+
 def table_bytes(pipe: Any) -> int:
     """Bytes held by the pre-integration tables the pipeline's renders built (its table cache)."""
     cache = pipe.persistent.get("table_cache")
@@ -272,7 +280,8 @@ def bench_pipeline(pipe: Any, scene: Any, ref: np.ndarray | None, *, repeats: in
     if isinstance(mod, dict):
         row["modelled_s"], row["modelled_stages_s"] = mod.get("total"), dict(mod.get("stages", {}))
         if mod.get("total") is None and mod.get("unmodelled"):
-            row["gpu_note"] = f"not modelled: {mod['unmodelled']}"
+            row["gpu_note"] = "not modelled: " + "; ".join(
+                f"{st}: {', '.join(map(str, what))}" for st, what in mod["unmodelled"].items())
     err = image_error(img, ref) if ref is not None else {"rmse": None, "max_abs": None, "psnr": None}
     row.update(rmse=err["rmse"], max_abs=err["max_abs"], psnr=err["psnr"])
     row["planner"] = []
@@ -365,6 +374,7 @@ def run_bench(scene: Any, pipelines: Any = "all", *, repeats: int = 3, gpu: str 
     """Bench ``scene`` with each pipeline (see the module docstring); failures become rows.
     ``quick``: table resolutions capped (:func:`quick_pipeline`), noted in the result."""
     pipes = load_pipelines(pipelines, device, quick=quick)  # unknown names fail before any work
+    check_gpu(gpu)
     notes = [] if gpu is None else ([gpu_support(gpu)] if gpu_support(gpu) else [])
     if quick:
         notes.append(f"--quick: pre-integration table resolutions capped at {QUICK_TABLE_CAPS} (not the presets as shipped)")

@@ -286,13 +286,14 @@ def _outdir(path: str) -> Path:
 
 
 def cmd_bench(args) -> int:
-    from .bench import gpu_support, load_pipelines, resolve_pipelines, run_bench, write_bench
+    from .bench import check_gpu, gpu_support, load_pipelines, resolve_pipelines, run_bench, write_bench
     from .report_html import table_markdown
 
     _check_sizes(args)
     check_number("--repeats", args.repeats, lo=1, integer=True)
     names = resolve_pipelines(args.pipelines)
     plan_pipes = dict(zip(names, load_pipelines(names, args.device, quick=args.quick)))  # bad names fail first
+    check_gpu(args.gpu)
     scene = _load_scene(args.scene, args)
     check_image_memory(scene.camera, ["render", "png", "reference", "error_image"])
     outdir = _outdir(args.output)
