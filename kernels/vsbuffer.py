@@ -41,6 +41,7 @@ class VsbCells:
     tets: wp.array(dtype=wp.vec4i)
     planes: wp.array(dtype=wp.vec4)       # 4 per piece: (n, o), unit outward normal, face i opposite vertex i
     adj: wp.array(dtype=wp.int32)         # 4 per piece: neighbour piece across face i, -1 on the boundary
+    grad: wp.array(dtype=wp.vec4)         # per piece: scalar gradient g and offset g0, s = g . x + g0
     piece_cell: wp.array(dtype=wp.int32)
     cell_start: wp.array(dtype=wp.int32)
 
@@ -182,20 +183,27 @@ def robust_scalar(cells: VsbCells, q: int, f: int, p: wp.vec3) -> wp.vec2:
 @wp.func
 def trapezoid(s0: float, s1: float, length: float, steps: int, tf_s: wp.array(dtype=float),
               tf_v: wp.array(dtype=wp.vec4), model: int) -> wp.vec4:
-    """The paper's rule: equal sub-steps, trapezoidal emission with attenuation across each step."""
+    """The paper's rule: equal sub-steps, each with the trapezoid mean of its end values and its
+    attenuation accounted for: optical depth ``tau = h (rho_a + rho_b) / 2``, colour ``c (1 - e^-tau)``
+    (``color_extinction``) or ``c (1 - e^-tau) / rho`` (``emission_density``; ``c h`` where rho is 0),
+    with ``c``, ``rho`` the trapezoid means. Bounded for any extinction (the step's opacity is
+    ``1 - e^-tau``), exact for constant values, second order in the step."""
     h = length / float(steps)
     rgb = wp.vec3(0.0, 0.0, 0.0)
     tau = float(0.0)
     va = tf_eval(s0, tf_s, tf_v)
     for i in range(steps):
         vb = tf_eval(s0 + (s1 - s0) * float(i + 1) / float(steps), tf_s, tf_v)
-        ca = wp.vec3(va[0], va[1], va[2])
-        cb = wp.vec3(vb[0], vb[1], vb[2])
+        c = 0.5 * (wp.vec3(va[0], va[1], va[2]) + wp.vec3(vb[0], vb[1], vb[2]))
+        rho = 0.5 * (va[3] + vb[3])
+        dt = h * rho
+        a = 1.0 - wp.exp(-dt)
         if model == 0:
-            ca = ca * va[3]
-            cb = cb * vb[3]
-        dt = 0.5 * h * (va[3] + vb[3])
-        rgb += wp.exp(-tau) * (0.5 * h) * (ca + cb * wp.exp(-dt))
+            rgb += wp.exp(-tau) * a * c
+        elif rho > 0.0:
+            rgb += wp.exp(-tau) * (a / rho) * c
+        else:
+            rgb += wp.exp(-tau) * h * c
         tau += dt
         va = vb
     return wp.vec4(rgb[0], rgb[1], rgb[2], tau)
@@ -293,6 +301,7 @@ def integrate_cell(cells: VsbCells, w: Walk, cid: int, o: wp.vec3, d: wp.vec3, r
     trans = float(trans_in)
     t_last = float(t_in)
     s_last = float(s_in)
+    kl = wp.vec3i(key_last)
     q0 = cells.cell_start[cid]
     q1 = cells.cell_start[cid + 1]
     t_prev = float(-BIG)
@@ -327,10 +336,16 @@ def integrate_cell(cells: VsbCells, w: Walk, cid: int, o: wp.vec3, d: wp.vec3, r
             counters[tid, 4] += 1
         else:
             ta = wp.max(ta, t_last)
-            r = robust_scalar(cells, best, fa, o + d * ta)
-            sa = r[0]
+            if ta > iv[0] + w.eps:
+                # the ray starts inside the piece (eye plane inside the mesh): no face to solve on
+                g = cells.grad[best]
+                pin = o + d * ta
+                sa = g[0] * pin[0] + g[1] * pin[1] + g[2] * pin[2] + g[3]
+            else:
+                r = robust_scalar(cells, best, fa, o + d * ta)
+                sa = r[0]
+                counters[tid, 11] += int(r[1])
             counters[tid, 5] += 1
-            counters[tid, 11] += int(r[1])
         first = 0
         rb = robust_scalar(cells, best, fb, o + d * tb)
         counters[tid, 11] += int(rb[1])
@@ -344,13 +359,12 @@ def integrate_cell(cells: VsbCells, w: Walk, cid: int, o: wp.vec3, d: wp.vec3, r
             rgb += trans * wp.vec3(seg[0], seg[1], seg[2])
             trans = trans * wp.exp(-seg[3])
             t_last = tb
-        s_last = rb[0]
+            # the exit point is reusable only where the ray really got to it (not behind the eye)
+            s_last = rb[0]
+            kl = sorted3(face_tri(cells.tets[best], fb))
         exit_q = best
         exit_f = fb
         counters[tid, 2] += 1
-    kl = key_last
-    if exit_q >= 0:
-        kl = sorted3(face_tri(cells.tets[exit_q], exit_f))
     return rgb, trans, t_last, s_last, kl, exit_q, exit_f
 
 

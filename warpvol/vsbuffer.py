@@ -228,6 +228,8 @@ def _device_cells(cm: ConvexCellMesh, origin: np.ndarray, device: str):
     c.tets = wp.array(tm.tets.astype(np.int32), dtype=wp.vec4i, device=device)
     c.planes = wp.array(fp.reshape(-1, 4).astype(np.float32), dtype=wp.vec4, device=device)
     c.adj = wp.array(tm.adjacency.reshape(-1).astype(np.int32), dtype=wp.int32, device=device)
+    g0 = tm.offsets + tm.gradients @ origin
+    c.grad = wp.array(np.column_stack([tm.gradients, g0]).astype(np.float32), dtype=wp.vec4, device=device)
     c.piece_cell = wp.array(cm.piece_cell.astype(np.int32), dtype=wp.int32, device=device)
     c.cell_start = wp.array(cm.cell_start.astype(np.int32), dtype=wp.int32, device=device)
     return c
@@ -266,6 +268,16 @@ def work_counters(c: dict) -> dict:
     return out
 
 
+def _zero_counts(planes: int) -> dict:
+    from .kernels import vsbuffer as kv
+
+    cnt = {k: 0 for k in kv.COUNTERS}
+    cnt.update(planes=planes, drawn_cells=0, tree_nodes_tested=0, id_triangles_back=0, id_triangles_front=0,
+               id_pixels_read=0, vsb_pixels_compared=0, audit_pairs=0, missed_cells=0, rays_rewalked=0,
+               rewalk_candidates=0, passes=0, readbacks=0, bytes_down=0, clears=0, clear_pixels=0, vertices=0)
+    return cnt
+
+
 def _walk_inputs(cells: ConvexCellMesh, transfer, camera, device: str, rows: int, cmin: float, cspan: float,
                  integration: str, steps: int, neighbour_check: bool, adjacency: str, t_min: float, max_list: int):
     """``(Walk, VsbCells, ray origins, ray directions, tf_s, tf_v)`` on ``device`` for one frame."""
@@ -276,6 +288,11 @@ def _walk_inputs(cells: ConvexCellMesh, transfer, camera, device: str, rows: int
     origin = 0.5 * (cells.bounds[0] + cells.bounds[1])
     dc = _device_cells(cells, origin, device)
     o_np, d_np = camera.rays(normalise=True)
+    # origins moved along their rays (float64) to the sphere around the mesh: ray parameters then stay
+    # of the mesh's size in float32 however far the eye is (lengths, not positions, are integrated)
+    radius = 0.5 * float(np.linalg.norm(cells.bounds[1] - cells.bounds[0]))
+    t0 = np.maximum(np.einsum("hwk,hwk->hw", origin - o_np, d_np) - 1.01 * radius, 0.0)
+    o_np = o_np + t0[..., None] * d_np
     ray_o = wp.array((o_np - origin).reshape(-1, 3).astype(np.float32), dtype=wp.vec3, device=device)
     ray_d = wp.array(d_np.reshape(-1, 3).astype(np.float32), dtype=wp.vec3, device=device)
     tf_s, tf_v = transfer.to_warp(device)
@@ -399,6 +416,12 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         raise ConfigError(f"adjacency: {adjacency!r} not allowed; allowed: {', '.join(ADJACENCY_MODES)}")
     W, H = camera.width_px, camera.height_px
     R = int(depth_res) or H
+    if camera.projection == "perspective" and float(((cells.points - camera.eye) @ camera.forward).max()) <= 0.0:
+        # the whole mesh behind the eye: no plane cuts anything in view, the image is transparent
+        return np.zeros((H, W, 4), np.float32), {
+            "counters": _zero_counts(0), "id_s": 0.0, "walk_s": 0.0, "setup_s": 0.0, "depth_res": R, "range": 0.0,
+            "lists": None, "missed_length": 0.0, "missed_per_ray": np.zeros((H, W), np.int32) if audit else None,
+            "octree_nodes": 0, "cells": cells.n_cells, "tets": cells.n_tets, "note": "mesh behind the eye"}
     stride = R + 2
     t0 = time.perf_counter()
     abc = ray_space(cells.points, camera)
@@ -428,10 +451,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     rules = dict(raster_rules or {})
     P = max(1, min(int(planes_per_batch), H))
     threads = threads or cpu_threads()
-    cnt = {k: 0 for k in kv.COUNTERS}
-    cnt.update(planes=H, drawn_cells=0, tree_nodes_tested=0, id_triangles_back=0, id_triangles_front=0,
-               id_pixels_read=0, vsb_pixels_compared=0, audit_pairs=0, missed_cells=0, rays_rewalked=0,
-               rewalk_candidates=0, passes=0, readbacks=0, bytes_down=0, clears=0, clear_pixels=0, vertices=0)
+    cnt = _zero_counts(H)
     missed_length = 0.0
     ray_missed = wp.zeros(W * H, dtype=wp.int32, device=device)
     t_setup = time.perf_counter() - t0
