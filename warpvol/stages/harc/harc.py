@@ -1,0 +1,105 @@
+"""Stage ``harc``: hardware ray casting, first pass (Weiler et al. 2003; Espinha & Celes 2005 Fig. 6).
+
+Each pixel's ray starts at its first rasterised front boundary face (``harc_raster``) and walks one
+cell per fragment-program step (:mod:`warpvol.kernels.harc`): the paper's plane arithmetic on the
+96 bytes/tet textures (``walk = "planes"``) or the consistent Plücker walk shared with ``raycast``
+(``walk = "plucker"``). Segments are integrated exactly, with a 3D pre-integration table (``full``)
+or by partial pre-integration with iso splits (``partial``), composited front to back and written to
+the frame buffer in ``format``. Rays the float32 walk cannot resolve are redone in float64 on the
+host and counted (``unresolved_rays``).
+"""
+
+from __future__ import annotations
+
+from ...errors import ConfigError
+from ...parallel import cpu_threads
+from ...pipeline import Context, Param, Stage, register_stage
+
+HARC_PARAMS = (
+    Param("early_termination", float, 0.0, "stop a ray once its transmittance 1 - A is below this (0: off, "
+          "as in the paper's measurements)", lo=0.0, hi=1.0),
+    Param("max_steps", int, 1_000_000, "cells per ray and pass (bounded passes); a ray reaching it is counted",
+          lo=1),
+    Param("threads", int, 0, "host threads launching row blocks on the CPU (0: all cores)", lo=0, hi=256),
+)
+
+
+@register_stage
+class Harc(Stage):
+    """First ray-casting pass: boundary entry, cell-to-cell propagation, front-to-back compositing.
+
+    =================  =====  =========  ==========================================================
+    parameter          type   default    meaning
+    =================  =====  =========  ==========================================================
+    walk               str    planes     ``planes`` (paper's Fig. 6 on the texture layout) |
+                                         ``plucker`` (consistent walk of ``raycast``)
+    integration        str    exact      ``exact`` | ``full`` (3D table) | ``partial`` (psi + iso)
+    table              str    table3d    ``ctx.buffers`` key of the 3D table (``full``)
+    psi                str    psi        ``ctx.buffers`` key of the psi table (``partial``)
+    iso                str    iso        ``ctx.buffers`` key of the iso table (``partial``)
+    iso_rule           str    paper      ``paper`` (``sf == s_iso``) | ``behind`` (edge-anchored table)
+    weight_bits        int    8          texture filter-weight bits (0: fp32 weights)
+    format             str    fp32       frame-buffer format of each pass's result
+    early_termination  float  0          1 - A below this stops the ray (0: off)
+    max_steps          int    1000000    cells per ray and pass
+    threads            int    0          host threads for CPU row blocks (0: all cores)
+    =================  =====  =========  ==========================================================
+    """
+
+    name = "harc"
+    summary = ("hardware ray casting (HARC): rasterised boundary entry, one cell per fragment-program step, "
+               "exact / full / partial pre-integration, front-to-back in the buffer's format")
+    needs = ("cells", "harc_mesh", "harc_entry")
+    provides = ("harc_state", "image")
+    params = (
+        Param("walk", str, "planes", "exit-face arithmetic", choices=("planes", "plucker")),
+        Param("integration", str, "exact", "segment integration", choices=("exact", "full", "partial")),
+        Param("table", str, "table3d", "ctx.buffers key of the 3D table (full)"),
+        Param("psi", str, "psi", "ctx.buffers key of the psi table (partial)"),
+        Param("iso", str, "iso", "ctx.buffers key of the iso-crossing table (partial)"),
+        Param("iso_rule", str, "paper", "next_s_iso rule", choices=("paper", "behind")),
+        Param("weight_bits", int, 8, "texture filter-weight fraction bits (0: fp32)", lo=0, hi=16),
+        Param("format", str, "fp32", "frame-buffer format", choices=("unorm8", "unorm12", "unorm16", "fp16", "fp32")),
+    ) + HARC_PARAMS
+
+    def run(self, ctx: Context) -> None:
+        from ...harc import HarcState, integ_setup, march_pass, resolve_failed
+
+        mt = ctx.buffers["harc_mesh"]
+        if self.walk == "planes" and mt["struct"] is None:
+            raise ConfigError(f"{self.where}.walk: 'planes' needs harc_mesh layout = 'paper96'")
+        st = mt["struct"]
+        keep_st = None
+        if st is None:  # the plucker walk reads the compact layout (the cells' arrays)
+            from ...harc import empty_mesh_tex
+
+            st, keep_st = empty_mesh_tex(ctx.device)
+        tables = {}
+        for key in (("table",) if self.integration == "full" else ("psi", "iso") if self.integration == "partial"
+                    else ()):
+            name = self.config[key]
+            if name not in ctx.buffers:
+                raise ConfigError(f"{self.where}.{key}: no table {name!r} in this pipeline; put a table stage "
+                                  f"with output = {name!r} before this stage")
+            tables[key] = ctx.buffers[name]
+        ig, keep = integ_setup(self.integration, ctx.scene.transfer, ctx.device, iso_rule=self.iso_rule,
+                               weight_bits=self.weight_bits or None, lmax=ctx.scene.mesh.lmax, **tables)
+        cam = ctx.scene.camera
+        state = HarcState(cam.width_px * cam.height_px, ctx.device)
+        entry = ctx.buffers["harc_entry"]
+        threads = self.threads or cpu_threads()
+
+        def run_pass(max_steps=self.max_steps):
+            return march_pass(ctx, state, walk=self.walk, mesh_tex=st, entry=entry, ig=ig, fb_format=self.format,
+                              t_stop=self.early_termination, max_steps=max_steps, threads=threads)
+
+        c = run_pass()
+        ctx.buffers["harc_state"] = {"state": state, "run_pass": run_pass, "keep": (keep, keep_st),
+                                     "resolve": lambda: resolve_failed(ctx, state)}
+        # failed rays are redone whole in float64 now (and then done: later peel passes skip them)
+        redone = resolve_failed(ctx, state)
+        ctx.count(rays=state.n, passes=1, **c, unresolved_rays=redone)
+        ctx.stats["harc"] = {"walk": self.walk, "integration": self.integration, **c, "unresolved_rays": redone}
+        if redone:
+            ctx.progress(f"harc: {redone} rays the float32 walk could not resolve were redone in float64")
+        ctx.image = state.image(cam.height_px, cam.width_px)
