@@ -36,12 +36,12 @@ iso table missed (checked against the TF's control points; diagnostic), 6 textur
 import warp as wp
 
 from .formats import NumFmt, fmt_quantize
-from .integrate import integrate_segment
+from .integrate import exp_neg, integrate_piece, integrate_segment, integrate_segment_tf
 from .pt import axis_coord
 from .raycast import (STALL_STEPS, STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, Face, boundary_face, face_hit,
                       make_ray, ndc_xy, next_face, ray_setup)
 from .texture import Tex2D, Tex3D, tex2d, tex2d_texel, tex3d
-from .tf import tf_eval, tf_first_break, tf_next_break
+from .tf import tf_eval, tf_eval_upper, tf_first_break, tf_next_break, tf_upper
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -357,6 +357,8 @@ def harc_march(
     failed = int(0)
     exited = int(0)
     fetches = int(0)
+    k_in = int(-1)
+    v_in = wp.vec4(0.0, 0.0, 0.0, 0.0)
     while cells_visited < max_steps:
         cells_visited += 1
         t_out = float(0.0)
@@ -394,8 +396,28 @@ def harc_march(
         if stall > STALL_STEPS:
             failed = 1
             break
-        acc, n_sub = segment(ig, s_in, s_out, t_out - t_in, acc, t_stop, counters, chunk)
-        steps += n_sub
+        if ig.mode == INTEG_EXACT:
+            # the exact integral with the TF value carried from face to face (as raycast's march):
+            # one TF evaluation per face, one linear piece unless a control point is crossed
+            if k_in < 0:
+                k_in = tf_upper(s_in, ig.tf_s)
+                v_in = tf_eval_upper(s_in, k_in, ig.tf_s, ig.tf_v)
+            k_out = tf_upper(s_out, ig.tf_s)
+            v_out = tf_eval_upper(s_out, k_out, ig.tf_s, ig.tf_v)
+            seg = wp.vec4(0.0, 0.0, 0.0, 0.0)
+            if k_in == k_out:
+                seg = integrate_piece(t_out - t_in, v_in, v_out, ig.model)
+            else:
+                seg = integrate_segment_tf(s_in, s_out, v_in, v_out, t_out - t_in, ig.tf_s, ig.tf_v, ig.model)
+            acc = composite(acc, wp.vec4(seg[0], seg[1], seg[2], 1.0 - exp_neg(seg[3])))
+            steps += 1
+            k_in = k_out
+            v_in = v_out
+            if walk == WALK_PLANES:
+                k_in = -1  # the next cell recomputes sf from its own gradient (Fig. 6 line 10)
+        else:
+            acc, n_sub = segment(ig, s_in, s_out, t_out - t_in, acc, t_stop, counters, chunk)
+            steps += n_sub
         t_in = t_out
         s_in = s_out
         if 1.0 - acc[3] < t_stop:

@@ -93,13 +93,19 @@ class Harc(Stage):
             return march_pass(ctx, state, walk=self.walk, mesh_tex=st, entry=entry, ig=ig, fb_format=self.format,
                               t_stop=self.early_termination, max_steps=max_steps, threads=threads)
 
+        import time
+
+        t0 = time.perf_counter()
         c = run_pass()
+        t1 = time.perf_counter()
         ctx.buffers["harc_state"] = {"state": state, "run_pass": run_pass, "keep": (keep, keep_st),
                                      "resolve": lambda: resolve_failed(ctx, state)}
         # failed rays are redone whole in float64 now (and then done: later peel passes skip them)
         redone = resolve_failed(ctx, state)
+        t2 = time.perf_counter()
         ctx.count(rays=state.n, passes=1, **c, unresolved_rays=redone)
-        ctx.stats["harc"] = {"walk": self.walk, "integration": self.integration, **c, "unresolved_rays": redone}
+        ctx.stats["harc"] = {"walk": self.walk, "integration": self.integration, **c, "unresolved_rays": redone,
+                             "pass_s": t1 - t0, "float64_s": t2 - t1}
         if redone:
             ctx.progress(f"harc: {redone} rays the float32 walk could not resolve were redone in float64")
         ctx.image = state.image(cam.height_px, cam.width_px)
