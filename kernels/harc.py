@@ -30,7 +30,8 @@ the frame buffer in its number format (:func:`warpvol.kernels.formats.fmt_quanti
 
 Counters per row block (``counters[chunk, k]``): 0 entries, 1 fragment-program steps (iso sub-steps
 included), 2 cells visited, 3 failed rays, 4 rays stopped by the step bound, 5 iso crossings the
-iso table missed (checked against the TF's control points; diagnostic), 6 texture fetches.
+iso table missed (checked against the TF's control points; diagnostic), 6 texture fetches, 7 entries
+whose rasterised face the consistent edge test rejected (searched among the face's neighbours).
 """
 
 import warp as wp
@@ -38,7 +39,7 @@ import warp as wp
 from .formats import NumFmt, fmt_quantize
 from .integrate import exp_neg, integrate_piece, integrate_segment, integrate_segment_tf
 from .pt import axis_coord
-from .raycast import (STALL_STEPS, STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, Face, boundary_face, face_hit,
+from .raycast import (STALL_STEPS, STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, Face, Ray, boundary_face, face_hit,
                       make_ray, ndc_xy, next_face, ray_setup)
 from .texture import Tex2D, Tex3D, tex2d, tex2d_texel, tex3d
 from .tf import tf_eval, tf_eval_upper, tf_first_break, tf_next_break, tf_upper
@@ -135,6 +136,32 @@ def plane_exit(mt: MeshTex, c: int, o: wp.vec3, d: wp.vec3):
                 best = lam
                 f = i
     return best, f
+
+
+@wp.func
+def ring_search(b: int, bf_tet: wp.array(dtype=wp.int32), bf_face: wp.array(dtype=wp.int32),
+                bf_nbr: wp.array(dtype=wp.vec3i), tets: wp.array(dtype=wp.vec4i), verts: wp.array(dtype=wp.vec4),
+                r: Ray):
+    """First front boundary face among the edge neighbours of face ``b`` and their edge neighbours
+    that the ray crosses (consistent edge test): ``(face, crossed, t, s)``."""
+    nb = bf_nbr[b]
+    for k in range(3):
+        n1 = nb[k]
+        if n1 >= 0:
+            ok, t, s = face_hit(boundary_face(tets[bf_tet[n1]], bf_face[n1], verts, r), r)
+            if ok:
+                return n1, True, t, s
+    for k in range(3):
+        n1 = nb[k]
+        if n1 >= 0:
+            nb2 = bf_nbr[n1]
+            for j in range(3):
+                n2 = nb2[j]
+                if n2 >= 0 and n2 != b:
+                    ok, t, s = face_hit(boundary_face(tets[bf_tet[n2]], bf_face[n2], verts, r), r)
+                    if ok:
+                        return n2, True, t, s
+    return int(-1), False, float(0.0), float(0.0)
 
 
 @wp.func
@@ -272,8 +299,10 @@ def harc_march(
     tets: wp.array(dtype=wp.vec4i),
     nbr: wp.array(dtype=wp.vec4i),
     frag_start: wp.array(dtype=wp.int32),
-    frag_tet: wp.array(dtype=wp.int32),
-    frag_face: wp.array(dtype=wp.int32),
+    frag_bf: wp.array(dtype=wp.int32),
+    bf_tet: wp.array(dtype=wp.int32),
+    bf_face: wp.array(dtype=wp.int32),
+    bf_nbr: wp.array(dtype=wp.vec3i),
     ig: Integ,
     fb: NumFmt,
     t_stop: float,
@@ -311,8 +340,9 @@ def harc_march(
     fc = Face()
     entry_failed = int(0)
     for it in range(frag_start[idx], frag_start[idx + 1]):
-        c = int(frag_tet[it])
-        f = int(frag_face[it])
+        b = int(frag_bf[it])
+        c = int(bf_tet[b])
+        f = int(bf_face[b])
         if c == prev:
             continue
         if walk == WALK_PLANES:
@@ -327,8 +357,18 @@ def harc_march(
         else:
             cand = boundary_face(tets[c], f, verts, r)
             ok, t, s = face_hit(cand, r)
+            if not ok:
+                # the rasteriser's snapped coverage and the edge test disagree (pixel centre within
+                # 1/256 pixel of a projected edge): the ray crosses a face around this one, found
+                # among its edge neighbours and theirs on the front boundary
+                wp.atomic_add(counters, chunk, 7, 1)
+                b2, ok, t, s = ring_search(b, bf_tet, bf_face, bf_nbr, tets, verts, r)
+                if ok:
+                    c = int(bf_tet[b2])
+                    f = int(bf_face[b2])
+                    cand = boundary_face(tets[c], f, verts, r)
             if ok:
-                if t > t_start - t_tol:
+                if t > t_start - t_tol and c != prev:
                     cell = c
                     face_in = f
                     t_in = wp.max(t, t_start)
@@ -336,9 +376,7 @@ def harc_march(
                     fc = cand
                     break
             else:
-                # the rasteriser covered this pixel, the consistent edge test says the ray misses the
-                # face (pixel centre on a boundary edge): resolved in float64 on the host
-                entry_failed = 1
+                entry_failed = 1  # no face around crosses either: resolved in float64 on the host
                 break
     if entry_failed == 1 or t_clip > 0.0:
         status[idx] = STATUS_FAILED

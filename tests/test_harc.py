@@ -123,7 +123,7 @@ def segments(mode, tf, sf, sb, l, **kw):
     n = len(sf)
     out = wp.zeros(n, dtype=wp.vec4)
     steps = wp.zeros(n, dtype=wp.int32)
-    cnt = wp.zeros((1, 7), dtype=wp.int32)
+    cnt = wp.zeros((1, 8), dtype=wp.int32)
     wp.launch(kh.segments_kernel, dim=n, inputs=[ig, wp.array(sf), wp.array(sb), wp.array(l), cnt, out, steps])
     return out.numpy(), steps.numpy(), int(cnt.numpy()[0, 5])
 

@@ -87,13 +87,35 @@ def empty_mesh_tex(device: str = "cpu"):
     return st, t
 
 
+def surface_neighbours(tris: np.ndarray) -> np.ndarray:
+    """``(B, 3)`` int32: for each triangle of ``tris`` (B, 3 point indices) the triangle sharing its
+    edge ``k`` (opposite vertex ``k``), -1 where none of ``tris`` does."""
+    b = len(tris)
+    out = np.full((b, 3), -1, np.int64)
+    if b == 0:
+        return out.astype(np.int32)
+    e = np.stack([tris[:, [1, 2]], tris[:, [2, 0]], tris[:, [0, 1]]], axis=1).reshape(-1, 2)
+    e.sort(axis=1)
+    key = e[:, 0].astype(np.int64) * (int(tris.max()) + 1) + e[:, 1]
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    same = np.flatnonzero(ks[1:] == ks[:-1])
+    a, c = order[same], order[same + 1]
+    out.reshape(-1)[a] = c // 3
+    out.reshape(-1)[c] = a // 3
+    return out.astype(np.int32)
+
+
 def entry_fragments(mesh, camera, device: str = "cpu") -> dict:
     """Rasterise the front-facing boundary faces (the rasteriser unit, window coordinates from the
     vertex stage) into per-pixel fragment lists sorted by depth.
 
-    Returns ``dict(frag_start (H*W+1), frag_tet, frag_face, fragments, faces, max_layers)`` (device
-    arrays for the first three); ``max_layers`` is the most fragments any pixel has (the boundary
-    layers depth peeling has to go through).
+    Returns ``dict(frag_start (H*W+1), frag_bf, bf_tet, bf_face, bf_nbr, fragments, faces,
+    max_layers)``: per fragment the index of its face in the front-face list; per front face its tet,
+    local face and the three front faces sharing its edges (-1: none; the consistent walk searches
+    them when the rasteriser's snapped coverage and its edge test disagree near an edge);
+    ``max_layers`` is the most fragments any pixel has (the boundary layers depth peeling goes
+    through).
     """
     import warp as wp
 
@@ -106,32 +128,34 @@ def entry_fragments(mesh, camera, device: str = "cpu") -> dict:
     tris = mesh.boundary_triangles()[front]
     w, h = camera.width_px, camera.height_px
     npx = w * h
+    count = 0
     if len(bf):
         near, far = camera.depth_range(*mesh.bounds)
         vs = VertexStage.from_camera(camera, near, far, device=device).transform(mesh.points)
         rast = Rasterizer(w, h, device=device, depth_clip=False)
         fr = rast.fragments(vs.window_array, tris.astype(np.int32))
         count = fr.count
-    else:
-        count = 0
     if count:
         pix = fr.pixel_index()
         prim = fr.prim.numpy()[:count]
         depth = fr.depth.numpy()[:count]
         order = np.lexsort((depth, pix))
         start = fr.offsets.numpy().astype(np.int32)
-        tet, face = bf[prim[order], 0], bf[prim[order], 1]
+        frag_bf = prim[order]
         layers = int(np.diff(start).max())
     else:
         start = np.zeros(npx + 1, np.int32)
-        tet = face = np.zeros(0, np.int64)
+        frag_bf = np.zeros(0, np.int64)
         layers = 0
 
-    def arr(a):
-        return wp.array(np.ascontiguousarray(a, dtype=np.int32) if len(a) else np.zeros(1, np.int32),
-                        dtype=wp.int32, device=device)
+    def arr(a, dtype=wp.int32):
+        a = np.ascontiguousarray(a, dtype=np.int32)
+        if len(a) == 0:
+            a = np.zeros((1,) + a.shape[1:], np.int32)
+        return wp.array(a, dtype=dtype, device=device)
 
-    return {"frag_start": arr(start), "frag_tet": arr(tet), "frag_face": arr(face), "fragments": int(count),
+    return {"frag_start": arr(start), "frag_bf": arr(frag_bf), "bf_tet": arr(bf[:, 0]), "bf_face": arr(bf[:, 1]),
+            "bf_nbr": arr(surface_neighbours(tris).reshape(-1, 3), wp.vec3i), "fragments": int(count),
             "faces": int(len(bf)), "max_layers": layers}
 
 
@@ -205,8 +229,9 @@ class HarcState:
         return self.rgba.numpy().reshape(height, width, 4).astype(np.float32)
 
 
-N_COUNTERS = 7
-COUNTER_NAMES = ("entries", "steps", "cells", "failed", "step_bound", "iso_missed", "texture_fetches")
+N_COUNTERS = 8
+COUNTER_NAMES = ("entries", "steps", "cells", "failed", "step_bound", "iso_missed", "texture_fetches",
+                 "entry_searches")
 
 
 def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, fb_format: str, t_stop: float,
@@ -233,8 +258,8 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     common = [w, h, v3(*eye), v3(*cam.forward), v3(*cam.right), v3(*cam.true_up),
               int(cam.projection == "orthographic"), wp.float64(half_h), wp.float64(cam.aspect),
               wp.float64(max(cells["radius"], 1e-30)), WALKS[walk], mesh_tex,
-              cells["verts"], cells["tets"], cells["nbr"], entry["frag_start"], entry["frag_tet"],
-              entry["frag_face"], ig, get_format(fb_format).kernel_params(), float(t_stop), int(max_steps),
+              cells["verts"], cells["tets"], cells["nbr"], entry["frag_start"], entry["frag_bf"],
+              entry["bf_tet"], entry["bf_face"], entry["bf_nbr"], ig, get_format(fb_format).kernel_params(), float(t_stop), int(max_steps),
               1e-6 * cells["radius"]]
 
     def launch(b: int) -> None:
