@@ -37,3 +37,7 @@ class TableGuthe(TableStage):
         Param("alpha_format", str, "al16", "alpha1D format", choices=("al16", "rgba8", "fp32")),
         output_param("guthe"),
     )
+
+    def requires_caps(self) -> dict:
+        # degree + 1 coefficient textures (rho_hat rides in coefficient 0's alpha) + the dependent alpha1D
+        return {"texture_units": self.config["degree"] + 2}
