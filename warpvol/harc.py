@@ -160,11 +160,14 @@ def entry_fragments(mesh, camera, device: str = "cpu") -> dict:
 
 
 def integ_setup(mode: str, tf, device: str, *, table=None, psi=None, iso=None, iso_rule: str = "paper",
-                lmax: float = 1.0, table_texel: str = "auto", weight_bits: int | None = 8):
+                lmax: float = 1.0, table_texel: str = "auto", weight_bits: int | None = 8,
+                cache: dict | None = None):
     """The kernel's :class:`warpvol.kernels.harc.Integ` and the textures it holds.
 
     ``table``: a 3D pre-integration table (``data[l, sb, sf]``) for ``full``; ``psi`` (the psi
-    table) and ``iso`` (the iso-crossing table) for ``partial``."""
+    table) and ``iso`` (the iso-crossing table) for ``partial``. ``cache`` (a dict kept by the
+    pipeline) holds the textures made from tables by table key, so redrawing with the same tables
+    uploads nothing (as a texture stays resident on the card until the TF changes)."""
     from .gpu.texture import Texture2D, Texture3D
     from .kernels import harc as kh
     from .pt import TEXEL_FOR_TABLE, _axis_affine
@@ -178,8 +181,20 @@ def integ_setup(mode: str, tf, device: str, *, table=None, psi=None, iso=None, i
     lo, hi = tf.srange
     ig.s_off, ig.s_inv = float(lo), 1.0 / float(hi - lo)
     keep = []
-    dummy2 = Texture2D(np.zeros((1, 1, 4)), fmt="rgba32f", filter="nearest", device=device)
-    dummy3 = Texture3D(np.zeros((1, 1, 1, 4)), fmt="rgba32f", filter="nearest", device=device)
+    cache = {} if cache is None else cache
+
+    def cached(key, make):
+        key = (str(device),) + key
+        if key not in cache:
+            if len(cache) > 16:
+                cache.clear()
+            cache[key] = make()
+        return cache[key]
+
+    dummy2 = cached(("empty2d",), lambda: Texture2D(np.zeros((1, 1, 4)), fmt="rgba32f", filter="nearest",
+                                                     device=device))
+    dummy3 = cached(("empty3d",), lambda: Texture3D(np.zeros((1, 1, 1, 4)), fmt="rgba32f", filter="nearest",
+                                                     device=device))
     ig.table, ig.psi, ig.iso = dummy3.struct, dummy2.struct, dummy2.struct
     ig.t_sa, ig.t_sb, ig.l_inv, ig.t_la, ig.t_lb, ig.t_llog = 1.0, 0.0, 1.0 / lmax, 1.0, 0.0, 0
     ig.iso_rule = ISO_RULES[iso_rule]
@@ -190,7 +205,8 @@ def integ_setup(mode: str, tf, device: str, *, table=None, psi=None, iso=None, i
             raise ConfigError("integration 'full' needs a 3D table (a table stage before this one)")
         ax_l, _, ax_f = table.axes
         fmt = TEXEL_FOR_TABLE[table.format] if table_texel == "auto" else table_texel
-        t3 = Texture3D(table.data, fmt=fmt, filter="linear", device=device, weight_bits=weight_bits)
+        t3 = cached(("table", table.key, fmt, weight_bits),
+                    lambda: Texture3D(table.data, fmt=fmt, filter="linear", device=device, weight_bits=weight_bits))
         ig.table = t3.struct
         ig.s_off, ig.s_inv = float(ax_f.offset), 1.0 / float(ax_f.scale)
         ig.t_sa, ig.t_sb, _ = _axis_affine(ax_f)
@@ -200,14 +216,21 @@ def integ_setup(mode: str, tf, device: str, *, table=None, psi=None, iso=None, i
     elif mode == "partial":
         if psi is None or iso is None:
             raise ConfigError("integration 'partial' needs the psi and iso tables (table_psi, table_iso)")
-        pt = Texture2D(np.c_[psi.data.reshape(-1, 2), np.ones((psi.data[..., 0].size, 2))].reshape(
-            psi.data.shape[:2] + (4,)), fmt="rgba32f", filter="linear", device=device, weight_bits=weight_bits)
-        it = Texture2D(np.c_[iso.data.reshape(-1, 2), np.ones((iso.data[..., 0].size, 2))].reshape(
-            iso.data.shape[:2] + (4,)), fmt="rgba32f", filter="nearest", device=device)
+        pfmt = {"fp16": "rgba16f"}.get(psi.format, "rgba32f")  # fp16: linearly filtered on NV40
+        pt = cached(("psi", psi.key, pfmt, weight_bits), lambda: Texture2D(
+            rgba(psi.data), fmt=pfmt, filter="linear", device=device, weight_bits=weight_bits))
+        ifmt = {"fp16": "rgba16f"}.get(iso.format, "rgba32f")
+        it = cached(("iso", iso.key, ifmt), lambda: Texture2D(rgba(iso.data), fmt=ifmt, filter="nearest",
+                                                               device=device))
         ig.psi, ig.iso = pt.struct, it.struct
         ig.p_a, ig.p_b, _ = _axis_affine(psi.axes[1])
         keep += [pt, it]
     return ig, keep
+
+
+def rgba(two: np.ndarray) -> np.ndarray:
+    """A two-channel table ``(..., 2)`` as RGBA texels ``(a, b, 1, 1)``."""
+    return np.concatenate([two, np.ones(two.shape[:-1] + (2,), two.dtype)], axis=-1)
 
 
 class HarcState:

@@ -15,6 +15,27 @@ from ...errors import ConfigError
 from ...parallel import cpu_threads
 from ...pipeline import Context, Param, Stage, register_stage
 
+def count_pass(ctx: Context, c: dict, textures: list, walk: str, integration: str, fmt: str) -> None:
+    """Count one propagation pass for the throughput model: the pass, its fragment-program steps
+    (``cell_steps``: one per cell, plus the iso sub-steps of partial pre-integration), the texture
+    fetches by texture (mesh textures: 6 nearest rgba32f fetches per cell of the plane walk; the 3D
+    table one per step; psi and iso one each per sub-step) and one frame-buffer write per ray that
+    entered. Diagnostics (unresolved rays, iso misses, entry searches) go to ``stats``."""
+    from ...gpu.counters import active
+
+    ctx.count(passes=1, entries=c["entries"], cell_steps=c["steps"])
+    cnt = active()
+    if cnt is None:
+        return
+    tex = [t for t in textures if t.shape != (1, 1) and t.shape != (1, 1, 1)]
+    if walk == "planes" and c["texture_fetches"]:
+        cnt.add(**{"tex_2d_rgba32f_nearest": c["texture_fetches"], "texels": c["texture_fetches"]})
+    for t in tex:  # full: the 3D table; partial: psi, then iso
+        t.count(c["steps"])
+    if c["entries"]:
+        cnt.blend(fmt, c["entries"], blending=False)
+
+
 HARC_PARAMS = (
     Param("early_termination", float, 0.0, "stop a ray once its transmittance 1 - A is below this (0: off, "
           "as in the paper's measurements)", lo=0.0, hi=1.0),
@@ -62,6 +83,12 @@ class Harc(Stage):
         Param("format", str, "fp32", "frame-buffer format", choices=("unorm8", "unorm12", "unorm16", "fp16", "fp32")),
     ) + HARC_PARAMS
 
+    def requires_caps(self) -> dict:
+        caps = {"fragment_loops": True, "float_textures": True}
+        if self.integration == "full":
+            caps["tex3d"] = True
+        return caps
+
     def run(self, ctx: Context) -> None:
         from ...harc import HarcState, integ_setup, march_pass, resolve_failed
 
@@ -83,7 +110,8 @@ class Harc(Stage):
                                   f"with output = {name!r} before this stage")
             tables[key] = ctx.buffers[name]
         ig, keep = integ_setup(self.integration, ctx.scene.transfer, ctx.device, iso_rule=self.iso_rule,
-                               weight_bits=self.weight_bits or None, lmax=ctx.scene.mesh.lmax, **tables)
+                               weight_bits=self.weight_bits or None, lmax=ctx.scene.mesh.lmax,
+                               cache=ctx.persistent.setdefault("harc_textures", {}), **tables)
         cam = ctx.scene.camera
         state = HarcState(cam.width_px * cam.height_px, ctx.device)
         entry = ctx.buffers["harc_entry"]
@@ -99,11 +127,14 @@ class Harc(Stage):
         c = run_pass()
         t1 = time.perf_counter()
         ctx.buffers["harc_state"] = {"state": state, "run_pass": run_pass, "keep": (keep, keep_st),
+                                     "count": lambda c: count_pass(ctx, c, keep, self.walk, self.integration,
+                                                                   self.format),
                                      "resolve": lambda: resolve_failed(ctx, state)}
         # failed rays are redone whole in float64 now (and then done: later peel passes skip them)
         redone = resolve_failed(ctx, state)
         t2 = time.perf_counter()
-        ctx.count(rays=state.n, passes=1, **c, unresolved_rays=redone)
+        count_pass(ctx, c, keep, self.walk, self.integration, self.format)
+        ctx.count(rays=state.n)
         ctx.stats["harc"] = {"walk": self.walk, "integration": self.integration, **c, "unresolved_rays": redone,
                              "pass_s": t1 - t0, "float64_s": t2 - t1}
         if redone:

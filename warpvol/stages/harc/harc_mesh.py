@@ -51,7 +51,8 @@ class HarcMesh(Stage):
         else:
             cached = ctx.buffers["cells"]["cached"]
         ctx.buffers["harc_mesh"] = out
-        ctx.count(texture_bytes=int(round(sizes[self.layout] * mesh.n_tets)))
+        if not cached and self.layout == "compact":  # the texture unit counts the paper96 textures itself
+            ctx.count(texture_bytes=int(round(sizes[self.layout] * mesh.n_tets)))
         ctx.stats["harc_mesh"] = {"layout": self.layout, "bytes_per_tet": round(sizes[self.layout], 2),
                                   "bytes_per_tet_all": {k: round(v, 2) for k, v in sizes.items()},
                                   "cached": cached}

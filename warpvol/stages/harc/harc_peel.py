@@ -38,15 +38,15 @@ class HarcPeel(Stage):
             c = hs["run_pass"]()
             passes += 1
             # every peel pass rasterises the front boundary faces again (depth test against the last layer)
-            ctx.count(passes=1, fragments=entry["fragments"], **c)
+            ctx.count(fragments=entry["fragments"])
+            hs["count"](c)
             for k, v in c.items():
                 total[k] = total.get(k, 0) + v
             if c["entries"] == 0:
                 break
             entries += c["entries"]
         redone = hs["resolve"]()
-        ctx.count(unresolved_rays=redone)
-        ctx.stats["harc_peel"] = {"passes": passes, "reentries": entries, "unresolved_rays": redone,
+        ctx.stats["harc_peel"] = {"passes": passes, "reentries": entries, "unresolved_rays": redone, **total,
                                   "exhausted": passes == self.max_passes}
         st = hs["state"]
         cam = ctx.scene.camera

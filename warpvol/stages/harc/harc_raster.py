@@ -28,6 +28,6 @@ class HarcRaster(Stage):
 
         e = entry_fragments(ctx.scene.mesh, ctx.scene.camera, ctx.device)
         ctx.buffers["harc_entry"] = e
-        ctx.count(triangles=e["faces"], fragments=e["fragments"])
+        # the vertex stage and the rasteriser count their own work (vertices, primitives, fragments)
         ctx.stats["harc_raster"] = {"front_faces": e["faces"], "fragments": e["fragments"],
                                     "boundary_layers": e["max_layers"]}
