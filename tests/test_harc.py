@@ -108,7 +108,7 @@ def test_rays_through_vertices_and_edges(direction):
     for p in (pipe("harc_best"), exact_planes()):  # the consistent walk, and the paper's plane arithmetic
         res = p.render(sc, quiet=True)
         err = image_error(res.image, ref)
-        c = res.report["counters"]["harc"]
+        c = res.report["stats"]["harc"]
         assert c["step_bound"] == 0  # every ray terminated
         # nothing lost: within the exact walk's tolerance (rays the walk could not resolve were redone
         # in float64 and are counted in unresolved_rays)
