@@ -264,26 +264,15 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
 
     from .formats import get_format
     from .kernels import harc as kh
-    from .parallel import blocks, launch_blocks
+    from .parallel import launch_blocks
+    from .stages.raycast import camera_launch_args
 
-    cam = ctx.scene.camera
     cells = ctx.buffers["cells"]
-    w, h = cam.width_px, cam.height_px
-    if cam.projection == "perspective":
-        half_h = float(np.tan(np.radians(cam.fov_y_deg) / 2.0))
-    else:
-        half_h = cam.height / 2.0
-    eye = np.asarray(cam.eye, dtype=np.float64) - cells["origin"]
-    on_cpu = str(ctx.device).startswith("cpu")
-    rows = blocks(h, rows_per_block if on_cpu else h)
+    w, rows, cam_args = camera_launch_args(ctx, rows_per_block)
     counters = wp.zeros((len(rows), N_COUNTERS), dtype=wp.int32, device=ctx.device)
-    v3 = wp.vec3d
-    common = [w, h, v3(*eye), v3(*cam.forward), v3(*cam.right), v3(*cam.true_up),
-              int(cam.projection == "orthographic"), wp.float64(half_h), wp.float64(cam.aspect),
-              wp.float64(max(cells["radius"], 1e-30)), WALKS[walk], mesh_tex,
-              cells["verts"], cells["tets"], cells["nbr"], entry["frag_start"], entry["frag_bf"],
-              entry["bf_tet"], entry["bf_face"], entry["bf_nbr"], ig, get_format(fb_format).kernel_params(), float(t_stop), int(max_steps),
-              1e-6 * cells["radius"]]
+    common = cam_args + [WALKS[walk], mesh_tex, cells["verts"], cells["tets"], cells["nbr"], entry["frag_start"],
+                         entry["frag_bf"], entry["bf_tet"], entry["bf_face"], entry["bf_nbr"], ig,
+                         get_format(fb_format).kernel_params(), float(t_stop), int(max_steps), 1e-6 * cells["radius"]]
 
     def launch(b: int) -> None:
         r0, nr = rows[b]
