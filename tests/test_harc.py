@@ -184,3 +184,14 @@ def test_tf_colour_edit_rebuilds_no_partial_table():
     res = p.render(dataclasses.replace(sc, transfer=TransferFunction(pts, emission=sc.transfer.emission)), quiet=True)
     skipped = {s["stage"] for s in res.report["skipped"]}
     assert {"table_psi", "table_iso"} <= skipped
+
+
+@pytest.mark.parametrize("name", ["espinha2005_full", "espinha2005_partial"])
+def test_paper_presets_are_modelled_on_the_geforce_6800_gt(name):
+    # every counter the HARC stages write is one the throughput model prices (a redraw: tables resident)
+    p = Pipeline.load(name)
+    sc = builtin_scene("concave").with_camera(width_px=16, height_px=16)
+    p.render(sc, quiet=True)
+    m = p.render(sc, quiet=True, gpu="geforce6800gt").report["modelled_s"]
+    assert m["total"] is not None and m["total"] > 0, m
+    assert m["bound"]["harc"] == "shader" and m["stages"]["harc_peel"] > 0
