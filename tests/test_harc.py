@@ -195,3 +195,14 @@ def test_paper_presets_are_modelled_on_the_geforce_6800_gt(name):
     m = p.render(sc, quiet=True, gpu="geforce6800gt").report["modelled_s"]
     assert m["total"] is not None and m["total"] > 0, m
     assert m["bound"]["harc"] == "shader" and m["stages"]["harc_peel"] > 0
+
+
+def test_eye_inside_the_mesh_is_redone_in_float64_and_counted():
+    # the rasterised start needs the boundary in front of the eye: with the eye inside, every ray is
+    # resolved by the float64 redo and counted, never silently wrong
+    sc = builtin_scene("linear_box").with_camera(eye=(0.2, 0.1, 0.3), target=(0, 0, -1), projection="perspective",
+                                                 width_px=8, height_px=8)
+    ref = render_reference(sc.mesh, sc.transfer, sc.camera)
+    res = pipe("harc_best").render(sc, quiet=True)
+    assert image_error(res.image, ref)["max_abs"] <= TOLERANCES["harc_best"]["max_abs"]
+    assert res.report["stats"]["harc"]["unresolved_rays"] == 64
