@@ -50,7 +50,7 @@ def mesh_textures(mesh, origin: np.ndarray, device: str = "cpu"):
     """
     from .gpu.texture import Texture2D
     from .kernels import harc as kh
-    from .stages.cell_setup import neighbour_faces
+    from .stages.raycasting.cell_setup import neighbour_faces
 
     m = mesh.n_tets
     width = max(1, min(m, TEX_ROW))
@@ -121,7 +121,7 @@ def entry_fragments(mesh, camera, device: str = "cpu") -> dict:
 
     from .gpu.raster import Rasterizer
     from .gpu.vertex import VertexStage
-    from .stages.entry_bins import entry_face_mask
+    from .stages.raycasting.entry_bins import entry_face_mask
 
     front = entry_face_mask(mesh, camera)
     bf = mesh.boundary_faces[front]
@@ -265,7 +265,7 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     from .formats import get_format
     from .kernels import harc as kh
     from .parallel import launch_blocks
-    from .stages.raycast import camera_launch_args
+    from .stages.raycasting.raycast import camera_launch_args
 
     cells = ctx.buffers["cells"]
     w, rows, cam_args = camera_launch_args(ctx, rows_per_block)
@@ -285,11 +285,11 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
 
 def resolve_failed(ctx, state: HarcState) -> int:
     """Redo the rays marked failed in float64 on the host (whole ray, the reference's watertight
-    tracer: :func:`warpvol.stages.raycast.redo_pixels_float64`); returns how many."""
+    tracer: :func:`warpvol.stages.raycasting.raycast.redo_pixels_float64`); returns how many."""
     import warp as wp
 
     from .kernels import raycast as kr
-    from .stages.raycast import redo_pixels_float64
+    from .stages.raycasting.raycast import redo_pixels_float64
 
     status = state.status.numpy()
     failed = np.flatnonzero(status == int(kr.STATUS_FAILED))

@@ -12,7 +12,7 @@ fragment) and ``blends``.
 
 from __future__ import annotations
 
-from ..pipeline import Context, Param, Stage, register_stage
+from ...pipeline import Context, Param, Stage, register_stage
 from .pt_vertex_color import BATCH, DITHER, composite, fb_param
 
 
@@ -43,8 +43,8 @@ class PTCylindrical(Stage):
     provides = ("image",)
 
     def run(self, ctx: Context) -> None:
-        from ..errors import ConfigError
-        from ..pt import cylindrical_program
+        from ...errors import ConfigError
+        from ...pt import cylindrical_program
 
         key = self.config["planes"]
         if key not in ctx.buffers:

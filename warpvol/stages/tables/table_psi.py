@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from ..pipeline import Param, register_stage
-from ..tables.stage_support import TableStage, output_param
+from ...pipeline import Param, register_stage
+from ...tables.stage_support import TableStage, output_param
 
 
 @register_stage

@@ -11,7 +11,7 @@ Writes ``ctx.image``; counts ``fragments``, ``texture_lookups`` and ``blends``.
 
 from __future__ import annotations
 
-from ..pipeline import Context, Param, Stage, register_stage
+from ...pipeline import Context, Param, Stage, register_stage
 from .pt_vertex_color import BATCH, DITHER, composite, fb_param
 
 TEXELS = ("auto", "rgba8", "rgba12", "rgba16", "rgba16f", "rgba32f")
@@ -59,8 +59,8 @@ class PTTable3D(Stage):
     provides = ("image",)
 
     def run(self, ctx: Context) -> None:
-        from ..errors import ConfigError
-        from ..pt import table3d_program
+        from ...errors import ConfigError
+        from ...pt import table3d_program
 
         key = self.config["table"]
         if key not in ctx.buffers:

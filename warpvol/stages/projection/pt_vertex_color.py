@@ -13,7 +13,7 @@ Writes ``ctx.image``; counts ``fragments`` and ``blends`` (one blend per fragmen
 
 from __future__ import annotations
 
-from ..pipeline import Context, Param, Stage, register_stage
+from ...pipeline import Context, Param, Stage, register_stage
 
 FB_FORMATS = ("unorm8", "unorm12", "unorm16", "fp16", "fp32")
 
@@ -29,9 +29,9 @@ DITHER = Param("dither", bool, False, "alpha dithering (Kraus et al. 2004; fixed
 def composite(stage: Stage, ctx: Context, attrs, program) -> dict:
     """Draw ``pt_geometry`` with per-vertex ``attrs`` and ``program`` into a cleared buffer of the
     stage's format; set ``ctx.image`` and count (shared by the ``pt_*`` fragment stages)."""
-    from ..errors import ConfigError
-    from ..gpu.blend import BlendUnit, FrameBuffer
-    from ..pt import draw
+    from ...errors import ConfigError
+    from ...gpu.blend import BlendUnit, FrameBuffer
+    from ...pt import draw
 
     cam = ctx.scene.camera
     fmt = stage.config["format"]
@@ -76,7 +76,7 @@ class PTVertexColor(Stage):
     provides = ("image",)
 
     def run(self, ctx: Context) -> None:
-        from ..pt import vertex_color_program, vertex_colors
+        from ...pt import vertex_color_program, vertex_colors
 
         tf = ctx.scene.transfer
         attrs = vertex_colors(ctx.buffers["pt_geometry"], tf, device=ctx.device)

@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..parallel import blocks, cpu_threads, launch_blocks
-from ..pipeline import Context, Param, Stage, register_stage
+from ...parallel import blocks, cpu_threads, launch_blocks
+from ...pipeline import Context, Param, Stage, register_stage
 
 
 class MarchState:
@@ -25,7 +25,7 @@ class MarchState:
     def __init__(self, n: int, device: str):
         import warp as wp
 
-        from ..kernels import raycast as k
+        from ...kernels import raycast as k
 
         self.n, self.device = n, device
         self.rgb = wp.zeros(n, dtype=wp.vec3, device=device)
@@ -39,7 +39,7 @@ class MarchState:
     def image(self, height: int, width: int) -> np.ndarray:
         import warp as wp
 
-        from ..kernels import raycast as k
+        from ...kernels import raycast as k
 
         out = wp.zeros(self.n, dtype=wp.vec4, device=self.device)
         wp.launch(k.finish, dim=self.n, inputs=[self.rgb, self.trans, out], device=self.device)
@@ -51,7 +51,7 @@ def redo_pixels_float64(mesh, tf, camera, pixels: np.ndarray, max_pairs: int = 1
     walk could not resolve: the reference's watertight tracer (exact edge signs, simulation of
     simplicity) on just the candidate (tet, pixel) pairs of those pixels, integrated and composited
     in float64."""
-    from .. import reference as ref
+    from ... import reference as ref
 
     pixels = np.asarray(pixels, dtype=np.int64)
     out = np.zeros((len(pixels), 4))
@@ -115,7 +115,7 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
     :func:`resolve_failed`."""
     import warp as wp
 
-    from ..kernels import raycast as k
+    from ...kernels import raycast as k
 
     cells, bins = ctx.buffers["cells"], ctx.buffers["entry_bins"]
     w, rows, cam_args = camera_launch_args(ctx, rows_per_block)
@@ -138,7 +138,7 @@ def resolve_failed(ctx: Context, state: MarchState) -> int:
     returns how many."""
     import warp as wp
 
-    from ..kernels import raycast as k
+    from ...kernels import raycast as k
 
     status = state.status.numpy()
     failed = np.flatnonzero(status == int(k.STATUS_FAILED))
