@@ -51,6 +51,10 @@ class PTGeometry:
     classes: dict
     moved: int
     n_points: int
+    #: per output vertex (V+M, 4) float32: eye-space front / back point (x, y, z) and its clip w
+    #: (mesh points: the point itself for both); Kraus et al.'s perspective-correct attributes
+    front: np.ndarray | None = None
+    back: np.ndarray | None = None
 
     @property
     def n_tets(self) -> int:
@@ -83,10 +87,13 @@ def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
     tris = wp.zeros(max(4 * m, 1), dtype=wp.vec3i, device=device)
     klass = wp.zeros(max(m, 1), dtype=wp.int32, device=device)
     moved = wp.zeros(max(m, 1), dtype=wp.int32, device=device)
+    tfront = wp.zeros(max(m, 1), dtype=wp.vec4, device=device)
+    tback = wp.zeros(max(m, 1), dtype=wp.vec4, device=device)
     if m:
         wp.launch(kpt.k_classify, dim=m,
                   inputs=[win, eye, scal, wp.array(mesh.tets.astype(np.int32), dtype=wp.int32, device=device),
-                          wp.array(order, dtype=wp.int32, device=device), v, even, tp, ta, tris, klass, moved],
+                          wp.array(order, dtype=wp.int32, device=device), v, even, tp, ta, tris, klass, moved,
+                          tfront, tback],
                   device=device)
     snapped = wp.zeros(max(v, 1), dtype=wp.vec4, device=device)
     wp.launch(kpt.k_snap_positions, dim=v, inputs=[win, even, snapped], device=device)
@@ -94,8 +101,11 @@ def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
     s = mesh.scalars.astype(np.float32)
     attrs = np.concatenate([np.stack([s, s, np.zeros_like(s)], axis=1), ta.numpy()[:m]])
     counts = np.bincount(klass.numpy()[:m], minlength=len(CLASS_NAMES))
+    pe = np.concatenate([vertices.eye[:, :3].astype(np.float32), vertices.window[:, 3:4].astype(np.float32)], axis=1)
+    front = np.concatenate([pe, tfront.numpy()[:m]])
+    back = np.concatenate([pe, tback.numpy()[:m]])
     return PTGeometry(wp.array(pos, dtype=wp.vec4, device=device), attrs, tris.numpy()[:4 * m].reshape(-1, 3),
-                      dict(zip(CLASS_NAMES, map(int, counts))), int(moved.numpy()[:m].sum()), v)
+                      dict(zip(CLASS_NAMES, map(int, counts))), int(moved.numpy()[:m].sum()), v, front, back)
 
 
 def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend, *, batch_tets: int = 65536,
@@ -170,12 +180,86 @@ def _axis_affine(ax) -> tuple[float, float, int]:
     return 1.0, 0.0, ax.n
 
 
+#: fragment attribute modes: screen-linear (sf, sb, l), or Kraus et al.'s perspective-correct
+#: division with the exact or the approximate thickness (:func:`warpvol.kernels.pt.fragment_sfsbl`)
+PERSPECTIVE_MODES = {"off": 0, "exact": 1, "approx": 2}
+
+
+def perspective_attrs(geo: PTGeometry, device: str = "cpu") -> np.ndarray:
+    """Kraus et al. 2004 vertex program: per output vertex ``(sf/wf, sb/wb, 1/wf, 1/wb, xf/wf,
+    yf/wf, zf/wf, zb/wb)`` (V+M, 8) from the front and back points of :func:`decompose`."""
+    from .kernels import pt as kpt
+
+    if geo.front is None or geo.back is None:
+        raise ConfigError("pt_geometry: no front/back points (decompose() output needed)")
+    n = geo.attrs.shape[0]
+    out = wp.zeros((n, 8), dtype=wp.float32, device=device)
+    wp.launch(kpt.k_kraus_vertices, dim=n, inputs=[wp.array(geo.attrs, dtype=wp.vec3, device=device),
+                                                   wp.array(geo.front, dtype=wp.vec4, device=device),
+                                                   wp.array(geo.back, dtype=wp.vec4, device=device), out],
+              device=device)
+    return out.numpy()
+
+
+def _scalar_consts(ax) -> list:
+    sa, sb, _ = _axis_affine(ax)
+    return [float(ax.offset), 1.0 / float(ax.scale), sa, sb]
+
+
+def guthe_program(table, *, mode: str = "off", ortho: bool = False, weight_bits: int | None = 8,
+                  device: str = "cpu") -> Callable:
+    """Guthe et al. 2002 fragment program over a :func:`warpvol.tables.guthe2d.build_guthe2d` table:
+    the ``degree + 1`` coefficient textures (tile 0: ``C~_0`` and ``rho_hat``) as 2D textures of
+    an atlas, holding the table's stored (already quantised: signed 8-bit RGB and unsigned 8-bit A
+    for ``snorm8``) values exactly, bilinear with ``weight_bits`` filter fractions; the decoded
+    alpha1D (8-bit A or the 16-bit A/L value) as a linear 1D texture read by a dependent lookup."""
+    from .gpu.texture import Texture1D, TextureAtlas
+    from .kernels import pt as kpt
+
+    if table.name != "guthe2d":
+        raise ConfigError(f"table: expected Guthe 2D tables (stage table_guthe), got {table!r}")
+    deg = table.data.shape[0] - 1
+    atlas = TextureAtlas(table.data, fmt="rgba32f", filter="linear", device=device, weight_bits=weight_bits)
+    a1 = np.asarray(table.extra["alpha1d"], dtype=np.float32).reshape(-1)
+    alpha = Texture1D(a1, fmt="r32f", filter="linear", device=device, weight_bits=weight_bits)
+    na = a1.shape[0]
+    scale = wp.array(np.asarray(table.meta["coef_scale"], dtype=np.float32), dtype=wp.vec3, device=device)
+    consts = [*_scalar_consts(table.axes[2]), 1.0 / float(table.meta["lmax"]), 1.0 - 1.0 / na, 0.5 / na, deg]
+
+    def run(frags, tris):
+        out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
+        wp.launch(kpt.k_frag_guthe, dim=frags.count,
+                  inputs=[frags.attrs, PERSPECTIVE_MODES[mode], int(ortho), atlas.struct, alpha.struct, *consts,
+                          scale, out], device=device)
+        return out
+
+    return run
+
+
+def exact_program(tf, *, mode: str = "off", ortho: bool = False, device: str = "cpu") -> Callable:
+    """Fragment program without a table: each fragment's segment integrated exactly (fp32)."""
+    from .kernels import pt as kpt
+    from .tables.base import model_id
+
+    tf_s, tf_v = tf.to_warp(device)
+    flags = [PERSPECTIVE_MODES[mode], int(ortho)]
+
+    def run(frags, tris):
+        out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
+        wp.launch(kpt.k_frag_exact, dim=frags.count, inputs=[frags.attrs, *flags, tf_s, tf_v, model_id(tf), out],
+                  device=device)
+        return out
+
+    return run
+
+
 def table3d_program(table, texel_format: str = "auto", filter: str = "linear", weight_bits: int | None = 8,
-                    device: str = "cpu") -> tuple[Callable, str]:
+                    device: str = "cpu", *, mode: str = "off", ortho: bool = False) -> tuple[Callable, str]:
     """Fragment program looking up ``table`` (layout ``data[l, sb, sf]``, any 3D table builder) through
     an emulated 3D texture of ``texel_format`` (``auto``: the format that holds the table's stored
-    values: fp32 -> rgba32f, fp16 -> rgba16f, rgba8 -> rgba8, hilo16 -> rgba16). Returns the program
-    and the texel format used."""
+    values: fp32 -> rgba32f, fp16 -> rgba16f, rgba8 -> rgba8, hilo16 -> rgba16). ``mode``: the
+    fragments' attributes (:data:`PERSPECTIVE_MODES`; not ``off``: :func:`perspective_attrs`).
+    Returns the program and the texel format used."""
     from .gpu.texture import Texture3D
     from .kernels import pt as kpt
 
@@ -189,13 +273,14 @@ def table3d_program(table, texel_format: str = "auto", filter: str = "linear", w
             raise ConfigError(f"table: no 3D texel format holds a {table.format!r} table; give texel_format")
         texel_format = TEXEL_FOR_TABLE[table.format]
     tex = Texture3D(table.data, fmt=texel_format, filter=filter, device=device, weight_bits=weight_bits)
-    sa, sb, _ = _axis_affine(ax_f)
     la, lb, llog = _axis_affine(ax_l)
-    consts = [float(ax_f.offset), 1.0 / float(ax_f.scale), sa, sb, 1.0 / float(ax_l.scale), la, lb, llog]
+    consts = [*_scalar_consts(ax_f), 1.0 / float(ax_l.scale), la, lb, llog]
+    flags = [PERSPECTIVE_MODES[mode], int(ortho)]
 
     def run(frags, tris):
         out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
-        wp.launch(kpt.k_frag_table3d, dim=frags.count, inputs=[frags.attrs, tex.struct, *consts, out], device=device)
+        wp.launch(kpt.k_frag_table3d, dim=frags.count, inputs=[frags.attrs, *flags, tex.struct, *consts, out],
+                  device=device)
         return out
 
     return run, texel_format

@@ -4,7 +4,8 @@ The rasteriser interpolates ``(sf, sb, l)`` linearly in screen space (the thick 
 back scalars and thickness, ``(s, s, 0)`` on silhouette vertices); the fragment program normalises
 them over the table's axes and looks the premultiplied ``(C, α)`` up in the 3D table through the
 emulated 3D texture unit (trilinear with 8-bit filter-weight fractions by default); the blending unit
-composites back to front. Any 3D table from the table stages (``table_exact``,
+composites back to front. With stage ``pt_perspective`` before it, the fragments' (sf, sb, l)
+come from Kraus et al.'s per-fragment perspective division instead. Any 3D table from the table stages (``table_exact``,
 ``table_roettger_sw``, ``table_roettger_hw``, ``table_incremental``) via ``ctx.buffers[table]``.
 Writes ``ctx.image``; counts ``fragments``, ``texture_lookups`` and ``blends``.
 """
@@ -12,6 +13,7 @@ Writes ``ctx.image``; counts ``fragments``, ``texture_lookups`` and ``blends``.
 from __future__ import annotations
 
 from ..pipeline import Context, Param, Stage, register_stage
+from .pt_perspective import fragment_inputs
 from .pt_vertex_color import BATCH, DITHER, composite, fb_param
 
 TEXELS = ("auto", "rgba8", "rgba12", "rgba16", "rgba16f", "rgba32f")
@@ -66,9 +68,10 @@ class PTTable3D(Stage):
         if key not in ctx.buffers:
             raise ConfigError(f"{self.where}.table: no table {key!r} in this pipeline; put a table stage "
                               f"with output = {key!r} before this stage")
+        attrs, mode, ortho = fragment_inputs(ctx)
         program, texel = table3d_program(ctx.buffers[key], self.config["texel_format"], self.config["filter"],
-                                         self.config["weight_bits"] or None, device=ctx.device)
-        ctx.stats.setdefault("pt", {})["texel_format"] = texel
-        geo = ctx.buffers["pt_geometry"]
-        info = composite(self, ctx, geo.attrs, program)
+                                         self.config["weight_bits"] or None, device=ctx.device, mode=mode, ortho=ortho)
+        ctx.stats.setdefault("pt", {}).update(texel_format=texel, interpolation="screen-linear" if mode == "off"
+                                             else f"perspective-correct ({mode} thickness)")
+        info = composite(self, ctx, attrs, program)
         ctx.count(texture_lookups=info["fragments"])
