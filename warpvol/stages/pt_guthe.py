@@ -42,7 +42,8 @@ class PTGuthe(Stage):
     >>> from warpvol.builtin import builtin_scene
     >>> p = Pipeline.load("guthe2002_linear")
     >>> res = p.render(builtin_scene("box").with_camera(width_px=8, height_px=8), quiet=True)
-    >>> res.report["counters"]["pt_guthe"]["texture_lookups"] == 4 * res.report["counters"]["pt_guthe"]["fragments"]
+    >>> c = res.report["counters"]["pt_guthe"]  # linear: 2 coefficient textures + the dependent alpha
+    >>> c["texture_lookups"] == 3 * c["fragments"] > 0
     True
     """
 
