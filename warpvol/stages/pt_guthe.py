@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from ..pipeline import Context, Param, Stage, register_stage
 from .pt_perspective import fragment_inputs
-from .pt_vertex_color import BATCH, DITHER, composite, fb_param
+from .pt_vertex_color import BATCH, DITHER, composite, fb_param, table_from
 
 #: texture units per card (NV25 GeForce4 Ti: 4; R200 Radeon 8500: 6)
 TEXTURE_UNITS = {"geforce4": 4, "radeon8500": 6, "any": 64}
@@ -62,11 +62,7 @@ class PTGuthe(Stage):
         from ..errors import ConfigError
         from ..pt import guthe_program
 
-        key = self.config["table"]
-        if key not in ctx.buffers:
-            raise ConfigError(f"{self.where}.table: no table {key!r} in this pipeline; put a table_guthe stage "
-                              f"with output = {key!r} before this stage")
-        table = ctx.buffers[key]
+        table = table_from(self, ctx, "table_guthe")
         deg = table.data.shape[0] - 1
         units = TEXTURE_UNITS[self.config["gpu"]]
         if deg + 2 > units:
@@ -75,8 +71,7 @@ class PTGuthe(Stage):
         attrs, mode, ortho = fragment_inputs(ctx)
         program = guthe_program(table, mode=mode, ortho=ortho, weight_bits=self.config["weight_bits"] or None,
                                 device=ctx.device)
-        ctx.stats.setdefault("pt", {}).update(texture_units=deg + 2, interpolation="screen-linear" if mode == "off"
-                                             else f"perspective-correct ({mode} thickness)")
+        ctx.stats["pt"]["texture_units"] = deg + 2
         info = composite(self, ctx, attrs, program)
         # per fragment: deg + 1 coefficient lookups (2D) and one dependent alpha lookup (1D)
         ctx.count(texture_lookups=(deg + 2) * info["fragments"], dependent_lookups=info["fragments"])

@@ -48,7 +48,5 @@ class PTIntegrate(Stage):
 
         attrs, mode, ortho = fragment_inputs(ctx)
         program = exact_program(ctx.scene.transfer, mode=mode, ortho=ortho, device=ctx.device)
-        ctx.stats.setdefault("pt", {}).update(interpolation="screen-linear" if mode == "off"
-                                             else f"perspective-correct ({mode} thickness)")
         info = composite(self, ctx, attrs, program)
         ctx.count(segment_integrals=info["fragments"])

@@ -64,8 +64,12 @@ class PTPerspective(Stage):
 
 def fragment_inputs(ctx: Context) -> tuple:
     """``(vertex attributes, mode, ortho)`` for a PT fragment stage: Kraus' perspective attributes
-    when ``pt_perspective`` ran, else the screen-linear ``(sf, sb, l)``."""
+    when ``pt_perspective`` ran, else the screen-linear ``(sf, sb, l)``; says which in
+    ``stats.pt.interpolation``."""
     p = ctx.buffers.get("pt_perspective")
+    st = ctx.stats.setdefault("pt", {})
     if p is None:
+        st["interpolation"] = "screen-linear"
         return ctx.buffers["pt_geometry"].attrs, "off", False
+    st["interpolation"] = f"perspective-correct ({p['thickness']} thickness)"
     return p["attrs"], p["thickness"], p["ortho"]

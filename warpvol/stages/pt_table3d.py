@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from ..pipeline import Context, Param, Stage, register_stage
 from .pt_perspective import fragment_inputs
-from .pt_vertex_color import BATCH, DITHER, composite, fb_param
+from .pt_vertex_color import BATCH, DITHER, composite, fb_param, table_from
 
 TEXELS = ("auto", "rgba8", "rgba12", "rgba16", "rgba16f", "rgba32f")
 
@@ -61,17 +61,12 @@ class PTTable3D(Stage):
     provides = ("image",)
 
     def run(self, ctx: Context) -> None:
-        from ..errors import ConfigError
         from ..pt import table3d_program
 
-        key = self.config["table"]
-        if key not in ctx.buffers:
-            raise ConfigError(f"{self.where}.table: no table {key!r} in this pipeline; put a table stage "
-                              f"with output = {key!r} before this stage")
+        table = table_from(self, ctx, "table")
         attrs, mode, ortho = fragment_inputs(ctx)
-        program, texel = table3d_program(ctx.buffers[key], self.config["texel_format"], self.config["filter"],
+        program, texel = table3d_program(table, self.config["texel_format"], self.config["filter"],
                                          self.config["weight_bits"] or None, device=ctx.device, mode=mode, ortho=ortho)
-        ctx.stats.setdefault("pt", {}).update(texel_format=texel, interpolation="screen-linear" if mode == "off"
-                                             else f"perspective-correct ({mode} thickness)")
+        ctx.stats["pt"]["texel_format"] = texel
         info = composite(self, ctx, attrs, program)
         ctx.count(texture_lookups=info["fragments"])

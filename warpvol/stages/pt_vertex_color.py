@@ -47,6 +47,17 @@ def composite(stage: Stage, ctx: Context, attrs, program) -> dict:
     return info
 
 
+def table_from(stage: Stage, ctx: Context, producer: str):
+    """The table ``ctx.buffers[stage.config["table"]]``, or an error naming the stage to add."""
+    from ..errors import ConfigError
+
+    key = stage.config["table"]
+    if key not in ctx.buffers:
+        raise ConfigError(f"{stage.where}.table: no table {key!r} in this pipeline; put a {producer} stage "
+                          f"with output = {key!r} before this stage")
+    return ctx.buffers[key]
+
+
 @register_stage
 class PTVertexColor(Stage):
     """Averaged per-vertex colour, α = 1 − exp(−τ̄ l) per fragment, back-to-front blending.
