@@ -112,3 +112,14 @@ def test_guthe_texture_unit_budget_and_pingpong_overflow():
     exact = render(preset("guthe2002_linear", table_guthe={"n_s": 32}), sc).report["error"]["rmse"]
     assert err["radeon8500"] < err["geforce4"], err  # saturation loses the low 4 bits (Guthe §4)
     assert err["radeon8500"] < 2 * exact, (err, exact)
+
+
+@pytest.mark.parametrize("fmt", ["fp32", "unorm8"])
+def test_row_bands_give_the_same_image(fmt):
+    """pt_integrate's concurrent row bands (rows shifted on the exact 1/256 grid) = one whole draw."""
+    sc = scene("concave", 40)
+    one = preset("pt_best", pt_integrate={"row_bands": 1, "format": fmt}).render(sc, quiet=True)
+    three = preset("pt_best", pt_integrate={"row_bands": 3, "format": fmt, "batch_tets": 300}).render(sc, quiet=True)
+    assert np.array_equal(one.image, three.image)
+    c1, c3 = one.report["counters"]["pt_integrate"], three.report["counters"]["pt_integrate"]
+    assert c1["fragments"] == c3["fragments"] > 0

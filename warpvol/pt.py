@@ -109,14 +109,20 @@ def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
 
 
 def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend, *, batch_tets: int = 65536,
-         device: str = "cpu") -> dict:
+         device: str = "cpu", bands: int = 1) -> dict:
     """Rasterise ``geo`` in batches of ``batch_tets`` tets, run ``program(fragments, tris) -> colours``
     (a ``wp.array`` of vec4, premultiplied RGBA; ``tris`` the batch's triangles on the device, indexed
     by ``fragments.prim``) on each batch and blend into ``fb`` in order.
 
-    ``vertex_attrs`` (V+M, A) are interpolated linearly in screen space. Returns counts
-    (``fragments``, ``batches``).
+    ``vertex_attrs`` (V+M, A) are interpolated linearly in screen space. ``bands > 1`` draws that many
+    row bands of the image concurrently from host threads (:func:`warpvol.parallel.launch_blocks`),
+    each with its own rasteriser and frame buffer over its rows and the positions moved up by its first
+    row (an exact shift of the 1/256-pixel grid, so coverage, attributes and blending are those of one
+    whole-image draw: tested bit-exact); not with alpha dithering (its pattern follows the pixel index).
+    Returns counts (``fragments``, ``batches``, ``attrs_clamped``).
     """
+    if bands > 1 and fb.height > 1 and not getattr(blend, "dither", False):
+        return _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands)
     from .gpu.raster import Rasterizer
 
     from .kernels import pt as kpt
@@ -139,6 +145,34 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
                   device=device)
         blend.blend_fragments(fb, frags, program(frags, tris_w))
     return {"fragments": n_frag, "batches": n_batch, "attrs_clamped": int(clamped.numpy()[0])}
+
+
+def _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands) -> dict:
+    import dataclasses
+
+    from .gpu.blend import FrameBuffer
+    from .parallel import blocks, launch_blocks
+
+    rows = blocks(fb.height, -(-fb.height // bands))
+    pos = geo.positions.numpy()
+    full = fb.readback()
+    infos = [None] * len(rows)
+
+    def run(b):
+        r0, h = rows[b]
+        p = pos.copy()
+        p[:, 1] -= np.float32(r0)
+        sub = dataclasses.replace(geo, positions=wp.array(p, dtype=wp.vec4, device=device))
+        bfb = FrameBuffer(fb.width, h, fb.fmt, device=device)
+        bfb.array.assign(wp.array(np.ascontiguousarray(full[r0:r0 + h]), dtype=wp.vec4, device=device))
+        infos[b] = draw(sub, vertex_attrs, program, bfb, blend, batch_tets=batch_tets, device=device)
+        full[r0:r0 + h] = bfb.readback()
+
+    launch_blocks(device, len(rows), run)
+    fb.array.assign(wp.array(full, dtype=wp.vec4, device=device))
+    out = {k: sum(i[k] for i in infos) for k in ("fragments", "attrs_clamped")}
+    out.update(batches=infos[0]["batches"], bands=len(rows))
+    return out
 
 
 def vertex_colors(geo: PTGeometry, tf, device: str = "cpu") -> np.ndarray:

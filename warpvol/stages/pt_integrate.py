@@ -2,14 +2,15 @@
 
 The fragment program integrates each fragment's ray segment ``(sf, sb, l)`` exactly for the
 piecewise-linear TF (:func:`warpvol.kernels.integrate.integrate_segment`, the reference's closed
-form, in fp32): no table resolution, quantisation or filtering error. With ``pt_perspective``
+form, in fp32): no table resolution, quantisation or filtering error. Row bands of the image are drawn
+concurrently from the host thread pool (``row_bands``; the same image as one draw). With ``pt_perspective``
 before it the segment is perspective-correct. Writes ``ctx.image``; counts ``fragments``,
 ``blends`` and ``segment_integrals``.
 """
 
 from __future__ import annotations
 
-from ..pipeline import Context, Stage, register_stage
+from ..pipeline import Context, Param, Stage, register_stage
 from .pt_perspective import fragment_inputs
 from .pt_vertex_color import BATCH, DITHER, composite, fb_param
 
@@ -25,6 +26,8 @@ class PTIntegrate(Stage):
                                  ``fp16`` ``fp32``
     dither      bool   false                                                 alpha dithering
     batch_tets  int    65536     [1, 2^26]                                   tets per batch
+    row_bands   int    0         [0, 256]; 0 = one per CPU core (1 on       image row bands drawn
+                                 other devices)                              concurrently
     ==========  =====  ========  ==========================================  =======================
 
     Example
@@ -39,7 +42,8 @@ class PTIntegrate(Stage):
 
     name = "pt_integrate"
     summary = "PT fragment program: exact per-fragment segment integral of the TF (no table; beyond the papers)"
-    params = (fb_param("fp32"), DITHER, BATCH)
+    params = (fb_param("fp32"), DITHER, BATCH,
+              Param("row_bands", int, 0, "row bands drawn concurrently (0: one per CPU core; 1: off)", lo=0, hi=256))
     needs = ("pt_geometry",)
     provides = ("image",)
 
@@ -48,5 +52,10 @@ class PTIntegrate(Stage):
 
         attrs, mode, ortho = fragment_inputs(ctx)
         program = exact_program(ctx.scene.transfer, mode=mode, ortho=ortho, device=ctx.device)
-        info = composite(self, ctx, attrs, program)
+        bands = self.config["row_bands"]
+        if bands == 0:
+            from ..parallel import cpu_threads
+
+            bands = cpu_threads() if str(ctx.device).startswith("cpu") else 1
+        info = composite(self, ctx, attrs, program, bands=bands)
         ctx.count(segment_integrals=info["fragments"])

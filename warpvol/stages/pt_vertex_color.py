@@ -26,9 +26,10 @@ BATCH = Param("batch_tets", int, 65536, "tets rasterised per fragment batch (mem
 DITHER = Param("dither", bool, False, "alpha dithering (Kraus et al. 2004; fixed-point buffers only)")
 
 
-def composite(stage: Stage, ctx: Context, attrs, program) -> dict:
+def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1) -> dict:
     """Draw ``pt_geometry`` with per-vertex ``attrs`` and ``program`` into a cleared buffer of the
-    stage's format; set ``ctx.image`` and count (shared by the ``pt_*`` fragment stages)."""
+    stage's format (in ``bands`` concurrent row bands, :func:`warpvol.pt.draw`); set ``ctx.image``
+    and count (shared by the ``pt_*`` fragment stages)."""
     from ..errors import ConfigError
     from ..gpu.blend import BlendUnit, FrameBuffer
     from ..pt import draw
@@ -40,7 +41,7 @@ def composite(stage: Stage, ctx: Context, attrs, program) -> dict:
     fb = FrameBuffer(cam.width_px, cam.height_px, fmt, device=ctx.device)
     fb.clear((0, 0, 0, 0))
     info = draw(ctx.buffers["pt_geometry"], attrs, program, fb, BlendUnit.over(dither=stage.config["dither"]),
-                batch_tets=stage.config["batch_tets"], device=ctx.device)
+                batch_tets=stage.config["batch_tets"], device=ctx.device, bands=bands)
     ctx.image = fb.readback()
     ctx.count(fragments=info["fragments"], blends=info["fragments"], batches=info["batches"],
               attrs_clamped=info["attrs_clamped"])
