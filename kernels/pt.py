@@ -32,7 +32,14 @@ Fragment programs (one thread per fragment of :meth:`warpvol.gpu.raster.Rasteriz
 * ``k_frag_cylindrical``: Roettger & Ertl 2002 §4 — per vertex ``(α, s, t)`` (eq. 10, one division,
   ``k_cyl_vertices``); ``α`` is constant over each triangle (all its points lie on one plane through
   the front diagonal) and taken from the triangle's thick vertex, ``(s, t)`` interpolated linearly;
-  the two nearest α-planes are sampled from the atlas by the 2D texture unit and blended.
+  the two nearest α-planes are sampled from the atlas by the 2D texture unit and blended;
+* ``k_frag_guthe``: Guthe et al. 2002 — ρ̂ and the colour coefficients from 2D textures (atlas tiles),
+  α by a dependent 1D lookup of ``l ρ̂``, colour a polynomial in ``l``;
+* ``k_frag_exact``: no table — the fragment's segment integrated exactly (``pt_best``).
+
+Every table program reads its fragment's (sf, sb, l) through :func:`fragment_sfsbl`: as interpolated,
+or (Kraus, Qiao & Ebert 2004) from ``a/w`` and ``1/w`` of the front and back points
+(``k_kraus_vertices``) divided per fragment, with the exact or the approximate thickness.
 """
 
 import warp as wp

@@ -123,3 +123,29 @@ def test_row_bands_give_the_same_image(fmt):
     assert np.array_equal(one.image, three.image)
     c1, c3 = one.report["counters"]["pt_integrate"], three.report["counters"]["pt_integrate"]
     assert c1["fragments"] == c3["fragments"] > 0
+
+
+def test_front_and_back_points_of_thick_vertices():
+    """decompose(): each thick vertex's front and back eye points are l apart, the front one nearer
+    the eye (eye space looks down -z), and both project onto the thick vertex (within the 1/256 snap
+    and the sliver moves); silhouette vertices carry their own point twice."""
+    from warpvol.gpu.vertex import VertexStage
+    from warpvol.pt import decompose
+    from warpvol.sort import visibility_order
+
+    sc = scene("concave", 32)
+    vs = VertexStage.from_camera(sc.camera, *sc.camera.depth_range(*sc.mesh.bounds))
+    v = vs.transform(sc.mesh.points)
+    geo = decompose(sc.mesh, v, visibility_order(sc.mesh, sc.camera).order)
+    n = geo.n_points
+    live = np.flatnonzero(geo.attrs[n:, 2] > 0) + n
+    f, b = geo.front[live], geo.back[live]
+    assert np.allclose(np.linalg.norm(f[:, :3] - b[:, :3], axis=1), geo.attrs[live, 2], rtol=1e-4, atol=1e-6)
+    assert (f[:, 2] >= b[:, 2]).all()
+    assert np.array_equal(geo.front[:n], geo.back[:n]) and np.allclose(geo.front[:n, 3], v.window[:, 3])
+    near, far = sc.camera.depth_range(*sc.mesh.bounds)
+    P, V = sc.camera.projection_matrix(near, far), sc.camera.viewport_matrix()
+    for pts in (f, b):  # eye -> clip -> window, against the thick vertex's (snapped) position
+        c = np.c_[pts[:, :3], np.ones(len(pts))] @ P.T
+        w = (np.c_[c[:, :3] / c[:, 3:], np.ones(len(c))] @ V.T)[:, :2]
+        assert np.abs(w - geo.positions.numpy()[live, :2]).max() < 0.05

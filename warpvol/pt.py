@@ -8,7 +8,11 @@ Plain functions the ``pt_*`` stages are thin over (tests call them directly):
   (triangles ``4k .. 4k+3`` belong to the k-th tet of the order; unused ones are degenerate);
 * :func:`draw` — rasterise the triangles in batches of tets (fragments per pixel in primitive
   order, screen-space linear attributes, no depth test), run a fragment program on each batch, and
-  blend the fragments into a frame buffer with the blending unit, back to front.
+  blend the fragments into a frame buffer with the blending unit, back to front (optionally in
+  concurrent row bands);
+* fragment programs: :func:`vertex_color_program`, :func:`table3d_program`, :func:`guthe_program`,
+  :func:`exact_program`, :func:`cylindrical_program`; :func:`perspective_attrs` gives the Kraus et al.
+  2004 per-vertex attributes for perspective-correct (sf, sb, l).
 
 Example
 -------
