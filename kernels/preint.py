@@ -445,7 +445,7 @@ def iso_table(x: wp.array(dtype=float), iso: wp.array(dtype=float), limit: int, 
 # for full-slice rectangles (every rectangle covers every pixel exactly once).
 
 from .blend import BlendState, blend  # noqa: E402
-from .formats import NumFmt, fmt_encode, fmt_quantize  # noqa: E402
+from .formats import NumFmt, fmt_encode, fmt_quantize, unorm_encode  # noqa: E402
 from .texture import Tex1D, tex1d  # noqa: E402
 
 
@@ -457,17 +457,49 @@ def rect_coord(sf: float, sb: float, s: int, n: int) -> float:
     return sb + (float(s) / float(n - 1)) * (sf - sb)
 
 
+# 4x4 ordered-dither thresholds (Bayer), in 16ths: OpenGL's GL_DITHER on the hardware of the time
+BAYER4 = wp.constant(wp.mat44(0.0, 8.0, 2.0, 10.0, 12.0, 4.0, 14.0, 6.0, 3.0, 11.0, 1.0, 9.0, 15.0, 7.0, 13.0, 5.0))
+
+
+@wp.func
+def gl_dither_over(bs: BlendState, src: wp.vec4, dst: wp.vec4, x: int, y: int) -> wp.vec4:
+    """GL_DITHER (OpenGL 1.x §4.1.9: dithering after blending) for the blend functions of hardware
+    pre-integration, ``src * K + dst * (1 - src.a)`` with K = the constant colour (one-pass) or 1:
+    the exact integer blend of :func:`warpvol.kernels.blend.blend_unorm`, but rounded by the 4x4
+    ordered-dither threshold of pixel (x, y) instead of to nearest. Fixed-point buffers only."""
+    bits = bs.fmt.bits
+    n = (1 << bits) - 1
+    t = (BAYER4[y % 4, x % 4] + 0.5) / 16.0
+    tn = int(t * float(n))
+    sa = unorm_encode(wp.clamp(src[3], 0.0, 1.0), bits, 0, 0)
+    out = wp.vec4()
+    for c in range(4):
+        kc = n
+        if bs.src_rgb == 10:  # constant_color
+            kc = unorm_encode(wp.clamp(bs.constant[c], 0.0, 1.0), bits, 0, 0)
+        sc = unorm_encode(wp.clamp(src[c], 0.0, 1.0), bits, 0, 0)
+        dc = unorm_encode(dst[c], bits, 0, 0)
+        num = sc * kc + dc * (n - sa)
+        out[c] = float(wp.min((num + tn) / n, n)) / float(n)
+    return out
+
+
 @wp.kernel
 def hw_preint_slice(tex: Tex1D, bs: BlendState, fb: wp.array2d(dtype=wp.vec4), xf: wp.array(dtype=float),
                     xb: wp.array(dtype=float), n_steps: int, n_draw: int, group: int, comb: NumFmt,
-                    modulate: wp.vec4):
+                    modulate: wp.vec4, ua: float, ub: float, e_scale: float, gl_dither: int, row0: int):
     """Draw the n rectangles of one slice (Roettger & Ertl 2002 §3) into ``fb[sb, sf]``.
 
     ``group = 1``: one textured rectangle per step, fragment = texel * ``modulate`` (primary colour).
     ``group = 4``: GeForce3 register combiners: 4 texture units sample 4 consecutive steps, 3 general
     combiner steps fold them back to front, each rounded to ``comb`` (12-bit internal precision), and
     the final combiner outputs ``(C, 1 - theta)`` (the blending unit rounds it to the 8-bit buffer).
-    Only the first ``n_draw`` rectangles are drawn (intermediate frame buffers, Fig. 4).
+    ``e_scale`` != 1 (combiners only): the texture holds kappa and each combiner step computes
+    ``(l/n) kappa + (1 - a) C`` with ``e_scale = l/n`` at 12 bits (the texel's 8 bits then carry
+    kappa, not the small ``(l/n) kappa``). ``gl_dither``: blends rounded with OpenGL's ordered dither
+    (:func:`gl_dither_over`; ``row0``: the block's first row). Only the first ``n_draw`` rectangles are drawn (Fig. 4). The texture
+    coordinate of scalar ``w`` is ``ua w + ub`` (eq. 8: texel k of m holds TF entry k at w = k/(m-1),
+    so ``ua = (m-1)/m``, ``ub = 1/(2m)``; the affine map is what the rectangles' corner coordinates carry).
     """
     j, i = wp.tid()
     sf = xf[i]
@@ -476,19 +508,25 @@ def hw_preint_slice(tex: Tex1D, bs: BlendState, fb: wp.array2d(dtype=wp.vec4), x
     s = int(0)
     prim = int(0)
     while s < n_draw:
-        t = tex1d(tex, rect_coord(sf, sb, s, n_steps))
+        t = tex1d(tex, ua * rect_coord(sf, sb, s, n_steps) + ub)
         rgb = wp.vec3(t[0], t[1], t[2])
+        if e_scale != 1.0:
+            rgb = wp.vec3(fmt_quantize(comb, e_scale * t[0]), fmt_quantize(comb, e_scale * t[1]),
+                          fmt_quantize(comb, e_scale * t[2]))
         th = 1.0 - t[3]
         for g in range(1, group):
             if s + g < n_draw:
-                u = tex1d(tex, rect_coord(sf, sb, s + g, n_steps))
+                u = tex1d(tex, ua * rect_coord(sf, sb, s + g, n_steps) + ub)
                 a = u[3]
-                rgb = wp.vec3(fmt_quantize(comb, u[0] + (1.0 - a) * rgb[0]),
-                              fmt_quantize(comb, u[1] + (1.0 - a) * rgb[1]),
-                              fmt_quantize(comb, u[2] + (1.0 - a) * rgb[2]))
+                rgb = wp.vec3(fmt_quantize(comb, e_scale * u[0] + (1.0 - a) * rgb[0]),
+                              fmt_quantize(comb, e_scale * u[1] + (1.0 - a) * rgb[1]),
+                              fmt_quantize(comb, e_scale * u[2] + (1.0 - a) * rgb[2]))
                 th = fmt_quantize(comb, (1.0 - a) * th)
         frag = wp.vec4(rgb[0] * modulate[0], rgb[1] * modulate[1], rgb[2] * modulate[2], (1.0 - th) * modulate[3])
-        d = blend(bs, frag, d, i, j, prim)
+        if gl_dither != 0:
+            d = gl_dither_over(bs, frag, d, i, j + row0)  # pattern of the whole slice (row blocks)
+        else:
+            d = blend(bs, frag, d, i, j, prim)
         prim += 1
         s += group
     fb[j, i] = d

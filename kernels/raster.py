@@ -367,10 +367,13 @@ def fragment_prologue(s: TriSetup, pos: wp.array(dtype=wp.vec4), t: int, j: int,
     """Per-fragment front end of triangle ``t`` at pixel (row i, column j), centre (px, py): coverage,
     screen barycentrics, depth interpolation, depth clip, depth test and write.
 
-    Returns ``(passed, l, zb)``: whether a fragment survives, its screen barycentrics, and the depth
-    buffer value after it (``z`` if it passed with depth writes on, else ``zb`` unchanged).
+    Returns ``(passed, generated, l, zb)``: whether a fragment survives, whether one was generated
+    (pixel centre covered and not depth-clipped: what reaches the depth test; the hardware counters),
+    its screen barycentrics, and the depth buffer value after it (``z`` if it passed with depth writes
+    on, else ``zb`` unchanged).
     """
-    ok = coverage(s, t, j, i)
+    cov = coverage(s, t, j, i)
+    ok = cov
     l = wp.vec3(0.0, 0.0, 0.0)
     zn = zb
     if ok:
@@ -379,11 +382,12 @@ def fragment_prologue(s: TriSetup, pos: wp.array(dtype=wp.vec4), t: int, j: int,
         z = interp_depth(pos, v, l)
         if depth_clip != 0 and (z < 0.0 or z > 1.0):
             ok = False
+            cov = False
         elif not depth_pass(depth_func, z, zb):
             ok = False
         elif depth_write != 0:
             zn = z
-    return ok, l, zn
+    return ok, cov, l, zn
 
 
 # ------------------------------------------------------------------------------------------------
@@ -453,18 +457,25 @@ def k_fragments(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=
 def k_draw_colors(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i),
                   colors: wp.array(dtype=wp.vec4), mode: int,
                   depth: wp.array2d(dtype=wp.float32), depth_func: int, depth_write: int, depth_clip: int,
-                  bs: BlendState, fb: wp.array2d(dtype=wp.vec4), prim0: int):
-    """Fused raster + Gouraud/flat colour + blend, in primitive order per pixel."""
+                  bs: BlendState, fb: wp.array2d(dtype=wp.vec4), prim0: int, counting: int,
+                  cnt: wp.array(dtype=wp.vec2i)):
+    """Fused raster + Gouraud/flat colour + blend, in primitive order per pixel. ``counting``: write
+    the pixel's (fragments generated, passed) to ``cnt[row * W + column]`` (hardware counters)."""
     i, j = wp.tid()
     tile = (i / s.tile_size) * s.tiles_x + j / s.tile_size
     zb = depth[i, j]
     d = fb[i, j]
     px = float(j) + 0.5
     py = float(i) + 0.5
+    ng = int(0)
+    npass = int(0)
     for e in range(s.tile_start[tile], s.tile_end[tile]):
         t = s.tri_of[e]
-        ok, l, zb = fragment_prologue(s, pos, t, j, i, px, py, depth_func, depth_write, depth_clip, zb)
+        ok, cov, l, zb = fragment_prologue(s, pos, t, j, i, px, py, depth_func, depth_write, depth_clip, zb)
+        if cov:
+            ng += 1
         if ok:
+            npass += 1
             c = colors[tris[t][2]]
             if mode != INTERP_FLAT and s.interp_rule == INTERP_RULE_LLVMPIPE:
                 ov = llvmpipe_order(s, tris, t)
@@ -476,18 +487,24 @@ def k_draw_colors(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dtyp
             d = blend(bs, c, d, j, i, prim0 + t)
     fb[i, j] = d
     depth[i, j] = zb
+    if counting != 0:
+        cnt[i * fb.shape[1] + j] = wp.vec2i(ng, npass)
 
 
 @wp.kernel
 def k_draw_colors_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i),
                         colors: wp.array(dtype=wp.vec4), mode: int,
                         depth: wp.array2d(dtype=wp.float32), depth_func: int, depth_write: int, depth_clip: int,
-                        bs: BlendState, fb: wp.array2d(dtype=wp.vec4), prim0: int):
+                        bs: BlendState, fb: wp.array2d(dtype=wp.vec4), prim0: int, counting: int,
+                        cnt: wp.array(dtype=wp.vec2i)):
     """Same result as :func:`k_draw_colors`, one thread per *tile*: each bin entry visits only the
     pixels of the triangle's bounding box inside the tile (far fewer coverage tests; the better
     choice on the CPU, where launches run serially anyway). Pixels are owned by one thread, and a
-    tile's entries are in submission order, so per-pixel primitive order is kept."""
+    tile's entries are in submission order, so per-pixel primitive order is kept. ``counting``: the
+    tile's (fragments generated, passed) go to ``cnt[tile]``."""
     tile = wp.tid()
+    ng = int(0)
+    npass = int(0)
     ty = tile / s.tiles_x
     tx = tile - ty * s.tiles_x
     tj0 = tx * s.tile_size
@@ -536,9 +553,12 @@ def k_draw_colors_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.arra
                     ok = True
                     if depth_clip != 0 and (z < 0.0 or z > 1.0):
                         ok = False
+                    else:
+                        ng += 1
                     if ok and depth_func != 0:
                         ok = depth_pass(depth_func, z, depth[i, j])
                     if ok:
+                        npass += 1
                         if depth_write != 0:
                             depth[i, j] = z
                         c = cflat
@@ -560,26 +580,36 @@ def k_draw_colors_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.arra
             r0 = r0 + si0
             r1 = r1 + si1
             r2 = r2 + si2
+    if counting != 0:
+        cnt[tile] = wp.vec2i(ng, npass)
 
 
 @wp.kernel
 def k_draw_ids(s: TriSetup, pos: wp.array(dtype=wp.vec4), ids: wp.array(dtype=wp.int32),
                depth: wp.array2d(dtype=wp.float32), depth_func: int, depth_write: int, depth_clip: int,
-               idbuf: wp.array2d(dtype=wp.int32)):
-    """Flat-shaded integer IDs (24-bit) with depth test: the ID buffer of VSBUFFER-style passes."""
+               idbuf: wp.array2d(dtype=wp.int32), counting: int, cnt: wp.array(dtype=wp.vec2i)):
+    """Flat-shaded integer IDs (24-bit) with depth test: the ID buffer of VSBUFFER-style passes.
+    ``counting``: the pixel's (fragments generated, passed) go to ``cnt[row * W + column]``."""
     i, j = wp.tid()
     tile = (i / s.tile_size) * s.tiles_x + j / s.tile_size
     zb = depth[i, j]
     idv = idbuf[i, j]
     px = float(j) + 0.5
     py = float(i) + 0.5
+    ng = int(0)
+    npass = int(0)
     for e in range(s.tile_start[tile], s.tile_end[tile]):
         t = s.tri_of[e]
-        ok, l, zb = fragment_prologue(s, pos, t, j, i, px, py, depth_func, depth_write, depth_clip, zb)
+        ok, cov, l, zb = fragment_prologue(s, pos, t, j, i, px, py, depth_func, depth_write, depth_clip, zb)
+        if cov:
+            ng += 1
         if ok:
+            npass += 1
             idv = ids[t] & 16777215
     idbuf[i, j] = idv
     depth[i, j] = zb
+    if counting != 0:
+        cnt[i * idbuf.shape[1] + j] = wp.vec2i(ng, npass)
 
 
 @wp.kernel

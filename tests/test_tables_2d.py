@@ -23,6 +23,10 @@ def test_incremental_matches_exact_at_nodes(axis):
     report(f"incremental/{axis}", max=d.max(), rms=np.sqrt((d ** 2).mean()))
     assert d.max() <= TOLERANCES[f"incremental/{axis}"]["max"]
     assert np.all(inc.data[0] == 0)  # l = 0 contributes nothing
+    # Kraus' texel-centre range on the scalar axes: the TF's ends at the first and last texel centres
+    for ax in inc.axes[1:]:
+        assert ax.kind == "endpoint" and ax.coord([0.0, 1.0]) == pytest.approx([0.5 / 48, 1 - 0.5 / 48], abs=1e-15)
+        assert ax.physical[0] == tf.srange[0] and ax.physical[-1] == tf.srange[1]
 
 
 def test_log_axis_mapping_kraus_eq1():
@@ -146,6 +150,30 @@ def test_guthe_exact_at_interpolation_slices(degree):
     L, B, F = np.meshgrid(ex.axes[0].nodes, x, x, indexing="ij")
     d8 = np.abs(guthe_reconstruct(g8, F, B, L) - ex.data)
     report(f"guthe degree {degree} snorm8 + al16 at slices", max=d8.max(), rms=np.sqrt((d8 ** 2).mean()))
+
+
+def test_guthe_reconstruction_goes_through_the_texture_unit():
+    """With fp32 texels and fp32 filter weights the texture-unit path is the float path; with the paper's
+    storage and 8-bit filter weights it differs (and is what the hardware computed)."""
+    tf = smooth_tf(rho_max=3.0)
+    rng = np.random.default_rng(3)
+    p = rng.uniform(0, 1, (500, 3))
+    g = build_guthe2d(tf, n_s=16, degree=2, lmax=1.0, n_alpha=256, format="fp32", alpha_format="fp32")
+    rt = guthe_reconstruct(g, p[:, 0], p[:, 1], p[:, 2], weight_bits=None)
+    rf = guthe_reconstruct(g, p[:, 0], p[:, 1], p[:, 2], via="float")
+    np.testing.assert_allclose(rt, rf, atol=2e-6)
+    g8 = build_guthe2d(tf, n_s=16, degree=2, lmax=1.0, n_alpha=256)
+    r8 = guthe_reconstruct(g8, p[:, 0], p[:, 1], p[:, 2])
+    f8 = guthe_reconstruct(g8, p[:, 0], p[:, 1], p[:, 2], via="float")
+    d = np.abs(r8 - f8)
+    report("guthe snorm8 + al16: texture unit (8-bit weights) vs float64 filtering", max=d.max())
+    assert 0 < d.max() < 0.02
+    from warpvol.gpu.counters import Counters
+
+    with Counters() as c:
+        guthe_reconstruct(g8, p[:, 0], p[:, 1], p[:, 2])
+    assert c["tex_2d_rgba8s_linear"] == 3 * 500 and c["tex_2d_l8_linear"] == 500
+    assert c["tex_1d_la8_linear"] == c["dependent_fetches"] == 500
 
 
 def test_guthe_alpha_16bit_pair():

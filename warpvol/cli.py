@@ -5,6 +5,7 @@
     warpvol render SCENE.toml --pipeline PRESET_OR_FILE -o OUT.exr [--reference REF.exr] [--report OUT.json]
     warpvol reference SCENE.toml -o REF.exr          # exact float64 ray integral
     warpvol pipelines                                 # list presets with one line each
+    warpvol gpus                                      # GPU profiles for render --gpu NAME (modelled time)
     warpvol demo                                      # built-in scene, default pipeline, image + report
 
 ``SCENE`` is a scene file or ``builtin:NAME``. Bad input ends with ``warpvol: error: ...`` naming the
@@ -174,7 +175,7 @@ def cmd_render(args) -> int:
             raise ConfigError(f"--reference: {args.reference} has shape {ref.shape}, expected {want}")
     elif args.compute_reference:
         ref, ref_s = compute_reference(scene, args.quiet)
-    res = pipe.render(scene, reference=ref, quiet=args.quiet)
+    res = pipe.render(scene, reference=ref, quiet=args.quiet, gpu=args.gpu)
     if args.compute_reference:
         res.report["reference_s"] = ref_s
     # all outputs or none: each is written beside its target, then all are renamed together
@@ -196,7 +197,18 @@ def _summary(report: dict) -> None:
         e = report["error"]
         psnr = "exact" if e["psnr"] is None else f"{e['psnr']:.1f} dB"
         line += f"  rmse={e['rmse']:.3e} max_abs={e['max_abs']:.3e} psnr={psnr}"
+    if "modelled_s" in report:
+        t = report["modelled_s"]["total"]
+        line += f"  modelled on {report['gpu']}: " + ("-" if t is None else f"{t:.4f} s")
     print(line)
+
+
+def cmd_gpus(args) -> int:
+    from .model import list_profiles
+
+    for name, title, host in list_profiles():
+        print(f"{name:<16} {title}" + (f"; host: {host}" if host else ""))
+    return 0
 
 
 def cmd_reference(args) -> int:
@@ -282,6 +294,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--width", type=int, help="override camera.width_px")
     r.add_argument("--height", type=int, help="override camera.height_px")
     r.add_argument("--strict", action="store_true", help="zero-volume tets are an error")
+    r.add_argument("--gpu", help="GPU profile (warpvol gpus): check capabilities, add modelled_s to the report")
     common(r)
     r.set_defaults(func=cmd_render)
 
@@ -297,6 +310,8 @@ def build_parser() -> argparse.ArgumentParser:
     ls = sub.add_parser("pipelines", help="list presets")
     ls.add_argument("--stages", action="store_true", help="also list every stage with its parameter table")
     ls.set_defaults(func=cmd_pipelines)
+
+    sub.add_parser("gpus", help="list the GPU profiles of the throughput model").set_defaults(func=cmd_gpus)
 
     d = sub.add_parser("demo", help="built-in scene, default pipeline, image + reference + report")
     d.add_argument("--scene", default="sphere", help="built-in scene name")

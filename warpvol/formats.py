@@ -17,9 +17,10 @@ object                 definition
                        polynomial coefficients scaled into [-1, 1].
 ``Float16()``          IEEE binary16, round to nearest even, overflow to +-inf (as ``np.float16``).
 ``Float32()``          IEEE binary32.
-``Split12()``          a 12-bit ``UNorm(12)`` code k carried as high 8 bits ``k >> 4`` and low 4 bits
-                       ``k & 15`` (Guthe et al. ping-pong filtering). In 8-bit channels the low
-                       nibble sits in the channel's upper nibble (channel code ``lo << 4``).
+``Split12()``          a 12-bit code k in [0, 4080], value ``k / 4080``, carried as high 8 bits ``k >> 4``
+                       and low 4 bits ``k & 15`` (Guthe et al. ping-pong filtering: value = H + L/256
+                       with H, L the channels' values, so 255 in the high channel alone is 1.0). In
+                       8-bit channels the low nibble sits in the channel's upper nibble (``lo << 4``).
 ``Pair16()``           a 16-bit ``UNorm(16)`` code carried in two 8-bit channels, A = high byte,
                        L = low byte, value ``256 A/257 + L/257`` with A, L the channels' normalised
                        values (Guthe et al.); linear in (A, L), so filtering it is a true 16-bit lookup.
@@ -282,26 +283,35 @@ class Float32(NumberFormat):
 class Split12:
     """A 12-bit value carried as high 8 bits + low 4 bits (Guthe et al. 2002 ping-pong filtering).
 
-    The 12-bit code ``k = UNorm(12).encode(x)`` is split into ``hi = k >> 4`` (an 8-bit code, value
-    ``hi / 255``) and ``lo = k & 15``. In an 8-bit channel the low nibble is stored in the channel's
-    upper nibble, channel code ``lo << 4``, so that the channel's own 8-bit arithmetic keeps it.
-    ``join`` is the exact inverse. ``rounding`` applies to the 12-bit encode.
+    The value is ``H + L / 256`` with ``H = hi / 255`` and ``L`` the low channel's value (code
+    ``lo << 4``, so ``L / 256 = lo / 4080``): 255 in the high channel alone already means 1.0, as the
+    paper says. Hence a 12-bit code ``k = 16 hi + lo`` in [0, 4080] has the value ``k / 4080``; this is
+    the one definition the ping-pong kernel (:func:`warpvol.kernels.preint.pingpong_slice`) computes
+    with. ``rounding`` applies to the encode (``truncate`` is what the 8-bit channel writes of the
+    ping-pong shader do).
 
     Examples
     --------
     >>> s = Split12()
     >>> hi, lo = s.split(s.encode12(0.3))
-    >>> int(hi), int(lo), int(s.join(hi, lo)), int(s.encode12(0.3))
-    (76, 13, 1229, 1229)
+    >>> int(hi), int(lo), int(s.join(hi, lo)), int(s.encode12(0.3)), float(s.decode12(4080))
+    (76, 8, 1224, 1224, 1.0)
     """
 
     name = "split12"
+    #: codes per unit: 16 * 255 (the high channel's 255 is 1.0)
+    SCALE = 4080
 
     def __init__(self, rounding: str = "nearest"):
-        self.u12 = UNorm(12, rounding=rounding)
+        self.rounding = check_choice("rounding", rounding, ROUNDINGS)
 
     def encode12(self, x: Any) -> np.ndarray:
-        return self.u12.encode(x)
+        """Codes ``round(x * 4080)`` (float32 product), saturated to [0, 4080]; NaN -> 0."""
+        v = np.nan_to_num(np.asarray(x, dtype=np.float32) * np.float32(self.SCALE), nan=0.0)
+        return np.clip(_round_np(v.astype(np.float64), self.rounding), 0, self.SCALE).astype(np.int64)
+
+    def decode12(self, code12: Any) -> np.ndarray:
+        return (np.asarray(code12, dtype=np.float64) / self.SCALE).astype(np.float32)
 
     @staticmethod
     def split(code12: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -323,10 +333,10 @@ class Split12:
 
     def from_channels(self, hi_code: Any, lo_code: Any) -> np.ndarray:
         """Value (float32) of two 8-bit channel codes written by :meth:`channels`."""
-        return self.u12.decode(self.join(hi_code, np.asarray(lo_code, dtype=np.int64) >> 4))
+        return self.decode12(self.join(hi_code, np.asarray(lo_code, dtype=np.int64) >> 4))
 
     def quantize(self, x: Any) -> np.ndarray:
-        return self.u12.quantize(x)
+        return self.decode12(self.encode12(x))
 
 
 class Pair16:

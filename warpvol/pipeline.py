@@ -142,6 +142,11 @@ class Stage:
             return cfg[item]
         raise AttributeError(item)
 
+    def requires_caps(self) -> dict[str, Any]:
+        """Capabilities a modelled GPU must have for this stage (``render(gpu=...)``): ``{cap: True,
+        a minimum number, or a value the profile's list holds}``; names in :mod:`warpvol.model`."""
+        return {}
+
     def skip_reason(self, ctx: "Context") -> str | None:
         """Planner hook: return a reason if this scene does not need the stage, else ``None``."""
         return None
@@ -377,7 +382,11 @@ class Pipeline:
         return cls.from_config(cfg, device=device, where=where)
 
     def render(self, scene: Any, *, reference: np.ndarray | None = None, quiet: bool = False,
-               device: str | None = None) -> RenderResult:
+               device: str | None = None, gpu: str | None = None) -> RenderResult:
+        """Run the stages; ``gpu``: a GPU profile name (:mod:`warpvol.model`): checks every stage's
+        capabilities first and adds ``gpu`` and ``modelled_s`` to the report."""
+        from .gpu.counters import Counters
+
         if device is not None and not isinstance(device, str):
             raise ConfigError(f"render(device): expected a device name such as 'cpu' or 'cuda:0', got {device!r}")
         device = self.stages[0].device if device is None else check_device(device, "render(device)")
@@ -390,6 +399,13 @@ class Pipeline:
             if shape != want:
                 raise ConfigError(f"render(reference): shape {shape} does not match the image {want} "
                                   "(height_px, width_px, RGBA)")
+        model = None
+        if gpu is not None:
+            from . import model
+
+            profile = model.load_profile(gpu)
+            for st in self.stages:
+                model.check_caps(profile, st.where, st.requires_caps())
         ctx = Context(scene=scene, device=device, quiet=quiet, persistent=self.persistent)
         report: dict[str, Any] = {"pipeline": self.name, "device": device, "scene": getattr(scene, "name", None),
                                   "image": [scene.camera.height_px, scene.camera.width_px],
@@ -408,8 +424,11 @@ class Pipeline:
             ctx.progress(f"{key} ...")
             t0 = time.perf_counter()
             ctx.stage_key = key
-            st.run(ctx)
+            with Counters(ctx.counters.setdefault(key, {})):  # units used by the stage count into its entry
+                st.run(ctx)
             ctx.stage_key = None
+            if model is not None:  # work the card cannot do (e.g. fp16 blends) is an error naming the stage
+                model.check_caps(profile, st.where, model.counter_needs(ctx.counters[key]))
             _sync(device)
             dt = time.perf_counter() - t0
             report["stages"][key] = dt
@@ -421,6 +440,9 @@ class Pipeline:
         if not np.isfinite(img).all():
             raise RuntimeError(f"pipeline {self.name!r} produced NaN/Inf pixels")
         report["counters"] = ctx.counters
+        if model is not None:
+            report["gpu"] = gpu
+            report["modelled_s"] = model.model_report(ctx.counters, profile)
         if ctx.stats:
             report["stats"] = ctx.stats
         if reference is not None:

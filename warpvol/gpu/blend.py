@@ -54,6 +54,8 @@ import warp as wp
 
 from warpvol.errors import ConfigError, check_choice, check_number
 from warpvol.formats import NumberFormat, SNorm, UNorm, get_format
+
+from . import counters as _cnt
 from warpvol.kernels import blend as kblend
 
 from .dither import dither_table
@@ -141,6 +143,7 @@ class FrameBuffer:
         if not self.fmt.is_float:
             v = np.clip(v, 0.0, 1.0)
         q = self.fmt.quantize(v)
+        _cnt.count(clears=1, clear_pixels=self.width * self.height)
         wp.launch(kblend.k_fill, dim=self.shape, inputs=[self.array, wp.vec4(*map(float, q))], device=self.device)
 
     def clear_depth(self, value: float = 1.0) -> None:
@@ -157,16 +160,21 @@ class FrameBuffer:
         if not self.fmt.is_float:
             v = np.clip(v, 0.0, 1.0)
         self.array.assign(wp.array(self.fmt.quantize(v), dtype=wp.vec4, device=self.device))
+        _cnt.count(bytes_up=self.width * self.height * _cnt.bytes_per_pixel(self.fmt))
 
     def readback(self) -> np.ndarray:
-        """The colour buffer as (H, W, 4) float32 values (row 0 = top)."""
+        """The colour buffer as (H, W, 4) float32 values (row 0 = top); counted as a read-back."""
+        _cnt.count(readbacks=1, bytes_down=self.width * self.height * _cnt.bytes_per_pixel(self.fmt))
+        return self._values()
+
+    def _values(self) -> np.ndarray:
         return self.array.numpy().reshape(self.height, self.width, 4).copy()
 
     def codes(self) -> np.ndarray:
         """The colour buffer as (H, W, 4) codes: fixed-point integers, or the fp16/fp32 bit patterns."""
         if self.fmt.is_float:
-            return self.fmt.encode(self.readback())
-        return UNorm(self.fmt.bits).encode(self.readback())  # stored values are exact: nearest recovers the code
+            return self.fmt.encode(self._values())
+        return UNorm(self.fmt.bits).encode(self._values())  # stored values are exact: nearest recovers the code
 
     def to_texture(self, fmt: str | None = None, filter: str = "nearest", weight_bits: int | None = 8):
         """Render to texture: a :class:`~warpvol.gpu.texture.Texture2D` holding this buffer's content.
@@ -178,7 +186,8 @@ class FrameBuffer:
 
         if fmt is None:
             fmt = {"unorm8": "rgba8", "unorm16": "rgba16", "fp16": "rgba16f"}.get(self.fmt.name, "rgba32f")
-        return Texture2D(self.readback(), fmt=fmt, filter=filter, device=self.device, weight_bits=weight_bits)
+        return Texture2D(self._values(), fmt=fmt, filter=filter, device=self.device, weight_bits=weight_bits,
+                         upload=False)  # a copy on the card, not a bus transfer
 
     def __repr__(self) -> str:
         return f"FrameBuffer({self.width}x{self.height}, {self.fmt.name}, device={self.device!r})"
@@ -332,6 +341,7 @@ class BlendUnit:
         if not ok:
             raise ConfigError(f"layers: expected shape (K, {fb.height}, {fb.width}, 4), got {shape}")
         wp.launch(kblend.k_blend_layers, dim=fb.shape, inputs=[st, fb.array, arr, int(prim0)], device=fb.device)
+        self.count(fb, shape[0] * fb.width * fb.height)
 
     def blend_fragments(self, fb: FrameBuffer, fragments: Any, colors: Any) -> None:
         """Blend a rasteriser fragment list (:class:`warpvol.gpu.raster.Fragments`) with per-fragment ``colors`` (F, 4)."""
@@ -351,6 +361,15 @@ class BlendUnit:
             c = wp.array(cv, dtype=wp.vec4, device=fb.device)
         wp.launch(kblend.k_blend_fragments, dim=fb.shape,
                   inputs=[st, fb.array, fragments.offsets, c, fragments.prim], device=fb.device)
+        self.count(fb, fragments.count)
+
+    def count(self, fb: FrameBuffer, n: int, counters: "_cnt.Counters | None" = None) -> None:
+        """Count ``n`` fragments through this unit into ``fb``: ``blends_<fmt>`` (``writes_<fmt>`` for
+        ``(one, zero)``, blending off)."""
+        c = _cnt.active(counters)
+        if c is not None:
+            off = (self.src_code, self.dst_code, self.src_alpha_code, self.dst_alpha_code) == (1, 0, 1, 0)
+            c.blend(fb.fmt, n, blending=not off)
 
     def __repr__(self) -> str:
         return (f"BlendUnit(src={self.src!r}, dst={self.dst!r}, fmt={None if self.fmt is None else self.fmt.name}, "

@@ -74,6 +74,8 @@ import warp as wp
 from warpvol.errors import ConfigError, check_choice, check_number
 from warpvol.kernels import raster as kr
 
+from . import counters as _cnt
+
 CULL_MODES = {"none": 0, "back": 1, "front": 2}
 FRONT_FACES = ("ccw", "cw")
 DEPTH_FUNCS = {"always": 0, "less": 1, "greater": 2, "lequal": 3, "gequal": 4, "never": 5}
@@ -140,6 +142,9 @@ class Triangles:
             wp.utils.array_scan(counts, offsets, inclusive=False)
             total = int(offsets[t - 1:t].numpy()[0] + counts[t - 1:t].numpy()[0])
         self.bin_entries = total
+        c = _cnt.active()
+        if c is not None:  # triangles with no bin entry were culled or cover no tile
+            c.add(primitives=t, primitives_culled=int((counts.numpy()[:t] == 0).sum()) if t else 0)
         keys = wp.zeros(max(2 * total, 2), dtype=wp.int32, device=dev)
         vals = wp.zeros(max(2 * total, 2), dtype=wp.int32, device=dev)
         start = wp.zeros(n_tiles, dtype=wp.int32, device=dev)
@@ -282,6 +287,36 @@ class Rasterizer:
     def _dflags(self) -> list:
         return [DEPTH_FUNCS[self.depth_func], int(self.depth_write), int(self.depth_clip)]
 
+    def _coverage(self, tr: Triangles) -> int:
+        """Fragments ``tr`` generates (pixel centres covered, not depth-clipped; before the depth test):
+        one counting launch, used by :meth:`fragments` only while counting with a depth test."""
+        dev = self.device
+        npx = self.width * self.height
+        counts = wp.zeros(npx, dtype=wp.int32, device=dev)
+        f1 = wp.zeros(1, dtype=wp.float32, device=dev)
+        a1 = wp.zeros((1, 1), dtype=wp.float32, device=dev)
+        wp.launch(kr.k_fragments, dim=self.shape,
+                  inputs=[tr.struct, tr.positions, tr.tris, a1, wp.zeros(1, dtype=wp.int32, device=dev), 0,
+                          wp.zeros(self.shape, dtype=wp.float32, device=dev), DEPTH_FUNCS["always"], 0,
+                          int(self.depth_clip), 0, counts,
+                          wp.zeros(npx + 1, dtype=wp.int32, device=dev), wp.zeros(1, dtype=wp.int32, device=dev),
+                          f1, a1], device=dev)
+        return int(counts.numpy().sum())
+
+    def _count_slots(self, n: int) -> tuple[int, wp.array]:
+        """``(counting flag, per-thread (generated, passed) slots)`` for a fused draw kernel."""
+        on = _cnt.active() is not None
+        return int(on), wp.zeros(n if on else 1, dtype=wp.vec2i, device=self.device)
+
+    @staticmethod
+    def _add_counts(flag: int, slots: wp.array) -> int:
+        """Add the kernel's per-thread counts to the active counters; returns the fragments passed."""
+        if not flag:
+            return 0
+        gen, passed = (int(v) for v in slots.numpy().astype(np.int64).sum(axis=0))
+        _cnt.active().add(fragments=gen, fragments_passed=passed)
+        return passed
+
     def fragments(self, positions: Any, tris: Any = None, attrs: Any = None,
                   interpolation: str | Sequence[str] = "perspective", depth: Any = None) -> Fragments:
         """Rasterise into a fragment list with attributes ``attrs`` (V, A) interpolated per fragment.
@@ -321,6 +356,10 @@ class Rasterizer:
         wp.utils.array_scan(counts, offsets[:npx], inclusive=False)
         total = int(offsets[npx - 1:npx].numpy()[0] + counts[npx - 1:npx].numpy()[0])
         offsets[npx:].fill_(total)
+        c = _cnt.active()
+        if c is not None:  # the list holds the fragments that passed; generated ones need a count without the test
+            gen = total if self.depth_func == "always" else self._coverage(tr)
+            c.add(fragments=gen, fragments_passed=total)
         prim = wp.zeros(max(total, 1), dtype=wp.int32, device=dev)
         fdepth = wp.zeros(max(total, 1), dtype=wp.float32, device=dev)
         fattr = wp.zeros((max(total, 1), max(na, 1)), dtype=wp.float32, device=dev)
@@ -350,9 +389,12 @@ class Rasterizer:
         dbuf = fb.depth if depth is None else self._depth(depth)
         per_tile = self.traversal == "tile" or (self.traversal == "auto" and wp.get_device(self.device).is_cpu)
         kern, dim = (kr.k_draw_colors_tiles, tr.n_tiles) if per_tile else (kr.k_draw_colors, self.shape)
+        flag, slots = self._count_slots(dim if per_tile else self.width * self.height)
         wp.launch(kern, dim=dim,
                   inputs=[tr.struct, tr.positions, tr.tris, wp.array(c, dtype=wp.vec4, device=self.device), mode,
-                          dbuf, *self._dflags(), st, fb.array, int(prim0)], device=self.device)
+                          dbuf, *self._dflags(), st, fb.array, int(prim0), flag, slots], device=self.device)
+        if flag:
+            blend.count(fb, self._add_counts(flag, slots))
 
     def draw_ids(self, positions: Any, tris: Any, ids: Any, id_buffer: wp.array | None = None,
                  depth: Any = None, clear_id: int = -1) -> tuple[np.ndarray, np.ndarray]:
@@ -370,11 +412,14 @@ class Rasterizer:
         if id_buffer is None:
             id_buffer = wp.full(self.shape, int(clear_id), dtype=wp.int32, device=self.device)
         dbuf = self._depth(depth)
+        flag, slots = self._count_slots(self.width * self.height)
         wp.launch(kr.k_draw_ids, dim=self.shape,
                   inputs=[tr.struct, tr.positions,
                           wp.array(ids_np.astype(np.int32) if ids_np.size else np.zeros(1, np.int32),
                                    dtype=wp.int32, device=self.device),
-                          dbuf, *self._dflags(), id_buffer], device=self.device)
+                          dbuf, *self._dflags(), id_buffer, flag, slots], device=self.device)
+        if flag:  # 24-bit IDs written as RGB8 colours
+            _cnt.active().blend("rgb8", self._add_counts(flag, slots), blending=False)
         return id_buffer.numpy(), dbuf.numpy()
 
 
@@ -423,6 +468,12 @@ def draw_textured_quads(fb, blend, texture, corners: Any, modulate: Sequence[flo
     st = blend.state(fb)
     if c.shape[0] == 0:
         return
+    cnt = _cnt.active()
+    if cnt is not None:  # n full-viewport rectangles (two triangles each): every pixel covered n times
+        n, npx = c.shape[0], fb.width * fb.height
+        cnt.add(vertices=4 * n, primitives=2 * n, fragments=n * npx, fragments_passed=n * npx)
+        texture.count(n * npx, cnt)
+        blend.count(fb, n * npx, cnt)
     wp.launch(_kr.k_draw_quads_1d, dim=fb.shape,
               inputs=[st, fb.array, texture.struct, wp.array(c, dtype=wp.vec4, device=fb.device),
                       wp.vec4(*map(float, m)), int(prim0)], device=fb.device)

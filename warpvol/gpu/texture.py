@@ -38,6 +38,8 @@ from warpvol.errors import ConfigError, check_choice, check_number
 from warpvol.formats import FP16, FP32, SNORM8, UNORM8, UNORM12, UNORM16, NumberFormat
 from warpvol.kernels import texture as ktex
 
+from . import counters as _cnt
+
 FILTERS = ("nearest", "linear")
 
 # name -> (number format, stored channels, layout)
@@ -109,7 +111,7 @@ class _TextureBase:
     _struct_cls: Any = None
 
     def __init__(self, data: Any, fmt: str = "rgba8", filter: str = "linear", device: str = "cpu",
-                 weight_bits: int | None = 8, float_linear: bool = True):
+                 weight_bits: int | None = 8, float_linear: bool = True, upload: bool = True):
         self.fmt = check_choice("fmt", fmt, TEXEL_FORMATS)
         self.filter = check_choice("filter", filter, FILTERS)
         if weight_bits is not None:
@@ -131,6 +133,14 @@ class _TextureBase:
         s.frac_scale = 0.0 if weight_bits is None else float(2**weight_bits)
         self._fill_dims(s)
         self.struct = s
+        # counters: texture memory made resident, and its upload over the bus (unless copied on the card)
+        _cnt.count(texture_bytes=self.nbytes, **({"bytes_up": self.nbytes} if upload else {}))
+
+    @property
+    def nbytes(self) -> int:
+        """Texture memory of the stored texels (channels x bytes per channel, 12 bits in 2 bytes)."""
+        num, ch, _ = TEXEL_FORMATS[self.fmt]
+        return int(np.prod(self.shape)) * ch * ((num.bits + 7) // 8)
 
     def _fill_dims(self, s) -> None:  # pragma: no cover - abstract
         raise NotImplementedError
@@ -150,7 +160,14 @@ class _TextureBase:
         if n:
             wp.launch(kernel, dim=n, inputs=[self.struct, wp.array(flat, dtype=vdtype, device=self.device), out],
                       device=self.device)
+            self.count(n)
         return out.numpy().reshape(shape + (4,))
+
+    def count(self, fetches: int, counters: "_cnt.Counters | None" = None, dependent: bool = False) -> None:
+        """Count ``fetches`` lookups of this texture (kernels that sample it call this from the host)."""
+        c = _cnt.active(counters)
+        if c is not None:
+            c.tex(self, fetches, dependent)
 
     def __repr__(self) -> str:
         return (f"{type(self).__name__}(shape={self.shape}, fmt={self.fmt!r}, filter={self.effective_filter!r}, "
@@ -302,6 +319,7 @@ class TextureAtlas:
             wp.launch(ktex.k_sample_atlas, dim=k.shape[0],
                       inputs=[self.struct, wp.array(k, dtype=wp.int32, device=self.device),
                               wp.array(c, dtype=wp.vec2, device=self.device), out], device=self.device)
+            self.texture.count(k.shape[0])
         return out.numpy()
 
 
@@ -328,4 +346,6 @@ def sample_dependent(first: Texture1D | Texture2D, second: Texture1D, coords: An
     out = wp.empty(c.shape[0], dtype=wp.vec4, device=dev)
     if c.shape[0]:
         wp.launch(kern, dim=c.shape[0], inputs=[first.struct, second.struct, channel, arr, out], device=dev)
+        first.count(c.shape[0])
+        second.count(c.shape[0], dependent=True)
     return out.numpy()

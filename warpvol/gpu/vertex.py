@@ -21,6 +21,8 @@ import warp as wp
 from warpvol.errors import ConfigError, check_number
 from warpvol.kernels import vertex as kv
 
+from . import counters as _cnt
+
 
 @dataclass
 class Vertices:
@@ -96,6 +98,7 @@ class VertexStage:
             m = [wp.mat44(*a.astype(np.float32).ravel()) for a in (self.modelview, self.projection, self.viewport)]
             wp.launch(kv.k_transform, dim=n, inputs=[wp.array(p, dtype=wp.vec3, device=dev), *m, eye, clip, win],
                       device=dev)
+            _cnt.count(vertices=n, bytes_up=12 * n)  # (x, y, z) float32 per vertex
         return Vertices(eye.numpy(), clip.numpy(), win.numpy(), win)
 
 

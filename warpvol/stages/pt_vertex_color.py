@@ -43,8 +43,8 @@ def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1) -> dic
     info = draw(ctx.buffers["pt_geometry"], attrs, program, fb, BlendUnit.over(dither=stage.config["dither"]),
                 batch_tets=stage.config["batch_tets"], device=ctx.device, bands=bands)
     ctx.image = fb.readback()
-    ctx.count(fragments=info["fragments"], blends=info["fragments"], batches=info["batches"],
-              attrs_clamped=info["attrs_clamped"])
+    # fragments and blends are counted by the rasteriser and blending unit themselves
+    ctx.count(batches=info["batches"], attrs_clamped=info["attrs_clamped"])
     return info
 
 

@@ -44,3 +44,7 @@ class TableGuthe(TableStage):
               choices=("radeon8500", "geforce4")),
         output_param("guthe"),
     )
+
+    def requires_caps(self) -> dict:
+        # degree + 1 coefficient textures (rho_hat rides in coefficient 0's alpha) + the dependent alpha1D
+        return {"texture_units": self.config["degree"] + 2}

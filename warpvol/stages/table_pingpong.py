@@ -43,6 +43,11 @@ class TablePingPong(TableStage):
         output_param("slices"),
     )
 
+    def requires_caps(self) -> dict:
+        # the ping texture plus one TF texture per step; the low bits need the Radeon's bit masking
+        return {"texture_units": self.config["per_pass"] + 1,
+                "fb_overflow": "wrap" if self.config["gpu"] == "radeon8500" else "saturate"}
+
     def builder_kwargs(self, ctx):
         kw = super().builder_kwargs(ctx)
         n = kw.pop("n_slices")

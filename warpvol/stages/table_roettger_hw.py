@@ -23,6 +23,7 @@ class TableRoettgerHw(TableStage):
     bits        int    12         frame-buffer depth: 8 | 12
     passes      str    two        ``two`` (RGB + opacity pass) | ``one`` (constant colour)
     variant     str    blend      ``blend`` | ``geforce3`` (4 combiner steps per blend, 8 bit)
+    gl_dither   bool   false      OpenGL's default GL_DITHER: blends rounded by a 4x4 ordered dither
     format      str    fp32       stored format of the read-back table
     output      str    table3d    ``ctx.buffers`` key
     ==========  =====  =========  ==========================================================
@@ -42,6 +43,7 @@ class TableRoettgerHw(TableStage):
         Param("bits", int, 12, "frame-buffer depth", choices=(8, 12)),
         Param("passes", str, "two", "RGB + opacity passes, or one with constant blend colour", choices=("two", "one")),
         Param("variant", str, "blend", "plain blending or GeForce3 register combiners", choices=("blend", "geforce3")),
+        Param("gl_dither", bool, False, "GL_DITHER: ordered 4x4 dither of every blend result"),
         Param("format", str, "fp32", "stored format", choices=TABLE_FORMATS[:4]),
         output_param("table3d"),
     )
@@ -51,6 +53,15 @@ class TableRoettgerHw(TableStage):
             from ..errors import ConfigError
 
             raise ConfigError(f"{self.where}.bits: variant 'geforce3' stores into an 8-bit buffer; set bits = 8")
+
+    def requires_caps(self) -> dict:
+        c = self.config
+        caps: dict = {"fb_formats": f"unorm{c['bits']}"}
+        if c["passes"] == "one" and c["bits"] == 12:
+            caps["rgba12_visual"] = True  # one pass keeps transparency in alpha
+        if c["variant"] == "geforce3":
+            caps.update(texture_units=4, combiner_stages=3)
+        return caps
 
     def builder_kwargs(self, ctx):
         kw = super().builder_kwargs(ctx)

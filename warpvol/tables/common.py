@@ -12,6 +12,8 @@ from ..transfer import TransferFunction
 from .base import Axis, Table, model_id, quantise, table_key
 
 _KERNELS = None
+#: builders that count their own work (GPU units, software samples) rather than host texels
+SELF_COUNTING = ("roettger_hw", "pingpong", "roettger_sw")
 
 
 def kernels():
@@ -98,6 +100,10 @@ def finish(name: str, values: np.ndarray, axes, channels, fmt: str, key: tuple, 
     v = np.asarray(values, dtype=np.float32)
     if not np.isfinite(v).all():  # a builder bug, never an input problem: fail loudly
         raise FloatingPointError(f"table {name}: {int((~np.isfinite(v)).sum())} non-finite entries")
+    if name not in SELF_COUNTING:  # texels computed on the host (the hardware builders count their units)
+        from ..gpu import counters as cnt
+
+        cnt.count(host_texels=int(np.prod(v.shape[:-1])))
     dec, raw = quantise(v, fmt)
     return Table(name, dec, tuple(axes), tuple(channels), fmt, key, raw, meta, extra or {})
 

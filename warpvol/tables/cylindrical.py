@@ -229,4 +229,5 @@ def reconstruct(planes: Table, sf, sb, l, device: str = "cpu", via: str = "textu
         # continuous texel index a x + b  ->  in-tile texture coordinate (a x + b + 0.5) / n
         wp.launch(k.cylindrical_lookup_tex, dim=n, device=device,
                   inputs=[tex.struct, *coords, sa / ns, (sb_ + 0.5) / ns, ta / nt, (tb + 0.5) / nt, out])
+        tex.texture.count(2 * n)  # two planes per lookup (two-pass multi-texturing)
     return out.numpy().reshape(shape + (4,))

@@ -36,7 +36,7 @@ ALPHA_MIN = 1e-6
 
 def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_alpha: int = 1024,
                   format: str = "snorm8", alpha_format: str = "al16", slices: str = "exact", m: int = 128,
-                  gpu: str = "radeon8500", device: str = "cpu") -> Table:
+                  gpu: str = "radeon8500", device: str = "cpu", emulate: bool = True) -> Table:
     """Guthe 2D tables.
 
     Parameters
@@ -66,6 +66,8 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
         Ping-pong overflow rule: ``radeon8500`` (bit masking) or ``geforce4`` (saturation, which
         loses the low bits: the paper's reason only the Radeon builds these tables).
     device : str
+    emulate : bool
+        ``slices="pingpong"`` only: False counts the ping-pong work without running it (throughput model).
 
     Returns
     -------
@@ -95,6 +97,7 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
     key = table_key("guthe2d", tf.hash, n_s=n_s, degree=degree, lmax=lmax, n_alpha=n_alpha,
                     alpha_format=alpha_format, slices=slices, m=m if slices == "pingpong" else 0, format=format,
                     gpu=gpu if slices == "pingpong" else "")
+    key = key if emulate else key + (("emulate", False),)
     meta = {"builder": "guthe2d", "emission": tf.emission, "lmax": lmax, "degree": degree}
     x = farr(ax_f.nodes, device)
     tf_s, tf_v = tf_arrays(tf, device)
@@ -112,7 +115,7 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
             from .pingpong import build_pingpong
 
             pp = build_pingpong(tf, n_s=n_s, lengths=tuple(np.arange(1, degree + 1) / degree), lmax=lmax, m=m,
-                                gpu=gpu, device=device)
+                                gpu=gpu, device=device, emulate=emulate)
             s = pp.data.astype(np.float64)
             meta["pingpong_passes"] = pp.meta["passes"]
         mo = mom.numpy().astype(np.float64)
@@ -140,7 +143,7 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
     data_q = np.concatenate([dec, rho_dec[..., None]], axis=-1)
     data_q[1:, ..., 3] = 0.0
     a_dec, a_raw = quantise(alpha1d, alpha_format)
-    meta.update(coef_scale=scale.tolist(), rho_max=rho_max, alpha_depth=lmax * rho_max)
+    meta.update(coef_scale=scale.tolist(), rho_max=rho_max, alpha_depth=lmax * rho_max, alpha_format=alpha_format)
     t = finish("guthe2d", data_q, (Axis("coef", degree + 1), ax_b, ax_f), ("r", "g", "b", "rho"), "fp32", key, meta,
                extra={"alpha1d": a_dec, "alpha1d_raw": a_raw, "c_hat": c_hat.astype(np.float32),
                       "coef": coef.astype(np.float32), "coef_raw": raw})
@@ -162,13 +165,77 @@ def _bilinear2d(tex: np.ndarray, fx: np.ndarray, fy: np.ndarray) -> np.ndarray:
             + (t[y0 + 1, x0] * (1 - wx) + t[y0 + 1, x0 + 1] * wx) * wy)
 
 
-def reconstruct(table: Table, sf, sb, l) -> np.ndarray:
+RECONSTRUCT_VIA = ("texture", "float")
+_COEF_TEXEL = {"snorm8": "rgba8s", "fp16": "rgba16f", "fp32": "rgba32f"}
+_RHO_TEXEL = {"snorm8": "l8", "fp16": "r16f", "fp32": "r32f"}
+_ALPHA_TEXEL = {"al16": "la8", "rgba8": "l8", "fp32": "r32f"}
+
+
+def textures(table: Table, device: str = "cpu", weight_bits: int | None = 8) -> dict:
+    """The stored tables as the emulated texture unit holds them: ``coef`` (one RGBA 2D texture per
+    coefficient, signed 8-bit for ``snorm8``), ``rho`` (unsigned 8-bit 2D: ``SIGNED_RGB_UNSIGNED_ALPHA``)
+    and ``alpha1d`` (1D, the 16-bit opacity as an A/L pair in ``la8``)."""
+    from ..gpu.texture import Texture1D, Texture2D
+
+    kw = dict(filter="linear", device=device, weight_bits=weight_bits)
+    d = table.data
+    coef = [Texture2D(np.concatenate([d[i, ..., :3], np.zeros(d.shape[1:3] + (1,), np.float32)], -1),
+                      fmt=_COEF_TEXEL[table.format], **kw) for i in range(d.shape[0])]
+    rho = Texture2D(d[0, ..., 3], fmt=_RHO_TEXEL[table.format], **kw)
+    afmt = table.meta.get("alpha_format", "fp32")
+    if afmt == "al16":
+        raw = table.extra["alpha1d_raw"].astype(np.float64) / 255.0
+        alpha = Texture1D(raw[:, ::-1], fmt="la8", **kw)  # L = low byte, A = high byte
+    else:
+        alpha = Texture1D(table.extra["alpha1d"], fmt=_ALPHA_TEXEL[afmt], **kw)
+    return {"coef": coef, "rho": rho, "alpha1d": alpha, "alpha_format": afmt}
+
+
+def reconstruct(table: Table, sf, sb, l, device: str = "cpu", via: str = "texture",
+                weight_bits: int | None = 8) -> np.ndarray:
     """``(C rgb, alpha)`` at normalised ``(sf, sb, l)`` from the stored (quantised) textures.
 
-    The fragment program of Guthe's Table 1/2 setup, in float64: bilinear coefficient and
-    ``rho_hat`` lookups, dependent linear alpha1D lookup at ``x_n = l rho_hat``,
+    The fragment program of Guthe's Table 1/2 setup: coefficient and ``rho_hat`` lookups, the
+    dependent alpha1D lookup at ``x_n = l rho_hat`` (texel-centre scale and bias), and
     ``C = alpha sum_i l^i C~_i``.
+
+    via : str
+        ``"texture"`` (default): every lookup through the emulated texture unit (texel formats of the
+        stored tables, linear filtering with ``weight_bits`` filter fractions; the A/L alpha pair
+        filtered per channel and combined as ``256 A/257 + L/257``), shader arithmetic in float32 —
+        what the 2002 hardware computed. ``"float"``: float64 bilinear filtering of the decoded
+        textures, the approximation error alone (``weight_bits`` unused).
     """
+    from ..errors import check_choice
+
+    via = check_choice("via", via, RECONSTRUCT_VIA)
+    if via == "float":
+        return _reconstruct_float(table, sf, sb, l)
+    from ..formats import Pair16
+
+    sf, sb, l = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in (sf, sb, l)))
+    shape = sf.shape
+    uv = np.stack([table.axes[2].coord(sf).ravel(), table.axes[1].coord(sb).ravel()], -1).astype(np.float32)
+    tx = textures(table, device, weight_bits)
+    scale = np.asarray(table.meta["coef_scale"], dtype=np.float32)
+    lc = np.clip(l.ravel(), 0, 1).astype(np.float32)
+    rho_n = tx["rho"].sample(uv)[:, 0]
+    na = tx["alpha1d"].shape[0]
+    ua = np.float32(0.5 / na) + lc * rho_n * np.float32(1.0 - 1.0 / na)
+    a = tx["alpha1d"].sample(ua)
+    from ..gpu import counters as cnt
+
+    cnt.count(dependent_fetches=uv.shape[0])  # the alpha1D fetch's coordinate came from the rho fetch
+    alpha = Pair16.value(a[:, 3], a[:, 0]) if tx["alpha_format"] == "al16" else a[:, 0]
+    c = np.zeros((uv.shape[0], 3), np.float32)
+    for i, t in enumerate(tx["coef"]):
+        c += (lc ** np.float32(i))[:, None] * t.sample(uv)[:, :3] * scale[i]
+    out = np.concatenate([c * alpha[:, None], alpha[:, None]], axis=-1)
+    return out.reshape(shape + (4,))
+
+
+def _reconstruct_float(table: Table, sf, sb, l) -> np.ndarray:
+    """Float64 bilinear form of :func:`reconstruct` (``via="float"``)."""
     sf, sb, l = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in (sf, sb, l)))
     ax_b, ax_f = table.axes[1], table.axes[2]
     fx, fy = ax_f.index(sf), ax_b.index(sb)

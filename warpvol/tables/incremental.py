@@ -4,6 +4,8 @@ Only the first non-zero slice ``l = Δl`` is integrated (``base``: exact or Roet
 rule); every further 2D slice is composited from already computed ones, sampled bilinearly
 (linear along the one off-node scalar):
 
+Scalar axes use Kraus' texel-centre convention too (``endpoint`` nodes, ``[(2n)^-1, 1 - (2n)^-1]``).
+
 * ``uniform`` thickness axis (``endpoint`` nodes ``l_k = k Δl``, ``Δl = lmax / (n_l - 1)``, Kraus'
   texel-centre convention ``r = (2n)^-1 + (l / lmax)(1 - 1/n)``): Weiler's step
   ``T(sf, sb, l + Δl) = T(sf, s', Δl) over T(s', sb, l)``, ``s' = sf + Δl / (l + Δl) (sb - sf)``.
@@ -35,7 +37,8 @@ def build_incremental(tf, *, n_s: int = 64, n_l: int = 16, lmax: float = 1.0, ax
     ----------
     tf : TransferFunction
     n_s : int
-        Resolution of the scalar axes (centred nodes).
+        Resolution of the scalar axes (``endpoint`` nodes ``k / (n_s - 1)``: Kraus' texel-centre range
+        ``[(2n)^-1, 1 - (2n)^-1]``, so the TF's end values sit at texel centres).
     n_l : int
         Number of thickness slices (>= 3).
     lmax : float
@@ -56,8 +59,9 @@ def build_incremental(tf, *, n_s: int = 64, n_l: int = 16, lmax: float = 1.0, ax
     import warp as wp
 
     k = kernels()
-    ax_f = scalar_axis("sf", tf, n_s)
-    ax_b = scalar_axis("sb", tf, n_s)
+    # Kraus 2004 §3: texel centres span [(2n)^-1, 1 - (2n)^-1], i.e. node k at k / (n - 1) on the scalar axes
+    ax_f = scalar_axis("sf", tf, n_s, kind="endpoint")
+    ax_b = scalar_axis("sb", tf, n_s, kind="endpoint")
     ax_l = Axis("l", n_l, THICKNESS_AXES[axis], scale=lmax)
     dl = float(ax_l.physical[1])
     key = table_key("incremental", tf.hash, n_s=n_s, n_l=n_l, lmax=lmax, axis=axis, base=base, format=format)

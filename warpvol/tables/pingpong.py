@@ -27,25 +27,53 @@ OVERFLOW = {"radeon8500": "wrap", "geforce4": "saturate"}
 
 
 def split_texture_values(tf, n_tex: int, l: float, m: int, channel: int) -> np.ndarray:
-    """RGBA8 texel values (n_tex, 4) of the TF texture for one colour channel (hi/lo split)."""
-    from ..formats import UNorm
+    """RGBA8 texel values (n_tex, 4) of the TF texture for one colour channel (hi/lo split,
+    :class:`warpvol.formats.Split12` truncating, as the shader's 8-bit writes)."""
+    from ..formats import Split12
 
     lo_s, hi_s = tf.srange
     x = (np.arange(n_tex) + 0.5) / n_tex
     v = tf.evaluate(lo_s + x * (hi_s - lo_s))
     kap = np.clip(v[:, channel], 0, 1).astype(np.float32)
     a = (-np.expm1(-(l / m) * v[:, 3])).astype(np.float32)
-    tr = UNorm(8, rounding="truncate", overflow="wrap")
+    split = Split12(rounding="truncate")
     cols = []
     for q in (kap, a):
-        hi = tr.encode(q)
-        lo = (tr.encode(np.float32(256.0) * q) >> 4) << 4
+        hi, lo = split.channels(q)
         cols += [hi / 255.0, lo / 255.0]
     return np.column_stack(cols)
 
 
+def count_pingpong(jobs, m: int, per_pass: int, n_s: int) -> None:
+    """Counters of the ping-pong passes: per (slice, channel) ``ceil(m / per_pass)`` passes of one
+    full-slice quad; a fragment fetches the ping texel (2D RGBA8, nearest) and one TF texel per step,
+    runs ``per_pass`` shader steps and writes RGBA8 (no blending); the pong buffer is copied to the
+    ping texture after each pass (on the card) and the channel's last pass is read back."""
+    from ..gpu import counters as cnt
+
+    c = cnt.active()
+    if c is None:
+        return
+    npx = n_s * n_s
+    for _, _, tex in jobs:
+        np_ = -(-m // per_pass)
+        c.add(passes=np_, vertices=4 * np_, primitives=2 * np_, fragments=np_ * npx, fragments_passed=np_ * npx,
+              tex_2d_rgba8_nearest=np_ * npx, texels=np_ * npx, combiner_ops=m * npx, clears=1, clear_pixels=npx,
+              readbacks=1, bytes_down=4 * npx)
+        tex.count(m * npx, c)
+        c.blend("unorm8", np_ * npx, blending=False)
+
+
+def count_moments(n_s: int) -> None:
+    """Host work of the exact opacity (and colour) moments: one software integral per texel."""
+    from ..gpu import counters as cnt
+
+    cnt.count(host_texels=n_s * n_s)
+
+
 def build_pingpong(tf, *, n_s: int = 128, lengths=(1.0,), lmax: float = 1.0, m: int = 128, gpu: str = "radeon8500",
-                   per_pass: int = 4, n_tex: int = 2048, format: str = "fp32", device: str = "cpu", threads: int = 0):
+                   per_pass: int = 4, n_tex: int = 2048, format: str = "fp32", device: str = "cpu", threads: int = 0,
+                   emulate: bool = True):
     """Ping-pong filtered slices ``data[k, sb, sf] = (C rgb, alpha)`` at thicknesses ``lengths`` (x lmax).
 
     Parameters
@@ -69,6 +97,8 @@ def build_pingpong(tf, *, n_s: int = 128, lengths=(1.0,), lmax: float = 1.0, m: 
     threads : int
         Host threads running the slices' channels (and row blocks of them) concurrently on the CPU
         (0: all cores); the result does not depend on it. Other devices run them in order.
+    emulate : bool
+        False: count the work but run no pass (zero colour); for the throughput model.
     """
     import warp as wp
 
@@ -95,6 +125,7 @@ def build_pingpong(tf, *, n_s: int = 128, lengths=(1.0,), lmax: float = 1.0, m: 
     ax_b = scalar_axis("sb", tf, n_s)
     key = table_key("pingpong", tf.hash, n_s=n_s, lengths=tuple(ls.tolist()), lmax=lmax, m=m, gpu=gpu,
                     per_pass=per_pass, n_tex=n_tex, format=format)
+    key = key if emulate else key + (("emulate", False),)  # counting-only tables never pass for real ones
     meta = {"builder": "pingpong", "lmax": lmax, "m": m, "gpu": gpu, "passes": 0}
     fmt = UNorm(8, rounding="truncate", overflow=OVERFLOW[gpu]).kernel_params()
     x = farr(ax_f.nodes, device)
@@ -121,11 +152,14 @@ def build_pingpong(tf, *, n_s: int = 128, lengths=(1.0,), lmax: float = 1.0, m: 
                 wp.launch(k.pingpong_slice, dim=(nr, n_s), device=device,
                           inputs=[jobs[q][2].struct, x, x[r0:r0 + nr], m, per_pass, fmt, fmt, out[q][r0:r0 + nr]])
 
-        launch_blocks(device, (len(jobs) + 1) * len(rows), launch, threads)
+        if emulate:
+            launch_blocks(device, (len(jobs) + 1) * len(rows), launch, threads)
         res = out.numpy()
         for q, (si, c, _) in enumerate(jobs):
             data[si, ..., c] = res[q]
             meta["passes"] += -(-m // per_pass)
+        count_pingpong(jobs, m, per_pass, n_s)
+        count_moments(n_s)
         rho_hat = mom.numpy()[..., 3].astype(np.float64)
         for si, l in enumerate(ls):
             data[si, ..., 3] = -np.expm1(-float(l) * lmax * rho_hat)

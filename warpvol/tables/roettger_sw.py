@@ -16,11 +16,20 @@ reported (``tests/test_tables_software.py``), not hidden. ``n_min`` raises the f
 
 from __future__ import annotations
 
+import numpy as np
+
 from .base import AXIS_KINDS, TABLE_FORMATS
 from .common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_l_slices, model_id,
                      scalar_axis, table_key, tf_arrays, timed)
 from .exact import length_axis
 from ..errors import check_number
+
+
+def sw_samples(xf, xb, m: int, o: float, n_min: int) -> int:
+    """Samples of one slice: ``sum over (sf, sb) of max(n_min, ceil(o m |sf - sb|))`` (as the kernel, float32)."""
+    d = np.abs(np.asarray(xf, np.float32)[None, :] - np.asarray(xb, np.float32)[:, None])
+    n = np.clip(np.ceil(np.float32(o) * np.float32(m) * d), n_min, 1e6)
+    return int(n.astype(np.int64).sum())
 
 
 def build_roettger_sw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, m: int | None = None,
@@ -70,4 +79,8 @@ def build_roettger_sw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, m:
         xf, xb, ls = farr(ax_f.nodes, device), farr(ax_b.nodes, device), farr(ax_l.physical, device)
         launch_l_slices(k.roettger_sw_table3d, n_l, n_s, device, lambda l0, nl: [
             xf, xb, ls[l0:l0 + nl], lo, hi - lo, tf_s, tf_v, model_id(tf), float(m), o, n_min, out[l0:l0 + nl]])
+    meta["samples"] = sw_samples(ax_f.nodes, ax_b.nodes, m, o, n_min) * n_l
+    from ..gpu import counters as cnt
+
+    cnt.count(sw_samples=meta["samples"])
     return finish("roettger_sw", out.numpy(), (ax_l, ax_b, ax_f), ("r", "g", "b", "a"), format, key, meta)

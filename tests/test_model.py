@@ -1,0 +1,155 @@
+"""Throughput model and GPU profiles (warpvol.model): hand-computed pass times, capability errors."""
+
+import numpy as np
+import pytest
+
+from helpers import box_mesh, scene
+from warpvol.camera import Camera
+from warpvol.errors import ConfigError
+from warpvol.gpu.blend import BlendUnit, FrameBuffer
+from warpvol.model import check_caps, list_profiles, load_profile, model_counters, model_report
+from warpvol.pipeline import STAGES, Param, Pipeline, Stage, register_stage
+from warpvol.transfer import TransferFunction
+
+
+def test_every_profile_loads_and_every_number_has_a_source():
+    names = [n for n, _, _ in list_profiles()]
+    assert {"geforce3", "octane_mxi", "geforce4_ti4600", "radeon8500", "quadro_fx3000", "geforce6800gt",
+            "indigo2_impact"} <= set(names)
+    for n in names:
+        p = load_profile(n)
+        for sec in (p.rates, p.caps, p.host):
+            for k, e in sec.items():
+                assert e["source"].split(":")[0].split(" ")[0] in ("vendor", "derived", "estimate", "calibrated",
+                                                                   "Roettger", "Guthe", "Kraus", "Espinha"), (n, k)
+    with pytest.raises(ConfigError, match="unknown GPU profile 'geforce9'; available: .*radeon8500"):
+        load_profile("geforce9")
+
+
+def test_synthetic_pass_equals_hand_computation():
+    p = load_profile("geforce3")
+    c = {"passes": 3, "fragments": 1_000_000, "tex_3d_rgba8_linear": 2_000_000, "blends_unorm8": 1_000_000,
+         "bytes_down": 266_000, "fragments_passed": 1_000_000, "texels": 16_000_000}
+    r = model_counters(c, p)
+    # texture: 2e6 trilinear fetches / 0.8e9 = 2.5 ms (raster 1.25 ms, rop 1.25 ms, memory 8e6 B / 7.36e9 = 1.09 ms)
+    hand = 2e6 / 0.8e9 + 3 * 0.5e-3 + 266_000 / 266e6
+    assert r["bound"] == "texture" and r["s"] == pytest.approx(hand, rel=1e-12)
+    # alike passes: the sum over passes of (slowest unit per pass + overhead) is the same number
+    per_pass = max(2e6 / 3 / 0.8e9, 1e6 / 3 / 800e6) + 0.5e-3
+    assert r["gpu_s"] - 266_000 / 266e6 == pytest.approx(3 * per_pass, rel=1e-12)
+
+
+def test_sections_are_modelled_as_their_own_groups_and_host_work_adds():
+    p = load_profile("octane_mxi")
+    c = {"a/fragments": 133_000_000, "b/tex_2d_rgba8_linear": 133_000_000, "sw_samples": 207_240}
+    r = model_counters(c, p)
+    assert r["s"] == pytest.approx(1.0 + 1.0 + 1.0, rel=1e-12)  # two groups of 1 s each + 1 s host
+
+
+def test_unmodelled_work_is_named_not_zero():
+    p = load_profile("geforce3")
+    r = model_counters({"cell_steps": 10, "blends_fp16": 5, "frobs": 1}, p)
+    assert r["s"] is None
+    assert any("cell_step_rate" in u for u in r["unmodelled"]) and any("frobs" in u for u in r["unmodelled"])
+    rep = model_report({"x": {"fragments": 800}, "y": {}}, p)
+    assert rep["total"] == pytest.approx(1e-6) and rep["uncounted"] == ["y"]
+
+
+class _Fp16Composite(Stage):
+    """Test stage: blends a layer into an fp16 frame buffer and writes the image (``tex3d``: the 3D
+    texture size it declares it needs)."""
+
+    name = "_test_fp16_composite"
+    summary = "test only"
+    provides = ("image",)
+    params = (Param("tex3d", int, 0, "3D texture size it asks for", lo=0),)
+
+    def requires_caps(self):
+        return {"max_tex3d": self.config["tex3d"]} if self.config["tex3d"] else {}
+
+    def run(self, ctx):
+        cam = ctx.scene.camera
+        fb = FrameBuffer(cam.width_px, cam.height_px, "fp16")
+        fb.clear((0, 0, 0, 0))
+        BlendUnit.over().blend_layers(fb, np.full((1, cam.height_px, cam.width_px, 4), 0.5, np.float32))
+        ctx.image = fb.readback()
+
+
+@pytest.fixture(autouse=True)
+def _test_stage():
+    register_stage(_Fp16Composite)  # registered for this module's tests only
+    yield
+    STAGES.pop(_Fp16Composite.name, None)
+
+
+def _scene():
+    tf = TransferFunction.from_table(np.full((4, 4), 0.5), (0.0, 2.0))
+    return scene(box_mesh(), tf, Camera(eye=[0, 0, 6], target=[0, 0, 0], width_px=8, height_px=6, fov_y_deg=40))
+
+
+def test_capability_errors_name_stage_and_capability():
+    pipe = Pipeline.from_config({"stages": [{"stage": "_test_fp16_composite"}]})
+    with pytest.raises(ConfigError, match=r"_test_fp16_composite.*needs fp16 blending.*GeForce4 Ti 4600"):
+        pipe.render(_scene(), quiet=True, gpu="geforce4_ti4600")
+    res = pipe.render(_scene(), quiet=True, gpu="geforce6800gt")  # NV40 blends fp16 (at half rate)
+    assert res.report["gpu"] == "geforce6800gt"
+    st = res.report["modelled_s"]["stages"]["_test_fp16_composite"]
+    # 48 fp16 blends (8-byte pixels, read + write) and a 48-pixel clear: memory 960 B / 32 GB/s bounds
+    # the ROP (48 / 2.8e9 + 48 / 5.6e9); the 384-byte read-back is serial
+    assert st == pytest.approx((48 * 8 * 2 + 48 * 4) / 32e9 + 384 / 266e6, rel=1e-12)
+    big = Pipeline.from_config({"stages": [{"stage": "_test_fp16_composite", "tex3d": 1024}]})
+    with pytest.raises(ConfigError, match=r"needs 3D texture size >= 1024.*has max_tex3d = 512"):
+        big.render(_scene(), quiet=True, gpu="geforce6800gt")
+    for stage, gpu, what in [({"stage": "table_guthe", "degree": 4}, "geforce4_ti4600", "texture units >= 6"),
+                             ({"stage": "table_roettger_hw", "bits": 12}, "geforce3", "frame-buffer format 'unorm12'"),
+                             ({"stage": "table_roettger_hw", "bits": 8, "variant": "geforce3"}, "octane_mxi",
+                              "texture units >= 4"),
+                             ({"stage": "table_roettger_hw", "passes": "one"}, "octane_mxi", "rgba12_visual"),
+                             ({"stage": "table_pingpong"}, "geforce4_ti4600", "texture units >= 5"),
+                             ({"stage": "table_pingpong", "per_pass": 3}, "geforce4_ti4600",
+                              "frame-buffer overflow behaviour 'wrap'")]:
+        p = Pipeline.from_config({"stages": [stage, {"stage": "_test_fp16_composite"}]})
+        with pytest.raises(ConfigError, match=rf"stages\[0\] \({stage['stage']}\): needs {what}"):
+            p.render(_scene(), quiet=True, gpu=gpu)
+
+
+def test_report_modelled_per_stage_and_total():
+    cfg = {"stages": [{"stage": "table_roettger_hw", "n_s": 4, "n_l": 2, "steps": 3, "lmax": 1.0},
+                      {"stage": "cell_setup"}, {"stage": "entry_bins"}, {"stage": "raycast"}]}
+    with pytest.raises(ConfigError, match=r"\(raycast\): needs dynamic loops in fragment programs.*Octane"):
+        Pipeline.from_config(cfg).render(_scene(), quiet=True, gpu="octane_mxi")  # no HARC on an Octane
+    cfg["stages"][0]["bits"] = 8  # no 12-bit buffers on NV40
+    res = Pipeline.from_config(cfg).render(_scene(), quiet=True, gpu="geforce6800gt")
+    m = res.report["modelled_s"]
+    p = load_profile("geforce6800gt")
+    tab = model_counters(res.report["counters"]["table_roettger_hw"], p)["s"]
+    assert m["stages"]["table_roettger_hw"] == pytest.approx(tab) and tab > 0
+    steps = res.report["counters"]["raycast"]["cell_steps"]
+    assert m["stages"]["raycast"] == pytest.approx(steps / 38.0e6)
+    assert m["total"] == pytest.approx(sum(m["stages"].values()))
+    assert m["uncounted"] == ["cell_setup", "entry_bins"]
+
+
+def test_check_caps_kinds():
+    p = load_profile("radeon8500")
+    check_caps(p, "s", {"texture_units": 6, "fb_formats": "unorm8", "tex3d": True, "fp16_blend": False})
+    with pytest.raises(ConfigError, match="s: needs texture units >= 7"):
+        check_caps(p, "s", {"texture_units": 7})
+
+
+def test_cli_gpus_and_render_gpu(tmp_path, capsys):
+    import json
+
+    from warpvol.cli import main
+
+    assert main(["gpus"]) == 0
+    out = capsys.readouterr().out
+    assert "radeon8500" in out and "Pentium 4" in out
+    rep = tmp_path / "r.json"
+    args = ["render", "builtin:sphere", "--pipeline", "raycast", "-o", str(tmp_path / "i.exr"), "--width", "16",
+            "--height", "12", "--quiet", "--report", str(rep)]
+    assert main(args + ["--gpu", "geforce6800gt"]) == 0
+    r = json.loads(rep.read_text())
+    assert r["gpu"] == "geforce6800gt" and r["modelled_s"]["total"] > 0 and "raycast" in r["counters"]
+    assert main(args + ["--gpu", "voodoo2"]) == 2
+    assert "unknown GPU profile 'voodoo2'" in capsys.readouterr().err

@@ -1,0 +1,1 @@
+"""GPU profiles (TOML data files) of the machines the papers timed; read by :mod:`warpvol.model`."""
