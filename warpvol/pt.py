@@ -155,11 +155,13 @@ def _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands
     import dataclasses
 
     from .gpu.blend import FrameBuffer
+    from .gpu.counters import Counters, active
     from .parallel import blocks, launch_blocks
 
     rows = blocks(fb.height, -(-fb.height // bands))
+    counted = [Counters() for _ in rows]  # host threads do not see this thread's active counters
     pos = geo.positions.numpy()
-    full = fb.readback()
+    full = fb.array.numpy().copy()  # emulation bookkeeping, not a modelled read-back
     infos = [None] * len(rows)
 
     def run(b):
@@ -169,10 +171,15 @@ def _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands
         sub = dataclasses.replace(geo, positions=wp.array(p, dtype=wp.vec4, device=device))
         bfb = FrameBuffer(fb.width, h, fb.fmt, device=device)
         bfb.array.assign(wp.array(np.ascontiguousarray(full[r0:r0 + h]), dtype=wp.vec4, device=device))
-        infos[b] = draw(sub, vertex_attrs, program, bfb, blend, batch_tets=batch_tets, device=device)
-        full[r0:r0 + h] = bfb.readback()
+        with counted[b]:
+            infos[b] = draw(sub, vertex_attrs, program, bfb, blend, batch_tets=batch_tets, device=device)
+            full[r0:r0 + h] = bfb.array.numpy()
 
     launch_blocks(device, len(rows), run)
+    c = active()
+    if c is not None:
+        for cb in counted:
+            c.merge(cb)
     fb.array.assign(wp.array(full, dtype=wp.vec4, device=device))
     out = {k: sum(i[k] for i in infos) for k in ("fragments", "attrs_clamped")}
     out.update(batches=infos[0]["batches"], bands=len(rows))

@@ -73,5 +73,9 @@ class PTGuthe(Stage):
                                 device=ctx.device)
         ctx.stats["pt"]["texture_units"] = deg + 2
         info = composite(self, ctx, attrs, program)
-        # per fragment: deg + 1 coefficient lookups (2D) and one dependent alpha lookup (1D)
-        ctx.count(texture_lookups=(deg + 2) * info["fragments"], dependent_lookups=info["fragments"])
+        # per fragment: deg + 1 signed 8-bit coefficient lookups (2D) and one dependent alpha lookup (1D,
+        # 8-bit A or the A/L pair); register-combiner steps deg + 2 (estimate: polynomial, scale, alpha)
+        n = info["fragments"]
+        a_fmt = "la8" if table.meta.get("alpha_format", "al16") == "al16" else "a8"
+        ctx.count(texture_lookups=(deg + 2) * n, dependent_lookups=n, dependent_fetches=n, combiner_ops=(deg + 2) * n,
+                  **{"tex_2d_rgba8s_linear": (deg + 1) * n, f"tex_1d_{a_fmt}_linear": n})

@@ -43,8 +43,13 @@ def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1) -> dic
     info = draw(ctx.buffers["pt_geometry"], attrs, program, fb, BlendUnit.over(dither=stage.config["dither"]),
                 batch_tets=stage.config["batch_tets"], device=ctx.device, bands=bands)
     ctx.image = fb.readback()
-    # fragments and blends are counted by the rasteriser and blending unit themselves
-    ctx.count(batches=info["batches"], attrs_clamped=info["attrs_clamped"])
+    # fragments and blends are counted by the rasteriser and blending unit themselves; the draw sends each
+    # drawn tet as a triangle fan (triangles + 2 vertices) with its position and attributes over the bus
+    geo = ctx.buffers["pt_geometry"]
+    drawn = sum(v for k, v in geo.classes.items() if k not in ("flat", "culled"))
+    nv = geo.live_triangles() + 2 * drawn
+    ctx.count(batches=info["batches"], attrs_clamped=info["attrs_clamped"], vertices=nv,
+              bytes_up=nv * 4 * (4 + attrs.shape[1]))
     return info
 
 

@@ -98,7 +98,7 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
                     alpha_format=alpha_format, slices=slices, m=m if slices == "pingpong" else 0, format=format,
                     gpu=gpu if slices == "pingpong" else "")
     key = key if emulate else key + (("emulate", False),)
-    meta = {"builder": "guthe2d", "emission": tf.emission, "lmax": lmax, "degree": degree}
+    meta = {"builder": "guthe2d", "emission": tf.emission, "lmax": lmax, "degree": degree, "alpha_format": alpha_format}
     x = farr(ax_f.nodes, device)
     tf_s, tf_v = tf_arrays(tf, device)
     lo, hi = tf.srange
