@@ -15,6 +15,10 @@ raycast/fp32           2e-6         1e-4         float32 points relative to the 
                                                  (Delaunay slivers, caps/kites to 1e-12, eyes at
                                                  1e6 sizes); Blunt Fin 6.8e-8 / 6.4e-6
 segment/fp32           (rel) 2e-5   --           one segment integral in float32 vs float64 closed form
+planner/skip           1e-6         1e-5         a render with a stage the planner left out forced back
+                                                 on vs the render without it (same pipeline, same
+                                                 scene): the skip rule claims the stage changes
+                                                 nothing. Seen: 0 / 0 (raycast, peel on convex meshes)
 pt/constant_tf/ortho/   1e-4 / 5e-4  1e-3 / 2.5e-3  projected tetrahedra, constant TF (averaged colour exact):
   fp32 / fp16                            thick vertex rounded to 1/256 px while its (sf, sb, l)
                                          are the exact crossing's; fp32 seen 3.4e-5 / 3.6e-4,
@@ -69,6 +73,7 @@ pt_best                2.5e-4       4e-3         exact per-fragment integral, pe
 TOLERANCES = {
     "raycast/fp32": {"rmse": 2e-6, "max_abs": 1e-4},
     "segment/fp32": {"rtol": 2e-5, "atol": 1e-6},
+    "planner/skip": {"rmse": 1e-6, "max_abs": 1e-5},
     "pt/constant_tf/ortho/fp32": {"rmse": 1e-4, "max_abs": 1e-3},
     "pt/constant_tf/ortho/fp16": {"rmse": 5e-4, "max_abs": 2.5e-3},
     "pt/constant_tf/ortho/unorm12": {"rmse": 4e-4, "max_abs": 2e-3},

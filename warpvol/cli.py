@@ -7,6 +7,10 @@
     warpvol pipelines                                 # list presets with one line each
     warpvol gpus                                      # GPU profiles for render --gpu NAME (modelled time)
     warpvol demo                                      # built-in scene, default pipeline, image + report
+    warpvol bench SCENE [--pipelines all|NAME...] [--gpu NAME] -o OUTDIR   # table, plots, HTML
+    warpvol plan SCENE... [--pipeline NAME...]        # stages each preset leaves out, why, time saved
+    warpvol stress [--quick]                          # stiff and extreme cases x every preset
+    warpvol sweep CONFIG.toml [--scheduler tcp://HOST:PORT] -o OUTDIR   # Dask, resumable
 
 ``SCENE`` is a scene file or ``builtin:NAME``. Bad input ends with ``warpvol: error: ...`` naming the
 file / key / value, exit status 2, and no output file.
@@ -271,6 +275,114 @@ def cmd_demo(args) -> int:
     return 0
 
 
+def _outdir(path: str) -> Path:
+    """An output folder: created if missing, refused if a file, checked writable."""
+    p = Path(path)
+    if p.exists() and not p.is_dir():
+        raise ConfigError(f"-o: {p} exists and is not a folder")
+    p.mkdir(parents=True, exist_ok=True)
+    _check_writable("-o", p)
+    return p
+
+
+def cmd_bench(args) -> int:
+    from .bench import check_gpu, gpu_support, load_pipelines, resolve_pipelines, run_bench, write_bench
+    from .report_html import table_markdown
+
+    _check_sizes(args)
+    check_number("--repeats", args.repeats, lo=1, integer=True)
+    names = resolve_pipelines(args.pipelines)
+    plan_pipes = dict(zip(names, load_pipelines(names, args.device, quick=args.quick)))  # bad names fail first
+    check_gpu(args.gpu)
+    scene = _load_scene(args.scene, args)
+    check_image_memory(scene.camera, ["render", "png", "reference", "error_image"])
+    outdir = _outdir(args.output)
+    if args.gpu and gpu_support(args.gpu):
+        print(f"warpvol: {gpu_support(args.gpu)}", file=sys.stderr)
+    res = run_bench(scene, names, repeats=args.repeats, gpu=args.gpu, device=args.device, quiet=args.quiet,
+                    cache_dir=args.cache_dir or outdir / "reference-cache", audit=not args.no_audit, quick=args.quick)
+    write_bench(res, outdir, plan={n: p.plan(scene) for n, p in plan_pipes.items()})
+    print(table_markdown(res.rows))
+    print(f"wrote {outdir}/index.html, table.csv, table.json, table.md, pareto.png, pareto.svg")
+    return 0
+
+
+def cmd_plan(args) -> int:
+    from .bench import bench_pipeline, load_pipelines
+
+    _check_sizes(args)
+    check_number("--repeats", args.repeats, lo=1, integer=True)
+    pipes = load_pipelines(args.pipeline, args.device, flag="--pipeline")
+    scenes = [_load_scene(s, args) for s in args.scene]
+    for scene in scenes:
+        check_image_memory(scene.camera, ["render"])
+    for scene, pipe in ((sc, p) for sc in scenes for p in pipes):
+        print(f"{pipe.name} on {scene.name}:")
+        for s in pipe.plan(scene):
+            state = {True: "runs", False: "skipped", None: "decided at render time"}[s["run"]]
+            print(f"  {s['stage']:<20} {state}" + (f": {s['reason']}" if s["reason"] else ""))
+        if args.no_measure:
+            continue
+        row = bench_pipeline(pipe, scene, None, repeats=args.repeats)
+        print(f"  render: {row['total_s']:.4f} s (median of {row['repeats']})")
+        for a in row["planner"]:
+            if a.get("saved_s") is None:
+                print(f"  {a['stage']}: {a['note']}")
+            else:
+                warm = a.get("warmup_stage_s")
+                print(f"  {a['stage']} forced on: render {a['forced_total_s']:.4f} s ({a['total_diff_s']:+.4f} s); "
+                      f"leaving it out saves {a['saved_s']:.4f} s (its own time); images differ by max "
+                      f"{a['diff_max_abs']:.2e}" + ("" if warm is None else
+                                                   f"; it ran in the warm-up render: {warm:.4f} s"))
+    return 0
+
+
+def cmd_stress(args) -> int:
+    from .io import Outputs
+    from .pipeline import report_json
+    from .report_html import table_csv
+    from .stress import run_stress, stress_markdown, stress_matrix, stress_page
+
+    outdir = _outdir(args.output) if args.output else None
+    rows = run_stress(quick=args.quick, cases=args.cases, pipelines=args.pipelines, device=args.device,
+                      quiet=args.quiet)
+    md = stress_markdown(rows) + "\n\n" + stress_matrix(rows)
+    if outdir is not None:
+        with Outputs() as out:
+            out.text(outdir / "stress.json", report_json({"quick": args.quick, "rows": rows}))
+            out.text(outdir / "stress.csv", table_csv(rows))
+            out.text(outdir / "stress.md", md + "\n")
+            out.text(outdir / "stress.html", stress_page(rows, args.quick))
+    print(md)
+    failed = [r for r in rows if r["status"] == "failed"]
+    for r in failed:
+        print(f"warpvol: stress: {r['case']} / {r['pipeline']} failed: {r['message']}", file=sys.stderr)
+    return 1 if failed else 0
+
+
+def cmd_sweep(args) -> int:
+    from .report_html import table_markdown
+    from .sweep import load_config, run_sweep, write_sweep
+
+    check_number("--workers", args.workers, lo=1, integer=True)
+    if args.scheduler is not None and not args.scheduler.startswith(("tcp://", "tls://", "inproc://")):
+        raise ConfigError(f"--scheduler: expected tcp://HOST:PORT, got {args.scheduler!r}")
+    if args.scheduler and args.serial:
+        raise ConfigError("--serial: give either it or --scheduler, not both")
+    cfg = load_config(args.config)
+    outdir = _outdir(args.output)
+    res = run_sweep(cfg, outdir, scheduler=args.scheduler, workers=args.workers, serial=args.serial, quiet=args.quiet)
+    write_sweep(res, outdir)
+    failed = [r for r in res.rows if r["status"] == "failed"]
+    print(table_markdown([{**r, "pipeline": f"{r['scene']} {r['view']} {r['pipeline']} [{r['options']}]"}
+                          for r in res.rows]))
+    print(f"{len(res.rows)} rows ({res.skipped_done} done before, {len(failed)} failed) in {res.wall_s:.1f} s; "
+          f"wrote {outdir}/index.html, table.csv, table.json, table.md, pareto.png, pareto.svg")
+    for r in failed:
+        print(f"warpvol: sweep: {r['task']} failed: {r['message']}", file=sys.stderr)
+    return 1 if failed else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="warpvol", description=__doc__.split("\n\n")[0])
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -320,13 +432,55 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--size", type=int, default=256, help="image width and height in pixels")
     common(d)
     d.set_defaults(func=cmd_demo)
+
+    def scene_args(sp, many=False):
+        sp.add_argument("scene", nargs="+" if many else None, help="scene TOML file or builtin:NAME" + ("(s)" if many else ""))
+        sp.add_argument("--width", type=int, help="override camera.width_px")
+        sp.add_argument("--height", type=int, help="override camera.height_px")
+        sp.add_argument("--strict", action="store_true", help="zero-volume tets are an error")
+        common(sp)
+
+    b = sub.add_parser("bench", help="every pipeline on one scene: table, error-vs-time plot, HTML page")
+    b.add_argument("--pipelines", nargs="+", default=["all"], help="'all' (every preset) or names/files")
+    b.add_argument("--gpu", help="GPU profile for modelled times (where the build has GPU profiles)")
+    b.add_argument("-o", "--output", required=True, help="output folder")
+    b.add_argument("--repeats", type=int, default=3, help="timed renders per pipeline after a warm-up (median)")
+    b.add_argument("--cache-dir", help="reference cache folder (default OUTDIR/reference-cache)")
+    b.add_argument("--no-audit", action="store_true", help="skip the planner audit (forced-stage renders)")
+    b.add_argument("--quick", action="store_true", help="cap pre-integration table resolutions (as stress --quick)")
+    scene_args(b)
+    b.set_defaults(func=cmd_bench)
+
+    pl = sub.add_parser("plan", help="which stages a preset leaves out for a scene, why, and the time saved")
+    pl.add_argument("--pipeline", nargs="+", default=["all"], help="preset(s) or 'all'")
+    pl.add_argument("--repeats", type=int, default=3)
+    pl.add_argument("--no-measure", action="store_true", help="dry run only: no renders")
+    scene_args(pl, many=True)
+    pl.set_defaults(func=cmd_plan)
+
+    st = sub.add_parser("stress", help="stiff and extreme scenes x every pipeline: finite? error? time? (exit 1 on a failure)")
+    st.add_argument("--quick", action="store_true", help="the same cases at reduced sizes (CI)")
+    st.add_argument("--cases", nargs="+", help="case names (default: all; see warpvol.stress.CASES)")
+    st.add_argument("--pipelines", nargs="+", default=["all"], help="'all' (every preset) or names/files")
+    st.add_argument("-o", "--output", help="folder for stress.json / .csv / .md / .html")
+    common(st)
+    st.set_defaults(func=cmd_stress)
+
+    sw = sub.add_parser("sweep", help="scenes x views x presets x options as tasks on Dask (resumable)")
+    sw.add_argument("config", help="sweep TOML (see warpvol.sweep)")
+    sw.add_argument("-o", "--output", required=True, help="output folder (tasks/, references/, table, plots, HTML)")
+    sw.add_argument("--scheduler", help="tcp://HOST:PORT of a running Dask scheduler (default: a local cluster)")
+    sw.add_argument("--workers", type=int, default=2, help="worker processes of the local cluster")
+    sw.add_argument("--serial", action="store_true", help="run the tasks one after another in this process")
+    sw.add_argument("--quiet", action="store_true", help="no progress output on stderr")
+    sw.set_defaults(func=cmd_sweep, device="cpu")
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        if args.cmd in ("render", "demo"):
+        if args.cmd in ("render", "demo", "bench", "plan", "stress", "sweep"):
             from .pipeline import quiet_warp
 
             # the CLI keeps stdout for its summary and reports progress on stderr itself

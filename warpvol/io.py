@@ -90,6 +90,10 @@ class Outputs:
         """Stage a UTF-8 text file."""
         self._stage(path, lambda tmp, _: Path(tmp).write_text(text, encoding="utf-8"))
 
+    def bytes(self, path: str | Path, data: bytes) -> None:
+        """Stage a binary file (e.g. an encoded PNG)."""
+        self._stage(path, lambda tmp, _: Path(tmp).write_bytes(data))
+
     def exr(self, path: str | Path, image: np.ndarray) -> None:
         """Stage a float RGBA (H, W, 4) image (row 0 = top) as a float32 OpenEXR file."""
         import OpenImageIO as oiio

@@ -381,12 +381,50 @@ class Pipeline:
         cfg.setdefault("name", Path(str(name_or_path)).stem)
         return cls.from_config(cfg, device=device, where=where)
 
+    def stage_keys(self) -> list[str]:
+        """Report key of each stage: its name, ``name#2``, ``name#3``, ... for repeats."""
+        keys: list[str] = []
+        for st in self.stages:
+            key, n = st.name, 2
+            while key in keys:
+                key, n = f"{st.name}#{n}", n + 1
+            keys.append(key)
+        return keys
+
+    def plan(self, scene: Any) -> list[dict]:
+        """Dry run of the planner: ``{"stage", "run", "reason"}`` per stage, nothing rendered.
+
+        Asks each stage's :meth:`Stage.skip_reason` with an empty context (no buffers); a hook that
+        needs what an earlier stage builds is reported as decided at render time, with its error.
+
+        Examples
+        --------
+        >>> from warpvol.builtin import builtin_scene
+        >>> [(p["stage"], p["run"]) for p in Pipeline.load("raycast").plan(builtin_scene("box"))]
+        [('cell_setup', True), ('entry_bins', True), ('raycast', True), ('peel', False)]
+        """
+        ctx = Context(scene=scene, device=self.stages[0].device, quiet=True)
+        out = []
+        for key, st in zip(self.stage_keys(), self.stages):
+            try:
+                reason = st.skip_reason(ctx)
+            except Exception as e:  # noqa: BLE001 - the hook needs buffers of earlier stages
+                reason = f"decided at render time ({type(e).__name__}: {e})"
+                out.append({"stage": key, "run": None, "reason": reason})
+                continue
+            out.append({"stage": key, "run": not reason, "reason": reason or None})
+        return out
+
     def render(self, scene: Any, *, reference: np.ndarray | None = None, quiet: bool = False,
-               device: str | None = None, gpu: str | None = None) -> RenderResult:
+               device: str | None = None, gpu: str | None = None, force: Any = ()) -> RenderResult:
         """Run the stages; ``gpu``: a GPU profile name (:mod:`warpvol.model`): checks every stage's
-        capabilities first and adds ``gpu`` and ``modelled_s`` to the report."""
+        capabilities first and adds ``gpu`` and ``modelled_s`` to the report. ``force``: stage names
+        or report keys that run even when their :meth:`Stage.skip_reason` says the scene does not need
+        them (the planner audit's "with the skipped stage" render); they are listed under
+        ``report["forced"]`` with the reason."""
         from .gpu.counters import Counters
 
+        force = {force} if isinstance(force, str) else set(force)
         if device is not None and not isinstance(device, str):
             raise ConfigError(f"render(device): expected a device name such as 'cpu' or 'cuda:0', got {device!r}")
         device = self.stages[0].device if device is None else check_device(device, "render(device)")
@@ -411,12 +449,11 @@ class Pipeline:
                                   "image": [scene.camera.height_px, scene.camera.width_px],
                                   "stages": {}, "skipped": []}
         t_all = time.perf_counter()
-        for st in self.stages:
-            key = st.name
-            n = 2
-            while key in report["stages"] or any(s["stage"] == key for s in report["skipped"]):
-                key, n = f"{st.name}#{n}", n + 1
+        for key, st in zip(self.stage_keys(), self.stages):
             reason = st.skip_reason(ctx)
+            if reason and (key in force or st.name in force):
+                report.setdefault("forced", []).append({"stage": key, "reason": reason})
+                reason = None
             if reason:
                 report["skipped"].append({"stage": key, "reason": reason})
                 ctx.progress(f"{key}: skipped ({reason})")
