@@ -13,6 +13,16 @@ if [ ! -x .venv/bin/python ] || [ pyproject.toml -nt .venv/.installed ]; then
     touch .venv/.installed
 fi
 cmd="${1:-demo}"
+# the bench page's browser test drives Debian's Chromium through playwright; on a fresh machine where
+# we may (root, apt-get), install it once; elsewhere the test skips and names why
+if [ "$cmd" = test ] && ! command -v chromium >/dev/null 2>&1 && [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1 \
+        && [ ! -e .venv/.chromium-tried ]; then
+    echo "[run.sh] installing chromium for the browser test (first run only) ..." >&2
+    touch .venv/.chromium-tried
+    export DEBIAN_FRONTEND=noninteractive
+    { timeout 600 apt-get install -y -q chromium || { timeout 120 apt-get update -q && timeout 600 apt-get install -y -q chromium; }; } \
+        >/dev/null 2>&1 || echo "[run.sh] chromium could not be installed; the browser test will skip" >&2
+fi
 shift || true
 case "$cmd" in
     demo) exec .venv/bin/warpvol demo "$@" ;;

@@ -402,7 +402,7 @@ def psi_points(gf: wp.array(dtype=float), gb: wp.array(dtype=float), out: wp.arr
 
 
 @wp.kernel
-def iso_table(x: wp.array(dtype=float), iso: wp.array(dtype=float), limit: int, tol: float,
+def iso_table(x: wp.array(dtype=float), iso: wp.array(dtype=float), limit: int, tol: float, edge: float,
               out: wp.array2d(dtype=wp.vec2)):
     """``out[sb, sf] = (s_iso, next_s_iso)``: the first control point at or beyond ``sf`` in the
     direction of ``sb`` and the one after it, ``-1`` where there is none.
@@ -410,6 +410,9 @@ def iso_table(x: wp.array(dtype=float), iso: wp.array(dtype=float), limit: int, 
     ``limit = 1``: ``s_iso`` must also lie within ``sb + tol`` (``sb - tol`` going down), else -1
     (the paper's "no iso-surface between sf and sb"); ``limit = 0``: direction only.
     ``next_s_iso`` is never limited by ``sb`` (the ray step compares it with ``sb`` itself).
+    ``edge > 0`` anchors the search at the texel's edge behind ``sf`` (``sf - edge`` going up,
+    ``sf + edge`` going down) instead of its centre, so no control point inside the texel is missed;
+    its diagonal texels hold the control point inside the texel (direction unknown there).
     """
     j, i = wp.tid()
     sf = x[i]
@@ -417,15 +420,23 @@ def iso_table(x: wp.array(dtype=float), iso: wp.array(dtype=float), limit: int, 
     n = iso.shape[0]
     first = float(-1.0)
     nxt = float(-1.0)
-    if sb > sf:
-        lo = tf_lower(sf, iso)  # smallest k with iso[k] >= sf
+    if edge > 0.0 and i == j:
+        # sf and sb in one texel: the direction is unknown, so store the control point inside the
+        # texel (at most one when control points are more than a texel apart) and no next one; the
+        # ray step keeps it only if it lies between sf and sb
+        lo = tf_lower(sf - edge, iso)
+        if lo < n:
+            if iso[lo] <= sf + edge:
+                first = iso[lo]
+    elif sb > sf:
+        lo = tf_lower(sf - edge, iso)  # smallest k with iso[k] >= sf (- edge)
         if lo < n:
             if limit == 0 or iso[lo] <= sb + tol:
                 first = iso[lo]
                 if lo + 1 < n:
                     nxt = iso[lo + 1]
     elif sb < sf:
-        k = tf_upper(sf, iso) - 1  # largest k with iso[k] <= sf
+        k = tf_upper(sf + edge, iso) - 1  # largest k with iso[k] <= sf (+ edge)
         if k >= 0:
             if limit == 0 or iso[k] >= sb - tol:
                 first = iso[k]

@@ -32,14 +32,22 @@ Fragment programs (one thread per fragment of :meth:`warpvol.gpu.raster.Rasteriz
 * ``k_frag_cylindrical``: Roettger & Ertl 2002 §4 — per vertex ``(α, s, t)`` (eq. 10, one division,
   ``k_cyl_vertices``); ``α`` is constant over each triangle (all its points lie on one plane through
   the front diagonal) and taken from the triangle's thick vertex, ``(s, t)`` interpolated linearly;
-  the two nearest α-planes are sampled from the atlas by the 2D texture unit and blended.
+  the two nearest α-planes are sampled from the atlas by the 2D texture unit and blended;
+* ``k_frag_guthe``: Guthe et al. 2002 — ρ̂ and the colour coefficients from 2D textures (atlas tiles),
+  α by a dependent 1D lookup of ``l ρ̂``, colour a polynomial in ``l``;
+* ``k_frag_exact``: no table — the fragment's segment integrated exactly (``pt_best``).
+
+Every table program reads its fragment's (sf, sb, l) through :func:`fragment_sfsbl`: as interpolated,
+or (Kraus, Qiao & Ebert 2004) from ``a/w`` and ``1/w`` of the front and back points
+(``k_kraus_vertices``) divided per fragment, with the exact or the approximate thickness.
 """
 
 import warp as wp
 
+from .integrate import exp_neg, integrate_segment
 from .preint import table_to_cyl
 from .raster import edge, snap
-from .texture import Atlas, Tex3D, atlas_sample, tex3d
+from .texture import Atlas, Tex1D, Tex3D, atlas_sample, tex1d, tex3d
 from .tf import tf_eval
 
 wp.set_module_options({"enable_backward": False})
@@ -120,7 +128,8 @@ def persp_param(t: float, wa: float, wb: float) -> float:
 def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal: wp.array(dtype=wp.float32),
                tets: wp.array2d(dtype=wp.int32), order: wp.array(dtype=wp.int32), n_points: int, even: int,
                thick_pos: wp.array(dtype=wp.vec4), thick_attr: wp.array(dtype=wp.vec3),
-               tris: wp.array(dtype=wp.vec3i), klass: wp.array(dtype=wp.int32), moved: wp.array(dtype=wp.int32)):
+               tris: wp.array(dtype=wp.vec3i), klass: wp.array(dtype=wp.int32), moved: wp.array(dtype=wp.int32),
+               thick_front: wp.array(dtype=wp.vec4), thick_back: wp.array(dtype=wp.vec4)):
     k = wp.tid()
     c = order[k]
     v = wp.vec4i(tets[c, 0], tets[c, 1], tets[c, 2], tets[c, 3])
@@ -131,6 +140,9 @@ def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal:
     thick_pos[k] = win[v[0]]
     s0 = scal[v[0]]
     thick_attr[k] = wp.vec3(s0, s0, 0.0)
+    e0 = eye[v[0]]
+    thick_front[k] = wp.vec4(e0[0], e0[1], e0[2], win[v[0]][3])
+    thick_back[k] = thick_front[k]
     ok = True
     for q in range(4):
         if not (win[v[q]][3] > 0.0):
@@ -182,10 +194,16 @@ def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal:
         ei = eye[v[i]]
         thick = wp.length(wp.vec3(ef[0] - ei[0], ef[1] - ei[1], ef[2] - ei[2]))
         si = scal[v[i]]
+        pin = wp.vec4(ei[0], ei[1], ei[2], pi[3])
+        pface = wp.vec4(ef[0], ef[1], ef[2], pj[3] * qj + pk[3] * qk + pl[3] * ql)
         if ei[2] >= ef[2]:  # the inner vertex is nearer the eye (eye space looks down -z)
             thick_attr[k] = wp.vec3(si, sface, thick)
+            thick_front[k] = pin
+            thick_back[k] = pface
         else:
             thick_attr[k] = wp.vec3(sface, si, thick)
+            thick_front[k] = pface
+            thick_back[k] = pin
         thick_pos[k] = wp.vec4(float(x[i]) / 256.0, float(y[i]) / 256.0, pi[2], pi[3])  # = the snapped vertex
         tris[4 * k + 0] = wp.vec3i(tv, v[j], v[kk])
         tris[4 * k + 1] = wp.vec3i(tv, v[kk], v[l])
@@ -262,10 +280,16 @@ def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal:
     z1 = wa[2] * (1.0 - t) + wb[2] * t
     z2 = wc[2] * (1.0 - u) + wd[2] * u
     w1 = wa[3] * (1.0 - t) + wb[3] * t
+    p1 = wp.vec4(e1[0], e1[1], e1[2], wa[3] * (1.0 - t3) + wb[3] * t3)
+    p2 = wp.vec4(e2[0], e2[1], e2[2], wc[3] * (1.0 - u3) + wd[3] * u3)
     if e1[2] >= e2[2]:
         thick_attr[k] = wp.vec3(s1, s2, thick)
+        thick_front[k] = p1
+        thick_back[k] = p2
     else:
         thick_attr[k] = wp.vec3(s2, s1, thick)
+        thick_front[k] = p2
+        thick_back[k] = p1
         z1 = z2
     thick_pos[k] = wp.vec4(float(tx) / 256.0, float(ty) / 256.0, z1, w1)
     tris[4 * k + 0] = wp.vec3i(tv, v[a], v[cc])
@@ -323,17 +347,97 @@ def axis_coord(x: float, a: float, b: float, log2_n: int) -> float:
     return x * a + b
 
 
+PERSP_OFF = wp.constant(0)
+PERSP_EXACT = wp.constant(1)
+PERSP_APPROX = wp.constant(2)
+
+
 @wp.kernel
-def k_frag_table3d(attrs: wp.array2d(dtype=wp.float32), tex: Tex3D, s_off: float, s_inv: float, s_a: float,
-                   s_b: float, l_inv: float, l_a: float, l_b: float, l_log2: int, out: wp.array(dtype=wp.vec4)):
-    """Röttger et al. 2000: the interpolated (sf, sb, l) normalised (``(s - s_off) s_inv``,
-    ``l l_inv``), mapped to texture coordinates of the table's axes and looked up through the 3D
-    texture unit; the table's RGBA (premultiplied C, alpha) is the fragment colour."""
+def k_kraus_vertices(attr: wp.array(dtype=wp.vec3), front: wp.array(dtype=wp.vec4), back: wp.array(dtype=wp.vec4),
+                     out: wp.array2d(dtype=wp.float32)):
+    """Kraus et al. 2004 §2.3 vertex program: per output vertex ``(sf/wf, sb/wb, 1/wf, 1/wb, xf/wf,
+    yf/wf, zf/wf, zb/wb)`` of its front and back eye-space points (clip ``w``); the rasteriser
+    interpolates them linearly in screen space (vertices at or behind the eye get zeros: no
+    triangle of a drawn tet uses them)."""
+    i = wp.tid()
+    a = attr[i]
+    fr = front[i]
+    bk = back[i]
+    iwf = float(0.0)
+    iwb = float(0.0)
+    if fr[3] > 0.0 and bk[3] > 0.0:
+        iwf = 1.0 / fr[3]
+        iwb = 1.0 / bk[3]
+    out[i, 0] = a[0] * iwf
+    out[i, 1] = a[1] * iwb
+    out[i, 2] = iwf
+    out[i, 3] = iwb
+    out[i, 4] = fr[0] * iwf
+    out[i, 5] = fr[1] * iwf
+    out[i, 6] = fr[2] * iwf
+    out[i, 7] = bk[2] * iwb
+
+
+@wp.func
+def fragment_sfsbl(attrs: wp.array2d(dtype=wp.float32), f: int, mode: int, ortho: int) -> wp.vec3:
+    """(sf, sb, l) of fragment f: the interpolated attributes as they are (``PERSP_OFF``), or
+    Kraus et al.'s per-fragment division of the interpolated ``a/w`` by ``1/w`` (front and back
+    apart) with the thickness ``|ve_f| |(ze_b - ze_f) / ze_f|`` (``PERSP_EXACT``; ``|ze_b - ze_f|``,
+    exact, for orthographic views) or ``|ze_b - ze_f|`` (``PERSP_APPROX``)."""
+    if mode == PERSP_OFF:
+        return wp.vec3(attrs[f, 0], attrs[f, 1], attrs[f, 2])
+    wf = 1.0 / attrs[f, 2]
+    wb = 1.0 / attrs[f, 3]
+    zf = attrs[f, 6] * wf
+    zb = attrs[f, 7] * wb
+    l = wp.abs(zb - zf)
+    if mode == PERSP_EXACT and ortho == 0 and zf != 0.0:
+        l = wp.length(wp.vec3(attrs[f, 4] * wf, attrs[f, 5] * wf, zf)) * l / wp.abs(zf)
+    return wp.vec3(attrs[f, 0] * wf, attrs[f, 1] * wb, l)
+
+
+@wp.kernel
+def k_frag_table3d(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: int, tex: Tex3D, s_off: float,
+                   s_inv: float, s_a: float, s_b: float, l_inv: float, l_a: float, l_b: float, l_log2: int,
+                   out: wp.array(dtype=wp.vec4)):
+    """Röttger et al. 2000: the fragment's (sf, sb, l) (:func:`fragment_sfsbl`) normalised
+    (``(s - s_off) s_inv``, ``l l_inv``), mapped to texture coordinates of the table's axes and
+    looked up through the 3D texture unit; the table's RGBA (premultiplied C, alpha) is the
+    fragment colour."""
     f = wp.tid()
-    u = axis_coord((attrs[f, 0] - s_off) * s_inv, s_a, s_b, 0)
-    v = axis_coord((attrs[f, 1] - s_off) * s_inv, s_a, s_b, 0)
-    r = axis_coord(attrs[f, 2] * l_inv, l_a, l_b, l_log2)
+    a = fragment_sfsbl(attrs, f, mode, ortho)
+    u = axis_coord((a[0] - s_off) * s_inv, s_a, s_b, 0)
+    v = axis_coord((a[1] - s_off) * s_inv, s_a, s_b, 0)
+    r = axis_coord(a[2] * l_inv, l_a, l_b, l_log2)
     out[f] = tex3d(tex, u, v, r)
+
+
+@wp.kernel
+def k_frag_guthe(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: int, coef: Atlas, alpha1d: Tex1D,
+                 s_off: float, s_inv: float, s_a: float, s_b: float, l_inv: float, a_a: float, a_b: float,
+                 degree: int, scale: wp.array(dtype=wp.vec3), out: wp.array(dtype=wp.vec4)):
+    """Guthe et al. 2002: tile 0 of ``coef`` holds ``(C~_0, rho_hat / rho_max)``, tile i ``C~_i``
+    (i = 1..degree), each a bilinear 2D lookup at (sf, sb); ``alpha = alpha1D(x rho_hat)`` by a
+    dependent 1D lookup (``x = l / lmax`` clamped to [0, 1], texel-centre map ``a_a x + a_b``);
+    ``C = alpha sum_i x^i C~_i scale_i``; the output register clamps to [0, 1]."""
+    f = wp.tid()
+    a = fragment_sfsbl(attrs, f, mode, ortho)
+    u = axis_coord((a[0] - s_off) * s_inv, s_a, s_b, 0)
+    v = axis_coord((a[1] - s_off) * s_inv, s_a, s_b, 0)
+    x = wp.clamp(a[2] * l_inv, 0.0, 1.0)
+    t0 = atlas_sample(coef, 0, u, v)
+    alpha = tex1d(alpha1d, (x * t0[3]) * a_a + a_b)[0]
+    s0 = scale[0]
+    c = wp.vec3(t0[0] * s0[0], t0[1] * s0[1], t0[2] * s0[2])
+    xi = float(1.0)
+    for i in range(1, degree + 1):
+        xi = xi * x
+        ti = atlas_sample(coef, i, u, v)
+        si = scale[i]
+        c = c + wp.vec3(ti[0] * si[0], ti[1] * si[1], ti[2] * si[2]) * xi
+    c = c * alpha
+    out[f] = wp.vec4(wp.clamp(c[0], 0.0, 1.0), wp.clamp(c[1], 0.0, 1.0), wp.clamp(c[2], 0.0, 1.0),
+                     wp.clamp(alpha, 0.0, 1.0))
 
 
 @wp.kernel
@@ -399,3 +503,14 @@ def k_frag_cylindrical(attrs: wp.array2d(dtype=wp.float32), prim: wp.array(dtype
     u = ua * wp.clamp(attrs[f, 1], 0.0, 1.0) + ub
     v = va * wp.clamp(attrs[f, 2], 0.0, 1.0) + vb
     out[f] = atlas_sample(atlas, p0, u, v) * (1.0 - w) + atlas_sample(atlas, p1, u, v) * w
+
+
+@wp.kernel
+def k_frag_exact(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: int, tf_s: wp.array(dtype=float),
+                 tf_v: wp.array(dtype=wp.vec4), model: int, out: wp.array(dtype=wp.vec4)):
+    """No table: the fragment's segment (sf, sb, l) integrated exactly for the piecewise-linear TF
+    in fp32 (:func:`warpvol.kernels.integrate.integrate_segment`, the reference's closed form)."""
+    f = wp.tid()
+    a = fragment_sfsbl(attrs, f, mode, ortho)
+    r = integrate_segment(a[0], a[1], wp.max(a[2], 0.0), tf_s, tf_v, model)
+    out[f] = wp.vec4(r[0], r[1], r[2], 1.0 - exp_neg(r[3]))

@@ -1,7 +1,7 @@
 """Benchmark: warpvol's projected-tetrahedra presets vs VTK's ``vtkProjectedTetrahedraMapper``.
 
 Renders a scene (default: NASA Blunt Fin, perspective, 512x512, ``scenes/bluntfin.toml``) with each
-PT preset (``pt_vertex_color``, ``roettger2000_3d``, ``roettger2002_hw`` by default) and with VTK's
+PT preset (``pt_vertex_color``, ``roettger2000_3d``, ``roettger2002_hw``, ``pt_best`` by default) and with VTK's
 projected-tetrahedra mapper (OpenGL, offscreen; on a machine without a GPU that is Mesa's software
 rasteriser) in one run (PNGs of each, and ``side_by_side_pt_vertex_color_vtk.png``: reference, warpvol
 ``pt_vertex_color``, VTK, 4x their difference); prints times (median of ``--repeat`` rounds, interleaved: one render of each renderer per round,
@@ -29,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_raycast import interleaved_times, scene_and_reference, vtk_renderer, warpvol_renderer  # noqa: E402
 
-PRESETS = ("pt_vertex_color", "roettger2000_3d", "roettger2002_hw")
+PRESETS = ("pt_vertex_color", "roettger2000_3d", "roettger2002_hw", "pt_best")
 
 
 def main(argv=None) -> int:

@@ -9,8 +9,10 @@ Fig. 8: 3D texturing vs two-pass 2D multi-texturing (cylindrical planes) of proj
 the 2,560-tet spherical distance volume (built-in ``sphere`` mesh) with a Fig. 9-like TF (four
 interleaved orange and blue regions, constant opacity), 64^3 table and 64 planes of 64^2 (Fig. 10):
 each image's error against the exact reference, emulated render time and counted work, beside the
-paper's frame rates. Modelled frame rates per card need the GPU throughput model (not yet in
-warpvol), so the paper's speed-ups are printed for comparison only.
+paper's frame rates, and modelled frame rates per card (``warpvol.model``: the counted vertex,
+raster, texture, combiner and blending work of the vertex, decomposition and fragment stages on
+the card's profile; host sorting left out, the paper's rates being rasterisation rates) where a
+profile exists (GeForce3, Radeon 8500, Octane MXI).
 
     ./run.sh python scripts/reproduce_roettger2002.py [--out out/] [--sizes 64,128,256] [--device cpu]
 """
@@ -71,7 +73,7 @@ def fig8(size: int, repeat: int, device: str) -> None:
     print(f"\nFig. 8: projected tetrahedra, {sc.mesh.n_tets} tets (spherical distance volume), {size}x{size}, "
           f"8-bit frame buffer, error vs the exact reference")
     print(f"{'variant':<27} | {'rmse':>9} {'max':>7} | {'render [s]':>10} | {'fragments':>9} {'texel fetches':>13}")
-    times = {}
+    times, reports = {}, {}
     for name, (tab, frag) in variants.items():
         stages = [{"stage": "vertex"}, {"stage": "sort", "method": "mpvo"}, tab, {"stage": "pt_project"}, frag]
         p = Pipeline.from_config({"name": name, "stages": stages}, device=device)
@@ -82,17 +84,54 @@ def fig8(size: int, repeat: int, device: str) -> None:
             res = p.render(sc, reference=ref, quiet=True)
             ts.append(time.perf_counter() - t0)
         c = res.report["counters"][frag["stage"]]
+        reports[name] = res.report
         times[name] = statistics.median(ts)
         e = res.report["error"]
         print(f"{name:<27} | {e['rmse']:>9.2e} {e['max_abs']:>7.3f} | {times[name]:>10.3f} | {c['fragments']:>9,d} "
               f"{fetches[frag['stage']] * c['texture_lookups']:>13,d}")
-    print(f"\n{'card':<13} | paper: {'3D fps':>6} {'2D fps':>6} {'2D/3D':>6} {'printed':>8} | ours: modelled fps "
-          f"needs the throughput model")
+    print(f"\n{'card':<13} | paper: {'3D fps':>6} {'2D fps':>6} {'2D/3D':>6} {'printed':>8} | modelled: "
+          f"{'3D fps':>6} {'2D 1x':>6} {'2D/3D':>6} | ratio to paper: 3D, 2D")
     for card, (f3, f2, printed) in PAPER_F8.items():
         ratio = f"{f2 / f3:>5.2f}x" if f3 else f"{'-':>6}"
-        print(f"{card:<13} |        {f3 if f3 else '-':>6} {f2:>6} {ratio} {printed:>8} |")
+        prof = F8_PROFILES.get(card)
+        m3 = m2 = None
+        if prof:
+            m3 = gpu_seconds(reports["3D texture (64^3, RGBA8)"], prof)
+            m2 = gpu_seconds(reports["2D planes 1x (64 x 64^2)"], prof)
+        mf3, mf2 = (None if m is None else 1.0 / m for m in (m3, m2))
+        cols = "" if not prof else (f" {'n/a' if mf3 is None else f'{mf3:.1f}':>6} {'n/a' if mf2 is None else f'{mf2:.1f}':>6} "
+                                    f"{'' if None in (mf3, mf2) else f'{mf2 / mf3:>5.2f}x':>6} | "
+                                    f"{'-' if None in (mf3, f3) else f'{mf3 / f3:.2f}'}, "
+                                    f"{'-' if mf2 is None else f'{mf2 / f2:.2f}'}")
+        print(f"{card:<13} |        {f3 if f3 else '-':>6} {f2:>6} {ratio} {printed:>8} |{cols}")
     print("Emulated times are CPU emulation cost (trilinear = 8 texel fetches, two bilinear planes = 8), not "
           "a 2002 card's fill rate.")
+
+
+F8_PROFILES = {"GeForce3": "geforce3", "Radeon 8500": "radeon8500", "Octane MXI": "octane_mxi"}
+
+
+def gpu_seconds(report, profile):
+    """Modelled seconds of a render's GPU stages (host sorting left out) on ``profile``; None when
+    the card lacks a capability the work needs or some work has no rate."""
+    from warpvol import model
+
+    p = model.load_profile(profile)
+    total = 0.0
+    for key, c in report["counters"].items():
+        if key.startswith("sort"):
+            continue
+        try:
+            model.check_caps(p, key, model.counter_needs(c))
+        except Exception as e:  # noqa: BLE001 - a missing capability: not modelled on this card
+            print(f"  ({profile}: not modelled: {e})")
+            return None
+        r = model.model_counters(c, p)
+        if r["s"] is None:
+            print(f"  ({profile}: not modelled: {key}: {', '.join(r['unmodelled'])})")
+            return None
+        total += r["s"]
+    return total
 
 
 def fig4_tf(rho_scale: float = 1.0):

@@ -137,6 +137,43 @@ def westermann_rows(device: str = "cpu") -> list:
     return rows
 
 
+#: Espinha & Celes 2005 Tables 2/3 fps (min, max) on the GeForce 6800 GT at 512^2, by preset and TF segments
+ESPINHA_T3 = {("espinha2005_full", None): {"bluntfin": (6.09, 8.76), "loxpost": (3.40, 5.91)},
+              ("espinha2005_partial", 10): {"bluntfin": (3.50, 7.11), "loxpost": (2.32, 4.21)},
+              ("espinha2005_partial", 255): {"bluntfin": (2.98, 5.04), "loxpost": (1.22, 2.38)}}
+
+
+def espinha_rows(device: str = "cpu") -> list:
+    """Tables 2/3 fps of the paper's HARC presets (full, partial with 10 / 255 TF segments) modelled on
+    the GeForce 6800 GT from one redraw of the scene's view at 512^2 (tables resident)."""
+    import dataclasses
+
+    from warpvol.model import load_profile, model_report
+    from warpvol.pipeline import Pipeline
+    from warpvol.scene import load_scene
+    from reproduce_espinha2005 import resampled_tf
+
+    root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+    rows = []
+    for (preset, seg), paper in ESPINHA_T3.items():
+        label = f"{preset}{'' if seg is None else f' {seg} seg.'}"
+        for name, (lo, hi) in paper.items():
+            try:
+                scene = load_scene(os.path.join(root, "scenes", f"{name}.toml"))
+            except Exception as e:  # data absent: named as skipped
+                rows.append(("Espinha 2005 T2/T3", f"{label} {name} [fps]", None, None, f"skipped ({e})"))
+                continue
+            scene = dataclasses.replace(scene, camera=scene.camera.replace(width_px=512, height_px=512),
+                                        transfer=scene.transfer if seg is None else resampled_tf(scene.transfer, seg))
+            pipe = Pipeline.load(preset, device=device)
+            pipe.render(scene, quiet=True)  # tables built; the redraw below counts only the frame
+            m = model_report(pipe.render(scene, quiet=True).report["counters"], load_profile("geforce6800gt"))
+            fps = 1.0 / m["total"] if m["total"] else None
+            rows.append(("Espinha 2005 T2/T3", f"{label} {name} [fps]", math.sqrt(lo * hi), fps,
+                         "prediction (our viewpoint, not the paper's; cell_step_rate from the raycast row)"))
+    return rows
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--device", default="cpu")
@@ -169,6 +206,7 @@ def main(argv=None):
     if not a.no_renders:
         rows += harc_rows(a.device)
         rows += westermann_rows(a.device)
+        rows += espinha_rows(a.device)
     print(f"{'paper':<20} {'row':<50} {'paper':>9} {'modelled':>9} {'ratio':>6}  role")
     for src, what, paper, mod, role in rows:
         ps = "-" if paper is None else f"{paper:.4g}"

@@ -136,8 +136,8 @@ def test_compare_one_panel_pair_per_pipeline(tmp_path, monkeypatch):
         raise AssertionError("reference computed before the pipelines were checked")
 
     monkeypatch.setattr("warpvol.reference.render_reference", boom)
-    with pytest.raises(ConfigError, match=r"^pipelines\[1\]: 'kraus2004_full' is neither a preset"):
-        warpvol.compare(small("box", 8), ["raycast", "kraus2004_full"])
+    with pytest.raises(ConfigError, match=r"^pipelines\[1\]: 'kraus2099_full' is neither a preset"):
+        warpvol.compare(small("box", 8), ["raycast", "kraus2099_full"])  # (kraus2004_full exists since issue 10)
     with pytest.raises(ConfigError, match=r"^pipelines: expected one or more"):
         warpvol.compare(small("box", 8), [])
     with pytest.raises(ConfigError, match=r"^scene_or_parts: expected a Scene"):

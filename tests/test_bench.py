@@ -12,6 +12,7 @@ import warpvol
 from tolerances import TOLERANCES
 from warpvol.bench import pareto_front, quick_pipeline, scene_hash
 from warpvol.builtin import BUILTIN_SCENES
+from warpvol.errors import ConfigError
 from warpvol.cli import main
 from warpvol.pipeline import Pipeline, list_presets
 
@@ -117,7 +118,11 @@ def test_planner_skip_rules_leave_the_image_unchanged(scene_name):
     for name, _ in list_presets():
         pipe = quick_pipeline(Pipeline.load(name))  # small tables: the skip rules are the same
         plan = pipe.plan(scene)
-        base = pipe.render(scene, quiet=True)
+        try:
+            base = pipe.render(scene, quiet=True)
+        except ConfigError as e:  # a preset that refuses the scene has nothing to audit (Guthe: emission density)
+            assert "color_extinction" in str(e), (name, e)
+            continue
         assert [s["stage"] for s in base.report["skipped"]] == [p["stage"] for p in plan if p["run"] is False]
         for p in plan:
             if p["run"] is False:

@@ -86,7 +86,7 @@ def test_cell_data_cached_per_mesh():
 def test_unresolved_rays_are_redone_in_float64_and_counted(projection):
     # mark rays as failed after the float32 pass: the stage must redo them exactly and count them
     from warpvol.pipeline import Context
-    from warpvol.stages import raycast as rc
+    from warpvol.stages.raycasting import raycast as rc
 
     m = box_mesh(dims=(4, 4, 4), scalar=lambda p: np.sin(2 * p[:, 0]) + p[:, 1])
     cam = Camera(projection=projection, eye=[1.2, 1.5, 4.0], height=2.5, width_px=12, height_px=10)

@@ -9,7 +9,7 @@ from warpvol.camera import Camera
 from warpvol.mesh import TetMesh, structured_to_tets
 from warpvol.pipeline import Context
 from warpvol.sort import centroid_order, face_directions, occlusion_violations, visibility_order
-from warpvol.stages.sort_cells import SortCells
+from warpvol.stages.projection.sort_cells import SortCells
 
 
 def jittered_box(rng, dims=(5, 5, 5), jitter=0.12, drop=0.0):

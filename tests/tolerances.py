@@ -51,6 +51,38 @@ roettger2002_hw         2e-2         0.15           preset as shipped (64^3, 128
                                                     64^2; seen at 128^2: box 1.0e-2 / 0.064, linear_box
                                                     4.9e-3 / 0.031, sphere 1.2e-2 / 0.099, concave 9.1e-3
                                                     / 0.071, stiff 6.3e-3 / 0.082
+guthe2002_*            5e-3         5e-2         presets with n_s = 64 (shipped: 512), box, linear_box,
+                                                 concave, stiff 48^2 (colour x extinction only); seen
+                                                 linear <= 3.0e-3 / 2.9e-2, degree 2 and 4 <= 3.05e-3 /
+                                                 2.9e-2 (8-bit buffer and texels dominate)
+kraus2004_basic        1.8e-2       0.14         n_s = 64, 8-bit table and buffer, uniform l axis, all
+                                                 built-ins 48^2; seen <= 1.16e-2 / 9.0e-2 (sphere's narrow
+                                                 peak); stiff row 6e-3 / 5e-2 (seen 3.4e-3 / 2.9e-2)
+kraus2004_full         1.6e-2       0.15         n_s = 64, HILO16, log2 / uniform axis by the planner,
+                                                 perspective-correct, fp16 buffer; seen box 4.2e-4 /
+                                                 1.5e-3, concave 3.5e-4 / 3.9e-3, sphere 1.07e-2 / 9.6e-2
+                                                 (table resolution on the narrow peak); stiff row 6e-3 /
+                                                 3e-2 (seen 3.5e-3 / 1.6e-2)
+pt_best                2.5e-4       4e-3         exact per-fragment integral, perspective-correct, fp32
+                                                 buffer, MPVO / XMPVO; seen box 3.4e-8 / 1.2e-7, sphere
+                                                 1.3e-4 / 1.6e-3, concave 9.8e-5 / 2.2e-3 (thick vertex
+                                                 rounded to 1/256 px, silhouette pixels), stiff 7.1e-5
+harc_best               2e-6         1e-4         the raycast/fp32 walk (shared funcs) entered from the
+                                                    rasterised boundary, exact segments, fp32 buffer; seen on
+                                                    the built-ins 48^2 <= 1.9e-7 / 3.3e-6
+espinha2005_partial     1e-2         0.25         paper's Fig. 6 plane walk, 256^2 centre-anchored iso table
+                                                    (nearest: control points between sf and its texel centre
+                                                    are missed, counted in iso_missed), 512^2 fp16 psi, RGBA8
+                                                    buffer; seen 48^2 sphere 6.0e-3 / 0.18 (narrow TF
+                                                    peaks), others <= 9.3e-4 / 5.4e-3
+espinha2005_full        2.5e-2       0.15         128^3 RGBA8 exact table, trilinear with 8-bit weights, RGBA8
+                                                    buffer; seen 48^2 <= 1.6e-2 / 0.10 (stiff: thin cells read
+                                                    the first l texel), others <= 2.0e-3 / 2.3e-2
+weiler2003_vicp         2.5e-2       0.15         PT with MPVO/MPVONC, 128^3 RGBA8 table, 8-bit blending;
+                                                    seen 48^2 <= 1.7e-2 / 0.11 (stiff)
+harc/partial_segment    --           5e-6         one cell segment: iso splits (edge-anchored 256^2 table,
+                                                    'behind' rule) + psi (512^2 endpoint fp32, fp32 weights)
+                                                    vs the exact integral, 255-segment TF; seen 1.4e-6
 vsbuffer/              6e-2         4e-1         the paper's VSBUFFER at 32x32, buffer rows = image
   westermann1997                                 height, trapezoid rule (1 step per cell) and cells
                                                  the buffer misses lost (counted as lost_segments).
@@ -78,6 +110,19 @@ TOLERANCES = {
     "roettger2002_hw/32x32x32": {"rmse": 4e-2, "max_abs": 0.3},
     "roettger2002_hw": {"rmse": 2e-2, "max_abs": 0.15},
     "roettger2002_cylindrical": {"rmse": 2.5e-2, "max_abs": 0.2},
+    "guthe2002_linear": {"rmse": 0.005, "max_abs": 0.05},
+    "guthe2002_quadratic_gf4": {"rmse": 0.005, "max_abs": 0.05},
+    "guthe2002_quartic_radeon": {"rmse": 0.005, "max_abs": 0.05},
+    "kraus2004_basic": {"rmse": 0.018, "max_abs": 0.14},
+    "kraus2004_basic/stiff": {"rmse": 0.006, "max_abs": 0.05},
+    "kraus2004_full": {"rmse": 0.016, "max_abs": 0.15},
+    "kraus2004_full/stiff": {"rmse": 0.006, "max_abs": 0.03},
+    "pt_best": {"rmse": 0.00025, "max_abs": 0.004},
+    "harc_best": {"rmse": 2e-6, "max_abs": 1e-4},
+    "espinha2005_partial": {"rmse": 1e-2, "max_abs": 0.25},
+    "espinha2005_full": {"rmse": 2.5e-2, "max_abs": 0.15},
+    "weiler2003_vicp": {"rmse": 2.5e-2, "max_abs": 0.15},
+    "harc/partial_segment": {"max_abs": 5e-6},
     "vsbuffer/westermann1997": {"rmse": 6e-2, "max_abs": 4e-1},
     "vsbuffer/vsbuffer_best": {"rmse": 2e-6, "max_abs": 1e-4},
 }

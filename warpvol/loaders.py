@@ -41,7 +41,7 @@ import numpy as np
 from .errors import ConfigError, MeshError, check_keys, check_number, check_vec3
 from .mesh import TetMesh, structured_to_tets
 
-MESH_KEYS = ("path", "plot3d", "raw", "builtin", "scalars", "strict")
+MESH_KEYS = ("path", "plot3d", "raw", "builtin", "scalars", "strict", "split")
 SOURCE_KEYS = ("path", "plot3d", "raw", "builtin")
 
 #: PLOT3D function numbers (VTK's numbering) -> description.
@@ -144,7 +144,7 @@ def _read_quietly(p: Path):
 
 
 def read_mesh_file(path: Path | str, scalars: str | None, *, strict: bool = False,
-                   where: str = "mesh") -> TetMesh:
+                   where: str = "mesh", split: int | None = None) -> TetMesh:
     """Read any data set pyvista can read and turn it into a :class:`TetMesh`.
 
     ``scalars`` names a point-data array (one component). Structured grids use the 6-tet split,
@@ -166,13 +166,13 @@ def read_mesh_file(path: Path | str, scalars: str | None, *, strict: bool = Fals
         if len(blocks) != 1:
             raise ConfigError(f"{where}.path: {p} holds {len(blocks)} blocks; warpvol needs a single data set")
         ds = blocks[0]
-    return mesh_from_dataset(ds, scalars, strict=strict, name=str(p), source=str(p),
-                             scalars_key=f"{where}.scalars", dataset_key=f"{where}.path")
+    return mesh_from_dataset(ds, scalars, strict=strict, name=str(p), source=str(p), split=split,
+                             scalars_key=f"{where}.scalars", dataset_key=f"{where}.path", split_key=f"{where}.split")
 
 
 def mesh_from_dataset(ds, scalars: str | None, *, strict: bool = False, name: str = "mesh",
                       source: str | None = None, split: int | None = None, scalars_key: str = "scalars",
-                      dataset_key: str = "mesh") -> TetMesh:
+                      dataset_key: str = "mesh", split_key: str = "split") -> TetMesh:
     """Turn an in-memory pyvista data set into a :class:`TetMesh` (see the module docstring).
 
     ``scalars`` names a point-data array (one component). ``split`` (structured grids only) is the
@@ -184,10 +184,10 @@ def mesh_from_dataset(ds, scalars: str | None, *, strict: bool = False, name: st
 
     p = source or f"the {type(ds).__name__}"
     if split is not None and split not in SPLITS:
-        raise ConfigError(f"split: expected 6 (Kuhn) or 5 (alternating) tets per hex cell, got {split!r}")
+        raise ConfigError(f"{split_key}: expected 6 (Kuhn) or 5 (alternating) tets per hex cell, got {split!r}")
     structured = isinstance(ds, (pv.StructuredGrid, pv.ImageData, pv.RectilinearGrid))
     if split is not None and not structured:
-        raise ConfigError(f"split: only applies to structured grids (StructuredGrid, ImageData, RectilinearGrid); "
+        raise ConfigError(f"{split_key}: only applies to structured grids (StructuredGrid, ImageData, RectilinearGrid); "
                           f"{p} is a {type(ds).__name__}, whose non-tet cells vtkDataSetTriangleFilter splits")
 
     # scalars first: the error lists what the file has
@@ -329,9 +329,9 @@ def plot3d_function(q: np.ndarray, number: int, *, where: str = "plot3d.function
     return (PLOT3D_GAMMA - 1.0) * (q[4] - 0.5 * rho * v2)  # 110
 
 
-def read_plot3d(xyz: Path | str, q: Path | str, function: int = 100, *, strict: bool = False,
+def read_plot3d(xyz: Path | str, q: Path | str, function: int = 100, *, strict: bool = False, split: int = 6,
                 where: str = "plot3d") -> TetMesh:
-    """Single-block PLOT3D grid + solution -> :class:`TetMesh` (6 tets per hex cell).
+    """Single-block PLOT3D grid + solution -> :class:`TetMesh` (``split`` = 6 or 5 tets per hex cell).
 
     IBlank values, when the grid carries them, are read but *not* applied: every cell is kept, as in
     the tetrahedral versions used by the VSBUFFER and HARC papers (the LOX Post gives 616,050 tets).
@@ -341,7 +341,7 @@ def read_plot3d(xyz: Path | str, q: Path | str, function: int = 100, *, strict: 
     _header, qarr = read_plot3d_solution(q, dims, where=f"{where}.q")
     s = plot3d_function(qarr, function, where=f"{where}.function")
     name = f"{xyz} + {Path(q).name} (function {function})"
-    return _structured_mesh(dims, points, s, name=name, strict=strict, weld=True)
+    return _structured_mesh(dims, points, s, name=name, strict=strict, weld=True, split=split)
 
 
 # -- raw volumes ----------------------------------------------------------------------------------
@@ -360,7 +360,7 @@ def raw_dtype(value: Any, *, where: str = "raw.dtype") -> np.dtype:
 
 
 def read_raw(path: Path | str, dims, dtype: Any = "uint8", spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *,
-             strict: bool = False, where: str = "raw") -> TetMesh:
+             strict: bool = False, where: str = "raw", split: int = 6) -> TetMesh:
     """Raw volume of ``nx*ny*nz`` samples (``x`` fastest) -> :class:`TetMesh` (6 tets per voxel cell).
 
     Point ``(i, j, k)`` sits at ``origin + (i sx, j sy, k sz)``. The file size must equal
@@ -384,7 +384,7 @@ def read_raw(path: Path | str, dims, dtype: Any = "uint8", spacing=(1.0, 1.0, 1.
     values = np.fromfile(p, dtype=dt, count=n).astype(np.float64)
     kk, jj, ii = np.meshgrid(np.arange(d[2]), np.arange(d[1]), np.arange(d[0]), indexing="ij")
     points = np.column_stack([ii.ravel(), jj.ravel(), kk.ravel()]).astype(np.float64) * sp + org
-    return _structured_mesh(d, points, values, name=str(p), strict=strict, weld=False)
+    return _structured_mesh(d, points, values, name=str(p), strict=strict, weld=False, split=split)
 
 
 # -- [mesh] table ---------------------------------------------------------------------------------
@@ -392,7 +392,9 @@ def load_mesh(cfg: dict, base_dir: Path | str = ".", where: str = "mesh", strict
     """Build the :class:`TetMesh` of a ``[mesh]`` table (Contract 1).
 
     Exactly one of ``path``, ``plot3d``, ``raw``, ``builtin``; ``scalars`` (required with ``path``,
-    not allowed otherwise) and ``strict`` are optional. ``strict`` is on when either the argument or
+    not allowed otherwise), ``strict`` and ``split`` (tets per hex cell of a structured grid: 6, the
+    Kuhn split and the default, or 5, the alternating split that conforms between neighbouring hexes;
+    not with ``builtin``) are optional. ``strict`` is on when either the argument or
     the key says so. Errors name ``where`` and the offending key, file or value.
 
     Examples
@@ -409,12 +411,19 @@ def load_mesh(cfg: dict, base_dir: Path | str = ".", where: str = "mesh", strict
         raise ConfigError(f"{where}: give exactly one of {', '.join(map(repr, SOURCE_KEYS))}; got {got}")
     src = sources[0]
     strict = bool(strict) or _bool(cfg.get("strict", False), f"{where}.strict")
+    split = cfg.get("split")
+    if split is not None:
+        if isinstance(split, bool) or split not in SPLITS:
+            raise ConfigError(f"{where}.split: expected 6 (Kuhn split, the default) or 5 (alternating 5-tet split, "
+                              f"conforming) tets per hex cell, got {split!r}")
+        if src == "builtin":
+            raise ConfigError(f"{where}.split: not used with 'builtin' (a built-in scene fixes its mesh)")
     if "scalars" in cfg and src != "path":
         raise ConfigError(f"{where}.scalars: only used with 'path' (the {src!r} source defines its own scalars)")
 
     if src == "path":
         p = _file(base_dir, cfg["path"], f"{where}.path")
-        return read_mesh_file(p, cfg.get("scalars"), strict=strict, where=where)
+        return read_mesh_file(p, cfg.get("scalars"), strict=strict, where=where, split=split)
 
     if src == "plot3d":
         t = cfg["plot3d"]
@@ -427,7 +436,7 @@ def load_mesh(cfg: dict, base_dir: Path | str = ".", where: str = "mesh", strict
                 raise ConfigError(f"{w}: missing key {k!r}")
         xyz = _file(base_dir, t["xyz"], f"{w}.xyz")
         q = _file(base_dir, t["q"], f"{w}.q")
-        return read_plot3d(xyz, q, t.get("function", 100), strict=strict, where=w)
+        return read_plot3d(xyz, q, t.get("function", 100), strict=strict, where=w, split=split or 6)
 
     if src == "raw":
         t = cfg["raw"]
@@ -441,7 +450,7 @@ def load_mesh(cfg: dict, base_dir: Path | str = ".", where: str = "mesh", strict
                 raise ConfigError(f"{w}: missing key {k!r}")
         p = _file(base_dir, t["path"], f"{w}.path")
         return read_raw(p, t["dims"], t["dtype"], t["spacing"], t.get("origin", (0.0, 0.0, 0.0)),
-                        strict=strict, where=w)
+                        strict=strict, where=w, split=split or 6)
 
     from .builtin import BUILTIN_SCENES, builtin_mesh
 

@@ -68,7 +68,16 @@ from typing import Any
 from .errors import ConfigError
 
 INFORMATIONAL = frozenset({"fragments_passed", "primitives", "primitives_culled", "texels", "texture_bytes",
-                           "readbacks", "clears", "dependent_fetches", "rays", "entries", "passes", "drawn_cells"})
+                           "readbacks", "clears", "dependent_fetches", "rays", "entries", "passes",
+                           # projected tetrahedra and sorting: what was classified / ordered, not unit work
+                           # (the work is counted as vertices, bytes_up, fetches, combiner_ops, cells_sorted)
+                           "tets_projected", "triangles", "thick_vertex_moved", "class_four_triangle",
+                           "class_three_triangle", "class_flat", "class_culled", "class_vertex_on_edge",
+                           "class_vertex_on_vertex", "batches", "attrs_clamped", "texture_lookups",
+                           "dependent_lookups", "segment_integrals", "graph_edges", "cycles_broken",
+                           "boundary_fragments", "ray_constraints",
+                           # VSBUFFER: the paper's "drawn tetra" (the work is counted as vertices)
+                           "drawn_cells"})
 HOST_RATES = {"sw_samples": "sw_sample_rate", "host_texels": "host_texel_rate", "cells_sorted": "cell_sort_rate",
               "host_cell_steps": "host_cell_rate"}
 _TEX = re.compile(r"^tex_(\d)d_([a-z0-9]+)_(nearest|linear)$")

@@ -8,7 +8,11 @@ Plain functions the ``pt_*`` stages are thin over (tests call them directly):
   (triangles ``4k .. 4k+3`` belong to the k-th tet of the order; unused ones are degenerate);
 * :func:`draw` — rasterise the triangles in batches of tets (fragments per pixel in primitive
   order, screen-space linear attributes, no depth test), run a fragment program on each batch, and
-  blend the fragments into a frame buffer with the blending unit, back to front.
+  blend the fragments into a frame buffer with the blending unit, back to front (optionally in
+  concurrent row bands);
+* fragment programs: :func:`vertex_color_program`, :func:`table3d_program`, :func:`guthe_program`,
+  :func:`exact_program`, :func:`cylindrical_program`; :func:`perspective_attrs` gives the Kraus et al.
+  2004 per-vertex attributes for perspective-correct (sf, sb, l).
 
 Example
 -------
@@ -51,6 +55,10 @@ class PTGeometry:
     classes: dict
     moved: int
     n_points: int
+    #: per output vertex (V+M, 4) float32: eye-space front / back point (x, y, z) and its clip w
+    #: (mesh points: the point itself for both); Kraus et al.'s perspective-correct attributes
+    front: np.ndarray | None = None
+    back: np.ndarray | None = None
 
     @property
     def n_tets(self) -> int:
@@ -83,10 +91,13 @@ def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
     tris = wp.zeros(max(4 * m, 1), dtype=wp.vec3i, device=device)
     klass = wp.zeros(max(m, 1), dtype=wp.int32, device=device)
     moved = wp.zeros(max(m, 1), dtype=wp.int32, device=device)
+    tfront = wp.zeros(max(m, 1), dtype=wp.vec4, device=device)
+    tback = wp.zeros(max(m, 1), dtype=wp.vec4, device=device)
     if m:
         wp.launch(kpt.k_classify, dim=m,
                   inputs=[win, eye, scal, wp.array(mesh.tets.astype(np.int32), dtype=wp.int32, device=device),
-                          wp.array(order, dtype=wp.int32, device=device), v, even, tp, ta, tris, klass, moved],
+                          wp.array(order, dtype=wp.int32, device=device), v, even, tp, ta, tris, klass, moved,
+                          tfront, tback],
                   device=device)
     snapped = wp.zeros(max(v, 1), dtype=wp.vec4, device=device)
     wp.launch(kpt.k_snap_positions, dim=v, inputs=[win, even, snapped], device=device)
@@ -94,19 +105,28 @@ def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
     s = mesh.scalars.astype(np.float32)
     attrs = np.concatenate([np.stack([s, s, np.zeros_like(s)], axis=1), ta.numpy()[:m]])
     counts = np.bincount(klass.numpy()[:m], minlength=len(CLASS_NAMES))
+    pe = np.concatenate([vertices.eye[:, :3].astype(np.float32), vertices.window[:, 3:4].astype(np.float32)], axis=1)
+    front = np.concatenate([pe, tfront.numpy()[:m]])
+    back = np.concatenate([pe, tback.numpy()[:m]])
     return PTGeometry(wp.array(pos, dtype=wp.vec4, device=device), attrs, tris.numpy()[:4 * m].reshape(-1, 3),
-                      dict(zip(CLASS_NAMES, map(int, counts))), int(moved.numpy()[:m].sum()), v)
+                      dict(zip(CLASS_NAMES, map(int, counts))), int(moved.numpy()[:m].sum()), v, front, back)
 
 
 def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend, *, batch_tets: int = 65536,
-         device: str = "cpu") -> dict:
+         device: str = "cpu", bands: int = 1) -> dict:
     """Rasterise ``geo`` in batches of ``batch_tets`` tets, run ``program(fragments, tris) -> colours``
     (a ``wp.array`` of vec4, premultiplied RGBA; ``tris`` the batch's triangles on the device, indexed
     by ``fragments.prim``) on each batch and blend into ``fb`` in order.
 
-    ``vertex_attrs`` (V+M, A) are interpolated linearly in screen space. Returns counts
-    (``fragments``, ``batches``).
+    ``vertex_attrs`` (V+M, A) are interpolated linearly in screen space. ``bands > 1`` draws that many
+    row bands of the image concurrently from host threads (:func:`warpvol.parallel.launch_blocks`),
+    each with its own rasteriser and frame buffer over its rows and the positions moved up by its first
+    row (an exact shift of the 1/256-pixel grid, so coverage, attributes and blending are those of one
+    whole-image draw: tested bit-exact); not with alpha dithering (its pattern follows the pixel index).
+    Returns counts (``fragments``, ``batches``, ``attrs_clamped``).
     """
+    if bands > 1 and fb.height > 1 and not getattr(blend, "dither", False):
+        return _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands)
     from .gpu.raster import Rasterizer
 
     from .kernels import pt as kpt
@@ -129,6 +149,41 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
                   device=device)
         blend.blend_fragments(fb, frags, program(frags, tris_w))
     return {"fragments": n_frag, "batches": n_batch, "attrs_clamped": int(clamped.numpy()[0])}
+
+
+def _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands) -> dict:
+    import dataclasses
+
+    from .gpu.blend import FrameBuffer
+    from .gpu.counters import Counters, active
+    from .parallel import blocks, launch_blocks
+
+    rows = blocks(fb.height, -(-fb.height // bands))
+    counted = [Counters() for _ in rows]  # host threads do not see this thread's active counters
+    pos = geo.positions.numpy()
+    full = fb.array.numpy().copy()  # emulation bookkeeping, not a modelled read-back
+    infos = [None] * len(rows)
+
+    def run(b):
+        r0, h = rows[b]
+        p = pos.copy()
+        p[:, 1] -= np.float32(r0)
+        sub = dataclasses.replace(geo, positions=wp.array(p, dtype=wp.vec4, device=device))
+        bfb = FrameBuffer(fb.width, h, fb.fmt, device=device)
+        bfb.array.assign(wp.array(np.ascontiguousarray(full[r0:r0 + h]), dtype=wp.vec4, device=device))
+        with counted[b]:
+            infos[b] = draw(sub, vertex_attrs, program, bfb, blend, batch_tets=batch_tets, device=device)
+            full[r0:r0 + h] = bfb.array.numpy()
+
+    launch_blocks(device, len(rows), run)
+    c = active()
+    if c is not None:
+        for cb in counted:
+            c.merge(cb)
+    fb.array.assign(wp.array(full, dtype=wp.vec4, device=device))
+    out = {k: sum(i[k] for i in infos) for k in ("fragments", "attrs_clamped")}
+    out.update(batches=infos[0]["batches"], bands=len(rows))
+    return out
 
 
 def vertex_colors(geo: PTGeometry, tf, device: str = "cpu") -> np.ndarray:
@@ -170,12 +225,86 @@ def _axis_affine(ax) -> tuple[float, float, int]:
     return 1.0, 0.0, ax.n
 
 
+#: fragment attribute modes: screen-linear (sf, sb, l), or Kraus et al.'s perspective-correct
+#: division with the exact or the approximate thickness (:func:`warpvol.kernels.pt.fragment_sfsbl`)
+PERSPECTIVE_MODES = {"off": 0, "exact": 1, "approx": 2}
+
+
+def perspective_attrs(geo: PTGeometry, device: str = "cpu") -> np.ndarray:
+    """Kraus et al. 2004 vertex program: per output vertex ``(sf/wf, sb/wb, 1/wf, 1/wb, xf/wf,
+    yf/wf, zf/wf, zb/wb)`` (V+M, 8) from the front and back points of :func:`decompose`."""
+    from .kernels import pt as kpt
+
+    if geo.front is None or geo.back is None:
+        raise ConfigError("pt_geometry: no front/back points (decompose() output needed)")
+    n = geo.attrs.shape[0]
+    out = wp.zeros((n, 8), dtype=wp.float32, device=device)
+    wp.launch(kpt.k_kraus_vertices, dim=n, inputs=[wp.array(geo.attrs, dtype=wp.vec3, device=device),
+                                                   wp.array(geo.front, dtype=wp.vec4, device=device),
+                                                   wp.array(geo.back, dtype=wp.vec4, device=device), out],
+              device=device)
+    return out.numpy()
+
+
+def _scalar_consts(ax) -> list:
+    sa, sb, _ = _axis_affine(ax)
+    return [float(ax.offset), 1.0 / float(ax.scale), sa, sb]
+
+
+def guthe_program(table, *, mode: str = "off", ortho: bool = False, weight_bits: int | None = 8,
+                  device: str = "cpu") -> Callable:
+    """Guthe et al. 2002 fragment program over a :func:`warpvol.tables.guthe2d.build_guthe2d` table:
+    the ``degree + 1`` coefficient textures (tile 0: ``C~_0`` and ``rho_hat``) as 2D textures of
+    an atlas, holding the table's stored (already quantised: signed 8-bit RGB and unsigned 8-bit A
+    for ``snorm8``) values exactly, bilinear with ``weight_bits`` filter fractions; the decoded
+    alpha1D (8-bit A or the 16-bit A/L value) as a linear 1D texture read by a dependent lookup."""
+    from .gpu.texture import Texture1D, TextureAtlas
+    from .kernels import pt as kpt
+
+    if table.name != "guthe2d":
+        raise ConfigError(f"table: expected Guthe 2D tables (stage table_guthe), got {table!r}")
+    deg = table.data.shape[0] - 1
+    atlas = TextureAtlas(table.data, fmt="rgba32f", filter="linear", device=device, weight_bits=weight_bits)
+    a1 = np.asarray(table.extra["alpha1d"], dtype=np.float32).reshape(-1)
+    alpha = Texture1D(a1, fmt="r32f", filter="linear", device=device, weight_bits=weight_bits)
+    na = a1.shape[0]
+    scale = wp.array(np.asarray(table.meta["coef_scale"], dtype=np.float32), dtype=wp.vec3, device=device)
+    consts = [*_scalar_consts(table.axes[2]), 1.0 / float(table.meta["lmax"]), 1.0 - 1.0 / na, 0.5 / na, deg]
+
+    def run(frags, tris):
+        out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
+        wp.launch(kpt.k_frag_guthe, dim=frags.count,
+                  inputs=[frags.attrs, PERSPECTIVE_MODES[mode], int(ortho), atlas.struct, alpha.struct, *consts,
+                          scale, out], device=device)
+        return out
+
+    return run
+
+
+def exact_program(tf, *, mode: str = "off", ortho: bool = False, device: str = "cpu") -> Callable:
+    """Fragment program without a table: each fragment's segment integrated exactly (fp32)."""
+    from .kernels import pt as kpt
+    from .tables.base import model_id
+
+    tf_s, tf_v = tf.to_warp(device)
+    flags = [PERSPECTIVE_MODES[mode], int(ortho)]
+
+    def run(frags, tris):
+        out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
+        wp.launch(kpt.k_frag_exact, dim=frags.count, inputs=[frags.attrs, *flags, tf_s, tf_v, model_id(tf), out],
+                  device=device)
+        return out
+
+    return run
+
+
 def table3d_program(table, texel_format: str = "auto", filter: str = "linear", weight_bits: int | None = 8,
-                    device: str = "cpu") -> tuple[Callable, str]:
+                    device: str = "cpu", *, mode: str = "off", ortho: bool = False) -> tuple[Callable, str]:
     """Fragment program looking up ``table`` (layout ``data[l, sb, sf]``, any 3D table builder) through
     an emulated 3D texture of ``texel_format`` (``auto``: the format that holds the table's stored
-    values: fp32 -> rgba32f, fp16 -> rgba16f, rgba8 -> rgba8, hilo16 -> rgba16). Returns the program
-    and the texel format used."""
+    values: fp32 -> rgba32f, fp16 -> rgba16f, rgba8 -> rgba8, hilo16 -> rgba16). ``mode``: the
+    fragments' attributes (:data:`PERSPECTIVE_MODES`; not ``off``: :func:`perspective_attrs`).
+    Returns the program and the texel format used."""
     from .gpu.texture import Texture3D
     from .kernels import pt as kpt
 
@@ -189,13 +318,14 @@ def table3d_program(table, texel_format: str = "auto", filter: str = "linear", w
             raise ConfigError(f"table: no 3D texel format holds a {table.format!r} table; give texel_format")
         texel_format = TEXEL_FOR_TABLE[table.format]
     tex = Texture3D(table.data, fmt=texel_format, filter=filter, device=device, weight_bits=weight_bits)
-    sa, sb, _ = _axis_affine(ax_f)
     la, lb, llog = _axis_affine(ax_l)
-    consts = [float(ax_f.offset), 1.0 / float(ax_f.scale), sa, sb, 1.0 / float(ax_l.scale), la, lb, llog]
+    consts = [*_scalar_consts(ax_f), 1.0 / float(ax_l.scale), la, lb, llog]
+    flags = [PERSPECTIVE_MODES[mode], int(ortho)]
 
     def run(frags, tris):
         out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
-        wp.launch(kpt.k_frag_table3d, dim=frags.count, inputs=[frags.attrs, tex.struct, *consts, out], device=device)
+        wp.launch(kpt.k_frag_table3d, dim=frags.count, inputs=[frags.attrs, *flags, tex.struct, *consts, out],
+                  device=device)
         return out
 
     return run, texel_format

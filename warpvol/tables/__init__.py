@@ -1,4 +1,4 @@
-"""Pre-integration table builders of the five papers (plain functions; stages in ``warpvol.stages.table_*``).
+"""Pre-integration table builders of the five papers (plain functions; stages in ``warpvol.stages.tables.table_*``).
 
 Every builder returns a :class:`~warpvol.tables.base.Table` (decoded float32 ``data`` in texture order,
 ``axes``, ``channels``, stored ``format`` with ``raw`` texels, cache ``key``, ``meta``) and takes

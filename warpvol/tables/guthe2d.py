@@ -36,7 +36,7 @@ ALPHA_MIN = 1e-6
 
 def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_alpha: int = 1024,
                   format: str = "snorm8", alpha_format: str = "al16", slices: str = "exact", m: int = 128,
-                  device: str = "cpu", emulate: bool = True) -> Table:
+                  gpu: str = "radeon8500", device: str = "cpu", emulate: bool = True) -> Table:
     """Guthe 2D tables.
 
     Parameters
@@ -62,6 +62,9 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
         (hardware, Radeon 8500 ping-pong filtering with ``m`` steps; §4).
     m : int
         Integration steps of the ping-pong slices.
+    gpu : str
+        Ping-pong overflow rule: ``radeon8500`` (bit masking) or ``geforce4`` (saturation, which
+        loses the low bits: the paper's reason only the Radeon builds these tables).
     device : str
     emulate : bool
         ``slices="pingpong"`` only: False counts the ping-pong work without running it (throughput model).
@@ -85,15 +88,17 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
     check_choice("alpha_format", alpha_format, ALPHA_FORMATS)
     check_choice("slices", slices, ("exact", "pingpong"))
     m = check_res("m", m, 1, 1 << 16)
+    check_choice("gpu", gpu, ("radeon8500", "geforce4"))
     import warp as wp
 
     k = kernels()
     ax_f = scalar_axis("sf", tf, n_s)
     ax_b = scalar_axis("sb", tf, n_s)
     key = table_key("guthe2d", tf.hash, n_s=n_s, degree=degree, lmax=lmax, n_alpha=n_alpha,
-                    alpha_format=alpha_format, slices=slices, m=m if slices == "pingpong" else 0, format=format)
+                    alpha_format=alpha_format, slices=slices, m=m if slices == "pingpong" else 0, format=format,
+                    gpu=gpu if slices == "pingpong" else "")
     key = key if emulate else key + (("emulate", False),)
-    meta = {"builder": "guthe2d", "emission": tf.emission, "lmax": lmax, "degree": degree}
+    meta = {"builder": "guthe2d", "emission": tf.emission, "lmax": lmax, "degree": degree, "alpha_format": alpha_format}
     x = farr(ax_f.nodes, device)
     tf_s, tf_v = tf_arrays(tf, device)
     lo, hi = tf.srange
@@ -110,7 +115,7 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
             from .pingpong import build_pingpong
 
             pp = build_pingpong(tf, n_s=n_s, lengths=tuple(np.arange(1, degree + 1) / degree), lmax=lmax, m=m,
-                                device=device, emulate=emulate)
+                                gpu=gpu, device=device, emulate=emulate)
             s = pp.data.astype(np.float64)
             meta["pingpong_passes"] = pp.meta["passes"]
         mo = mom.numpy().astype(np.float64)

@@ -12,6 +12,11 @@ paper's "-1: no iso-surface between sf and sb"; the texel of slack covers neares
 ``sb`` (so that, as in the paper's worked example, the lookup at (0.5, 0.7) yields 0.75 and the ray
 step rejects it). Both give the same segments. ``next_s_iso`` is never limited by ``sb``.
 
+``anchor="centre"`` (default, the paper's table) searches from each texel's centre, so a control
+point between ``sf`` and its texel's centre is missed by a nearest lookup; ``anchor="edge"`` searches
+from the texel's edge behind ``sf`` and the ray step takes ``next_s_iso`` when ``s_iso`` lies behind
+``sf`` -- exact splits whenever control points are more than one texel apart.
+
 The table depends only on the TF's control-point positions (normalised over the TF range), so its
 cache key omits colours and extinctions: editing those does not rebuild it. Stored as fp32 (the
 default: the ray step compares ``sf == s_iso`` exactly) or fp16.
@@ -40,7 +45,7 @@ def iso_hash(tf) -> str:
 
 
 def build_isocross(tf=None, *, n: int = 256, limit: str = "segment", iso=None, format: str = "fp32",
-                   device: str = "cpu") -> Table:
+                   anchor: str = "centre", device: str = "cpu") -> Table:
     """Iso-crossing table ``data[sb, sf] = (s_iso, next_s_iso)``.
 
     Parameters
@@ -55,10 +60,13 @@ def build_isocross(tf=None, *, n: int = 256, limit: str = "segment", iso=None, f
         Normalised iso values (ascending) instead of ``tf``.
     format : str
         ``fp32`` or ``fp16``.
+    anchor : str
+        ``centre`` or ``edge`` (see the module docstring).
     device : str
     """
     n = check_res("n", n, 2)
     check_choice("limit", limit, tuple(LIMITS))
+    check_choice("anchor", anchor, ("centre", "edge"))
     check_choice("format", format, ("fp32", "fp16"))
     if iso is None:
         check_tf(tf)
@@ -73,13 +81,14 @@ def build_isocross(tf=None, *, n: int = 256, limit: str = "segment", iso=None, f
 
     k = kernels()
     ax = Axis("sf", n), Axis("sb", n)
-    key = table_key("isocross", h, n=n, limit=limit, format=format)
-    meta = {"builder": "isocross", "n_iso": int(iv.size), "limit": limit}
+    key = table_key("isocross", h, n=n, limit=limit, format=format,
+                    **({"anchor": anchor} if anchor != "centre" else {}))
+    meta = {"builder": "isocross", "n_iso": int(iv.size), "limit": limit, "anchor": anchor}
     out = wp.zeros((n, n), dtype=wp.vec2, device=device)
     x = farr(ax[0].nodes, device)
     with timed(meta, device=device):
         wp.launch(k.iso_table, dim=(n, n), device=device,
-                  inputs=[x, farr(iv, device), LIMITS[limit], 1.0 / n, out])
+                  inputs=[x, farr(iv, device), LIMITS[limit], 1.0 / n, 0.5 / n + 2.0 ** -20 if anchor == "edge" else 0.0, out])
     return finish("isocross", out.numpy(), (ax[1], ax[0]), ("s_iso", "next_s_iso"), format, key, meta)
 
 

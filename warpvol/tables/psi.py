@@ -23,7 +23,7 @@ from .base import TABLE_FORMATS, Axis, Table
 from .common import check_choice, check_res, farr, finish, kernels, table_key, timed
 
 
-def build_psi(*, n: int = 128, format: str = "fp32", device: str = "cpu") -> Table:
+def build_psi(*, n: int = 128, format: str = "fp32", axis: str = "centred", device: str = "cpu") -> Table:
     """psi table ``data[gb, gf] = (psi, psi1)``.
 
     Parameters
@@ -32,15 +32,19 @@ def build_psi(*, n: int = 128, format: str = "fp32", device: str = "cpu") -> Tab
         Resolution of both gamma axes.
     format : str
         ``fp32``, ``fp16``, ``hilo16`` (the two channels as one HILO texture) or ``rgba8``.
+    axis : str
+        ``centred`` (nodes at texel centres) or ``endpoint`` (nodes ``k / (n - 1)``: gamma = 0, a thin
+        segment, is a node, so bilinear lookups of thin segments are not clamped to half a texel).
     device : str
     """
     n = check_res("n", n, 2)
     check_choice("format", format, TABLE_FORMATS[:4])
+    check_choice("axis", axis, ("centred", "endpoint"))
     import warp as wp
 
     k = kernels()
-    ax = Axis("gamma_f", n), Axis("gamma_b", n)
-    key = table_key("psi", None, n=n, format=format)
+    ax = Axis("gamma_f", n, axis), Axis("gamma_b", n, axis)
+    key = table_key("psi", None, n=n, format=format, **({"axis": axis} if axis != "centred" else {}))
     meta = {"builder": "psi", "tf_free": True}
     out = wp.zeros((n, n), dtype=wp.vec2, device=device)
     g = farr(ax[0].nodes, device)

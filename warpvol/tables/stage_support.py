@@ -1,4 +1,4 @@
-"""Thin stage wrapper shared by ``warpvol/stages/table_*.py``: each stage validates its parameters,
+"""Thin stage wrapper shared by ``warpvol/stages/tables/table_*.py``: each stage validates its parameters,
 then fetches its table from the pipeline's :class:`~warpvol.tables.cache.TableCache`
 (``ctx.persistent["table_cache"]``, created on first use and kept across renders of the same
 pipeline, so a TF edit rebuilds only the TF-dependent tables) and stores it in ``ctx.buffers[output]``.

@@ -8,7 +8,7 @@ rasteriser directly) and the matrices in ``ctx.buffers["vertex_stage"]``.
 
 from __future__ import annotations
 
-from ..pipeline import Context, Param, Stage, register_stage
+from ...pipeline import Context, Param, Stage, register_stage
 
 
 @register_stage
@@ -42,13 +42,13 @@ class Vertex(Stage):
     )
 
     def validate(self) -> None:
-        from ..errors import ConfigError
+        from ...errors import ConfigError
 
         if self.config["near"] and self.config["far"] and self.config["far"] <= self.config["near"]:
             raise ConfigError(f"{self.where}.far: {self.config['far']} must exceed near ({self.config['near']})")
 
     def run(self, ctx: Context) -> None:
-        from ..gpu.vertex import VertexStage
+        from ...gpu.vertex import VertexStage
 
         cam, mesh = ctx.scene.camera, ctx.scene.mesh
         near, far = cam.depth_range(*mesh.bounds)

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from ..pipeline import Param, register_stage
-from ..tables.stage_support import TableStage, output_param
+from ...pipeline import Param, register_stage
+from ...tables.stage_support import TableStage, output_param
 
 
 @register_stage
@@ -15,6 +15,7 @@ class TablePsi(TableStage):
     ==========  =====  =========  ==================================================
     n           int    128        resolution of both gamma axes
     format      str    fp32       ``fp32`` | ``fp16`` | ``rgba8`` | ``hilo16``
+    axis        str    centred    ``centred`` | ``endpoint`` (gamma = 0 a node)
     output      str    psi        ``ctx.buffers`` key
     ==========  =====  =========  ==================================================
     """
@@ -28,5 +29,6 @@ class TablePsi(TableStage):
     params = (
         Param("n", int, 128, "resolution of the gamma axes", lo=2, hi=4096),
         Param("format", str, "fp32", "stored format", choices=("fp32", "fp16", "rgba8", "hilo16")),
+        Param("axis", str, "centred", "gamma node layout", choices=("centred", "endpoint")),
         output_param("psi"),
     )

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from ..pipeline import Param, register_stage
-from ..tables.stage_support import LMAX, TableStage, output_param
+from ...pipeline import Param, register_stage
+from ...tables.stage_support import LMAX, TableStage, output_param
 
 
 @register_stage
@@ -19,6 +19,9 @@ class TableGuthe(TableStage):
     n_alpha       int    1024       alpha1D entries
     format        str    snorm8     coefficients: ``snorm8`` | ``fp16`` | ``fp32``
     alpha_format  str    al16       ``al16`` (A/L pair) | ``rgba8`` | ``fp32``
+    slices        str    exact      colour slices: ``exact`` (software) | ``pingpong`` (emulated)
+    m             int    128        ping-pong integration steps per slice
+    gpu           str    radeon8500 ping-pong overflow: ``radeon8500`` (wrap) | ``geforce4`` (saturate)
     output        str    guthe      ``ctx.buffers`` key
     ============  =====  =========  ========================================================
     """
@@ -35,6 +38,10 @@ class TableGuthe(TableStage):
         Param("n_alpha", int, 1024, "alpha1D entries", lo=2, hi=65536),
         Param("format", str, "snorm8", "coefficient format", choices=("snorm8", "fp16", "fp32")),
         Param("alpha_format", str, "al16", "alpha1D format", choices=("al16", "rgba8", "fp32")),
+        Param("slices", str, "exact", "colour slices: software or ping-pong filtering", choices=("exact", "pingpong")),
+        Param("m", int, 128, "ping-pong integration steps per slice", lo=1, hi=65536),
+        Param("gpu", str, "radeon8500", "ping-pong overflow (Radeon wrap / GeForce saturate)",
+              choices=("radeon8500", "geforce4")),
         output_param("guthe"),
     )
 

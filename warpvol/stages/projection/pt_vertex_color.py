@@ -13,7 +13,7 @@ Writes ``ctx.image``; counts ``fragments`` and ``blends`` (one blend per fragmen
 
 from __future__ import annotations
 
-from ..pipeline import Context, Param, Stage, register_stage
+from ...pipeline import Context, Param, Stage, register_stage
 
 FB_FORMATS = ("unorm8", "unorm12", "unorm16", "fp16", "fp32")
 
@@ -26,12 +26,13 @@ BATCH = Param("batch_tets", int, 65536, "tets rasterised per fragment batch (mem
 DITHER = Param("dither", bool, False, "alpha dithering (Kraus et al. 2004; fixed-point buffers only)")
 
 
-def composite(stage: Stage, ctx: Context, attrs, program) -> dict:
+def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1) -> dict:
     """Draw ``pt_geometry`` with per-vertex ``attrs`` and ``program`` into a cleared buffer of the
-    stage's format; set ``ctx.image`` and count (shared by the ``pt_*`` fragment stages)."""
-    from ..errors import ConfigError
-    from ..gpu.blend import BlendUnit, FrameBuffer
-    from ..pt import draw
+    stage's format (in ``bands`` concurrent row bands, :func:`warpvol.pt.draw`); set ``ctx.image``
+    and count (shared by the ``pt_*`` fragment stages)."""
+    from ...errors import ConfigError
+    from ...gpu.blend import BlendUnit, FrameBuffer
+    from ...pt import draw
 
     cam = ctx.scene.camera
     fmt = stage.config["format"]
@@ -40,11 +41,27 @@ def composite(stage: Stage, ctx: Context, attrs, program) -> dict:
     fb = FrameBuffer(cam.width_px, cam.height_px, fmt, device=ctx.device)
     fb.clear((0, 0, 0, 0))
     info = draw(ctx.buffers["pt_geometry"], attrs, program, fb, BlendUnit.over(dither=stage.config["dither"]),
-                batch_tets=stage.config["batch_tets"], device=ctx.device)
+                batch_tets=stage.config["batch_tets"], device=ctx.device, bands=bands)
     ctx.image = fb.readback()
-    # fragments and blends are counted by the rasteriser and blending unit themselves
-    ctx.count(batches=info["batches"], attrs_clamped=info["attrs_clamped"])
+    # fragments and blends are counted by the rasteriser and blending unit themselves; the draw sends each
+    # drawn tet as a triangle fan (triangles + 2 vertices) with its position and attributes over the bus
+    geo = ctx.buffers["pt_geometry"]
+    drawn = sum(v for k, v in geo.classes.items() if k not in ("flat", "culled"))
+    nv = geo.live_triangles() + 2 * drawn
+    ctx.count(batches=info["batches"], attrs_clamped=info["attrs_clamped"], vertices=nv,
+              bytes_up=nv * 4 * (4 + attrs.shape[1]))
     return info
+
+
+def table_from(stage: Stage, ctx: Context, producer: str):
+    """The table ``ctx.buffers[stage.config["table"]]``, or an error naming the stage to add."""
+    from ...errors import ConfigError
+
+    key = stage.config["table"]
+    if key not in ctx.buffers:
+        raise ConfigError(f"{stage.where}.table: no table {key!r} in this pipeline; put a {producer} stage "
+                          f"with output = {key!r} before this stage")
+    return ctx.buffers[key]
 
 
 @register_stage
@@ -76,7 +93,7 @@ class PTVertexColor(Stage):
     provides = ("image",)
 
     def run(self, ctx: Context) -> None:
-        from ..pt import vertex_color_program, vertex_colors
+        from ...pt import vertex_color_program, vertex_colors
 
         tf = ctx.scene.transfer
         attrs = vertex_colors(ctx.buffers["pt_geometry"], tf, device=ctx.device)

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from ..pipeline import Param, register_stage
-from ..tables.stage_support import TableStage, output_param
+from ...pipeline import Param, register_stage
+from ...tables.stage_support import TableStage, output_param
 
 
 @register_stage
@@ -17,6 +17,7 @@ class TableIso(TableStage):
     n           int    256        resolution of both axes
     limit       str    segment    ``segment`` (iso within sb + 1 texel) | ``direction``
     format      str    fp32       ``fp32`` | ``fp16``
+    anchor      str    centre     ``centre`` (paper) | ``edge`` (no control point missed)
     output      str    iso        ``ctx.buffers`` key
     ==========  =====  =========  ==========================================================
     """
@@ -30,5 +31,7 @@ class TableIso(TableStage):
         Param("n", int, 256, "resolution of both axes", lo=2, hi=4096),
         Param("limit", str, "segment", "report isos within sb or in the direction of sb", choices=("segment", "direction")),
         Param("format", str, "fp32", "stored format", choices=("fp32", "fp16")),
+        Param("anchor", str, "centre", "search from the texel centre (paper) or its edge behind sf",
+              choices=("centre", "edge")),
         output_param("iso"),
     )

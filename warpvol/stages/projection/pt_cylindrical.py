@@ -12,7 +12,7 @@ fragment) and ``blends``.
 
 from __future__ import annotations
 
-from ..pipeline import Context, Param, Stage, register_stage
+from ...pipeline import Context, Param, Stage, register_stage
 from .pt_vertex_color import BATCH, DITHER, composite, fb_param
 
 
@@ -43,8 +43,8 @@ class PTCylindrical(Stage):
     provides = ("image",)
 
     def run(self, ctx: Context) -> None:
-        from ..errors import ConfigError
-        from ..pt import cylindrical_program
+        from ...errors import ConfigError
+        from ...pt import cylindrical_program
 
         key = self.config["planes"]
         if key not in ctx.buffers:
@@ -54,4 +54,10 @@ class PTCylindrical(Stage):
         attrs, program = cylindrical_program(ctx.buffers[key], ctx.scene.transfer, geo,
                                              self.config["weight_bits"] or None, device=ctx.device)
         info = composite(self, ctx, attrs, program)
-        ctx.count(texture_lookups=2 * info["fragments"])
+        from ...tables.cylindrical import TEXEL_FORMAT
+
+        # two bilinear fetches (the two nearest planes, two texture units) and one combiner step
+        # blending them (estimate) per fragment
+        n = info["fragments"]
+        ctx.count(texture_lookups=2 * n, combiner_ops=n,
+                  **{f"tex_2d_{TEXEL_FORMAT[ctx.buffers[key].format]}_linear": 2 * n})

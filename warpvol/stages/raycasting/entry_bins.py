@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..pipeline import Context, Param, Stage, register_stage
+from ...pipeline import Context, Param, Stage, register_stage
 
 
 def entry_face_mask(mesh, camera) -> np.ndarray:

@@ -19,7 +19,7 @@ import weakref
 
 import numpy as np
 
-from ..pipeline import Context, Stage, register_stage
+from ...pipeline import Context, Stage, register_stage
 
 
 def neighbour_faces(adjacency: np.ndarray) -> np.ndarray:

@@ -10,7 +10,7 @@ a point), ``class_culled``), ``triangles`` (non-degenerate triangles emitted) an
 
 from __future__ import annotations
 
-from ..pipeline import Context, Stage, register_stage
+from ...pipeline import Context, Stage, register_stage
 
 
 @register_stage
@@ -22,8 +22,8 @@ class PTProject(Stage):
     Example
     -------
     >>> from warpvol.builtin import builtin_scene
-    >>> from warpvol.stages.vertex import Vertex
-    >>> from warpvol.stages.sort_cells import SortCells
+    >>> from warpvol.stages.projection.vertex import Vertex
+    >>> from warpvol.stages.projection.sort_cells import SortCells
     >>> ctx = Context(scene=builtin_scene("sphere").with_camera(width_px=8, height_px=8), quiet=True)
     >>> for st in (Vertex(), SortCells(), PTProject()):
     ...     st.run(ctx)
@@ -37,7 +37,7 @@ class PTProject(Stage):
     provides = ("pt_geometry",)
 
     def run(self, ctx: Context) -> None:
-        from ..pt import decompose
+        from ...pt import decompose
 
         geo = decompose(ctx.scene.mesh, ctx.buffers["vertices"], ctx.buffers["order"], device=ctx.device)
         ctx.buffers["pt_geometry"] = geo

@@ -8,8 +8,8 @@ stage when the mesh boundary is convex (every ray enters at most once).
 
 from __future__ import annotations
 
-from ..pipeline import Context, Param, Stage, register_stage
-from ..parallel import cpu_threads
+from ...pipeline import Context, Param, Stage, register_stage
+from ...parallel import cpu_threads
 from .raycast import RAY_PARAMS, march_pass, resolve_failed
 
 

@@ -4,15 +4,19 @@ The rasteriser interpolates ``(sf, sb, l)`` linearly in screen space (the thick 
 back scalars and thickness, ``(s, s, 0)`` on silhouette vertices); the fragment program normalises
 them over the table's axes and looks the premultiplied ``(C, α)`` up in the 3D table through the
 emulated 3D texture unit (trilinear with 8-bit filter-weight fractions by default); the blending unit
-composites back to front. Any 3D table from the table stages (``table_exact``,
+composites back to front. With stage ``pt_perspective`` before it, the fragments' (sf, sb, l)
+come from Kraus et al.'s per-fragment perspective division instead. Any 3D table from the table stages (``table_exact``,
 ``table_roettger_sw``, ``table_roettger_hw``, ``table_incremental``) via ``ctx.buffers[table]``.
-Writes ``ctx.image``; counts ``fragments``, ``texture_lookups`` and ``blends``.
+Writes ``ctx.image``; counts ``texture_lookups``, the fetches by texel format (``rgba16``: two
+``hilo16`` fetches, as on the NV3x) and ``combiner_ops`` (Kraus et al. 2004 §5's instruction counts);
+the rasteriser and blending unit count fragments and blends.
 """
 
 from __future__ import annotations
 
-from ..pipeline import Context, Param, Stage, register_stage
-from .pt_vertex_color import BATCH, DITHER, composite, fb_param
+from ...pipeline import Context, Param, Stage, register_stage
+from .pt_perspective import fragment_inputs
+from .pt_vertex_color import BATCH, DITHER, composite, fb_param, table_from
 
 TEXELS = ("auto", "rgba8", "rgba12", "rgba16", "rgba16f", "rgba32f")
 
@@ -59,16 +63,22 @@ class PTTable3D(Stage):
     provides = ("image",)
 
     def run(self, ctx: Context) -> None:
-        from ..errors import ConfigError
-        from ..pt import table3d_program
+        from ...pt import table3d_program
 
-        key = self.config["table"]
-        if key not in ctx.buffers:
-            raise ConfigError(f"{self.where}.table: no table {key!r} in this pipeline; put a table stage "
-                              f"with output = {key!r} before this stage")
-        program, texel = table3d_program(ctx.buffers[key], self.config["texel_format"], self.config["filter"],
-                                         self.config["weight_bits"] or None, device=ctx.device)
-        ctx.stats.setdefault("pt", {})["texel_format"] = texel
-        geo = ctx.buffers["pt_geometry"]
-        info = composite(self, ctx, geo.attrs, program)
-        ctx.count(texture_lookups=info["fragments"])
+        table = table_from(self, ctx, "table")
+        attrs, mode, ortho = fragment_inputs(ctx)
+        program, texel = table3d_program(table, self.config["texel_format"], self.config["filter"],
+                                         self.config["weight_bits"] or None, device=ctx.device, mode=mode, ortho=ortho)
+        ctx.stats["pt"]["texel_format"] = texel
+        info = composite(self, ctx, attrs, program)
+        n = info["fragments"]
+        flt = self.config["filter"]
+        # a 16-bit RGBA table is two HILO16 textures (two fetches); fragment-program instructions: lookup
+        # set-up 2 (estimate), perspective division 11 and logarithmic lookup 7 (Kraus et al. 2004 §5),
+        # alpha dithering 10 and two 2D fetches in the random tables (ibid.)
+        fetch = {f"tex_3d_hilo16_{flt}": 2 * n} if texel == "rgba16" else {f"tex_3d_{texel}_{flt}": n}
+        ops = 2 + (11 if mode != "off" else 0) + (7 if table.axes[0].kind == "log2" else 0)
+        if self.config["dither"]:
+            ops += 10
+            fetch["tex_2d_rgba8_nearest"] = 2 * n
+        ctx.count(texture_lookups=n, combiner_ops=ops * n, **fetch)

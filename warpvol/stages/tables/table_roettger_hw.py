@@ -3,9 +3,9 @@ emulated texture and blending units."""
 
 from __future__ import annotations
 
-from ..pipeline import Param, register_stage
-from ..tables.base import TABLE_FORMATS
-from ..tables.stage_support import LMAX, TableStage, output_param
+from ...pipeline import Param, register_stage
+from ...tables.base import TABLE_FORMATS
+from ...tables.stage_support import LMAX, TableStage, output_param
 
 
 @register_stage
@@ -50,7 +50,7 @@ class TableRoettgerHw(TableStage):
 
     def validate(self) -> None:
         if self.config["variant"] == "geforce3" and self.config["bits"] != 8:
-            from ..errors import ConfigError
+            from ...errors import ConfigError
 
             raise ConfigError(f"{self.where}.bits: variant 'geforce3' stores into an 8-bit buffer; set bits = 8")
 

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from ..pipeline import Param, register_stage
-from ..tables.base import TABLE_FORMATS
-from ..tables.stage_support import LMAX, TableStage, output_param
+from ...pipeline import Param, register_stage
+from ...tables.base import TABLE_FORMATS
+from ...tables.stage_support import LMAX, TableStage, output_param
 
 
 @register_stage

@@ -9,8 +9,8 @@ about it in ``ctx.stats["sort"]`` (method run, whether it is exact, why not); co
 
 from __future__ import annotations
 
-from ..pipeline import Context, Param, Stage, register_stage
-from ..sort import METHODS, METRICS, visibility_order
+from ...pipeline import Context, Param, Stage, register_stage
+from ...sort import METHODS, METRICS, visibility_order
 
 
 @register_stage

@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..parallel import blocks, cpu_threads, launch_blocks
-from ..pipeline import Context, Param, Stage, register_stage
+from ...parallel import blocks, cpu_threads, launch_blocks
+from ...pipeline import Context, Param, Stage, register_stage
 
 
 class MarchState:
@@ -25,7 +25,7 @@ class MarchState:
     def __init__(self, n: int, device: str):
         import warp as wp
 
-        from ..kernels import raycast as k
+        from ...kernels import raycast as k
 
         self.n, self.device = n, device
         self.rgb = wp.zeros(n, dtype=wp.vec3, device=device)
@@ -39,7 +39,7 @@ class MarchState:
     def image(self, height: int, width: int) -> np.ndarray:
         import warp as wp
 
-        from ..kernels import raycast as k
+        from ...kernels import raycast as k
 
         out = wp.zeros(self.n, dtype=wp.vec4, device=self.device)
         wp.launch(k.finish, dim=self.n, inputs=[self.rgb, self.trans, out], device=self.device)
@@ -51,7 +51,7 @@ def redo_pixels_float64(mesh, tf, camera, pixels: np.ndarray, max_pairs: int = 1
     walk could not resolve: the reference's watertight tracer (exact edge signs, simulation of
     simplicity) on just the candidate (tet, pixel) pairs of those pixels, integrated and composited
     in float64."""
-    from .. import reference as ref
+    from ... import reference as ref
 
     pixels = np.asarray(pixels, dtype=np.int64)
     out = np.zeros((len(pixels), 4))
@@ -86,6 +86,28 @@ def redo_pixels_float64(mesh, tf, camera, pixels: np.ndarray, max_pairs: int = 1
     return ref.composite_front_to_back(pos, cat["t_in"], rgb, tau, len(pixels), cat["t_out"])
 
 
+def camera_launch_args(ctx: Context, rows_per_block: int = 16) -> tuple[int, list, list]:
+    """``(width, row blocks, camera arguments)`` of a per-pixel ray kernel (``march`` and the HARC
+    walker): image size, float64 eye relative to the cells' origin (the kernel moves each ray's
+    origin to the mesh) and camera frame, projection, half height, aspect, mesh radius."""
+    import warp as wp
+
+    cam = ctx.scene.camera
+    cells = ctx.buffers["cells"]
+    w, h = cam.width_px, cam.height_px
+    if cam.projection == "perspective":
+        half_h = float(np.tan(np.radians(cam.fov_y_deg) / 2.0))
+    else:
+        half_h = cam.height / 2.0
+    eye = np.asarray(cam.eye, dtype=np.float64) - cells["origin"]
+    on_cpu = str(ctx.device).startswith("cpu")
+    rows = blocks(h, rows_per_block if on_cpu else h)
+    v3 = wp.vec3d
+    return w, rows, [w, h, v3(*eye), v3(*cam.forward), v3(*cam.right), v3(*cam.true_up),
+                     int(cam.projection == "orthographic"), wp.float64(half_h), wp.float64(cam.aspect),
+                     wp.float64(max(cells["radius"], 1e-30))]
+
+
 def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float, threads: int,
                rows_per_block: int = 16) -> np.ndarray:
     """One propagation pass over all active rays; returns summed counters
@@ -93,27 +115,14 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
     :func:`resolve_failed`."""
     import warp as wp
 
-    from ..kernels import raycast as k
+    from ...kernels import raycast as k
 
-    cam = ctx.scene.camera
     cells, bins = ctx.buffers["cells"], ctx.buffers["entry_bins"]
-    w, h = cam.width_px, cam.height_px
-    if cam.projection == "perspective":
-        half_h = float(np.tan(np.radians(cam.fov_y_deg) / 2.0))
-    else:
-        half_h = cam.height / 2.0
-    # float64 camera relative to the cells' origin; the kernel moves each ray's origin to the mesh
-    eye = np.asarray(cam.eye, dtype=np.float64) - cells["origin"]
-    on_cpu = str(ctx.device).startswith("cpu")
-    rows = blocks(h, rows_per_block if on_cpu else h)
+    w, rows, cam_args = camera_launch_args(ctx, rows_per_block)
     counters = wp.zeros((len(rows), 4), dtype=wp.int32, device=ctx.device)
-    v3 = wp.vec3d
-    common = [w, h, v3(*eye), v3(*cam.forward), v3(*cam.right), v3(*cam.true_up),
-              int(cam.projection == "orthographic"), wp.float64(half_h), wp.float64(cam.aspect),
-              wp.float64(max(cells["radius"], 1e-30)),
-              cells["verts"], cells["tets"], cells["nbr"], bins["bface_tet"], bins["bface_local"],
-              bins["tile_start"], bins["tile_items"], bins["tile"], bins["tiles_x"],
-              cells["tf_s"], cells["tf_v"], cells["model"], max_steps, t_min, 1e-6 * cells["radius"]]
+    common = cam_args + [cells["verts"], cells["tets"], cells["nbr"], bins["bface_tet"], bins["bface_local"],
+                         bins["tile_start"], bins["tile_items"], bins["tile"], bins["tiles_x"],
+                         cells["tf_s"], cells["tf_v"], cells["model"], max_steps, t_min, 1e-6 * cells["radius"]]
 
     def launch(b: int) -> None:
         r0, nr = rows[b]
@@ -129,7 +138,7 @@ def resolve_failed(ctx: Context, state: MarchState) -> int:
     returns how many."""
     import warp as wp
 
-    from ..kernels import raycast as k
+    from ...kernels import raycast as k
 
     status = state.status.numpy()
     failed = np.flatnonzero(status == int(k.STATUS_FAILED))

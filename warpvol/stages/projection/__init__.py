@@ -1,0 +1,1 @@
+"""Cell-projection stages: vertex stage, visibility sorting, projected-tetrahedra classification and fragment programs."""

@@ -1,0 +1,1 @@
+"""Sweep-plane stages (VSBUFFER, Westermann & Ertl 1997)."""

@@ -1,0 +1,1 @@
+"""Pre-integration table stages (Roettger & Ertl, Guthe, Kraus, Espinha & Celes tables), one module per stage."""
