@@ -12,8 +12,8 @@ indigo2_impact`` models it; every count of the walk (runs, reused exit points, `
 
 from __future__ import annotations
 
-from ..pipeline import Context, Param, Stage, register_stage
-from ..vsbuffer import ADJACENCY_MODES, INTEGRATIONS, render_vsbuffer
+from ...pipeline import Context, Param, Stage, register_stage
+from ...vsbuffer import ADJACENCY_MODES, INTEGRATIONS, render_vsbuffer
 
 
 @register_stage
@@ -62,7 +62,7 @@ class VsbSweep(Stage):
 
     def validate(self) -> None:
         if self.rewalk and not self.audit:
-            from ..errors import ConfigError
+            from ...errors import ConfigError
 
             raise ConfigError(f"{self.where}.rewalk: needs audit = true (the audit finds the rays to walk again)")
 

@@ -8,8 +8,8 @@ Buffers: ``ctx.buffers["vsb_cells"]`` (a :class:`warpvol.vsbuffer_cells.ConvexCe
 
 from __future__ import annotations
 
-from ..pipeline import Context, Stage, register_stage
-from ..vsbuffer_cells import ConvexCellMesh
+from ...pipeline import Context, Stage, register_stage
+from ...vsbuffer_cells import ConvexCellMesh
 
 
 @register_stage
