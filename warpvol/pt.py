@@ -72,7 +72,7 @@ class PTGeometry:
 
 #: perspective: a vertex nearer the eye than this fraction of the mesh's farthest vertex depth counts as
 #: at the eye plane (its window coordinates would not fit float32; cell projection refuses it)
-EYE_PLANE_REL = 1e-4
+EYE_PLANE_REL = 1e-5
 
 #: what to use instead when cell projection refuses a view (both walk rays from the eye)
 EYE_PLANE_ALTERNATIVES = "raycast or harc_best"
