@@ -206,3 +206,16 @@ def test_eye_inside_the_mesh_is_redone_in_float64_and_counted():
     res = pipe("harc_best").render(sc, quiet=True)
     assert image_error(res.image, ref)["max_abs"] <= TOLERANCES["harc_best"]["max_abs"]
     assert res.report["stats"]["harc"]["unresolved_rays"] == 64
+
+
+@pytest.mark.parametrize("projection", ["perspective", "orthographic"])
+@pytest.mark.parametrize("name", ["harc_best", "espinha2005_partial"])
+def test_camera_looking_away_is_transparent(name, projection):
+    # the mesh wholly behind the eye: nothing is rasterised, no ray starts, the image is transparent
+    # (was a 'near plane must be > 0' refusal from the rasterised ray start)
+    sc = builtin_scene("box")
+    eye = np.asarray(sc.camera.eye)
+    sc = sc.with_camera(projection=projection, target=2 * eye, height=2.0, width_px=8, height_px=8)
+    assert (render_reference(sc.mesh, sc.transfer, sc.camera) == 0).all()
+    res = pipe(name).render(sc, quiet=True)
+    assert (res.image == 0).all()

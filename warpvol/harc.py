@@ -129,7 +129,9 @@ def entry_fragments(mesh, camera, device: str = "cpu") -> dict:
     w, h = camera.width_px, camera.height_px
     npx = w * h
     count = 0
-    if len(bf):
+    # a mesh wholly behind the eye plane (camera looking away) has nothing to rasterise: no ray starts
+    in_front = bool((((mesh.points - camera.eye) @ camera.forward) > 0).any())
+    if len(bf) and in_front:
         near, far = camera.depth_range(*mesh.bounds)
         vs = VertexStage.from_camera(camera, near, far, device=device).transform(mesh.points)
         rast = Rasterizer(w, h, device=device, depth_clip=False)

@@ -188,6 +188,9 @@ class Context:
     counters: dict[str, dict[str, int]] = field(default_factory=dict)
     #: report key of the stage now running (``None`` outside a stage)
     stage_key: str | None = None
+    #: set by a stage that wrote the final image early (e.g. nothing in view): why the later stages
+    #: are skipped
+    finished: str | None = None
 
     def count(self, **amounts: int) -> None:
         """Add to the running stage's counters, e.g. ``ctx.count(cell_steps=n, fragments=m)``."""
@@ -450,6 +453,9 @@ class Pipeline:
                                   "stages": {}, "skipped": []}
         t_all = time.perf_counter()
         for key, st in zip(self.stage_keys(), self.stages):
+            if ctx.finished:
+                report["skipped"].append({"stage": key, "reason": ctx.finished})
+                continue
             reason = st.skip_reason(ctx)
             if reason and (key in force or st.name in force):
                 report.setdefault("forced", []).append({"stage": key, "reason": reason})

@@ -70,6 +70,92 @@ class PTGeometry:
         return int(((t[:, 0] != t[:, 1]) & (t[:, 1] != t[:, 2]) & (t[:, 0] != t[:, 2])).sum())
 
 
+#: perspective: a vertex nearer the eye than this fraction of the mesh's farthest vertex depth counts as
+#: at the eye plane (its window coordinates would not fit float32; cell projection refuses it)
+EYE_PLANE_REL = 1e-5
+
+#: what to use instead when cell projection refuses a view (both walk rays from the eye)
+EYE_PLANE_ALTERNATIVES = "raycast or harc_best"
+
+
+@dataclass
+class EyePlane:
+    """Result of :func:`eye_plane_check`: ``status`` (``"draw"``, ``"empty"`` or ``"refuse"``), the
+    near / far distances for the projection matrix (``"draw"`` only), tet counts (``crossing``: a
+    vertex at or behind the eye plane, another in front; ``behind``: every vertex at or behind it;
+    ``outside``: entirely outside a side plane of the view volume) and a ``message``."""
+
+    status: str
+    near: float | None
+    far: float | None
+    crossing: int
+    behind: int
+    outside: int
+    message: str
+
+
+def eye_plane_check(mesh, camera) -> EyePlane:
+    """Can projected tetrahedra draw ``mesh`` as seen by ``camera``?
+
+    Cell projection draws a tet as the projection of its four vertices, which is only right when the
+    whole tet lies in front of the eye plane (perspective: at eye-space depth > :data:`EYE_PLANE_REL`
+    times the farthest depth; orthographic: at depth >= 0, the rays start on the eye plane). Depths
+    are taken in float64 from the true vertices (not the mesh bounds). Returns ``"empty"`` when no tet
+    can be seen (every tet behind the eye plane or entirely outside one side plane of the view
+    volume: the image is transparent), ``"refuse"`` when some tet is visible and some tet crosses or
+    lies behind the eye plane, else ``"draw"`` with ``near`` = 0.99 x the smallest vertex depth (or
+    the bounds' near plane, :meth:`~warpvol.camera.Camera.depth_range`, when that is smaller).
+
+    Examples
+    --------
+    >>> from warpvol.builtin import builtin_scene
+    >>> sc = builtin_scene("box")
+    >>> eye_plane_check(sc.mesh, sc.camera).status
+    'draw'
+    >>> eye_plane_check(sc.mesh, sc.camera.replace(target=2 * sc.camera.eye)).status
+    'empty'
+    >>> r = eye_plane_check(sc.mesh, sc.camera.replace(eye=[0.1, 0.2, 0.3]))
+    >>> r.status, r.crossing > 0
+    ('refuse', True)
+    """
+    tets = np.asarray(mesh.tets)
+    rel = np.asarray(mesh.points, dtype=np.float64)[tets] - camera.eye  # (M, 4, 3)
+    d, x, y = rel @ camera.forward, rel @ camera.right, rel @ camera.true_up
+    dmin, dmax = d.min(axis=1), d.max(axis=1)
+    behind = dmax <= 0
+    if camera.projection == "perspective":
+        ty = np.tan(np.radians(camera.fov_y_deg) / 2.0)
+        tx = ty * camera.aspect
+        sides = (x - tx * d, -x - tx * d, y - ty * d, -y - ty * d)  # > 0: outside that plane through the eye
+        crossing = ~behind & (dmin <= EYE_PLANE_REL * max(float(dmax.max(initial=0.0)), 0.0))
+    else:
+        hy = camera.height / 2.0
+        hx = hy * camera.aspect
+        sides = (x - hx, -x - hx, y - hy, -y - hy)
+        crossing = ~behind & (dmin < 0)
+    outside = np.zeros(len(tets), dtype=bool)
+    for s in sides:
+        outside |= (s > 0).all(axis=1)
+    n_cross, n_behind, n_out = int(crossing.sum()), int(behind.sum()), int((outside & ~behind).sum())
+    counts = dict(crossing=n_cross, behind=n_behind, outside=n_out)
+    if (behind | outside).all():
+        return EyePlane("empty", None, None, **counts,
+                        message=f"all {len(tets):,} tets lie behind the eye plane or outside the view: "
+                                "a transparent image, nothing drawn")
+    if n_cross or n_behind:
+        why = ("the eye is inside the mesh or the near region cuts cells" if camera.projection == "perspective"
+               else "the orthographic eye plane cuts the mesh")
+        parts = [f"{n_cross:,} tets cross the eye plane"] if n_cross else []
+        parts += [f"{n_behind:,} lie behind it" if n_cross else f"{n_behind:,} tets lie behind the eye plane"
+                  ] if n_behind else []
+        return EyePlane("refuse", None, None, **counts,
+                        message=f"{' and '.join(parts)} ({why}); cell projection cannot draw them — "
+                                f"use {EYE_PLANE_ALTERNATIVES}")
+    near, far = camera.depth_range(*mesh.bounds)
+    near = min(near, 0.99 * float(dmin.min()))  # > 0 in perspective: every tet is in front of the eye
+    return EyePlane("draw", near, far, **counts, message="")
+
+
 def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
     """Classify and split every tet of ``mesh`` in ``order`` (back to front) into triangles.
 

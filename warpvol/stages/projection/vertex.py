@@ -1,12 +1,17 @@
 """Stage ``vertex``: the vertex stage of the emulated GPU (model-view / projection / viewport).
 
-Transforms the mesh's points with the scene camera (near/far planes enclosing the mesh bounds,
-:meth:`warpvol.camera.Camera.depth_range`) and stores :class:`warpvol.gpu.vertex.Vertices` in
+First decides with :func:`warpvol.pt.eye_plane_check` whether cell projection can draw the view:
+a tet crossing (or behind) the eye plane while others are seen is an error naming what to use
+instead; a mesh entirely behind the eye or outside the view gives a transparent image at once
+(``stats.pt.note``; the later stages are skipped). Else transforms the mesh's points with the scene
+camera (near/far planes enclosing the mesh, near below the smallest vertex depth) and stores :class:`warpvol.gpu.vertex.Vertices` in
 ``ctx.buffers["vertices"]`` (eye, clip and window coordinates; ``window_array`` feeds the
 rasteriser directly) and the matrices in ``ctx.buffers["vertex_stage"]``.
 """
 
 from __future__ import annotations
+
+import numpy as np
 
 from ...pipeline import Context, Param, Stage, register_stage
 
@@ -50,8 +55,20 @@ class Vertex(Stage):
     def run(self, ctx: Context) -> None:
         from ...gpu.vertex import VertexStage
 
+        from ...errors import ConfigError
+        from ...pt import eye_plane_check
+
         cam, mesh = ctx.scene.camera, ctx.scene.mesh
-        near, far = cam.depth_range(*mesh.bounds)
+        view = eye_plane_check(mesh, cam)
+        if view.status == "refuse":
+            raise ConfigError(f"{self.where}: {view.message}")
+        if view.status == "empty":  # nothing in view: a transparent image, the later stages skipped
+            ctx.image = np.zeros((cam.height_px, cam.width_px, 4), dtype=np.float32)
+            ctx.stats["pt"] = {"note": view.message}
+            ctx.count(primitives_culled=mesh.n_tets)
+            ctx.finished = "nothing in view (every tet behind the eye plane or outside the view)"
+            return
+        near, far = view.near, view.far
         near = self.config["near"] or near
         far = self.config["far"] or max(far, near * 1.0001 + 1e-6)
         vs = VertexStage.from_camera(cam, near, far, device=ctx.device)
