@@ -8,8 +8,8 @@ counted, nothing drawn) at the papers' sizes, so this runs in seconds.
     ./run.sh python scripts/validate_model.py [--no-renders]
 
 Rows that need stages not built yet (Roettger Fig. 8 rendering: projected tetrahedra) are listed as
-skipped. With ../shared/data present, the Espinha & Celes HARC rows render the NASA meshes at 512^2
-(``--no-renders`` skips them).
+skipped. With ../shared/data present, the Espinha & Celes HARC rows render the NASA meshes at 512^2 and
+the Westermann & Ertl rows run the VSBUFFER sweep at 450^2 (``--no-renders`` skips them).
 """
 
 from __future__ import annotations
@@ -112,6 +112,31 @@ def harc_rows(device: str = "cpu") -> list:
     return rows
 
 
+def westermann_rows(device: str = "cpu") -> list:
+    """Westermann & Ertl 1997 Table 1 on the Indigo2 IMPACT / R4400 from our VSBUFFER sweeps at 450^2
+    (orthographic, long diagonal = image height, ``scripts/reproduce_westermann1997.py``)."""
+    from warpvol.model import load_profile, model_counters
+    from warpvol.pipeline import Pipeline
+    from reproduce_westermann1997 import PAPER, dataset
+
+    rows = []
+    for name, paper_name in (("bluntfin", "bluntfin"), ("fe", "fedata")):
+        what = "Blunt Fin" if name == "bluntfin" else "FE-like stand-in for fedata"
+        try:
+            scene = dataset(name, 450)
+        except Exception as e:  # data absent: named as skipped
+            rows.append(("Westermann 1997 T1", f"{what} GrOps [s]", None, None, f"skipped ({e})"))
+            continue
+        res = Pipeline.load("westermann1997", device=device).render(scene, quiet=True)
+        m = model_counters(res.report["counters"]["vsb_sweep"], load_profile("indigo2_impact"))
+        _, _, gr, it, _ = PAPER[paper_name]
+        pred = "prediction" if name == "bluntfin" else "prediction (stand-in mesh, not the paper's)"
+        rows.append(("Westermann 1997 T1", f"{what} GrOps [s] (Indigo2 IMPACT)", gr, m["gpu_s"], pred))
+        rows.append(("Westermann 1997 T1", f"{what} Int [s] (R4400)", it, m["host_s"],
+                     "calibration" if name == "bluntfin" else pred))
+    return rows
+
+
 #: Espinha & Celes 2005 Tables 2/3 fps (min, max) on the GeForce 6800 GT at 512^2, by preset and TF segments
 ESPINHA_T3 = {("espinha2005_full", None): {"bluntfin": (6.09, 8.76), "loxpost": (3.40, 5.91)},
               ("espinha2005_partial", 10): {"bluntfin": (3.50, 7.11), "loxpost": (2.32, 4.21)},
@@ -180,6 +205,7 @@ def main(argv=None):
         rows.append(("Guthe 2002 T4", f"speed-up n = {deg} (paper sw / modelled hw)", psw / phw, psw / t, role))
     if not a.no_renders:
         rows += harc_rows(a.device)
+        rows += westermann_rows(a.device)
         rows += espinha_rows(a.device)
     print(f"{'paper':<20} {'row':<50} {'paper':>9} {'modelled':>9} {'ratio':>6}  role")
     for src, what, paper, mod, role in rows:

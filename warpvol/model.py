@@ -35,7 +35,8 @@ memory       frame-buffer bytes: (2 blends + writes + clears) x       ``memory_b
 ===========  =======================================================  =======================================
 
 Host counters: ``sw_samples`` (``sw_sample_rate``), ``host_texels`` (``host_texel_rate``),
-``cells_sorted`` (``cell_sort_rate``); ``cell_steps`` of GPU ray walks use ``[rates] cell_step_rate``.
+``cells_sorted`` (``cell_sort_rate``), ``host_cell_steps`` (``host_cell_rate``: cells intersected and
+integrated by a host ray walk, the VSBUFFER's); ``cell_steps`` of GPU ray walks use ``[rates] cell_step_rate``.
 Counters that carry no time of their own (``fragments_passed``, ``primitives``, ``texels``,
 ``readbacks`` ...) are listed in :data:`INFORMATIONAL`. Work for which the profile has no rate makes
 the stage *unmodelled* (``modelled_s`` None, the counters named), never a silent zero.
@@ -74,8 +75,11 @@ INFORMATIONAL = frozenset({"fragments_passed", "primitives", "primitives_culled"
                            "class_three_triangle", "class_flat", "class_culled", "class_vertex_on_edge",
                            "class_vertex_on_vertex", "batches", "attrs_clamped", "texture_lookups",
                            "dependent_lookups", "segment_integrals", "graph_edges", "cycles_broken",
-                           "boundary_fragments", "ray_constraints"})
-HOST_RATES = {"sw_samples": "sw_sample_rate", "host_texels": "host_texel_rate", "cells_sorted": "cell_sort_rate"}
+                           "boundary_fragments", "ray_constraints",
+                           # VSBUFFER: the paper's "drawn tetra" (the work is counted as vertices)
+                           "drawn_cells"})
+HOST_RATES = {"sw_samples": "sw_sample_rate", "host_texels": "host_texel_rate", "cells_sorted": "cell_sort_rate",
+              "host_cell_steps": "host_cell_rate"}
 _TEX = re.compile(r"^tex_(\d)d_([a-z0-9]+)_(nearest|linear)$")
 _ROP = re.compile(r"^(blends|writes)_([a-z0-9]+)$")
 
