@@ -119,8 +119,8 @@ def eye_plane_check(mesh, camera) -> EyePlane:
     ('refuse', True)
     """
     tets = np.asarray(mesh.tets)
-    rel = np.asarray(mesh.points, dtype=np.float64)[tets] - camera.eye  # (M, 4, 3)
-    d, x, y = rel @ camera.forward, rel @ camera.right, rel @ camera.true_up
+    rel = np.asarray(mesh.points, dtype=np.float64) - camera.eye  # per vertex, then gathered per tet (M, 4)
+    d, x, y = ((rel @ axis)[tets] for axis in (camera.forward, camera.right, camera.true_up))
     dmin, dmax = d.min(axis=1), d.max(axis=1)
     behind = dmax <= 0
     if camera.projection == "perspective":

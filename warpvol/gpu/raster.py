@@ -113,9 +113,10 @@ class Fragments:
 
 
 class Triangles:
-    """Set-up and binned triangles, ready for the per-pixel kernels (made by :meth:`Rasterizer.setup`)."""
+    """Set-up and binned triangles, ready for the per-pixel kernels (made by :meth:`Rasterizer.setup`;
+    ``binned=False``: set up only, for the per-triangle walk, which needs no tile lists)."""
 
-    def __init__(self, rast: "Rasterizer", positions: Any, tris: Any):
+    def __init__(self, rast: "Rasterizer", positions: Any, tris: Any, binned: bool = True):
         dev = rast.device
         self.positions = _as_vec4(positions, "positions", dev)
         self.tris = _as_tris(tris, self.positions.shape[0], dev)
@@ -139,7 +140,7 @@ class Triangles:
                       device=dev)
         offsets = wp.zeros(max(t, 1), dtype=wp.int32, device=dev)
         total = 0
-        if t:
+        if t and binned:
             wp.utils.array_scan(counts, offsets, inclusive=False)
             total = int(offsets[t - 1:t].numpy()[0] + counts[t - 1:t].numpy()[0])
         self.bin_entries = total
@@ -272,10 +273,10 @@ class Rasterizer:
         """Triangle setup + binning (reusable for several draws of the same geometry)."""
         return Triangles(self, positions, tris)
 
-    def _tris(self, positions: Any, tris: Any) -> Triangles:
+    def _tris(self, positions: Any, tris: Any, binned: bool = True) -> Triangles:
         if isinstance(positions, Triangles):
             return positions
-        return self.setup(positions, tris)
+        return Triangles(self, positions, tris, binned)
 
     def _depth(self, depth: Any) -> wp.array:
         if depth is None:
@@ -334,7 +335,7 @@ class Rasterizer:
         check_choice("walk", walk, WALKS)
         if walk == "triangle" and (self.depth_func != "always" or self.depth_write):
             raise ConfigError("walk: 'triangle' needs depth_func 'always' and depth_write false")
-        tr = self._tris(positions, tris)
+        tr = self._tris(positions, tris, binned=walk == "pixel")
         nv = tr.positions.shape[0]
         a = np.zeros((nv, 0), np.float32) if attrs is None else np.asarray(attrs, dtype=np.float32)
         if a.ndim == 1:
@@ -396,11 +397,12 @@ class Rasterizer:
             wp.launch(kr.k_tri_walk, dim=tr.count, inputs=[*walk, 0, toff, tcounts, pcounts, one, one], device=dev)
             wp.utils.array_scan(tcounts, toff, inclusive=False)
             total = int(toff[t - 1:t].numpy()[0] + tcounts[t - 1:t].numpy()[0])
-        keys = wp.zeros(max(2 * total, 2), dtype=wp.int32, device=dev)
-        vals = wp.zeros(max(2 * total, 2), dtype=wp.int32, device=dev)
-        prim = wp.zeros(max(total, 1), dtype=wp.int32, device=dev)
-        fdepth = wp.zeros(max(total, 1), dtype=wp.float32, device=dev)
-        fattr = wp.zeros((max(total, 1), max(na, 1)), dtype=wp.float32, device=dev)
+        # every element below is written before it is read (the sort's second halves are its scratch)
+        keys = wp.empty(max(2 * total, 2), dtype=wp.int32, device=dev)
+        vals = wp.empty(max(2 * total, 2), dtype=wp.int32, device=dev)
+        prim = wp.empty(max(total, 1), dtype=wp.int32, device=dev)
+        fdepth = wp.empty(max(total, 1), dtype=wp.float32, device=dev)
+        fattr = wp.empty((max(total, 1), max(na, 1)), dtype=wp.float32, device=dev)
         if total:
             wp.launch(kr.k_tri_walk, dim=tr.count, inputs=[*walk, 1, toff, tcounts, pcounts, keys, vals], device=dev)
             wp.utils.radix_sort_pairs(keys, vals, total, 0, max(1, int(npx - 1).bit_length()))
