@@ -218,21 +218,25 @@ def k_tile_ranges(keys: wp.array(dtype=wp.int32), total: int, start: wp.array(dt
 
 
 @wp.func
-def coverage(s: TriSetup, t: int, j: int, i: int) -> bool:
-    """Does triangle ``t`` cover the centre of pixel (row i, column j)? Exact, with the set-up fill rule."""
-    b = s.bbox[t]
-    if j < b[0] or j > b[2] or i < b[1] or i > b[3]:
-        return False
+def covers(x: wp.vec3i, y: wp.vec3i, bi: wp.vec3i, j: int, i: int) -> bool:
+    """The edge-function test of :func:`coverage` for a set-up triangle's snapped vertices ``x``, ``y``
+    and fill-rule ``bias`` at pixel (row i, column j) inside its bounding box."""
     px = j * SUBPIX + SUBPIX / 2
     py = i * SUBPIX + SUBPIX / 2
-    x = s.sx[t]
-    y = s.sy[t]
-    bi = s.bias[t]
     e0 = edge(x[1], y[1], x[2], y[2], px, py)
     e1 = edge(x[2], y[2], x[0], y[0], px, py)
     e2 = edge(x[0], y[0], x[1], y[1], px, py)
     return (e0 - wp.int64(bi[0]) >= wp.int64(0)) and (e1 - wp.int64(bi[1]) >= wp.int64(0)) and (
         e2 - wp.int64(bi[2]) >= wp.int64(0))
+
+
+@wp.func
+def coverage(s: TriSetup, t: int, j: int, i: int) -> bool:
+    """Does triangle ``t`` cover the centre of pixel (row i, column j)? Exact, with the set-up fill rule."""
+    b = s.bbox[t]
+    if j < b[0] or j > b[2] or i < b[1] or i > b[3]:
+        return False
+    return covers(s.sx[t], s.sy[t], s.bias[t], j, i)
 
 
 @wp.func
@@ -405,7 +409,10 @@ def write_fragment(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dty
     frag_prim[o] = t
     frag_depth[o] = z
     wl = l
-    wpc = persp_bary(pos, v, l)
+    wpc = l
+    for a in range(na):  # perspective weights only when an attribute uses them
+        if modes[a] == INTERP_PERSPECTIVE:
+            wpc = persp_bary(pos, v, l)
     last = tris[t][2]
     for a in range(na):
         m = modes[a]
@@ -478,9 +485,12 @@ def k_tri_walk(s: TriSetup, pos: wp.array(dtype=wp.vec4), width: int, depth_clip
     o = int(0)
     if write != 0:
         o = offsets[t]
+    x = s.sx[t]
+    y = s.sy[t]
+    bi = s.bias[t]
     for i in range(b[1], b[3] + 1):
         for j in range(b[0], b[2] + 1):
-            if coverage(s, t, j, i):
+            if covers(x, y, bi, j, i):  # = coverage(s, t, j, i) inside the bounding box
                 if depth_clip != 0:
                     z = interp_depth(pos, s.vidx[t], screen_bary(pos, s.vidx[t], float(j) + 0.5, float(i) + 0.5))
                     if z < 0.0 or z > 1.0:
