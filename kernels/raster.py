@@ -218,21 +218,25 @@ def k_tile_ranges(keys: wp.array(dtype=wp.int32), total: int, start: wp.array(dt
 
 
 @wp.func
-def coverage(s: TriSetup, t: int, j: int, i: int) -> bool:
-    """Does triangle ``t`` cover the centre of pixel (row i, column j)? Exact, with the set-up fill rule."""
-    b = s.bbox[t]
-    if j < b[0] or j > b[2] or i < b[1] or i > b[3]:
-        return False
+def covers(x: wp.vec3i, y: wp.vec3i, bi: wp.vec3i, j: int, i: int) -> bool:
+    """The edge-function test of :func:`coverage` for a set-up triangle's snapped vertices ``x``, ``y``
+    and fill-rule ``bias`` at pixel (row i, column j) inside its bounding box."""
     px = j * SUBPIX + SUBPIX / 2
     py = i * SUBPIX + SUBPIX / 2
-    x = s.sx[t]
-    y = s.sy[t]
-    bi = s.bias[t]
     e0 = edge(x[1], y[1], x[2], y[2], px, py)
     e1 = edge(x[2], y[2], x[0], y[0], px, py)
     e2 = edge(x[0], y[0], x[1], y[1], px, py)
     return (e0 - wp.int64(bi[0]) >= wp.int64(0)) and (e1 - wp.int64(bi[1]) >= wp.int64(0)) and (
         e2 - wp.int64(bi[2]) >= wp.int64(0))
+
+
+@wp.func
+def coverage(s: TriSetup, t: int, j: int, i: int) -> bool:
+    """Does triangle ``t`` cover the centre of pixel (row i, column j)? Exact, with the set-up fill rule."""
+    b = s.bbox[t]
+    if j < b[0] or j > b[2] or i < b[1] or i > b[3]:
+        return False
+    return covers(s.sx[t], s.sy[t], s.bias[t], j, i)
 
 
 @wp.func
@@ -395,6 +399,37 @@ def fragment_prologue(s: TriSetup, pos: wp.array(dtype=wp.vec4), t: int, j: int,
 # ------------------------------------------------------------------------------------------------
 
 
+@wp.func
+def write_fragment(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i),
+                   attrs: wp.array2d(dtype=wp.float32), modes: wp.array(dtype=wp.int32), na: int, t: int,
+                   v: wp.vec3i, l: wp.vec3, z: float, j: int, i: int, o: int, frag_prim: wp.array(dtype=wp.int32),
+                   frag_depth: wp.array(dtype=wp.float32), frag_attrs: wp.array2d(dtype=wp.float32)):
+    """Store fragment ``o`` of triangle ``t`` at pixel (row i, column j): primitive, depth ``z`` and the
+    attributes interpolated from screen barycentrics ``l`` (per-attribute ``modes``)."""
+    frag_prim[o] = t
+    frag_depth[o] = z
+    wl = l
+    wpc = l
+    for a in range(na):  # perspective weights only when an attribute uses them
+        if modes[a] == INTERP_PERSPECTIVE:
+            wpc = persp_bary(pos, v, l)
+    last = tris[t][2]
+    for a in range(na):
+        m = modes[a]
+        val = float(0.0)
+        if m == INTERP_FLAT:
+            val = attrs[last, a]
+        elif s.interp_rule == INTERP_RULE_LLVMPIPE:
+            ov = llvmpipe_order(s, tris, t)
+            val = plane_value(s, pos, ov, attrs[ov[0], a], attrs[ov[1], a], attrs[ov[2], a], m, j, i)
+        else:
+            w = wl
+            if m == INTERP_PERSPECTIVE:
+                w = wpc
+            val = w[0] * attrs[v[0], a] + w[1] * attrs[v[1], a] + w[2] * attrs[v[2], a]
+        frag_attrs[o, a] = val
+
+
 @wp.kernel
 def k_fragments(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i),
                 attrs: wp.array2d(dtype=wp.float32), modes: wp.array(dtype=wp.int32), na: int,
@@ -426,31 +461,66 @@ def k_fragments(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=
             if depth_write != 0:
                 zb = z
             if write != 0:
-                frag_prim[o] = t
-                frag_depth[o] = z
-                wl = l
-                wpc = persp_bary(pos, v, l)
-                last = tris[t][2]
-                for a in range(na):
-                    m = modes[a]
-                    val = float(0.0)
-                    if m == INTERP_FLAT:
-                        val = attrs[last, a]
-                    elif s.interp_rule == INTERP_RULE_LLVMPIPE:
-                        ov = llvmpipe_order(s, tris, t)
-                        val = plane_value(s, pos, ov, attrs[ov[0], a], attrs[ov[1], a], attrs[ov[2], a], m, j, i)
-                    else:
-                        w = wl
-                        if m == INTERP_PERSPECTIVE:
-                            w = wpc
-                        val = w[0] * attrs[v[0], a] + w[1] * attrs[v[1], a] + w[2] * attrs[v[2], a]
-                    frag_attrs[o, a] = val
+                write_fragment(s, pos, tris, attrs, modes, na, t, v, l, z, j, i, o, frag_prim, frag_depth, frag_attrs)
                 o += 1
             n += 1
     if write == 0:
         counts[i * width + j] = n
     else:
         depth[i, j] = zb
+
+
+@wp.kernel
+def k_tri_walk(s: TriSetup, pos: wp.array(dtype=wp.vec4), width: int, depth_clip: int, write: int,
+               offsets: wp.array(dtype=wp.int32), counts: wp.array(dtype=wp.int32),
+               pixel_counts: wp.array(dtype=wp.int32), keys: wp.array(dtype=wp.int32),
+               vals: wp.array(dtype=wp.int32)):
+    """Triangle-order fragment generation (launch dim = triangles): triangle ``t`` walks its bounding
+    box with the exact :func:`coverage` test. ``write=0`` counts its fragments (covered pixel centres,
+    not depth-clipped) into ``counts[t]``; ``write=1`` writes (pixel index, ``t``) pairs from
+    ``offsets[t]`` and counts them per pixel."""
+    t = wp.tid()
+    b = s.bbox[t]
+    n = int(0)
+    o = int(0)
+    if write != 0:
+        o = offsets[t]
+    x = s.sx[t]
+    y = s.sy[t]
+    bi = s.bias[t]
+    for i in range(b[1], b[3] + 1):
+        for j in range(b[0], b[2] + 1):
+            if covers(x, y, bi, j, i):  # = coverage(s, t, j, i) inside the bounding box
+                if depth_clip != 0:
+                    z = interp_depth(pos, s.vidx[t], screen_bary(pos, s.vidx[t], float(j) + 0.5, float(i) + 0.5))
+                    if z < 0.0 or z > 1.0:
+                        continue
+                if write != 0:
+                    keys[o + n] = i * width + j
+                    vals[o + n] = t
+                    wp.atomic_add(pixel_counts, i * width + j, 1)
+                n += 1
+    if write == 0:
+        counts[t] = n
+
+
+@wp.kernel
+def k_tri_fragments(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i),
+                    attrs: wp.array2d(dtype=wp.float32), modes: wp.array(dtype=wp.int32), na: int, width: int,
+                    keys: wp.array(dtype=wp.int32), vals: wp.array(dtype=wp.int32),
+                    frag_prim: wp.array(dtype=wp.int32), frag_depth: wp.array(dtype=wp.float32),
+                    frag_attrs: wp.array2d(dtype=wp.float32)):
+    """Fragment ``o`` of the (pixel, triangle) pairs sorted by pixel (stable: primitive order within a
+    pixel): the values :func:`k_fragments` writes for it (depth test ``always``, no depth writes)."""
+    o = wp.tid()
+    p = keys[o]
+    t = vals[o]
+    i = p / width
+    j = p - i * width
+    v = s.vidx[t]
+    l = screen_bary(pos, v, float(j) + 0.5, float(i) + 0.5)
+    z = interp_depth(pos, v, l)
+    write_fragment(s, pos, tris, attrs, modes, na, t, v, l, z, j, i, o, frag_prim, frag_depth, frag_attrs)
 
 
 @wp.kernel

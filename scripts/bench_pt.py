@@ -9,9 +9,14 @@ after a first round that includes kernel compilation, table builds and mesh deri
 against the exact reference (cached in ``--out``). VTK's transfer function gets the same control
 points, colour and extinction (scalar opacity unit distance 1), as in ``scripts/bench_raycast.py``.
 
+``--variant PRESET:STAGE.PARAM=VALUE`` (repeatable) adds a preset with one stage parameter replaced to the
+same interleaved rounds, e.g. ``pt_best:pt_integrate.walk=pixel`` (pt_best on the emulated per-pixel
+fragment walk) for an A/B against ``pt_best`` (its per-triangle walk).
+
 Usage::
 
     ./run.sh python scripts/bench_pt.py [--scene scenes/bluntfin.toml] [--size 512] [--repeat 1]
+        [--presets pt_best] [--variant pt_best:pt_integrate.walk=pixel]
 """
 
 from __future__ import annotations
@@ -39,6 +44,8 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--presets", default=",".join(PRESETS), help="comma-separated PT presets")
+    ap.add_argument("--variant", action="append", default=[],
+                    help="PRESET:STAGE.PARAM=VALUE, a preset with one stage parameter replaced (TOML value or a bare word)")
     ap.add_argument("--out", default=str(ROOT / "out" / "bench_pt"))
     args = ap.parse_args(argv)
 
@@ -56,6 +63,10 @@ def main(argv=None) -> int:
         render, image, result = warpvol_renderer(scene, args.device, preset=name)
         renderers.append((f"warpvol {name}", render, image))
         results[f"warpvol {name}"] = result
+    for spec in args.variant:
+        render, image, result = variant_renderer(scene, args.device, spec)
+        renderers.append((f"warpvol {spec}", render, image))
+        results[f"warpvol {spec}"] = result
     times = interleaved_times(renderers, args.repeat)  # renders interleaved per round, first is a warm-up
     vtk_t = statistics.median(times[renderers[0][0]][1:])
     rows = []
@@ -67,7 +78,7 @@ def main(argv=None) -> int:
                "error": image_error(img, ref)}
         if label in results:
             res, name = results[label](), label.split(" ", 1)[1]
-            write_png(out / f"{name}.png", img)
+            write_png(out / f"{name.replace(':', '_').replace('=', '_')}.png", img)
             if name == "pt_vertex_color":  # reference | warpvol | VTK | 4 x |warpvol - VTK| (RGBA)
                 diff = 4.0 * np.abs(img - theirs).max(axis=-1)
                 write_png(out / "side_by_side_pt_vertex_color_vtk.png",
@@ -78,12 +89,43 @@ def main(argv=None) -> int:
     (out / "result.json").write_text(json.dumps({"scene": scene.name, "tets": scene.mesh.n_tets, "size": args.size,
                                                  "rows": rows}, indent=2))
     print(f"{scene.name}: {scene.mesh.n_tets} tets, {args.size}x{args.size}, device {args.device}")
-    print(f"{'renderer':<36}{'time [s]':>10}{'first [s]':>11}{'/ VTK':>8}{'rmse':>12}{'max_abs':>12}{'psnr':>8}")
+    w = max(36, *(len(r["renderer"]) + 2 for r in rows))
+    print(f"{'renderer':<{w}}{'time [s]':>10}{'first [s]':>11}{'/ VTK':>8}{'rmse':>12}{'max_abs':>12}{'psnr':>8}")
     for r in rows:
         e = r["error"]
-        print(f"{r['renderer']:<36}{r['time_s']:>10.3f}{r['first_s']:>11.3f}{r['time_s'] / vtk_t:>8.2f}"
+        print(f"{r['renderer']:<{w}}{r['time_s']:>10.3f}{r['first_s']:>11.3f}{r['time_s'] / vtk_t:>8.2f}"
               f"{e['rmse']:>12.3e}{e['max_abs']:>12.3e}{e['psnr']:>8.1f}")
     return 0
+
+
+def variant_renderer(scene, device: str, spec: str):
+    """``(render, image, result)`` for ``PRESET:STAGE.PARAM=VALUE`` (the value parsed as TOML)."""
+    import tomllib
+
+    from warpvol.pipeline import Pipeline, _read_pipeline_text
+
+    try:
+        name, rest = spec.split(":", 1)
+        key, text = rest.split("=", 1)
+        stage, param = key.split(".", 1)
+    except ValueError:
+        raise SystemExit(f"--variant: expected PRESET:STAGE.PARAM=VALUE, got {spec!r}")
+    cfg = tomllib.loads(_read_pipeline_text(name)[0])
+    hit = [st for st in cfg["stages"] if st["stage"] == stage]
+    if not hit:
+        raise SystemExit(f"--variant: preset {name!r} has no stage {stage!r}")
+    for st in hit:
+        try:
+            st[param] = tomllib.loads(f"v = {text}")["v"]
+        except tomllib.TOMLDecodeError:  # a bare word: a string
+            st[param] = text
+    pipe = Pipeline.from_config(cfg, device=device)
+    last = {}
+
+    def render():
+        last["res"] = pipe.render(scene, quiet=True)
+
+    return render, lambda: last["res"].image, lambda: last["res"]
 
 
 if __name__ == "__main__":

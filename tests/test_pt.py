@@ -23,14 +23,15 @@ def pixel_tet_pairs(frags, tet_of_prim):
     return np.sort(pix.astype(np.int64) * (int(tet_of_prim.max()) + 1) + tet)
 
 
-def coverage_pairs(mesh, cam, device="cpu"):
-    """(PT fragments, front-face fragments) as sorted (pixel, tet) keys, and the geometry."""
+def coverage_pairs(mesh, cam, device="cpu", walk="pixel"):
+    """(PT fragments, front-face fragments) as sorted (pixel, tet) keys, and the geometry; the PT
+    fragments from the rasteriser's ``walk`` (the front faces always from the emulated pixel walk)."""
     vs = VertexStage.from_camera(cam, *cam.depth_range(*mesh.bounds), device=device)
     vt = vs.transform(mesh.points)
     order = visibility_order(mesh, cam, "centroid").order
     geo = decompose(mesh, vt, order, device=device)
     r = Rasterizer(cam.width_px, cam.height_px, device=device, **RASTER_RULES)
-    pt = pixel_tet_pairs(r.fragments(geo.positions, geo.tris), np.repeat(order, 4))
+    pt = pixel_tet_pairs(r.fragments(geo.positions, geo.tris, walk=walk), np.repeat(order, 4))
     # independent: every tet's front faces tile its projection exactly once (same snapped vertices)
     faces = mesh.tets[:, FACE_VERTS].reshape(-1, 3)
     rf = Rasterizer(cam.width_px, cam.height_px, device=device, cull="back", **RASTER_RULES)
@@ -62,13 +63,15 @@ def test_one_fragment_per_tet_and_pixel_random_views(device):
         assert geo.classes["four_triangle"] > 0 and geo.classes["three_triangle"] > 0
 
 
-def test_one_fragment_per_tet_and_pixel_degenerate_views():
+@pytest.mark.parametrize("walk", ["pixel", "triangle"])
+def test_one_fragment_per_tet_and_pixel_degenerate_views(walk):
+    """Both fragment walks (``triangle``: pt_best's) give every (pixel, tet) pair exactly one fragment."""
     from helpers import box_mesh
 
     mesh = box_mesh(dims=(4, 4, 4))
     seen = {"three_triangle": 0, "flat": 0, "four_triangle": 0, "vertex_on_edge": 0, "vertex_on_vertex": 0}
     for cam in degenerate_views():
-        pt, ff, geo = coverage_pairs(mesh, cam)
+        pt, ff, geo = coverage_pairs(mesh, cam, walk=walk)
         assert len(ff) > 100 and np.array_equal(pt, ff)
         for k in seen:
             seen[k] += geo.classes[k]
@@ -76,7 +79,7 @@ def test_one_fragment_per_tet_and_pixel_degenerate_views():
     sc = builtin_scene("stiff")
     for cam in (Camera(projection="orthographic", eye=(4, 0.3, 0), target=(0, 0.3, 0), height=2.5, width_px=24,
                        height_px=24), Camera(eye=(3, 0.2, 0.05), target=(0, 0, 0), fov_y_deg=50, width_px=24, height_px=24)):
-        pt, ff, geo = coverage_pairs(sc.mesh, cam)
+        pt, ff, geo = coverage_pairs(sc.mesh, cam, walk=walk)
         assert len(ff) > 100 and np.array_equal(pt, ff)
         for k in seen:
             seen[k] += geo.classes[k]

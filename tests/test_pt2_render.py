@@ -125,6 +125,18 @@ def test_row_bands_give_the_same_image(fmt):
     assert c1["fragments"] == c3["fragments"] > 0
 
 
+def test_triangle_walk_gives_the_same_image():
+    """pt_best's ``walk = "triangle"`` draws the image of the emulated per-pixel walk (bit-exact, so
+    within pt_best's tolerance against the reference as that is), with the same fragment count."""
+    for name in ("concave", "sphere"):
+        sc = scene(name, 40)
+        px = render(preset("pt_best", pt_integrate={"walk": "pixel"}), sc)
+        tri = render(preset("pt_best"), sc)
+        assert np.array_equal(px.image, tri.image)
+        check(tri, "pt_best")
+        assert px.report["counters"]["pt_integrate"]["fragments"] == tri.report["counters"]["pt_integrate"]["fragments"] > 0
+
+
 def test_front_and_back_points_of_thick_vertices():
     """decompose(): each thick vertex's front and back eye points are l apart, the front one nearer
     the eye (eye space looks down -z), and both project onto the thick vertex (within the 1/256 snap

@@ -339,6 +339,31 @@ def test_fused_draw_equals_fragment_list_and_is_tile_size_independent(device):
 
 
 @pytest.mark.parametrize("device", DEVICES)
+def test_triangle_walk_gives_the_pixel_walks_fragment_list(device):
+    """``fragments(walk="triangle")`` (per-triangle bounding-box walk + stable sort by pixel) = the
+    emulated per-pixel walk, array for array: offsets, primitive order, depth and every interpolation
+    mode / rule, with and without depth clipping; refused with a depth test."""
+    rng = np.random.default_rng(13)
+    W, H, T = 37, 29, 250
+    pos = np.concatenate([rng.uniform([-5, -5], [42, 34], (3 * T, 2)), rng.uniform(-0.2, 1.2, (3 * T, 1)),
+                          rng.uniform(0.5, 2, (3 * T, 1))], 1).astype(np.float32)
+    tris = np.arange(3 * T).reshape(T, 3)
+    tris[::2] = tris[::2, ::-1]
+    attrs = rng.uniform(0, 1, (3 * T, 3)).astype(np.float32)
+    for rule, clip in (("barycentric", False), ("barycentric", True), ("llvmpipe", False)):
+        r = Rasterizer(W, H, device=device, depth_clip=clip, interp_rule=rule)
+        a, b = (r.fragments(pos, tris, attrs, interpolation=["linear", "perspective", "flat"], walk=w)
+                for w in ("pixel", "triangle"))
+        assert a.count == b.count > 500
+        for name in ("offsets", "prim", "depth", "attrs"):
+            np.testing.assert_array_equal(getattr(a, name).numpy(), getattr(b, name).numpy(), err_msg=name)
+    with pytest.raises(ConfigError, match="walk"):
+        Rasterizer(W, H, device=device, depth_func="less").fragments(pos, tris, walk="triangle")
+    with pytest.raises(ConfigError, match="walk"):
+        Rasterizer(W, H, device=device).fragments(pos, tris, walk="tile")
+
+
+@pytest.mark.parametrize("device", DEVICES)
 def test_llvmpipe_interpolation_rule(device):
     """The llvmpipe plane-equation rule: the same fragments in the fragment list and both draw
     traversals, values within fp32 rounding of the barycentric ones (linear and perspective), and

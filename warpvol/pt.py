@@ -119,8 +119,8 @@ def eye_plane_check(mesh, camera) -> EyePlane:
     ('refuse', True)
     """
     tets = np.asarray(mesh.tets)
-    rel = np.asarray(mesh.points, dtype=np.float64)[tets] - camera.eye  # (M, 4, 3)
-    d, x, y = rel @ camera.forward, rel @ camera.right, rel @ camera.true_up
+    rel = np.asarray(mesh.points, dtype=np.float64) - camera.eye  # per vertex, then gathered per tet (M, 4)
+    d, x, y = ((rel @ axis)[tets] for axis in (camera.forward, camera.right, camera.true_up))
     dmin, dmax = d.min(axis=1), d.max(axis=1)
     behind = dmax <= 0
     if camera.projection == "perspective":
@@ -199,7 +199,7 @@ def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
 
 
 def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend, *, batch_tets: int = 65536,
-         device: str = "cpu", bands: int = 1) -> dict:
+         device: str = "cpu", bands: int = 1, walk: str = "pixel") -> dict:
     """Rasterise ``geo`` in batches of ``batch_tets`` tets, run ``program(fragments, tris) -> colours``
     (a ``wp.array`` of vec4, premultiplied RGBA; ``tris`` the batch's triangles on the device, indexed
     by ``fragments.prim``) on each batch and blend into ``fb`` in order.
@@ -209,10 +209,12 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
     each with its own rasteriser and frame buffer over its rows and the positions moved up by its first
     row (an exact shift of the 1/256-pixel grid, so coverage, attributes and blending are those of one
     whole-image draw: tested bit-exact); not with alpha dithering (its pattern follows the pixel index).
+    ``walk``: the rasteriser's fragment generation (:meth:`warpvol.gpu.raster.Rasterizer.fragments`;
+    ``triangle`` gives the same fragments as the emulated ``pixel`` walk, faster).
     Returns counts (``fragments``, ``batches``, ``attrs_clamped``).
     """
     if bands > 1 and fb.height > 1 and not getattr(blend, "dither", False):
-        return _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands)
+        return _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands, walk)
     from .gpu.raster import Rasterizer
 
     from .kernels import pt as kpt
@@ -225,7 +227,7 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
     for k0 in range(0, m, batch_tets):
         k1 = min(m, k0 + batch_tets)
         tris = geo.tris[4 * k0:4 * k1]
-        frags = rast.fragments(geo.positions, tris, vertex_attrs, interpolation="linear")
+        frags = rast.fragments(geo.positions, tris, vertex_attrs, interpolation="linear", walk=walk)
         n_batch += 1
         if frags.count == 0:
             continue
@@ -237,7 +239,7 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
     return {"fragments": n_frag, "batches": n_batch, "attrs_clamped": int(clamped.numpy()[0])}
 
 
-def _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands) -> dict:
+def _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands, walk) -> dict:
     import dataclasses
 
     from .gpu.blend import FrameBuffer
@@ -258,7 +260,7 @@ def _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands
         bfb = FrameBuffer(fb.width, h, fb.fmt, device=device)
         bfb.array.assign(wp.array(np.ascontiguousarray(full[r0:r0 + h]), dtype=wp.vec4, device=device))
         with counted[b]:
-            infos[b] = draw(sub, vertex_attrs, program, bfb, blend, batch_tets=batch_tets, device=device)
+            infos[b] = draw(sub, vertex_attrs, program, bfb, blend, batch_tets=batch_tets, device=device, walk=walk)
             full[r0:r0 + h] = bfb.array.numpy()
 
     launch_blocks(device, len(rows), run)

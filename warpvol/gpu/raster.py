@@ -82,6 +82,7 @@ DEPTH_FUNCS = {"always": 0, "less": 1, "greater": 2, "lequal": 3, "gequal": 4, "
 INTERPOLATIONS = {"linear": 0, "perspective": 1, "flat": 2}
 TILE_SIZES = (4, 8, 16, 32, 64)
 TRAVERSALS = ("auto", "pixel", "tile")
+WALKS = ("pixel", "triangle")
 FILL_RULES = ("bottom_left", "top_left")
 SNAP_TIES = ("even", "away")
 INTERP_RULES = {"barycentric": 0, "llvmpipe": 1}
@@ -112,9 +113,10 @@ class Fragments:
 
 
 class Triangles:
-    """Set-up and binned triangles, ready for the per-pixel kernels (made by :meth:`Rasterizer.setup`)."""
+    """Set-up and binned triangles, ready for the per-pixel kernels (made by :meth:`Rasterizer.setup`;
+    ``binned=False``: set up only, for the per-triangle walk, which needs no tile lists)."""
 
-    def __init__(self, rast: "Rasterizer", positions: Any, tris: Any):
+    def __init__(self, rast: "Rasterizer", positions: Any, tris: Any, binned: bool = True):
         dev = rast.device
         self.positions = _as_vec4(positions, "positions", dev)
         self.tris = _as_tris(tris, self.positions.shape[0], dev)
@@ -138,7 +140,7 @@ class Triangles:
                       device=dev)
         offsets = wp.zeros(max(t, 1), dtype=wp.int32, device=dev)
         total = 0
-        if t:
+        if t and binned:
             wp.utils.array_scan(counts, offsets, inclusive=False)
             total = int(offsets[t - 1:t].numpy()[0] + counts[t - 1:t].numpy()[0])
         self.bin_entries = total
@@ -271,10 +273,10 @@ class Rasterizer:
         """Triangle setup + binning (reusable for several draws of the same geometry)."""
         return Triangles(self, positions, tris)
 
-    def _tris(self, positions: Any, tris: Any) -> Triangles:
+    def _tris(self, positions: Any, tris: Any, binned: bool = True) -> Triangles:
         if isinstance(positions, Triangles):
             return positions
-        return self.setup(positions, tris)
+        return Triangles(self, positions, tris, binned)
 
     def _depth(self, depth: Any) -> wp.array:
         if depth is None:
@@ -318,14 +320,22 @@ class Rasterizer:
         return passed
 
     def fragments(self, positions: Any, tris: Any = None, attrs: Any = None,
-                  interpolation: str | Sequence[str] = "perspective", depth: Any = None) -> Fragments:
+                  interpolation: str | Sequence[str] = "perspective", depth: Any = None,
+                  walk: str = "pixel") -> Fragments:
         """Rasterise into a fragment list with attributes ``attrs`` (V, A) interpolated per fragment.
 
         ``positions`` may be a :class:`Triangles` from :meth:`setup` (then ``tris`` is ignored).
         ``interpolation``: one of ``linear``, ``perspective``, ``flat`` or one per attribute.
         ``depth``: depth buffer (H, W float32 wp.array) tested/updated in place; default a fresh one.
+        ``walk``: ``pixel`` (each pixel walks its tile's triangles in primitive order, the emulated
+        hardware) or ``triangle`` (each triangle walks its bounding box, then a stable sort by pixel:
+        the same fragment list, faster when triangles are small; only with depth test ``always`` and
+        no depth writes, where a pixel's fragments do not depend on each other).
         """
-        tr = self._tris(positions, tris)
+        check_choice("walk", walk, WALKS)
+        if walk == "triangle" and (self.depth_func != "always" or self.depth_write):
+            raise ConfigError("walk: 'triangle' needs depth_func 'always' and depth_write false")
+        tr = self._tris(positions, tris, binned=walk == "pixel")
         nv = tr.positions.shape[0]
         a = np.zeros((nv, 0), np.float32) if attrs is None else np.asarray(attrs, dtype=np.float32)
         if a.ndim == 1:
@@ -342,6 +352,8 @@ class Rasterizer:
         dev = self.device
         a_w = wp.array(a if na else np.zeros((nv, 1), np.float32), dtype=wp.float32, device=dev)
         m_w = wp.array(np.asarray(modes + [0], np.int32), dtype=wp.int32, device=dev)
+        if walk == "triangle":
+            return self._fragments_by_triangle(tr, a_w, m_w, na)
         dbuf = self._depth(depth)
         npx = self.width * self.height
         counts = wp.zeros(npx, dtype=wp.int32, device=dev)
@@ -366,6 +378,42 @@ class Rasterizer:
         wp.launch(kr.k_fragments, dim=self.shape,
                   inputs=[tr.struct, tr.positions, tr.tris, a_w, m_w, na, dbuf, *self._dflags(), 1, counts, offsets,
                           prim, fdepth, fattr], device=dev)
+        return Fragments(self.shape, total, offsets, prim, fdepth, fattr)
+
+    def _fragments_by_triangle(self, tr: Triangles, a_w: wp.array, m_w: wp.array, na: int) -> Fragments:
+        """:meth:`fragments` with ``walk="triangle"``: count per triangle, write (pixel, triangle)
+        pairs in primitive order, stable radix sort by pixel, then one thread per fragment."""
+        dev = self.device
+        npx = self.width * self.height
+        t = max(tr.count, 1)
+        tcounts = wp.zeros(t, dtype=wp.int32, device=dev)
+        toff = wp.zeros(t, dtype=wp.int32, device=dev)
+        pcounts = wp.zeros(npx, dtype=wp.int32, device=dev)
+        offsets = wp.zeros(npx + 1, dtype=wp.int32, device=dev)
+        one = wp.zeros(1, dtype=wp.int32, device=dev)
+        walk = [tr.struct, tr.positions, self.width, int(self.depth_clip)]
+        total = 0
+        if tr.count:
+            wp.launch(kr.k_tri_walk, dim=tr.count, inputs=[*walk, 0, toff, tcounts, pcounts, one, one], device=dev)
+            wp.utils.array_scan(tcounts, toff, inclusive=False)
+            total = int(toff[t - 1:t].numpy()[0] + tcounts[t - 1:t].numpy()[0])
+        # every element below is written before it is read (the sort's second halves are its scratch)
+        keys = wp.empty(max(2 * total, 2), dtype=wp.int32, device=dev)
+        vals = wp.empty(max(2 * total, 2), dtype=wp.int32, device=dev)
+        prim = wp.empty(max(total, 1), dtype=wp.int32, device=dev)
+        fdepth = wp.empty(max(total, 1), dtype=wp.float32, device=dev)
+        fattr = wp.empty((max(total, 1), max(na, 1)), dtype=wp.float32, device=dev)
+        if total:
+            wp.launch(kr.k_tri_walk, dim=tr.count, inputs=[*walk, 1, toff, tcounts, pcounts, keys, vals], device=dev)
+            wp.utils.radix_sort_pairs(keys, vals, total, 0, max(1, int(npx - 1).bit_length()))
+            wp.launch(kr.k_tri_fragments, dim=total,
+                      inputs=[tr.struct, tr.positions, tr.tris, a_w, m_w, na, self.width, keys, vals, prim, fdepth,
+                              fattr], device=dev)
+        wp.utils.array_scan(pcounts, offsets[:npx], inclusive=False)
+        offsets[npx:].fill_(total)
+        c = _cnt.active()
+        if c is not None:
+            c.add(fragments=total, fragments_passed=total)
         return Fragments(self.shape, total, offsets, prim, fdepth, fattr)
 
     def draw(self, positions: Any, tris: Any, colors: Any, fb, blend, interpolation: str = "perspective",

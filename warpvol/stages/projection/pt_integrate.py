@@ -10,6 +10,7 @@ before it the segment is perspective-correct. Writes ``ctx.image``; counts ``fra
 
 from __future__ import annotations
 
+from ...gpu.raster import WALKS
 from ...pipeline import Context, Param, Stage, register_stage
 from .pt_perspective import fragment_inputs
 from .pt_vertex_color import BATCH, DITHER, composite, fb_param
@@ -28,6 +29,11 @@ class PTIntegrate(Stage):
     batch_tets  int    65536     [1, 2^26]                                   tets per batch
     row_bands   int    0         [0, 256]; 0 = one per CPU core (1 on       image row bands drawn
                                  other devices)                              concurrently
+    walk        str    pixel     ``pixel`` ``triangle``                      fragment generation:
+                                                                             emulated per-pixel tile
+                                                                             walk, or per-triangle
+                                                                             bounding-box walk + sort
+                                                                             (same fragments, faster)
     ==========  =====  ========  ==========================================  =======================
 
     Example
@@ -43,7 +49,9 @@ class PTIntegrate(Stage):
     name = "pt_integrate"
     summary = "PT fragment program: exact per-fragment segment integral of the TF (no table; beyond the papers)"
     params = (fb_param("fp32"), DITHER, BATCH,
-              Param("row_bands", int, 0, "row bands drawn concurrently (0: one per CPU core; 1: off)", lo=0, hi=256))
+              Param("row_bands", int, 0, "row bands drawn concurrently (0: one per CPU core; 1: off)", lo=0, hi=256),
+              Param("walk", str, "pixel", "fragment generation: per-pixel tile walk (emulated hardware) or "
+                    "per-triangle bounding-box walk + stable sort by pixel (same fragments)", choices=WALKS))
     needs = ("pt_geometry",)
     provides = ("image",)
 
@@ -57,5 +65,5 @@ class PTIntegrate(Stage):
             from ...parallel import cpu_threads
 
             bands = cpu_threads() if str(ctx.device).startswith("cpu") else 1
-        info = composite(self, ctx, attrs, program, bands=bands)
+        info = composite(self, ctx, attrs, program, bands=bands, walk=self.config["walk"])
         ctx.count(segment_integrals=info["fragments"])

@@ -26,7 +26,7 @@ BATCH = Param("batch_tets", int, 65536, "tets rasterised per fragment batch (mem
 DITHER = Param("dither", bool, False, "alpha dithering (Kraus et al. 2004; fixed-point buffers only)")
 
 
-def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1) -> dict:
+def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1, walk: str = "pixel") -> dict:
     """Draw ``pt_geometry`` with per-vertex ``attrs`` and ``program`` into a cleared buffer of the
     stage's format (in ``bands`` concurrent row bands, :func:`warpvol.pt.draw`); set ``ctx.image``
     and count (shared by the ``pt_*`` fragment stages)."""
@@ -41,7 +41,7 @@ def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1) -> dic
     fb = FrameBuffer(cam.width_px, cam.height_px, fmt, device=ctx.device)
     fb.clear((0, 0, 0, 0))
     info = draw(ctx.buffers["pt_geometry"], attrs, program, fb, BlendUnit.over(dither=stage.config["dither"]),
-                batch_tets=stage.config["batch_tets"], device=ctx.device, bands=bands)
+                batch_tets=stage.config["batch_tets"], device=ctx.device, bands=bands, walk=walk)
     ctx.image = fb.readback()
     # fragments and blends are counted by the rasteriser and blending unit themselves; the draw sends each
     # drawn tet as a triangle fan (triangles + 2 vertices) with its position and attributes over the bus
