@@ -42,7 +42,7 @@ concurrently launched row block.
 import warp as wp
 
 from .integrate import exp_neg, integrate_piece, integrate_segment_tf
-from .tf import tf_eval, tf_eval_upper, tf_upper
+from .tf import tf_eval, tf_eval_upper, tf_upper, tf_upper_from
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -379,6 +379,7 @@ def march(
     prev = last[idx]
     best_t = float(1.0e30)
     best_s = float(0.0)
+    far_t = float(-1.0e30)  # farthest crossing of any face here: no re-entry once past it
     cell = int(-1)
     face_in = int(-1)
     fc = Face()
@@ -389,6 +390,8 @@ def march(
         f = int(bface_local[bf])
         cand = boundary_face(tets[c], f, verts, r)
         ok, t, s = face_hit(cand, r)
+        if ok and t > far_t:
+            far_t = t
         if ok and t > t_start - t_tol and t < best_t and c != prev:
             best_t = t
             best_s = s
@@ -433,7 +436,7 @@ def march(
             if stall > STALL_STEPS:
                 failed = 1
                 break
-        k_out = tf_upper(s_out, tf_s)
+        k_out = tf_upper_from(s_out, k_in, tf_s)
         v_out = tf_eval_upper(s_out, k_out, tf_s, tf_v)
         if t_out > t_clip:
             if t_in >= t_clip:
@@ -477,6 +480,10 @@ def march(
             wp.atomic_add(counters, chunk, 2, 1)  # rays stopped by max_steps
     elif t_in >= t_end:
         status[idx] = STATUS_DONE  # left the bounding sphere: no further entry possible
+    elif not (far_t > t_in - t_tol):
+        # the next pass would test exactly these faces with the same float32 numbers and find none
+        # beyond t_in - t_tol (it also skips the cell just left): no re-entry, skip that search
+        status[idx] = STATUS_DONE
 
 
 @wp.kernel
