@@ -277,7 +277,13 @@ def next_face(tv: wp.vec4i, j: int, fc: Face, verts: wp.array(dtype=wp.vec4), r:
     values are reused (they are the same numbers the neighbour computed). The exit is the first of
     ``(N, A, B)``, ``(N, B, C)``, ``(N, C, A)`` whose edge values are all >= 0. Returns
     ``(exit face, local index of the exit face in tv (-1: none qualifies), t, s)``."""
-    gn = tv[j]
+    return next_face_from(tv, tv[j], fc, verts, r)
+
+
+@wp.func
+def next_face_from(tv: wp.vec4i, gn: int, fc: Face, verts: wp.array(dtype=wp.vec4), r: Ray):
+    """:func:`next_face` given the new vertex's global index ``gn = tv[j]`` (a walker that has it
+    from the neighbour record loads its vertex without waiting for ``tv``)."""
     vn = verts[gn]
     pn, qn, mn = vertex_frame(vn, r)
     na = oriented_side(gn, fc.g[0], pn, qn, mn, fc.pa, fc.qa, fc.ma, r)
@@ -335,6 +341,7 @@ def march(
     verts: wp.array(dtype=wp.vec4),
     tets: wp.array(dtype=wp.vec4i),
     nbr: wp.array(dtype=wp.vec4i),
+    nbr_vertex: wp.array(dtype=wp.vec4i),
     bface_tet: wp.array(dtype=wp.int32),
     bface_local: wp.array(dtype=wp.int32),
     tile_start: wp.array(dtype=wp.int32),
@@ -422,9 +429,12 @@ def march(
     stall = int(0)
     exited = int(0)
     failed = int(0)
+    gn = tets[cell][face_in]
     while steps < max_steps:
         steps += 1
-        fc, f_out, t_out, s_out = next_face(tets[cell], face_in, fc, verts, r)
+        nrow = nbr[cell]  # this cell's neighbour records, fetched while the step computes
+        vrow = nbr_vertex[cell]
+        fc, f_out, t_out, s_out = next_face_from(tets[cell], gn, fc, verts, r)
         if f_out < 0:
             failed = 1
             break
@@ -450,7 +460,7 @@ def march(
                                            model)
             acc += tr * wp.vec3(seg[0], seg[1], seg[2])
             tr = tr * exp_neg(seg[3])
-        nb = nbr[cell][f_out]
+        nb = nrow[f_out]
         t_in = t_out
         s_in = s_out
         k_in = k_out
@@ -460,6 +470,7 @@ def march(
         if nb < 0:
             exited = 1
             break
+        gn = vrow[f_out]
         cell = nb >> 2
         face_in = nb & 3
     wp.atomic_add(counters, chunk, 1, steps)
