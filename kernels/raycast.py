@@ -344,6 +344,7 @@ def march(
     nbr_vertex: wp.array(dtype=wp.vec4i),
     bface_tet: wp.array(dtype=wp.int32),
     bface_local: wp.array(dtype=wp.int32),
+    bface_box: wp.array(dtype=wp.int32),
     tile_start: wp.array(dtype=wp.int32),
     tile_items: wp.array(dtype=wp.int32),
     tile: int,
@@ -393,6 +394,9 @@ def march(
     tile_id = (py // tile) * tiles_x + (px // tile)
     for it in range(tile_start[tile_id], tile_start[tile_id + 1]):
         bf = tile_items[it]
+        if px < bface_box[4 * bf] or py < bface_box[4 * bf + 1] or px > bface_box[4 * bf + 2] \
+                or py > bface_box[4 * bf + 3]:
+            continue  # the pixel lies outside the face's grown projected box (as tiles are binned)
         c = int(bface_tet[bf])
         f = int(bface_local[bf])
         cand = boundary_face(tets[c], f, verts, r)
