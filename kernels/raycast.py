@@ -35,7 +35,7 @@ for :data:`STALL_STEPS` steps -- is marked ``STATUS_FAILED`` and redone on the h
 counted, never silently wrong.
 
 Per-pixel state (radiance, transmittance, ray parameter, status) lives in device arrays so passes
-can be separate launches; ``counters[chunk]`` (entries, steps, unfinished, failed) has one row per
+can be separate launches; ``counters[chunk]`` (entries, steps, unfinished, failed, left active) has one row per
 concurrently launched row block.
 """
 
@@ -489,16 +489,22 @@ def march(
     if t_in > best_t:
         flat = 0  # the walk advanced: only consecutive re-entries without progress count
     status[idx] = STATUS_ACTIVE + 4 * flat
+    active = int(1)
     if exited == 0:
         status[idx] = STATUS_DONE
         if tr >= t_min:
             wp.atomic_add(counters, chunk, 2, 1)  # rays stopped by max_steps
+        active = 0
     elif t_in >= t_end:
         status[idx] = STATUS_DONE  # left the bounding sphere: no further entry possible
+        active = 0
     elif not (far_t > t_in - t_tol):
         # the next pass would test exactly these faces with the same float32 numbers and find none
         # beyond t_in - t_tol (it also skips the cell just left): no re-entry, skip that search
         status[idx] = STATUS_DONE
+        active = 0
+    if active == 1:
+        wp.atomic_add(counters, chunk, 4, 1)  # rays a further pass must search
 
 
 @wp.kernel
