@@ -35,14 +35,14 @@ for :data:`STALL_STEPS` steps -- is marked ``STATUS_FAILED`` and redone on the h
 counted, never silently wrong.
 
 Per-pixel state (radiance, transmittance, ray parameter, status) lives in device arrays so passes
-can be separate launches; ``counters[chunk]`` (entries, steps, unfinished, failed) has one row per
+can be separate launches; ``counters[chunk]`` (entries, steps, unfinished, failed, left active) has one row per
 concurrently launched row block.
 """
 
 import warp as wp
 
 from .integrate import exp_neg, integrate_piece, integrate_segment_tf
-from .tf import tf_eval, tf_eval_upper, tf_upper
+from .tf import tf_eval, tf_eval_upper, tf_upper, tf_upper_from
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -277,7 +277,13 @@ def next_face(tv: wp.vec4i, j: int, fc: Face, verts: wp.array(dtype=wp.vec4), r:
     values are reused (they are the same numbers the neighbour computed). The exit is the first of
     ``(N, A, B)``, ``(N, B, C)``, ``(N, C, A)`` whose edge values are all >= 0. Returns
     ``(exit face, local index of the exit face in tv (-1: none qualifies), t, s)``."""
-    gn = tv[j]
+    return next_face_from(tv, tv[j], fc, verts, r)
+
+
+@wp.func
+def next_face_from(tv: wp.vec4i, gn: int, fc: Face, verts: wp.array(dtype=wp.vec4), r: Ray):
+    """:func:`next_face` given the new vertex's global index ``gn = tv[j]`` (a walker that has it
+    from the neighbour record loads its vertex without waiting for ``tv``)."""
     vn = verts[gn]
     pn, qn, mn = vertex_frame(vn, r)
     na = oriented_side(gn, fc.g[0], pn, qn, mn, fc.pa, fc.qa, fc.ma, r)
@@ -335,8 +341,10 @@ def march(
     verts: wp.array(dtype=wp.vec4),
     tets: wp.array(dtype=wp.vec4i),
     nbr: wp.array(dtype=wp.vec4i),
+    nbr_vertex: wp.array(dtype=wp.vec4i),
     bface_tet: wp.array(dtype=wp.int32),
     bface_local: wp.array(dtype=wp.int32),
+    bface_box: wp.array(dtype=wp.int32),
     tile_start: wp.array(dtype=wp.int32),
     tile_items: wp.array(dtype=wp.int32),
     tile: int,
@@ -379,16 +387,22 @@ def march(
     prev = last[idx]
     best_t = float(1.0e30)
     best_s = float(0.0)
+    far_t = float(-1.0e30)  # farthest crossing of any face here: no re-entry once past it
     cell = int(-1)
     face_in = int(-1)
     fc = Face()
     tile_id = (py // tile) * tiles_x + (px // tile)
     for it in range(tile_start[tile_id], tile_start[tile_id + 1]):
         bf = tile_items[it]
+        if px < bface_box[4 * bf] or py < bface_box[4 * bf + 1] or px > bface_box[4 * bf + 2] \
+                or py > bface_box[4 * bf + 3]:
+            continue  # the pixel lies outside the face's grown projected box (as tiles are binned)
         c = int(bface_tet[bf])
         f = int(bface_local[bf])
         cand = boundary_face(tets[c], f, verts, r)
         ok, t, s = face_hit(cand, r)
+        if ok and t > far_t:
+            far_t = t
         if ok and t > t_start - t_tol and t < best_t and c != prev:
             best_t = t
             best_s = s
@@ -419,9 +433,12 @@ def march(
     stall = int(0)
     exited = int(0)
     failed = int(0)
+    gn = tets[cell][face_in]
     while steps < max_steps:
         steps += 1
-        fc, f_out, t_out, s_out = next_face(tets[cell], face_in, fc, verts, r)
+        nrow = nbr[cell]  # this cell's neighbour records, fetched while the step computes
+        vrow = nbr_vertex[cell]
+        fc, f_out, t_out, s_out = next_face_from(tets[cell], gn, fc, verts, r)
         if f_out < 0:
             failed = 1
             break
@@ -433,7 +450,7 @@ def march(
             if stall > STALL_STEPS:
                 failed = 1
                 break
-        k_out = tf_upper(s_out, tf_s)
+        k_out = tf_upper_from(s_out, k_in, tf_s)
         v_out = tf_eval_upper(s_out, k_out, tf_s, tf_v)
         if t_out > t_clip:
             if t_in >= t_clip:
@@ -447,7 +464,7 @@ def march(
                                            model)
             acc += tr * wp.vec3(seg[0], seg[1], seg[2])
             tr = tr * exp_neg(seg[3])
-        nb = nbr[cell][f_out]
+        nb = nrow[f_out]
         t_in = t_out
         s_in = s_out
         k_in = k_out
@@ -457,6 +474,7 @@ def march(
         if nb < 0:
             exited = 1
             break
+        gn = vrow[f_out]
         cell = nb >> 2
         face_in = nb & 3
     wp.atomic_add(counters, chunk, 1, steps)
@@ -471,12 +489,22 @@ def march(
     if t_in > best_t:
         flat = 0  # the walk advanced: only consecutive re-entries without progress count
     status[idx] = STATUS_ACTIVE + 4 * flat
+    active = int(1)
     if exited == 0:
         status[idx] = STATUS_DONE
         if tr >= t_min:
             wp.atomic_add(counters, chunk, 2, 1)  # rays stopped by max_steps
+        active = 0
     elif t_in >= t_end:
         status[idx] = STATUS_DONE  # left the bounding sphere: no further entry possible
+        active = 0
+    elif not (far_t > t_in - t_tol):
+        # the next pass would test exactly these faces with the same float32 numbers and find none
+        # beyond t_in - t_tol (it also skips the cell just left): no re-entry, skip that search
+        status[idx] = STATUS_DONE
+        active = 0
+    if active == 1:
+        wp.atomic_add(counters, chunk, 4, 1)  # rays a further pass must search
 
 
 @wp.kernel

@@ -34,6 +34,30 @@ def test_tf_eval_device_matches_numpy_including_clamping():
     np.testing.assert_allclose(out.numpy(), tf.evaluate(s.astype(np.float64)), atol=2e-6)
 
 
+@wp.kernel
+def _upper_kernel(s: wp.array(dtype=float), k0: wp.array(dtype=wp.int32), tf_s: wp.array(dtype=float),
+                  out: wp.array2d(dtype=wp.int32)):
+    i = wp.tid()
+    out[i, 0] = ktf.tf_upper(s[i], tf_s)
+    out[i, 1] = ktf.tf_upper_from(s[i], k0[i], tf_s)
+
+
+def test_tf_upper_from_any_start_equals_binary_search():
+    # every start index 0..K against scalars at, between and beyond the control points, inf and NaN
+    cps = np.array([0.19, 0.9, 1.5, 2.5, 5.0], dtype=np.float32)
+    vals = np.concatenate([cps, np.nextafter(cps, -np.inf), np.nextafter(cps, np.inf), [-1.0, 1.0, 7.0],
+                           [np.inf, -np.inf, np.nan]]).astype(np.float32)
+    s = np.repeat(vals, len(cps) + 1)
+    k0 = np.tile(np.arange(len(cps) + 1, dtype=np.int32), len(vals))
+    out = wp.zeros((len(s), 2), dtype=wp.int32, device="cpu")
+    wp.launch(_upper_kernel, dim=len(s), inputs=[wp.array(s, device="cpu"), wp.array(k0, device="cpu"),
+                                                 wp.array(cps, device="cpu"), out], device="cpu")
+    got = out.numpy()
+    np.testing.assert_array_equal(got[:, 1], got[:, 0])
+    want = np.where(np.isnan(s), len(cps), np.searchsorted(cps, s, side="right"))
+    np.testing.assert_array_equal(got[:, 0], want)
+
+
 def test_tf_hash_changes_with_content_and_model():
     a = TransferFunction([[0, 1, 1, 1, 1], [1, 0, 0, 0, 2]])
     b = TransferFunction([[0, 1, 1, 1, 1], [1, 0, 0, 0, 2]])

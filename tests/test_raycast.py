@@ -54,11 +54,27 @@ def test_disconnected_boxes_need_peeling(device):
     inside = (np.abs(o[..., 0]) < 0.95) & (np.abs(o[..., 1]) < 0.95)
     np.testing.assert_allclose(res.image[inside][:, 3], 1 - np.exp(-rho * 1.5), atol=1e-6)
     assert res.report["stats"]["peel"]["reentries"] >= inside.sum()
+    # one re-entry pass, and no further pass over all pixels to find nothing: after it no ray is left
+    # with an entry face beyond its exit
+    assert res.report["stats"]["peel"]["passes"] == 1
     assert "peel" in res.report["stages"]
     # without the peel stage only the nearest box is seen
     one = Pipeline.from_config({"stages": [{"stage": "cell_setup"}, {"stage": "entry_bins"}, {"stage": "raycast"}]})
     img1 = one.render(scene(m, tf, cam), quiet=True).image
     np.testing.assert_allclose(img1[inside][:, 3], 1 - np.exp(-rho * 1.0), atol=1e-6)
+
+
+def test_neighbour_vertex_is_the_vertex_beyond_each_face():
+    from warpvol.stages.raycasting.cell_setup import neighbour_faces, neighbour_vertices
+
+    m = box_mesh(dims=(3, 2, 2))
+    nbr = neighbour_faces(m.adjacency)
+    nv = neighbour_vertices(nbr, m.tets)
+    assert ((nv < 0) == (nbr < 0)).all() and (nbr < 0).any()
+    for c, f in zip(*np.nonzero(nbr >= 0)):
+        n = nbr[c, f] >> 2
+        shared = set(m.tets[c]) - {m.tets[c, f]}
+        assert set(m.tets[n]) - shared == {nv[c, f]}  # the neighbour's only vertex off the shared face
 
 
 def test_perspective_box_alpha_matches_chord_length():

@@ -35,6 +35,17 @@ def neighbour_faces(adjacency: np.ndarray) -> np.ndarray:
     return out.astype(np.int32)
 
 
+def neighbour_vertices(nbr: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """``(M, 4)`` int32: the global index of the neighbour's vertex opposite each local face (the
+    vertex a ray walking through that face meets next), ``-1`` on the boundary. With it a walker
+    fetches the next vertex in parallel with the next cell's record instead of after it."""
+    nb = np.asarray(nbr, dtype=np.int64)
+    ok = nb >= 0
+    out = np.full(nb.shape, -1, dtype=np.int32)
+    out[ok] = np.asarray(tets)[nb[ok] >> 2, nb[ok] & 3]
+    return out
+
+
 def mesh_arrays(mesh, device: str) -> dict:
     """Device arrays of the per-mesh cell layout (plain function for tests and other walkers)."""
     import warp as wp
@@ -42,14 +53,17 @@ def mesh_arrays(mesh, device: str) -> dict:
     lo, hi = mesh.bounds
     origin = 0.5 * (lo + hi)
     rel = mesh.points - origin
+    tets = np.ascontiguousarray(mesh.tets, dtype=np.int32)
+    nbr = neighbour_faces(mesh.adjacency)
     return {
         "origin": origin,
         "radius": float(np.sqrt((rel * rel).sum(axis=1).max())),
         "diameter": float(np.linalg.norm(hi - lo)),
         "verts": wp.array(np.ascontiguousarray(np.c_[rel, mesh.scalars], dtype=np.float32), dtype=wp.vec4,
                           device=device),
-        "tets": wp.array(np.ascontiguousarray(mesh.tets, dtype=np.int32), dtype=wp.vec4i, device=device),
-        "nbr": wp.array(neighbour_faces(mesh.adjacency), dtype=wp.vec4i, device=device),
+        "tets": wp.array(tets, dtype=wp.vec4i, device=device),
+        "nbr": wp.array(nbr, dtype=wp.vec4i, device=device),
+        "nbr_vertex": wp.array(neighbour_vertices(nbr, tets), dtype=wp.vec4i, device=device),
     }
 
 

@@ -60,7 +60,9 @@ def window_xy(camera, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def bin_boundary_faces(mesh, camera, tile: int) -> dict:
     """CSR bins of the boundary faces rays may enter through, over screen tiles (plain NumPy).
 
-    Returns ``dict(bface_tet, bface_local, tile_start, tile_items, tiles_x, tiles_y, tile)``.
+    Returns ``dict(bface_tet, bface_local, bface_box, tile_start, tile_items, tiles_x, tiles_y, tile)``;
+    ``bface_box`` (int32, 4 per face: first column, first row, last column, last row) bounds the
+    pixels whose rays may cross the face (its projected box grown by one pixel, plus one).
     """
     front = entry_face_mask(mesh, camera)
     bf = mesh.boundary_faces[front]
@@ -70,6 +72,7 @@ def bin_boundary_faces(mesh, camera, tile: int) -> dict:
     n_tiles = tiles_x * tiles_y
     if len(bf) == 0:
         return dict(bface_tet=np.zeros(0, np.int32), bface_local=np.zeros(0, np.int32),
+                    bface_box=np.zeros(0, np.int32),
                     tile_start=np.zeros(n_tiles + 1, np.int32), tile_items=np.zeros(0, np.int32),
                     tiles_x=tiles_x, tiles_y=tiles_y, tile=tile)
     wx, wy, bad, z = window_xy(camera, mesh.points[tris.reshape(-1)])
@@ -101,7 +104,12 @@ def bin_boundary_faces(mesh, camera, tile: int) -> dict:
     order = np.argsort(tid, kind="stable")
     start = np.zeros(n_tiles + 1, np.int64)
     np.cumsum(np.bincount(tid, minlength=n_tiles), out=start[1:])
+    # per face, the pixel columns / rows whose centres its grown box may contain (one more pixel of
+    # margin): the kernel skips a face's ray test outside it, as the binning does per tile
+    box = np.stack([lo[:, 0] - 1, lo[:, 1] - 1, hi[:, 0], hi[:, 1]], axis=1)
+    box[~np.isfinite(box).all(axis=1)] = [-1, -1, w, h]
     return dict(bface_tet=bf[:, 0].astype(np.int32), bface_local=bf[:, 1].astype(np.int32),
+                bface_box=np.ascontiguousarray(box, dtype=np.int32).reshape(-1),
                 tile_start=start.astype(np.int32), tile_items=face[order].astype(np.int32),
                 tiles_x=tiles_x, tiles_y=tiles_y, tile=tile)
 

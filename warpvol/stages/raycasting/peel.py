@@ -44,7 +44,10 @@ class Peel(Stage):
             raise RuntimeError("stage 'peel' needs the 'raycast' stage before it")
         threads = self.threads or cpu_threads()
         passes, entries = 0, 0
+        ctx.count(passes=0)
         for _ in range(self.max_passes):
+            if state.active == 0:
+                break  # the last pass left no ray that could re-enter: a pass would find nothing
             c = march_pass(ctx, state, max_steps=self.max_steps, t_min=self.t_min, threads=threads)
             passes += 1
             ctx.count(passes=1, entries=int(c[0]), cell_steps=int(c[1]))

@@ -33,6 +33,7 @@ class MarchState:
         self.tcur = wp.zeros(n, dtype=wp.float32, device=device)
         self.status = wp.zeros(n, dtype=wp.int32, device=device)
         self.last = wp.zeros(n, dtype=wp.int32, device=device)  # cell each ray last left
+        self.active = n  # rays a further pass must search (set by each pass)
         wp.launch(k.init_state, dim=n, inputs=[self.rgb, self.trans, self.tcur, self.status, self.last, 0.0],
                   device=device)
 
@@ -111,17 +112,18 @@ def camera_launch_args(ctx: Context, rows_per_block: int = 16) -> tuple[int, lis
 def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float, threads: int,
                rows_per_block: int = 16) -> np.ndarray:
     """One propagation pass over all active rays; returns summed counters
-    ``(entries, steps, unfinished, failed)``. Failed rays keep ``STATUS_FAILED`` for
-    :func:`resolve_failed`."""
+    ``(entries, steps, unfinished, failed, left active)`` and sets ``state.active`` to the last (rays
+    that may re-enter: 0 means a further pass would find nothing). Failed rays keep
+    ``STATUS_FAILED`` for :func:`resolve_failed`."""
     import warp as wp
 
     from ...kernels import raycast as k
 
     cells, bins = ctx.buffers["cells"], ctx.buffers["entry_bins"]
     w, rows, cam_args = camera_launch_args(ctx, rows_per_block)
-    counters = wp.zeros((len(rows), 4), dtype=wp.int32, device=ctx.device)
-    common = cam_args + [cells["verts"], cells["tets"], cells["nbr"], bins["bface_tet"], bins["bface_local"],
-                         bins["tile_start"], bins["tile_items"], bins["tile"], bins["tiles_x"],
+    counters = wp.zeros((len(rows), 5), dtype=wp.int32, device=ctx.device)
+    common = cam_args + [cells["verts"], cells["tets"], cells["nbr"], cells["nbr_vertex"], bins["bface_tet"], bins["bface_local"],
+                         bins["bface_box"], bins["tile_start"], bins["tile_items"], bins["tile"], bins["tiles_x"],
                          cells["tf_s"], cells["tf_v"], cells["model"], max_steps, t_min, 1e-6 * cells["radius"]]
 
     def launch(b: int) -> None:
@@ -130,7 +132,9 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
                   inputs=common + [r0, state.rgb, state.trans, state.tcur, state.status, state.last, counters, b])
 
     launch_blocks(ctx.device, len(rows), launch, threads)
-    return counters.numpy().sum(axis=0)
+    c = counters.numpy().sum(axis=0)
+    state.active = int(c[4])
+    return c
 
 
 def resolve_failed(ctx: Context, state: MarchState) -> int:
