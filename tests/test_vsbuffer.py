@@ -213,3 +213,41 @@ def test_walk_column_split_runs_and_exit_reuse(refs):
     assert np.abs(a - ref[row, col]).max() < 1e-6 and np.array_equal(a, b)
     # consecutive cells share a face: all but the first entry point are reused exits
     assert ca["exit_points_reused"] == len(cells) - 1 and ca["entry_points_solved"] == 1
+
+
+def _table_pipeline(**table):
+    from warpvol.pipeline import Pipeline
+
+    sweep = {"stage": "vsb_sweep", "integration": "table", "adjacency": "recover", "rewalk": True, "t_min": 1e-6}
+    return Pipeline.from_config({"name": "vsb_table", "stages": [{"stage": "table_exact", **table},
+                                                                 {"stage": "vsb_setup"}, sweep]})
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_table_integration_within_tolerance(refs, name):
+    # pre-integration lookup of each cell piece's (sf, sb, l) through the emulated 3D texture unit
+    s, ref = refs[name]
+    r = _table_pipeline(l_axis="log2").render(s, quiet=True)
+    rmse, mx = _err(r.image, ref)
+    tol = TOLERANCES["vsbuffer/table_exact"]
+    assert rmse <= tol["rmse"] and mx <= tol["max_abs"], (rmse, mx)
+    walk, hw = r.report["stats"]["vsbuffer"]["walk"], r.report["counters"]["vsb_sweep"]
+    # one trilinear fetch per lookup, counted by the texture unit (8 texels each)
+    assert walk["table_lookups"] > 0 and walk["pieces_integrated"] > 0
+    assert hw["tex_3d_rgba32f_linear"] == walk["table_lookups"] and hw["texels"] == 8 * walk["table_lookups"]
+
+
+def test_fine_table_approaches_exact(refs):
+    s, _ = refs["linear_box"]
+    exact = warpvol.render(s, pipeline="vsbuffer_best", quiet=True).image
+    coarse = _err(_table_pipeline(n_s=16, n_l=8).render(s, quiet=True).image, exact)[0]
+    fine = _err(_table_pipeline(n_s=128, n_l=64).render(s, quiet=True).image, exact)[0]
+    assert fine < coarse / 4 and fine < 5e-4, (coarse, fine)
+
+
+def test_table_needed_before_the_sweep():
+    from warpvol.pipeline import Pipeline
+
+    with pytest.raises(ConfigError, match="needs 'table3d'"):
+        Pipeline.from_config({"name": "t", "stages": [{"stage": "vsb_setup"},
+                                                      {"stage": "vsb_sweep", "integration": "table"}]})
