@@ -251,3 +251,43 @@ def test_table_needed_before_the_sweep():
     with pytest.raises(ConfigError, match="needs 'table3d'"):
         Pipeline.from_config({"name": "t", "stages": [{"stage": "vsb_setup"},
                                                       {"stage": "vsb_sweep", "integration": "table"}]})
+
+
+@pytest.mark.parametrize("kind", ["unstructured", "image", "mixed"])
+def test_native_cells_through_the_pipeline(kind):
+    # warpvol.render(grid, pipeline="vsbuffer_best"): the loader records which tets each source cell
+    # was split into, vsb_setup (cells = "native") draws the cells whole; same image as the tets
+    if kind == "mixed":  # a wedge and a pyramid (VTK's split), disconnected
+        pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [0, 1, 1],
+                        [1.5, 0, 0], [2.5, 0, 0], [2.5, 1, 0], [1.5, 1, 0], [2.0, 0.5, 0.9]], float)
+        g = pv.UnstructuredGrid({13: np.array([[0, 1, 2, 3, 4, 5]]), 14: np.array([[6, 7, 8, 9, 10]])}, pts)
+        g.point_data["s"] = 0.3 + pts[:, 0] * 0.2 + pts[:, 2] ** 2
+        want = {"wedge": 1, "pyramid": 1}
+        cam = warpvol.Camera(eye=(1.2, -2.5, 2.0), target=(1.2, 0.5, 0.4), fov_y_deg=50.0, width_px=20, height_px=20)
+    else:
+        g = _hex_grid()
+        if kind == "image":
+            g = pv.ImageData(dimensions=(4, 3, 3), spacing=(0.6, 0.7, 0.8), origin=(-0.9, -0.7, -0.8))
+            g.point_data["s"] = _hex_grid().point_data["s"]
+        want = {"hex": 12}
+        cam = warpvol.Camera(eye=(2.5, 1.6, 3.0), target=(0, 0, 0), fov_y_deg=40.0, width_px=24, height_px=24)
+    tf = TransferFunction([[0.0, 1.0, 0.5, 0.2, 1.0], [2.0, 0.2, 0.6, 1.0, 3.0]], "color_extinction")
+    native = warpvol.render(g, tf, cam, scalars="s", pipeline="vsbuffer_best", reference=False)
+    st = native.report["stats"]["vsb_setup"]
+    assert st["native"] and st["cells_by_type"] == want
+    mesh = warpvol.TetMesh.from_pyvista(g, "s")
+    split = warpvol.render(warpvol.TetMesh(mesh.points, mesh.tets, mesh.scalars), tf, cam,  # no cell groups
+                           pipeline="vsbuffer_best", reference=False)
+    assert split.report["stats"]["vsb_setup"]["cells_by_type"] == {"tet": mesh.n_tets}
+    tol = TOLERANCES["vsbuffer/vsbuffer_best"]
+    rmse, mx = _err(native.image, split.image)
+    assert rmse <= tol["rmse"] and mx <= tol["max_abs"] and native.image[..., 3].max() > 0.3, (rmse, mx)
+    assert (native.report["stats"]["vsbuffer"]["walk"]["cells_integrated"]
+            < split.report["stats"]["vsbuffer"]["walk"]["cells_integrated"])  # one ID per whole cell
+
+
+def test_westermann1997_keeps_tets():
+    r = warpvol.render(_hex_grid(), warpvol.builtin_scene("box").transfer,
+                       warpvol.Camera(eye=(2.5, 1.6, 3.0), target=(0, 0, 0), width_px=8, height_px=8),
+                       scalars="s", pipeline="westermann1997", reference=False)
+    assert r.report["stats"]["vsb_setup"]["cells_by_type"] == {"tet": 72}  # the paper's tetrahedralised data
