@@ -291,3 +291,18 @@ def test_westermann1997_keeps_tets():
                        warpvol.Camera(eye=(2.5, 1.6, 3.0), target=(0, 0, 0), width_px=8, height_px=8),
                        scalars="s", pipeline="westermann1997", reference=False)
     assert r.report["stats"]["vsb_setup"]["cells_by_type"] == {"tet": 72}  # the paper's tetrahedralised data
+
+
+def test_native_cells_from_a_scene_file(tmp_path):
+    # a scene file's .vtu of hexahedra: vsbuffer_best draws the 12 hexes whole, same image as the tets
+    _hex_grid().save(tmp_path / "hexes.vtu")
+    (tmp_path / "scene.toml").write_text(
+        '[mesh]\npath = "hexes.vtu"\nscalars = "s"\n'
+        '[transfer]\nemission = "color_extinction"\npoints = [[0.0, 1.0, 0.5, 0.2, 1.0], [2.0, 0.2, 0.6, 1.0, 3.0]]\n'
+        '[camera]\neye = [2.5, 1.6, 3.0]\ntarget = [0.0, 0.0, 0.0]\nfov_y_deg = 40.0\nwidth_px = 16\nheight_px = 16\n')
+    s = warpvol.load_scene(tmp_path / "scene.toml")
+    r = warpvol.render(s, pipeline="vsbuffer_best", reference=True)
+    assert r.report["stats"]["vsb_setup"]["cells_by_type"] == {"hex": 12}
+    tol = TOLERANCES["vsbuffer/vsbuffer_best"]
+    e = r.error  # against the exact reference of the same field (the tets)
+    assert e["rmse"] <= tol["rmse"] and e["max_abs"] <= tol["max_abs"] and r.image[..., 3].max() > 0.3, e
