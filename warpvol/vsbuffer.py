@@ -282,8 +282,7 @@ def _walk_inputs(cells: ConvexCellMesh, transfer, camera, device: str, rows: int
                  integration: str, steps: int, neighbour_check: bool, adjacency: str, t_min: float, max_list: int,
                  table=None, weight_bits: int | None = 8, texture_cache: dict | None = None):
     """``(Walk, VsbCells, ray origins, ray directions, tf_s, tf_v, textures)`` on ``device`` for one
-    frame; ``textures`` holds the 3D table's texture (``integration="table"``; keep it alive while the
-    walk runs, count its fetches) or nothing."""
+    frame; ``textures``: the 3D table's texture (``"table"``; kept alive, its fetches counted) or none."""
     import warp as wp
 
     from .harc import integ_setup
@@ -387,12 +386,9 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         each piece's ``(sf, sb, l)`` in the 3D pre-integration ``table`` through the emulated 3D
         texture unit (:func:`warpvol.kernels.harc.integrate_sub`, pieces longer than the table's
         thickness axis in equal parts), composited front to back.
-    table : Table, optional
-        The 3D pre-integration table (``data[l, sb, sf]``, any table stage's) for ``"table"``.
-    weight_bits : int
-        Filter-weight fraction bits of the table's texture unit (0: fp32 weights).
-    texture_cache : dict, optional
-        Textures made from tables, by table key (a stage passes a dict kept across renders).
+    table, weight_bits, texture_cache
+        For ``"table"``: the 3D table (``data[l, sb, sf]``, any table stage's), its texture unit's
+        filter-weight bits (0: fp32) and a dict of textures by table key kept across renders.
     neighbour_check : bool
         Look at the 3x3 VSBUFFER neighbours of the exit point when leaving a cell.
     adjacency : {"count", "recover"}
