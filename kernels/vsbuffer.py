@@ -15,6 +15,7 @@ Counters per thread (``counters[tid, k]``): see :data:`COUNTERS`.
 
 import warp as wp
 
+from .harc import Integ, integrate_sub
 from .integrate import integrate_segment
 from .tf import tf_eval
 
@@ -22,14 +23,15 @@ wp.set_module_options({"enable_backward": False})
 
 INTEG_TRAPEZOID = wp.constant(0)
 INTEG_EXACT = wp.constant(1)
+INTEG_TABLE = wp.constant(2)
 ADJ_COUNT = wp.constant(0)
 ADJ_RECOVER = wp.constant(1)
 BIG = wp.constant(1.0e30)
 #: counter columns, in order
 COUNTERS = ("runs", "cells_integrated", "pieces_integrated", "split_runs_skipped", "exit_points_reused",
             "entry_points_solved", "neighbour_found", "lost_segments", "recovered_by_adjacency",
-            "list_comparisons", "list_overflow", "barycentric_nudged", "empty_intervals")
-NCOUNT = wp.constant(13)
+            "list_comparisons", "list_overflow", "barycentric_nudged", "empty_intervals", "table_lookups")
+NCOUNT = wp.constant(14)
 
 
 @wp.struct
@@ -68,6 +70,8 @@ class Walk:
     adjacency: int
     max_list: int
     eps: float
+    ig: Integ                 # pre-integration table (integ == INTEG_TABLE; mode 'full' of the HARC kernels)
+    l_max: float              # the table's longest thickness: longer segments are looked up in equal parts
 
 
 @wp.kernel
@@ -351,13 +355,24 @@ def integrate_cell(cells: VsbCells, w: Walk, cid: int, o: wp.vec3, d: wp.vec3, r
         counters[tid, 11] += int(rb[1])
         length = tb - ta
         if length > 0.0:
-            seg = wp.vec4(0.0, 0.0, 0.0, 0.0)
-            if w.integ == INTEG_EXACT:
-                seg = integrate_segment(sa, rb[0], length, tf_s, tf_v, w.model)
+            if w.integ == INTEG_TABLE:
+                # (sf, sb, l) through the 3D texture unit, composited front to back; a segment longer
+                # than the table's thickness axis is looked up in equal parts (scalar linear along it)
+                n = wp.max(int(wp.ceil(length / w.l_max)), 1)
+                for k in range(n):
+                    c = integrate_sub(w.ig, sa + (rb[0] - sa) * float(k) / float(n),
+                                      sa + (rb[0] - sa) * float(k + 1) / float(n), length / float(n))
+                    rgb += trans * wp.vec3(c[0], c[1], c[2])
+                    trans = trans * (1.0 - c[3])
+                counters[tid, 13] += n
             else:
-                seg = trapezoid(sa, rb[0], length, w.steps, tf_s, tf_v, w.model)
-            rgb += trans * wp.vec3(seg[0], seg[1], seg[2])
-            trans = trans * wp.exp(-seg[3])
+                seg = wp.vec4(0.0, 0.0, 0.0, 0.0)
+                if w.integ == INTEG_EXACT:
+                    seg = integrate_segment(sa, rb[0], length, tf_s, tf_v, w.model)
+                else:
+                    seg = trapezoid(sa, rb[0], length, w.steps, tf_s, tf_v, w.model)
+                rgb += trans * wp.vec3(seg[0], seg[1], seg[2])
+                trans = trans * wp.exp(-seg[3])
             t_last = tb
             # the exit point is reusable only where the ray really got to it (not behind the eye)
             s_last = rb[0]

@@ -213,3 +213,96 @@ def test_walk_column_split_runs_and_exit_reuse(refs):
     assert np.abs(a - ref[row, col]).max() < 1e-6 and np.array_equal(a, b)
     # consecutive cells share a face: all but the first entry point are reused exits
     assert ca["exit_points_reused"] == len(cells) - 1 and ca["entry_points_solved"] == 1
+
+
+def _table_pipeline(**table):
+    from warpvol.pipeline import Pipeline
+
+    sweep = {"stage": "vsb_sweep", "integration": "table", "adjacency": "recover", "rewalk": True, "t_min": 1e-6}
+    return Pipeline.from_config({"name": "vsb_table", "stages": [{"stage": "table_exact", **table},
+                                                                 {"stage": "vsb_setup"}, sweep]})
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_table_integration_within_tolerance(refs, name):
+    # pre-integration lookup of each cell piece's (sf, sb, l) through the emulated 3D texture unit
+    s, ref = refs[name]
+    r = _table_pipeline(l_axis="log2").render(s, quiet=True)
+    rmse, mx = _err(r.image, ref)
+    tol = TOLERANCES["vsbuffer/table_exact"]
+    assert rmse <= tol["rmse"] and mx <= tol["max_abs"], (rmse, mx)
+    walk, hw = r.report["stats"]["vsbuffer"]["walk"], r.report["counters"]["vsb_sweep"]
+    # one trilinear fetch per lookup, counted by the texture unit (8 texels each)
+    assert walk["table_lookups"] > 0 and walk["pieces_integrated"] > 0
+    assert hw["tex_3d_rgba32f_linear"] == walk["table_lookups"] and hw["texels"] == 8 * walk["table_lookups"]
+
+
+def test_fine_table_approaches_exact(refs):
+    s, _ = refs["linear_box"]
+    exact = warpvol.render(s, pipeline="vsbuffer_best", quiet=True).image
+    coarse = _err(_table_pipeline(n_s=16, n_l=8).render(s, quiet=True).image, exact)[0]
+    fine = _err(_table_pipeline(n_s=128, n_l=64).render(s, quiet=True).image, exact)[0]
+    assert fine < coarse / 4 and fine < 5e-4, (coarse, fine)
+
+
+def test_table_needed_before_the_sweep():
+    from warpvol.pipeline import Pipeline
+
+    with pytest.raises(ConfigError, match="needs 'table3d'"):
+        Pipeline.from_config({"name": "t", "stages": [{"stage": "vsb_setup"},
+                                                      {"stage": "vsb_sweep", "integration": "table"}]})
+
+
+@pytest.mark.parametrize("kind", ["unstructured", "image", "mixed"])
+def test_native_cells_through_the_pipeline(kind):
+    # warpvol.render(grid, pipeline="vsbuffer_best"): the loader records which tets each source cell
+    # was split into, vsb_setup (cells = "native") draws the cells whole; same image as the tets
+    if kind == "mixed":  # a wedge and a pyramid (VTK's split), disconnected
+        pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [0, 1, 1],
+                        [1.5, 0, 0], [2.5, 0, 0], [2.5, 1, 0], [1.5, 1, 0], [2.0, 0.5, 0.9]], float)
+        g = pv.UnstructuredGrid({13: np.array([[0, 1, 2, 3, 4, 5]]), 14: np.array([[6, 7, 8, 9, 10]])}, pts)
+        g.point_data["s"] = 0.3 + pts[:, 0] * 0.2 + pts[:, 2] ** 2
+        want = {"wedge": 1, "pyramid": 1}
+        cam = warpvol.Camera(eye=(1.2, -2.5, 2.0), target=(1.2, 0.5, 0.4), fov_y_deg=50.0, width_px=20, height_px=20)
+    else:
+        g = _hex_grid()
+        if kind == "image":
+            g = pv.ImageData(dimensions=(4, 3, 3), spacing=(0.6, 0.7, 0.8), origin=(-0.9, -0.7, -0.8))
+            g.point_data["s"] = _hex_grid().point_data["s"]
+        want = {"hex": 12}
+        cam = warpvol.Camera(eye=(2.5, 1.6, 3.0), target=(0, 0, 0), fov_y_deg=40.0, width_px=24, height_px=24)
+    tf = TransferFunction([[0.0, 1.0, 0.5, 0.2, 1.0], [2.0, 0.2, 0.6, 1.0, 3.0]], "color_extinction")
+    native = warpvol.render(g, tf, cam, scalars="s", pipeline="vsbuffer_best", reference=False)
+    st = native.report["stats"]["vsb_setup"]
+    assert st["native"] and st["cells_by_type"] == want
+    mesh = warpvol.TetMesh.from_pyvista(g, "s")
+    split = warpvol.render(warpvol.TetMesh(mesh.points, mesh.tets, mesh.scalars), tf, cam,  # no cell groups
+                           pipeline="vsbuffer_best", reference=False)
+    assert split.report["stats"]["vsb_setup"]["cells_by_type"] == {"tet": mesh.n_tets}
+    tol = TOLERANCES["vsbuffer/vsbuffer_best"]
+    rmse, mx = _err(native.image, split.image)
+    assert rmse <= tol["rmse"] and mx <= tol["max_abs"] and native.image[..., 3].max() > 0.3, (rmse, mx)
+    assert (native.report["stats"]["vsbuffer"]["walk"]["cells_integrated"]
+            < split.report["stats"]["vsbuffer"]["walk"]["cells_integrated"])  # one ID per whole cell
+
+
+def test_westermann1997_keeps_tets():
+    r = warpvol.render(_hex_grid(), warpvol.builtin_scene("box").transfer,
+                       warpvol.Camera(eye=(2.5, 1.6, 3.0), target=(0, 0, 0), width_px=8, height_px=8),
+                       scalars="s", pipeline="westermann1997", reference=False)
+    assert r.report["stats"]["vsb_setup"]["cells_by_type"] == {"tet": 72}  # the paper's tetrahedralised data
+
+
+def test_native_cells_from_a_scene_file(tmp_path):
+    # a scene file's .vtu of hexahedra: vsbuffer_best draws the 12 hexes whole, same image as the tets
+    _hex_grid().save(tmp_path / "hexes.vtu")
+    (tmp_path / "scene.toml").write_text(
+        '[mesh]\npath = "hexes.vtu"\nscalars = "s"\n'
+        '[transfer]\nemission = "color_extinction"\npoints = [[0.0, 1.0, 0.5, 0.2, 1.0], [2.0, 0.2, 0.6, 1.0, 3.0]]\n'
+        '[camera]\neye = [2.5, 1.6, 3.0]\ntarget = [0.0, 0.0, 0.0]\nfov_y_deg = 40.0\nwidth_px = 16\nheight_px = 16\n')
+    s = warpvol.load_scene(tmp_path / "scene.toml")
+    r = warpvol.render(s, pipeline="vsbuffer_best", reference=True)
+    assert r.report["stats"]["vsb_setup"]["cells_by_type"] == {"hex": 12}
+    tol = TOLERANCES["vsbuffer/vsbuffer_best"]
+    e = r.error  # against the exact reference of the same field (the tets)
+    assert e["rmse"] <= tol["rmse"] and e["max_abs"] <= tol["max_abs"] and r.image[..., 3].max() > 0.3, e

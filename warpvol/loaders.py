@@ -106,6 +106,9 @@ CELL_TO_POINT = ("convert it with pyvista's dataset.cell_data_to_point_data() "
 SPLITS = (6, 5)
 
 
+_CELL_TAG = "warpvol_source_cell"  # cell-data array naming each tet's source cell through the split
+
+
 def _structured_mesh(dims, points, scalars, *, name: str, strict: bool, weld: bool, split: int = 6) -> TetMesh:
     dims = tuple(int(d) for d in dims)
     if min(dims) < 2:
@@ -119,7 +122,9 @@ def _structured_mesh(dims, points, scalars, *, name: str, strict: bool, weld: bo
         tets = structured_to_tets(dims)
     if weld:
         tets, scalars, _ = weld_coincident_points(points, tets, scalars)
-    return TetMesh(points, tets, scalars, name=name, strict=strict)
+    # the hex cells' tets are consecutive: remember the grouping (the VSBUFFER draws hexes whole)
+    return TetMesh(points, tets, scalars, name=name, strict=strict,
+                   cell_start=np.arange(0, len(tets) + 1, split, dtype=np.int64))
 
 
 # -- files pyvista reads --------------------------------------------------------------------------
@@ -226,6 +231,7 @@ def mesh_from_dataset(ds, scalars: str | None, *, strict: bool = False, name: st
     points = np.asarray(ds.points, dtype=np.float64)
     values = arr.reshape(-1).astype(np.float64)
     ctypes = np.asarray(ds.celltypes)
+    cell_start = None
     if len(ctypes) == 0:
         tets = np.empty((0, 4), dtype=np.int64)
     elif (ctypes == _VTK_TETRA).all():
@@ -237,8 +243,10 @@ def mesh_from_dataset(ds, scalars: str | None, *, strict: bool = False, name: st
             raise MeshError(f"{name}: cell point index out of range: {bad}, expected 0 <= index < {ds.n_points}")
         from vtkmodules.vtkFiltersGeneral import vtkDataSetTriangleFilter
 
+        tagged = ds.copy(deep=False)  # shares the arrays; the tag below is the only new one
+        tagged.cell_data[_CELL_TAG] = np.arange(ds.n_cells, dtype=np.int64)
         f = vtkDataSetTriangleFilter()
-        f.SetInputData(ds)
+        f.SetInputData(tagged)
         f.TetrahedraOnlyOn()
         f.Update()
         out = pv.wrap(f.GetOutput())
@@ -248,7 +256,12 @@ def mesh_from_dataset(ds, scalars: str | None, *, strict: bool = False, name: st
         points = np.asarray(out.points, dtype=np.float64)
         values = np.asarray(out.point_data[scalars]).reshape(-1).astype(np.float64)
         tets = np.asarray(out.cells).reshape(-1, 5)[:, 1:]
-    return TetMesh(points, tets, values, name=name, strict=strict)
+        # the filter passes cell data to each cell's tets: group them by source cell (the VSBUFFER
+        # draws the cells whole) where they come out consecutive, as they do cell by cell
+        src = np.asarray(out.cell_data[_CELL_TAG]) if _CELL_TAG in out.cell_data else None
+        if src is not None and len(src) == len(tets) and (np.diff(src) >= 0).all():
+            cell_start = np.concatenate([[0], np.nonzero(np.diff(src))[0] + 1, [len(src)]])
+    return TetMesh(points, tets, values, name=name, strict=strict, cell_start=cell_start)
 
 
 # -- PLOT3D ---------------------------------------------------------------------------------------

@@ -60,6 +60,11 @@ class TetMesh:
         Zero-volume tets are an error instead of being dropped with a warning.
     zero_volume_rtol : float
         A tet counts as zero-volume when ``|6 V| <= zero_volume_rtol * (longest edge)^3``.
+    cell_start : (C + 1,) array of int, optional
+        Consecutive tets grouped into the source cells they were split from (tets ``cell_start[c]
+        .. cell_start[c + 1]`` are cell ``c``; loaders set it when they split convex cells). Only the
+        VSBUFFER renderer uses it, to draw such cells whole (``vsb_setup cells = "native"``); dropped
+        zero-volume tets leave their cells, a cell left without tets is dropped.
 
     Examples
     --------
@@ -69,7 +74,7 @@ class TetMesh:
     """
 
     def __init__(self, points, tets, scalars, *, name: str = "mesh", strict: bool = False,
-                 zero_volume_rtol: float = 1e-12):
+                 zero_volume_rtol: float = 1e-12, cell_start=None):
         self.name = name
         # copies: the caller's arrays stay writable and later edits to them cannot reach the mesh
         points = _as_array(name, "points", points, np.float64)
@@ -116,7 +121,8 @@ class TetMesh:
             tets[inverted, 2], tets[inverted, 3] = tets[inverted, 3].copy(), tets[inverted, 2].copy()
         self.n_dropped = int(zero.sum())
         self.points, self.tets, self.scalars = points, tets, scalars
-        for a in (self.points, self.tets, self.scalars):
+        self.cell_start = None if cell_start is None else _cell_groups(name, cell_start, zero)
+        for a in (self.points, self.tets, self.scalars) + (() if self.cell_start is None else (self.cell_start,)):
             a.setflags(write=False)
         _ = self.adjacency  # eager: non-manifold faces are an input error, report it on load
 
@@ -403,6 +409,17 @@ def _kuhn_tets() -> np.ndarray:
 
 
 KUHN_TETS = _kuhn_tets()
+
+
+def _cell_groups(name: str, cell_start, dropped: np.ndarray) -> np.ndarray:
+    """``cell_start`` validated against the input tets, with the ``dropped`` tets taken out."""
+    cs = np.asarray(cell_start)
+    n = len(dropped)
+    if cs.ndim != 1 or len(cs) < 2 or not np.issubdtype(cs.dtype, np.integer) or cs[0] != 0 or cs[-1] != n \
+            or (np.diff(cs) < 1).any():
+        raise MeshError(f"{name}: cell_start: expected ascending offsets from 0 to {n} with >= 1 tet per cell")
+    kept = np.add.reduceat((~dropped).astype(np.int64), cs[:-1])
+    return np.concatenate([[0], np.cumsum(kept[kept > 0])]).astype(np.int64)
 
 
 def structured_to_tets(dims: tuple[int, int, int]) -> np.ndarray:

@@ -48,7 +48,7 @@ from .vsbuffer_cells import ConvexCellMesh
 __all__ = ["ConvexCellMesh", "Octree", "build_octree", "ray_space", "render_vsbuffer", "walk_column",
            "INTEGRATIONS", "ADJACENCY_MODES"]
 
-INTEGRATIONS = ("trapezoid", "exact")
+INTEGRATIONS = ("trapezoid", "exact", "table")
 ADJACENCY_MODES = ("count", "recover")
 ID_LIMIT = 2 ** 24  # cell IDs are drawn as RGB8 colours
 
@@ -279,9 +279,13 @@ def _zero_counts(planes: int) -> dict:
 
 
 def _walk_inputs(cells: ConvexCellMesh, transfer, camera, device: str, rows: int, cmin: float, cspan: float,
-                 integration: str, steps: int, neighbour_check: bool, adjacency: str, t_min: float, max_list: int):
-    """``(Walk, VsbCells, ray origins, ray directions, tf_s, tf_v)`` on ``device`` for one frame."""
+                 integration: str, steps: int, neighbour_check: bool, adjacency: str, t_min: float, max_list: int,
+                 table=None, weight_bits: int | None = 8, texture_cache: dict | None = None):
+    """``(Walk, VsbCells, ray origins, ray directions, tf_s, tf_v, textures)`` on ``device`` for one
+    frame; ``textures``: the 3D table's texture (``"table"``; kept alive, its fetches counted) or none."""
     import warp as wp
+
+    from .harc import integ_setup
 
     from .kernels import vsbuffer as kv
 
@@ -307,12 +311,23 @@ def _walk_inputs(cells: ConvexCellMesh, transfer, camera, device: str, rows: int
     w.t_min, w.nbr, w.adjacency = float(t_min), int(bool(neighbour_check)), ADJACENCY_MODES.index(adjacency)
     w.max_list = int(max_list)
     w.eps = 1e-6 * float(np.linalg.norm(cells.bounds[1] - cells.bounds[0]))
-    return w, dc, ray_o, ray_d, tf_s, tf_v
+    if integration == "table":
+        if table is None:
+            raise ConfigError("integration: 'table' needs a 3D pre-integration table (a table stage before the sweep)")
+        # the HARC kernels' 'full' set-up: the table as an emulated 3D texture and its axis maps
+        w.ig, keep = integ_setup("full", transfer, device, table=table, weight_bits=weight_bits, cache=texture_cache)
+        w.l_max = float(table.axes[0].physical[-1])
+        keep = [t for t in keep if t.shape != (1, 1) and t.shape != (1, 1, 1)]  # not the empty placeholders
+    else:
+        with _unit_counters():  # unused 1-texel placeholders: their uploads are no work of the sweep
+            w.ig, keep = integ_setup("exact", transfer, device, cache=texture_cache)
+        w.l_max, keep = 1.0, []
+    return w, dc, ray_o, ray_d, tf_s, tf_v, keep
 
 
 def walk_column(cells: ConvexCellMesh, transfer, camera, column, row: int, col: int, *, device: str = "cpu",
                 integration: str = "exact", neighbour_check: bool = False, adjacency: str = "count",
-                max_list: int = 256) -> tuple[np.ndarray, dict, list[int]]:
+                max_list: int = 256, table=None) -> tuple[np.ndarray, dict, list[int]]:
     """Walk one given VSBUFFER column for the ray of pixel ``(row, col)``: ``column`` lists the cell ID
     of each depth row front to back (-1 empty); the other columns of the plane are empty. Returns the
     pixel's premultiplied RGBA, the walk's counters and the ray's list of integrated cells, in order.
@@ -328,9 +343,9 @@ def walk_column(cells: ConvexCellMesh, transfer, camera, column, row: int, col: 
     R, W = len(ids), camera.width_px
     abc = ray_space(cells.points, camera)
     cmin, cmax = float(abc[:, 2].min()), float(abc[:, 2].max())
-    w, dc, ray_o, ray_d, tf_s, tf_v = _walk_inputs(cells, transfer, camera, device, R, cmin,
-                                                   max(cmax - cmin, 1e-30), integration, 1, neighbour_check,
-                                                   adjacency, 0.0, max_list)
+    w, dc, ray_o, ray_d, tf_s, tf_v, _ = _walk_inputs(cells, transfer, camera, device, R, cmin,
+                                                      max(cmax - cmin, 1e-30), integration, 1, neighbour_check,
+                                                      adjacency, 0.0, max_list, table=table)
     w.j0 = int(row)
     vsb = np.full((R + 2, W), -1, np.int32)
     vsb[:R, col] = ids
@@ -350,7 +365,8 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
                     neighbour_check: bool = True, adjacency: str = "count", t_min: float = 0.0,
                     max_list: int = 1024, planes_per_batch: int = 16, threads: int = 0,
                     tile_size: int = 4, tree_insert: str = "centroid", raster_rules: dict | None = None, count=None,
-                    keep_lists: bool = False, audit: bool = True, rewalk: bool = False) -> tuple[np.ndarray, dict]:
+                    keep_lists: bool = False, audit: bool = True, rewalk: bool = False, table=None,
+                    weight_bits: int = 8, texture_cache: dict | None = None) -> tuple[np.ndarray, dict]:
     """Render ``cells`` with the VSBUFFER algorithm; returns ``(image (H, W, 4) premultiplied, stats)``.
 
     Parameters
@@ -364,9 +380,15 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         Octree levels below the root (the paper: 5 for the Blunt Fin).
     tree_insert : {"centroid", "containing"}
         Where a cell is stored in the octree (:func:`build_octree`).
-    integration : {"trapezoid", "exact"}
-        The paper's trapezoidal rule with attenuation (``steps`` equal sub-steps per piece) or the
-        exact segment integral (:func:`warpvol.kernels.integrate.integrate_segment`).
+    integration : {"trapezoid", "exact", "table"}
+        The paper's trapezoidal rule with attenuation (``steps`` equal sub-steps per piece), the
+        exact segment integral (:func:`warpvol.kernels.integrate.integrate_segment`), or a lookup of
+        each piece's ``(sf, sb, l)`` in the 3D pre-integration ``table`` through the emulated 3D
+        texture unit (:func:`warpvol.kernels.harc.integrate_sub`, pieces longer than the table's
+        thickness axis in equal parts), composited front to back.
+    table, weight_bits, texture_cache
+        For ``"table"``: the 3D table (``data[l, sb, sf]``, any table stage's), its texture unit's
+        filter-weight bits (0: fp32) and a dict of textures by table key kept across renders.
     neighbour_check : bool
         Look at the 3x3 VSBUFFER neighbours of the exit point when leaving a cell.
     adjacency : {"count", "recover"}
@@ -445,8 +467,9 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         csr[name] = (o, np.concatenate([[0], np.cumsum(cnt)])[:-1], cnt)
     tree = build_octree(*cells.cell_bounds, tree_depth, tree_insert)
     node_cnt = np.diff(tree.cell_start)
-    w, dc, ray_o, ray_d, tf_s, tf_v = _walk_inputs(cells, transfer, camera, device, R, cmin, cspan, integration,
-                                                   steps, neighbour_check, adjacency, t_min, max_list)
+    w, dc, ray_o, ray_d, tf_s, tf_v, textures = _walk_inputs(
+        cells, transfer, camera, device, R, cmin, cspan, integration, steps, neighbour_check, adjacency, t_min,
+        max_list, table=table, weight_bits=weight_bits or None, texture_cache=texture_cache)
     out = wp.zeros(W * H, dtype=wp.vec4, device=device)
     rules = dict(raster_rules or {})
     P = max(1, min(int(planes_per_batch), H))
@@ -574,6 +597,8 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         walk_s += t3 - t2
     if count is not None:
         count(**work_counters(cnt))
+    for t in textures:  # the 3D table: one trilinear fetch per lookup (the unit's counters)
+        t.count(cnt["table_lookups"])
     img = out.numpy().reshape(H, W, 4)
     return img, {"counters": cnt, "id_s": id_s, "walk_s": walk_s, "setup_s": t_setup, "depth_res": R,
                  "range": brange, "lists": lists, "missed_length": missed_length,

@@ -4,7 +4,7 @@ Per plane: octree query, two ID passes on the emulated rasteriser (back faces LE
 GREATER, near/far clipping at the plane), buffer comparison, front-to-back column walk and
 integration (:func:`warpvol.vsbuffer.render_vsbuffer`). Counts the hardware work in the counters'
 vocabulary (passes, vertices, fragments, ID writes, read-backs, clears; ``host_cell_steps`` for the
-host's intersections and integration; ``drawn_cells``, the paper's "drawn tetra"), so ``--gpu
+host's intersections and integration; the 3D table's texture fetches under ``integration = "table"``; ``drawn_cells``, the paper's "drawn tetra"), so ``--gpu
 indigo2_impact`` models it; every count of the walk (runs, reused exit points, ``lost_segments``,
 ``missed_cells`` ...) and the time in ID-buffer generation and in integration go to
 ``stats["vsbuffer"]``.
@@ -27,7 +27,10 @@ class VsbSweep(Stage):
     tree_depth        int    5           octree levels below the root (the paper: 5), [0, 10]
     tree_insert       str    centroid    ``centroid`` (leaf of the box centre, tight node boxes) |
                                          ``containing`` (deepest node containing the box)
-    integration       str    trapezoid   ``trapezoid`` (the paper's, with attenuation) | ``exact``
+    integration       str    trapezoid   ``trapezoid`` (the paper's, with attenuation) | ``exact`` |
+                                         ``table`` (3D pre-integration lookup of (sf, sb, l))
+    table             str    table3d     ``ctx.buffers`` key of the 3D table (``table``; then needed)
+    weight_bits       int    8           table texture's filter-weight bits, [0, 16] (0: fp32 weights)
     steps             int    1           trapezoid sub-steps per cell segment, [1, 1024]
     neighbour_check   bool   true        check the 3x3 buffer neighbours when leaving a cell
     adjacency         str    count       gaps behind interior faces: ``count`` | ``recover``
@@ -49,6 +52,8 @@ class VsbSweep(Stage):
         Param("tree_depth", int, 5, "octree levels below the root", lo=0, hi=10),
         Param("tree_insert", str, "centroid", "cell placement in the octree", choices=("centroid", "containing")),
         Param("integration", str, "trapezoid", "integration rule", choices=INTEGRATIONS),
+        Param("table", str, "table3d", "ctx.buffers key of the 3D table (integration = table)"),
+        Param("weight_bits", int, 8, "table texture's filter-weight fraction bits (0: fp32 weights)", lo=0, hi=16),
         Param("steps", int, 1, "trapezoid sub-steps per cell segment", lo=1, hi=1024),
         Param("neighbour_check", bool, True, "check buffer neighbours when leaving a cell"),
         Param("adjacency", str, "count", "gaps behind interior faces", choices=ADJACENCY_MODES),
@@ -61,6 +66,8 @@ class VsbSweep(Stage):
     )
 
     def validate(self) -> None:
+        if self.integration == "table":  # the table stage's output must come before the sweep
+            self.needs = ("vsb_cells", "{table}")
         if self.rewalk and not self.audit:
             from ...errors import ConfigError
 
@@ -68,8 +75,12 @@ class VsbSweep(Stage):
 
     def run(self, ctx: Context) -> None:
         sc = ctx.scene
+        cfg = dict(self.config)
+        key = cfg.pop("table")
+        table = ctx.buffers[key] if self.integration == "table" else None
         img, st = render_vsbuffer(ctx.buffers["vsb_cells"], sc.transfer, sc.camera, device=ctx.device,
-                                  count=ctx.count, **self.config)
+                                  count=ctx.count, table=table,
+                                  texture_cache=ctx.persistent.setdefault("vsb_textures", {}), **cfg)
         ctx.stats["vsbuffer"] = {k: v for k, v in st.items() if k not in ("counters", "lists", "missed_per_ray")}
         c = st["counters"]
         ctx.stats["vsbuffer"]["walk"] = c  # every count of the sweep; the hardware work is in ``counters``
