@@ -40,7 +40,7 @@ from .formats import NumFmt, fmt_quantize
 from .integrate import exp_neg, integrate_piece, integrate_segment, integrate_segment_tf
 from .pt import axis_coord
 from .raycast import (STALL_STEPS, STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, Face, Ray, boundary_face, face_hit,
-                      make_ray, ndc_xy, next_face, ray_setup)
+                      make_ray, monotone_exit, ndc_xy, next_face, ray_setup)
 from .texture import Tex2D, Tex3D, tex2d, tex2d_texel, tex3d
 from .tf import tf_eval, tf_eval_upper, tf_first_break, tf_next_break, tf_upper
 
@@ -412,11 +412,7 @@ def harc_march(
             a = cell_texel(mt, mt.adj, cell)
             fetches += 2
             t_out = lam
-            if t_out > t_in:
-                stall = 0
-            else:
-                t_out = t_in
-                stall += 1
+            t_out, stall = monotone_exit(t_in, t_out, stall)
             s_in = grad_scalar(g, o + d * t_in)  # Fig. 6 line 10: sf from this cell's gradient
             s_out = grad_scalar(g, o + d * t_out)
             nb = int(wp.clamp(a[f_out], -1.0, 1.0e8))
@@ -425,11 +421,7 @@ def harc_march(
             if f_out < 0:
                 failed = 1
                 break
-            if t_out > t_in:
-                stall = 0
-            else:
-                t_out = t_in
-                stall += 1
+            t_out, stall = monotone_exit(t_in, t_out, stall)
             nb = nbr[cell][f_out]
         if stall > STALL_STEPS:
             failed = 1

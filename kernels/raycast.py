@@ -244,6 +244,19 @@ def make_face(ga: int, gb: int, gc: int, verts: wp.array(dtype=wp.vec4), r: Ray)
 
 
 @wp.func
+def monotone_exit(t_in: float, t_out: float, stall: int):
+    """Keep a walk's exit parameter at or beyond its entry: ``(t_out, stall)``, where a step that does not
+    advance (flat cell, rounding) is clamped to ``t_in`` and counted in ``stall`` (reset by a step that
+    advances); the raycast and HARC walks give up past ``STALL_STEPS`` such steps in a row."""
+    t = t_in
+    st = stall + 1
+    if t_out > t_in:  # (a NaN t_out does not advance either)
+        t = t_out
+        st = int(0)
+    return t, st
+
+
+@wp.func
 def fan_face(g: wp.vec3i, pa: wp.vec3, qa: wp.vec3, ma: wp.vec3, pb: wp.vec3, qb: wp.vec3, mb: wp.vec3,
              pc: wp.vec3, qc: wp.vec3, mc: wp.vec3, sv: wp.vec3, w: wp.vec3) -> Face:
     """:class:`Face` from already evaluated vertex frames, scalars and edge values."""
@@ -442,14 +455,10 @@ def march(
         if f_out < 0:
             failed = 1
             break
-        if t_out > t_in:
-            stall = 0
-        else:
-            t_out = t_in
-            stall += 1
-            if stall > STALL_STEPS:
-                failed = 1
-                break
+        t_out, stall = monotone_exit(t_in, t_out, stall)
+        if stall > STALL_STEPS:
+            failed = 1
+            break
         k_out = tf_upper_from(s_out, k_in, tf_s)
         v_out = tf_eval_upper(s_out, k_out, tf_s, tf_v)
         if t_out > t_clip:
