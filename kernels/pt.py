@@ -61,6 +61,23 @@ CLASS_ON_VERTEX = wp.constant(5)
 
 
 @wp.func
+def store_thick(thick_attr: wp.array(dtype=wp.vec3), thick_front: wp.array(dtype=wp.vec4),
+                thick_back: wp.array(dtype=wp.vec4), k: int, sa: float, sb: float, thick: float,
+                pa: wp.vec4, pb: wp.vec4) -> int:
+    """Store tet ``k``'s thick vertex: (sf, sb, l) and its front and back eye points ``(x, y, z, w)``,
+    ``a`` in front when it is nearer the eye (eye space looks down -z). Returns 1 if ``a`` is the front."""
+    if pa[2] >= pb[2]:
+        thick_attr[k] = wp.vec3(sa, sb, thick)
+        thick_front[k] = pa
+        thick_back[k] = pb
+        return 1
+    thick_attr[k] = wp.vec3(sb, sa, thick)
+    thick_front[k] = pb
+    thick_back[k] = pa
+    return 0
+
+
+@wp.func
 def sgn(v: wp.int64) -> int:
     if v > wp.int64(0):
         return 1
@@ -196,14 +213,7 @@ def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal:
         si = scal[v[i]]
         pin = wp.vec4(ei[0], ei[1], ei[2], pi[3])
         pface = wp.vec4(ef[0], ef[1], ef[2], pj[3] * qj + pk[3] * qk + pl[3] * ql)
-        if ei[2] >= ef[2]:  # the inner vertex is nearer the eye (eye space looks down -z)
-            thick_attr[k] = wp.vec3(si, sface, thick)
-            thick_front[k] = pin
-            thick_back[k] = pface
-        else:
-            thick_attr[k] = wp.vec3(sface, si, thick)
-            thick_front[k] = pface
-            thick_back[k] = pin
+        store_thick(thick_attr, thick_front, thick_back, k, si, sface, thick, pin, pface)
         thick_pos[k] = wp.vec4(float(x[i]) / 256.0, float(y[i]) / 256.0, pi[2], pi[3])  # = the snapped vertex
         tris[4 * k + 0] = wp.vec3i(tv, v[j], v[kk])
         tris[4 * k + 1] = wp.vec3i(tv, v[kk], v[l])
@@ -282,14 +292,7 @@ def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal:
     w1 = wa[3] * (1.0 - t) + wb[3] * t
     p1 = wp.vec4(e1[0], e1[1], e1[2], wa[3] * (1.0 - t3) + wb[3] * t3)
     p2 = wp.vec4(e2[0], e2[1], e2[2], wc[3] * (1.0 - u3) + wd[3] * u3)
-    if e1[2] >= e2[2]:
-        thick_attr[k] = wp.vec3(s1, s2, thick)
-        thick_front[k] = p1
-        thick_back[k] = p2
-    else:
-        thick_attr[k] = wp.vec3(s2, s1, thick)
-        thick_front[k] = p2
-        thick_back[k] = p1
+    if store_thick(thick_attr, thick_front, thick_back, k, s1, s2, thick, p1, p2) == 0:
         z1 = z2
     thick_pos[k] = wp.vec4(float(tx) / 256.0, float(ty) / 256.0, z1, w1)
     tris[4 * k + 0] = wp.vec3i(tv, v[a], v[cc])
