@@ -381,22 +381,57 @@ def k_kraus_vertices(attr: wp.array(dtype=wp.vec3), front: wp.array(dtype=wp.vec
     out[i, 7] = bk[2] * iwb
 
 
+vec8f = wp.types.vector(length=8, dtype=wp.float32)
+
+
 @wp.func
-def fragment_sfsbl(attrs: wp.array2d(dtype=wp.float32), f: int, mode: int, ortho: int) -> wp.vec3:
-    """(sf, sb, l) of fragment f: the interpolated attributes as they are (``PERSP_OFF``), or
-    Kraus et al.'s per-fragment division of the interpolated ``a/w`` by ``1/w`` (front and back
-    apart) with the thickness ``|ve_f| |(ze_b - ze_f) / ze_f|`` (``PERSP_EXACT``; ``|ze_b - ze_f|``,
-    exact, for orthographic views) or ``|ze_b - ze_f|`` (``PERSP_APPROX``)."""
+def sfsbl_from(a: vec8f, mode: int, ortho: int) -> wp.vec3:
+    """(sf, sb, l) of a fragment's interpolated attributes ``a`` (3 used with ``PERSP_OFF``, else 8):
+    the attributes as they are (``PERSP_OFF``), or Kraus et al.'s per-fragment division of the
+    interpolated ``a/w`` by ``1/w`` (front and back apart) with the thickness ``|ve_f| |(ze_b - ze_f) /
+    ze_f|`` (``PERSP_EXACT``; ``|ze_b - ze_f|``, exact, for orthographic views) or ``|ze_b - ze_f|``
+    (``PERSP_APPROX``)."""
     if mode == PERSP_OFF:
-        return wp.vec3(attrs[f, 0], attrs[f, 1], attrs[f, 2])
-    wf = 1.0 / attrs[f, 2]
-    wb = 1.0 / attrs[f, 3]
-    zf = attrs[f, 6] * wf
-    zb = attrs[f, 7] * wb
+        return wp.vec3(a[0], a[1], a[2])
+    wf = 1.0 / a[2]
+    wb = 1.0 / a[3]
+    zf = a[6] * wf
+    zb = a[7] * wb
     l = wp.abs(zb - zf)
     if mode == PERSP_EXACT and ortho == 0 and zf != 0.0:
-        l = wp.length(wp.vec3(attrs[f, 4] * wf, attrs[f, 5] * wf, zf)) * l / wp.abs(zf)
-    return wp.vec3(attrs[f, 0] * wf, attrs[f, 1] * wb, l)
+        l = wp.length(wp.vec3(a[4] * wf, a[5] * wf, zf)) * l / wp.abs(zf)
+    return wp.vec3(a[0] * wf, a[1] * wb, l)
+
+
+@wp.func
+def fragment_sfsbl(attrs: wp.array2d(dtype=wp.float32), f: int, mode: int, ortho: int) -> wp.vec3:
+    """:func:`sfsbl_from` fragment ``f``'s row of a fragment attribute list (at most 8 columns)."""
+    a = vec8f()
+    for k in range(wp.min(attrs.shape[1], 8)):
+        a[k] = attrs[f, k]
+    return sfsbl_from(a, mode, ortho)
+
+
+@wp.func
+def clamp_attr(x: float, v0: float, v1: float, v2: float, moved: int):
+    """``x`` clamped into the range of a triangle's three vertex values ``v0..v2`` (barycentrics of a
+    sub-pixel sliver computed in fp32 can leave [0, 1]), and ``moved`` set to 1 where that moved it by
+    more than rounding."""
+    lo = wp.min(v0, wp.min(v1, v2))
+    hi = wp.max(v0, wp.max(v1, v2))
+    y = wp.clamp(x, lo, hi)
+    m = moved
+    if wp.abs(y - x) > 1.0e-5 * (hi - lo) + 1.0e-7:
+        m = 1
+    return y, m
+
+
+@wp.func
+def exact_color(a: wp.vec3, tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp.vec4), model: int) -> wp.vec4:
+    """pt_best's fragment colour: the segment ``a = (sf, sb, l)`` integrated exactly (premultiplied
+    RGB, alpha ``1 - exp(-tau)``)."""
+    r = integrate_segment(a[0], a[1], wp.max(a[2], 0.0), tf_s, tf_v, model)
+    return wp.vec4(r[0], r[1], r[2], 1.0 - exp_neg(r[3]))
 
 
 @wp.kernel
@@ -462,15 +497,7 @@ def k_clamp_attrs(prim: wp.array(dtype=wp.int32), tris: wp.array(dtype=wp.vec3i)
     t = tris[prim[f]]
     moved = int(0)
     for a in range(attrs.shape[1]):
-        v0 = vattrs[t[0], a]
-        v1 = vattrs[t[1], a]
-        v2 = vattrs[t[2], a]
-        lo = wp.min(v0, wp.min(v1, v2))
-        hi = wp.max(v0, wp.max(v1, v2))
-        x = attrs[f, a]
-        y = wp.clamp(x, lo, hi)
-        if wp.abs(y - x) > 1.0e-5 * (hi - lo) + 1.0e-7:
-            moved = 1
+        y, moved = clamp_attr(attrs[f, a], vattrs[t[0], a], vattrs[t[1], a], vattrs[t[2], a], moved)
         attrs[f, a] = y
     if moved != 0:
         wp.atomic_add(clamped, 0, 1)
@@ -514,6 +541,4 @@ def k_frag_exact(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: int, tf_
     """No table: the fragment's segment (sf, sb, l) integrated exactly for the piecewise-linear TF
     in fp32 (:func:`warpvol.kernels.integrate.integrate_segment`, the reference's closed form)."""
     f = wp.tid()
-    a = fragment_sfsbl(attrs, f, mode, ortho)
-    r = integrate_segment(a[0], a[1], wp.max(a[2], 0.0), tf_s, tf_v, model)
-    out[f] = wp.vec4(r[0], r[1], r[2], 1.0 - exp_neg(r[3]))
+    out[f] = exact_color(fragment_sfsbl(attrs, f, mode, ortho), tf_s, tf_v, model)

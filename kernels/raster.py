@@ -217,17 +217,64 @@ def k_tile_ranges(keys: wp.array(dtype=wp.int32), total: int, start: wp.array(dt
         end[k] = i + 1
 
 
+vec3l = wp.types.vector(length=3, dtype=wp.int64)
+
+
+@wp.func
+def inside(e: vec3l) -> bool:
+    """All three (biased) edge functions >= 0: the pixel centre is covered."""
+    return e[0] >= wp.int64(0) and e[1] >= wp.int64(0) and e[2] >= wp.int64(0)
+
+
+@wp.func
+def edges_of(x: wp.vec3i, y: wp.vec3i, bi: wp.vec3i, j: int, i: int) -> vec3l:
+    """The three edge functions, minus their fill-rule bias ``bi``, of a set-up triangle with snapped
+    vertices ``x``, ``y`` at the centre of pixel (row i, column j): covered iff all are >= 0 (:func:`inside`)."""
+    px = j * SUBPIX + SUBPIX / 2
+    py = i * SUBPIX + SUBPIX / 2
+    return vec3l(edge(x[1], y[1], x[2], y[2], px, py) - wp.int64(bi[0]),
+                 edge(x[2], y[2], x[0], y[0], px, py) - wp.int64(bi[1]),
+                 edge(x[0], y[0], x[1], y[1], px, py) - wp.int64(bi[2]))
+
+
+@wp.func
+def edges_at(s: TriSetup, t: int, j: int, i: int) -> vec3l:
+    """:func:`edges_of` triangle ``t`` at pixel (row i, column j). Step them exactly with
+    :func:`edge_step_j` / :func:`edge_step_i` to walk a rectangle."""
+    return edges_of(s.sx[t], s.sy[t], s.bias[t], j, i)
+
+
+@wp.func
+def edge_step_j(s: TriSetup, t: int) -> vec3l:
+    """Change of :func:`edges_at` from one pixel to the next in its row (exact, int64)."""
+    y = s.sy[t]
+    return vec3l(-wp.int64(y[2] - y[1]) * SUBPIX64, -wp.int64(y[0] - y[2]) * SUBPIX64,
+                 -wp.int64(y[1] - y[0]) * SUBPIX64)
+
+
+@wp.func
+def edge_step_i(s: TriSetup, t: int) -> vec3l:
+    """Change of :func:`edges_at` from one pixel to the one below it (exact, int64)."""
+    x = s.sx[t]
+    return vec3l(wp.int64(x[2] - x[1]) * SUBPIX64, wp.int64(x[0] - x[2]) * SUBPIX64,
+                 wp.int64(x[1] - x[0]) * SUBPIX64)
+
+
+@wp.func
+def tile_rect(s: TriSetup, tile: int, width: int, height: int) -> wp.vec4i:
+    """Pixel range (j0, i0, j1, i1), inclusive, of bin ``tile`` clipped to the viewport."""
+    ty = tile / s.tiles_x
+    tx = tile - ty * s.tiles_x
+    j0 = tx * s.tile_size
+    i0 = ty * s.tile_size
+    return wp.vec4i(j0, i0, wp.min(j0 + s.tile_size, width) - 1, wp.min(i0 + s.tile_size, height) - 1)
+
+
 @wp.func
 def covers(x: wp.vec3i, y: wp.vec3i, bi: wp.vec3i, j: int, i: int) -> bool:
     """The edge-function test of :func:`coverage` for a set-up triangle's snapped vertices ``x``, ``y``
     and fill-rule ``bias`` at pixel (row i, column j) inside its bounding box."""
-    px = j * SUBPIX + SUBPIX / 2
-    py = i * SUBPIX + SUBPIX / 2
-    e0 = edge(x[1], y[1], x[2], y[2], px, py)
-    e1 = edge(x[2], y[2], x[0], y[0], px, py)
-    e2 = edge(x[0], y[0], x[1], y[1], px, py)
-    return (e0 - wp.int64(bi[0]) >= wp.int64(0)) and (e1 - wp.int64(bi[1]) >= wp.int64(0)) and (
-        e2 - wp.int64(bi[2]) >= wp.int64(0))
+    return inside(edges_of(x, y, bi, j, i))
 
 
 @wp.func
@@ -575,19 +622,14 @@ def k_draw_colors_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.arra
     tile = wp.tid()
     ng = int(0)
     npass = int(0)
-    ty = tile / s.tiles_x
-    tx = tile - ty * s.tiles_x
-    tj0 = tx * s.tile_size
-    ti0 = ty * s.tile_size
-    tj1 = wp.min(tj0 + s.tile_size, fb.shape[1]) - 1
-    ti1 = wp.min(ti0 + s.tile_size, fb.shape[0]) - 1
+    rect = tile_rect(s, tile, fb.shape[1], fb.shape[0])
     for e in range(s.tile_start[tile], s.tile_end[tile]):
         t = s.tri_of[e]
         b = s.bbox[t]
-        j0 = wp.max(b[0], tj0)
-        j1 = wp.min(b[2], tj1)
-        i0 = wp.max(b[1], ti0)
-        i1 = wp.min(b[3], ti1)
+        j0 = wp.max(b[0], rect[0])
+        j1 = wp.min(b[2], rect[2])
+        i0 = wp.max(b[1], rect[1])
+        i1 = wp.min(b[3], rect[3])
         v = s.vidx[t]
         pa = pos[v[0]]
         pb = pos[v[1]]
@@ -597,27 +639,14 @@ def k_draw_colors_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.arra
         cc = colors[v[2]]
         cflat = colors[tris[t][2]]
         ov = llvmpipe_order(s, tris, t)
-        x = s.sx[t]
-        y = s.sy[t]
-        bi = s.bias[t]
         # edge functions at the first pixel centre, stepped exactly (int64) along rows and columns
-        px0 = j0 * SUBPIX + SUBPIX / 2
-        py0 = i0 * SUBPIX + SUBPIX / 2
-        r0 = edge(x[1], y[1], x[2], y[2], px0, py0) - wp.int64(bi[0])
-        r1 = edge(x[2], y[2], x[0], y[0], px0, py0) - wp.int64(bi[1])
-        r2 = edge(x[0], y[0], x[1], y[1], px0, py0) - wp.int64(bi[2])
-        sj0 = -wp.int64(y[2] - y[1]) * SUBPIX64
-        sj1 = -wp.int64(y[0] - y[2]) * SUBPIX64
-        sj2 = -wp.int64(y[1] - y[0]) * SUBPIX64
-        si0 = wp.int64(x[2] - x[1]) * SUBPIX64
-        si1 = wp.int64(x[0] - x[2]) * SUBPIX64
-        si2 = wp.int64(x[1] - x[0]) * SUBPIX64
+        row = edges_at(s, t, j0, i0)
+        sj = edge_step_j(s, t)
+        si = edge_step_i(s, t)
         for i in range(i0, i1 + 1):
-            e0 = r0
-            e1 = r1
-            e2 = r2
+            ee = row
             for j in range(j0, j1 + 1):
-                if e0 >= wp.int64(0) and e1 >= wp.int64(0) and e2 >= wp.int64(0):
+                if inside(ee):
                     l = bary_from(pa, pb, pc, float(j) + 0.5, float(i) + 0.5)
                     z = l[0] * pa[2] + l[1] * pb[2] + l[2] * pc[2]
                     ok = True
@@ -644,12 +673,8 @@ def k_draw_colors_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.arra
                                 w = wp.vec3(q0 / qs, q1 / qs, q2 / qs)
                             c = w[0] * ca + w[1] * cb + w[2] * cc
                         fb[i, j] = blend(bs, c, fb[i, j], j, i, prim0 + t)
-                e0 = e0 + sj0
-                e1 = e1 + sj1
-                e2 = e2 + sj2
-            r0 = r0 + si0
-            r1 = r1 + si1
-            r2 = r2 + si2
+                ee = ee + sj
+            row = row + si
     if counting != 0:
         cnt[tile] = wp.vec2i(ng, npass)
 

@@ -114,27 +114,50 @@ def test_guthe_texture_unit_budget_and_pingpong_overflow():
     assert err["radeon8500"] < 2 * exact, (err, exact)
 
 
+@pytest.mark.parametrize("walk", ["triangle", "fused"])
 @pytest.mark.parametrize("fmt", ["fp32", "unorm8"])
-def test_row_bands_give_the_same_image(fmt):
-    """pt_integrate's concurrent row bands (rows shifted on the exact 1/256 grid) = one whole draw."""
+def test_row_bands_give_the_same_image(fmt, walk):
+    """pt_integrate's concurrent row bands (rows shifted on the exact 1/256 grid; ``fused``: host
+    threads over blocks of tiles) = one whole draw."""
     sc = scene("concave", 40)
-    one = preset("pt_best", pt_integrate={"row_bands": 1, "format": fmt}).render(sc, quiet=True)
-    three = preset("pt_best", pt_integrate={"row_bands": 3, "format": fmt, "batch_tets": 300}).render(sc, quiet=True)
+    one = preset("pt_best", pt_integrate={"row_bands": 1, "format": fmt, "walk": walk}).render(sc, quiet=True)
+    three = preset("pt_best", pt_integrate={"row_bands": 3, "format": fmt, "batch_tets": 300, "walk": walk}
+                   ).render(sc, quiet=True)
     assert np.array_equal(one.image, three.image)
     c1, c3 = one.report["counters"]["pt_integrate"], three.report["counters"]["pt_integrate"]
     assert c1["fragments"] == c3["fragments"] > 0
 
 
-def test_triangle_walk_gives_the_same_image():
-    """pt_best's ``walk = "triangle"`` draws the image of the emulated per-pixel walk (bit-exact, so
-    within pt_best's tolerance against the reference as that is), with the same fragment count."""
-    for name in ("concave", "sphere"):
+@pytest.mark.parametrize("walk", ["triangle", "fused"])
+def test_fast_walks_give_the_same_image(walk):
+    """``walk = "triangle"`` (fragment list by per-triangle walk + sort) and ``"fused"`` (pt_best's:
+    walk, interpolation, clamp, integral and blend in one kernel per bin) draw the image of the
+    emulated per-pixel walk bit for bit (so within pt_best's tolerance against the reference as that
+    is), with the same fragment, blend and clamp counts; perspective and orthographic."""
+    for name, proj in (("concave", "perspective"), ("sphere", "perspective"), ("stiff", "orthographic")):
         sc = scene(name, 40)
+        if proj == "orthographic":
+            sc = sc.with_camera(projection="orthographic", height=3.0)
         px = render(preset("pt_best", pt_integrate={"walk": "pixel"}), sc)
-        tri = render(preset("pt_best"), sc)
-        assert np.array_equal(px.image, tri.image)
-        check(tri, "pt_best")
-        assert px.report["counters"]["pt_integrate"]["fragments"] == tri.report["counters"]["pt_integrate"]["fragments"] > 0
+        fast = render(preset("pt_best", pt_integrate={"walk": walk}), sc)
+        assert np.array_equal(px.image, fast.image), (name, walk)
+        check(fast, "pt_best")
+        cp, cf = px.report["counters"]["pt_integrate"], fast.report["counters"]["pt_integrate"]
+        for k in ("fragments", "blends_fp32", "attrs_clamped", "segment_integrals"):
+            assert cp[k] == cf[k], (name, k, cp[k], cf[k])
+        assert cp["fragments"] > 0
+
+
+def test_fused_walk_dithers_like_the_fragment_list():
+    """Alpha dithering (unorm8) through the fused draw, threads over tiles and several batches: the
+    dither pattern follows pixel and batch-local primitive, as in the emulated pixel walk."""
+    sc = scene("concave", 40)
+    cfg = {"format": "unorm8", "dither": True, "batch_tets": 500}
+    px = preset("pt_best", pt_integrate={**cfg, "walk": "pixel"}).render(sc, quiet=True)
+    fused = preset("pt_best", pt_integrate={**cfg, "walk": "fused", "row_bands": 2}).render(sc, quiet=True)
+    assert np.array_equal(px.image, fused.image)
+    plain = preset("pt_best", pt_integrate={"format": "unorm8", "walk": "fused"}).render(sc, quiet=True)
+    assert not np.array_equal(plain.image, fused.image)  # dithering did change codes
 
 
 def test_front_and_back_points_of_thick_vertices():

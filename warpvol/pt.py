@@ -37,6 +37,10 @@ import warp as wp
 
 from .errors import ConfigError
 
+#: fragment generation of :func:`draw`: the rasteriser's walks (a fragment list, then the program and
+#: the blending unit), or ``fused`` (walk, program and blending in one kernel per bin; exact_program only)
+DRAW_WALKS = ("pixel", "triangle", "fused")
+
 #: rasteriser rules the decomposition snaps with and :func:`draw` rasterises with (they must agree)
 RASTER_RULES = {"snap_ties": "even", "depth_clip": False}
 
@@ -210,9 +214,20 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
     row (an exact shift of the 1/256-pixel grid, so coverage, attributes and blending are those of one
     whole-image draw: tested bit-exact); not with alpha dithering (its pattern follows the pixel index).
     ``walk``: the rasteriser's fragment generation (:meth:`warpvol.gpu.raster.Rasterizer.fragments`;
-    ``triangle`` gives the same fragments as the emulated ``pixel`` walk, faster).
+    ``triangle`` gives the same fragments as the emulated ``pixel`` walk, faster), or ``fused``
+    (:func:`exact_program` only: no fragment list; one kernel per bin walks the triangles, runs the
+    program and blends in registers, :mod:`warpvol.kernels.pt_draw`; the same image, bit for bit).
     Returns counts (``fragments``, ``batches``, ``attrs_clamped``).
     """
+    if walk not in DRAW_WALKS:
+        raise ConfigError(f"walk: {walk!r} not allowed; allowed: {', '.join(DRAW_WALKS)}")
+    fused = getattr(program, "fused", None)
+    if walk == "fused" and fused is None:
+        raise ConfigError("walk: 'fused' needs a fragment program with a fused draw (exact_program)")
+    if walk == "fused" and not np.isfinite(vertex_attrs).all():
+        raise ConfigError("attrs: holds NaN or Inf")
+    if walk == "fused":
+        return _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, bands)
     if bands > 1 and fb.height > 1 and not getattr(blend, "dither", False):
         return _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands, walk)
     from .gpu.raster import Rasterizer
@@ -237,6 +252,52 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
                   device=device)
         blend.blend_fragments(fb, frags, program(frags, tris_w))
     return {"fragments": n_frag, "batches": n_batch, "attrs_clamped": int(clamped.numpy()[0])}
+
+
+def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads) -> dict:
+    """:func:`draw` with ``walk="fused"``: per batch, triangle setup and binning, then one kernel thread
+    per tile walks, interpolates, clamps, integrates and blends (:mod:`warpvol.kernels.pt_draw`). Tiles
+    own disjoint pixels, so on the CPU blocks of tiles are launched from ``threads`` host threads
+    (:func:`warpvol.parallel.launch_blocks`; each batch finishes before the next: blending order)."""
+    from .gpu import counters as cnt
+    from .gpu.raster import Rasterizer
+    from .kernels import pt_draw
+    from .parallel import blocks, launch_blocks
+
+    va = wp.array(np.ascontiguousarray(vertex_attrs, dtype=np.float32), dtype=wp.float32, device=device)
+    if va.shape[1] > 8:
+        raise ConfigError(f"vertex attributes: the fused draw takes at most 8, got {va.shape[1]}")
+    rast = Rasterizer(fb.width, fb.height, device=device, **RASTER_RULES)
+    st = blend.state(fb)
+    cpu = str(device).startswith("cpu")
+    n_frag = n_clamped = n_batch = 0
+    m = geo.n_tets
+    for k0 in range(0, m, batch_tets):
+        k1 = min(m, k0 + batch_tets)
+        tr = rast.setup(geo.positions, geo.tris[4 * k0:4 * k1])
+        n_batch += 1
+        counts = wp.zeros(tr.n_tiles, dtype=wp.vec2i, device=device)
+        # >= 4 blocks per thread: the mesh covers the tiles unevenly
+        tile_blocks = blocks(tr.n_tiles, -(-tr.n_tiles // (4 * threads))) if cpu and threads > 1 else [(0, tr.n_tiles)]
+
+        def run(b, tr=tr, counts=counts, tile_blocks=tile_blocks):
+            t0, n = tile_blocks[b]
+            wp.launch(pt_draw.k_pt_exact_tiles, dim=n,
+                      inputs=[tr.struct, tr.positions, va, fused["mode"], fused["ortho"], fused["tf_s"],
+                              fused["tf_v"], fused["model"], st, fb.array, t0, counts], device=device)
+
+        launch_blocks(device, len(tile_blocks), run, threads=threads)
+        nf, nc = (int(x) for x in counts.numpy().astype(np.int64).sum(axis=0))
+        n_frag += nf
+        n_clamped += nc
+        c = cnt.active()
+        if c is not None:
+            c.add(fragments=nf, fragments_passed=nf)
+        blend.count(fb, nf)
+    out = {"fragments": n_frag, "batches": n_batch, "attrs_clamped": n_clamped}
+    if threads > 1 and cpu:
+        out["threads"] = threads
+    return out
 
 
 def _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands, walk) -> dict:
@@ -383,6 +444,7 @@ def exact_program(tf, *, mode: str = "off", ortho: bool = False, device: str = "
                   device=device)
         return out
 
+    run.fused = {"mode": flags[0], "ortho": flags[1], "tf_s": tf_s, "tf_v": tf_v, "model": model_id(tf)}
     return run
 
 

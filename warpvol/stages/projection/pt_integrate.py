@@ -3,15 +3,17 @@
 The fragment program integrates each fragment's ray segment ``(sf, sb, l)`` exactly for the
 piecewise-linear TF (:func:`warpvol.kernels.integrate.integrate_segment`, the reference's closed
 form, in fp32): no table resolution, quantisation or filtering error. Row bands of the image are drawn
-concurrently from the host thread pool (``row_bands``; the same image as one draw). With ``pt_perspective``
+concurrently from the host thread pool (``row_bands``; the same image as one draw); with ``walk =
+"fused"`` (``pt_best``) the host threads take blocks of the rasteriser's tiles instead (one triangle
+set-up, no fragment list). With ``pt_perspective``
 before it the segment is perspective-correct. Writes ``ctx.image``; counts ``fragments``,
 ``blends`` and ``segment_integrals``.
 """
 
 from __future__ import annotations
 
-from ...gpu.raster import WALKS
 from ...pipeline import Context, Param, Stage, register_stage
+from ...pt import DRAW_WALKS
 from .pt_perspective import fragment_inputs
 from .pt_vertex_color import BATCH, DITHER, composite, fb_param
 
@@ -28,12 +30,16 @@ class PTIntegrate(Stage):
     dither      bool   false                                                 alpha dithering
     batch_tets  int    65536     [1, 2^26]                                   tets per batch
     row_bands   int    0         [0, 256]; 0 = one per CPU core (1 on       image row bands drawn
-                                 other devices)                              concurrently
-    walk        str    pixel     ``pixel`` ``triangle``                      fragment generation:
+                                 other devices)                              concurrently (``fused``:
+                                                                             host threads over tiles)
+    walk        str    pixel     ``pixel`` ``triangle`` ``fused``            fragment generation:
                                                                              emulated per-pixel tile
                                                                              walk, or per-triangle
                                                                              bounding-box walk + sort
-                                                                             (same fragments, faster)
+                                                                             (same fragments, faster),
+                                                                             or one kernel per bin
+                                                                             doing walk, program and
+                                                                             blend (same image)
     ==========  =====  ========  ==========================================  =======================
 
     Example
@@ -51,7 +57,8 @@ class PTIntegrate(Stage):
     params = (fb_param("fp32"), DITHER, BATCH,
               Param("row_bands", int, 0, "row bands drawn concurrently (0: one per CPU core; 1: off)", lo=0, hi=256),
               Param("walk", str, "pixel", "fragment generation: per-pixel tile walk (emulated hardware) or "
-                    "per-triangle bounding-box walk + stable sort by pixel (same fragments)", choices=WALKS))
+                    "per-triangle bounding-box walk + stable sort by pixel (same fragments), or fused: walk, program "
+                    "and blend in one kernel per bin (same image, no fragment list)", choices=DRAW_WALKS))
     needs = ("pt_geometry",)
     provides = ("image",)
 
