@@ -385,12 +385,15 @@ vec8f = wp.types.vector(length=8, dtype=wp.float32)
 
 
 @wp.func
-def sfsbl_from(a: vec8f, mode: int, ortho: int) -> wp.vec3:
+def sfsbl_from(a: vec8f, mode: int, ortho: int, z_off: float) -> wp.vec3:
     """(sf, sb, l) of a fragment's interpolated attributes ``a`` (3 used with ``PERSP_OFF``, else 8):
     the attributes as they are (``PERSP_OFF``), or Kraus et al.'s per-fragment division of the
     interpolated ``a/w`` by ``1/w`` (front and back apart) with the thickness ``|ve_f| |(ze_b - ze_f) /
     ze_f|`` (``PERSP_EXACT``; ``|ze_b - ze_f|``, exact, for orthographic views) or ``|ze_b - ze_f|``
-    (``PERSP_APPROX``)."""
+    (``PERSP_APPROX``). ``z_off``: the eye-space z of the attributes is shifted by it (the vertex
+    stage's ``eye_offset``; 0 for the hardware's eye space): the depth difference is taken between the
+    shifted values (near the data: float32 keeps it with the eye far away), ``ze_f`` for the
+    ray-length factor is the shifted value minus ``z_off``."""
     if mode == PERSP_OFF:
         return wp.vec3(a[0], a[1], a[2])
     wf = 1.0 / a[2]
@@ -398,18 +401,25 @@ def sfsbl_from(a: vec8f, mode: int, ortho: int) -> wp.vec3:
     zf = a[6] * wf
     zb = a[7] * wb
     l = wp.abs(zb - zf)
+    if z_off != 0.0:
+        zf = zf - z_off
     if mode == PERSP_EXACT and ortho == 0 and zf != 0.0:
         l = wp.length(wp.vec3(a[4] * wf, a[5] * wf, zf)) * l / wp.abs(zf)
     return wp.vec3(a[0] * wf, a[1] * wb, l)
 
 
 @wp.func
-def fragment_sfsbl(attrs: wp.array2d(dtype=wp.float32), f: int, mode: int, ortho: int) -> wp.vec3:
+def fragment_sfsbl(attrs: wp.array2d(dtype=wp.float32), f: int, mode: int, ortho: int, z_off: float) -> wp.vec3:
     """:func:`sfsbl_from` fragment ``f``'s row of a fragment attribute list (at most 8 columns)."""
     a = vec8f()
     for k in range(wp.min(attrs.shape[1], 8)):
         a[k] = attrs[f, k]
-    return sfsbl_from(a, mode, ortho)
+    return sfsbl_from(a, mode, ortho, z_off)
+
+
+#: the clamp of an interpolated attribute counts as a move when it exceeds CLAMP_REL x range + CLAMP_ABS
+CLAMP_REL = wp.constant(1.0e-5)
+CLAMP_ABS = wp.constant(1.0e-7)
 
 
 @wp.func
@@ -421,7 +431,7 @@ def clamp_attr(x: float, v0: float, v1: float, v2: float, moved: int):
     hi = wp.max(v0, wp.max(v1, v2))
     y = wp.clamp(x, lo, hi)
     m = moved
-    if wp.abs(y - x) > 1.0e-5 * (hi - lo) + 1.0e-7:
+    if wp.abs(y - x) > CLAMP_REL * (hi - lo) + CLAMP_ABS:
         m = 1
     return y, m
 
@@ -435,7 +445,8 @@ def exact_color(a: wp.vec3, tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp
 
 
 @wp.kernel
-def k_frag_table3d(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: int, tex: Tex3D, s_off: float,
+def k_frag_table3d(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: int, z_off: float, tex: Tex3D,
+                   s_off: float,
                    s_inv: float, s_a: float, s_b: float, l_inv: float, l_a: float, l_b: float, l_log2: int,
                    out: wp.array(dtype=wp.vec4)):
     """Röttger et al. 2000: the fragment's (sf, sb, l) (:func:`fragment_sfsbl`) normalised
@@ -443,7 +454,7 @@ def k_frag_table3d(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: int, t
     looked up through the 3D texture unit; the table's RGBA (premultiplied C, alpha) is the
     fragment colour."""
     f = wp.tid()
-    a = fragment_sfsbl(attrs, f, mode, ortho)
+    a = fragment_sfsbl(attrs, f, mode, ortho, z_off)
     u = axis_coord((a[0] - s_off) * s_inv, s_a, s_b, 0)
     v = axis_coord((a[1] - s_off) * s_inv, s_a, s_b, 0)
     r = axis_coord(a[2] * l_inv, l_a, l_b, l_log2)
@@ -451,15 +462,15 @@ def k_frag_table3d(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: int, t
 
 
 @wp.kernel
-def k_frag_guthe(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: int, coef: Atlas, alpha1d: Tex1D,
-                 s_off: float, s_inv: float, s_a: float, s_b: float, l_inv: float, a_a: float, a_b: float,
+def k_frag_guthe(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: int, z_off: float, coef: Atlas,
+                 alpha1d: Tex1D, s_off: float, s_inv: float, s_a: float, s_b: float, l_inv: float, a_a: float, a_b: float,
                  degree: int, scale: wp.array(dtype=wp.vec3), out: wp.array(dtype=wp.vec4)):
     """Guthe et al. 2002: tile 0 of ``coef`` holds ``(C~_0, rho_hat / rho_max)``, tile i ``C~_i``
     (i = 1..degree), each a bilinear 2D lookup at (sf, sb); ``alpha = alpha1D(x rho_hat)`` by a
     dependent 1D lookup (``x = l / lmax`` clamped to [0, 1], texel-centre map ``a_a x + a_b``);
     ``C = alpha sum_i x^i C~_i scale_i``; the output register clamps to [0, 1]."""
     f = wp.tid()
-    a = fragment_sfsbl(attrs, f, mode, ortho)
+    a = fragment_sfsbl(attrs, f, mode, ortho, z_off)
     u = axis_coord((a[0] - s_off) * s_inv, s_a, s_b, 0)
     v = axis_coord((a[1] - s_off) * s_inv, s_a, s_b, 0)
     x = wp.clamp(a[2] * l_inv, 0.0, 1.0)
@@ -536,9 +547,10 @@ def k_frag_cylindrical(attrs: wp.array2d(dtype=wp.float32), prim: wp.array(dtype
 
 
 @wp.kernel
-def k_frag_exact(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: int, tf_s: wp.array(dtype=float),
+def k_frag_exact(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: int, z_off: float,
+                 tf_s: wp.array(dtype=float),
                  tf_v: wp.array(dtype=wp.vec4), model: int, out: wp.array(dtype=wp.vec4)):
     """No table: the fragment's segment (sf, sb, l) integrated exactly for the piecewise-linear TF
     in fp32 (:func:`warpvol.kernels.integrate.integrate_segment`, the reference's closed form)."""
     f = wp.tid()
-    out[f] = exact_color(fragment_sfsbl(attrs, f, mode, ortho), tf_s, tf_v, model)
+    out[f] = exact_color(fragment_sfsbl(attrs, f, mode, ortho, z_off), tf_s, tf_v, model)

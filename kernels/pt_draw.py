@@ -26,7 +26,7 @@ of tiles from ``tile0`` (blocks of tiles may run concurrently: they own disjoint
 import warp as wp
 
 from .blend import BlendState, blend
-from .pt import exact_color, sfsbl_from, vec8f
+from .pt import CLAMP_ABS, CLAMP_REL, exact_color, sfsbl_from, vec8f
 from .raster import TriSetup, bary_from, edge_step_i, edge_step_j, edges_at, inside, tile_rect
 
 wp.set_module_options({"enable_backward": False})
@@ -46,14 +46,15 @@ def moved8(x: vec8f, y: vec8f, tol: vec8f) -> int:
     """1 if the clamp moved an attribute by more than rounding (the test of :func:`~warpvol.kernels.pt.clamp_attr`)."""
     m = int(0)
     for k in range(8):
-        if wp.abs(y[k] - x[k]) > tol[k] + 1.0e-7:
+        if wp.abs(y[k] - x[k]) > tol[k] + CLAMP_ABS:
             m = 1
     return m
 
 
 @wp.kernel
 def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array2d(dtype=wp.float32),
-                     mode: int, ortho: int, tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp.vec4), model: int,
+                     mode: int, ortho: int, z_off: float, tf_s: wp.array(dtype=float),
+                     tf_v: wp.array(dtype=wp.vec4), model: int,
                      bs: BlendState, fb: wp.array2d(dtype=wp.vec4), tile0: int, counts: wp.array(dtype=wp.vec2i)):
     tile = tile0 + wp.tid()
     na = wp.min(vattrs.shape[1], 8)
@@ -82,7 +83,7 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
             a2[k] = vattrs[v[2], k]
         lo = wp.min(a0, wp.min(a1, a2))
         hi = wp.max(a0, wp.max(a1, a2))
-        tol = 1.0e-5 * (hi - lo)
+        tol = CLAMP_REL * (hi - lo)
         row = edges_at(s, t, j0, i0)
         sj = edge_step_j(s, t)
         si = edge_step_i(s, t)
@@ -95,7 +96,7 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
                     a = clamp8(x, lo, hi)
                     nfrag += 1
                     nclamp += moved8(x, a, tol)
-                    c = exact_color(sfsbl_from(a, mode, ortho), tf_s, tf_v, model)
+                    c = exact_color(sfsbl_from(a, mode, ortho, z_off), tf_s, tf_v, model)
                     fb[i, j] = blend(bs, c, fb[i, j], j, i, t)
                 ee = ee + sj
             row = row + si

@@ -193,3 +193,33 @@ def test_guthe_16_bit_alpha_beats_8_bit():
     err = {af: render(preset("guthe2002_quadratic_gf4", table_guthe={"n_s": 64, "format": "fp32", "alpha_format": af},
                              pt_guthe={"format": "fp32"}), sc).report["error"]["rmse"] for af in ("rgba8", "al16")}
     assert err["al16"] < 0.8 * err["rgba8"], err
+
+
+def test_pt_best_with_the_eye_far_away():
+    """The stress suite's camera 1e6 away (fov 1.6e-4 deg): in the hardware's eye space, float32 eye z
+    (~1e6, steps of 0.06) loses the depth differences Kraus' thickness is made of (RMSE 0.03 before
+    the fix); pt_best's vertex stage moves the eye-space origin to the data's depth and stays within
+    its tolerance."""
+    from warpvol.stress import build_case
+
+    sc = build_case("camera_far", quick=True).scene
+    ref = ref_of(sc)
+    best = preset("pt_best").render(sc, reference=ref, quiet=True)
+    check(best, "pt_best")
+    eye = preset("pt_best", vertex={"eye_origin": "eye"}).render(sc, reference=ref, quiet=True)
+    assert eye.report["error"]["rmse"] > 30 * best.report["error"]["rmse"]
+
+
+def test_vertex_stage_eye_offset_keeps_window_coordinates():
+    """VertexStage(eye_offset=d): eye-space z shifted by d, clip and window coordinates those of the
+    unshifted transform (to float32 rounding)."""
+    from warpvol.gpu.vertex import VertexStage
+
+    sc = scene("concave", 32)
+    near, far = sc.camera.depth_range(*sc.mesh.bounds)
+    a = VertexStage.from_camera(sc.camera, near, far).transform(sc.mesh.points)
+    b = VertexStage.from_camera(sc.camera, near, far, eye_offset=4.25).transform(sc.mesh.points)
+    assert np.allclose(b.eye[:, 2] - 4.25, a.eye[:, 2], atol=1e-5)
+    assert np.allclose(b.eye[:, :2], a.eye[:, :2], atol=1e-6)
+    assert np.allclose(b.window, a.window, rtol=1e-6, atol=1e-4)
+    assert b.eye_offset == 4.25 and a.eye_offset == 0.0

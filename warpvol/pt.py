@@ -63,6 +63,8 @@ class PTGeometry:
     #: (mesh points: the point itself for both); Kraus et al.'s perspective-correct attributes
     front: np.ndarray | None = None
     back: np.ndarray | None = None
+    #: eye-space z of ``front`` / ``back`` is shifted by this (the vertex stage's ``eye_offset``)
+    eye_offset: float = 0.0
 
     @property
     def n_tets(self) -> int:
@@ -199,7 +201,8 @@ def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
     front = np.concatenate([pe, tfront.numpy()[:m]])
     back = np.concatenate([pe, tback.numpy()[:m]])
     return PTGeometry(wp.array(pos, dtype=wp.vec4, device=device), attrs, tris.numpy()[:4 * m].reshape(-1, 3),
-                      dict(zip(CLASS_NAMES, map(int, counts))), int(moved.numpy()[:m].sum()), v, front, back)
+                      dict(zip(CLASS_NAMES, map(int, counts))), int(moved.numpy()[:m].sum()), v, front, back,
+                      float(getattr(vertices, "eye_offset", 0.0)))
 
 
 def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend, *, batch_tets: int = 65536,
@@ -283,7 +286,7 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
         def run(b, tr=tr, counts=counts, tile_blocks=tile_blocks):
             t0, n = tile_blocks[b]
             wp.launch(pt_draw.k_pt_exact_tiles, dim=n,
-                      inputs=[tr.struct, tr.positions, va, fused["mode"], fused["ortho"], fused["tf_s"],
+                      inputs=[tr.struct, tr.positions, va, fused["mode"], fused["ortho"], fused["z_off"], fused["tf_s"],
                               fused["tf_v"], fused["model"], st, fb.array, t0, counts], device=device)
 
         launch_blocks(device, len(tile_blocks), run, threads=threads)
@@ -401,7 +404,7 @@ def _scalar_consts(ax) -> list:
 
 
 def guthe_program(table, *, mode: str = "off", ortho: bool = False, weight_bits: int | None = 8,
-                  device: str = "cpu") -> Callable:
+                  device: str = "cpu", z_off: float = 0.0) -> Callable:
     """Guthe et al. 2002 fragment program over a :func:`warpvol.tables.guthe2d.build_guthe2d` table:
     the ``degree + 1`` coefficient textures (tile 0: ``C~_0`` and ``rho_hat``) as 2D textures of
     an atlas, holding the table's stored (already quantised: signed 8-bit RGB and unsigned 8-bit A
@@ -423,20 +426,22 @@ def guthe_program(table, *, mode: str = "off", ortho: bool = False, weight_bits:
     def run(frags, tris):
         out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
         wp.launch(kpt.k_frag_guthe, dim=frags.count,
-                  inputs=[frags.attrs, PERSPECTIVE_MODES[mode], int(ortho), atlas.struct, alpha.struct, *consts,
+                  inputs=[frags.attrs, PERSPECTIVE_MODES[mode], int(ortho), float(z_off), atlas.struct, alpha.struct,
+                          *consts,
                           scale, out], device=device)
         return out
 
     return run
 
 
-def exact_program(tf, *, mode: str = "off", ortho: bool = False, device: str = "cpu") -> Callable:
-    """Fragment program without a table: each fragment's segment integrated exactly (fp32)."""
+def exact_program(tf, *, mode: str = "off", ortho: bool = False, device: str = "cpu", z_off: float = 0.0) -> Callable:
+    """Fragment program without a table: each fragment's segment integrated exactly (fp32). ``z_off``:
+    the eye-space depth offset of the perspective attributes (:attr:`PTGeometry.eye_offset`)."""
     from .kernels import pt as kpt
     from .tables.base import model_id
 
     tf_s, tf_v = tf.to_warp(device)
-    flags = [PERSPECTIVE_MODES[mode], int(ortho)]
+    flags = [PERSPECTIVE_MODES[mode], int(ortho), float(z_off)]
 
     def run(frags, tris):
         out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
@@ -444,12 +449,14 @@ def exact_program(tf, *, mode: str = "off", ortho: bool = False, device: str = "
                   device=device)
         return out
 
-    run.fused = {"mode": flags[0], "ortho": flags[1], "tf_s": tf_s, "tf_v": tf_v, "model": model_id(tf)}
+    run.fused = {"mode": flags[0], "ortho": flags[1], "z_off": flags[2], "tf_s": tf_s, "tf_v": tf_v,
+                 "model": model_id(tf)}
     return run
 
 
 def table3d_program(table, texel_format: str = "auto", filter: str = "linear", weight_bits: int | None = 8,
-                    device: str = "cpu", *, mode: str = "off", ortho: bool = False) -> tuple[Callable, str]:
+                    device: str = "cpu", *, mode: str = "off", ortho: bool = False,
+                    z_off: float = 0.0) -> tuple[Callable, str]:
     """Fragment program looking up ``table`` (layout ``data[l, sb, sf]``, any 3D table builder) through
     an emulated 3D texture of ``texel_format`` (``auto``: the format that holds the table's stored
     values: fp32 -> rgba32f, fp16 -> rgba16f, rgba8 -> rgba8, hilo16 -> rgba16). ``mode``: the
@@ -470,7 +477,7 @@ def table3d_program(table, texel_format: str = "auto", filter: str = "linear", w
     tex = Texture3D(table.data, fmt=texel_format, filter=filter, device=device, weight_bits=weight_bits)
     la, lb, llog = _axis_affine(ax_l)
     consts = [*_scalar_consts(ax_f), 1.0 / float(ax_l.scale), la, lb, llog]
-    flags = [PERSPECTIVE_MODES[mode], int(ortho)]
+    flags = [PERSPECTIVE_MODES[mode], int(ortho), float(z_off)]
 
     def run(frags, tris):
         out = wp.zeros(frags.count, dtype=wp.vec4, device=device)

@@ -33,6 +33,8 @@ class Vertices:
     clip: np.ndarray
     window: np.ndarray
     window_array: wp.array
+    #: ``eye`` holds eye-space z plus this (0: the hardware's eye space; see :class:`VertexStage`)
+    eye_offset: float = 0.0
 
 
 def _mat(m: Any, name: str) -> np.ndarray:
@@ -66,22 +68,32 @@ class VertexStage:
     projection  eye -> clip space (``glFrustum`` / ``glOrtho``)      finite 4x4
     viewport    NDC -> window (see :func:`viewport_matrix`)          finite 4x4
     device      Warp device                                          ``"cpu"``, ``"cuda:0"``, ...
+    eye_offset  added to eye-space z (0: the hardware's eye space)   finite
     ==========  ===================================================  ============================
+
+    ``eye_offset`` d moves the eye-space origin along the view axis: the stage outputs eye-space
+    points ``e + (0, 0, d)`` (from ``T(d) MV``, the product taken in float64) and clip coordinates
+    ``P T(-d)`` of them, which are those of ``e``. With d the depth of the data, eye-space z near the
+    data is small and keeps float32 precision however far the eye is (depth differences, thicknesses);
+    clip and window coordinates are unchanged up to rounding.
     """
 
-    def __init__(self, modelview: Any, projection: Any, viewport: Any, device: str = "cpu"):
+    def __init__(self, modelview: Any, projection: Any, viewport: Any, device: str = "cpu", eye_offset: float = 0.0):
         self.modelview = _mat(modelview, "modelview")
         self.projection = _mat(projection, "projection")
         self.viewport = _mat(viewport, "viewport")
         self.device = device
+        self.eye_offset = float(check_number("eye_offset", eye_offset))
 
     @classmethod
-    def from_camera(cls, camera, near: float, far: float, model: Any = None, device: str = "cpu") -> "VertexStage":
+    def from_camera(cls, camera, near: float, far: float, model: Any = None, device: str = "cpu",
+                    eye_offset: float = 0.0) -> "VertexStage":
         """Matrices of a :class:`~warpvol.camera.Camera` (``model`` defaults to identity)."""
         near = check_number("near", near)
         far = check_number("far", far)
         mv = camera.view_matrix() @ (np.eye(4) if model is None else _mat(model, "model"))
-        return cls(mv, camera.projection_matrix(near, far), camera.viewport_matrix(), device=device)
+        return cls(mv, camera.projection_matrix(near, far), camera.viewport_matrix(), device=device,
+                   eye_offset=eye_offset)
 
     def transform(self, points: Any) -> Vertices:
         p = np.asarray(points, dtype=np.float32)
@@ -95,11 +107,16 @@ class VertexStage:
         clip = wp.zeros(n, dtype=wp.vec4, device=dev)
         win = wp.zeros(n, dtype=wp.vec4, device=dev)
         if n:
-            m = [wp.mat44(*a.astype(np.float32).ravel()) for a in (self.modelview, self.projection, self.viewport)]
+            mv, pr = self.modelview, self.projection
+            if self.eye_offset:
+                shift = np.eye(4)
+                shift[2, 3] = self.eye_offset
+                mv, pr = shift @ mv, pr @ np.linalg.inv(shift)
+            m = [wp.mat44(*a.astype(np.float32).ravel()) for a in (mv, pr, self.viewport)]
             wp.launch(kv.k_transform, dim=n, inputs=[wp.array(p, dtype=wp.vec3, device=dev), *m, eye, clip, win],
                       device=dev)
             _cnt.count(vertices=n, bytes_up=12 * n)  # (x, y, z) float32 per vertex
-        return Vertices(eye.numpy(), clip.numpy(), win.numpy(), win)
+        return Vertices(eye.numpy(), clip.numpy(), win.numpy(), win, self.eye_offset)
 
 
 def transform_vertices(points: Any, modelview: Any, projection: Any, viewport: Any, device: str = "cpu") -> Vertices:

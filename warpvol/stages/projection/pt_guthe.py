@@ -68,9 +68,9 @@ class PTGuthe(Stage):
         if deg + 2 > units:
             raise ConfigError(f"{self.where}.gpu: degree {deg} needs {deg + 2} texture units ({deg + 1} coefficient "
                               f"textures + alpha1D); the {self.config['gpu']} has {units}")
-        attrs, mode, ortho = fragment_inputs(ctx)
+        attrs, mode, ortho, z_off = fragment_inputs(ctx)
         program = guthe_program(table, mode=mode, ortho=ortho, weight_bits=self.config["weight_bits"] or None,
-                                device=ctx.device)
+                                device=ctx.device, z_off=z_off)
         ctx.stats["pt"]["texture_units"] = deg + 2
         info = composite(self, ctx, attrs, program)
         # per fragment: deg + 1 signed 8-bit coefficient lookups (2D) and one dependent alpha lookup (1D,

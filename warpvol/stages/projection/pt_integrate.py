@@ -65,8 +65,8 @@ class PTIntegrate(Stage):
     def run(self, ctx: Context) -> None:
         from ...pt import exact_program
 
-        attrs, mode, ortho = fragment_inputs(ctx)
-        program = exact_program(ctx.scene.transfer, mode=mode, ortho=ortho, device=ctx.device)
+        attrs, mode, ortho, z_off = fragment_inputs(ctx)
+        program = exact_program(ctx.scene.transfer, mode=mode, ortho=ortho, device=ctx.device, z_off=z_off)
         bands = self.config["row_bands"]
         if bands == 0:
             from ...parallel import cpu_threads

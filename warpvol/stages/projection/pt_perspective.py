@@ -63,13 +63,15 @@ class PTPerspective(Stage):
 
 
 def fragment_inputs(ctx: Context) -> tuple:
-    """``(vertex attributes, mode, ortho)`` for a PT fragment stage: Kraus' perspective attributes
-    when ``pt_perspective`` ran, else the screen-linear ``(sf, sb, l)``; says which in
-    ``stats.pt.interpolation``."""
+    """``(vertex attributes, mode, ortho, z_off)`` for a PT fragment stage: Kraus' perspective
+    attributes when ``pt_perspective`` ran, else the screen-linear ``(sf, sb, l)``; says which in
+    ``stats.pt.interpolation``. ``z_off``: the eye-space depth offset of the attributes (the vertex
+    stage's ``eye_origin``)."""
     p = ctx.buffers.get("pt_perspective")
     st = ctx.stats.setdefault("pt", {})
+    geo = ctx.buffers["pt_geometry"]
     if p is None:
         st["interpolation"] = "screen-linear"
-        return ctx.buffers["pt_geometry"].attrs, "off", False
+        return geo.attrs, "off", False, geo.eye_offset
     st["interpolation"] = f"perspective-correct ({p['thickness']} thickness)"
-    return p["attrs"], p["thickness"], p["ortho"]
+    return p["attrs"], p["thickness"], p["ortho"], geo.eye_offset

@@ -66,9 +66,10 @@ class PTTable3D(Stage):
         from ...pt import table3d_program
 
         table = table_from(self, ctx, "table")
-        attrs, mode, ortho = fragment_inputs(ctx)
+        attrs, mode, ortho, z_off = fragment_inputs(ctx)
         program, texel = table3d_program(table, self.config["texel_format"], self.config["filter"],
-                                         self.config["weight_bits"] or None, device=ctx.device, mode=mode, ortho=ortho)
+                                         self.config["weight_bits"] or None, device=ctx.device, mode=mode, ortho=ortho,
+                                         z_off=z_off)
         ctx.stats["pt"]["texel_format"] = texel
         info = composite(self, ctx, attrs, program)
         n = info["fragments"]

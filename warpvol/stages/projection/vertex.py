@@ -25,6 +25,11 @@ class Vertex(Stage):
     ==========  =====  =======  ===========  ===================================================
     near        float  0.0      >= 0         near plane distance; 0: from the mesh bounds
     far         float  0.0      >= 0         far plane distance; 0: from the mesh bounds
+    eye_origin  str    eye      ``eye``      eye-space origin of the output: the eye (the
+                                ``data``     hardware's), or moved along the view axis to the
+                                             depth of the mesh's bounding-box centre, so depth
+                                             differences keep float32 precision with the eye far
+                                             away (``pt_best``; window coordinates unchanged)
     ==========  =====  =======  ===========  ===================================================
 
     Example
@@ -44,6 +49,8 @@ class Vertex(Stage):
     params = (
         Param("near", float, 0.0, "near plane distance (0: enclose the mesh bounds)", lo=0.0),
         Param("far", float, 0.0, "far plane distance (0: enclose the mesh bounds)", lo=0.0),
+        Param("eye_origin", str, "eye", "eye-space origin of the output: the eye (hardware) or the data's depth "
+              "(float32 depth differences stay accurate with a far eye)", choices=("eye", "data")),
     )
 
     def validate(self) -> None:
@@ -71,6 +78,10 @@ class Vertex(Stage):
         near, far = view.near, view.far
         near = self.config["near"] or near
         far = self.config["far"] or max(far, near * 1.0001 + 1e-6)
-        vs = VertexStage.from_camera(cam, near, far, device=ctx.device)
+        offset = 0.0
+        if self.config["eye_origin"] == "data":  # depth of the bounds' centre, in float64
+            lo, hi = (np.asarray(b, dtype=np.float64) for b in mesh.bounds)
+            offset = float(np.dot((lo + hi) / 2.0 - cam.eye, cam.forward))
+        vs = VertexStage.from_camera(cam, near, far, device=ctx.device, eye_offset=offset)
         ctx.buffers["vertex_stage"] = vs
         ctx.buffers["vertices"] = vs.transform(mesh.points)
