@@ -223,3 +223,20 @@ def test_vertex_stage_eye_offset_keeps_window_coordinates():
     assert np.allclose(b.eye[:, :2], a.eye[:, :2], atol=1e-6)
     assert np.allclose(b.window, a.window, rtol=1e-6, atol=1e-4)
     assert b.eye_offset == 4.25 and a.eye_offset == 0.0
+
+
+def test_fused_walk_needs_the_exact_program():
+    """draw(walk="fused") with a program that has no fused form is an error naming the walk."""
+    from warpvol.gpu.blend import BlendUnit, FrameBuffer
+    from warpvol.gpu.vertex import VertexStage
+    from warpvol.pt import decompose, draw, vertex_color_program, vertex_colors
+    from warpvol.sort import visibility_order
+
+    sc = scene("box", 8)
+    vs = VertexStage.from_camera(sc.camera, *sc.camera.depth_range(*sc.mesh.bounds))
+    geo = decompose(sc.mesh, vs.transform(sc.mesh.points), visibility_order(sc.mesh, sc.camera).order)
+    fb = FrameBuffer(8, 8, "fp32")
+    with pytest.raises(ConfigError, match="walk: 'fused' needs"):
+        draw(geo, vertex_colors(geo, sc.transfer), vertex_color_program(False), fb, BlendUnit.over(), walk="fused")
+    with pytest.raises(ConfigError, match="walk: 'diagonal' not allowed"):
+        draw(geo, vertex_colors(geo, sc.transfer), vertex_color_program(False), fb, BlendUnit.over(), walk="diagonal")
