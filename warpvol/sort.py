@@ -167,7 +167,7 @@ def boundary_ray_constraints(mesh, camera, device: str = "cpu") -> tuple[np.ndar
     front = (np.einsum("ij,ij->i", n, eye - p0) if persp else -(n @ fwd)) > 0  # the ray enters here
     vs = VertexStage.from_camera(camera, *camera.depth_range(*mesh.bounds), device=device)
     frags = Rasterizer(camera.width_px, camera.height_px, device=device, **RASTER_RULES).fragments(
-        vs.transform(mesh.points).window_array, tri)
+        vs.transform(mesh.points).window_array, tri, walk="triangle")  # the pixel walk's list, faster
     if frags.count < 2:
         return empty, empty, frags.count
     pix = frags.pixel_index()
