@@ -125,9 +125,14 @@ def eye_plane_check(mesh, camera) -> EyePlane:
     ('refuse', True)
     """
     tets = np.asarray(mesh.tets)
-    rel = np.asarray(mesh.points, dtype=np.float64) - camera.eye  # per vertex, then gathered per tet (M, 4)
-    d, x, y = ((rel @ axis)[tets] for axis in (camera.forward, camera.right, camera.true_up))
-    dmin, dmax = d.min(axis=1), d.max(axis=1)
+    rel = np.asarray(mesh.points, dtype=np.float64) - camera.eye  # per vertex, then gathered per tet
+    d, x, y = (rel @ axis for axis in (camera.forward, camera.right, camera.true_up))
+
+    def per_tet(reduce, v):  # reduce over each tet's four vertex values (column-wise: fast)
+        g = v[tets]
+        return reduce(reduce(g[:, 0], g[:, 1]), reduce(g[:, 2], g[:, 3]))
+
+    dmin, dmax = per_tet(np.minimum, d), per_tet(np.maximum, d)
     behind = dmax <= 0
     if camera.projection == "perspective":
         ty = np.tan(np.radians(camera.fov_y_deg) / 2.0)
@@ -140,8 +145,8 @@ def eye_plane_check(mesh, camera) -> EyePlane:
         sides = (x - hx, -x - hx, y - hy, -y - hy)
         crossing = ~behind & (dmin < 0)
     outside = np.zeros(len(tets), dtype=bool)
-    for s in sides:
-        outside |= (s > 0).all(axis=1)
+    for s in sides:  # every vertex of the tet outside one plane
+        outside |= per_tet(np.logical_and, s > 0)
     n_cross, n_behind, n_out = int(crossing.sum()), int(behind.sum()), int((outside & ~behind).sum())
     counts = dict(crossing=n_cross, behind=n_behind, outside=n_out)
     if (behind | outside).all():
