@@ -102,6 +102,15 @@ def integrate_piece(h: float, front: wp.vec4, back: wp.vec4, model: int) -> wp.v
 
 
 @wp.func
+def attenuated(tau: float, p: wp.vec4) -> wp.vec3:
+    """A piece's radiance ``p.xyz`` behind optical depth ``tau`` (``exp(-0) = 1`` without the call:
+    most segments are one piece)."""
+    if tau == 0.0:
+        return wp.vec3(p[0], p[1], p[2])
+    return wp.exp(-tau) * wp.vec3(p[0], p[1], p[2])
+
+
+@wp.func
 def integrate_segment_tf(sf: float, sb: float, vf: wp.vec4, vb: wp.vec4, length: float,
                          tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp.vec4), model: int) -> wp.vec4:
     """:func:`integrate_segment` with the TF values at both ends given (``vf = tf(sf)``,
@@ -119,14 +128,14 @@ def integrate_segment_tf(sf: float, sb: float, vf: wp.vec4, vb: wp.vec4, length:
         u1 = (tf_s[k] - sf) / ds
         v1 = tf_v[k]
         p = integrate_piece((u1 - u0) * length, v0, v1, model)
-        rgb += wp.exp(-tau) * wp.vec3(p[0], p[1], p[2])
+        rgb += attenuated(tau, p)
         tau += p[3]
         u0 = u1
         v0 = v1
         k = tf_next_break(k, sf, sb, tf_s)
     v1 = vb
     p = integrate_piece((1.0 - u0) * length, v0, v1, model)
-    rgb += wp.exp(-tau) * wp.vec3(p[0], p[1], p[2])
+    rgb += attenuated(tau, p)
     tau += p[3]
     return wp.vec4(rgb[0], rgb[1], rgb[2], tau)
 
