@@ -267,6 +267,12 @@ def blend_unorm(bs: BlendState, src: wp.vec4, dst: wp.vec4, q: float) -> wp.vec4
 @wp.func
 def blend_float(bs: BlendState, src: wp.vec4, dst: wp.vec4) -> wp.vec4:
     half = bs.fmt.kind == 2
+    if not half and bs.src_rgb == ONE and bs.src_a == ONE and bs.dst_rgb == ONE_MINUS_SRC_ALPHA and (
+            bs.dst_a == ONE_MINUS_SRC_ALPHA):
+        # fp32 "over" (premultiplied): the general path below with its factors 1 and 1 - src.a, the same
+        # operations (s * 1 is s exactly), without the factor selection
+        f = 1.0 - src[3]
+        return wp.vec4(src[0] + dst[0] * f, src[1] + dst[1] * f, src[2] + dst[2] * f, src[3] + dst[3] * f)
     s = src
     k = bs.constant
     if half:

@@ -16,7 +16,7 @@ contributes nothing.
 
 import warp as wp
 
-from .tf import tf_eval, tf_first_break, tf_next_break
+from .tf import tf_eval_upper, tf_first_break, tf_first_break_upper, tf_next_break, tf_upper
 
 wp.set_module_options({"enable_backward": False})
 
@@ -118,12 +118,20 @@ def integrate_segment_tf(sf: float, sb: float, vf: wp.vec4, vb: wp.vec4, length:
     once per face."""
     if not (length > 0.0):
         return wp.vec4(0.0, 0.0, 0.0, 0.0)
+    return integrate_pieces(sf, sb, vf, vb, tf_first_break(sf, sb, tf_s), length, tf_s, tf_v, model)
+
+
+@wp.func
+def integrate_pieces(sf: float, sb: float, vf: wp.vec4, vb: wp.vec4, k_first: int, length: float,
+                     tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp.vec4), model: int) -> wp.vec4:
+    """:func:`integrate_segment_tf` given its first crossed control point ``k_first``
+    (:func:`~warpvol.kernels.tf.tf_first_break`; -1: none) and ``length > 0``."""
     ds = sb - sf
     rgb = wp.vec3(0.0, 0.0, 0.0)
     tau = float(0.0)
     u0 = float(0.0)
     v0 = vf
-    k = tf_first_break(sf, sb, tf_s)
+    k = k_first
     while k >= 0:
         u1 = (tf_s[k] - sf) / ds
         v1 = tf_v[k]
@@ -146,8 +154,9 @@ def integrate_segment(sf: float, sb: float, length: float, tf_s: wp.array(dtype=
     """Radiance (xyz) and optical depth (w) of one ray segment, front-to-back over TF pieces."""
     if not (length > 0.0):
         return wp.vec4(0.0, 0.0, 0.0, 0.0)
-    return integrate_segment_tf(sf, sb, tf_eval(sf, tf_s, tf_v), tf_eval(sb, tf_s, tf_v), length, tf_s, tf_v,
-                                model)
+    kf = tf_upper(sf, tf_s)  # one search per end: the TF value and (at sf) the first crossed control point
+    return integrate_pieces(sf, sb, tf_eval_upper(sf, kf, tf_s, tf_v), tf_eval_upper(sb, tf_upper(sb, tf_s), tf_s, tf_v),
+                            tf_first_break_upper(kf, sf, sb, tf_s), length, tf_s, tf_v, model)
 
 
 @wp.kernel

@@ -29,35 +29,30 @@ from .blend import BlendState, blend
 from .pt import CLAMP_ABS, CLAMP_REL, exact_color, sfsbl_from, vec8f
 from .raster import TriSetup, bary_from, edge_step_i, edge_step_j, edges_at, inside, tile_rect
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
 
 @wp.func
-def clamp8(x: vec8f, lo: vec8f, hi: vec8f) -> vec8f:
-    """Each attribute clamped into its triangle's vertex range (as :func:`~warpvol.kernels.pt.clamp_attr`)."""
+def clamp8(x: vec8f, lo: vec8f, hi: vec8f, tol: vec8f):
+    """Each attribute clamped into its triangle's vertex range, and 1 if that moved one by more than
+    rounding, else 0 (the values and the test of :func:`~warpvol.kernels.pt.clamp_attr`)."""
     y = vec8f()
-    for k in range(8):  # constant trip count: unrolled, register indexing
-        y[k] = wp.clamp(x[k], lo[k], hi[k])
-    return y
-
-
-@wp.func
-def moved8(x: vec8f, y: vec8f, tol: vec8f) -> int:
-    """1 if the clamp moved an attribute by more than rounding (the test of :func:`~warpvol.kernels.pt.clamp_attr`)."""
     m = int(0)
-    for k in range(8):
-        if wp.abs(y[k] - x[k]) > tol[k] + CLAMP_ABS:
-            m = 1
-    return m
+    for k in range(8):  # constant trip count: unrolled, register indexing
+        v = wp.clamp(x[k], lo[k], hi[k])
+        if v != x[k]:  # rare: only then the distance test
+            if wp.abs(v - x[k]) > tol[k] + CLAMP_ABS:
+                m = 1
+        y[k] = v
+    return y, m
 
 
 @wp.kernel
-def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array2d(dtype=wp.float32),
+def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array(dtype=vec8f),
                      mode: int, ortho: int, z_off: float, tf_s: wp.array(dtype=float),
                      tf_v: wp.array(dtype=wp.vec4), model: int,
                      bs: BlendState, fb: wp.array2d(dtype=wp.vec4), tile0: int, counts: wp.array(dtype=wp.vec2i)):
     tile = tile0 + wp.tid()
-    na = wp.min(vattrs.shape[1], 8)
     nfrag = int(0)
     nclamp = int(0)
     rect = tile_rect(s, tile, fb.shape[1], fb.shape[0])
@@ -74,13 +69,9 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
         pa = pos[v[0]]
         pb = pos[v[1]]
         pc = pos[v[2]]
-        a0 = vec8f()
-        a1 = vec8f()
-        a2 = vec8f()
-        for k in range(na):
-            a0[k] = vattrs[v[0], k]
-            a1[k] = vattrs[v[1], k]
-            a2[k] = vattrs[v[2], k]
+        a0 = vattrs[v[0]]
+        a1 = vattrs[v[1]]
+        a2 = vattrs[v[2]]
         lo = wp.min(a0, wp.min(a1, a2))
         hi = wp.max(a0, wp.max(a1, a2))
         tol = CLAMP_REL * (hi - lo)
@@ -93,9 +84,9 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
                 if inside(ee):
                     l = bary_from(pa, pb, pc, float(j) + 0.5, float(i) + 0.5)
                     x = l[0] * a0 + l[1] * a1 + l[2] * a2
-                    a = clamp8(x, lo, hi)
+                    a, moved = clamp8(x, lo, hi, tol)
                     nfrag += 1
-                    nclamp += moved8(x, a, tol)
+                    nclamp += moved
                     c = exact_color(sfsbl_from(a, mode, ortho, z_off), tf_s, tf_v, model)
                     fb[i, j] = blend(bs, c, fb[i, j], j, i, t)
                 ee = ee + sj

@@ -57,6 +57,26 @@ def tf_first_break(sf: float, sb: float, tf_s: wp.array(dtype=float)) -> int:
 
 
 @wp.func
+def tf_first_break_upper(ku: int, sf: float, sb: float, tf_s: wp.array(dtype=float)) -> int:
+    """:func:`tf_first_break` given ``ku = tf_upper(sf, tf_s)`` (no second search: ``tf_lower(sf)`` is
+    ``ku - 1`` when ``sf`` is the control point below ``ku``, else ``ku``)."""
+    n = tf_s.shape[0]
+    if sb > sf:
+        if ku < n:
+            if tf_s[ku] < sb:
+                return ku
+    elif sb < sf:
+        k = ku - 1
+        if k >= 0:
+            if tf_s[k] == sf:
+                k = k - 1
+        if k >= 0:
+            if tf_s[k] > sb:
+                return k
+    return -1
+
+
+@wp.func
 def tf_next_break(k: int, sf: float, sb: float, tf_s: wp.array(dtype=float)) -> int:
     """The control point after ``k`` on the walk from ``sf`` to ``sb``; -1 past ``sb``."""
     if sb > sf:

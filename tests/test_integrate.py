@@ -13,6 +13,14 @@ from warpvol.transfer import TransferFunction
 TOL = TOLERANCES["segment/fp32"]
 
 
+@wp.kernel
+def k_first_breaks(sf: wp.array(dtype=float), sb: wp.array(dtype=float), tf_s: wp.array(dtype=float),
+                   out: wp.array(dtype=wp.vec2i)):
+    i = wp.tid()
+    out[i] = wp.vec2i(ki.tf_first_break(sf[i], sb[i], tf_s),
+                      ki.tf_first_break_upper(ki.tf_upper(sf[i], tf_s), sf[i], sb[i], tf_s))
+
+
 def run_segments(tf, sf, sb, length, device="cpu"):
     sf, sb, length = (np.atleast_1d(np.asarray(a, np.float32)) for a in (sf, sb, length))
     n = len(sf)
@@ -104,3 +112,18 @@ def test_zero_length_segment_contributes_nothing():
     tf = TransferFunction([[0, 1, 1, 1, 5.0], [1, 1, 1, 1, 5.0]])
     out = run_segments(tf, [0.2, 0.5], [0.9, 0.5], [0.0, 0.0])
     assert (out == 0).all()
+
+
+def test_first_break_from_one_search_equals_the_two_search_version():
+    """integrate_segment's first crossed control point from the one search at sf (tf_first_break_upper)
+    equals tf_first_break, exhaustively over ends on, between and outside the control points, both
+    directions, equal ends and NaN."""
+    nodes = np.array([0.0, 0.25, 0.5, 1.0, 2.0], np.float32)
+    vals = np.concatenate([nodes, (nodes[1:] + nodes[:-1]) / 2, [-1.0, 3.0, np.nextafter(np.float32(0.5), 1)],
+                           [np.nan]]).astype(np.float32)
+    sf, sb = (a.ravel().astype(np.float32) for a in np.meshgrid(vals, vals))
+    out = wp.zeros(len(sf), dtype=wp.vec2i)
+    wp.launch(k_first_breaks, dim=len(sf), inputs=[wp.array(sf), wp.array(sb), wp.array(nodes), out])
+    o = out.numpy()
+    assert np.array_equal(o[:, 0], o[:, 1])
+    assert (o[:, 0] >= 0).sum() > 50  # many segments do cross a control point

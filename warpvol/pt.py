@@ -272,9 +272,12 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
     from .kernels import pt_draw
     from .parallel import blocks, launch_blocks
 
-    va = wp.array(np.ascontiguousarray(vertex_attrs, dtype=np.float32), dtype=wp.float32, device=device)
-    if va.shape[1] > 8:
-        raise ConfigError(f"vertex attributes: the fused draw takes at most 8, got {va.shape[1]}")
+    a = np.asarray(vertex_attrs, dtype=np.float32)
+    if a.ndim != 2 or a.shape[1] > 8:
+        raise ConfigError(f"vertex attributes: the fused draw takes (V, A <= 8), got shape {a.shape}")
+    a8 = np.zeros((a.shape[0], 8), np.float32)  # one 8-wide load per vertex; unused columns 0
+    a8[:, :a.shape[1]] = a
+    va = wp.array(a8, dtype=pt_draw.vec8f, device=device)
     rast = Rasterizer(fb.width, fb.height, device=device, **RASTER_RULES)
     st = blend.state(fb)
     cpu = str(device).startswith("cpu")
@@ -285,8 +288,8 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
         tr = rast.setup(geo.positions, geo.tris[4 * k0:4 * k1])
         n_batch += 1
         counts = wp.zeros(tr.n_tiles, dtype=wp.vec2i, device=device)
-        # >= 4 blocks per thread: the mesh covers the tiles unevenly
-        tile_blocks = blocks(tr.n_tiles, -(-tr.n_tiles // (4 * threads))) if cpu and threads > 1 else [(0, tr.n_tiles)]
+        # 8 blocks per thread: the mesh covers the tiles unevenly
+        tile_blocks = blocks(tr.n_tiles, -(-tr.n_tiles // (8 * threads))) if cpu and threads > 1 else [(0, tr.n_tiles)]
 
         def run(b, tr=tr, counts=counts, tile_blocks=tile_blocks):
             t0, n = tile_blocks[b]
