@@ -1,33 +1,36 @@
 """Projected tetrahedra in one pass per bin: rasteriser walk, ``pt_best``'s exact fragment program and
-blending fused in one kernel (``pt_integrate.walk = "fused"``).
+blending fused in one kernel (``pt_integrate.walk = "fused"``; beyond the papers).
 
 :func:`k_pt_exact_tiles` runs one thread per tile of the rasteriser's bins
 (:class:`warpvol.kernels.raster.TriSetup`, triangles in submission order per tile). For each
 triangle of its tile it walks the pixels of the triangle's bounding box inside the tile with the
 rasteriser's exact int64 edge functions and fill rule (:func:`~warpvol.kernels.raster.edges_at`,
-stepped exactly), and for every covered pixel centre, in registers:
+stepped exactly), so it draws exactly the fragments of the fragment list, and for every covered
+pixel centre, in registers:
 
-1. screen barycentrics from the unsnapped positions (:func:`~warpvol.kernels.raster.bary_from`) and
-   the attributes interpolated linearly in screen space (``l0 a0 + l1 a1 + l2 a2``, the operation
-   order of the fragment list's :func:`~warpvol.kernels.raster.write_fragment`);
-2. each attribute clamped into its triangle's vertex range (:func:`~warpvol.kernels.pt.clamp_attr`);
-3. ``(sf, sb, l)`` (:func:`~warpvol.kernels.pt.sfsbl_from`) and the segment integrated exactly
+1. the attributes from per-triangle plane equations (:func:`attribute_planes`: gradients from the
+   unsnapped positions, evaluated from the first vertex) -- the fragment list interpolates with
+   per-fragment barycentrics instead; the two agree to float32 rounding;
+2. each attribute clamped into its triangle's vertex range (:func:`clamp8`, the test of
+   :func:`~warpvol.kernels.pt.clamp_attr`);
+3. ``(sf, sb, l)`` by Kraus et al.'s division (:func:`sfsbl_ray`), the exact thickness with the
+   ray-length factor of the pixel's own ray (``ray_len``, float64 on the host) instead of the
+   interpolated front point's, and the segment integrated exactly
    (:func:`~warpvol.kernels.pt.exact_color`);
-4. blended onto the pixel (:func:`~warpvol.kernels.blend.blend`, primitive index for dithering).
+4. blended onto the pixel (:func:`~warpvol.kernels.blend.blend`, batch-local primitive index for dithering).
 
 A pixel belongs to one tile and a tile's triangles are in submission order, so each pixel blends its
-fragments in primitive order, as the per-pixel fragment list does: the image is the same bit for bit
-(``tests/test_pt2_render.py``), without writing a fragment list. The depth test is ``always``
-without depth writes or depth clipping (projected tetrahedra). Counts per tile go to
-``counts[tile]``: (fragments, fragments whose attributes the clamp moved). Launch dimension: a block
-of tiles from ``tile0`` (blocks of tiles may run concurrently: they own disjoint pixels).
+fragments in primitive order, as the per-pixel fragment list does, without writing one. The depth
+test is ``always`` without depth writes or depth clipping (projected tetrahedra). Counts per tile go
+to ``counts[tile]``: (fragments, fragments whose attributes the clamp moved). Launch dimension: a
+block of tiles from ``tile0`` (blocks of tiles may run concurrently: they own disjoint pixels).
 """
 
 import warp as wp
 
 from .blend import BlendState, blend
-from .pt import CLAMP_ABS, CLAMP_REL, exact_color, sfsbl_from, vec8f
-from .raster import TriSetup, bary_from, edge_step_i, edge_step_j, edges_at, inside, tile_rect
+from .pt import CLAMP_ABS, CLAMP_REL, PERSP_EXACT, PERSP_OFF, exact_color, vec8f
+from .raster import TriSetup, edge_step_i, edge_step_j, edges_at, inside, tile_rect
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -47,9 +50,53 @@ def clamp8(x: vec8f, lo: vec8f, hi: vec8f, tol: vec8f):
     return y, m
 
 
+mat28f = wp.types.matrix(shape=(2, 8), dtype=wp.float32)
+
+
+@wp.func
+def attribute_planes(pa: wp.vec4, pb: wp.vec4, pc: wp.vec4, a0: vec8f, a1: vec8f, a2: vec8f) -> mat28f:
+    """Screen-space gradients (d/dx, d/dy; rows) of the attributes ``a0..a2`` given at the unsnapped
+    window positions ``pa..pc``: ``a(x, y) = a0 + gx (x - xa) + gy (y - ya)``. A triangle of zero
+    unsnapped area gets zero gradients (its fragments take ``a0``; the clamp keeps them in range)."""
+    ux = pb[0] - pa[0]
+    uy = pb[1] - pa[1]
+    vx = pc[0] - pa[0]
+    vy = pc[1] - pa[1]
+    den = ux * vy - vx * uy
+    g = mat28f()
+    if den == 0.0:
+        return g
+    inv = 1.0 / den
+    d1 = a1 - a0
+    d2 = a2 - a0
+    gx = (d1 * vy - d2 * uy) * inv
+    gy = (d2 * ux - d1 * vx) * inv
+    for k in range(8):
+        g[0, k] = gx[k]
+        g[1, k] = gy[k]
+    return g
+
+
+@wp.func
+def sfsbl_ray(a: vec8f, mode: int, ortho: int, ray_factor: float) -> wp.vec3:
+    """(sf, sb, l) of the fused draw: as :func:`~warpvol.kernels.pt.sfsbl_from` (Kraus' per-fragment
+    division of ``a/w`` by ``1/w``), but the exact thickness's factor ``|ve_f| / |ze_f|`` is that of
+    the pixel's own ray, ``ray_factor`` (computed per pixel in float64 from the camera), not the
+    interpolated front point's: no square root or third division per fragment, and the eye-space
+    origin's depth offset cancels in ``ze_b - ze_f``."""
+    if mode == PERSP_OFF:
+        return wp.vec3(a[0], a[1], a[2])
+    wf = 1.0 / a[2]
+    wb = 1.0 / a[3]
+    l = wp.abs(a[7] * wb - a[6] * wf)
+    if mode == PERSP_EXACT and ortho == 0:
+        l = l * ray_factor
+    return wp.vec3(a[0] * wf, a[1] * wb, l)
+
+
 @wp.kernel
 def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array(dtype=vec8f),
-                     mode: int, ortho: int, z_off: float, tf_s: wp.array(dtype=float),
+                     mode: int, ortho: int, ray_len: wp.array2d(dtype=float), tf_s: wp.array(dtype=float),
                      tf_v: wp.array(dtype=wp.vec4), model: int,
                      bs: BlendState, fb: wp.array2d(dtype=wp.vec4), tile0: int, counts: wp.array(dtype=wp.vec2i)):
     tile = tile0 + wp.tid()
@@ -72,6 +119,9 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
         a0 = vattrs[v[0]]
         a1 = vattrs[v[1]]
         a2 = vattrs[v[2]]
+        g = attribute_planes(pa, pb, pc, a0, a1, a2)
+        gx = g[0]
+        gy = g[1]
         lo = wp.min(a0, wp.min(a1, a2))
         hi = wp.max(a0, wp.max(a1, a2))
         tol = CLAMP_REL * (hi - lo)
@@ -82,12 +132,11 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
             ee = row
             for j in range(j0, j1 + 1):
                 if inside(ee):
-                    l = bary_from(pa, pb, pc, float(j) + 0.5, float(i) + 0.5)
-                    x = l[0] * a0 + l[1] * a1 + l[2] * a2
+                    x = a0 + gx * (float(j) + 0.5 - pa[0]) + gy * (float(i) + 0.5 - pa[1])
                     a, moved = clamp8(x, lo, hi, tol)
                     nfrag += 1
                     nclamp += moved
-                    c = exact_color(sfsbl_from(a, mode, ortho, z_off), tf_s, tf_v, model)
+                    c = exact_color(sfsbl_ray(a, mode, ortho, ray_len[i, j]), tf_s, tf_v, model)
                     fb[i, j] = blend(bs, c, fb[i, j], j, i, t)
                 ee = ee + sj
             row = row + si

@@ -130,34 +130,44 @@ def test_row_bands_give_the_same_image(fmt, walk):
 
 @pytest.mark.parametrize("walk", ["triangle", "fused"])
 def test_fast_walks_give_the_same_image(walk):
-    """``walk = "triangle"`` (fragment list by per-triangle walk + sort) and ``"fused"`` (pt_best's:
-    walk, interpolation, clamp, integral and blend in one kernel per bin) draw the image of the
-    emulated per-pixel walk bit for bit (so within pt_best's tolerance against the reference as that
-    is), with the same fragment, blend and clamp counts; perspective and orthographic."""
+    """``walk = "triangle"`` (fragment list by per-triangle walk + sort) draws the image of the emulated
+    per-pixel walk bit for bit; ``"fused"`` (pt_best's: one kernel per bin, attributes from per-triangle
+    plane equations, the pixel's own ray factor in the exact thickness) the same fragments, blended in
+    the same order, with values equal to float32 rounding. Both within pt_best's tolerance;
+    perspective and orthographic."""
     for name, proj in (("concave", "perspective"), ("sphere", "perspective"), ("stiff", "orthographic")):
         sc = scene(name, 40)
         if proj == "orthographic":
             sc = sc.with_camera(projection="orthographic", height=3.0)
         px = render(preset("pt_best", pt_integrate={"walk": "pixel"}), sc)
         fast = render(preset("pt_best", pt_integrate={"walk": walk}), sc)
-        assert np.array_equal(px.image, fast.image), (name, walk)
+        if walk == "triangle":
+            assert np.array_equal(px.image, fast.image), name
+        else:
+            assert np.abs(px.image - fast.image).max() <= 1e-5, name
+            assert fast.report["error"]["rmse"] <= 1.01 * px.report["error"]["rmse"] + 1e-9, name
         check(fast, "pt_best")
         cp, cf = px.report["counters"]["pt_integrate"], fast.report["counters"]["pt_integrate"]
-        for k in ("fragments", "blends_fp32", "attrs_clamped", "segment_integrals"):
+        keys = ("fragments", "blends_fp32", "segment_integrals") + (("attrs_clamped",) if walk == "triangle" else ())
+        for k in keys:
             assert cp[k] == cf[k], (name, k, cp[k], cf[k])
         assert cp["fragments"] > 0
 
 
-def test_fused_walk_dithers_like_the_fragment_list():
-    """Alpha dithering (unorm8) through the fused draw, threads over tiles and several batches: the
-    dither pattern follows pixel and batch-local primitive, as in the emulated pixel walk."""
+def test_fused_walk_dithers_per_pixel_and_primitive():
+    """Alpha dithering (unorm8) through the fused draw: the pattern follows pixel and batch-local
+    primitive, so host threads over tiles and the pixel walk's fragment list give the same codes but
+    where the fused draw's float32-rounding differences cross a code (at most one code)."""
     sc = scene("concave", 40)
     cfg = {"format": "unorm8", "dither": True, "batch_tets": 500}
     px = preset("pt_best", pt_integrate={**cfg, "walk": "pixel"}).render(sc, quiet=True)
-    fused = preset("pt_best", pt_integrate={**cfg, "walk": "fused", "row_bands": 2}).render(sc, quiet=True)
-    assert np.array_equal(px.image, fused.image)
+    one = preset("pt_best", pt_integrate={**cfg, "walk": "fused", "row_bands": 1}).render(sc, quiet=True)
+    two = preset("pt_best", pt_integrate={**cfg, "walk": "fused", "row_bands": 2}).render(sc, quiet=True)
+    assert np.array_equal(one.image, two.image)
+    assert np.abs(px.image - one.image).max() <= 1.0 / 255 + 1e-7
+    assert (px.image != one.image).mean() < 0.01
     plain = preset("pt_best", pt_integrate={"format": "unorm8", "walk": "fused"}).render(sc, quiet=True)
-    assert not np.array_equal(plain.image, fused.image)  # dithering did change codes
+    assert not np.array_equal(plain.image, one.image)  # dithering did change codes
 
 
 def test_front_and_back_points_of_thick_vertices():

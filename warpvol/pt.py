@@ -224,7 +224,8 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
     ``walk``: the rasteriser's fragment generation (:meth:`warpvol.gpu.raster.Rasterizer.fragments`;
     ``triangle`` gives the same fragments as the emulated ``pixel`` walk, faster), or ``fused``
     (:func:`exact_program` only: no fragment list; one kernel per bin walks the triangles, runs the
-    program and blends in registers, :mod:`warpvol.kernels.pt_draw`; the same image, bit for bit).
+    program and blends in registers, :mod:`warpvol.kernels.pt_draw`: the same fragments in the same
+    order, attributes from plane equations, values equal to float32 rounding).
     Returns counts (``fragments``, ``batches``, ``attrs_clamped``).
     """
     if walk not in DRAW_WALKS:
@@ -294,7 +295,7 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
         def run(b, tr=tr, counts=counts, tile_blocks=tile_blocks):
             t0, n = tile_blocks[b]
             wp.launch(pt_draw.k_pt_exact_tiles, dim=n,
-                      inputs=[tr.struct, tr.positions, va, fused["mode"], fused["ortho"], fused["z_off"], fused["tf_s"],
+                      inputs=[tr.struct, tr.positions, va, fused["mode"], fused["ortho"], fused["ray_len"], fused["tf_s"],
                               fused["tf_v"], fused["model"], st, fb.array, t0, counts], device=device)
 
         launch_blocks(device, len(tile_blocks), run, threads=threads)
@@ -442,9 +443,33 @@ def guthe_program(table, *, mode: str = "off", ortho: bool = False, weight_bits:
     return run
 
 
-def exact_program(tf, *, mode: str = "off", ortho: bool = False, device: str = "cpu", z_off: float = 0.0) -> Callable:
+def ray_length_factors(camera) -> np.ndarray:
+    """(H, W) float32: ``|v| / |v_z|`` of the eye-space direction ``v`` of the ray through each pixel
+    centre (computed in float64 from the projection matrix; 1 for orthographic views): a segment's
+    length along the ray is this factor times its eye-space depth extent.
+
+    Examples
+    --------
+    >>> from warpvol.camera import Camera
+    >>> f = ray_length_factors(Camera(eye=[0, 0, 5], target=[0, 0, 0], width_px=2, height_px=2, fov_y_deg=90))
+    >>> bool(np.allclose(f, np.sqrt(1.5)))  # centres at (+-1/2, +-1/2) of the unit-slope frustum
+    True
+    """
+    h, w = camera.height_px, camera.width_px
+    if camera.projection != "perspective":
+        return np.ones((h, w), np.float32)
+    p = camera.projection_matrix(1.0, 2.0)
+    u = ((np.arange(w) + 0.5) * (2.0 / w) - 1.0) / p[0, 0]  # x_e / -z_e of the column's centre
+    v = (1.0 - (np.arange(h) + 0.5) * (2.0 / h)) / p[1, 1]
+    return np.sqrt(1.0 + u[None, :] ** 2 + v[:, None] ** 2).astype(np.float32)
+
+
+def exact_program(tf, *, mode: str = "off", ortho: bool = False, device: str = "cpu", z_off: float = 0.0,
+                  camera=None) -> Callable:
     """Fragment program without a table: each fragment's segment integrated exactly (fp32). ``z_off``:
-    the eye-space depth offset of the perspective attributes (:attr:`PTGeometry.eye_offset`)."""
+    the eye-space depth offset of the perspective attributes (:attr:`PTGeometry.eye_offset`).
+    ``camera``: for the fused draw (``draw(walk="fused")``), whose exact thickness takes each pixel's
+    :func:`ray_length_factors` (needed with ``mode="exact"`` in perspective)."""
     from .kernels import pt as kpt
     from .tables.base import model_id
 
@@ -457,8 +482,13 @@ def exact_program(tf, *, mode: str = "off", ortho: bool = False, device: str = "
                   device=device)
         return out
 
-    run.fused = {"mode": flags[0], "ortho": flags[1], "z_off": flags[2], "tf_s": tf_s, "tf_v": tf_v,
-                 "model": model_id(tf)}
+    factors = np.ones((1, 1), np.float32)
+    if mode == "exact" and not ortho:
+        if camera is None:
+            raise ConfigError("camera: the fused draw's exact thickness needs the camera's pixel rays")
+        factors = ray_length_factors(camera)
+    run.fused = {"mode": flags[0], "ortho": flags[1], "ray_len": wp.array(factors, dtype=wp.float32, device=device),
+                 "tf_s": tf_s, "tf_v": tf_v, "model": model_id(tf)}
     return run
 
 

@@ -39,7 +39,10 @@ class PTIntegrate(Stage):
                                                                              (same fragments, faster),
                                                                              or one kernel per bin
                                                                              doing walk, program and
-                                                                             blend (same image)
+                                                                             blend (same fragments;
+                                                                             plane-equation
+                                                                             attributes, the pixel's
+                                                                             ray in the thickness)
     ==========  =====  ========  ==========================================  =======================
 
     Example
@@ -58,7 +61,8 @@ class PTIntegrate(Stage):
               Param("row_bands", int, 0, "row bands drawn concurrently (0: one per CPU core; 1: off)", lo=0, hi=256),
               Param("walk", str, "pixel", "fragment generation: per-pixel tile walk (emulated hardware) or "
                     "per-triangle bounding-box walk + stable sort by pixel (same fragments), or fused: walk, program "
-                    "and blend in one kernel per bin (same image, no fragment list)", choices=DRAW_WALKS))
+                    "and blend in one kernel per bin (same fragments, no fragment list; plane-equation attributes)",
+                    choices=DRAW_WALKS))
     needs = ("pt_geometry",)
     provides = ("image",)
 
@@ -66,7 +70,8 @@ class PTIntegrate(Stage):
         from ...pt import exact_program
 
         attrs, mode, ortho, z_off = fragment_inputs(ctx)
-        program = exact_program(ctx.scene.transfer, mode=mode, ortho=ortho, device=ctx.device, z_off=z_off)
+        program = exact_program(ctx.scene.transfer, mode=mode, ortho=ortho, device=ctx.device, z_off=z_off,
+                                camera=ctx.scene.camera)
         bands = self.config["row_bands"]
         if bands == 0:
             from ...parallel import cpu_threads
