@@ -306,3 +306,17 @@ def test_native_cells_from_a_scene_file(tmp_path):
     tol = TOLERANCES["vsbuffer/vsbuffer_best"]
     e = r.error  # against the exact reference of the same field (the tets)
     assert e["rmse"] <= tol["rmse"] and e["max_abs"] <= tol["max_abs"] and r.image[..., 3].max() > 0.3, e
+
+
+def test_sweep_work_limit_and_tall_plane_batches():
+    """A sweep over max_sweep_pixels is refused up front in words (stage, pixels, what to change); a
+    depth resolution whose 16-plane batch would exceed the rasteriser's 65536 rows runs with fewer
+    planes per batch (an emulation detail) instead of failing."""
+    from test_pt_render import preset
+    from warpvol.builtin import builtin_scene
+
+    s = builtin_scene("box").with_camera(width_px=16, height_px=16)
+    with pytest.raises(ConfigError, match=r"vsb_sweep.*2\.56e\+06 pixels, over max_sweep_pixels = 1e\+06"):
+        preset("westermann1997", vsb_sweep={"max_sweep_pixels": 1_000_000, "depth_res": 5000}).render(s, quiet=True)
+    r = preset("westermann1997", vsb_sweep={"depth_res": 5000}).render(s, quiet=True)
+    assert np.isfinite(r.image).all() and r.image[..., 3].max() > 0

@@ -472,7 +472,8 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         max_list, table=table, weight_bits=weight_bits or None, texture_cache=texture_cache)
     out = wp.zeros(W * H, dtype=wp.vec4, device=device)
     rules = dict(raster_rules or {})
-    P = max(1, min(int(planes_per_batch), H))
+    # planes of one batch are stacked in one ID buffer: keep it within the rasteriser's 65536 rows
+    P = max(1, min(int(planes_per_batch), H, 65536 // stride))
     threads = threads or cpu_threads()
     cnt = _zero_counts(H)
     missed_length = 0.0

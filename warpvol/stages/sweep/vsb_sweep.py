@@ -40,6 +40,10 @@ class VsbSweep(Stage):
     audit             bool   true        count ray/cell crossings the walk missed (``missed_cells``)
     rewalk            bool   false       integrate flagged rays again from their cut cells, sorted
     threads           int    0           host threads for the column walk on the CPU (0: all cores)
+    max_sweep_pixels  int    2^32        refuse a sweep drawing more ID-buffer pixels than this (two
+                                         passes x planes x (depth_res + 2) x width): the emulated sweep
+                                         grows as the cube of the image size (1024^2: 2.1e9 pixels,
+                                         3.5 min on 2 CPU cores; 4096^2: 1.4e11, hours)
     ================  =====  ==========  ==============================================================
     """
 
@@ -63,6 +67,8 @@ class VsbSweep(Stage):
         Param("audit", bool, True, "count ray/cell crossings the walk missed (missed_cells)"),
         Param("rewalk", bool, False, "integrate rays the audit flagged again from their sorted cut cells"),
         Param("threads", int, 0, "host threads for the column walk (0: all cores)", lo=0, hi=256),
+        Param("max_sweep_pixels", int, 1 << 32, "refuse a sweep drawing more ID-buffer pixels than this",
+              lo=1, hi=1 << 50),
     )
 
     def validate(self) -> None:
@@ -74,9 +80,21 @@ class VsbSweep(Stage):
             raise ConfigError(f"{self.where}.rewalk: needs audit = true (the audit finds the rays to walk again)")
 
     def run(self, ctx: Context) -> None:
+        from ...errors import ConfigError
+
         sc = ctx.scene
         cfg = dict(self.config)
         key = cfg.pop("table")
+        limit = cfg.pop("max_sweep_pixels")
+        cam = sc.camera
+        rows = cfg["depth_res"] or cam.height_px
+        work = 2 * cam.height_px * (rows + 2) * cam.width_px
+        if work > limit:
+            raise ConfigError(
+                f"{self.where}: a {cam.width_px}x{cam.height_px} image with depth_res {rows} sweeps {cam.height_px} "
+                f"planes of {rows + 2}x{cam.width_px} ID-buffer pixels, two passes each: {work:.3g} pixels, over "
+                f"max_sweep_pixels = {limit:.3g} (the emulated sweep grows as the cube of the image size; hours "
+                "on a CPU); lower the image size or depth_res, or raise max_sweep_pixels")
         table = ctx.buffers[key] if self.integration == "table" else None
         img, st = render_vsbuffer(ctx.buffers["vsb_cells"], sc.transfer, sc.camera, device=ctx.device,
                                   count=ctx.count, table=table,
