@@ -115,8 +115,9 @@ def edge_bias(ax: int, ay: int, bx: int, by: int, fill_bottom: int) -> int:
 def k_setup(pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i), width: int, height: int,
             tile_size: int, cull: int, front_ccw: int, snap_even: int, fill_bottom: int,
             vidx: wp.array(dtype=wp.vec3i), sx: wp.array(dtype=wp.vec3i), sy: wp.array(dtype=wp.vec3i),
-            bias: wp.array(dtype=wp.vec3i), bbox: wp.array(dtype=wp.vec4i), counts: wp.array(dtype=wp.int32)):
-    t = wp.tid()
+            bias: wp.array(dtype=wp.vec3i), bbox: wp.array(dtype=wp.vec4i), counts: wp.array(dtype=wp.int32),
+            t0: int):
+    t = t0 + wp.tid()  # a block of triangles from t0 (blocks may be launched concurrently)
     counts[t] = 0
     bbox[t] = wp.vec4i(0, 0, -1, -1)
     tri = tris[t]
@@ -189,8 +190,8 @@ def k_setup(pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=wp.vec3i), width:
 
 @wp.kernel
 def k_emit(bbox: wp.array(dtype=wp.vec4i), counts: wp.array(dtype=wp.int32), offsets: wp.array(dtype=wp.int32),
-           tile_size: int, tiles_x: int, keys: wp.array(dtype=wp.int32), vals: wp.array(dtype=wp.int32)):
-    t = wp.tid()
+           tile_size: int, tiles_x: int, keys: wp.array(dtype=wp.int32), vals: wp.array(dtype=wp.int32), t0: int):
+    t = t0 + wp.tid()
     if counts[t] == 0:
         return
     b = bbox[t]

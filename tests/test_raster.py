@@ -466,3 +466,21 @@ def test_vertex_stage_registered_and_runs():
     assert np.all((v.window[:, 2] >= 0) & (v.window[:, 2] <= 1))
     with pytest.raises(ConfigError, match=r"far: 1.0 must exceed near \(2.0\)"):
         get_stage_class("vertex")(near=2.0, far=1.0)
+
+
+def test_threaded_setup_is_the_same_setup():
+    """Rasterizer.setup(threads=2) (blocks of triangles set up and binned from two host threads) gives
+    the arrays of the one-thread set-up, bins in submission order included."""
+    rng = np.random.default_rng(5)
+    n = 6000
+    pos = np.concatenate([rng.uniform(-8, 72, (3 * n, 2)), np.full((3 * n, 1), 0.5), np.ones((3 * n, 1))], axis=1)
+    tris = np.arange(3 * n).reshape(n, 3)
+    r = Rasterizer(64, 48, tile_size=16)
+    a, b = r.setup(pos.astype(np.float32), tris), r.setup(pos.astype(np.float32), tris, threads=2)
+    for name in ("vidx", "sx", "sy", "bias", "bbox"):
+        assert np.array_equal(getattr(a, name).numpy(), getattr(b, name).numpy()), name
+    sa, sb = a.struct, b.struct
+    for name in ("tile_start", "tile_end"):
+        assert np.array_equal(getattr(sa, name).numpy(), getattr(sb, name).numpy()), name
+    assert a.bin_entries == b.bin_entries > n
+    assert np.array_equal(sa.tri_of.numpy()[:a.bin_entries], sb.tri_of.numpy()[:b.bin_entries])

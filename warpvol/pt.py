@@ -41,6 +41,9 @@ from .errors import ConfigError
 #: the blending unit), or ``fused`` (walk, program and blending in one kernel per bin; exact_program only)
 DRAW_WALKS = ("pixel", "triangle", "fused")
 
+#: bin size of the fused draw's rasteriser set-up (pixels)
+FUSED_TILE = 64
+
 #: rasteriser rules the decomposition snaps with and :func:`draw` rasterises with (they must agree)
 RASTER_RULES = {"snap_ties": "even", "depth_clip": False}
 
@@ -279,14 +282,15 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
     a8 = np.zeros((a.shape[0], 8), np.float32)  # one 8-wide load per vertex; unused columns 0
     a8[:, :a.shape[1]] = a
     va = wp.array(a8, dtype=pt_draw.vec8f, device=device)
-    rast = Rasterizer(fb.width, fb.height, device=device, **RASTER_RULES)
+    # 64-pixel bins: fewer bin entries per triangle than the default 16 (~5 % faster on Blunt Fin 512^2)
+    rast = Rasterizer(fb.width, fb.height, device=device, tile_size=FUSED_TILE, **RASTER_RULES)
     st = blend.state(fb)
     cpu = str(device).startswith("cpu")
     n_frag = n_clamped = n_batch = 0
     m = geo.n_tets
     for k0 in range(0, m, batch_tets):
         k1 = min(m, k0 + batch_tets)
-        tr = rast.setup(geo.positions, geo.tris[4 * k0:4 * k1])
+        tr = rast.setup(geo.positions, geo.tris[4 * k0:4 * k1], threads=threads if cpu else 1)
         n_batch += 1
         counts = wp.zeros(tr.n_tiles, dtype=wp.vec2i, device=device)
         # 8 blocks per thread: the mesh covers the tiles unevenly

@@ -73,6 +73,7 @@ import warp as wp
 
 from warpvol.errors import ConfigError, check_choice, check_number
 from warpvol.kernels import raster as kr
+from warpvol.parallel import blocks, launch_blocks
 
 from . import counters as _cnt
 
@@ -116,7 +117,7 @@ class Triangles:
     """Set-up and binned triangles, ready for the per-pixel kernels (made by :meth:`Rasterizer.setup`;
     ``binned=False``: set up only, for the per-triangle walk, which needs no tile lists)."""
 
-    def __init__(self, rast: "Rasterizer", positions: Any, tris: Any, binned: bool = True):
+    def __init__(self, rast: "Rasterizer", positions: Any, tris: Any, binned: bool = True, threads: int = 1):
         dev = rast.device
         self.positions = _as_vec4(positions, "positions", dev)
         self.tris = _as_tris(tris, self.positions.shape[0], dev)
@@ -132,12 +133,14 @@ class Triangles:
         self.bias = wp.zeros(max(t, 1), dtype=wp.vec3i, device=dev)
         self.bbox = wp.zeros(max(t, 1), dtype=wp.vec4i, device=dev)
         counts = wp.zeros(max(t, 1), dtype=wp.int32, device=dev)
+        # per-triangle kernels in blocks, concurrently from ``threads`` host threads on the CPU
+        tri_blocks = blocks(t, -(-t // threads)) if threads > 1 and t >= 4096 else [(0, t)]
         if t:
-            wp.launch(kr.k_setup, dim=t, inputs=[self.positions, self.tris, rast.width, rast.height, ts,
-                                                   CULL_MODES[rast.cull], 1 if rast.front_face == "ccw" else 0,
-                                                   int(rast.snap_ties == "even"), int(rast.fill_rule == "bottom_left"),
-                                                   self.vidx, self.sx, self.sy, self.bias, self.bbox, counts],
-                      device=dev)
+            setup = [self.positions, self.tris, rast.width, rast.height, ts, CULL_MODES[rast.cull],
+                     1 if rast.front_face == "ccw" else 0, int(rast.snap_ties == "even"),
+                     int(rast.fill_rule == "bottom_left"), self.vidx, self.sx, self.sy, self.bias, self.bbox, counts]
+            launch_blocks(dev, len(tri_blocks), lambda b: wp.launch(
+                kr.k_setup, dim=tri_blocks[b][1], inputs=[*setup, tri_blocks[b][0]], device=dev), threads)
         offsets = wp.zeros(max(t, 1), dtype=wp.int32, device=dev)
         total = 0
         if t and binned:
@@ -152,7 +155,9 @@ class Triangles:
         start = wp.zeros(n_tiles, dtype=wp.int32, device=dev)
         end = wp.zeros(n_tiles, dtype=wp.int32, device=dev)
         if total:
-            wp.launch(kr.k_emit, dim=t, inputs=[self.bbox, counts, offsets, ts, tiles_x, keys, vals], device=dev)
+            launch_blocks(dev, len(tri_blocks), lambda b: wp.launch(
+                kr.k_emit, dim=tri_blocks[b][1], inputs=[self.bbox, counts, offsets, ts, tiles_x, keys, vals,
+                                                         tri_blocks[b][0]], device=dev), threads)
             end_bit = max(1, int(n_tiles - 1).bit_length())
             wp.utils.radix_sort_pairs(keys, vals, total, 0, end_bit)
             wp.launch(kr.k_tile_ranges, dim=total, inputs=[keys, total, start, end], device=dev)
@@ -269,9 +274,10 @@ class Rasterizer:
     def shape(self) -> tuple[int, int]:
         return (self.height, self.width)
 
-    def setup(self, positions: Any, tris: Any) -> Triangles:
-        """Triangle setup + binning (reusable for several draws of the same geometry)."""
-        return Triangles(self, positions, tris)
+    def setup(self, positions: Any, tris: Any, threads: int = 1) -> Triangles:
+        """Triangle setup + binning (reusable for several draws of the same geometry); on the CPU
+        ``threads`` host threads set up blocks of triangles concurrently (same result)."""
+        return Triangles(self, positions, tris, threads=threads)
 
     def _tris(self, positions: Any, tris: Any, binned: bool = True) -> Triangles:
         if isinstance(positions, Triangles):
