@@ -146,8 +146,8 @@ def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal:
                tets: wp.array2d(dtype=wp.int32), order: wp.array(dtype=wp.int32), n_points: int, even: int,
                thick_pos: wp.array(dtype=wp.vec4), thick_attr: wp.array(dtype=wp.vec3),
                tris: wp.array(dtype=wp.vec3i), klass: wp.array(dtype=wp.int32), moved: wp.array(dtype=wp.int32),
-               thick_front: wp.array(dtype=wp.vec4), thick_back: wp.array(dtype=wp.vec4)):
-    k = wp.tid()
+               thick_front: wp.array(dtype=wp.vec4), thick_back: wp.array(dtype=wp.vec4), k0: int):
+    k = k0 + wp.tid()  # a block of tets from k0 (blocks may be launched concurrently)
     c = order[k]
     v = wp.vec4i(tets[c, 0], tets[c, 1], tets[c, 2], tets[c, 3])
     tv = n_points + k

@@ -186,19 +186,20 @@ def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
     win = wp.array(vertices.window.astype(np.float32), dtype=wp.vec4, device=device)
     eye = wp.array(vertices.eye.astype(np.float32), dtype=wp.vec4, device=device)
     scal = wp.array(mesh.scalars.astype(np.float32), dtype=wp.float32, device=device)
-    tp = wp.zeros(max(m, 1), dtype=wp.vec4, device=device)
-    ta = wp.zeros(max(m, 1), dtype=wp.vec3, device=device)
-    tris = wp.zeros(max(4 * m, 1), dtype=wp.vec3i, device=device)
-    klass = wp.zeros(max(m, 1), dtype=wp.int32, device=device)
-    moved = wp.zeros(max(m, 1), dtype=wp.int32, device=device)
-    tfront = wp.zeros(max(m, 1), dtype=wp.vec4, device=device)
-    tback = wp.zeros(max(m, 1), dtype=wp.vec4, device=device)
+    # k_classify writes every element of these for each of the m tets: no zero fill
+    tp, tfront, tback = (wp.empty(max(m, 1), dtype=wp.vec4, device=device) for _ in range(3))
+    ta = wp.empty(max(m, 1), dtype=wp.vec3, device=device)
+    tris = wp.empty(max(4 * m, 1), dtype=wp.vec3i, device=device)
+    klass, moved = (wp.empty(max(m, 1), dtype=wp.int32, device=device) for _ in range(2))
     if m:
-        wp.launch(kpt.k_classify, dim=m,
-                  inputs=[win, eye, scal, wp.array(mesh.tets.astype(np.int32), dtype=wp.int32, device=device),
-                          wp.array(order, dtype=wp.int32, device=device), v, even, tp, ta, tris, klass, moved,
-                          tfront, tback],
-                  device=device)
+        from .parallel import blocks, cpu_threads, launch_blocks
+
+        args = [win, eye, scal, wp.array(mesh.tets.astype(np.int32), dtype=wp.int32, device=device),
+                wp.array(order, dtype=wp.int32, device=device), v, even, tp, ta, tris, klass, moved, tfront, tback]
+        th = cpu_threads() if str(device).startswith("cpu") and m >= 8192 else 1  # blocks of tets, concurrently
+        tb = blocks(m, -(-m // th))
+        launch_blocks(device, len(tb), lambda b: wp.launch(kpt.k_classify, dim=tb[b][1], inputs=[*args, tb[b][0]],
+                                                           device=device), th)
     snapped = wp.zeros(max(v, 1), dtype=wp.vec4, device=device)
     wp.launch(kpt.k_snap_positions, dim=v, inputs=[win, even, snapped], device=device)
     pos = np.concatenate([snapped.numpy()[:v], tp.numpy()[:m]])

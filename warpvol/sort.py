@@ -190,12 +190,20 @@ def mpvo_order(mesh, camera, nonconvex: bool | None = None, metric: str = "dista
     ``exact_rays``, XMPVO order."""
     if nonconvex is None:
         nonconvex = not mesh.is_convex
-    dirs = face_directions(mesh, camera)
-    key = centroid_keys(mesh, camera, metric)
     extra, info = None, {}
-    if exact_rays:
-        src, dst, nfrag = boundary_ray_constraints(mesh, camera)
+    if exact_rays:  # the boundary rays on a second host thread while this one decides the faces
+        from concurrent.futures import ThreadPoolExecutor
+
+        _ = (mesh.boundary_faces, mesh.adjacency)  # derived data built once, before the threads share the mesh
+        with ThreadPoolExecutor(max_workers=1) as pool:
+            rays = pool.submit(boundary_ray_constraints, mesh, camera)
+            dirs = face_directions(mesh, camera)
+            key = centroid_keys(mesh, camera, metric)
+            src, dst, nfrag = rays.result()
         extra, info = (src, dst), {"boundary_fragments": nfrag, "ray_constraints": len(src)}
+    else:
+        dirs = face_directions(mesh, camera)
+        key = centroid_keys(mesh, camera, metric)
     order, cycles = topological_order(mesh, dirs, key, extra)
     method = "xmpvo" if exact_rays else "mpvonc" if nonconvex else "mpvo"
     notes = []

@@ -127,10 +127,12 @@ class Triangles:
         tiles_x = -(-rast.width // ts)
         tiles_y = -(-rast.height // ts)
         n_tiles = tiles_x * tiles_y
-        self.vidx = wp.zeros(max(t, 1), dtype=wp.vec3i, device=dev)
-        self.sx = wp.zeros(max(t, 1), dtype=wp.vec3i, device=dev)
-        self.sy = wp.zeros(max(t, 1), dtype=wp.vec3i, device=dev)
-        self.bias = wp.zeros(max(t, 1), dtype=wp.vec3i, device=dev)
+        # k_setup writes bbox and counts of every triangle; vidx, sx, sy and bias only of those it keeps
+        # (non-empty bbox), the only ones any kernel reads them for: no zero fill
+        self.vidx = wp.empty(max(t, 1), dtype=wp.vec3i, device=dev)
+        self.sx = wp.empty(max(t, 1), dtype=wp.vec3i, device=dev)
+        self.sy = wp.empty(max(t, 1), dtype=wp.vec3i, device=dev)
+        self.bias = wp.empty(max(t, 1), dtype=wp.vec3i, device=dev)
         self.bbox = wp.zeros(max(t, 1), dtype=wp.vec4i, device=dev)
         counts = wp.zeros(max(t, 1), dtype=wp.int32, device=dev)
         # per-triangle kernels in blocks, concurrently from ``threads`` host threads on the CPU
