@@ -8,7 +8,9 @@ are drawn after ``c``; XMPVO's constraints between boundary faces along pixel ra
 (the farthest) goes next: for convex meshes any choice gives Williams' MPVO order; for non-convex
 meshes the depth priority is the MPVONC heuristic. When the queue runs empty while cells remain, the
 graph has a cycle: the farthest remaining cell (``by_key`` lists cells by decreasing key) is emitted
-anyway and the break is counted in ``stats[0]``.
+anyway and the break is counted in ``stats[0]``. With ``fifo`` the ready cells leave in the order they
+became ready (a queue, O(1) per cell): for an exact order (MPVO on a convex mesh, XMPVO) any
+topological order draws the same image, so the depth priority is only needed by MPVONC.
 """
 
 import warp as wp
@@ -67,26 +69,42 @@ def heap_pop(heap: wp.array(dtype=wp.int32), size: int, key: wp.array(dtype=wp.f
     return n
 
 
+@wp.func
+def ready_push(heap: wp.array(dtype=wp.int32), head: int, size: int, key: wp.array(dtype=wp.float64), v: int,
+               fifo: int) -> int:
+    """Add a ready cell: to the priority heap, or (``fifo``) to the tail of the queue ``heap[head:head+size]``."""
+    if fifo != 0:
+        heap[head + size] = v
+        return size + 1
+    return heap_push(heap, size, key, v)
+
+
 @wp.kernel
 def k_priority_topo(adj: wp.array2d(dtype=wp.int32), dirs: wp.array2d(dtype=wp.int32),
                     extra_off: wp.array(dtype=wp.int32), extra_dst: wp.array(dtype=wp.int32),
                     key: wp.array(dtype=wp.float64), by_key: wp.array(dtype=wp.int32),
                     indeg: wp.array(dtype=wp.int32), heap: wp.array(dtype=wp.int32),
                     done: wp.array(dtype=wp.int32), order: wp.array(dtype=wp.int32),
-                    stats: wp.array(dtype=wp.int32)):
+                    stats: wp.array(dtype=wp.int32), fifo: int):
     n = key.shape[0]
     size = int(0)
+    head = int(0)  # fifo: the queue is heap[head:head+size] (each cell enters it at most once)
     for v in range(n):
         if indeg[v] == 0:
-            size = heap_push(heap, size, key, v)
+            size = ready_push(heap, head, size, key, v, fifo)
     out = int(0)
     cursor = int(0)
     cycles = int(0)
     while out < n:
         v = int(-1)
         if size > 0:
-            v = heap[0]
-            size = heap_pop(heap, size, key)
+            if fifo != 0:
+                v = heap[head]
+                head += 1
+                size -= 1
+            else:
+                v = heap[0]
+                size = heap_pop(heap, size, key)
         else:
             while done[by_key[cursor]] != 0:
                 cursor += 1
@@ -101,12 +119,12 @@ def k_priority_topo(adj: wp.array2d(dtype=wp.int32), dirs: wp.array2d(dtype=wp.i
                     b = adj[v, f]
                     indeg[b] = indeg[b] - 1
                     if indeg[b] == 0 and done[b] == 0:
-                        size = heap_push(heap, size, key, b)
+                        size = ready_push(heap, head, size, key, b, fifo)
             for e in range(extra_off[v], extra_off[v + 1]):
                 b = extra_dst[e]
                 indeg[b] = indeg[b] - 1
                 if indeg[b] == 0 and done[b] == 0:
-                    size = heap_push(heap, size, key, b)
+                    size = ready_push(heap, head, size, key, b, fifo)
     stats[0] = cycles
 
 

@@ -119,9 +119,11 @@ def face_directions(mesh, camera) -> np.ndarray:
 
 
 def topological_order(mesh, dirs: np.ndarray, key: np.ndarray,
-                      extra: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, int]:
+                      extra: tuple[np.ndarray, np.ndarray] | None = None, priority: bool = True) -> tuple[np.ndarray, int]:
     """Priority topological sort of the face graph (one Warp thread on the CPU) with optional extra
-    edges ``extra = (src, dst)`` (``src`` drawn before ``dst``); returns ``(order, cycles_broken)``."""
+    edges ``extra = (src, dst)`` (``src`` drawn before ``dst``); returns ``(order, cycles_broken)``.
+    ``priority=False``: ready cells in the order they became ready (a queue; for exact orders, where
+    any topological order draws the same image); cycles are broken at the farthest cell either way."""
     import warp as wp
 
     from .kernels import sort as ks
@@ -143,7 +145,8 @@ def topological_order(mesh, dirs: np.ndarray, key: np.ndarray,
                       wp.array(np.append(dst[o], 0).astype(np.int32), dtype=wp.int32, device=dev),
                       wp.array(key.astype(np.float64), dtype=wp.float64, device=dev),
                       wp.array(by_key, dtype=wp.int32, device=dev), wp.array(indeg, dtype=wp.int32, device=dev),
-                      wp.zeros(m, dtype=wp.int32, device=dev), wp.zeros(m, dtype=wp.int32, device=dev), order, stats],
+                      wp.zeros(m, dtype=wp.int32, device=dev), wp.zeros(m, dtype=wp.int32, device=dev), order, stats,
+                      0 if priority else 1],
               device=dev)
     return order.numpy(), int(stats.numpy()[0])
 
@@ -204,7 +207,8 @@ def mpvo_order(mesh, camera, nonconvex: bool | None = None, metric: str = "dista
     else:
         dirs = face_directions(mesh, camera)
         key = centroid_keys(mesh, camera, metric)
-    order, cycles = topological_order(mesh, dirs, key, extra)
+    # MPVONC needs its depth priority; MPVO (convex) and XMPVO orders are exact: a queue is enough
+    order, cycles = topological_order(mesh, dirs, key, extra, priority=nonconvex and not exact_rays)
     method = "xmpvo" if exact_rays else "mpvonc" if nonconvex else "mpvo"
     notes = []
     if cycles:
