@@ -8,7 +8,9 @@ are drawn after ``c``; XMPVO's constraints between boundary faces along pixel ra
 (the farthest) goes next: for convex meshes any choice gives Williams' MPVO order; for non-convex
 meshes the depth priority is the MPVONC heuristic. When the queue runs empty while cells remain, the
 graph has a cycle: the farthest remaining cell (``by_key`` lists cells by decreasing key) is emitted
-anyway and the break is counted in ``stats[0]``. With ``fifo`` the ready cells leave in the order they
+anyway and the break is counted in ``stats[0]``; given no ``by_key`` (fewer entries than cells) the
+kernel stops there with ``stats[1] = 1`` (the host sorts the keys and runs it again: most meshes
+have no cycle and never pay that sort). With ``fifo`` the ready cells leave in the order they
 became ready (a queue, O(1) per cell): for an exact order (MPVO on a convex mesh, XMPVO) any
 topological order draws the same image, so the depth priority is only needed by MPVONC.
 """
@@ -106,6 +108,9 @@ def k_priority_topo(adj: wp.array2d(dtype=wp.int32), dirs: wp.array2d(dtype=wp.i
                 v = heap[0]
                 size = heap_pop(heap, size, key)
         else:
+            if by_key.shape[0] < n:  # a cycle, and no cells by key given: report it, the host runs again
+                stats[1] = 1
+                return
             while done[by_key[cursor]] != 0:
                 cursor += 1
             v = by_key[cursor]

@@ -280,9 +280,9 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
     a = np.asarray(vertex_attrs, dtype=np.float32)
     if a.ndim != 2 or a.shape[1] > 8:
         raise ConfigError(f"vertex attributes: the fused draw takes (V, A <= 8), got shape {a.shape}")
-    a8 = np.zeros((a.shape[0], 8), np.float32)  # one 8-wide load per vertex; unused columns 0
-    a8[:, :a.shape[1]] = a
-    va = wp.array(a8, dtype=pt_draw.vec8f, device=device)
+    if a.shape[1] < 8:  # one 8-wide load per vertex; unused columns 0
+        a = np.concatenate([a, np.zeros((a.shape[0], 8 - a.shape[1]), np.float32)], axis=1)
+    va = wp.array(np.ascontiguousarray(a), dtype=pt_draw.vec8f, device=device)
     # 64-pixel bins: fewer bin entries per triangle than the default 16 (~5 % faster on Blunt Fin 512^2)
     rast = Rasterizer(fb.width, fb.height, device=device, tile_size=FUSED_TILE, **RASTER_RULES)
     st = blend.state(fb)

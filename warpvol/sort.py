@@ -136,19 +136,24 @@ def topological_order(mesh, dirs: np.ndarray, key: np.ndarray,
     o = np.argsort(src, kind="stable")
     off = np.zeros(m + 1, np.int32)
     np.cumsum(np.bincount(src, minlength=m), out=off[1:])
-    by_key = np.argsort(-key, kind="stable").astype(np.int32)
-    order = wp.zeros(m, dtype=wp.int32, device=dev)
-    stats = wp.zeros(2, dtype=wp.int32, device=dev)
-    wp.launch(ks.k_priority_topo, dim=1,
-              inputs=[wp.array(mesh.adjacency, dtype=wp.int32, device=dev), wp.array(dirs, dtype=wp.int32, device=dev),
-                      wp.array(off, dtype=wp.int32, device=dev),
-                      wp.array(np.append(dst[o], 0).astype(np.int32), dtype=wp.int32, device=dev),
-                      wp.array(key.astype(np.float64), dtype=wp.float64, device=dev),
-                      wp.array(by_key, dtype=wp.int32, device=dev), wp.array(indeg, dtype=wp.int32, device=dev),
-                      wp.zeros(m, dtype=wp.int32, device=dev), wp.zeros(m, dtype=wp.int32, device=dev), order, stats,
-                      0 if priority else 1],
-              device=dev)
-    return order.numpy(), int(stats.numpy()[0])
+    graph = [wp.array(mesh.adjacency, dtype=wp.int32, device=dev), wp.array(dirs, dtype=wp.int32, device=dev),
+             wp.array(off, dtype=wp.int32, device=dev),
+             wp.array(np.append(dst[o], 0).astype(np.int32), dtype=wp.int32, device=dev),
+             wp.array(key.astype(np.float64), dtype=wp.float64, device=dev)]
+    by_key = np.zeros(1, np.int32)  # cells by key: only to break a cycle, sorted when the first run meets one
+    for _ in range(2):
+        order = wp.zeros(m, dtype=wp.int32, device=dev)
+        stats = wp.zeros(2, dtype=wp.int32, device=dev)
+        wp.launch(ks.k_priority_topo, dim=1,
+                  inputs=[*graph, wp.array(by_key, dtype=wp.int32, device=dev), wp.array(indeg, dtype=wp.int32, device=dev),
+                          wp.zeros(m, dtype=wp.int32, device=dev), wp.zeros(m, dtype=wp.int32, device=dev), order, stats,
+                          0 if priority else 1],
+                  device=dev)
+        st = stats.numpy()
+        if not st[1]:
+            break
+        by_key = np.argsort(-key, kind="stable").astype(np.int32)
+    return order.numpy(), int(st[0])
 
 
 def boundary_ray_constraints(mesh, camera, device: str = "cpu") -> tuple[np.ndarray, np.ndarray, int]:
