@@ -30,7 +30,7 @@ import warp as wp
 
 from .blend import BlendState, blend
 from .pt import CLAMP_ABS, CLAMP_REL, PERSP_EXACT, PERSP_OFF, exact_color, vec8f
-from .raster import TriSetup, edge_step_i, edge_step_j, edges_at, inside, tile_rect
+from .raster import TriSetup, edge_step_i, edge_step_j, edges_at, inside, tile_rect, tile_span
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -105,11 +105,11 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
     rect = tile_rect(s, tile, fb.shape[1], fb.shape[0])
     for e in range(s.tile_start[tile], s.tile_end[tile]):
         t = s.tri_of[e]
-        b = s.bbox[t]
-        j0 = wp.max(b[0], rect[0])
-        j1 = wp.min(b[2], rect[2])
-        i0 = wp.max(b[1], rect[1])
-        i1 = wp.min(b[3], rect[3])
+        span = tile_span(s, t, rect)
+        j0 = span[0]
+        i0 = span[1]
+        j1 = span[2]
+        i1 = span[3]
         if j0 > j1 or i0 > i1:
             continue
         v = s.vidx[t]

@@ -272,6 +272,14 @@ def tile_rect(s: TriSetup, tile: int, width: int, height: int) -> wp.vec4i:
 
 
 @wp.func
+def tile_span(s: TriSetup, t: int, rect: wp.vec4i) -> wp.vec4i:
+    """Triangle ``t``'s bounding box clipped to a tile's pixel range ``rect`` (:func:`tile_rect`):
+    (j0, i0, j1, i1), empty when j0 > j1 or i0 > i1."""
+    b = s.bbox[t]
+    return wp.vec4i(wp.max(b[0], rect[0]), wp.max(b[1], rect[1]), wp.min(b[2], rect[2]), wp.min(b[3], rect[3]))
+
+
+@wp.func
 def covers(x: wp.vec3i, y: wp.vec3i, bi: wp.vec3i, j: int, i: int) -> bool:
     """The edge-function test of :func:`coverage` for a set-up triangle's snapped vertices ``x``, ``y``
     and fill-rule ``bias`` at pixel (row i, column j) inside its bounding box."""
@@ -626,11 +634,11 @@ def k_draw_colors_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.arra
     rect = tile_rect(s, tile, fb.shape[1], fb.shape[0])
     for e in range(s.tile_start[tile], s.tile_end[tile]):
         t = s.tri_of[e]
-        b = s.bbox[t]
-        j0 = wp.max(b[0], rect[0])
-        j1 = wp.min(b[2], rect[2])
-        i0 = wp.max(b[1], rect[1])
-        i1 = wp.min(b[3], rect[3])
+        span = tile_span(s, t, rect)
+        j0 = span[0]
+        i0 = span[1]
+        j1 = span[2]
+        i1 = span[3]
         v = s.vidx[t]
         pa = pos[v[0]]
         pb = pos[v[1]]
