@@ -74,3 +74,15 @@ def test_a_crash_or_nan_is_a_failed_row_and_the_exit_status_says_so(monkeypatch,
 def test_unknown_case_is_an_error(capsys):
     assert main(["stress", "--cases", "nope"]) == 2
     assert "unknown stress case 'nope'" in capsys.readouterr().err
+
+
+def test_stage_warnings_reach_the_stress_table():
+    """A pipeline that flags its own losses in a stage's stats (the faithful VSBUFFER on a 1x1 image:
+    one depth row misses the cells) has the warning in its stress row, not an empty note."""
+    from warpvol.pipeline import Pipeline
+    from warpvol.stress import build_case, run_case
+
+    rows = run_case(build_case("image_1x1", quick=True), [Pipeline.load("westermann1997")])
+    row = rows[-1]
+    assert row["status"] == "ok" and row["rmse"] > 0.1
+    assert "vsbuffer:" in row["message"] and "missed" in row["message"]

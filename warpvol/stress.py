@@ -209,6 +209,15 @@ def build_case(name: str, quick: bool = False) -> Case:
 
 
 # ------------------------------------------------------------------------------------------------
+def report_warnings(report: dict) -> list[str]:
+    """The warnings of a render report: ``stats.warning`` and each stage section's (``stats.KEY.warning``,
+    prefixed with the key), so a pipeline that flags its own losses says so in the stress table."""
+    stats = report.get("stats", {}) or {}
+    out = [str(stats["warning"])] if stats.get("warning") else []
+    out += [f"{k}: {v['warning']}" for k, v in stats.items() if isinstance(v, dict) and v.get("warning")]
+    return out
+
+
 def run_case(case: Case, pipes: list[Any], device: str = "cpu") -> list[dict]:
     """Rows for one case: the reference's row, then one per pipeline (never raises, but for Ctrl-C)."""
     from .metrics import image_error
@@ -246,8 +255,7 @@ def run_case(case: Case, pipes: list[Any], device: str = "cpu") -> list[dict]:
             if ref is not None and row["finite"]:
                 e = image_error(res.image, ref)
                 row.update(rmse=e["rmse"], max_abs=e["max_abs"])
-            notes = [str(res.report.get("stats", {}).get("warning", ""))] if res.report.get("stats", {}).get("warning") else []
-            row["message"] = "; ".join(notes) if row["finite"] else "non-finite pixels"
+            row["message"] = "; ".join(report_warnings(res.report)) if row["finite"] else "non-finite pixels"
         except KeyboardInterrupt:
             raise
         except WarpvolError as e:
