@@ -109,6 +109,39 @@ def _label(r: dict) -> str:
     return " ".join([str(r["pipeline"])] + extra)
 
 
+def _place_labels(fig, ax, pts: list[tuple], fontsize: float = 7.0) -> None:
+    """Annotate ``(x, y, label, on_front)`` points without overlapping labels: each label (front points
+    first) takes the first vertical offset, alternately above and below its point, whose box (in
+    display points, from the laid-out axes) meets no label placed before it; a label moved away from
+    its point gets a thin leader line."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    FigureCanvasAgg(fig).draw()  # lay out: axis limits and the data -> display transform
+    scale = fig.dpi / 72.0
+    ax0, ay0, ax1, ay1 = (v / scale for v in ax.get_window_extent().extents)
+    placed: list[tuple[float, float, float, float]] = []
+    offsets = [4.0] + [sgn * 11.0 * k for k in range(1, 12) for sgn in (1.0, -1.0)]
+    for x, y, text, _ in sorted(pts, key=lambda p: not p[3]):
+        px, py = (v / scale for v in ax.transData.transform((x, y)))
+        w, h = 0.62 * fontsize * len(text), 1.3 * fontsize
+        choice = None
+        for dy in offsets:
+            for dx in (4.0, -4.0 - w):  # right of the point, else left of it
+                box = (px + dx, py + dy, px + dx + w, py + dy + h)
+                inside = box[0] >= ax0 and box[2] <= ax1 and box[1] >= ay0 and box[3] <= ay1
+                if inside and not any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3] and b[1] < box[3]
+                                      for b in placed):
+                    choice = (dx, dy, box)
+                    break
+            if choice:
+                break
+        dx, dy, box = choice or (4.0, 4.0, (px + 4.0, py + 4.0, px + 4.0 + w, py + 4.0 + h))
+        placed.append(box)
+        far = abs(dy) > 5.0 or dx < 0
+        ax.annotate(text, (x, y), textcoords="offset points", xytext=(dx, dy), fontsize=fontsize,
+                    va="bottom", arrowprops=dict(arrowstyle="-", lw=0.4, color="0.5") if far else None)
+
+
 def pareto_png(rows: list[dict], title: str = "error against run time", tk: str = "total_s") -> bytes:
     """Log-log PNG of RMSE against median run time (``tk="modelled_s"``: modelled GPU time); the
     Pareto front is joined and red."""
@@ -121,17 +154,16 @@ def pareto_png(rows: list[dict], title: str = "error against run time", tk: str 
     fig = Figure(figsize=(6.4, 4.4), layout="constrained")
     ax = fig.subplots()
     for r in pts:
-        y = max(r["rmse"], floor)
-        ax.scatter([r[tk]], [y], s=40, color="tab:red" if r.get(flag) else "tab:blue", zorder=3)
-        ax.annotate(_label(r), (r[tk], y), textcoords="offset points", xytext=(4, 4), fontsize=7)
+        ax.scatter([r[tk]], [max(r["rmse"], floor)], s=40, color="tab:red" if r.get(flag) else "tab:blue", zorder=3)
+    if pts:
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        _place_labels(fig, ax, [(r[tk], max(r["rmse"], floor), _label(r), bool(r.get(flag))) for r in pts])
     front = sorted((r[tk], max(r["rmse"], floor)) for r in pts if r.get(flag))
     if front:
         ax.plot(*zip(*front), color="tab:red", lw=1.2, label="Pareto front", drawstyle="steps-post")
         ax.legend(fontsize=8)
-    if pts:
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-    else:
+    if not pts:
         ax.text(0.5, 0.5, "no pipeline rendered", ha="center", transform=ax.transAxes)
     ax.set_xlabel("median run time [s] (emulated)" if tk == "total_s" else "modelled GPU time [s]")
     ax.set_ylabel("RMSE against the exact reference")

@@ -73,6 +73,7 @@ import warp as wp
 
 from warpvol.errors import ConfigError, check_choice, check_number
 from warpvol.kernels import raster as kr
+from warpvol.kernels import raster_draw as krd
 from warpvol.parallel import blocks, launch_blocks
 
 from . import counters as _cnt
@@ -305,7 +306,7 @@ class Rasterizer:
         counts = wp.zeros(npx, dtype=wp.int32, device=dev)
         f1 = wp.zeros(1, dtype=wp.float32, device=dev)
         a1 = wp.zeros((1, 1), dtype=wp.float32, device=dev)
-        wp.launch(kr.k_fragments, dim=self.shape,
+        wp.launch(krd.k_fragments, dim=self.shape,
                   inputs=[tr.struct, tr.positions, tr.tris, a1, wp.zeros(1, dtype=wp.int32, device=dev), 0,
                           wp.zeros(self.shape, dtype=wp.float32, device=dev), DEPTH_FUNCS["always"], 0,
                           int(self.depth_clip), 0, counts,
@@ -370,7 +371,7 @@ class Rasterizer:
         empty_f = wp.zeros(1, dtype=wp.float32, device=dev)
         empty_a = wp.zeros((1, max(na, 1)), dtype=wp.float32, device=dev)
         d0 = wp.clone(dbuf)  # the counting pass must not change the depth buffer
-        wp.launch(kr.k_fragments, dim=self.shape,
+        wp.launch(krd.k_fragments, dim=self.shape,
                   inputs=[tr.struct, tr.positions, tr.tris, a_w, m_w, na, d0, *self._dflags(), 0, counts, offsets,
                           empty_i, empty_f, empty_a], device=dev)
         wp.utils.array_scan(counts, offsets[:npx], inclusive=False)
@@ -383,7 +384,7 @@ class Rasterizer:
         prim = wp.zeros(max(total, 1), dtype=wp.int32, device=dev)
         fdepth = wp.zeros(max(total, 1), dtype=wp.float32, device=dev)
         fattr = wp.zeros((max(total, 1), max(na, 1)), dtype=wp.float32, device=dev)
-        wp.launch(kr.k_fragments, dim=self.shape,
+        wp.launch(krd.k_fragments, dim=self.shape,
                   inputs=[tr.struct, tr.positions, tr.tris, a_w, m_w, na, dbuf, *self._dflags(), 1, counts, offsets,
                           prim, fdepth, fattr], device=dev)
         return Fragments(self.shape, total, offsets, prim, fdepth, fattr)
@@ -402,7 +403,7 @@ class Rasterizer:
         walk = [tr.struct, tr.positions, self.width, int(self.depth_clip)]
         total = 0
         if tr.count:
-            wp.launch(kr.k_tri_walk, dim=tr.count, inputs=[*walk, 0, toff, tcounts, pcounts, one, one], device=dev)
+            wp.launch(krd.k_tri_walk, dim=tr.count, inputs=[*walk, 0, toff, tcounts, pcounts, one, one], device=dev)
             wp.utils.array_scan(tcounts, toff, inclusive=False)
             total = int(toff[t - 1:t].numpy()[0] + tcounts[t - 1:t].numpy()[0])
         # every element below is written before it is read (the sort's second halves are its scratch)
@@ -412,9 +413,9 @@ class Rasterizer:
         fdepth = wp.empty(max(total, 1), dtype=wp.float32, device=dev)
         fattr = wp.empty((max(total, 1), max(na, 1)), dtype=wp.float32, device=dev)
         if total:
-            wp.launch(kr.k_tri_walk, dim=tr.count, inputs=[*walk, 1, toff, tcounts, pcounts, keys, vals], device=dev)
+            wp.launch(krd.k_tri_walk, dim=tr.count, inputs=[*walk, 1, toff, tcounts, pcounts, keys, vals], device=dev)
             wp.utils.radix_sort_pairs(keys, vals, total, 0, max(1, int(npx - 1).bit_length()))
-            wp.launch(kr.k_tri_fragments, dim=total,
+            wp.launch(krd.k_tri_fragments, dim=total,
                       inputs=[tr.struct, tr.positions, tr.tris, a_w, m_w, na, self.width, keys, vals, prim, fdepth,
                               fattr], device=dev)
         wp.utils.array_scan(pcounts, offsets[:npx], inclusive=False)
@@ -444,7 +445,7 @@ class Rasterizer:
         mode = INTERPOLATIONS[check_choice("interpolation", interpolation, INTERPOLATIONS)]
         dbuf = fb.depth if depth is None else self._depth(depth)
         per_tile = self.traversal == "tile" or (self.traversal == "auto" and wp.get_device(self.device).is_cpu)
-        kern, dim = (kr.k_draw_colors_tiles, tr.n_tiles) if per_tile else (kr.k_draw_colors, self.shape)
+        kern, dim = (krd.k_draw_colors_tiles, tr.n_tiles) if per_tile else (krd.k_draw_colors, self.shape)
         flag, slots = self._count_slots(dim if per_tile else self.width * self.height)
         wp.launch(kern, dim=dim,
                   inputs=[tr.struct, tr.positions, tr.tris, wp.array(c, dtype=wp.vec4, device=self.device), mode,
@@ -469,7 +470,7 @@ class Rasterizer:
             id_buffer = wp.full(self.shape, int(clear_id), dtype=wp.int32, device=self.device)
         dbuf = self._depth(depth)
         flag, slots = self._count_slots(self.width * self.height)
-        wp.launch(kr.k_draw_ids, dim=self.shape,
+        wp.launch(krd.k_draw_ids, dim=self.shape,
                   inputs=[tr.struct, tr.positions,
                           wp.array(ids_np.astype(np.int32) if ids_np.size else np.zeros(1, np.int32),
                                    dtype=wp.int32, device=self.device),
@@ -506,7 +507,7 @@ def draw_textured_quads(fb, blend, texture, corners: Any, modulate: Sequence[flo
     >>> int(fb.codes()[0, 0, 0])                              # 418 -> 793 -> 1130 (12-bit rounding)
     1130
     """
-    from warpvol.kernels import raster as _kr
+    from warpvol.kernels import raster_draw as _krd
 
     from .blend import FrameBuffer
     from .texture import Texture1D
@@ -530,6 +531,6 @@ def draw_textured_quads(fb, blend, texture, corners: Any, modulate: Sequence[flo
         cnt.add(vertices=4 * n, primitives=2 * n, fragments=n * npx, fragments_passed=n * npx)
         texture.count(n * npx, cnt)
         blend.count(fb, n * npx, cnt)
-    wp.launch(_kr.k_draw_quads_1d, dim=fb.shape,
+    wp.launch(_krd.k_draw_quads_1d, dim=fb.shape,
               inputs=[st, fb.array, texture.struct, wp.array(c, dtype=wp.vec4, device=fb.device),
                       wp.vec4(*map(float, m)), int(prim0)], device=fb.device)
