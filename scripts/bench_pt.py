@@ -11,7 +11,7 @@ points, colour and extinction (scalar opacity unit distance 1), as in ``scripts/
 
 ``--variant PRESET:STAGE.PARAM=VALUE`` (repeatable) adds a preset with one stage parameter replaced to the
 same interleaved rounds, e.g. ``pt_best:pt_integrate.walk=pixel`` (pt_best on the emulated per-pixel
-fragment walk) for an A/B against ``pt_best`` (its per-triangle walk).
+fragment walk) for an A/B against ``pt_best`` (its fused draw, ``walk = "fused"``).
 
 Usage::
 
