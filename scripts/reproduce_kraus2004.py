@@ -10,7 +10,8 @@
 * the artifact study as images and RMSE against the exact reference: perspective vs linear
   interpolation (iso-surface-like TF peak, Fig. 8), 8-bit vs HILO table (Fig. 7a/c), 8-bit vs float
   buffer vs dithering (Figs. 7b, 9), uniform vs logarithmic thickness axis on the extreme edge-ratio
-  mesh (builtin ``stiff``, longest/shortest edge 6e4; Fig. 10).
+  mesh (builtin ``stiff``, longest/shortest edge 6e4) with its smooth TF and with an iso-surface-like
+  TF peak (Fig. 10 is an iso-surface).
 
 Modelled times: the counted work of the timed render on the GPU profile (``warpvol.model``; the
 fp16 colour buffer is not modelled on the Quadro FX 3000, which cannot blend into it: Kraus et al.
@@ -243,9 +244,26 @@ def artifacts(a):
            ("fp16 buffer", kraus_config(perspective=True, hilo=True, log=True, buffer="fp16", n_s=n_s, n_l=n_l))])
     stiff = builtin_scene("stiff").with_camera(width_px=a.small, height_px=a.small)
     print(f"  (stiff: longest / shortest edge = {stiff.mesh.edge_ratio:.3g})")
-    study("uniform vs logarithmic thickness axis (Fig. 10)", stiff,
-          [("uniform axis", kraus_config(perspective=True, hilo=True, buffer="fp32", n_s=n_s, n_l=n_l)),
-           ("logarithmic axis", kraus_config(perspective=True, hilo=True, log=True, buffer="fp32", n_s=n_s, n_l=n_l))])
+    axes = [("uniform axis", kraus_config(perspective=True, hilo=True, buffer="fp32", n_s=n_s, n_l=n_l)),
+            ("logarithmic axis", kraus_config(perspective=True, hilo=True, log=True, buffer="fp32", n_s=n_s, n_l=n_l))]
+    study("uniform vs logarithmic thickness axis, the scene's smooth TF", stiff, axes)
+    study("uniform vs logarithmic thickness axis, iso-surface-like TF (Fig. 10: an iso-surface of X38 pressure)",
+          iso_surface_scene(stiff), axes)
+
+
+def iso_surface_scene(sc, rho: float = 500.0, width: float = 0.02):
+    """``sc`` with an iso-surface-like TF: extinction ``rho`` in a peak of half-width ``width`` of the
+    scalar range at its middle, none elsewhere (Kraus Fig. 10 renders an iso-surface; a uniform
+    thickness axis then under-samples the thin cells, whose alpha saturates within its first slice)."""
+    import dataclasses
+
+    from warpvol.transfer import TransferFunction
+
+    lo, hi = sc.mesh.scalar_range
+    m, w = 0.5 * (lo + hi), width * (hi - lo)
+    tf = TransferFunction([[lo, 0.2, 0.3, 0.8, 0.0], [m - w, 0.2, 0.3, 0.8, 0.0], [m, 1.0, 0.8, 0.3, rho],
+                           [m + w, 0.2, 0.3, 0.8, 0.0], [hi, 0.2, 0.3, 0.8, 0.0]])
+    return dataclasses.replace(sc, transfer=tf, name=f"{sc.name}_iso")
 
 
 def main(argv=None) -> int:
