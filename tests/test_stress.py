@@ -86,3 +86,45 @@ def test_stage_warnings_reach_the_stress_table():
     row = rows[-1]
     assert row["status"] == "ok" and row["rmse"] > 0.1
     assert "vsbuffer:" in row["message"] and "missed" in row["message"]
+
+
+def test_stress_saves_each_case_and_resumes(tmp_path):
+    """-o saves every case's rows as it finishes (cases/NAME.json); --resume reuses them (the same
+    rows, not run again) and runs the missing ones; a resume with other pipelines is an error naming
+    both; an interrupted suite (Ctrl-C after its first case) keeps the finished case and says how to go on."""
+    import json
+    import signal
+    import subprocess
+    import sys
+
+    from warpvol.cli import main
+
+    args = ["stress", "--quick", "--quiet", "--pipelines", "raycast", "pt_best", "--cases", "one_tet", "image_1x1",
+            "-o", str(tmp_path)]
+    assert main(args) == 0
+    cases = tmp_path / "cases"
+    assert sorted(f.name for f in cases.iterdir()) == ["image_1x1.json", "one_tet.json"]
+    first = json.loads((cases / "one_tet.json").read_text())["rows"]
+    (cases / "image_1x1.json").unlink()
+    assert main(args + ["--resume"]) == 0
+    rows = json.loads((tmp_path / "stress.json").read_text())["rows"]
+    assert [r for r in rows if r["case"] == "one_tet"] == first  # reused, times included
+    assert {r["case"] for r in rows} == {"one_tet", "image_1x1"} and (cases / "image_1x1.json").exists()
+    assert main(["stress", "--quick", "--quiet", "--pipelines", "raycast", "--cases", "one_tet", "-o", str(tmp_path),
+                 "--resume"]) == 2
+    # Ctrl-C after the first case (the second, full-size 622,938-tet grid, takes seconds to build and to
+    # compute its reference before any render)
+    d2 = tmp_path / "ctrl_c"
+    p = subprocess.Popen([sys.executable, "-m", "warpvol.cli", "stress", "--pipelines", "raycast",
+                          "--cases", "one_tet", "many_tets", "-o", str(d2)], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+    seen = []
+    for line in p.stderr:
+        seen.append(line)
+        if "1/2" in line and "one_tet" in line:
+            break
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 130, seen + [err]
+    assert "--resume" in err and (d2 / "cases" / "one_tet.json").exists()
+    assert not (d2 / "cases" / "many_tets.json").exists() and not (d2 / "stress.json").exists()

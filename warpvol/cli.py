@@ -343,9 +343,28 @@ def cmd_stress(args) -> int:
     from .report_html import table_csv
     from .stress import run_stress, stress_markdown, stress_matrix, stress_page
 
+    from .bench import resolve_pipelines
+    from .stress import CASE_DIR, case_store
+
+    if args.resume and not args.output:
+        raise ConfigError("--resume: needs -o, the folder of the run to resume")
     outdir = _outdir(args.output) if args.output else None
-    rows = run_stress(quick=args.quick, cases=args.cases, pipelines=args.pipelines, device=args.device,
-                      quiet=args.quiet)
+    saved, save = {}, None
+    if outdir is not None:  # each case's rows are saved as it finishes: an interrupted suite loses nothing
+        if not args.resume:
+            for f in (outdir / CASE_DIR).glob("*.json"):
+                f.unlink()
+        saved, save = case_store(outdir, args.quick, resolve_pipelines(args.pipelines))
+        if saved and not args.quiet:
+            print(f"warpvol: stress: resuming, {len(saved)} case(s) read from {outdir / CASE_DIR}", file=sys.stderr)
+    try:
+        rows = run_stress(quick=args.quick, cases=args.cases, pipelines=args.pipelines, device=args.device,
+                          quiet=args.quiet, done=saved, on_case=save)
+    except KeyboardInterrupt:
+        if outdir is not None:
+            print(f"warpvol: stress: the finished cases are saved in {outdir / CASE_DIR}; run the same command "
+                  "with --resume to go on", file=sys.stderr)
+        raise
     md = stress_markdown(rows) + "\n\n" + stress_matrix(rows)
     if outdir is not None:
         with Outputs() as out:
@@ -462,7 +481,10 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--quick", action="store_true", help="the same cases at reduced sizes (CI)")
     st.add_argument("--cases", nargs="+", help="case names (default: all; see warpvol.stress.CASES)")
     st.add_argument("--pipelines", nargs="+", default=["all"], help="'all' (every preset) or names/files")
-    st.add_argument("-o", "--output", help="folder for stress.json / .csv / .md / .html")
+    st.add_argument("-o", "--output", help="folder for stress.json / .csv / .md / .html (and cases/: each case's rows "
+                    "saved as it finishes)")
+    st.add_argument("--resume", action="store_true", help="reuse the cases already saved in -o's cases/ (an "
+                    "interrupted run; same --quick and pipelines) and run the rest")
     common(st)
     st.set_defaults(func=cmd_stress)
 

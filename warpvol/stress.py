@@ -269,9 +269,12 @@ def run_case(case: Case, pipes: list[Any], device: str = "cpu") -> list[dict]:
 
 
 def run_stress(quick: bool = False, cases: list[str] | None = None, pipelines: Any = "all", device: str = "cpu",
-               quiet: bool = True) -> list[dict]:
+               quiet: bool = True, done: dict[str, list[dict]] | None = None,
+               on_case: Callable[[str, list[dict]], None] | None = None) -> list[dict]:
     """Every case x every pipeline; a case that cannot even be built is a failed row. ``quick``: the
-    reduced sizes of each case and :func:`warpvol.bench.quick_pipeline`."""
+    reduced sizes of each case and :func:`warpvol.bench.quick_pipeline`. ``done``: rows of cases
+    already run (a resumed suite: they are not run again); ``on_case(name, rows)`` is called after
+    each case that runs (e.g. to save it at once)."""
     from .bench import Progress, load_pipelines
 
     names = cases or case_names()
@@ -281,7 +284,13 @@ def run_stress(quick: bool = False, cases: list[str] | None = None, pipelines: A
     pipes = load_pipelines(pipelines, device, quick=quick)
     prog = Progress(len(names), "stress" + (" --quick" if quick else ""), enabled=not quiet)
     rows: list[dict] = []
+    done = done or {}
     for n in names:
+        if n in done:
+            rows += done[n]
+            prog.step(f"{n}: saved rows reused")
+            continue
+        start = len(rows)
         try:
             case = build_case(n, quick)
         except KeyboardInterrupt:
@@ -292,9 +301,43 @@ def run_stress(quick: bool = False, cases: list[str] | None = None, pipelines: A
             prog.step(f"{n}: failed")
             continue
         rows += run_case(case, pipes, device)
+        if on_case is not None:
+            on_case(n, rows[start:])
         prog.step(n)
     prog.close()
     return rows
+
+
+CASE_DIR = "cases"  # per-case rows under the output folder, written as each case finishes
+
+
+def case_store(outdir, quick: bool, pipelines: list[str]):
+    """``(saved, save)`` for ``outdir/cases``: the rows of the cases saved there by an earlier run with
+    the same ``quick`` flag and pipeline names (a different run's files are an error naming the
+    difference), and a function saving one case's rows."""
+    import json
+    from pathlib import Path
+
+    from .errors import ConfigError
+    from .pipeline import report_json
+
+    d = Path(outdir) / CASE_DIR
+    key = {"quick": bool(quick), "pipelines": sorted(pipelines)}
+    saved: dict[str, list[dict]] = {}
+    for f in sorted(d.glob("*.json")) if d.is_dir() else []:
+        rec = json.loads(f.read_text())
+        if {k: rec.get(k) for k in key} != key:
+            raise ConfigError(f"--resume: {f} is from a run with quick={rec.get('quick')} and pipelines "
+                              f"{rec.get('pipelines')}, this one has quick={key['quick']} and {key['pipelines']}")
+        saved[rec["case"]] = rec["rows"]
+
+    def save(name: str, rows: list[dict]) -> None:
+        d.mkdir(parents=True, exist_ok=True)
+        tmp = d / f".{name}.json.tmp"
+        tmp.write_text(report_json({**key, "case": name, "rows": rows}))
+        tmp.replace(d / f"{name}.json")  # whole or absent: an interrupted write leaves no half file
+
+    return saved, save
 
 
 STRESS_HEAD = ("case", "pipeline", "status", "finite", "time [s]", "RMSE", "max abs", "note")
