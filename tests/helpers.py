@@ -35,3 +35,29 @@ def merge(*meshes, name="merged"):
 
 def scene(mesh, tf, camera, name="test"):
     return SimpleNamespace(mesh=mesh, transfer=tf, camera=camera, name=name)
+
+
+def restore_sigint() -> None:
+    """``preexec_fn`` of a child process that must see Ctrl-C: a suite started in the background of a
+    non-interactive shell inherits SIGINT ignored, and Python then installs no KeyboardInterrupt
+    handler; the default disposition brings it back."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+class python_sigint:
+    """Context manager: Python's KeyboardInterrupt handler for SIGINT in this process (see
+    :func:`restore_sigint`), the previous handler restored after."""
+
+    def __enter__(self):
+        import signal
+
+        self.old = signal.signal(signal.SIGINT, signal.default_int_handler)
+        return self
+
+    def __exit__(self, *exc):
+        import signal
+
+        signal.signal(signal.SIGINT, self.old)
+        return False

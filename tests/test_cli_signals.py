@@ -9,6 +9,7 @@ import time
 
 import pytest
 
+from helpers import python_sigint, restore_sigint
 from warpvol.parallel import launch_blocks
 
 
@@ -22,7 +23,7 @@ def test_ctrl_c_cancels_the_queued_blocks():
             signal.pthread_kill(main, signal.SIGINT)  # Ctrl-C while the main thread waits on the pool
         time.sleep(0.01)
 
-    with pytest.raises(KeyboardInterrupt):
+    with python_sigint(), pytest.raises(KeyboardInterrupt):
         launch_blocks("cpu", 200, launch, threads=2)
     n = len(started)
     time.sleep(0.05)
@@ -32,7 +33,7 @@ def test_ctrl_c_cancels_the_queued_blocks():
 
 def _cli(*args, **kw):
     return subprocess.Popen([sys.executable, "-m", "warpvol.cli", *args], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, **kw)
+                            stderr=subprocess.PIPE, text=True, preexec_fn=restore_sigint, **kw)
 
 
 def test_ctrl_c_during_a_render_prints_one_line_and_exits_130(tmp_path):

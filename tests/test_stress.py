@@ -97,6 +97,7 @@ def test_stress_saves_each_case_and_resumes(tmp_path):
     import subprocess
     import sys
 
+    from helpers import restore_sigint
     from warpvol.cli import main
 
     args = ["stress", "--quick", "--quiet", "--pipelines", "raycast", "pt_best", "--cases", "one_tet", "image_1x1",
@@ -117,7 +118,7 @@ def test_stress_saves_each_case_and_resumes(tmp_path):
     d2 = tmp_path / "ctrl_c"
     p = subprocess.Popen([sys.executable, "-m", "warpvol.cli", "stress", "--pipelines", "raycast",
                           "--cases", "one_tet", "many_tets", "-o", str(d2)], stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True)
+                         stderr=subprocess.PIPE, text=True, preexec_fn=restore_sigint)
     seen = []
     for line in p.stderr:
         seen.append(line)

@@ -57,3 +57,12 @@ def row_blocks(n_rows: int, n_jobs: int, threads: int, device: str) -> list[tupl
     want = 4 * threads
     per = max(1, -(-want // max(1, n_jobs)))
     return blocks(n_rows, -(-n_rows // min(per, n_rows)))
+
+
+def preload(device: str, *modules) -> None:
+    """Compile and load Warp ``modules`` for ``device`` on the calling thread, before host threads
+    launch their kernels (a module's first launch compiles it; two threads would each compile it)."""
+    import warp as wp
+
+    for m in modules:
+        wp.load_module(m, device=device)

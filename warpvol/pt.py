@@ -192,8 +192,9 @@ def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
     tris = wp.empty(max(4 * m, 1), dtype=wp.vec3i, device=device)
     klass, moved = (wp.empty(max(m, 1), dtype=wp.int32, device=device) for _ in range(2))
     if m:
-        from .parallel import blocks, cpu_threads, launch_blocks
+        from .parallel import blocks, cpu_threads, launch_blocks, preload
 
+        preload(device, kpt)
         args = [win, eye, scal, wp.array(mesh.tets.astype(np.int32), dtype=wp.int32, device=device),
                 wp.array(order, dtype=wp.int32, device=device), v, even, tp, ta, tris, klass, moved, tfront, tback]
         th = cpu_threads() if str(device).startswith("cpu") and m >= 8192 else 1  # blocks of tets, concurrently
@@ -275,7 +276,10 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
     from .gpu import counters as cnt
     from .gpu.raster import Rasterizer
     from .kernels import pt_draw
-    from .parallel import blocks, launch_blocks
+    from .kernels import raster as kraster
+    from .parallel import blocks, launch_blocks, preload
+
+    preload(device, pt_draw, kraster)
 
     a = np.asarray(vertex_attrs, dtype=np.float32)
     if a.ndim != 2 or a.shape[1] > 8:

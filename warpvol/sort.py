@@ -202,7 +202,11 @@ def mpvo_order(mesh, camera, nonconvex: bool | None = None, metric: str = "dista
     if exact_rays:  # the boundary rays on a second host thread while this one decides the faces
         from concurrent.futures import ThreadPoolExecutor
 
+        from .kernels import raster, raster_draw, sort, vertex
+        from .parallel import preload
+
         _ = (mesh.boundary_faces, mesh.adjacency)  # derived data built once, before the threads share the mesh
+        preload("cpu", raster, raster_draw, sort, vertex)  # each thread's kernels compiled here, not concurrently
         with ThreadPoolExecutor(max_workers=1) as pool:
             rays = pool.submit(boundary_ray_constraints, mesh, camera)
             dirs = face_directions(mesh, camera)

@@ -74,7 +74,7 @@ import warp as wp
 from warpvol.errors import ConfigError, check_choice, check_number
 from warpvol.kernels import raster as kr
 from warpvol.kernels import raster_draw as krd
-from warpvol.parallel import blocks, launch_blocks
+from warpvol.parallel import blocks, launch_blocks, preload
 
 from . import counters as _cnt
 
@@ -138,6 +138,8 @@ class Triangles:
         counts = wp.zeros(max(t, 1), dtype=wp.int32, device=dev)
         # per-triangle kernels in blocks, concurrently from ``threads`` host threads on the CPU
         tri_blocks = blocks(t, -(-t // threads)) if threads > 1 and t >= 4096 else [(0, t)]
+        if len(tri_blocks) > 1:
+            preload(dev, kr)
         if t:
             setup = [self.positions, self.tris, rast.width, rast.height, ts, CULL_MODES[rast.cull],
                      1 if rast.front_face == "ccw" else 0, int(rast.snap_ties == "even"),
