@@ -214,3 +214,27 @@ def test_modelled_times_have_their_own_pareto_front(tmp_path):
     write_bench(BenchResult(describe_scene(scene), rows, ref, 0.0, False, {}, "somegpu"), tmp_path)
     assert (tmp_path / "pareto_modelled.svg").read_text().count("(Pareto front)") == 2
     assert "modelled_s.raycast" in (tmp_path / "table.csv").read_text()
+
+
+def test_bench_saves_each_pipeline_and_resumes(tmp_path):
+    """-o saves each pipeline's row and image as it finishes (pipelines/KEY.json + .npy); --resume
+    reuses them (the same row: not run again) and runs the missing ones, the page and table whole; a
+    resume with other settings (--repeats) is an error naming the difference."""
+    import json
+
+    from warpvol.cli import main
+
+    args = ["bench", "builtin:box", "--width", "12", "--height", "10", "--repeats", "1", "--quiet", "--no-audit",
+            "--pipelines", "raycast", "pt_best", "-o", str(tmp_path)]
+    assert main(args) == 0
+    d = tmp_path / "pipelines"
+    assert sorted(f.name for f in d.iterdir()) == ["pt_best.json", "pt_best.npy", "raycast.json", "raycast.npy"]
+    first = json.loads((d / "raycast.json").read_text())["row"]
+    (d / "pt_best.json").unlink()
+    assert main(args + ["--resume"]) == 0
+    rows = {r["pipeline"]: r for r in json.loads((tmp_path / "table.json").read_text())["rows"]}
+    assert rows["raycast"]["total_s"] == first["total_s"] and rows["raycast"]["first_s"] == first["first_s"]
+    assert rows["pt_best"]["status"] == "ok" and (d / "pt_best.json").exists()
+    assert "raycast" in (tmp_path / "index.html").read_text()  # the reused image is on the page
+    bad = [a if a != "1" else "2" for a in args] + ["--resume"]
+    assert main(bad) == 2

@@ -371,9 +371,12 @@ FRONTS = {"total_s": "pareto", "modelled_s": "pareto_modelled"}
 
 def run_bench(scene: Any, pipelines: Any = "all", *, repeats: int = 3, gpu: str | None = None,
               cache_dir: str | Path | None = None, audit: bool = True, device: str = "cpu",
-              quiet: bool = False, quick: bool = False) -> BenchResult:
+              quiet: bool = False, quick: bool = False, done: dict | None = None,
+              on_row: Callable[[str, dict, np.ndarray | None], None] | None = None) -> BenchResult:
     """Bench ``scene`` with each pipeline (see the module docstring); failures become rows.
-    ``quick``: table resolutions capped (:func:`quick_pipeline`), noted in the result."""
+    ``quick``: table resolutions capped (:func:`quick_pipeline`), noted in the result. ``done``:
+    ``{key: (row, image)}`` of pipelines already benched (a resumed run: not run again);
+    ``on_row(key, row, image)`` is called after each pipeline that runs (e.g. to save it at once)."""
     pipes = load_pipelines(pipelines, device, quick=quick)  # unknown names fail before any work
     check_gpu(gpu)
     notes = [] if gpu is None else ([gpu_support(gpu)] if gpu_support(gpu) else [])
@@ -383,10 +386,18 @@ def run_bench(scene: Any, pipelines: Any = "all", *, repeats: int = 3, gpu: str 
     ref, ref_s, hit = cached_reference(scene, cache_dir, quiet=True)
     prog.step("reference (cached)" if hit else f"reference {ref_s:.2f} s")
     rows, images = [], {}
+    done = done or {}
     for pipe in pipes:
         key, n = pipe.name, 2
         while key in images or any(r["pipeline"] == key for r in rows):
             key, n = f"{pipe.name}#{n}", n + 1
+        if key in done:
+            row, img = done[key]
+            rows.append(dict(row))
+            if img is not None:
+                images[key] = img
+            prog.step(f"{key}: saved row reused", 2 + repeats)
+            continue
         try:
             row = bench_pipeline(pipe, scene, ref, repeats=repeats, gpu=gpu, audit=audit, device=device,
                                  on_step=lambda m, k=key: prog.step(f"{k}: {m}", 0))
@@ -397,10 +408,50 @@ def run_bench(scene: Any, pipelines: Any = "all", *, repeats: int = 3, gpu: str 
             row = {"pipeline": key, "status": "failed", "message": f"{type(e).__name__}: {e}"}
         row["pipeline"] = key
         rows.append(row)
+        if on_row is not None:
+            on_row(key, row, images.get(key))
         prog.step(f"{key}: {row['status']}", 2 + repeats)
     prog.close()
     mark_pareto(rows)
     return BenchResult(describe_scene(scene), rows, ref, ref_s, hit, images, gpu, notes)
+
+
+ROW_DIR = "pipelines"  # per-pipeline rows and images under the output folder, written as each finishes
+
+
+def row_store(outdir: str | Path, scene: Any, *, repeats: int, gpu: str | None, quick: bool, audit: bool):
+    """``(saved, save)`` for ``outdir/pipelines``: the rows and images saved there by an earlier bench of
+    the same scene (content hash) with the same settings (another run's files are an error naming the
+    difference), and a function saving one pipeline's row and image (each file whole or absent)."""
+    import json
+
+    from .pipeline import report_json
+
+    d = Path(outdir) / ROW_DIR
+    key = {"scene": scene_hash(scene), "repeats": int(repeats), "gpu": gpu, "quick": bool(quick), "audit": bool(audit)}
+    saved: dict[str, tuple[dict, np.ndarray | None]] = {}
+    for f in sorted(d.glob("*.json")) if d.is_dir() else []:
+        rec = json.loads(f.read_text())
+        diff = [k for k in key if rec.get(k) != key[k]]
+        if diff:
+            raise ConfigError(f"--resume: {f} is from another bench ({', '.join(f'{k} {rec.get(k)!r}' for k in diff)}; "
+                              f"this one: {', '.join(f'{k} {key[k]!r}' for k in diff)})")
+        img = f.with_suffix(".npy")
+        saved[rec["key"]] = (rec["row"], np.load(img) if img.is_file() else None)
+
+    def save(name: str, row: dict, image: np.ndarray | None) -> None:
+        d.mkdir(parents=True, exist_ok=True)
+        stem = name.replace("/", "_").replace("#", "_")
+        if image is not None:
+            tmp = d / f".{stem}.npy.tmp"
+            with open(tmp, "wb") as fh:
+                np.save(fh, np.asarray(image, np.float32))
+            tmp.replace(d / f"{stem}.npy")
+        tmp = d / f".{stem}.json.tmp"
+        tmp.write_text(report_json({**key, "key": name, "row": row}))
+        tmp.replace(d / f"{stem}.json")  # the row last: a saved row always has its image
+
+    return saved, save
 
 
 def write_bench(result: BenchResult, outdir: str | Path, *, plan: dict | None = None) -> list[Path]:

@@ -299,8 +299,24 @@ def cmd_bench(args) -> int:
     outdir = _outdir(args.output)
     if args.gpu and gpu_support(args.gpu):
         print(f"warpvol: {gpu_support(args.gpu)}", file=sys.stderr)
-    res = run_bench(scene, names, repeats=args.repeats, gpu=args.gpu, device=args.device, quiet=args.quiet,
-                    cache_dir=args.cache_dir or outdir / "reference-cache", audit=not args.no_audit, quick=args.quick)
+    from .bench import ROW_DIR, row_store
+
+    if not args.resume:
+        for f in [*(outdir / ROW_DIR).glob("*.json"), *(outdir / ROW_DIR).glob("*.npy")]:
+            f.unlink()
+    # each pipeline's row and image are saved as it finishes: an interrupted bench loses nothing
+    saved, save = row_store(outdir, scene, repeats=args.repeats, gpu=args.gpu, quick=args.quick,
+                            audit=not args.no_audit)
+    if saved and not args.quiet:
+        print(f"warpvol: bench: resuming, {len(saved)} pipeline(s) read from {outdir / ROW_DIR}", file=sys.stderr)
+    try:
+        res = run_bench(scene, names, repeats=args.repeats, gpu=args.gpu, device=args.device, quiet=args.quiet,
+                        cache_dir=args.cache_dir or outdir / "reference-cache", audit=not args.no_audit,
+                        quick=args.quick, done=saved, on_row=save)
+    except KeyboardInterrupt:
+        print(f"warpvol: bench: the finished pipelines are saved in {outdir / ROW_DIR}; run the same command with "
+              "--resume to go on", file=sys.stderr)
+        raise
     write_bench(res, outdir, plan={n: p.plan(scene) for n, p in plan_pipes.items()})
     print(table_markdown(res.rows))
     print(f"wrote {outdir}/index.html, table.csv, table.json, table.md, pareto.png, pareto.svg")
@@ -467,6 +483,8 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--cache-dir", help="reference cache folder (default OUTDIR/reference-cache)")
     b.add_argument("--no-audit", action="store_true", help="skip the planner audit (forced-stage renders)")
     b.add_argument("--quick", action="store_true", help="cap pre-integration table resolutions (as stress --quick)")
+    b.add_argument("--resume", action="store_true", help="reuse the pipelines already saved in -o's pipelines/ (an "
+                   "interrupted bench of the same scene and settings) and run the rest")
     scene_args(b)
     b.set_defaults(func=cmd_bench)
 
