@@ -238,3 +238,24 @@ def test_bench_saves_each_pipeline_and_resumes(tmp_path):
     assert "raycast" in (tmp_path / "index.html").read_text()  # the reused image is on the page
     bad = [a if a != "1" else "2" for a in args] + ["--resume"]
     assert main(bad) == 2
+
+
+def test_plot_labels_do_not_overlap():
+    """label_offsets on a crowded cluster (17 labels within a few points of each other, as the table
+    presets sit on the Blunt Fin plot): no two label boxes overlap, none leaves the plot area, none
+    covers a marker."""
+    import itertools
+
+    from warpvol.report_html import label_offsets
+
+    rng = np.random.default_rng(3)
+    pts = [(300 + rng.uniform(-15, 15), 200 + rng.uniform(-10, 10), 60 + 5 * k % 40, 12.0) for k in range(17)]
+    area = (0.0, 0.0, 640.0, 420.0)
+    offs = label_offsets(pts, area, step=12.0, gap=7.0, marker=6.0)
+    boxes = [(x + dx, y + dy, x + dx + w, y + dy + h) for (x, y, w, h), (dx, dy) in zip(pts, offs)]
+    for a, b in itertools.combinations(boxes, 2):
+        assert not (a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]), (a, b)
+    for b in boxes:
+        assert area[0] <= b[0] and b[2] <= area[2] and area[1] <= b[1] and b[3] <= area[3]
+        for x, y, _, _ in pts:
+            assert not (b[0] < x + 6 and x - 6 < b[2] and b[1] < y + 6 and y - 6 < b[3])

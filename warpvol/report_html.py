@@ -109,34 +109,49 @@ def _label(r: dict) -> str:
     return " ".join([str(r["pipeline"])] + extra)
 
 
-def _place_labels(fig, ax, pts: list[tuple], fontsize: float = 7.0) -> None:
-    """Annotate ``(x, y, label, on_front)`` points without overlapping labels: each label (front points
-    first) takes the first vertical offset, alternately above and below its point, whose box (in
-    display points, from the laid-out axes) meets no label placed before it; a label moved away from
-    its point gets a thin leader line."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    FigureCanvasAgg(fig).draw()  # lay out: axis limits and the data -> display transform
-    scale = fig.dpi / 72.0
-    ax0, ay0, ax1, ay1 = (v / scale for v in ax.get_window_extent().extents)
-    placed: list[tuple[float, float, float, float]] = []
-    offsets = [4.0] + [sgn * 11.0 * k for k in range(1, 12) for sgn in (1.0, -1.0)]
-    for x, y, text, _ in sorted(pts, key=lambda p: not p[3]):
-        px, py = (v / scale for v in ax.transData.transform((x, y)))
-        w, h = 0.62 * fontsize * len(text), 1.3 * fontsize
+def label_offsets(points: list[tuple[float, float, float, float]], area: tuple[float, float, float, float],
+                  step: float = 11.0, gap: float = 4.0, marker: float = 0.0) -> list[tuple[float, float]]:
+    """Offsets ``(dx, dy)`` placing a ``w x h`` label by each point ``(x, y, w, h)`` (in the order given:
+    the first ones get the best places) so that no two labels overlap and each stays inside ``area``
+    ``(x0, y0, x1, y1)``: the first free place of right of the point, then left of it, at vertical offsets
+    ``gap``, then +-``step``, +-2 ``step``, ... (any y direction: the boxes are compared, not drawn);
+    a label with no free place keeps ``(gap, gap)``. ``marker``: half-size of the points' markers, which
+    labels keep clear of too."""
+    placed = [(x - marker, y - marker, x + marker, y + marker) for x, y, _, _ in points] if marker else []
+    out = []
+    tries = [gap] + [sgn * step * k for k in range(1, 12) for sgn in (1.0, -1.0)]
+    for x, y, w, h in points:
         choice = None
-        for dy in offsets:
-            for dx in (4.0, -4.0 - w):  # right of the point, else left of it
-                box = (px + dx, py + dy, px + dx + w, py + dy + h)
-                inside = box[0] >= ax0 and box[2] <= ax1 and box[1] >= ay0 and box[3] <= ay1
+        for dy in tries:
+            for dx in (gap, -gap - w):  # right of the point, else left of it
+                box = (x + dx, y + dy, x + dx + w, y + dy + h)
+                inside = box[0] >= area[0] and box[2] <= area[2] and box[1] >= area[1] and box[3] <= area[3]
                 if inside and not any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3] and b[1] < box[3]
                                       for b in placed):
                     choice = (dx, dy, box)
                     break
             if choice:
                 break
-        dx, dy, box = choice or (4.0, 4.0, (px + 4.0, py + 4.0, px + 4.0 + w, py + 4.0 + h))
+        dx, dy, box = choice or (gap, gap, (x + gap, y + gap, x + gap + w, y + gap + h))
         placed.append(box)
+        out.append((dx, dy))
+    return out
+
+
+def _place_labels(fig, ax, pts: list[tuple], fontsize: float = 7.0) -> None:
+    """Annotate ``(x, y, label, on_front)`` points with :func:`label_offsets` (front points first, in
+    display points of the laid-out axes); a label moved away from its point gets a thin leader line."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    FigureCanvasAgg(fig).draw()  # lay out: axis limits and the data -> display transform
+    scale = fig.dpi / 72.0
+    area = tuple(v / scale for v in ax.get_window_extent().extents)
+    pts = sorted(pts, key=lambda p: not p[3])
+    boxes = []
+    for x, y, text, _ in pts:
+        px, py = (v / scale for v in ax.transData.transform((x, y)))
+        boxes.append((px, py, 0.62 * fontsize * len(text), 1.3 * fontsize))
+    for (x, y, text, _), (dx, dy) in zip(pts, label_offsets(boxes, area, marker=3.0)):
         far = abs(dy) > 5.0 or dx < 0
         ax.annotate(text, (x, y), textcoords="offset points", xytext=(dx, dy), fontsize=fontsize,
                     va="bottom", arrowprops=dict(arrowstyle="-", lw=0.4, color="0.5") if far else None)
@@ -211,13 +226,21 @@ def pareto_svg(rows: list[dict], width: int = 640, height: int = 420, tk: str = 
     if len(front) > 1:
         path = " ".join(f"{a:.1f},{b:.1f}" for a, b in front)
         parts.append(f'<polyline points="{path}" fill="none" stroke="#c0392b" stroke-width="1.5"/>')
-    for x, y, r in zip(xs, ys, pts):
+    order = sorted(range(len(pts)), key=lambda k: not pts[k].get(flag))  # front labels placed first
+    # label boxes in SVG units (y down) from the point: text of 11 px, ~6.2 px per character, 12 px high
+    offs = dict(zip(order, label_offsets([(px(xs[k]), py(ys[k]), 6.2 * len(_label(pts[k])), 12.0) for k in order],
+                                         (ml, mt, width - mr, height - mb), step=12.0, gap=7.0, marker=6.0)))
+    for k, (x, y, r) in enumerate(zip(xs, ys, pts)):
         tip = (f"{_label(r)}: {r[tk]:.4g} s, RMSE {r['rmse']:.3e}, max {_fmt(r.get('max_abs'))}, "
                f"PSNR {_fmt(r.get('psnr'))}" + (" (Pareto front)" if r.get(flag) else ""))
         colour = "#c0392b" if r.get(flag) else "#2e6fb0"
-        parts.append(f'<g class="pt"><circle cx="{px(x):.1f}" cy="{py(y):.1f}" r="6" fill="{colour}">'
+        dx, dy = offs[k]
+        tx, ty = px(x) + dx, py(y) + dy + 10.0  # text baseline
+        lead = (f'<line x1="{px(x):.1f}" y1="{py(y):.1f}" x2="{tx + (0 if dx > 0 else 6.2 * len(_label(r))):.1f}" '
+                f'y2="{ty - 4:.1f}" stroke="#999" stroke-width="0.5"/>') if abs(dy) > 7.5 or dx < 0 else ""
+        parts.append(f'<g class="pt">{lead}<circle cx="{px(x):.1f}" cy="{py(y):.1f}" r="6" fill="{colour}">'
                      f'<title>{html.escape(tip)}</title></circle>'
-                     f'<text x="{px(x) + 8:.1f}" y="{py(y) - 6:.1f}">{html.escape(_label(r))}</text></g>')
+                     f'<text x="{tx:.1f}" y="{ty:.1f}">{html.escape(_label(r))}</text></g>')
     return "".join(parts) + "</svg>\n"
 
 
