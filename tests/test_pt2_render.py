@@ -126,6 +126,8 @@ def test_row_bands_give_the_same_image(fmt, walk):
     assert np.array_equal(one.image, three.image)
     c1, c3 = one.report["counters"]["pt_integrate"], three.report["counters"]["pt_integrate"]
     assert c1["fragments"] == c3["fragments"] > 0
+    for k in ("primitives", "primitives_culled"):  # each triangle counted once, however many bands
+        assert c1[k] == c3[k] > 0, (k, c1[k], c3[k])
 
 
 @pytest.mark.parametrize("walk", ["triangle", "fused"])

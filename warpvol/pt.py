@@ -348,8 +348,17 @@ def _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands
     launch_blocks(device, len(rows), run)
     c = active()
     if c is not None:
-        for cb in counted:
+        for cb in counted:  # every band set up every triangle: the primitives are counted once, below
+            for k in ("primitives", "primitives_culled"):
+                cb.store.pop(k, None)
             c.merge(cb)
+        from .gpu.raster import Rasterizer
+
+        # the triangles the hardware would set up, and those it would cull (degenerate, behind the eye,
+        # outside the whole image): one set-up of the whole image counts them (binned=False: no bins)
+        whole = Rasterizer(fb.width, fb.height, device=device, **RASTER_RULES)
+        for k0 in range(0, geo.n_tets, batch_tets):
+            whole._tris(geo.positions, geo.tris[4 * k0:4 * min(geo.n_tets, k0 + batch_tets)], binned=False)
     fb.array.assign(wp.array(full, dtype=wp.vec4, device=device))
     out = {k: sum(i[k] for i in infos) for k in ("fragments", "attrs_clamped")}
     out.update(batches=infos[0]["batches"], bands=len(rows))
