@@ -156,6 +156,18 @@ def test_fast_walks_give_the_same_image(walk):
         assert cp["fragments"] > 0
 
 
+def test_fused_walk_with_the_approximate_thickness():
+    """The fused draw's Kraus division with ``pt_perspective.thickness = "approx"`` (|ze_b - ze_f|, no
+    ray factor) agrees with the fragment list's to float32 rounding."""
+    sc = scene("concave", 40)
+    cfg = {"pt_perspective": {"thickness": "approx"}}
+    px = render(preset("pt_best", pt_integrate={"walk": "pixel"}, **cfg), sc)
+    fused = render(preset("pt_best", **cfg), sc)
+    assert np.abs(px.image - fused.image).max() <= 1e-5
+    exact = render(preset("pt_best"), sc)
+    assert not np.array_equal(exact.image, fused.image)  # the approximation does change the image
+
+
 def test_fused_walk_dithers_per_pixel_and_primitive():
     """Alpha dithering (unorm8) through the fused draw: the pattern follows pixel and batch-local
     primitive, so host threads over tiles and the pixel walk's fragment list give the same codes but
