@@ -65,7 +65,7 @@ def test_a_crash_or_nan_is_a_failed_row_and_the_exit_status_says_so(monkeypatch,
     assert run_case(bad, [])[0]["status"] == "failed"
     import warpvol.stress as st
 
-    monkeypatch.setattr(st, "run_case", lambda c, pipes, device="cpu": [{"case": c.name, "pipeline": "x",
+    monkeypatch.setattr(st, "run_case", lambda c, pipes, device="cpu", on_step=None: [{"case": c.name, "pipeline": "x",
                         "status": "failed", "finite": None, "time_s": 0.0, "message": "boom"}])
     assert main(["stress", "--quick", "--quiet", "--cases", "one_tet"]) == 1
     assert "one_tet / x failed: boom" in capsys.readouterr().err

@@ -218,14 +218,18 @@ def report_warnings(report: dict) -> list[str]:
     return out
 
 
-def run_case(case: Case, pipes: list[Any], device: str = "cpu") -> list[dict]:
-    """Rows for one case: the reference's row, then one per pipeline (never raises, but for Ctrl-C)."""
+def run_case(case: Case, pipes: list[Any], device: str = "cpu",
+             on_step: Callable[[str], None] | None = None) -> list[dict]:
+    """Rows for one case: the reference's row, then one per pipeline (never raises, but for Ctrl-C).
+    ``on_step(what)`` is told what starts next (the reference, each pipeline): progress."""
+    step = on_step or (lambda _what: None)
     from .metrics import image_error
     from .reference import render_reference
 
     rows = []
     t0 = time.perf_counter()
     ref = None
+    step("reference")
     try:
         if case.analytic is not None:
             ref, kind = case.analytic(), "closed form"
@@ -245,6 +249,7 @@ def run_case(case: Case, pipes: list[Any], device: str = "cpu") -> list[dict]:
                      "time_s": time.perf_counter() - t0, "rmse": None, "max_abs": None,
                      "message": f"{type(e).__name__}: {e}"})
     for pipe in pipes:
+        step(pipe.name)
         row = {"case": case.name, "pipeline": pipe.name, "finite": None, "rmse": None, "max_abs": None, "message": ""}
         t0 = time.perf_counter()
         try:
@@ -300,7 +305,7 @@ def run_stress(quick: bool = False, cases: list[str] | None = None, pipelines: A
                          "rmse": None, "max_abs": None, "message": f"building the case: {type(e).__name__}: {e}"})
             prog.step(f"{n}: failed")
             continue
-        rows += run_case(case, pipes, device)
+        rows += run_case(case, pipes, device, on_step=lambda what, n=n: prog.step(f"{n}: {what}", 0))
         if on_case is not None:
             on_case(n, rows[start:])
         prog.step(n)
