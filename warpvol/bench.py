@@ -425,6 +425,7 @@ def row_store(outdir: str | Path, scene: Any, *, repeats: int, gpu: str | None, 
     difference), and a function saving one pipeline's row and image (each file whole or absent)."""
     import json
 
+    from .io import save_result
     from .pipeline import report_json
 
     d = Path(outdir) / ROW_DIR
@@ -440,16 +441,9 @@ def row_store(outdir: str | Path, scene: Any, *, repeats: int, gpu: str | None, 
         saved[rec["key"]] = (rec["row"], np.load(img) if img.is_file() else None)
 
     def save(name: str, row: dict, image: np.ndarray | None) -> None:
-        d.mkdir(parents=True, exist_ok=True)
         stem = name.replace("/", "_").replace("#", "_")
-        if image is not None:
-            tmp = d / f".{stem}.npy.tmp"
-            with open(tmp, "wb") as fh:
-                np.save(fh, np.asarray(image, np.float32))
-            tmp.replace(d / f"{stem}.npy")
-        tmp = d / f".{stem}.json.tmp"
-        tmp.write_text(report_json({**key, "key": name, "row": row}))
-        tmp.replace(d / f"{stem}.json")  # the row last: a saved row always has its image
+        save_result(d, stem, report_json({**key, "key": name, "row": row}),
+                    None if image is None else np.asarray(image, np.float32))
 
     return saved, save
 

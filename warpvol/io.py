@@ -144,6 +144,22 @@ def atomic_write_text(path: str | Path, text: str) -> None:
         out.text(path, text)
 
 
+def save_result(folder: str | Path, stem: str, record: str, image: np.ndarray | None = None) -> None:
+    """One finished unit of a long run (a sweep task, a bench pipeline, a stress case), whole or
+    absent: ``stem.npy`` (the image, if any) first, then the ``stem.json`` text ``record``, whose
+    presence marks the unit done; each file atomically, the folder created if missing."""
+    import io
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    if image is not None:
+        buf = io.BytesIO()
+        np.save(buf, np.asarray(image))
+        with Outputs() as out:
+            out.bytes(folder / f"{stem}.npy", buf.getvalue())
+    atomic_write_text(folder / f"{stem}.json", record)
+
+
 def _write_oiio(tmp: str, pixels: np.ndarray, fmt, shown: Path) -> None:
     import OpenImageIO as oiio
 

@@ -324,6 +324,7 @@ def case_store(outdir, quick: bool, pipelines: list[str]):
     from pathlib import Path
 
     from .errors import ConfigError
+    from .io import save_result
     from .pipeline import report_json
 
     d = Path(outdir) / CASE_DIR
@@ -337,10 +338,7 @@ def case_store(outdir, quick: bool, pipelines: list[str]):
         saved[rec["case"]] = rec["rows"]
 
     def save(name: str, rows: list[dict]) -> None:
-        d.mkdir(parents=True, exist_ok=True)
-        tmp = d / f".{name}.json.tmp"
-        tmp.write_text(report_json({**key, "case": name, "rows": rows}))
-        tmp.replace(d / f"{name}.json")  # whole or absent: an interrupted write leaves no half file
+        save_result(d, name, report_json({**key, "case": name, "rows": rows}))
 
     return saved, save
 

@@ -230,6 +230,7 @@ def reference_task(spec: str, view: tuple, cache_dir: str, kernel_cache_dir: str
 def run_task(task: Task, ref_path: str, outdir: str, kernel_cache_dir: str | None = None) -> dict:
     """Render one task (warm-up + repeats), store its row and image; a failure is a row, not an error."""
     from .bench import bench_pipeline
+    from .io import save_result
     from .pipeline import Pipeline, report_json
 
     _worker_setup(kernel_cache_dir)
@@ -244,13 +245,7 @@ def run_task(task: Task, ref_path: str, outdir: str, kernel_cache_dir: str | Non
     res.update(row)
     res["host"] = os.uname().nodename
     d = Path(outdir) / "tasks"
-    d.mkdir(parents=True, exist_ok=True)
-    tmp = d / f".{task.key}.{os.getpid()}.tmp"
-    with open(tmp, "wb") as fh:
-        np.save(fh, img)
-    tmp.replace(d / f"{task.key}.npy")
-    tmp.write_text(report_json(res))
-    tmp.replace(d / f"{task.key}.json")  # the row is the task's "done" mark: written last
+    save_result(d, task.key, report_json(res), img)  # the row is the task's "done" mark: written last
     return json.loads((d / f"{task.key}.json").read_text())
 
 
