@@ -288,6 +288,12 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
         a = np.concatenate([a, np.zeros((a.shape[0], 8 - a.shape[1]), np.float32)], axis=1)
     va = wp.array(np.ascontiguousarray(a), dtype=pt_draw.vec8f, device=device)
     # 64-pixel bins: fewer bin entries per triangle than the default 16 (~5 % faster on Blunt Fin 512^2)
+    factors = np.ones((1, 1), np.float32)  # the exact thickness's per-pixel ray factors (else unread)
+    if fused["mode"] == PERSPECTIVE_MODES["exact"] and not fused["ortho"]:
+        if fused["camera"] is None:
+            raise ConfigError("camera: the fused draw's exact thickness needs the camera's pixel rays")
+        factors = ray_length_factors(fused["camera"])
+    ray_len = wp.array(factors, dtype=wp.float32, device=device)
     rast = Rasterizer(fb.width, fb.height, device=device, tile_size=FUSED_TILE, **RASTER_RULES)
     st = blend.state(fb)
     cpu = str(device).startswith("cpu")
@@ -304,7 +310,7 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
         def run(b, tr=tr, counts=counts, tile_blocks=tile_blocks):
             t0, n = tile_blocks[b]
             wp.launch(pt_draw.k_pt_exact_tiles, dim=n,
-                      inputs=[tr.struct, tr.positions, va, fused["mode"], fused["ortho"], fused["ray_len"], fused["tf_s"],
+                      inputs=[tr.struct, tr.positions, va, fused["mode"], fused["ortho"], ray_len, fused["tf_s"],
                               fused["tf_v"], fused["model"], st, fb.array, t0, counts], device=device)
 
         launch_blocks(device, len(tile_blocks), run, threads=threads)
@@ -500,13 +506,8 @@ def exact_program(tf, *, mode: str = "off", ortho: bool = False, device: str = "
                   device=device)
         return out
 
-    factors = np.ones((1, 1), np.float32)
-    if mode == "exact" and not ortho:
-        if camera is None:
-            raise ConfigError("camera: the fused draw's exact thickness needs the camera's pixel rays")
-        factors = ray_length_factors(camera)
-    run.fused = {"mode": flags[0], "ortho": flags[1], "ray_len": wp.array(factors, dtype=wp.float32, device=device),
-                 "tf_s": tf_s, "tf_v": tf_v, "model": model_id(tf)}
+    run.fused = {"mode": flags[0], "ortho": flags[1], "camera": camera, "tf_s": tf_s, "tf_v": tf_v,
+                 "model": model_id(tf)}
     return run
 
 
