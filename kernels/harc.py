@@ -14,7 +14,7 @@ Two walks, one kernel:
   :func:`~warpvol.kernels.raycast.next_face`; no second copy): watertight on rays through vertices
   and edges.
 
-The ray origin and direction come from :func:`warpvol.kernels.raycast.ray_setup` (float64 set-up,
+The ray origin and direction come from :func:`warpvol.kernels.raycast.pixel_ray` (float64 set-up,
 origin moved to the mesh). Ray start: the front-facing boundary faces were rasterised on the host
 side (:mod:`warpvol.harc`) into per-pixel fragment lists sorted by depth; pass ``k`` takes the
 first fragment beyond the ray's last exit -- the depth-peeling test "depth greater than the last
@@ -40,7 +40,7 @@ from .formats import NumFmt, fmt_quantize
 from .integrate import exp_neg, integrate_piece, integrate_segment, integrate_segment_tf
 from .pt import axis_coord
 from .raycast import (STALL_STEPS, STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, Face, Ray, boundary_face, face_hit,
-                      make_ray, monotone_exit, ndc_xy, next_face, ray_setup)
+                      monotone_exit, next_face, pixel_ray)
 from .texture import Tex2D, Tex3D, tex2d, tex2d_texel, tex3d
 from .tf import tf_eval, tf_eval_upper, tf_first_break, tf_next_break, tf_upper
 
@@ -322,13 +322,12 @@ def harc_march(
         return
     py = idx // width
     px = idx - py * width
-    o, d, t0, t_clip, t_end = ray_setup(ndc_xy(px, py, width, height), eye, fwd, right, up, ortho, half_h,
-                                        aspect, radius)
+    r, t_clip, t_end = pixel_ray(px, py, width, height, eye, fwd, right, up, ortho, half_h, aspect, radius)
     if t_end < t_clip:
         status[idx] = STATUS_DONE
         return
-    r = make_ray(o, d, wp.vec3(float(right[0]), float(right[1]), float(right[2])),
-                 wp.vec3(float(up[0]), float(up[1]), float(up[2])), t0, ortho)
+    o = r.o
+    d = r.d
     t_start = tcur[idx]
     prev = last[idx]
 

@@ -128,6 +128,20 @@ def make_ray(o: wp.vec3, d: wp.vec3, right: wp.vec3, up: wp.vec3, t0: float, ort
 
 
 @wp.func
+def pixel_ray(px: int, py: int, width: int, height: int, eye: wp.vec3d, fwd: wp.vec3d, right: wp.vec3d,
+              up: wp.vec3d, ortho: int, half_h: wp.float64, aspect: wp.float64, radius: wp.float64):
+    """The :class:`Ray` through the centre of pixel (row py, column px) (:func:`ray_setup` of its NDC
+    point, :func:`make_ray` with the camera's right and up as tie-breakers), with ``t_clip`` and
+    ``t_end`` (``t_end < t_clip``: the ray misses the mesh's bounding sphere). Shared by the ray
+    casters' march kernels (``raycast``, HARC)."""
+    o, d, t0, t_clip, t_end = ray_setup(ndc_xy(px, py, width, height), eye, fwd, right, up, ortho, half_h,
+                                        aspect, radius)
+    r = make_ray(o, d, wp.vec3(float(right[0]), float(right[1]), float(right[2])),
+                 wp.vec3(float(up[0]), float(up[1]), float(up[2])), t0, ortho)
+    return r, t_clip, t_end
+
+
+@wp.func
 def vertex_frame(v: wp.vec4, r: Ray):
     """Vertex record ``(x, y, z, s)`` -> ``(p, q, m)``: position, ``q = p - o``, ``m = d x q``."""
     p = wp.vec3(v[0], v[1], v[2])
@@ -384,13 +398,10 @@ def march(
         return
     py = idx // width
     px = idx - py * width
-    o, d, t0, t_clip, t_end = ray_setup(ndc_xy(px, py, width, height), eye, fwd, right, up, ortho, half_h,
-                                        aspect, radius)
+    r, t_clip, t_end = pixel_ray(px, py, width, height, eye, fwd, right, up, ortho, half_h, aspect, radius)
     if t_end < t_clip:
         status[idx] = STATUS_DONE  # the ray misses the mesh's bounding sphere
         return
-    r = make_ray(o, d, wp.vec3(float(right[0]), float(right[1]), float(right[2])),
-                 wp.vec3(float(up[0]), float(up[1]), float(up[2])), t0, ortho)
     t_start = tcur[idx]
 
     # ---- next entry: nearest boundary face crossed (entering) beyond t_start in this tile ----
