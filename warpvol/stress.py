@@ -42,6 +42,7 @@ from .camera import Camera
 from .errors import WarpvolError
 from .mesh import TetMesh, structured_to_tets
 from .scene import Scene
+from .stress_real import add_real_data_cases
 from .transfer import TransferFunction
 
 
@@ -188,6 +189,7 @@ def _cases() -> dict[str, tuple[str, Callable[[bool], Case]]]:
             return sc(s, tf, cam, f"image_{px}"), _box_closed_form(cam)
         with_ref(f"image_{px}x{px}", f"a {px}x{px} image (--quick: {'1x1' if px == 1 else '512x512'}) of the built-in "
                  "box; reference: its closed form", boxed)
+    add_real_data_cases(simple, with_ref, sc)
     return c
 
 
