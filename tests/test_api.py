@@ -33,6 +33,7 @@ def test_top_level_exports():
 
 
 def test_render_box_closed_form_and_result_object(tmp_path):
+    warpvol.clear_cache()  # the reference is computed here, not taken from the session's cache
     r = warpvol.render(small("box"), reference=True)
     inside = r.image[8, 8]
     a = 1 - np.exp(-3.0)
@@ -116,7 +117,7 @@ def test_render_errors_name_the_argument(kw, match):
 
 def test_compare_one_panel_pair_per_pipeline(tmp_path, monkeypatch):
     custom = tmp_path / "raycast_tile4.toml"
-    custom.write_text('[[stages]]\nstage = "cell_setup"\n[[stages]]\nstage = "entry_bins"\ntile = 4\n'
+    custom.write_text('[[stages]]\nstage = "condition"\n[[stages]]\nstage = "cell_setup"\n[[stages]]\nstage = "entry_bins"\ntile = 4\n'
                       '[[stages]]\nstage = "raycast"\n[[stages]]\nstage = "peel"\n')
     cmp = warpvol.compare(small("concave", 24), ["raycast", str(custom)])
     fig, table = cmp

@@ -22,6 +22,7 @@ __version__ = "0.1.0"
 from . import presets as _presets_package  # noqa: F401
 from .api import Comparison, Rendering, compare, presets, render
 from .builtin import builtin_scene
+from .cache import cache_info, clear_cache, set_cache_budget
 from .camera import Camera
 from .errors import ConfigError, MeshError, WarpvolError
 from .mesh import TetMesh
@@ -30,5 +31,5 @@ from .scene import Scene, load_scene
 from .transfer import TransferFunction
 
 __all__ = ["Camera", "Comparison", "ConfigError", "MeshError", "Pipeline", "Rendering", "Scene", "Stage",
-           "TetMesh", "TransferFunction", "WarpvolError", "builtin_scene", "compare", "list_presets",
-           "load_scene", "presets", "register_stage", "render"]
+           "TetMesh", "TransferFunction", "WarpvolError", "builtin_scene", "cache_info", "clear_cache", "compare",
+           "list_presets", "load_scene", "presets", "register_stage", "render", "set_cache_budget"]

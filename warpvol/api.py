@@ -18,11 +18,13 @@ from typing import Any
 
 import numpy as np
 
+from . import cache
 from .camera import Camera
 from .errors import ConfigError
 from .mesh import TetMesh
 from .pipeline import DEFAULT_PIPELINE, Pipeline, RenderResult, check_device, list_presets, quiet_warp
 from .scene import Scene, load_scene, scene_from_config
+from .timing import time_summary
 from .transfer import TransferFunction
 
 IMAGE_EXTENSIONS = (".exr", ".png")
@@ -121,17 +123,34 @@ def _scene_of(scene_or_parts: Any, scalars: str | None) -> Scene:
                       f"(mesh, transfer, camera) tuple; got {type(scene_or_parts).__name__}")
 
 
-def _pipeline(pipeline: Any, device: str, arg: str = "pipeline") -> Pipeline:
+def _pipeline(pipeline: Any, device: str, arg: str = "pipeline") -> tuple[Pipeline, Any]:
+    """``(pipeline, cache key)``: a preset or file's pipeline from the session's cache (built on a miss,
+    :mod:`warpvol.cache`); a :class:`Pipeline` object as it is (key ``None``)."""
     if isinstance(pipeline, Pipeline):
-        return pipeline
+        return pipeline, None
     if not isinstance(pipeline, (str, Path)):
         raise ConfigError(f"{arg}: expected a preset name, a pipeline .toml file or a Pipeline; "
                           f"got {type(pipeline).__name__}")
+
+    def load() -> Pipeline:
+        try:
+            return Pipeline.load(pipeline, device=device)
+        except ConfigError as e:
+            msg = str(e)
+            raise ConfigError(msg.replace("--pipeline:", f"{arg}:", 1) if msg.startswith("--pipeline") else msg) \
+                from None
+
     try:
-        return Pipeline.load(pipeline, device=device)
-    except ConfigError as e:
-        msg = str(e)
-        raise ConfigError(msg.replace("--pipeline:", f"{arg}:", 1) if msg.startswith("--pipeline") else msg) from None
+        return cache.pipeline(pipeline, device, load)
+    except OSError as e:
+        raise ConfigError(f"{arg}: cannot read {str(pipeline)!r}: {e.strerror or e}") from None
+
+
+def _interned(scene: Scene) -> Scene:
+    """The scene with the session's mesh object for its mesh's content (so per-mesh caches hit)."""
+    mesh = cache.canonical_mesh(scene.mesh)
+    return scene if mesh is scene.mesh else Scene(mesh=mesh, transfer=scene.transfer, camera=scene.camera,
+                                                  name=scene.name, source=scene.source)
 
 
 def _quiet(quiet: Any) -> None:
@@ -147,24 +166,36 @@ def _device(device: Any) -> str:
     return check_device(device, "device")
 
 
-def _reference(reference: Any, scene: Scene) -> tuple[np.ndarray | None, float | None]:
-    """``(image, seconds)``: False -> none; True -> the exact reference, computed; an array -> it."""
+def _reference(reference: Any, scene: Scene, fn: str = "render") -> tuple[np.ndarray | None, float | None]:
+    """``(image, seconds)``: False -> none; True -> the exact reference, computed or from the session's
+    cache (seconds ``0.0``: see :mod:`warpvol.cache`); an array or an EXR file name -> it. Errors name
+    ``fn(reference)`` and what is accepted."""
     if reference is False or reference is None:
         return None, None
     if reference is True:
         from .reference import render_reference
 
         t0 = time.perf_counter()
-        img = render_reference(scene.mesh, scene.transfer, scene.camera)
-        return img, time.perf_counter() - t0
+        img, hit = cache.reference(scene, lambda: render_reference(scene.mesh, scene.transfer, scene.camera))
+        return img, (0.0 if hit else time.perf_counter() - t0)
+    arg = f"{fn}(reference)"
+    accepted = ("expected True (compute the exact reference), False or None (no reference), the name of an "
+                "existing EXR image file or an (H, W, 4) image array")
     if isinstance(reference, (str, Path)):
         from .io import read_exr
 
-        reference = read_exr(reference)
+        if not Path(reference).is_file():
+            raise ConfigError(f"{arg}: {str(reference)!r} is no image file (file not found); {accepted}")
+        try:
+            reference = read_exr(reference)
+        except ConfigError as e:
+            raise ConfigError(f"{arg}: {e}") from None
+    elif isinstance(reference, np.bool_) or np.isscalar(reference):
+        raise ConfigError(f"{arg}: got {reference!r}; {accepted}")
     try:
         ref = np.array(reference, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ConfigError("reference: expected True, False, an EXR file or an (H, W, 4) image array") from None
+        raise ConfigError(f"{arg}: got a {type(reference).__name__}; {accepted}") from None
     want = (scene.camera.height_px, scene.camera.width_px, 4)
     if ref.shape != want:
         raise ConfigError(f"reference: shape {ref.shape} does not match the image {want} (height_px, width_px, RGBA)")
@@ -181,7 +212,7 @@ def _rgb(image: np.ndarray, background=(0.0, 0.0, 0.0)) -> np.ndarray:
 def _draw(ax_img, ax_err, res: "Rendering", title: str) -> None:
     """One panel pair: the image (title: time and RMSE) and its error map against the reference."""
     ax_img.imshow(_rgb(res.image), interpolation="nearest")
-    t = res.report["total_s"]
+    t = res.report.get("median_s", res.report.get("render_s", res.report["total_s"]))
     err = res.error
     ax_img.set_title(f"{title}\n{t:.3f} s" + (f", RMSE {err['rmse']:.2e}" if err else ""), fontsize=9)
     ax_img.set_axis_off()
@@ -267,7 +298,7 @@ class Rendering(RenderResult):
         h, w = self.image.shape[:2]
         e = self.error
         err = f", rmse={e['rmse']:.3e}, max_abs={e['max_abs']:.3e}" if e else ""
-        return f"Rendering({self.report.get('pipeline')!r}, {w}x{h}, {self.report['total_s']:.3f} s{err})"
+        return f"Rendering({self.report.get('pipeline')!r}, {w}x{h}, {time_summary(self.report)}{err})"
 
 
 def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = DEFAULT_PIPELINE,
@@ -323,25 +354,32 @@ def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = 
     gpu_profile(gpu)
     device = _device(device)
     _quiet(quiet)
-    scene = as_scene(mesh, transfer, camera, scalars=scalars, split=split)
-    pipe = _pipeline(pipeline, device)  # unknown pipelines fail before the reference spends time
+    scene = _interned(as_scene(mesh, transfer, camera, scalars=scalars, split=split))
+    pipe, key = _pipeline(pipeline, device)  # unknown pipelines fail before the reference spends time
     ref, ref_s = _reference(reference, scene)
     res = pipe.render(scene, reference=ref, quiet=quiet, device=device)
+    if key is not None:
+        cache.pipeline_used(key)
     if ref_s is not None:
         res.report["reference_s"] = ref_s
+        res.report["reference_cached"] = reference is True and ref_s == 0.0
     return Rendering(res.image, res.report, scene=scene, reference=ref)
 
 
 # -- comparison -----------------------------------------------------------------------------------
-TABLE_COLUMNS = ("pipeline", "time_s", "rmse", "max_abs", "psnr")
+TABLE_COLUMNS = ("pipeline", "status", "time_s", "cold_s", "rmse", "max_abs", "psnr", "reason")
 
 
 @dataclass
 class Comparison:
     """What :func:`compare` returns: a matplotlib ``figure`` (one image + error-map pair per
-    pipeline), the same data as a ``table`` (one dict per pipeline, :data:`TABLE_COLUMNS`), each
+    pipeline that rendered), the same data as a ``table`` (one dict per pipeline, :data:`TABLE_COLUMNS`;
+    a pipeline that declined the scene or failed is a row with ``status`` and ``reason``), each
     pipeline's :class:`Rendering` in ``results`` and the ``reference`` image. Unpacks as
-    ``figure, table``; shows as figure and table in Jupyter."""
+    ``figure, table``; shows as figure and table in Jupyter.
+
+    ``time_s`` is the median of the warm renders (kernels compiled, per-mesh data and tables built);
+    ``cold_s`` the first render's time, compilation and set-up included."""
 
     figure: Any
     table: list[dict]
@@ -352,12 +390,18 @@ class Comparison:
     def __iter__(self):
         return iter((self.figure, self.table))
 
+    @staticmethod
+    def _cells(r: dict) -> list[str]:
+        def f(v, fmt):
+            return "-" if v is None else format(v, fmt)
+
+        return [str(r["pipeline"]), str(r["status"]), f(r["time_s"], ".3f"), f(r["cold_s"], ".3f"),
+                f(r["rmse"], ".3e"), f(r["max_abs"], ".3e"), f(r["psnr"], ".1f"), str(r["reason"] or "")]
+
     def markdown(self) -> str:
         """The table as Markdown text."""
         rows = ["| " + " | ".join(TABLE_COLUMNS) + " |", "|" + " --- |" * len(TABLE_COLUMNS)]
-        for r in self.table:
-            rows.append(f"| {r['pipeline']} | {r['time_s']:.3f} | {r['rmse']:.3e} | {r['max_abs']:.3e} | "
-                        f"{r['psnr']:.1f} |")
+        rows += ["| " + " | ".join(self._cells(r)) + " |" for r in self.table]
         return "\n".join(rows)
 
     __str__ = markdown
@@ -365,19 +409,38 @@ class Comparison:
     def _repr_html_(self) -> str:
         import io
 
-        buf = io.BytesIO()
-        self.figure.savefig(buf, format="png", dpi=80, bbox_inches="tight")
-        png = base64.b64encode(buf.getvalue()).decode()
+        img = ""
+        if self.figure is not None:
+            buf = io.BytesIO()
+            self.figure.savefig(buf, format="png", dpi=80, bbox_inches="tight")
+            img = f'<img src="data:image/png;base64,{base64.b64encode(buf.getvalue()).decode()}"/>'
         head = "".join(f"<th>{c}</th>" for c in TABLE_COLUMNS)
-        body = "".join(
-            f"<tr><td>{html.escape(str(r['pipeline']))}</td><td>{r['time_s']:.3f}</td><td>{r['rmse']:.3e}</td>"
-            f"<td>{r['max_abs']:.3e}</td><td>{r['psnr']:.1f}</td></tr>" for r in self.table)
-        return f'<img src="data:image/png;base64,{png}"/><table><tr>{head}</tr>{body}</table>'
+        body = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in self._cells(r)) + "</tr>"
+                       for r in self.table)
+        return f"{img}<table><tr>{head}</tr>{body}</table>"
+
+
+def _timed_renders(pipe: Pipeline, scene: Scene, ref, repeats: int, quiet: bool, device: str) -> tuple[Any, float, float]:
+    """``(last result, cold seconds, median warm seconds)``: one render that may compile kernels and
+    build the set-up, then ``repeats`` warm ones."""
+    import statistics
+
+    first = pipe.render(scene, reference=ref, quiet=quiet, device=device)
+    warm = [pipe.render(scene, reference=ref, quiet=quiet, device=device) for _ in range(repeats)]
+    last = warm[-1] if warm else first
+    times = [r.report["total_s"] for r in warm] or [first.report["total_s"]]
+    return last, float(first.report["total_s"]), float(statistics.median(times))
 
 
 def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, reference: Any = True,
-            device: str = "cpu", gpu: Any = None, scalars: str | None = None, quiet: bool = True) -> Comparison:
+            repeats: int = 3, device: str = "cpu", gpu: Any = None, scalars: str | None = None,
+            quiet: bool = True) -> Comparison:
     """Render one scene with several pipelines against one exact reference.
+
+    Each pipeline renders once cold (kernel compilation, tables, per-mesh data: ``cold_s``) and then
+    ``repeats`` times warm; ``time_s`` is the median warm time. A pipeline that declines the scene (a
+    configuration it cannot render, e.g. cell projection with the eye inside the mesh) or fails is a row
+    with its ``status`` and ``reason``; the others are kept.
 
     Parameters
     ----------
@@ -388,53 +451,77 @@ def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, refere
         Preset names (any of :func:`presets`), pipeline ``.toml`` files or :class:`Pipeline` objects;
         all are loaded (and checked) before anything is rendered.
     reference : True, array or path
-        ``True`` computes the exact reference once; an image or EXR file is used as given.
+        ``True`` computes the exact reference once (or takes it from the session's cache); an image or
+        EXR file is used as given.
+    repeats : int
+        Warm renders per pipeline after the first (0: report the first render's time).
     device, gpu, scalars, quiet
         As in :func:`render`.
 
     Returns
     -------
     Comparison
-        ``figure`` (titles give each pipeline's time and RMSE), ``table`` (rows of
-        ``pipeline, time_s, rmse, max_abs, psnr``), ``results``; ``fig, table = compare(...)``.
+        ``figure`` (titles give each pipeline's warm time and RMSE), ``table`` (rows of
+        :data:`TABLE_COLUMNS`), ``results``; ``fig, table = compare(...)``.
 
     Examples
     --------
     >>> import warpvol
     >>> scene = warpvol.builtin_scene("linear_box").with_camera(width_px=12, height_px=12)
-    >>> fig, table = warpvol.compare(scene, ["raycast"])
+    >>> fig, table = warpvol.compare(scene, ["raycast"], repeats=1)
     >>> [r["pipeline"] for r in table], table[0]["rmse"] < 1e-5, len([a for a in fig.axes if a.images])
     (['raycast'], True, 2)
     """
     from matplotlib.figure import Figure
+
+    from .errors import WarpvolError
 
     gpu_profile(gpu)
     device = _device(device)
     _quiet(quiet)
     if reference is False or reference is None:
         raise ConfigError("reference: compare needs a reference (True to compute it, or an image)")
+    if not isinstance(repeats, (int, np.integer)) or isinstance(repeats, bool) or repeats < 0:
+        raise ConfigError(f"repeats: expected an integer >= 0, got {repeats!r}")
     names = [pipelines] if isinstance(pipelines, (str, Path, Pipeline)) else list(pipelines) \
         if isinstance(pipelines, (list, tuple)) else None
     if not names:
         raise ConfigError(f"pipelines: expected one or more preset names, files or Pipelines; got {pipelines!r}")
     pipes = [_pipeline(p, device, arg=f"pipelines[{k}]") for k, p in enumerate(names)]
-    scene = _scene_of(scene_or_parts, scalars)
+    scene = _interned(_scene_of(scene_or_parts, scalars))
     ref, ref_s = _reference(reference, scene)
     results: dict[str, Rendering] = {}
-    for pipe in pipes:
+    table: list[dict] = []
+    for pipe, pkey in pipes:
         key, n = pipe.name, 2
-        while key in results:
+        while key in results or any(r["pipeline"] == key for r in table):
             key, n = f"{pipe.name}#{n}", n + 1
-        r = pipe.render(scene, reference=ref, quiet=quiet, device=device)
+        row: dict[str, Any] = dict.fromkeys(TABLE_COLUMNS)
+        row["pipeline"] = key
+        try:
+            r, cold, warm = _timed_renders(pipe, scene, ref, int(repeats), quiet, device)
+        except WarpvolError as e:  # the pipeline declines this scene, in words
+            table.append({**row, "status": "declined", "reason": str(e)})
+            continue
+        except Exception as e:  # noqa: BLE001 - one failing pipeline must not lose the others' results
+            table.append({**row, "status": "failed", "reason": f"{type(e).__name__}: {e}"})
+            continue
+        if pkey is not None:
+            cache.pipeline_used(pkey)
+        r.report["cold_s"] = cold
+        r.report["median_s"] = warm
         results[key] = Rendering(r.image, r.report, scene=scene, reference=ref)
-    table = [{"pipeline": k, "time_s": float(r.report["total_s"]), "rmse": r.error["rmse"],
-              "max_abs": r.error["max_abs"], "psnr": r.error["psnr"]} for k, r in results.items()]
-    fig = Figure(figsize=(8.4, 4.0 * len(results)), layout="constrained")
-    axes = fig.subplots(len(results), 2, squeeze=False)
-    for row, (k, r) in zip(axes, results.items()):
-        _draw(row[0], row[1], r, k)
-    if ref_s is not None:
-        fig.suptitle(f"{scene.name}: exact reference {ref_s:.2f} s", fontsize=10)
+        err = r.report["error"]
+        table.append({**row, "status": "ok", "time_s": warm, "cold_s": cold, "rmse": err["rmse"],
+                      "max_abs": err["max_abs"], "psnr": err["psnr"], "reason": ""})
+    fig = None
+    if results:
+        fig = Figure(figsize=(8.4, 4.0 * len(results)), layout="constrained")
+        axes = fig.subplots(len(results), 2, squeeze=False)
+        for row_axes, (k, r) in zip(axes, results.items()):
+            _draw(row_axes[0], row_axes[1], r, k)
+        if ref_s is not None:
+            fig.suptitle(f"{scene.name}: exact reference {ref_s:.2f} s", fontsize=10)
     return Comparison(fig, table, results, ref, ref_s)
 
 

@@ -32,6 +32,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .errors import ConfigError, check_choice, check_keys, check_number
+from .timing import CompileClock, announce_compile, split_times
 
 # ------------------------------------------------------------------------------------------------
 # parameters
@@ -122,6 +123,10 @@ class Stage:
     #: refer to a parameter as ``"{param}"`` (e.g. a table stage's ``"{output}"`` key).
     needs: ClassVar[tuple[str, ...]] = ()
     provides: ClassVar[tuple[str, ...]] = ()
+    #: a per-mesh / per-TF set-up step whose result is kept across renders (tables, cell data): its time
+    #: is reported as ``setup_s``, apart from the frame (``render_s``); when it reuses what it built
+    #: before it says so with ``ctx.stats[name]["cached"] = True`` (or is skipped by the planner)
+    setup: ClassVar[bool] = False
 
     def __init__(self, device: str = "cpu", where: str | None = None, **params: Any):
         self.device = device
@@ -379,7 +384,7 @@ class Pipeline:
         text, where = _read_pipeline_text(name_or_path)
         try:
             cfg = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as e:
+        except (tomllib.TOMLDecodeError, RecursionError) as e:  # RecursionError: nested too deeply
             raise ConfigError(f"{where}: invalid TOML: {e}") from None
         cfg.setdefault("name", Path(str(name_or_path)).stem)
         return cls.from_config(cfg, device=device, where=where)
@@ -404,7 +409,7 @@ class Pipeline:
         --------
         >>> from warpvol.builtin import builtin_scene
         >>> [(p["stage"], p["run"]) for p in Pipeline.load("raycast").plan(builtin_scene("box"))]
-        [('cell_setup', True), ('entry_bins', True), ('raycast', True), ('peel', False)]
+        [('condition', True), ('cell_setup', True), ('entry_bins', True), ('raycast', True), ('peel', False)]
         """
         ctx = Context(scene=scene, device=self.stages[0].device, quiet=True)
         out = []
@@ -448,26 +453,36 @@ class Pipeline:
             for st in self.stages:
                 model.check_caps(profile, st.where, st.requires_caps())
         ctx = Context(scene=scene, device=device, quiet=quiet, persistent=self.persistent)
+        if not any(st.name == "condition" for st in self.stages):  # input cast to float32 as it is: say what it loses
+            from .conditioning import precision_warnings
+
+            if (precision := precision_warnings(scene)) is not None:
+                ctx.stats["precision"] = precision
         report: dict[str, Any] = {"pipeline": self.name, "device": device, "scene": getattr(scene, "name", None),
                                   "image": [scene.camera.height_px, scene.camera.width_px],
                                   "stages": {}, "skipped": []}
+        rows: dict[str, dict] = {}  # per stage: seconds, of which kernel compilation, set-up or frame, reused
         t_all = time.perf_counter()
         for key, st in zip(self.stage_keys(), self.stages):
             if ctx.finished:
                 report["skipped"].append({"stage": key, "reason": ctx.finished})
                 continue
-            reason = st.skip_reason(ctx)
+            t0 = time.perf_counter()
+            with CompileClock(None if quiet else announce_compile) as clock:
+                reason = st.skip_reason(ctx)  # a reused table is fetched here
             if reason and (key in force or st.name in force):
                 report.setdefault("forced", []).append({"stage": key, "reason": reason})
                 reason = None
             if reason:
                 report["skipped"].append({"stage": key, "reason": reason})
                 ctx.progress(f"{key}: skipped ({reason})")
+                dt = time.perf_counter() - t0
+                rows[key] = {"s": dt, "compile_s": min(clock.seconds, dt), "setup": st.setup, "cached": st.setup}
                 continue
             ctx.progress(f"{key} ...")
-            t0 = time.perf_counter()
             ctx.stage_key = key
-            with Counters(ctx.counters.setdefault(key, {})):  # units used by the stage count into its entry
+            with Counters(ctx.counters.setdefault(key, {})), \
+                    CompileClock(None if quiet else announce_compile) as run_clock:  # units count into its entry
                 st.run(ctx)
             ctx.stage_key = None
             if model is not None:  # work the card cannot do (e.g. fp16 blends) is an error naming the stage
@@ -475,8 +490,15 @@ class Pipeline:
             _sync(device)
             dt = time.perf_counter() - t0
             report["stages"][key] = dt
-            ctx.progress(f"{key}: {dt:.3f} s")
+            stat = ctx.stats.get(st.name)
+            rows[key] = {"s": dt, "compile_s": min(clock.seconds + run_clock.seconds, dt), "setup": st.setup,
+                         "cached": bool(isinstance(stat, dict) and stat.get("cached"))}
+            ctx.progress(f"{key}: {dt:.3f} s" + (f" (compiling kernels {rows[key]['compile_s']:.3f} s)"
+                                                  if rows[key]["compile_s"] >= 0.05 else ""))
         report["total_s"] = time.perf_counter() - t_all
+        report.update(split_times(rows, report["total_s"]))
+        report["stage_timing"] = rows
+        report["cached"] = [k for k, r in rows.items() if r["cached"]]
         if ctx.image is None:
             raise RuntimeError(f"pipeline {self.name!r} produced no image (no stage wrote ctx.image)")
         img = np.asarray(ctx.image, dtype=np.float32)

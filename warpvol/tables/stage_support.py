@@ -24,6 +24,7 @@ class TableStage(Stage):
     """Base class: subclasses set ``builder`` and map their config to builder keyword arguments."""
 
     builder: ClassVar[str] = ""
+    setup = True  # tables are kept in the pipeline's cache across renders
     uses_tf: ClassVar[bool] = True
 
     def builder_kwargs(self, ctx: Context) -> dict[str, Any]:

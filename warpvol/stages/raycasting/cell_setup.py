@@ -100,6 +100,7 @@ class CellSetup(Stage):
     summary = "upload points, scalars, tets, neighbour faces (cached per mesh) and the TF"
     needs = ()
     provides = ("cells",)
+    setup = True
 
     def run(self, ctx: Context) -> None:
         cache = ctx.persistent.setdefault("cells", {})

@@ -28,6 +28,7 @@ class HarcMesh(Stage):
     summary = "mesh textures for hardware ray casting (paper's 96 bytes/tet, or compact); bytes/tet reported"
     needs = ("cells",)
     provides = ("harc_mesh",)
+    setup = True
     params = (Param("layout", str, "paper96", "mesh layout", choices=("paper96", "compact")),)
 
     def run(self, ctx: Context) -> None:

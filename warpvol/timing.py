@@ -1,0 +1,186 @@
+"""Where a render's time goes: Warp kernel compilation and module loading, kept apart from the frame.
+
+Warp compiles a kernel module on its first launch on a device (and loads it from the kernel cache on the
+first launch of later processes). That work happens once per machine or process, so it must not be
+reported as the time of a frame. :class:`CompileClock` measures the wall time spent inside Warp's
+module loader while it is active; :class:`~warpvol.pipeline.Pipeline` wraps each stage in one and
+reports ``compile_s`` apart from the per-mesh set-up (``setup_s``) and the frame (``render_s``).
+
+The loader is wrapped the first time a clock is used (never at import), and the wrapper costs a few
+microseconds per launch: Warp calls the loader on every launch, which returns at once when the module
+is already loaded. Calls shorter than :data:`MIN_LOAD_S` are such fast paths and are not counted.
+
+Examples
+--------
+>>> import warp as wp
+>>> with CompileClock() as clock:
+...     pass
+>>> clock.seconds, clock.modules
+(0.0, [])
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from typing import Callable
+
+#: a loader call shorter than this is Warp's "already loaded" fast path, not a compilation or a load
+MIN_LOAD_S = 1e-3
+#: a load still running after this long is announced (``on_slow``): a kernel compilation
+ANNOUNCE_AFTER_S = 0.5
+
+_lock = threading.Lock()
+_active: list["CompileClock"] = []
+_local = threading.local()
+_installed = False
+
+
+def _module_class():
+    """Warp's ``Module`` class (its location differs between Warp versions); ``None`` if not found."""
+    try:
+        from warp._src import context as ctx  # Warp >= 1.10
+    except ImportError:  # pragma: no cover - older Warp
+        try:
+            from warp import context as ctx
+        except ImportError:
+            return None
+    return getattr(ctx, "Module", None)
+
+
+def _install() -> bool:
+    """Wrap ``Module.load`` once per process; ``False`` when this Warp has no such method."""
+    global _installed
+    with _lock:
+        if _installed:
+            return True
+        mod = _module_class()
+        orig = getattr(mod, "load", None) if mod is not None else None
+        if orig is None:  # pragma: no cover - unknown Warp layout: compile time stays inside the stages
+            return False
+
+        def load(self, device, *args, **kwargs):
+            if getattr(_local, "depth", 0) or not _active:
+                return orig(self, device, *args, **kwargs)
+            _local.depth = 1
+            clocks = list(_active)
+            timer = threading.Timer(ANNOUNCE_AFTER_S, _announce, (clocks, getattr(self, "name", "?")))
+            timer.daemon = True
+            timer.start()
+            t0 = time.perf_counter()
+            try:
+                return orig(self, device, *args, **kwargs)
+            finally:
+                timer.cancel()
+                _local.depth = 0
+                dt = time.perf_counter() - t0
+                if dt >= MIN_LOAD_S:
+                    for c in clocks:
+                        c._add(dt, getattr(self, "name", "?"))
+
+        load.__wrapped__ = orig  # type: ignore[attr-defined]
+        mod.load = load
+        _installed = True
+        return True
+
+
+def _announce(clocks: list["CompileClock"], module: str) -> None:
+    for c in clocks:
+        if c.on_slow is not None:
+            c._announce(module)
+
+
+class CompileClock:
+    """Context manager: wall time spent in Warp's module loader (compilation, kernel-cache loads) while
+    it is active, on any thread.
+
+    Parameters
+    ----------
+    on_slow : callable, optional
+        Called once, with the module's name, when a load is still running after
+        :data:`ANNOUNCE_AFTER_S` seconds (a compilation): lets a command line say so before the wait.
+
+    Attributes
+    ----------
+    seconds : float
+        Loader time (summed over threads; callers cap it at their own wall time).
+    modules : list of str
+        Modules loaded or compiled, in order.
+    available : bool
+        ``False`` when this Warp version's loader could not be wrapped (then ``seconds`` stays 0).
+    """
+
+    def __init__(self, on_slow: Callable[[str], None] | None = None):
+        self.seconds = 0.0
+        self.modules: list[str] = []
+        self.on_slow = on_slow
+        self.available = False
+        self._announced = False
+        self._mine = threading.Lock()
+
+    def _add(self, dt: float, module: str) -> None:
+        with self._mine:
+            self.seconds += dt
+            self.modules.append(module)
+
+    def _announce(self, module: str) -> None:
+        with self._mine:
+            if self._announced:
+                return
+            self._announced = True
+        try:
+            self.on_slow(module)
+        except Exception:  # noqa: BLE001 - a message must never break a render
+            pass
+
+    def __enter__(self) -> "CompileClock":
+        self.available = _install()
+        with _lock:
+            _active.append(self)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        with _lock:
+            if self in _active:
+                _active.remove(self)
+
+
+def announce_compile(module: str) -> None:
+    """Default ``on_slow`` of the command line and of ``quiet=False`` renders: one line on stderr."""
+    print(f"[warpvol] compiling Warp kernels ({module}; once per machine, then loaded from Warp's kernel "
+          "cache) ...", file=sys.stderr, flush=True)
+
+
+def split_times(stage_rows: dict[str, dict], total_s: float) -> dict[str, float]:
+    """``compile_s``, ``setup_s``, ``render_s`` and ``total_s`` from per-stage rows ``{"s", "compile_s",
+    "setup"}``: compilation wherever it happened, the set-up stages' remaining time, and the rest (the
+    frame, including the planner's own time) so that the three add up to ``total_s``.
+
+    Examples
+    --------
+    >>> rows = {"cell_setup": {"s": 0.5, "compile_s": 0.25, "setup": True},
+    ...         "raycast": {"s": 2.0, "compile_s": 1.5, "setup": False}}
+    >>> split_times(rows, 2.75)
+    {'compile_s': 1.75, 'setup_s': 0.25, 'render_s': 0.75, 'total_s': 2.75}
+    """
+    compile_s = sum(r["compile_s"] for r in stage_rows.values())
+    setup_s = sum(r["s"] - r["compile_s"] for r in stage_rows.values() if r["setup"])
+    return {"compile_s": compile_s, "setup_s": setup_s, "render_s": max(0.0, total_s - compile_s - setup_s),
+            "total_s": total_s}
+
+
+def time_summary(report: dict) -> str:
+    """The frame time first, then what else the render spent, e.g. ``"frame 0.740 s (+ set-up 0.290 s,
+    kernel compilation 11.5 s)"``; a report without the split gives its total.
+
+    Examples
+    --------
+    >>> time_summary({"total_s": 1.2, "render_s": 0.2, "setup_s": 0.0, "compile_s": 1.0})
+    'frame 0.200 s (+ kernel compilation 1.000 s)'
+    """
+    if "render_s" not in report:
+        return f"{report['total_s']:.3f} s"
+    extra = [f"{what} {report[k]:.3f} s" for k, what in (("setup_s", "set-up"), ("compile_s", "kernel compilation"))
+             if report.get(k, 0.0) >= 5e-4]
+    return f"frame {report['render_s']:.3f} s" + (f" (+ {', '.join(extra)})" if extra else "")
