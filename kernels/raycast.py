@@ -30,13 +30,14 @@ A pass (kernel :func:`march`) finds the ray's next entry among the front-facing 
 to the pixel's screen tile (nearest crossing beyond the current parameter), then walks cell to cell,
 integrating each segment exactly for the piecewise-linear transfer function
 (:mod:`warpvol.kernels.integrate`) and compositing front to back. A ray the float32 walk cannot
-resolve -- a cell with no exit face (float32 signs no real ray can produce), or no progress in depth
-for :data:`STALL_STEPS` steps -- is marked ``STATUS_FAILED`` and redone on the host in float64; it is
-counted, never silently wrong.
+resolve -- a cell with no exit face (float32 signs no real ray can produce), no progress in depth
+for :data:`STALL_STEPS` steps, or a segment too short for float32 to know its length beside a density
+contrast that makes the difference visible (a thin layer carrying the image, :func:`thin_unresolved`) --
+is marked ``STATUS_FAILED`` and redone on the host in float64; it is counted, never silently wrong.
 
 Per-pixel state (radiance, transmittance, ray parameter, status) lives in device arrays so passes
-can be separate launches; ``counters[chunk]`` (entries, steps, unfinished, failed, left active) has one row per
-concurrently launched row block.
+can be separate launches; ``counters[chunk]`` (entries, steps, unfinished, failed, left active, failed on a
+thin layer) has one row per concurrently launched row block.
 """
 
 import warp as wp
@@ -57,6 +58,15 @@ NO_FACE = wp.constant(-1)
 #: consecutive re-entries without progress in ``t`` (cracks, touching pieces) before a ray counts as
 #: unresolved
 MAX_FLAT_REENTRIES = wp.constant(8)
+#: float32 resolution of the ray parameter: a face crossing's ``t`` is trusted to about
+#: ``T_ULPS * EPS32 * (|t| + radius)`` (points relative to the mesh centre, origin moved to the mesh)
+EPS32 = wp.constant(1.1920929e-07)
+T_ULPS = wp.constant(4.0)
+#: a segment shorter than ``THIN_ULPS`` such units has a length float32 cannot be trusted with
+THIN_ULPS = wp.constant(1024.0)
+#: estimated pixel error (transmittance x density contrast x crossing uncertainty) above which a ray
+#: with such a segment is unresolved (redone in float64)
+THIN_ERR = wp.constant(2.0e-5)
 
 
 @wp.func
@@ -344,6 +354,42 @@ def next_face_from(tv: wp.vec4i, gn: int, fc: Face, verts: wp.array(dtype=wp.vec
 
 
 @wp.func
+def density(v: wp.vec4, model: int) -> float:
+    """What a segment's length error multiplies in TF value ``v``: the extinction, plus the largest
+    colour channel for the emission-density model (radiance per unit length)."""
+    if model == 1:
+        return v[3] + wp.max(v[0], wp.max(v[1], v[2]))
+    return v[3]
+
+
+@wp.func
+def density_max(v_a: wp.vec4, v_b: wp.vec4, k_a: int, k_b: int, tf_v: wp.array(dtype=wp.vec4),
+                model: int) -> float:
+    """Largest :func:`density` over a segment whose ends have TF values ``v_a``, ``v_b`` and
+    :func:`~warpvol.kernels.tf.tf_upper` indices ``k_a``, ``k_b`` (the control points it crosses are
+    those between)."""
+    m = wp.max(density(v_a, model), density(v_b, model))
+    for k in range(wp.min(k_a, k_b), wp.max(k_a, k_b)):
+        m = wp.max(m, density(tf_v[k], model))
+    return m
+
+
+@wp.func
+def t_unit(t: float, scale: float) -> float:
+    """Float32 resolution of ray parameter ``t`` (origin moved to the mesh, ``scale`` its radius)."""
+    return EPS32 * (wp.abs(t) + scale)
+
+
+@wp.func
+def thin_unresolved(tr: float, dmax: float, d_other: float, u: float) -> bool:
+    """A segment shorter than ``THIN_ULPS * u`` (its float32 length untrustworthy) beside a segment of
+    mean density ``d_other``: unresolved when the error its face crossings can make -- transmittance
+    in front ``tr`` x density contrast x ``T_ULPS * u`` -- exceeds :data:`THIN_ERR` (a thin layer
+    that carries the image)."""
+    return tr * wp.abs(dmax - d_other) * (T_ULPS * u) > THIN_ERR
+
+
+@wp.func
 def clipped_segment(t_in: float, t_out: float, s_in: float, s_out: float, t_clip: float):
     """The part ``t >= t_clip`` of segment ``[t_in, t_out]`` with linear scalar; ``(t0, s0)``."""
     if t_in >= t_clip:
@@ -457,6 +503,15 @@ def march(
     stall = int(0)
     exited = int(0)
     failed = int(0)
+    thin = int(0)
+    scale = float(radius)
+    # thin-layer check: the previous integrated segment's mean density (0: outside the mesh), and
+    # whether it was short (then its max density, transmittance in front and t resolution)
+    d_prev = float(0.0)
+    sh_prev = int(0)
+    dmax_prev = float(0.0)
+    tr_prev = float(1.0)
+    u_prev = float(0.0)
     gn = tets[cell][face_in]
     while steps < max_steps:
         steps += 1
@@ -473,15 +528,40 @@ def march(
         k_out = tf_upper_from(s_out, k_in, tf_s)
         v_out = tf_eval_upper(s_out, k_out, tf_s, tf_v)
         if t_out > t_clip:
+            ln = t_out - t_in
             if t_in >= t_clip:
                 if k_in == k_out:  # no control point crossed: one linear piece
-                    seg = integrate_piece(t_out - t_in, v_in, v_out, model)
+                    seg = integrate_piece(ln, v_in, v_out, model)
                 else:
-                    seg = integrate_segment_tf(s_in, s_out, v_in, v_out, t_out - t_in, tf_s, tf_v, model)
+                    seg = integrate_segment_tf(s_in, s_out, v_in, v_out, ln, tf_s, tf_v, model)
             else:
                 ta, sa = clipped_segment(t_in, t_out, s_in, s_out, t_clip)
-                seg = integrate_segment_tf(sa, s_out, tf_eval(sa, tf_s, tf_v), v_out, t_out - ta, tf_s, tf_v,
+                ln = t_out - ta
+                seg = integrate_segment_tf(sa, s_out, tf_eval(sa, tf_s, tf_v), v_out, ln, tf_s, tf_v,
                                            model)
+            # a segment too short for its float32 length next to a density contrast: unresolved
+            u = t_unit(t_out, scale)
+            d_mean = 0.5 * (density(v_in, model) + density(v_out, model))
+            if k_in != k_out and ln > 0.0:
+                d_mean = seg[3] / ln + (d_mean - 0.5 * (v_in[3] + v_out[3]))
+            sh = int(0)
+            dmax = float(0.0)
+            if ln < THIN_ULPS * u:
+                sh = 1
+                dmax = density_max(v_in, v_out, k_in, k_out, tf_v, model)
+                if thin_unresolved(tr, dmax, d_prev, u):
+                    thin = 1
+            if sh_prev == 1:
+                if thin_unresolved(tr_prev, dmax_prev, d_mean, u_prev):
+                    thin = 1
+            if thin == 1:
+                failed = 1
+                break
+            sh_prev = sh
+            dmax_prev = dmax
+            tr_prev = tr
+            u_prev = u
+            d_prev = d_mean
             acc += tr * wp.vec3(seg[0], seg[1], seg[2])
             tr = tr * exp_neg(seg[3])
         nb = nrow[f_out]
@@ -493,6 +573,10 @@ def march(
             break
         if nb < 0:
             exited = 1
+            if sh_prev == 1:
+                if thin_unresolved(tr_prev, dmax_prev, 0.0, u_prev):
+                    failed = 1
+                    thin = 1
             break
         gn = vrow[f_out]
         cell = nb >> 2
@@ -501,6 +585,8 @@ def march(
     if failed == 1:
         status[idx] = STATUS_FAILED
         wp.atomic_add(counters, chunk, 3, 1)
+        if thin == 1:
+            wp.atomic_add(counters, chunk, 5, 1)  # of which: a thin layer float32 cannot resolve
         return
     rgb[idx] = acc
     trans[idx] = tr

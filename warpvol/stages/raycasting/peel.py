@@ -45,11 +45,13 @@ class Peel(Stage):
         threads = self.threads or cpu_threads()
         passes, entries = 0, 0
         ctx.count(passes=0)
+        thin = 0
         for _ in range(self.max_passes):
             if state.active == 0:
                 break  # the last pass left no ray that could re-enter: a pass would find nothing
             c = march_pass(ctx, state, max_steps=self.max_steps, t_min=self.t_min, threads=threads)
             passes += 1
+            thin += int(c[5])
             ctx.count(passes=1, entries=int(c[0]), cell_steps=int(c[1]))
             if c[0] == 0:
                 break
@@ -57,6 +59,6 @@ class Peel(Stage):
             ctx.progress(f"peel pass {passes}: {int(c[0])} rays re-entered")
         redone = resolve_failed(ctx, state)
         ctx.count(float64_rays=redone)
-        ctx.stats["peel"] = {"passes": passes, "reentries": entries, "float64_rays": redone}
+        ctx.stats["peel"] = {"passes": passes, "reentries": entries, "float64_rays": redone, "thin_layer_rays": thin}
         cam = ctx.scene.camera
         ctx.image = state.image(cam.height_px, cam.width_px)

@@ -112,7 +112,7 @@ def camera_launch_args(ctx: Context, rows_per_block: int = 16) -> tuple[int, lis
 def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float, threads: int,
                rows_per_block: int = 16) -> np.ndarray:
     """One propagation pass over all active rays; returns summed counters
-    ``(entries, steps, unfinished, failed, left active)`` and sets ``state.active`` to the last (rays
+    ``(entries, steps, unfinished, failed, left active, failed on a thin layer)`` and sets ``state.active`` to the last (rays
     that may re-enter: 0 means a further pass would find nothing). Failed rays keep
     ``STATUS_FAILED`` for :func:`resolve_failed`."""
     import warp as wp
@@ -121,7 +121,7 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
 
     cells, bins = ctx.buffers["cells"], ctx.buffers["entry_bins"]
     w, rows, cam_args = camera_launch_args(ctx, rows_per_block)
-    counters = wp.zeros((len(rows), 5), dtype=wp.int32, device=ctx.device)
+    counters = wp.zeros((len(rows), 6), dtype=wp.int32, device=ctx.device)
     common = cam_args + [cells["verts"], cells["tets"], cells["nbr"], cells["nbr_vertex"], bins["bface_tet"], bins["bface_local"],
                          bins["bface_box"], bins["tile_start"], bins["tile_items"], bins["tile"], bins["tiles_x"],
                          cells["tf_s"], cells["tf_v"], cells["model"], max_steps, t_min, 1e-6 * cells["radius"]]
@@ -174,8 +174,10 @@ class Raycast(Stage):
     Every ray's origin is moved in float64 to just before the mesh's bounding sphere. A perspective
     eye or orthographic eye plane inside the mesh is handled by walking from the boundary behind it
     and integrating only from the ray's true start (``t_clip``); a mesh behind or beside the camera
-    gives a transparent image. Rays the float32 walk cannot resolve are redone in float64 on the
-    host (:func:`redo_pixels_float64`) and counted (``float64_rays`` in the stats and counters).
+    gives a transparent image. Rays the float32 walk cannot resolve -- among them rays through a
+    layer too thin for float32 segment lengths whose extinction makes that visible -- are redone in
+    float64 on the host (:func:`redo_pixels_float64`) and counted (``float64_rays`` in the stats and
+    counters; ``thin_layer_rays`` of them for thin layers).
 
     ==========  =====  =========  =============================================================
     parameter   type   default    meaning
@@ -205,7 +207,7 @@ class Raycast(Stage):
         ctx.count(rays=cam.width_px * cam.height_px, entries=int(c[0]), cell_steps=int(c[1]),
                   float64_rays=redone)
         ctx.stats["raycast"] = {"entries": int(c[0]), "cell_steps": int(c[1]), "unfinished_rays": int(c[2]),
-                                "float64_rays": redone}
+                                "float64_rays": redone, "thin_layer_rays": int(c[5])}
         if redone:
             ctx.progress(f"raycast: {redone} rays the float32 walk could not resolve were redone in float64")
         ctx.image = state.image(cam.height_px, cam.width_px)
