@@ -71,11 +71,17 @@ class Camera:
         self.height = check_number(f"{w}.height", self.height, lo=0, lo_open=True)
         self.width_px = check_number(f"{w}.width_px", self.width_px, lo=1, integer=True)
         self.height_px = check_number(f"{w}.height_px", self.height_px, lo=1, integer=True)
-        d = self.target - self.eye
-        n = np.linalg.norm(d)
-        if n <= 1e-12 * max(1.0, np.linalg.norm(self.eye)):
-            raise ConfigError(f"{w}.eye: equals {w}.target ({self.eye.tolist()}); the view direction is undefined")
-        f = d / n
+        with np.errstate(over="ignore"):
+            d = self.target - self.eye
+        if not np.isfinite(d).all():  # coordinates near +-1.8e308: the same direction from halves
+            d = 0.5 * self.target - 0.5 * self.eye
+        # relative to the coordinates' size, so a scene in nanometres is as valid as one in metres
+        m = float(np.abs(d).max())
+        if m <= 1e-12 * float(max(np.abs(self.eye).max(), np.abs(self.target).max())) or m == 0:
+            raise ConfigError(f"{w}.eye: equals {w}.target ({self.eye.tolist()}) to 12 digits; the view direction "
+                              "is undefined")
+        f = d / m
+        f = f / np.linalg.norm(f)
         r = np.cross(f, self.up)
         rn = np.linalg.norm(r)
         if rn <= 1e-9 * np.linalg.norm(self.up):
@@ -207,10 +213,11 @@ class Camera:
         return v
 
     def depth_range(self, bounds_min: np.ndarray, bounds_max: np.ndarray) -> tuple[float, float]:
-        """Near/far eye-space distances that enclose an axis-aligned box (near clamped > 0)."""
+        """Near/far eye-space distances that enclose an axis-aligned box (near clamped > 0; margins
+        relative to the box's size)."""
         corners = np.array([[x, y, z] for x in (bounds_min[0], bounds_max[0])
                             for y in (bounds_min[1], bounds_max[1]) for z in (bounds_min[2], bounds_max[2])])
         dz = (corners - self.eye) @ self.forward
-        far = float(dz.max()) * 1.01 + 1e-6
+        far = float(dz.max()) * 1.01 + 1e-6 * float(np.linalg.norm(np.asarray(bounds_max) - np.asarray(bounds_min)))
         near = max(float(dz.min()) * 0.99, far * 1e-4)
         return near, far

@@ -76,7 +76,7 @@ def ray_space(points: np.ndarray, camera) -> np.ndarray:
         return np.stack([(x / (hh * camera.aspect) + 1.0) * w / 2.0, (1.0 - y / hh) * h / 2.0, z], axis=1)
     th = np.tan(np.radians(camera.fov_y_deg) / 2.0)
     zmin = float(z.min()) if len(z) else 1.0
-    if not zmin > 1e-9 * max(1.0, float(np.abs(q).max())):
+    if not zmin > 1e-9 * float(np.abs(q).max()):  # relative to the mesh's distances: any unit of length
         raise ConfigError("vsbuffer: a perspective view needs the whole mesh in front of the eye "
                           f"(nearest point at eye depth {zmin:g}); move the eye out of the mesh or use 'raycast'")
     return np.stack([(x / (z * th * camera.aspect) + 1.0) * w / 2.0, (1.0 - y / (z * th)) * h / 2.0, -1.0 / z], axis=1)
@@ -420,7 +420,9 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         ``ctx.count``).
 
     ``stats`` holds ``counters`` (all counted work), ``id_s`` (octree query + both ID passes + read-back
-    + comparison) and ``walk_s`` (column walk and integration), ``depth_res``, ``range``.
+    + comparison) and ``walk_s`` (column walk and integration), ``depth_res``, ``range``, ``cells``
+    (as drawn) and ``nonconvex_cells``: cells of ``cells`` that are not convex within float32
+    resolution (:attr:`ConvexCellMesh.nonconvex`), drawn as their pieces (:attr:`ConvexCellMesh.drawable`).
     """
     import warp as wp
 
@@ -430,6 +432,9 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
 
     if not isinstance(cells, ConvexCellMesh):
         raise ConfigError(f"cells: expected a ConvexCellMesh, got {type(cells).__name__}")
+    # cells that are not convex (non-planar faces folded in) are drawn as their pieces
+    nonconvex = int(cells.nonconvex.sum())
+    cells = cells.drawable
     if cells.n_cells >= ID_LIMIT:
         raise ConfigError(f"cells: {cells.n_cells} cells do not fit 24-bit IDs (at most {ID_LIMIT - 1})")
     if integration not in INTEGRATIONS:
@@ -443,7 +448,8 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         return np.zeros((H, W, 4), np.float32), {
             "counters": _zero_counts(0), "id_s": 0.0, "walk_s": 0.0, "setup_s": 0.0, "depth_res": R, "range": 0.0,
             "lists": None, "missed_length": 0.0, "missed_per_ray": np.zeros((H, W), np.int32) if audit else None,
-            "octree_nodes": 0, "cells": cells.n_cells, "tets": cells.n_tets, "note": "mesh behind the eye"}
+            "octree_nodes": 0, "cells": cells.n_cells, "tets": cells.n_tets, "nonconvex_cells": nonconvex,
+            "note": "mesh behind the eye"}
     stride = R + 2
     t0 = time.perf_counter()
     abc = ray_space(cells.points, camera)
@@ -603,4 +609,5 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     img = out.numpy().reshape(H, W, 4)
     return img, {"counters": cnt, "id_s": id_s, "walk_s": walk_s, "setup_s": t_setup, "depth_res": R,
                  "range": brange, "lists": lists, "missed_length": missed_length,
-                 "missed_per_ray": ray_missed.numpy().reshape(H, W) if audit else None, "octree_nodes": tree.n_nodes, "cells": cells.n_cells, "tets": cells.n_tets}
+                 "missed_per_ray": ray_missed.numpy().reshape(H, W) if audit else None, "octree_nodes": tree.n_nodes, "cells": cells.n_cells, "tets": cells.n_tets,
+                 "nonconvex_cells": nonconvex}
