@@ -402,11 +402,16 @@ class TransferFunction:
         return np.clip((np.asarray(s, dtype=np.float64) - lo) / (hi - lo), 0.0, 1.0)
 
     def to_warp(self, device: str):
-        """Device arrays ``(s: float32[K], values: vec4[K])`` for :func:`warpvol.kernels.tf.tf_eval`."""
+        """Device arrays ``(s: float32[K], values: vec4[K])`` for :func:`warpvol.kernels.tf.tf_eval`:
+        the control points with collinear runs merged to within float32 rounding
+        (:func:`warpvol.kernels.tf.device_points`), so a densely sampled TF costs what its shape needs."""
         import warp as wp
 
-        s = wp.array(self.points[:, 0].astype(np.float32), dtype=wp.float32, device=device)
-        v = wp.array(self.points[:, 1:5].astype(np.float32), dtype=wp.vec4, device=device)
+        from .kernels.tf import device_points
+
+        p = device_points(self.points)
+        s = wp.array(p[:, 0].astype(np.float32), dtype=wp.float32, device=device)
+        v = wp.array(p[:, 1:5].astype(np.float32), dtype=wp.vec4, device=device)
         return s, v
 
     def __repr__(self) -> str:
