@@ -31,7 +31,9 @@ the frame buffer in its number format (:func:`warpvol.kernels.formats.fmt_quanti
 Counters per row block (``counters[chunk, k]``): 0 entries, 1 fragment-program steps (iso sub-steps
 included), 2 cells visited, 3 failed rays, 4 rays stopped by the step bound, 5 iso crossings the
 iso table missed (checked against the TF's control points; diagnostic), 6 texture fetches, 7 entries
-whose rasterised face the consistent edge test rejected (searched among the face's neighbours).
+whose rasterised face the consistent edge test rejected (searched among the face's neighbours), 8 failed
+rays of the consistent walk with exact segments that crossed a layer too thin for float32 segment
+lengths (:func:`warpvol.kernels.raycast.thin_unresolved`; redone in float64 like every failed ray).
 """
 
 import warp as wp
@@ -39,8 +41,8 @@ import warp as wp
 from .formats import NumFmt, fmt_quantize
 from .integrate import exp_neg, integrate_piece, integrate_segment, integrate_segment_tf
 from .pt import axis_coord
-from .raycast import (STALL_STEPS, STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, Face, Ray, boundary_face, face_hit,
-                      monotone_exit, next_face, pixel_ray)
+from .raycast import (STALL_STEPS, STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, THIN_ULPS, Face, Ray, boundary_face,
+                      density, density_max, face_hit, monotone_exit, next_face, pixel_ray, t_unit, thin_unresolved)
 from .texture import Tex2D, Tex3D, tex2d, tex2d_texel, tex3d
 from .tf import tf_eval, tf_eval_upper, tf_first_break, tf_next_break, tf_upper
 
@@ -396,6 +398,15 @@ def harc_march(
     fetches = int(0)
     k_in = int(-1)
     v_in = wp.vec4(0.0, 0.0, 0.0, 0.0)
+    # thin-layer check of the consistent walk with exact segments (as raycast's march)
+    check_thin = walk == WALK_PLUCKER and ig.mode == INTEG_EXACT
+    thin = int(0)
+    scale = float(radius)
+    d_prev = float(0.0)
+    sh_prev = int(0)
+    dmax_prev = float(0.0)
+    tr_prev = float(1.0)
+    u_prev = float(0.0)
     while cells_visited < max_steps:
         cells_visited += 1
         t_out = float(0.0)
@@ -438,6 +449,31 @@ def harc_march(
                 seg = integrate_piece(t_out - t_in, v_in, v_out, ig.model)
             else:
                 seg = integrate_segment_tf(s_in, s_out, v_in, v_out, t_out - t_in, ig.tf_s, ig.tf_v, ig.model)
+            if check_thin:
+                ln = t_out - t_in
+                u = t_unit(t_out, scale)
+                d_mean = 0.5 * (density(v_in, ig.model) + density(v_out, ig.model))
+                if k_in != k_out and ln > 0.0:
+                    d_mean = seg[3] / ln + (d_mean - 0.5 * (v_in[3] + v_out[3]))
+                sh = int(0)
+                dmax = float(0.0)
+                tr = 1.0 - acc[3]
+                if ln < THIN_ULPS * u:
+                    sh = 1
+                    dmax = density_max(v_in, v_out, k_in, k_out, ig.tf_v, ig.model)
+                    if thin_unresolved(tr, dmax, d_prev, u):
+                        thin = 1
+                if sh_prev == 1:
+                    if thin_unresolved(tr_prev, dmax_prev, d_mean, u_prev):
+                        thin = 1
+                if thin == 1:
+                    failed = 1
+                    break
+                sh_prev = sh
+                dmax_prev = dmax
+                tr_prev = tr
+                u_prev = u
+                d_prev = d_mean
             acc = composite(acc, wp.vec4(seg[0], seg[1], seg[2], 1.0 - exp_neg(seg[3])))
             steps += 1
             k_in = k_out
@@ -453,6 +489,10 @@ def harc_march(
             break
         if nb < 0:
             exited = 1
+            if sh_prev == 1:
+                if thin_unresolved(tr_prev, dmax_prev, 0.0, u_prev):
+                    failed = 1
+                    thin = 1
             break
         cell = nb >> 2
         face_in = nb & 3
@@ -462,6 +502,8 @@ def harc_march(
     if failed == 1:
         status[idx] = STATUS_FAILED
         wp.atomic_add(counters, chunk, 3, 1)
+        if thin == 1:
+            wp.atomic_add(counters, chunk, 8, 1)
         return
     # the pass's result goes to the frame buffer in its number format
     rgba[idx] = wp.vec4(fmt_quantize(fb, acc[0]), fmt_quantize(fb, acc[1]), fmt_quantize(fb, acc[2]),

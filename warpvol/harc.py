@@ -254,9 +254,9 @@ class HarcState:
         return self.rgba.numpy().reshape(height, width, 4).astype(np.float32)
 
 
-N_COUNTERS = 8
+N_COUNTERS = 9
 COUNTER_NAMES = ("entries", "steps", "cells", "failed", "step_bound", "iso_missed", "texture_fetches",
-                 "entry_searches")
+                 "entry_searches", "thin_layer_rays")
 
 
 def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, fb_format: str, t_stop: float,
