@@ -577,7 +577,7 @@ def boundary_entries(face_tet: wp.array(dtype=wp.int32), face_loc: wp.array(dtyp
 
 
 @wp.kernel(enable_backward=False)
-def render_rows(row0: int, W: int, P: wp.array(dtype=wp.vec3d), S: wp.array(dtype=wp.float64),
+def render_rows(row0: int, first: int, W: int, P: wp.array(dtype=wp.vec3d), S: wp.array(dtype=wp.float64),
                 T: wp.array2d(dtype=wp.int32), adj: wp.array2d(dtype=wp.int32), orient: wp.array(dtype=wp.float64),
                 s_eye: wp.array(dtype=wp.float64), near: wp.array(dtype=wp.int32),
                 ent_start: wp.array(dtype=wp.int64), ent_t: wp.array(dtype=wp.float64),
@@ -586,7 +586,8 @@ def render_rows(row0: int, W: int, P: wp.array(dtype=wp.vec3d), S: wp.array(dtyp
                 tf_c: wp.array(dtype=wp.vec4d), gx10: wp.array(dtype=wp.float64), gw10: wp.array(dtype=wp.float64),
                 gx5: wp.array(dtype=wp.float64), gw5: wp.array(dtype=wp.float64), ed: int,
                 img: wp.array(dtype=wp.vec4d), counters: wp.array2d(dtype=wp.int64)):
-    """One pixel per thread of rows ``row0 ..``: walk every chord of its line, integrate, composite.
+    """One pixel per thread of rows ``row0 ..``: walk every chord of its line, integrate, composite
+    into ``img`` (rows from ``first`` on).
 
     ``counters[pixel] = (segments, tet steps, exact evaluations, failed walks)``."""
     tid = wp.tid()
@@ -692,8 +693,9 @@ def render_rows(row0: int, W: int, P: wp.array(dtype=wp.vec3d), S: wp.array(dtyp
                 break
             prev = c
             c = int(adj[c, sg.kout])
-    img[pix] = wp.vec4d(col[0], col[1], col[2], wp.float64(1.0) - wp.exp(-tau))
-    counters[pix, 0] = wp.int64(n_seg)
-    counters[pix, 1] = wp.int64(n_steps)
-    counters[pix, 2] = wp.int64(n_exact)
-    counters[pix, 3] = wp.int64(n_fail)
+    o = pix - first * W
+    img[o] = wp.vec4d(col[0], col[1], col[2], wp.float64(1.0) - wp.exp(-tau))
+    counters[o, 0] = wp.int64(n_seg)
+    counters[o, 1] = wp.int64(n_steps)
+    counters[o, 2] = wp.int64(n_exact)
+    counters[o, 3] = wp.int64(n_fail)

@@ -141,8 +141,9 @@ def _mesh_data(mesh: TetMesh, view: _View) -> dict:
     return dict(Pc=Pc, T=T, orient=orient, adj=adj, s_eye=s_eye, near=near)
 
 
-def _entry_faces(md: dict, view: _View):
-    """Boundary faces that can be an entry: ``(tet, face)`` and their pixel boxes."""
+def _entry_faces(md: dict, view: _View, first: int, last: int):
+    """Boundary faces that can be an entry: ``(tet, face)`` and their pixel boxes within rows
+    ``first..last``."""
     bt, bf = np.nonzero(md["adj"] < 0)
     loc = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])[bf]
     tri = md["T"][bt[:, None], loc]
@@ -156,7 +157,9 @@ def _entry_faces(md: dict, view: _View):
     else:  # entered only if facing the camera
         keep = n[:, 2] <= _CULL_TOL * nn
     box, valid = view.boxes(p[:, :, 0], p[:, :, 1], p[:, :, 2])
-    keep &= valid
+    box[:, 0] = np.maximum(box[:, 0], first)
+    box[:, 1] = np.minimum(box[:, 1], last)
+    keep &= valid & (box[:, 0] <= box[:, 1])
     return bt[keep].astype(np.int32), bf[keep].astype(np.int32), box[keep]
 
 
@@ -176,7 +179,7 @@ def _progress_bar(show: bool | None, total: int):
 def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *, device: str | None = None,
                           progress: Callable[[float], None] | None = None, stats: dict | None = None,
                           show_progress: bool | None = None, threads: int = 0,
-                          rows_per_block: int = 0) -> np.ndarray:
+                          rows_per_block: int = 0, rows: tuple[int, int] | None = None) -> np.ndarray:
     """Exact float64 reference image, Warp kernels (same contract as the NumPy
     :func:`warpvol.reference.render_reference`).
 
@@ -200,11 +203,15 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
         Host threads launching row blocks on the CPU (0: all cores).
     rows_per_block : int
         Rows per launch (0: chosen from the image and the cores).
+    rows : (int, int), optional
+        First and last image row (inclusive) to render; each pixel is computed on its own, so a
+        band is bit-identical to the same rows of the whole image.
 
     Returns
     -------
     (H, W, 4) float64
-        Premultiplied RGBA composited front to back over transparent black, row 0 = top.
+        Premultiplied RGBA composited front to back over transparent black, row 0 = top; with
+        ``rows``, ``(last - first + 1, W, 4)``.
     """
     import warp as wp
 
@@ -220,6 +227,10 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     threads = int(threads) or cpu_threads()
     view = _View(camera)
     W, H = view.W, view.H
+    first, last = (0, H - 1) if rows is None else (int(rows[0]), int(rows[1]))
+    if not 0 <= first <= last < H:
+        raise ConfigError(f"rows: expected (first, last) with 0 <= first <= last < {H}, got {rows!r}")
+    nrows = last - first + 1
     md = _mesh_data(mesh, view)
     preload(device, K)
 
@@ -238,7 +249,7 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     persp = int(view.persp)
 
     # -- boundary entries per pixel ------------------------------------------------------------------
-    ftet, floc, fbox = _entry_faces(md, view)
+    ftet, floc, fbox = _entry_faces(md, view, first, last)
     nf = len(ftet)
     fblocks = blocks(nf, max(1, -(-nf // (4 * threads)))) if on_cpu else [(0, nf)]
     d_ftet, d_floc = arr(ftet, wp.int32), arr(floc, wp.int32)
@@ -287,21 +298,21 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     setup_s = time.perf_counter() - t0
 
     # -- walk ------------------------------------------------------------------------------------------
-    img = wp.zeros(W * H, dtype=wp.vec4d, device=device)
-    counters = wp.zeros((W * H, 4), dtype=wp.int64, device=device)
-    rpb = int(rows_per_block) or (max(1, H // (8 * threads)) if on_cpu else max(1, H // 16))
-    rows = blocks(H, rpb)
+    img = wp.zeros(W * nrows, dtype=wp.vec4d, device=device)
+    counters = wp.zeros((W * nrows, 4), dtype=wp.int64, device=device)
+    rpb = int(rows_per_block) or (max(1, nrows // (8 * threads)) if on_cpu else max(1, nrows // 16))
+    rblocks = [(first + r0, nr) for r0, nr in blocks(nrows, rpb)]
     common = [P, S, T, adj, orient, s_eye, near, ent_start, ent_t, ent_tet, cxs, cys, persp,
               int(mesh.n_tets) + 1, f64(c_bound), tf_s, tf_c, arr(x10, f64), arr(w10, f64), arr(x5, f64),
               arr(w5, f64), ed, img, counters]
-    bar = _progress_bar(show_progress, len(rows))
-    task = bar.add_task("reference", total=H) if bar is not None else None
+    bar = _progress_bar(show_progress, len(rblocks))
+    task = bar.add_task("reference", total=nrows) if bar is not None else None
     lock = threading.Lock()
     done = [0]
 
     def launch(b: int) -> None:
-        r0, nr = rows[b]
-        wp.launch(K.render_rows, dim=nr * W, device=device, inputs=[r0, W] + common)
+        r0, nr = rblocks[b]
+        wp.launch(K.render_rows, dim=nr * W, device=device, inputs=[r0, first, W] + common)
         if not on_cpu:
             wp.synchronize_device(device)
         with lock:
@@ -309,20 +320,20 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
             if bar is not None:
                 bar.update(task, completed=done[0])
             if progress is not None:
-                progress(done[0] / H)
+                progress(done[0] / nrows)
 
     t1 = time.perf_counter()
     try:
-        launch_blocks(device, len(rows), launch, threads)
+        launch_blocks(device, len(rblocks), launch, threads)
     finally:
         if bar is not None:
             bar.stop()
-    out_img = img.numpy().reshape(H, W, 4)
+    out_img = img.numpy().reshape(nrows, W, 4)
     render_s = time.perf_counter() - t1
     if stats is not None:
         c = counters.numpy().sum(axis=0)
         stats.update(n_segments=int(c[0]), n_steps=int(c[1]), n_exact=int(c[2] + fexact.numpy()[:nf].sum()),
-                     n_failed=int(c[3]), n_entries=n_ent, n_bands=len(rows), setup_s=setup_s, render_s=render_s)
+                     n_failed=int(c[3]), n_entries=n_ent, n_bands=len(rblocks), setup_s=setup_s, render_s=render_s)
         if c[3]:
             stats["warning"] = (f"exact reference: {int(c[3])} ray walk(s) met a tet without a single exit face; "
                                 "those pixels are incomplete")
