@@ -498,7 +498,9 @@ def integrate_segment(sf: wp.float64, sb: wp.float64, L: wp.float64, tf_s: wp.ar
         v1 = tf_eval(tf_s, tf_c, s_end)
         F = integrate_piece(h, v0[3], v1[3], gx10, gw10, gx5, gw5, ed)
         e = F[0] * wp.vec3d(v0[0], v0[1], v0[2]) + F[1] * wp.vec3d(v1[0], v1[1], v1[2])
-        col = col + e * wp.exp(-tau)
+        if k > 0:
+            e = e * wp.exp(-tau)
+        col = col + e
         tau = tau + F[2]
     return wp.vec4d(col[0], col[1], col[2], tau)
 
@@ -622,6 +624,7 @@ def render_rows(row0: int, first: int, W: int, P: wp.array(dtype=wp.vec3d), S: w
                 start = c
                 best = t_in
     tau = zero
+    trans = wp.float64(1.0)  # exp(-tau)
     col = wp.vec3d(zero, zero, zero)
     e0 = int(ent_start[pix])
     ne_pix = int(ent_start[pix + 1]) - e0
@@ -681,11 +684,12 @@ def render_rows(row0: int, first: int, W: int, P: wp.array(dtype=wp.vec3d), S: w
                     t_in = zero
                 if t_out > t_in:
                     r = integrate_segment(s_in, sg.s_out, t_out - t_in, tf_s, tf_c, gx10, gw10, gx5, gw5, ed)
-                    col = col + wp.exp(-tau) * wp.vec3d(r[0], r[1], r[2])
+                    col = col + trans * wp.vec3d(r[0], r[1], r[2])
                     tau = tau + r[3]
+                    trans = wp.exp(-tau)
                     n_seg = n_seg + 1
                     # what is left is at most exp(-tau) * c_bound (radiance) and exp(-tau) (alpha)
-                    if wp.exp(-tau) * c_bound < TERMINATE:
+                    if trans * c_bound < TERMINATE:
                         done = 1
                         break
             if steps > max_steps:
@@ -694,7 +698,7 @@ def render_rows(row0: int, first: int, W: int, P: wp.array(dtype=wp.vec3d), S: w
             prev = c
             c = int(adj[c, sg.kout])
     o = pix - first * W
-    img[o] = wp.vec4d(col[0], col[1], col[2], wp.float64(1.0) - wp.exp(-tau))
+    img[o] = wp.vec4d(col[0], col[1], col[2], wp.float64(1.0) - trans)
     counters[o, 0] = wp.int64(n_seg)
     counters[o, 1] = wp.int64(n_steps)
     counters[o, 2] = wp.int64(n_exact)
