@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 import time
 from contextlib import contextmanager
 
@@ -54,21 +55,71 @@ def farr(x, device: str):
     return wp.array(np.ascontiguousarray(x, dtype=np.float32), dtype=wp.float32, device=device)
 
 
-def launch_l_slices(kernel, n_l: int, n_s: int, device: str, inputs) -> None:
-    """Launch a table kernel of dim ``(n_l, n_s, n_s)`` one l-slice at a time, the slices running
-    concurrently on the CPU cores; ``inputs(l0, nl)`` returns the kernel inputs for slices
-    ``l0 .. l0 + nl`` (with the l-indexed arrays sliced accordingly)."""
+#: texel-pieces (texels times TF pieces a texel may cross) in one launch: ~0.1 s of one CPU core, so
+#: Ctrl-C stops a build within about a launch and progress advances in small steps
+BAND_WORK = 4_000_000
+#: a build running longer than this (seconds) reports its progress, then again every this often
+PROGRESS_EVERY = 2.0
+_progress = threading.local()
+
+
+@contextmanager
+def progress_to(report):
+    """Table builds started in this block (on this thread) report long builds through ``report(msg)``
+    (a stage's ``ctx.progress``)."""
+    saved = getattr(_progress, "fn", None)
+    _progress.fn = report
+    try:
+        yield
+    finally:
+        _progress.fn = saved
+
+
+def launch_bands(kernel, n_l: int | None, n_rows: int, n_cols: int, device: str, inputs, *, pieces: int = 1,
+                 what: str = "table") -> None:
+    """Launch a table kernel of dim ``(n_l, n_rows, n_cols)`` (``(n_rows, n_cols)`` with ``n_l=None``)
+    in blocks of one l-slice and a band of rows, the blocks running concurrently on the CPU cores.
+
+    ``inputs(l0, nl, j0, nj)`` returns the kernel inputs for slices ``l0 .. l0 + nl`` and rows
+    ``j0 .. j0 + nj`` (the l- and row-indexed arrays sliced accordingly; ``l0, nl`` are ``0, 1``
+    for a 2D kernel). A band holds about :data:`BAND_WORK` texel-pieces (``pieces``: the TF pieces a
+    texel's segment may cross), so every launch is short: Ctrl-C (``KeyboardInterrupt``) drops the
+    blocks not started and returns after the launches in flight, and a build longer than
+    :data:`PROGRESS_EVERY` seconds reports its progress through :func:`progress_to`'s callback.
+    Texels are computed the same way whatever the banding (images do not depend on it).
+    """
     import warp as wp
 
-    from ..parallel import blocks, launch_blocks
+    from ..parallel import launch_blocks
 
-    slabs = blocks(n_l, 1)
+    rows = max(1, min(n_rows, BAND_WORK // max(1, n_cols * (1 + max(1, pieces)))))
+    slabs = [(l0, j0, min(rows, n_rows - j0)) for l0 in range(n_l or 1) for j0 in range(0, n_rows, rows)]
+    report = getattr(_progress, "fn", None)
+    lock = threading.Lock()
+    state = {"done": 0, "t0": time.perf_counter(), "last": time.perf_counter()}
 
     def launch(b: int) -> None:
-        l0, nl = slabs[b]
-        wp.launch(kernel, dim=(nl, n_s, n_s), device=device, inputs=inputs(l0, nl))
+        l0, j0, nj = slabs[b]
+        dim = (nj, n_cols) if n_l is None else (1, nj, n_cols)
+        wp.launch(kernel, dim=dim, device=device, inputs=inputs(l0, 1, j0, nj))
+        if report is None:
+            return
+        with lock:
+            state["done"] += 1
+            now = time.perf_counter()
+            if now - state["last"] >= PROGRESS_EVERY and state["done"] < len(slabs):
+                state["last"] = now
+                report(f"{what}: {state['done']}/{len(slabs)} blocks ({100.0 * state['done'] / len(slabs):.0f} %, "
+                       f"{now - state['t0']:.0f} s)")
 
     launch_blocks(device, len(slabs), launch)
+
+
+def tf_pieces(tf: TransferFunction) -> int:
+    """Pieces of the TF as the kernels see it (collinear runs merged: :func:`warpvol.kernels.tf.device_points`)."""
+    from ..kernels.tf import device_points
+
+    return max(1, len(device_points(tf.points)) - 1)
 
 
 def tf_arrays(tf: TransferFunction, device: str):
@@ -109,4 +160,5 @@ def finish(name: str, values: np.ndarray, axes, channels, fmt: str, key: tuple, 
 
 
 __all__ = ["Axis", "Table", "check_choice", "check_lmax", "check_res", "check_tf", "farr", "finish", "kernels",
-           "linear_index_map", "model_id", "scalar_axis", "table_key", "tf_arrays", "timed"]
+           "launch_bands", "linear_index_map", "model_id", "progress_to", "scalar_axis", "table_key", "tf_arrays",
+           "tf_pieces", "timed"]

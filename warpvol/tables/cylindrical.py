@@ -44,8 +44,8 @@ import math
 import numpy as np
 
 from .base import TABLE_FORMATS, Axis, Table
-from .common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, linear_index_map,
-                     model_id, table_key, tf_arrays, timed)
+from .common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_bands,
+                     linear_index_map, model_id, table_key, tf_arrays, tf_pieces, timed)
 from .exact import build_exact3d
 
 PLANE_FACTORS = {"4x": 4, "2x": 2, "1x": 1}
@@ -151,8 +151,9 @@ def build_cylindrical(tf, *, n_s: int = 64, n_l: int | None = None, lmax: float 
         tf_s, tf_v = tf_arrays(tf, device)
         lo, hi = tf.srange
         with timed(meta, device=device):
-            wp.launch(k.cylindrical_exact, dim=(P, n_s, n_s), device=device,
-                      inputs=[alphas, xs, xs, lmax, lo, hi - lo, tf_s, tf_v, model_id(tf), out])
+            launch_bands(k.cylindrical_exact, P, n_s, n_s, device, lambda p0, np_, j0, nj: [
+                alphas[p0:p0 + np_], xs, xs[j0:j0 + nj], lmax, lo, hi - lo, tf_s, tf_v, model_id(tf),
+                out[p0:p0 + np_, j0:j0 + nj]], pieces=tf_pieces(tf), what=f"cylindrical planes {P}x{n_s}x{n_s}")
     t = finish("cylindrical", out.numpy(), (ax_p, ax_t, ax_s), ("r", "g", "b", "a"), format, key, meta)
     t.extra["atlas"] = atlas(t.data)
     return t

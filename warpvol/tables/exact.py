@@ -7,8 +7,8 @@ segment as a piece boundary and each piece integrated by the project's float32 s
 
 from __future__ import annotations
 
-from .common import (Axis, check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_l_slices,
-                     model_id, scalar_axis, table_key, tf_arrays, timed)
+from .common import (Axis, check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_bands,
+                     model_id, scalar_axis, table_key, tf_arrays, tf_pieces, timed)
 from .base import AXIS_KINDS, TABLE_FORMATS
 
 
@@ -56,6 +56,7 @@ def build_exact3d(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, l_axis
     lo, hi = tf.srange
     xf, xb, ls = farr(ax_f.nodes, device), farr(ax_b.nodes, device), farr(ax_l.physical, device)
     with timed(meta, device=device):
-        launch_l_slices(k.exact_table3d, n_l, n_s, device, lambda l0, nl: [
-            xf, xb, ls[l0:l0 + nl], lo, hi - lo, tf_s, tf_v, model_id(tf), out[l0:l0 + nl]])
+        launch_bands(k.exact_table3d, n_l, n_s, n_s, device, lambda l0, nl, j0, nj: [
+            xf, xb[j0:j0 + nj], ls[l0:l0 + nl], lo, hi - lo, tf_s, tf_v, model_id(tf), out[l0:l0 + nl, j0:j0 + nj]],
+            pieces=tf_pieces(tf), what=f"exact table {n_l}x{n_s}x{n_s}")
     return finish("exact3d", out.numpy(), (ax_l, ax_b, ax_f), ("r", "g", "b", "a"), format, key, meta)

@@ -26,8 +26,8 @@ import numpy as np
 
 from ..errors import ConfigError
 from .base import Axis, Table, quantise
-from .common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, model_id, scalar_axis,
-                     table_key, tf_arrays, timed)
+from .common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_bands, model_id,
+                     scalar_axis, table_key, tf_arrays, tf_pieces, timed)
 
 COEF_FORMATS = ("snorm8", "fp16", "fp32")
 ALPHA_FORMATS = ("al16", "rgba8", "fp32")
@@ -105,11 +105,15 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
     mom = wp.zeros((n_s, n_s), dtype=wp.vec4, device=device)
     sl = wp.zeros((degree, n_s, n_s), dtype=wp.vec4, device=device)
     with timed(meta, device=device):
-        wp.launch(k.guthe_moments, dim=(n_s, n_s), device=device, inputs=[x, x, lo, hi - lo, tf_s, tf_v, mom])
+        pieces = tf_pieces(tf)
+        launch_bands(k.guthe_moments, None, n_s, n_s, device, lambda l0, nl, j0, nj: [
+            x, x[j0:j0 + nj], lo, hi - lo, tf_s, tf_v, mom[j0:j0 + nj]], pieces=pieces,
+            what=f"Guthe moments {n_s}x{n_s}")
         if slices == "exact":
             lengths = farr(lmax * np.arange(1, degree + 1) / degree, device)
-            wp.launch(k.exact_table3d, dim=(degree, n_s, n_s), device=device,
-                      inputs=[x, x, lengths, lo, hi - lo, tf_s, tf_v, model_id(tf), sl])
+            launch_bands(k.exact_table3d, degree, n_s, n_s, device, lambda l0, nl, j0, nj: [
+                x, x[j0:j0 + nj], lengths[l0:l0 + nl], lo, hi - lo, tf_s, tf_v, model_id(tf),
+                sl[l0:l0 + nl, j0:j0 + nj]], pieces=pieces, what=f"Guthe slices {degree}x{n_s}x{n_s}")
             s = sl.numpy().astype(np.float64)
         else:
             from .pingpong import build_pingpong

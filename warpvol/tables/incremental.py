@@ -23,8 +23,8 @@ from __future__ import annotations
 import numpy as np
 
 from .base import TABLE_FORMATS, Axis
-from .common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, linear_index_map,
-                     model_id, scalar_axis, table_key, tf_arrays, timed)
+from .common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_bands,
+                     linear_index_map, model_id, scalar_axis, table_key, tf_arrays, tf_pieces, timed)
 
 THICKNESS_AXES = {"uniform": "endpoint", "log2": "log2"}
 
@@ -75,12 +75,14 @@ def build_incremental(tf, *, n_s: int = 64, n_l: int = 16, lmax: float = 1.0, ax
         base3 = wp.zeros((1, n_s, n_s), dtype=wp.vec4, device=device)
         lengths = farr([dl], device)
         if base == "exact":
-            wp.launch(k.exact_table3d, dim=(1, n_s, n_s), device=device,
-                      inputs=[x, x, lengths, lo, hi - lo, tf_s, tf_v, model_id(tf), base3])
+            launch_bands(k.exact_table3d, 1, n_s, n_s, device, lambda l0, nl, j0, nj: [
+                x, x[j0:j0 + nj], lengths, lo, hi - lo, tf_s, tf_v, model_id(tf), base3[:, j0:j0 + nj]],
+                pieces=tf_pieces(tf), what=f"incremental base slice {n_s}x{n_s}")
         else:
-            wp.launch(k.roettger_sw_table3d, dim=(1, n_s, n_s), device=device,
-                      inputs=[x, x, lengths, lo, hi - lo, tf_s, tf_v, model_id(tf), float(len(tf.points)), 2.0, 1,
-                              base3])
+            m = float(len(tf.points))
+            launch_bands(k.roettger_sw_table3d, 1, n_s, n_s, device, lambda l0, nl, j0, nj: [
+                x, x[j0:j0 + nj], lengths, lo, hi - lo, tf_s, tf_v, model_id(tf), m, 2.0, 1, base3[:, j0:j0 + nj]],
+                pieces=len(tf.points), what=f"incremental base slice {n_s}x{n_s}")
         wp.copy(slices[1], base3.reshape((n_s, n_s)))
         for s in range(2, n_l):
             if axis == "uniform":

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import AXIS_KINDS, TABLE_FORMATS
-from .common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_l_slices, model_id,
+from .common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_bands, model_id,
                      scalar_axis, table_key, tf_arrays, timed)
 from .exact import length_axis
 from ..errors import check_number
@@ -77,8 +77,9 @@ def build_roettger_sw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, m:
     lo, hi = tf.srange
     with timed(meta, device=device):
         xf, xb, ls = farr(ax_f.nodes, device), farr(ax_b.nodes, device), farr(ax_l.physical, device)
-        launch_l_slices(k.roettger_sw_table3d, n_l, n_s, device, lambda l0, nl: [
-            xf, xb, ls[l0:l0 + nl], lo, hi - lo, tf_s, tf_v, model_id(tf), float(m), o, n_min, out[l0:l0 + nl]])
+        launch_bands(k.roettger_sw_table3d, n_l, n_s, n_s, device, lambda l0, nl, j0, nj: [
+            xf, xb[j0:j0 + nj], ls[l0:l0 + nl], lo, hi - lo, tf_s, tf_v, model_id(tf), float(m), o, n_min,
+            out[l0:l0 + nl, j0:j0 + nj]], pieces=max(n_min, int(o * m)) // 2, what=f"software table {n_l}x{n_s}x{n_s}")
     meta["samples"] = sw_samples(ax_f.nodes, ax_b.nodes, m, o, n_min) * n_l
     from ..gpu import counters as cnt
 

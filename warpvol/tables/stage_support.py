@@ -12,6 +12,7 @@ from typing import Any, ClassVar
 
 from ..pipeline import Context, Param, Stage
 from .cache import TableCache
+from .common import progress_to
 
 LMAX = Param("lmax", float, 0.0, "thickness at l = 1 (world units); 0 = the mesh's longest edge", lo=0.0)
 
@@ -59,7 +60,8 @@ class TableStage(Stage):
         if self.uses_tf and tf is None:
             raise ValueError(f"{self.where}: the scene has no transfer function")
         n_before = len(cache.builds)
-        table = cache.get(self.builder, tf, device=ctx.device, **self.builder_kwargs(ctx))
+        with progress_to(lambda msg: ctx.progress(f"{self.where}: {msg}")):
+            table = cache.get(self.builder, tf, device=ctx.device, **self.builder_kwargs(ctx))
         ctx.buffers[self.config["output"]] = table
         ctx.stats.setdefault("tables", {})[self.config["output"]] = {
             "builder": self.builder, "shape": list(table.data.shape), "format": table.format,
