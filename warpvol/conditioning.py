@@ -15,8 +15,9 @@ points        ``(p - c) / h``: ``c`` the centre of the mesh's bounding box, ``h`
               so the mesh fills ``[-1, 1]`` along its longest axis
 camera        ``eye``, ``target`` the same way; orthographic ``height / h``; field of view and ``up`` as
               they are (a similarity transform keeps every ray through every pixel centre)
-scalars       ``(s - m) / r`` with ``m``, ``r`` the midpoint and half-span of the transfer function's
-              range; the control points the same way (piecewise-linear functions commute with it)
+scalars       ``(s - m) / r`` with ``m``, ``r`` the midpoint and half-span of the scalars that matter
+              (the transfer function's range within the data's, :func:`scalar_frame`); the control
+              points the same way, restricted to the data's range (no scalar beyond it is looked up)
 extinction    ``rho * h`` (extinction is per world unit of length, the new unit is ``h`` long)
 colour        as it is for ``color_extinction``; ``c * h`` for ``emission_density`` (``c`` is an
               emission per unit length there)
@@ -88,9 +89,17 @@ def mesh_frame(mesh: TetMesh) -> tuple[np.ndarray, float]:
     return centre, h
 
 
-def scalar_frame(tf: TransferFunction) -> tuple[float, float]:
-    """``(midpoint, half-span)`` of the transfer function's range, both finite."""
-    lo, hi = tf.srange
+def scalar_frame(tf: TransferFunction, data_range: tuple[float, float]) -> tuple[float, float]:
+    """``(midpoint, half-span)`` of the scalars that matter: the transfer function's range within the
+    data's (where both vary), else the data's range (the TF is constant over the data), else
+    ``(value, 1)`` for constant data. Both finite (no overflow of a span near +-1.8e308)."""
+    t_lo, t_hi = tf.srange
+    d_lo, d_hi = (float(v) for v in data_range)
+    lo, hi = max(t_lo, d_lo), min(t_hi, d_hi)
+    if not hi > lo:
+        lo, hi = d_lo, d_hi
+    if not hi > lo:
+        return lo, 1.0
     mid = 0.5 * lo + 0.5 * hi
     half = 0.5 * hi - 0.5 * lo
     if not half > 0:
@@ -108,9 +117,9 @@ def _conditioned_mesh(mesh: TetMesh, centre: np.ndarray, h: float, s_mid: float,
     if np.abs(s).max() > FLOAT32_SAFE:
         k = int(np.abs(s).argmax())
         raise ConfigError(
-            f"{name}: scalars: {float(mesh.scalars[k]):.6g} lies {abs(float(s[k])):.3g} half-spans of the transfer "
-            f"function's range away from its midpoint {s_mid:.6g}; float32 holds up to {FLOAT32_SAFE:.3g} "
-            "(widen the transfer function's range or clip the data)")
+            f"{name}: scalars: {float(mesh.scalars[k]):.6g} lies {abs(float(s[k])):.3g} times {s_half:.3g} from "
+            f"{s_mid:.6g}, the middle of the transfer function's range within the data; float32 holds up to "
+            f"{FLOAT32_SAFE:.3g} (widen the transfer function's range or clip the data)")
     out = TetMesh.__new__(TetMesh)
     cls_attrs = vars(TetMesh)
     for key, value in vars(mesh).items():
@@ -126,40 +135,36 @@ def _conditioned_mesh(mesh: TetMesh, centre: np.ndarray, h: float, s_mid: float,
     return out
 
 
-def _check_optical_depth(tf: TransferFunction, mesh: TetMesh, where: str) -> None:
-    """Largest extinction times the mesh diagonal (a scale-free optical depth) within float32."""
+def _diagonal(mesh: TetMesh) -> float:
     lo, hi = (np.asarray(b, dtype=np.float64) for b in mesh.bounds)
-    diag = 2.0 * float(np.linalg.norm(0.5 * hi - 0.5 * lo))
-    k = int(np.argmax(tf.extinction))
-    tau = float(tf.extinction[k]) * diag
+    return 2.0 * float(np.linalg.norm(0.5 * hi - 0.5 * lo))
+
+
+def _check_values(values: np.ndarray, s: np.ndarray, emission: str, diag: float, where: str) -> None:
+    """Optical depth ``max extinction x mesh diagonal`` (the same in any unit of length) and colours
+    (``emission_density``: colour x mesh diagonal) within what float32 formats hold. ``values`` are
+    rows ``[r, g, b, extinction]`` at the scalars ``s``."""
+    k = int(np.argmax(values[:, 3]))
+    tau = float(values[k, 3]) * diag
     if not tau <= FLOAT32_SAFE:
         raise ConfigError(
-            f"{where}.points[{k}]: extinction {float(tf.extinction[k]):.3g} over the mesh's diagonal {diag:.3g} is an "
-            f"optical depth of {tau:.3g}; float32 formats hold up to {FLOAT32_SAFE:.3g}")
+            f"{where}.points: extinction {float(values[k, 3]):.3g} (at s = {float(s[k]):.6g}) over the mesh's diagonal "
+            f"{diag:.3g} is an optical depth of {tau:.3g}; float32 formats hold up to {FLOAT32_SAFE:.3g}")
+    rgb = values[:, :3] * (diag if emission == "emission_density" else 1.0)
+    if not rgb.max() <= FLOAT32_SAFE:
+        k = int(np.argmax(rgb.max(axis=1)))
+        what = " times the mesh diagonal" if emission == "emission_density" else ""
+        raise ConfigError(f"{where}.points: colour {values[k, :3].tolist()} (at s = {float(s[k]):.6g}){what} exceeds "
+                          f"what float32 formats hold ({FLOAT32_SAFE:.3g})")
 
 
-def check_float32_ranges(scene, conditioned: bool) -> None:
-    """Refuse inputs the float32 formats of a pipeline cannot hold, naming the field and the range.
-
-    Always: the optical depth ``max extinction x mesh diagonal`` (the same in any unit of length);
-    colours (``emission_density``: colour x mesh diagonal). Without conditioning also: points,
-    scalars and transfer-function points beyond +-``FLOAT32_SAFE`` (a float32 cast makes them
-    infinite).
-    """
+def check_float32_ranges(scene) -> None:
+    """Refuse inputs a pipeline that casts them to float32 as they are cannot hold, naming the field
+    and the range: the optical depth and colours (:func:`_check_values`), points, scalars and
+    transfer-function points beyond +-:data:`FLOAT32_SAFE`."""
     mesh, tf = scene.mesh, scene.transfer
     where = getattr(tf, "where", "transfer")
-    _check_optical_depth(tf, mesh, where)
-    rgb = np.asarray(tf.rgb, dtype=np.float64)
-    if tf.emission == "emission_density":
-        lo, hi = (np.asarray(b, dtype=np.float64) for b in mesh.bounds)
-        rgb = rgb * (2.0 * float(np.linalg.norm(0.5 * hi - 0.5 * lo)))
-    if rgb.max() > FLOAT32_SAFE:
-        k = int(np.argmax(rgb.max(axis=1)))
-        what = "times the mesh diagonal " if tf.emission == "emission_density" else ""
-        raise ConfigError(f"{where}.points[{k}]: colour {tf.rgb[k].tolist()} {what}exceeds what float32 formats "
-                          f"hold ({FLOAT32_SAFE:.3g})")
-    if conditioned:
-        return
+    _check_values(np.asarray(tf.points[:, 1:], dtype=np.float64), tf.s, tf.emission, _diagonal(mesh), where)
     name = getattr(mesh, "name", "mesh")
     for field, arr in ((f"{name}: points", mesh.bounds), (f"{name}: scalars", mesh.scalar_range),
                        (f"{where}.points (s)", tf.srange)):
@@ -190,9 +195,9 @@ def condition_scene(scene, cache: dict | None = None) -> tuple[object, dict]:
     import weakref
 
     mesh, tf = scene.mesh, scene.transfer
-    check_float32_ranges(scene, conditioned=True)
     centre, h = mesh_frame(mesh)
-    s_mid, s_half = scalar_frame(tf)
+    data_range = mesh.scalar_range
+    s_mid, s_half = scalar_frame(tf, data_range)
     hit = None if cache is None else cache.get("mesh")  # (weakref to the source, scalar mapping, result)
     if hit is not None and hit[0]() is mesh and hit[1] == (s_mid, s_half):
         cmesh, cached = hit[2], True
@@ -202,27 +207,36 @@ def condition_scene(scene, cache: dict | None = None) -> tuple[object, dict]:
             cache["mesh"] = (weakref.ref(mesh), (s_mid, s_half), cmesh)
     out = copy.copy(scene)
     out.mesh = cmesh
-    out.transfer = conditioned_transfer(tf, h, s_mid, s_half)
+    out.transfer = conditioned_transfer(tf, h, s_mid, s_half, data_range, _diagonal(mesh))
     out.camera = conditioned_camera(scene.camera, centre, h)
     info = {"origin": [float(v) for v in centre], "scale": h, "scalar_offset": s_mid, "scalar_scale": s_half,
             "cached": cached}
     return out, info
 
 
-def conditioned_transfer(tf: TransferFunction, h: float, s_mid: float, s_half: float) -> TransferFunction:
-    """The transfer function in conditioned units (see :func:`condition_scene`)."""
+def conditioned_transfer(tf: TransferFunction, h: float, s_mid: float, s_half: float,
+                         data_range: tuple[float, float], diag: float) -> TransferFunction:
+    """The transfer function in conditioned units (see :func:`condition_scene`), restricted to the
+    data's scalar range ``data_range``: its value at both ends and the control points between. A tet
+    interpolates its vertex scalars linearly, so no scalar outside that range is ever looked up and
+    the restriction changes no colour; control points far outside (e.g. at +-1.7e308) drop out.
+    ``diag``: the mesh diagonal in world units (optical depth and emission bounds)."""
     where = getattr(tf, "where", "transfer")
-    pts = np.array(tf.points, dtype=np.float64)
-    pts[:, 0] = _shift_scale(pts[:, 0], s_mid, s_half, f"{where}.points (s)")
-    pts[:, 4] *= h
+    d_lo, d_hi = (float(v) for v in data_range)
+    inner = (tf.s > d_lo) & (tf.s < d_hi)
+    s = np.concatenate([[d_lo], tf.s[inner], [d_hi]])
+    vals = np.concatenate([tf.evaluate(d_lo)[None], tf.points[inner, 1:], tf.evaluate(d_hi)[None]])
+    _check_values(vals, s, tf.emission, diag, where)
+    u = _shift_scale(s, s_mid, s_half, f"{where}.points (s)")
+    if not u[-1] > u[0]:  # constant data: the TF is constant on it
+        u, vals = np.array([u[0] - 1.0, u[0] + 1.0]), vals[[0, 0]]
+    keep = np.concatenate([[True], np.diff(u) > 0])  # points within float64 rounding of each other: the first
+    u, vals = u[keep], vals[keep]
+    vals = vals.copy()
+    vals[:, 3] *= h
     if tf.emission == "emission_density":
-        pts[:, 1:4] *= h
-    # mapping strictly ascending values keeps them ascending unless two were within rounding
-    if (np.diff(pts[:, 0]) <= 0).any():
-        k = int(np.argmax(np.diff(pts[:, 0]) <= 0))
-        raise ConfigError(f"{where}.points: s values {tf.s[k]!r} and {tf.s[k + 1]!r} are closer than float64 resolves "
-                          f"relative to the range {tf.srange}")
-    return TransferFunction(pts, tf.emission, where=where)
+        vals[:, :3] *= h
+    return TransferFunction(np.column_stack([u, vals]), tf.emission, where=where)
 
 
 def conditioned_camera(cam: Camera, centre: np.ndarray, h: float) -> Camera:
@@ -253,14 +267,11 @@ def precision_bits(scene) -> dict[str, int]:
     """Bits a float32 cast of the scene's inputs as they are loses: ``scalars`` (the largest
     |value| of the transfer function's range over its span) and ``points`` (the largest |coordinate|
     of the mesh over its largest extent)."""
-    lo, hi = scene.transfer.srange
+    mid, half = scalar_frame(scene.transfer, scene.mesh.scalar_range)
     bounds_lo, bounds_hi = (np.asarray(b, dtype=np.float64) for b in scene.mesh.bounds)
-    with np.errstate(over="ignore"):
-        extent = float((bounds_hi - bounds_lo).max())
-        srange = hi - lo
+    centre, h = mesh_frame(scene.mesh)
     mag = float(np.maximum(np.abs(bounds_lo), np.abs(bounds_hi)).max())
-    return {"scalars": _bits_lost(max(abs(lo), abs(hi)), srange),
-            "points": _bits_lost(mag, extent)}
+    return {"scalars": _bits_lost(abs(mid) + half, 2.0 * half), "points": _bits_lost(mag, 2.0 * h)}
 
 
 def precision_warnings(scene) -> dict | None:
@@ -270,19 +281,19 @@ def precision_warnings(scene) -> dict | None:
 
     Examples
     --------
-    >>> from types import SimpleNamespace
-    >>> from warpvol.builtin import builtin_mesh
-    >>> tf = TransferFunction([[2e5, 0, 0, 1, 1.0], [2e5 + 4, 1, 0, 0, 1.0]])
-    >>> print(precision_warnings(SimpleNamespace(mesh=builtin_mesh("box"), transfer=tf))["warning"])
-    scalars: offset 2e+05 over a transfer-function range of 4: 15 of float32's 24 bits lost; the exact presets (raycast, harc_best, pt_best, vsbuffer_best) condition the input first
+    >>> from warpvol.stress_real import offset_scene
+    >>> print(precision_warnings(offset_scene(8, scalar_offset=2e5, scalar_span=4.0))["warning"])
+    scalars: offset 2e+05 over a range of 3.99 (where data and transfer function overlap): 15 of float32's 24 bits lost; the exact presets (raycast, harc_best, pt_best, vsbuffer_best) condition the input first
+    >>> precision_warnings(offset_scene(8)) is None
+    True
     """
-    check_float32_ranges(scene, conditioned=False)
+    check_float32_ranges(scene)
     bits = precision_bits(scene)
     parts = []
     if bits["scalars"] > WARN_BITS:
-        lo, hi = scene.transfer.srange
-        parts.append(f"scalars: offset {max(abs(lo), abs(hi)):.3g} over a transfer-function range of {hi - lo:.3g}: "
-                     f"{bits['scalars']} of float32's {FLOAT32_BITS} bits lost")
+        mid, half = scalar_frame(scene.transfer, scene.mesh.scalar_range)
+        parts.append(f"scalars: offset {abs(mid) + half:.3g} over a range of {2 * half:.3g} (where data and transfer "
+                     f"function overlap): {bits['scalars']} of float32's {FLOAT32_BITS} bits lost")
     if bits["points"] > WARN_BITS:
         blo, bhi = scene.mesh.bounds
         mag = float(np.maximum(np.abs(blo), np.abs(bhi)).max())

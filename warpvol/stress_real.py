@@ -11,8 +11,112 @@ builds the scene. ``build(quick)`` takes the ``--quick`` flag (smaller images fo
 from __future__ import annotations
 
 
+#: the field of the conditioning cases on the unit box grid (varied, so a lost bit shows as colour)
+def _cond_field(p):
+    import numpy as np
+
+    return 0.6 * np.sin(1.7 * p[:, 0]) + 0.5 * p[:, 1] - 0.4 * p[:, 2] * p[:, 0]
+
+
+#: TF of the conditioning cases over the field's range ``[-1.5, 1.5]``: [s, r, g, b, extinction]
+COND_TF = ((-1.5, 0.1, 0.2, 1.0, 0.6), (-0.3, 1.0, 0.6, 0.1, 2.0), (0.4, 0.9, 1.0, 0.3, 0.4), (1.5, 1.0, 0.2, 0.2, 1.8))
+
+
+def offset_scene(px: int = 32, *, scalar_offset: float = 0.0, scalar_span: float = 3.0, origin=(0.0, 0.0, 0.0),
+                 scale: float = 1.0, emission: str = "color_extinction", projection: str = "perspective",
+                 name: str = "offset"):
+    """A 4^3-point box grid (2 across, 162 tets) with a smooth field, seen from outside: the same
+    image for every ``scalar_offset`` / ``scalar_span`` (scalars and TF points mapped alike),
+    ``origin`` and ``scale`` (points, camera, and extinction and emission-density colour per unit
+    length mapped alike). Returns a :class:`warpvol.scene.Scene`.
+
+    Examples
+    --------
+    >>> s = offset_scene(8, scalar_offset=3e6, origin=(4.5e5, 5.8e6, 150.0), scale=0.5)
+    >>> s.mesh.bounds[0].tolist(), s.transfer.srange
+    ([449999.5, 5799999.5, 149.5], (2999998.5, 3000001.5))
+    """
+    import numpy as np
+
+    from .builtin import grid_points
+    from .camera import Camera
+    from .mesh import TetMesh, structured_to_tets
+    from .scene import Scene
+    from .transfer import TransferFunction
+
+    x = np.linspace(-1.0, 1.0, 4)
+    unit = grid_points(x, x, x)
+    k = scalar_span / 3.0
+    tf = np.array(COND_TF)
+    tf[:, 0] = tf[:, 0] * k + scalar_offset
+    tf[:, 4] /= scale
+    if emission == "emission_density":
+        tf[:, 1:4] /= scale
+    o = np.asarray(origin, dtype=np.float64)
+    mesh = TetMesh(unit * scale + o, structured_to_tets((4, 4, 4)), _cond_field(unit) * k + scalar_offset, name=name)
+    cam = Camera(projection=projection, eye=np.array([2.2, 1.6, 3.1]) * scale + o, target=o, fov_y_deg=40.0,
+                 height=3.2 * scale, width_px=px, height_px=px)
+    return Scene(mesh=mesh, transfer=TransferFunction(tf, emission), camera=cam, name=name)
+
+
 def conditioning_cases(simple, with_ref, sc) -> None:
-    """Scalar offsets, georeferenced coordinates, meshes at extreme scales."""
+    """Scalar offsets, georeferenced coordinates, meshes at extreme scales, inputs beyond float32.
+
+    The exact presets condition the scene in float64 first (:mod:`warpvol.conditioning`) and stay
+    within their tolerances; the paper presets keep their float32 cast and warn with the bits lost
+    (``precision``); inputs no float32 format holds are declined naming the field.
+    """
+    import numpy as np
+
+    def px(q):
+        return 24 if q else 96
+
+    for off in (3e6, 1e8):
+        simple(f"scalar_offset_{off:.0e}", f"scalars {off:g} + a variation of 5 (a TF over that range): a float32 "
+               f"cast as is keeps ~{max(0, 24 - int(np.log2(off / 5)))} of 24 bits",
+               lambda q, off=off: offset_scene(px(q), scalar_offset=off, scalar_span=5.0, name=f"scalar_offset_{off:.0e}"))
+    simple("georeferenced", "a mesh 1 across near (4.5e5, 5.8e6, 150), as UTM data sits; orthographic view",
+           lambda q: offset_scene(px(q), origin=(4.5e5, 5.8e6, 150.0), scale=0.5, projection="orthographic",
+                                  name="georeferenced"))
+    simple("georeferenced_perspective", "a mesh 1 across near (4.5e5, 5.8e6, 150), perspective view",
+           lambda q: offset_scene(px(q), origin=(4.5e5, 5.8e6, 150.0), scale=0.5, name="georeferenced_perspective"))
+    for scale, proj in ((1e-12, "perspective"), (1e-13, "orthographic"), (1e14, "orthographic"), (1e16, "perspective")):
+        simple(f"mesh_scale_{scale:.0e}", f"the scene scaled by {scale:g} (points, camera; extinction per unit "
+               f"length by 1/{scale:g}); {proj} view",
+               lambda q, scale=scale, proj=proj: offset_scene(px(q), scale=scale, projection=proj,
+                                                              name=f"mesh_scale_{scale:.0e}"))
+    simple("emission_density_scale_1e-12", "emission-density model (colour per unit length) on a mesh scaled by 1e-12",
+           lambda q: offset_scene(px(q), scale=1e-12, emission="emission_density", name="emission_density_scale_1e-12"))
+
+    def wide_tf(q):
+        s = offset_scene(px(q), name="tf_points_1.7e308")
+        tf = np.array(s.transfer.points)
+        tf = np.vstack([[-1.7e308, *tf[0, 1:]], tf, [1.7e308, *tf[-1, 1:]]])
+        from .transfer import TransferFunction
+
+        return sc(s.mesh, TransferFunction(tf), s.camera, "tf_points_1.7e308")
+    simple("tf_points_1.7e308", "TF control points at +-1.7e308 around an ordinary TF (their span overflows float64): "
+           "exact presets render, float32 casts as is decline", wide_tf)
+
+    def scalars_huge(q):
+        s = offset_scene(px(q), name="scalars_1e39")
+        sc_ = np.array(s.mesh.scalars)
+        sc_[0] = 1e39
+        from .mesh import TetMesh
+
+        return sc(TetMesh(s.mesh.points, s.mesh.tets, sc_, name="scalars_1e39"), s.transfer, s.camera, "scalars_1e39")
+    simple("scalars_1e39", "one scalar 1e39 (beyond float32) in an ordinary field: declined naming the scalars",
+           scalars_huge)
+
+    def extinction_huge(q):
+        s = offset_scene(px(q), name="extinction_3e38")
+        tf = np.array(s.transfer.points)
+        tf[1, 4] = 3e38
+        from .transfer import TransferFunction
+
+        return sc(s.mesh, TransferFunction(tf), s.camera, "extinction_3e38")
+    simple("extinction_3e38", "extinction 3e38 per unit length (optical depth beyond float32 across the mesh): "
+           "declined naming the extinction", extinction_huge)
 
 
 def topology_cases(simple, with_ref, sc) -> None:
