@@ -193,7 +193,8 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     progress : callable, optional
         ``progress(done_fraction)`` after each block of rows.
     stats : dict, optional
-        Filled with ``n_segments``, ``n_steps`` (tets visited), ``n_exact`` (edge predicates the
+        Filled with ``n_pairs`` (tet / boundary-face and pixel pairs tested), ``n_segments``,
+        ``n_steps`` (tets visited), ``n_exact`` (edge predicates the
         float filter could not decide, evaluated exactly), ``n_entries`` (boundary entries),
         ``n_failed`` (walks that met a tet without one exit face; 0 for a valid mesh), ``warning``
         when ``n_failed > 0``, and ``setup_s`` / ``render_s``.
@@ -332,7 +333,8 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     render_s = time.perf_counter() - t1
     if stats is not None:
         c = counters.numpy().sum(axis=0)
-        stats.update(n_segments=int(c[0]), n_steps=int(c[1]), n_exact=int(c[2] + fexact.numpy()[:nf].sum()),
+        n_box = int(((fbox[:, 1] - fbox[:, 0] + 1).astype(np.int64) * (fbox[:, 3] - fbox[:, 2] + 1)).sum()) if nf else 0
+        stats.update(n_pairs=int(c[1]) + n_box + len(md["near"]) * W * nrows, n_segments=int(c[0]), n_steps=int(c[1]), n_exact=int(c[2] + fexact.numpy()[:nf].sum()),
                      n_failed=int(c[3]), n_entries=n_ent, n_bands=len(rblocks), setup_s=setup_s, render_s=render_s)
         if c[3]:
             stats["warning"] = (f"exact reference: {int(c[3])} ray walk(s) met a tet without a single exit face; "
