@@ -56,7 +56,9 @@ from .reference_integrate import (GL_NODES, MAX_DEPTH, SUB_DEPTH, composite_fron
 from .transfer import EMISSION_MODELS, TransferFunction
 
 #: the files the reference image depends on (the bench's reference cache hashes them)
-REFERENCE_SOURCES = ("reference.py", "reference_exact.py", "reference_integrate.py")
+REFERENCE_SOURCES = ("reference.py", "reference_exact.py", "reference_integrate.py", "reference_warp.py")
+#: ways to compute the reference (:func:`render_reference`)
+REFERENCE_METHODS = ("warp", "numpy")
 
 __all__ = [
     "render_reference",
@@ -435,8 +437,15 @@ def trace_segments(mesh: TetMesh, camera: Camera, *, chunk_tets: int = 65536,
 
 def render_reference(mesh: TetMesh, tf: TransferFunction, camera: Camera, *, chunk_tets: int = 65536,
                      progress: Callable[[float], None] | None = None, stats: dict | None = None,
-                     band_pairs: int = _DEFAULT_BAND_PAIRS) -> np.ndarray:
+                     band_pairs: int = _DEFAULT_BAND_PAIRS, method: str = "warp",
+                     device: str | None = None) -> np.ndarray:
     """Exact float64 reference image of ``mesh`` under ``tf`` seen by ``camera``.
+
+    ``method="warp"`` (default) computes it with the float64 Warp kernels of
+    :mod:`warpvol.reference_warp` (an adjacency walk per pixel, on ``device``: default Warp's
+    preferred device); ``method="numpy"`` with the pure NumPy cell projection described in this
+    module, the oracle the Warp kernels are tested against (``chunk_tets`` and ``band_pairs`` apply
+    to it). The two agree to ~1e-15.
 
     Parameters
     ----------
@@ -472,8 +481,13 @@ def render_reference(mesh: TetMesh, tf: TransferFunction, camera: Camera, *, chu
     (8, 8, 4)
     """
     check_choice("tf.emission", tf.emission, EMISSION_MODELS)
+    check_choice("render_reference: method", method, REFERENCE_METHODS)
     if int(chunk_tets) < 1:
         raise ConfigError(f"render_reference: chunk_tets must be >= 1, got {chunk_tets}")
+    if method == "warp":
+        from .reference_warp import render_reference_warp
+
+        return render_reference_warp(mesh, tf, camera, device=device, progress=progress, stats=stats)
     W, H = int(camera.width_px), int(camera.height_px)
     img = np.zeros((H * W, 4), dtype=np.float64)
     n_pairs = n_seg = n_bands = 0
