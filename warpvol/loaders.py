@@ -21,9 +21,15 @@ How cells become tets
   ``RectilinearGrid``) use the 6-tet Kuhn split of :func:`warpvol.mesh.structured_to_tets` (point
   index ``i + ni*(j + nj*k)``, ``i`` fastest), which conforms across cells by construction.
 * Unstructured grids made only of tets are taken as they are.
-* Any other cell mix goes through VTK's ``vtkDataSetTriangleFilter`` (tets only). For unstructured
-  input it splits each cell with ``vtkOrderedTriangulator`` ordered by *point ids*, so a quad face
-  shared by two cells is cut along the same diagonal from both sides and the result conforms.
+* Hexahedra, voxels, wedges and pyramids (with tets, and with cells without volume, which are
+  skipped) are split by :func:`warpvol.split_cells.split_cells`: every quad face is cut along the
+  diagonal through its smallest vertex key (the rank of the vertex position), so two cells sharing
+  a quad face cut it alike and the tets conform (Dompierre et al. 1999). Each cell's tets are
+  consecutive (``cell_start``).
+* Any other cell type (polyhedra, higher-order cells) goes through VTK's
+  ``vtkDataSetTriangleFilter`` (tets only). Faces that do not conform after that are counted by
+  :class:`~warpvol.mesh.TetMesh` (``crack_faces``, ``nonconforming_faces``) and walked by the
+  re-entry passes.
 
 Curvilinear grids can carry coincident grid points (the NASA Blunt Fin collapses one grid edge onto
 its neighbour along the wall). Such points are *welded* (tets refer to one representative, whose
@@ -153,8 +159,8 @@ def read_mesh_file(path: Path | str, scalars: str | None, *, strict: bool = Fals
     """Read any data set pyvista can read and turn it into a :class:`TetMesh`.
 
     ``scalars`` names a point-data array (one component). Structured grids use the 6-tet split,
-    tet-only unstructured grids are taken as they are, other cells are split by
-    ``vtkDataSetTriangleFilter`` (conforming, see the module docstring).
+    tet-only unstructured grids are taken as they are, other cells are split conforming (see the
+    module docstring).
     """
     import pyvista as pv
 
@@ -193,7 +199,7 @@ def mesh_from_dataset(ds, scalars: str | None, *, strict: bool = False, name: st
     structured = isinstance(ds, (pv.StructuredGrid, pv.ImageData, pv.RectilinearGrid))
     if split is not None and not structured:
         raise ConfigError(f"{split_key}: only applies to structured grids (StructuredGrid, ImageData, RectilinearGrid); "
-                          f"{p} is a {type(ds).__name__}, whose non-tet cells vtkDataSetTriangleFilter splits")
+                          f"{p} is a {type(ds).__name__}, whose non-tet cells are split conforming")
 
     # scalars first: the error lists what the file has
     pkeys = list(ds.point_data.keys())
@@ -241,6 +247,17 @@ def mesh_from_dataset(ds, scalars: str | None, *, strict: bool = False, name: st
         if len(conn) and (conn.min() < 0 or conn.max() >= ds.n_points):
             bad = int(conn[(conn < 0) | (conn >= ds.n_points)][0])
             raise MeshError(f"{name}: cell point index out of range: {bad}, expected 0 <= index < {ds.n_points}")
+        from .split_cells import FLAT_TYPES, SPLIT_TYPES, split_cells
+
+        kinds = set(np.unique(ctypes).tolist())
+        if kinds <= set(SPLIT_TYPES) | set(FLAT_TYPES):
+            volume = np.isin(ctypes, SPLIT_TYPES)
+            if not volume.any():
+                raise MeshError(f"{name}: no volume cells (cell types {sorted(kinds)}); "
+                                "only 2D/1D cells cannot be split into tets")
+            points, values, tets, cell_start = split_cells(points, values, ctypes, np.asarray(ds.cell_offsets),
+                                                           conn)
+            return TetMesh(points, tets, values, name=name, strict=strict, cell_start=cell_start)
         from vtkmodules.vtkFiltersGeneral import vtkDataSetTriangleFilter
 
         tagged = ds.copy(deep=False)  # shares the arrays; the tag below is the only new one
