@@ -387,10 +387,7 @@ def run_bench(scene: Any, pipelines: Any = "all", *, repeats: int = 3, gpu: str 
     prog.step("reference (cached)" if hit else f"reference {ref_s:.2f} s")
     rows, images = [], {}
     done = done or {}
-    for pipe in pipes:
-        key, n = pipe.name, 2
-        while key in images or any(r["pipeline"] == key for r in rows):
-            key, n = f"{pipe.name}#{n}", n + 1
+    for pipe, key in zip(pipes, pipeline_keys(pipes)):
         if key in done:
             row, img = done[key]
             rows.append(dict(row))
@@ -416,33 +413,84 @@ def run_bench(scene: Any, pipelines: Any = "all", *, repeats: int = 3, gpu: str 
     return BenchResult(describe_scene(scene), rows, ref, ref_s, hit, images, gpu, notes)
 
 
+def pipeline_keys(pipes: list[Any]) -> list[str]:
+    """Each pipeline's row key: its name, ``name#2``, ``name#3``, ... for repeats."""
+    keys: list[str] = []
+    for pipe in pipes:
+        key, n = pipe.name, 2
+        while key in keys:
+            key, n = f"{pipe.name}#{n}", n + 1
+        keys.append(key)
+    return keys
+
+
+def pipeline_digest(name_or_path: str | Path) -> str:
+    """SHA-256 (hex) of a preset's or pipeline file's TOML text: a resumed run reuses a pipeline's
+    saved results only while this is unchanged."""
+    from .pipeline import _read_pipeline_text
+
+    return hashlib.sha256(_read_pipeline_text(name_or_path)[0].encode()).hexdigest()
+
+
 ROW_DIR = "pipelines"  # per-pipeline rows and images under the output folder, written as each finishes
+#: the files ``bench -o`` writes besides ROW_DIR (the ``pareto_modelled`` pair only with a GPU profile)
+BENCH_FILES = ("table.csv", "table.json", "table.md", "pareto.svg", "pareto.png", "index.html")
+BENCH_MODELLED_FILES = ("pareto_modelled.png", "pareto_modelled.svg")
 
 
-def row_store(outdir: str | Path, scene: Any, *, repeats: int, gpu: str | None, quick: bool, audit: bool):
+def row_stem(key: str) -> str:
+    """File name stem of a pipeline's row and image under ROW_DIR."""
+    return key.replace("/", "_").replace("#", "_")
+
+
+def row_store(outdir: str | Path, scene: Any, *, repeats: int, gpu: str | None, quick: bool, audit: bool,
+              digests: dict[str, str] | None = None, owned: Any = None,
+              note: Callable[[str], None] | None = None):
     """``(saved, save)`` for ``outdir/pipelines``: the rows and images saved there by an earlier bench of
     the same scene (content hash) with the same settings (another run's files are an error naming the
-    difference), and a function saving one pipeline's row and image (each file whole or absent)."""
-    import json
+    difference), and a function saving one pipeline's row and image (each file whole or absent).
 
-    from .io import save_result
+    ``digests``: row key -> :func:`pipeline_digest`; a row saved from other TOML text is benched
+    again. ``owned`` (:class:`warpvol.io.OwnedFiles`): only the records warpvol wrote there are read.
+    Temporary files (dot names) are never read; a record or image that cannot be read (cut short,
+    edited) is benched again; ``note(text)`` is told about each saved row not reused."""
+    from .io import read_record, save_result
     from .pipeline import report_json
 
+    note = note or (lambda _text: None)
     d = Path(outdir) / ROW_DIR
     key = {"scene": scene_hash(scene), "repeats": int(repeats), "gpu": gpu, "quick": bool(quick), "audit": bool(audit)}
     saved: dict[str, tuple[dict, np.ndarray | None]] = {}
-    for f in sorted(d.glob("*.json")) if d.is_dir() else []:
-        rec = json.loads(f.read_text())
+    if owned is not None:
+        files = sorted(Path(outdir) / r for r in owned.owned_in(ROW_DIR) if r.endswith(".json"))
+    else:
+        files = sorted(d.glob("*.json")) if d.is_dir() else []
+    for f in files:
+        if f.name.startswith(".") or not f.is_file():
+            continue
+        rec = read_record(f)
+        if rec is None or not isinstance(rec.get("key"), str) or not isinstance(rec.get("row"), dict):
+            note(f"{f} cannot be read (cut short or edited): its pipeline is benched again")
+            continue
         diff = [k for k in key if rec.get(k) != key[k]]
         if diff:
             raise ConfigError(f"--resume: {f} is from another bench ({', '.join(f'{k} {rec.get(k)!r}' for k in diff)}; "
                               f"this one: {', '.join(f'{k} {key[k]!r}' for k in diff)})")
-        img = f.with_suffix(".npy")
-        saved[rec["key"]] = (rec["row"], np.load(img) if img.is_file() else None)
+        if digests is not None and rec["key"] in digests and rec.get("pipeline_sha") != digests[rec["key"]]:
+            note(f"{f}: pipeline {rec['key']} changed since its row was saved: it is benched again")
+            continue
+        img_f, img = f.with_suffix(".npy"), None
+        if img_f.is_file():
+            try:
+                img = np.load(img_f)
+            except (OSError, ValueError):
+                note(f"{img_f} cannot be read (cut short or edited): its pipeline is benched again")
+                continue
+        saved[rec["key"]] = (rec["row"], img)
 
     def save(name: str, row: dict, image: np.ndarray | None) -> None:
-        stem = name.replace("/", "_").replace("#", "_")
-        save_result(d, stem, report_json({**key, "key": name, "row": row}),
+        extra = {} if digests is None or name not in digests else {"pipeline_sha": digests[name]}
+        save_result(d, row_stem(name), report_json({**key, **extra, "key": name, "row": row}),
                     None if image is None else np.asarray(image, np.float32))
 
     return saved, save

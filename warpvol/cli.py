@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ConfigError, WarpvolError, check_number
+from .io import check_inputs
 
 
 def _load_scene(spec: str, args) -> "object":
@@ -35,7 +36,10 @@ def _load_scene(spec: str, args) -> "object":
     from .scene import load_scene
 
     if spec.startswith("builtin:"):
-        scene = builtin_scene(spec.split(":", 1)[1])
+        try:
+            scene = builtin_scene(spec.split(":", 1)[1])
+        except MemoryError:
+            raise ConfigError(f"{spec}: the built-in mesh does not fit in the memory available") from None
     else:
         scene = load_scene(spec, strict=getattr(args, "strict", False))
     over = {}
@@ -93,6 +97,28 @@ def _check_writable(flag: str, folder: Path) -> None:
     os.unlink(probe)
 
 
+def scene_inputs(spec: str) -> list[tuple[Path, str]]:
+    """The files a scene reads (:func:`warpvol.scene.scene_files`); ``[]`` for a built-in, and for a
+    scene file that cannot be read (loading it then says why)."""
+    from .scene import scene_files
+
+    if spec.startswith("builtin:"):
+        return []
+    try:
+        return scene_files(spec)
+    except ConfigError:
+        return []
+
+
+def pipeline_inputs(names) -> list[tuple[Path, str]]:
+    """The pipeline files among preset names and files."""
+    from .pipeline import _preset_files
+
+    presets = _preset_files()
+    names = [names] if isinstance(names, (str, Path)) else list(names or [])
+    return [(Path(n), "pipeline file") for n in map(str, names) if n not in presets and Path(n).is_file()]
+
+
 #: conservative bytes per pixel of one render's buffers (measured on `raycast`, 4096^2: ray state and
 #: image 44 B/px, + PNG preview 77 B/px; error metrics hold ~4 float64 RGBA images at their peak)
 BYTES_PER_PIXEL = {"render": 64, "png": 128, "reference": 192, "error_image": 160}
@@ -101,17 +127,10 @@ MAX_PIXELS = 2**31 - 1
 
 
 def _available_memory() -> int | None:
-    """Bytes of memory available to this process now (Linux ``MemAvailable``), ``None`` if unknown."""
-    try:
-        for line in Path("/proc/meminfo").read_text().splitlines():
-            if line.startswith("MemAvailable:"):
-                return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        return None
+    """Bytes of memory available to this process now (:func:`warpvol.io.available_memory`)."""
+    from .io import available_memory
+
+    return available_memory()
 
 
 def check_image_memory(camera, parts: list[str], flag: str = "--width/--height") -> None:
@@ -126,6 +145,23 @@ def check_image_memory(camera, parts: list[str], flag: str = "--width/--height")
         raise ConfigError(f"{flag}: a {w}x{h} image needs about {_size(need)} for this run "
                           f"({need // n} bytes per pixel), more than the {_size(have)} of memory "
                           "available; render a smaller image")
+
+
+def out_of_memory(scene, parts: list[str], what: str) -> ConfigError:
+    """The error for a ``MemoryError`` raised by ``what`` (e.g. "rendering with raycast") on ``scene``:
+    names the image when its buffers are a large share of the memory there is, else the mesh."""
+    cam, m = scene.camera, scene.mesh
+    w, h = cam.width_px, cam.height_px
+    need = w * h * sum(BYTES_PER_PIXEL[p] for p in parts)
+    have = _available_memory()
+    image = f"a {w}x{h} image (about {_size(need)})"
+    mesh = f"the mesh of {scene.name} ({m.n_tets:,} tets, {m.n_points:,} points)"
+    if have is not None and need > have // 4:
+        return ConfigError(f"out of memory {what}: {image} with {mesh} does not fit in the {_size(have)} available; "
+                           "render a smaller image (--width/--height)")
+    return ConfigError(f"out of memory {what}: {mesh} and the buffers built from it do not fit in the memory "
+                       f"available{'' if have is None else f' ({_size(have)})'}; {image} is not the problem: "
+                       "use a smaller or subsampled mesh")
 
 
 def _size(nbytes: int) -> str:
@@ -166,6 +202,8 @@ def cmd_render(args) -> int:
         raise ConfigError("--error-image: needs --reference or --compute-reference")
     if args.reference and args.compute_reference:
         raise ConfigError("--compute-reference: give either it or --reference, not both")
+    check_inputs(scene_inputs(args.scene) + pipeline_inputs([args.pipeline])
+                 + ([(Path(args.reference), "--reference image")] if args.reference else []), outs)
     _check_sizes(args)
     pipe = Pipeline.load(args.pipeline, device=args.device)
     ref = read_exr(args.reference) if args.reference else None
@@ -179,7 +217,10 @@ def cmd_render(args) -> int:
             raise ConfigError(f"--reference: {args.reference} has shape {ref.shape}, expected {want}")
     elif args.compute_reference:
         ref, ref_s = compute_reference(scene, args.quiet)
-    res = pipe.render(scene, reference=ref, quiet=args.quiet, gpu=args.gpu)
+    try:
+        res = pipe.render(scene, reference=ref, quiet=args.quiet, gpu=args.gpu)
+    except MemoryError:
+        raise out_of_memory(scene, ["render"], f"rendering with {pipe.name}") from None
     if args.compute_reference:
         res.report["reference_s"] = ref_s
     # all outputs or none: each is written beside its target, then all are renamed together
@@ -219,10 +260,14 @@ def cmd_reference(args) -> int:
     from .io import write_exr
 
     out = check_outputs({"-o": args.output})["-o"]
+    check_inputs(scene_inputs(args.scene), {"-o": out})
     _check_sizes(args)
     scene = _load_scene(args.scene, args)
     check_image_memory(scene.camera, ["reference"])
-    img, dt = compute_reference(scene, args.quiet)
+    try:
+        img, dt = compute_reference(scene, args.quiet)
+    except MemoryError:
+        raise out_of_memory(scene, ["reference"], "computing the reference") from None
     write_exr(out, img.astype(np.float32))
     print(f"reference: {dt:.2f} s, {scene.camera.width_px}x{scene.camera.height_px}, {scene.mesh.n_tets} tets -> {out}")
     return 0
@@ -241,9 +286,13 @@ def cmd_pipelines(args) -> int:
     return 0
 
 
+#: the files ``demo -o`` writes
+DEMO_FILES = ("image.exr", "reference.exr", "image.png", "error.png", "report.json")
+
+
 def cmd_demo(args) -> int:
     from .builtin import BUILTIN_SCENES, builtin_scene
-    from .io import Outputs
+    from .io import Outputs, OwnedFiles
     from .metrics import write_error_png
     from .pipeline import DEFAULT_PIPELINE, Pipeline, report_json
 
@@ -259,6 +308,7 @@ def cmd_demo(args) -> int:
     check_image_memory(scene.camera, ["render", "png", "reference", "error_image"], "--size")
     outdir.mkdir(parents=True, exist_ok=True)
     _check_writable("-o", outdir)
+    OwnedFiles(outdir, "demo").claim(DEMO_FILES)  # a user's own file of one of these names is left alone
     print(f"demo: scene {args.scene!r} ({scene.mesh.n_tets} tets, {args.size}x{args.size}), "
           f"pipeline {pipe.name!r}", file=sys.stderr)
     ref, ref_s = compute_reference(scene, args.quiet)
@@ -273,6 +323,14 @@ def cmd_demo(args) -> int:
     _summary(res.report)
     print(f"wrote {outdir}/image.exr, image.png, reference.exr, error.png (scaled to max {err_max:.2e}), report.json")
     return 0
+
+
+def _folder_outputs(outdir: Path, rels: list[str]) -> dict[str, Path]:
+    return {f"-o ({r})": outdir / r for r in rels}
+
+
+def _note(quiet: bool):
+    return lambda text: None if quiet else print(f"warpvol: {text}", file=sys.stderr)
 
 
 def _outdir(path: str) -> Path:
@@ -292,21 +350,32 @@ def cmd_bench(args) -> int:
     _check_sizes(args)
     check_number("--repeats", args.repeats, lo=1, integer=True)
     names = resolve_pipelines(args.pipelines)
-    plan_pipes = dict(zip(names, load_pipelines(names, args.device, quick=args.quick)))  # bad names fail first
+    pipes = load_pipelines(names, args.device, quick=args.quick)  # bad names fail first
+    plan_pipes = dict(zip(names, pipes))
     check_gpu(args.gpu)
+    from .bench import (BENCH_FILES, BENCH_MODELLED_FILES, ROW_DIR, pipeline_digest, pipeline_keys, row_stem,
+                        row_store)
+    from .io import OwnedFiles
+
+    keys = pipeline_keys(pipes)
+    rels = [f"{ROW_DIR}/{row_stem(k)}{ext}" for k in keys for ext in (".json", ".npy")] + list(BENCH_FILES) \
+        + (list(BENCH_MODELLED_FILES) if args.gpu else [])
+    check_inputs(scene_inputs(args.scene) + pipeline_inputs(names), _folder_outputs(Path(args.output), rels))
     scene = _load_scene(args.scene, args)
     check_image_memory(scene.camera, ["render", "png", "reference", "error_image"])
     outdir = _outdir(args.output)
     if args.gpu and gpu_support(args.gpu):
         print(f"warpvol: {gpu_support(args.gpu)}", file=sys.stderr)
-    from .bench import ROW_DIR, row_store
-
+    # only files bench wrote (recorded in -o's manifest) are replaced or deleted, nothing before all is checked
+    owned = OwnedFiles(outdir, "bench")
+    owned.check(rels)
     if not args.resume:
-        for f in [*(outdir / ROW_DIR).glob("*.json"), *(outdir / ROW_DIR).glob("*.npy")]:
-            f.unlink()
+        owned.remove(owned.owned_in(ROW_DIR))
+    owned.record(rels)
     # each pipeline's row and image are saved as it finishes: an interrupted bench loses nothing
     saved, save = row_store(outdir, scene, repeats=args.repeats, gpu=args.gpu, quick=args.quick,
-                            audit=not args.no_audit)
+                            audit=not args.no_audit, owned=owned, note=_note(args.quiet),
+                            digests={k: pipeline_digest(n) for k, n in zip(keys, names)})
     if saved and not args.quiet:
         print(f"warpvol: bench: resuming, {len(saved)} pipeline(s) read from {outdir / ROW_DIR}", file=sys.stderr)
     try:
@@ -359,22 +428,35 @@ def cmd_stress(args) -> int:
     from .report_html import table_csv
     from .stress import run_stress, stress_markdown, stress_matrix, stress_page
 
-    from .bench import resolve_pipelines
-    from .stress import CASE_DIR, case_store
+    from .bench import load_pipelines, pipeline_digest, resolve_pipelines
+    from .io import OwnedFiles
+    from .stress import CASE_DIR, STRESS_FILES, case_store, check_case_names
 
     if args.resume and not args.output:
         raise ConfigError("--resume: needs -o, the folder of the run to resume")
-    outdir = _outdir(args.output) if args.output else None
+    # every argument is checked before any file is touched
+    names = check_case_names(args.cases)
+    pipe_names = resolve_pipelines(args.pipelines)
+    load_pipelines(pipe_names, args.device, quick=args.quick)
     saved, save = {}, None
-    if outdir is not None:  # each case's rows are saved as it finishes: an interrupted suite loses nothing
+    if args.output:  # each case's rows are saved as it finishes: an interrupted suite loses nothing
+        rels = [f"{CASE_DIR}/{n}.json" for n in names] + list(STRESS_FILES)
+        check_inputs(pipeline_inputs(pipe_names), _folder_outputs(Path(args.output), rels))
+        outdir = _outdir(args.output)
+        # only files stress wrote (recorded in -o's manifest) are replaced or deleted
+        owned = OwnedFiles(outdir, "stress")
+        owned.check(rels)
         if not args.resume:
-            for f in (outdir / CASE_DIR).glob("*.json"):
-                f.unlink()
-        saved, save = case_store(outdir, args.quick, resolve_pipelines(args.pipelines))
+            owned.remove(owned.owned_in(CASE_DIR))
+        owned.record(rels)
+        saved, save = case_store(outdir, args.quick, pipe_names, owned=owned, note=_note(args.quiet),
+                                 digests={n: pipeline_digest(n) for n in pipe_names})
+    else:
+        outdir = None
         if saved and not args.quiet:
             print(f"warpvol: stress: resuming, {len(saved)} case(s) read from {outdir / CASE_DIR}", file=sys.stderr)
     try:
-        rows = run_stress(quick=args.quick, cases=args.cases, pipelines=args.pipelines, device=args.device,
+        rows = run_stress(quick=args.quick, cases=names, pipelines=pipe_names, device=args.device,
                           quiet=args.quiet, done=saved, on_case=save)
     except KeyboardInterrupt:
         if outdir is not None:
@@ -397,7 +479,8 @@ def cmd_stress(args) -> int:
 
 def cmd_sweep(args) -> int:
     from .report_html import table_markdown
-    from .sweep import load_config, run_sweep, write_sweep
+    from .io import OwnedFiles
+    from .sweep import SWEEP_FILES, load_config, plan_tasks, run_sweep, write_sweep
 
     check_number("--workers", args.workers, lo=1, integer=True)
     if args.scheduler is not None and not args.scheduler.startswith(("tcp://", "tls://", "inproc://")):
@@ -405,7 +488,12 @@ def cmd_sweep(args) -> int:
     if args.scheduler and args.serial:
         raise ConfigError("--serial: give either it or --scheduler, not both")
     cfg = load_config(args.config)
+    rels = [f"tasks/{t.key}{ext}" for t in plan_tasks(cfg)[0] for ext in (".json", ".npy")] + list(SWEEP_FILES)
+    inputs = [(Path(args.config), "sweep config")] + [f for sc in cfg.scenes for f in scene_inputs(sc)] \
+        + pipeline_inputs(cfg.presets)
+    check_inputs(inputs, _folder_outputs(Path(args.output), rels))
     outdir = _outdir(args.output)
+    OwnedFiles(outdir, "sweep").claim(rels)  # only files sweep wrote are replaced
     res = run_sweep(cfg, outdir, scheduler=args.scheduler, workers=args.workers, serial=args.serial, quiet=args.quiet)
     write_sweep(res, outdir)
     failed = [r for r in res.rows if r["status"] == "failed"]
@@ -530,7 +618,12 @@ def main(argv: list[str] | None = None) -> int:
         print(f"warpvol: error: {e}", file=sys.stderr)
         return 2
     except MemoryError:
-        print("warpvol: error: out of memory; render a smaller image (--width/--height)", file=sys.stderr)
+        print("warpvol: error: out of memory: the mesh, the tables built from it or the image do not fit in the "
+              "memory available; a smaller mesh or image (--width/--height) needs less", file=sys.stderr)
+        return 2
+    except RecursionError:
+        print("warpvol: error: an input is nested too deeply (arrays or tables inside each other) to be read",
+              file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         # Ctrl-C: queued work is cancelled (warpvol.parallel), staged outputs removed (warpvol.io.Outputs)

@@ -9,10 +9,11 @@ less the umask); errors name the user's path, never the temporary file.
 
 from __future__ import annotations
 
+import json
 import os
 import tempfile
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Iterable
 
 import numpy as np
 
@@ -158,6 +159,162 @@ def save_result(folder: str | Path, stem: str, record: str, image: np.ndarray | 
         with Outputs() as out:
             out.bytes(folder / f"{stem}.npy", buf.getvalue())
     atomic_write_text(folder / f"{stem}.json", record)
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available to this process now, ``None`` if unknown: the least of the system's
+    ``MemAvailable``, what the address-space limit (``ulimit -v``) leaves and what the cgroup's
+    ``memory.max`` leaves."""
+    have = []
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                have.append(int(line.split()[1]) * 1024)
+    except (OSError, ValueError, IndexError):
+        pass
+    if not have:
+        try:
+            have.append(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
+        except (ValueError, OSError, AttributeError):
+            pass
+    try:
+        import resource
+
+        cap = resource.getrlimit(resource.RLIMIT_AS)[0]
+        if cap != resource.RLIM_INFINITY:
+            for line in Path("/proc/self/status").read_text().splitlines():
+                if line.startswith("VmSize:"):
+                    have.append(max(cap - int(line.split()[1]) * 1024, 0))
+    except (ImportError, OSError, ValueError, IndexError):
+        pass
+    try:
+        cg = Path("/proc/self/cgroup").read_text().splitlines()
+        rel = next(ln.split(":", 2)[2] for ln in cg if ln.startswith("0::"))
+        base = Path("/sys/fs/cgroup") / rel.lstrip("/")
+        limit = (base / "memory.max").read_text().strip()
+        if limit != "max":
+            have.append(max(int(limit) - int((base / "memory.current").read_text()), 0))
+    except (OSError, ValueError, IndexError, StopIteration):
+        pass
+    return min(have) if have else None
+
+
+def same_file(a: str | Path, b: str | Path) -> bool:
+    """Whether two names are one file: the same resolved path (symlinks, ``..``, other spellings)
+    or the same inode (hard links)."""
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def check_inputs(inputs: list[tuple[Path, str]], outputs: dict[str, Path]) -> None:
+    """No output may be one of the inputs (compared as files, not as spellings): an input is never
+    overwritten. ``inputs``: ``(path, what)``; ``outputs``: flag (or name) -> path."""
+    for flag, out in outputs.items():
+        for f, what in inputs:
+            if same_file(out, f):
+                raise ConfigError(f"{flag}: {out} is an input of this run ({what}: {f}); inputs are never "
+                                  "overwritten: give the output another name")
+
+
+#: the record of the files a folder command wrote into its output folder (see :class:`OwnedFiles`)
+MANIFEST = ".warpvol-files.json"
+
+
+class OwnedFiles:
+    """The files warpvol wrote into an output folder (``bench``, ``stress``, ``sweep``, ``demo``),
+    recorded in ``FOLDER/.warpvol-files.json`` as paths relative to the folder. Only recorded files
+    are ever replaced or deleted: :meth:`claim` refuses, before any work, a run that would write over
+    a file it did not write (a user's own file), and records the names it will write *before* they
+    are written (a run killed in between leaves a recorded name without a file: harmless).
+
+    Examples
+    --------
+    >>> import tempfile; d = Path(tempfile.mkdtemp())
+    >>> _ = (d / "mine.json").write_text("{}")
+    >>> own = OwnedFiles(d, "stress")
+    >>> own.claim(["cases/a.json", "stress.json"]); own.owns("cases/a.json"), own.owns("mine.json")
+    (True, False)
+    >>> own.claim(["mine.json"])
+    Traceback (most recent call last):
+    ...
+    warpvol.errors.ConfigError: -o: ... exists and was not written by warpvol stress; ...
+    >>> sorted(OwnedFiles(d, "stress").owned_in("cases"))
+    ['cases/a.json']
+    """
+
+    def __init__(self, folder: str | Path, tool: str, flag: str = "-o") -> None:
+        self.folder, self.tool, self.flag = Path(folder), tool, flag
+        self.files: dict[str, str] = {}
+        try:
+            rec = json.loads((self.folder / MANIFEST).read_text(encoding="utf-8"))
+            files = rec.get("files", {}) if isinstance(rec, dict) else {}
+            self.files = {str(k): str(v) for k, v in files.items()} if isinstance(files, dict) else {}
+        except FileNotFoundError:
+            pass
+        except (OSError, ValueError):  # unreadable record: nothing counts as written by warpvol
+            self.files = {}
+
+    def owns(self, rel: str) -> bool:
+        return rel in self.files
+
+    def owned_in(self, sub: str) -> list[str]:
+        """Recorded files directly in the subfolder ``sub`` (relative paths)."""
+        return [r for r in self.files if str(Path(r).parent) == sub]
+
+    def claim(self, rels: Iterable[str]) -> None:
+        """:meth:`check` then :meth:`record`."""
+        rels = list(rels)
+        self.check(rels)
+        self.record(rels)
+
+    def check(self, rels: Iterable[str]) -> None:
+        """Every file in ``rels`` is absent or was written by warpvol, else a
+        :class:`~warpvol.errors.ConfigError` naming the first that is not."""
+        for rel in rels:
+            p = self.folder / rel
+            if os.path.lexists(p) and rel not in self.files:
+                kind = "it" if not p.is_dir() else "that folder"
+                raise ConfigError(f"{self.flag}: {p} exists and was not written by warpvol {self.tool}; "
+                                  f"warpvol replaces only the files it wrote: move {kind} away or choose another folder")
+
+    def record(self, rels: Iterable[str]) -> None:
+        """Record ``rels`` as written by this tool (before they are written)."""
+        new = [r for r in dict.fromkeys(rels) if self.files.get(r) != self.tool]
+        if new:
+            self.files.update((r, self.tool) for r in new)
+            self._save()
+
+    def remove(self, rels: Iterable[str]) -> list[str]:
+        """Delete the recorded files among ``rels`` (others are left alone); returns those deleted."""
+        gone = []
+        for rel in list(rels):
+            if rel not in self.files:
+                continue
+            try:
+                os.unlink(self.folder / rel)
+                gone.append(rel)
+            except FileNotFoundError:
+                pass
+            del self.files[rel]
+        self._save()
+        return gone
+
+    def _save(self) -> None:
+        atomic_write_text(self.folder / MANIFEST, json.dumps({"files": dict(sorted(self.files.items()))}, indent=1))
+
+
+def read_record(path: str | Path) -> dict | None:
+    """A finished unit's ``.json`` record (:func:`save_result`), or ``None`` when it is missing,
+    unreadable or not a JSON object (a file cut short by a kill of an older writer, edited by hand)."""
+    try:
+        rec = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return rec if isinstance(rec, dict) else None
 
 
 def _write_oiio(tmp: str, pixels: np.ndarray, fmt, shown: Path) -> None:

@@ -144,13 +144,127 @@ def load_scene(path: Path | str, *, strict: bool = False) -> Scene:
     if not isinstance(path, (str, Path)):
         raise ConfigError(f"path: expected a scene file name, got {type(path).__name__}")
     p = Path(path)
+    cfg = _read_toml(p)
+    _check_mesh_memory(cfg.get("mesh"), p)
+    try:
+        return scene_from_config(cfg, p.parent, where=str(p), strict=strict, name=p.stem, source=p)
+    except MemoryError:
+        raise ConfigError(f"{p}: mesh: the mesh it names does not fit in the memory available to warpvol "
+                          f"({_mesh_desc(cfg.get('mesh'), p.parent)}); use a smaller or subsampled mesh") from None
+
+
+def _read_toml(p: Path) -> dict:
     if not p.is_file():
         raise ConfigError(f"scene file not found: {p}")
     try:
         with open(p, "rb") as fh:
-            cfg = tomllib.load(fh)
+            return tomllib.load(fh)
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"{p}: TOML syntax error: {e}") from None
     except UnicodeDecodeError as e:
         raise ConfigError(f"{p}: not a UTF-8 text file: {e}") from None
-    return scene_from_config(cfg, p.parent, where=str(p), strict=strict, name=p.stem, source=p)
+    except RecursionError:
+        raise ConfigError(f"{p}: TOML nested too deeply (arrays or tables inside each other beyond what "
+                          "Python's parser handles); a scene file needs at most a few levels") from None
+
+
+#: bytes per sample of a raw volume once it is a tet mesh: float64 point and scalar, six int64 tets
+RAW_BYTES_PER_SAMPLE = 8 * 3 + 8 + 6 * 4 * 8
+
+
+def _raw_samples(mesh_cfg: Any) -> int | None:
+    raw = mesh_cfg.get("raw") if isinstance(mesh_cfg, dict) else None
+    if not isinstance(raw, dict) or not isinstance(raw.get("dims"), list) or len(raw["dims"]) != 3:
+        return None
+    if not all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in raw["dims"]):
+        return None  # the loader names what is wrong
+    return int(raw["dims"][0]) * int(raw["dims"][1]) * int(raw["dims"][2])
+
+
+def _check_mesh_memory(mesh_cfg: Any, p: Path) -> None:
+    """A raw volume whose tet mesh cannot fit in the memory there is is refused before it is read."""
+    from .io import available_memory
+
+    n = _raw_samples(mesh_cfg)
+    have = available_memory() if n is not None else None
+    if n is not None and have is not None and n * RAW_BYTES_PER_SAMPLE > have:
+        raise ConfigError(f"{p}: mesh.raw: the volume is too large for the memory available to warpvol "
+                          f"({_mesh_desc(mesh_cfg, p.parent).removeprefix('mesh.raw: ')}; {_gib(have)} available); use a smaller or "
+                          "subsampled volume")
+
+
+def _mesh_desc(mesh_cfg: Any, base_dir: Path) -> str:
+    """What a ``[mesh]`` table names, for an out-of-memory message: the source and its size."""
+    if not isinstance(mesh_cfg, dict):
+        return "its [mesh]"
+    n = _raw_samples(mesh_cfg)
+    if n is not None:
+        dims = mesh_cfg["raw"]["dims"]
+        return (f"mesh.raw: {' x '.join(map(str, dims))} = {n:,} samples, about {6 * n:,} tets: "
+                f"{_gib(n * RAW_BYTES_PER_SAMPLE)} for points, scalars and tets alone")
+    files = [f for f, _ in _input_files({"mesh": mesh_cfg}, base_dir)]
+    sizes = ", ".join(f"{f} ({_gib(f.stat().st_size)})" for f in files if f.is_file())
+    return f"mesh file {sizes}" if sizes else "its [mesh]"
+
+
+def _gib(nbytes: float) -> str:
+    return f"{nbytes / 2**30:.1f} GiB" if nbytes >= 2**30 else f"{nbytes / 2**20:.0f} MiB"
+
+
+def _input_files(cfg: dict, base_dir: Path) -> list[tuple[Path, str]]:
+    """``(file, key)`` for every string value of a parsed scene table that names an existing file
+    (relative names against ``base_dir``): the mesh, PLOT3D, raw, transfer table and preset files."""
+    out: list[tuple[Path, str]] = []
+    stack: list[tuple[str, Any]] = [("", cfg)]
+    while stack:  # iterative: a deeply nested value is no recursion
+        key, v = stack.pop()
+        if isinstance(v, dict):
+            stack += [(f"{key}.{k}" if key else str(k), x) for k, x in v.items()]
+        elif isinstance(v, list):
+            stack += [(f"{key}[{i}]", x) for i, x in enumerate(v)]
+        elif isinstance(v, str) and v and "\0" not in v:
+            f = Path(v).expanduser()
+            f = f if f.is_absolute() else base_dir / f
+            try:
+                if f.is_file():
+                    out.append((f, key))
+            except OSError:  # a name too long for the file system is no file
+                pass
+    return sorted(out)
+
+
+def scene_files(path: Path | str) -> list[tuple[Path, str]]:
+    """``(file, what)`` for a scene file and every file it names (mesh, transfer function), e.g.
+    ``(Path("scene.toml"), "scene file")``, ``(Path("fin.vtu"), "mesh.path in scene.toml")``;
+    ``[]`` for ``builtin:NAME``. Read before the scene is loaded, so that outputs can be checked
+    against the inputs first."""
+    if isinstance(path, str) and path.startswith("builtin:"):
+        return []
+    p = Path(path)
+    cfg = _read_toml(p)
+    return [(p, "scene file")] + [(f, f"{k} in {p.name}") for f, k in _input_files(cfg, p.parent)]
+
+
+def scene_digest(spec: str | Path) -> str:
+    """SHA-256 (hex) of a scene's inputs as they are on disk: the scene file's bytes and those of
+    every file it names (a ``builtin:NAME`` is its name); a changed mesh or transfer function file
+    changes it, a scene file moved elsewhere does not."""
+    import hashlib
+
+    h = hashlib.sha256()
+    if isinstance(spec, str) and spec.startswith("builtin:"):
+        h.update(spec.encode())
+        return h.hexdigest()
+    files = scene_files(spec)
+    for k, (f, what) in enumerate(files):
+        h.update(f"{k}:{what.split(' in ')[0]}:".encode())
+        h.update(file_digest(f).encode())
+    return h.hexdigest()
+
+
+def file_digest(path: Path | str) -> str:
+    """SHA-256 (hex) of a file's bytes."""
+    import hashlib
+
+    with open(path, "rb") as fh:
+        return hashlib.file_digest(fh, "sha256").hexdigest()

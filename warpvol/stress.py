@@ -284,10 +284,7 @@ def run_stress(quick: bool = False, cases: list[str] | None = None, pipelines: A
     each case that runs (e.g. to save it at once)."""
     from .bench import Progress, load_pipelines
 
-    names = cases or case_names()
-    for n in names:
-        if n not in CASES:
-            build_case(n)  # raises the ConfigError naming the case
+    names = check_case_names(cases)
     pipes = load_pipelines(pipelines, device, quick=quick)
     prog = Progress(len(names), "stress" + (" --quick" if quick else ""), enabled=not quiet)
     rows: list[dict] = []
@@ -315,32 +312,66 @@ def run_stress(quick: bool = False, cases: list[str] | None = None, pipelines: A
     return rows
 
 
+def check_case_names(cases: list[str] | None) -> list[str]:
+    """The case names to run (all when ``cases`` is empty); an unknown name is a ConfigError naming it
+    (before any work or file is touched)."""
+    names = list(cases or case_names())
+    for n in names:
+        if n not in CASES:
+            build_case(n)  # raises the ConfigError naming the case
+    return names
+
+
 CASE_DIR = "cases"  # per-case rows under the output folder, written as each case finishes
+#: the summary files ``stress -o`` writes
+STRESS_FILES = ("stress.json", "stress.csv", "stress.md", "stress.html")
 
 
-def case_store(outdir, quick: bool, pipelines: list[str]):
+def case_store(outdir, quick: bool, pipelines: list[str], *, digests: dict[str, str] | None = None,
+               owned: Any = None, note: Callable[[str], None] | None = None):
     """``(saved, save)`` for ``outdir/cases``: the rows of the cases saved there by an earlier run with
     the same ``quick`` flag and pipeline names (a different run's files are an error naming the
-    difference), and a function saving one case's rows."""
-    import json
+    difference), and a function saving one case's rows.
+
+    ``digests``: pipeline name -> content hash of its TOML (:func:`warpvol.bench.pipeline_digest`):
+    a case saved with other pipeline contents is run again. ``owned``
+    (:class:`warpvol.io.OwnedFiles`): only the records warpvol wrote there are read. Temporary files
+    (dot names) are never read; a record that cannot be read (cut short, edited) is run again;
+    ``note(text)`` is told about each record not reused."""
     from pathlib import Path
 
     from .errors import ConfigError
-    from .io import save_result
+    from .io import read_record, save_result
     from .pipeline import report_json
 
+    note = note or (lambda _text: None)
     d = Path(outdir) / CASE_DIR
     key = {"quick": bool(quick), "pipelines": sorted(pipelines)}
     saved: dict[str, list[dict]] = {}
-    for f in sorted(d.glob("*.json")) if d.is_dir() else []:
-        rec = json.loads(f.read_text())
+    if owned is not None:
+        files = sorted(Path(outdir) / r for r in owned.owned_in(CASE_DIR) if r.endswith(".json"))
+    else:
+        files = sorted(d.glob("*.json")) if d.is_dir() else []
+    for f in files:
+        if f.name.startswith(".") or not f.is_file():
+            continue
+        rec = read_record(f)
+        if rec is None or not isinstance(rec.get("case"), str) or not isinstance(rec.get("rows"), list):
+            note(f"{f} cannot be read (cut short or edited): its case runs again")
+            continue
         if {k: rec.get(k) for k in key} != key:
             raise ConfigError(f"--resume: {f} is from a run with quick={rec.get('quick')} and pipelines "
                               f"{rec.get('pipelines')}, this one has quick={key['quick']} and {key['pipelines']}")
+        if digests is not None and rec.get("pipeline_sha") != digests:
+            old = rec.get("pipeline_sha") if isinstance(rec.get("pipeline_sha"), dict) else {}
+            changed = [n for n in sorted(digests) if old.get(n) != digests[n]]
+            note(f"{f}: pipeline {', '.join(changed)} changed since the case was saved: it runs again")
+            continue
         saved[rec["case"]] = rec["rows"]
 
     def save(name: str, rows: list[dict]) -> None:
-        save_result(d, name, report_json({**key, "case": name, "rows": rows}))
+        extra = {} if digests is None else {"pipeline_sha": digests}
+        save_result(d, name, report_json({**key, **extra, "case": name, "rows": rows}))
 
     return saved, save
 

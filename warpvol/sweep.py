@@ -58,13 +58,18 @@ CONFIG_KEYS = ("name", "scenes", "presets", "repeats", "kernel_cache_dir", "view
 
 @dataclass(frozen=True)
 class Task:
-    """One render: scene spec, view (name + Camera overrides), preset and option (name + overrides)."""
+    """One render: scene spec, view (name + Camera overrides), preset and option (name + overrides);
+    ``scene_sha`` / ``preset_sha``: content hashes of the scene's files
+    (:func:`warpvol.scene.scene_digest`) and of the preset's TOML, part of :attr:`key`, so that a
+    changed file is a new task, never a reused row."""
 
     scene: str
     view: tuple
     preset: str
     option: tuple
     repeats: int = 1
+    scene_sha: str = ""
+    preset_sha: str = ""
 
     @property
     def view_name(self) -> str:
@@ -76,7 +81,8 @@ class Task:
 
     @property
     def key(self) -> str:
-        h = hashlib.sha1(repr((self.scene, self.view, self.preset, self.option, self.repeats)).encode()).hexdigest()[:10]
+        h = hashlib.sha1(repr((self.scene, self.view, self.preset, self.option, self.repeats, self.scene_sha,
+                               self.preset_sha)).encode()).hexdigest()[:10]
         label = "-".join((Path(self.scene).stem if not self.scene.startswith("builtin:") else self.scene[8:],
                           self.view_name, Path(self.preset).stem, self.option_name))
         return re.sub(r"[^A-Za-z0-9_.-]+", "_", label)[:80] + "-" + h
@@ -129,6 +135,8 @@ def load_config(path: str | Path) -> SweepConfig:
         cfg = tomllib.loads(p.read_text())
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
         raise ConfigError(f"{p}: invalid TOML: {e}") from None
+    except RecursionError:
+        raise ConfigError(f"{p}: invalid TOML: nested too deeply (arrays or tables inside each other)") from None
     check_keys(str(p), cfg, list(CONFIG_KEYS))
     scenes = cfg.get("scenes")
     if not isinstance(scenes, list) or not scenes or not all(isinstance(s, str) for s in scenes):
@@ -157,8 +165,11 @@ def pipeline_config(preset: str, overrides: tuple) -> dict | str:
     """The preset's config with ``stage.param`` overrides applied, or a sentence why they do not apply."""
     from .pipeline import _read_pipeline_text
 
-    text, _ = _read_pipeline_text(preset)
-    cfg = tomllib.loads(text)
+    text, where = _read_pipeline_text(preset)
+    try:
+        cfg = tomllib.loads(text)
+    except (tomllib.TOMLDecodeError, RecursionError) as e:
+        raise ConfigError(f"{where}: invalid TOML: {e}") from None
     cfg.setdefault("name", Path(preset).stem)
     hit = set()
     for st in cfg["stages"]:
@@ -175,12 +186,17 @@ def pipeline_config(preset: str, overrides: tuple) -> dict | str:
 
 def plan_tasks(cfg: SweepConfig) -> tuple[list[Task], list[dict]]:
     """Tasks to run, and rows for the combinations an option does not apply to."""
+    from .bench import pipeline_digest
+    from .scene import scene_digest
+
     tasks, na = [], []
+    scene_sha = {s: scene_digest(s) for s in cfg.scenes}
+    preset_sha = {pr: pipeline_digest(pr) for pr in cfg.presets}
     for s in cfg.scenes:
         for v in cfg.views:
             for pr in cfg.presets:
                 for o in cfg.options:
-                    t = Task(s, v, pr, o, cfg.repeats)
+                    t = Task(s, v, pr, o, cfg.repeats, scene_sha[s], preset_sha[pr])
                     pc = pipeline_config(pr, o[1])
                     if isinstance(pc, str):
                         na.append({**_ids(t), "status": "n/a", "message": pc})
@@ -206,23 +222,25 @@ def _worker_setup(kernel_cache_dir: str | None) -> None:
 
 
 @functools.lru_cache(maxsize=4)
-def _scene(spec: str):
+def _scene(spec: str, sha: str = ""):
+    """The scene of ``spec`` (cached by its path and ``sha``, the content hash: a changed file is read again)."""
     from .scene import load_scene
 
     return load_scene(spec)
 
 
-def _view_scene(spec: str, view: tuple):
-    scene = _scene(spec)
+def _view_scene(spec: str, view: tuple, sha: str = ""):
+    scene = _scene(spec, sha)
     return scene.with_camera(**dict(view[1])) if view[1] else scene
 
 
-def reference_task(spec: str, view: tuple, cache_dir: str, kernel_cache_dir: str | None = None) -> str:
-    """Compute (or find) the exact reference of one scene and view; returns its cache file."""
+def reference_task(spec: str, view: tuple, sha: str, cache_dir: str, kernel_cache_dir: str | None = None) -> str:
+    """Compute (or find) the exact reference of one scene (content hash ``sha``) and view; returns its
+    cache file."""
     from .bench import cached_reference, scene_hash
 
     _worker_setup(kernel_cache_dir)
-    scene = _view_scene(spec, view)
+    scene = _view_scene(spec, view, sha)
     cached_reference(scene, cache_dir)
     return str(Path(cache_dir) / f"reference-{scene_hash(scene)}.npy")
 
@@ -236,7 +254,7 @@ def run_task(task: Task, ref_path: str, outdir: str, kernel_cache_dir: str | Non
     _worker_setup(kernel_cache_dir)
     row = _ids(task)
     try:
-        scene = _view_scene(task.scene, task.view)
+        scene = _view_scene(task.scene, task.view, task.scene_sha)
         pipe = Pipeline.from_config(pipeline_config(task.preset, task.option[1]), where=f"preset {task.preset!r}")
         res = bench_pipeline(pipe, scene, np.load(ref_path), repeats=task.repeats, audit=False)
     except Exception as e:  # noqa: BLE001 - reported with its error; the other tasks go on
@@ -291,7 +309,7 @@ def run_sweep(cfg: SweepConfig, outdir: str | Path, *, scheduler: str | None = N
             todo.append(t)
     skipped = len(tasks) - len(todo)
     prog = Progress(len(todo), f"sweep {cfg.name}", enabled=not quiet)
-    views = sorted({(t.scene, t.view) for t in todo})
+    views = sorted({(t.scene, t.view, t.scene_sha) for t in todo})
     kdir = cfg.kernel_cache_dir
 
     def finish(row: dict, client: Any) -> None:
@@ -308,7 +326,7 @@ def run_sweep(cfg: SweepConfig, outdir: str | Path, *, scheduler: str | None = N
             except Exception as e:  # noqa: BLE001
                 refs[sv] = e
         for t in todo:
-            r = refs[(t.scene, t.view)]
+            r = refs[(t.scene, t.view, t.scene_sha)]
             finish(run_task(t, r, str(out), kdir) if isinstance(r, str) else
                    {**_ids(t), "status": "failed", "message": f"reference: {type(r).__name__}: {r}"}, None)
     elif todo:
@@ -321,7 +339,7 @@ def run_sweep(cfg: SweepConfig, outdir: str | Path, *, scheduler: str | None = N
         client = Client(cluster if cluster is not None else scheduler)
         try:
             ref_f = {sv: client.submit(reference_task, *sv, refs_dir, kdir, pure=False) for sv in views}
-            futs = {client.submit(run_task, t, ref_f[(t.scene, t.view)], str(out), kdir, key=f"render-{t.key}",
+            futs = {client.submit(run_task, t, ref_f[(t.scene, t.view, t.scene_sha)], str(out), kdir, key=f"render-{t.key}",
                                   pure=False): t for t in todo}
             for f in as_completed(futs):
                 t = futs[f]
@@ -340,6 +358,10 @@ def run_sweep(cfg: SweepConfig, outdir: str | Path, *, scheduler: str | None = N
     return SweepResult(cfg, rows, skipped, time.perf_counter() - t0)
 
 
+#: the summary files ``sweep -o`` writes (besides tasks/ and references/)
+SWEEP_FILES = ("table.csv", "table.json", "table.md", "pareto.svg", "pareto.png", "index.html")
+
+
 def write_sweep(result: SweepResult, outdir: str | Path) -> None:
     """table.csv / .json / .md, pareto.png / .svg over all rows and index.html with one section per
     scene and view (each with its own Pareto front), all or none."""
@@ -353,6 +375,7 @@ def write_sweep(result: SweepResult, outdir: str | Path) -> None:
     for r in result.rows:
         groups.setdefault((r["scene"], r["view"]), []).append(r)
     sections = []
+    planned = plan_tasks(result.config)[0]
     for (scene_name, view), rows in groups.items():
         shown = [{**r, "pipeline": f"{r['pipeline']} [{r['options']}]", "scene": None, "view": None, "options": None}
                  for r in rows]
@@ -364,11 +387,11 @@ def write_sweep(result: SweepResult, outdir: str | Path) -> None:
             f = out / "tasks" / f"{r.get('task')}.npy"
             if r["status"] == "ok" and f.is_file():
                 images[s["pipeline"]] = np.load(f)
-        spec = next((t.scene for t in plan_tasks(result.config)[0] if _ids(t)["scene"] == scene_name), None)
+        task = next((t for t in planned if _ids(t)["scene"] == scene_name), None)
         ref = None
         vdef = next((v for v in result.config.views if v[0] == view), None)
-        if spec is not None and vdef is not None:
-            f = out / "references" / f"reference-{scene_hash(_view_scene(spec, vdef))}.npy"
+        if task is not None and vdef is not None:
+            f = out / "references" / f"reference-{scene_hash(_view_scene(task.scene, vdef, task.scene_sha))}.npy"
             ref = np.load(f) if f.is_file() else None
         br = BenchResult({"name": scene_name, "view": view}, shown, ref, None, True, images)
         sections.append(rh.bench_section(br, title=f"{scene_name} / view {view}"))
