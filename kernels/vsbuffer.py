@@ -46,6 +46,7 @@ class VsbCells:
     grad: wp.array(dtype=wp.vec4)         # per piece: scalar gradient g and offset g0, s = g . x + g0
     piece_cell: wp.array(dtype=wp.int32)
     cell_start: wp.array(dtype=wp.int32)
+    tie: wp.array(dtype=wp.int32)         # 4 per piece: 1 if a ray lying in face i's plane is inside
 
 
 @wp.struct
@@ -109,8 +110,10 @@ def sorted3(v: wp.vec3i) -> wp.vec3i:
 def piece_interval(cells: VsbCells, q: int, o: wp.vec3, d: wp.vec3, tol: float) -> wp.vec4:
     """Ray interval of piece ``q``: ``(t_entry, t_exit, entry face, exit face)``; empty if exit <= entry.
 
-    A face the ray runs along (|n.d| <= 1e-6) bounds nothing; the ray is inside its half-space up to
-    ``tol`` (a ray lying in a shared face belongs to both pieces instead of neither).
+    A face the ray runs along (|n.d| <= 1e-6) bounds nothing; a ray within ``tol`` of its plane lies in
+    the face, and is inside where ``cells.tie`` says so: the reference's rule (the ray moved by an
+    infinitesimal step along the camera's right, then up), so a ray in a shared face belongs to exactly
+    one of the two pieces and a ray in a boundary face is inside or outside as in the reference.
     """
     ta = float(-BIG)
     tb = float(BIG)
@@ -121,8 +124,8 @@ def piece_interval(cells: VsbCells, q: int, o: wp.vec3, d: wp.vec3, tol: float) 
         nd = pl[0] * d[0] + pl[1] * d[1] + pl[2] * d[2]
         dist = pl[0] * o[0] + pl[1] * o[1] + pl[2] * o[2] + pl[3]
         if wp.abs(nd) <= 1.0e-6:
-            if dist > tol:
-                tb = -BIG  # parallel and outside
+            if dist > tol or (dist >= -tol and cells.tie[4 * q + f] == 0):
+                tb = -BIG  # parallel and outside (or in the face plane, on its outer side by the tie rule)
         elif nd < 0.0:
             t = -dist / nd
             if t > ta:

@@ -37,13 +37,12 @@ from __future__ import annotations
 
 import time
 from contextlib import contextmanager
-from dataclasses import dataclass
-
 import numpy as np
 
 from .errors import ConfigError
 from .parallel import blocks, cpu_threads, launch_blocks
 from .vsbuffer_cells import ConvexCellMesh
+from .vsbuffer_octree import Octree, _expand, build_octree, plane_node_hits  # noqa: F401 (re-exported)
 
 __all__ = ["ConvexCellMesh", "Octree", "build_octree", "ray_space", "render_vsbuffer", "walk_column",
            "INTEGRATIONS", "ADJACENCY_MODES"]
@@ -51,6 +50,11 @@ __all__ = ["ConvexCellMesh", "Octree", "build_octree", "ray_space", "render_vsbu
 INTEGRATIONS = ("trapezoid", "exact", "table")
 ADJACENCY_MODES = ("count", "recover")
 ID_LIMIT = 2 ** 24  # cell IDs are drawn as RGB8 colours
+#: ID-buffer pixels per plane batch at most (fewer planes per batch for wide images): each batch's
+#: launches run uninterrupted, so this bounds how long Ctrl-C waits (~0.2 s at 256^2 on 2 CPU cores)
+BATCH_PIXELS = 1 << 18
+#: pixels by which the audit widens a cell's ray-space range (rays in its boundary faces stay checked)
+AUDIT_SLACK = 1e-3
 
 
 # ------------------------------------------------------------------------------------------------
@@ -83,118 +87,6 @@ def ray_space(points: np.ndarray, camera) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------------------------
-# octree of cell bounding boxes
-# ------------------------------------------------------------------------------------------------
-
-
-@dataclass
-class Octree:
-    """Regular octree: node boxes (world), parent links and the cells stored at each node (CSR)."""
-
-    lo: np.ndarray          # (N, 3)
-    hi: np.ndarray          # (N, 3)
-    parent: np.ndarray      # (N,) -1 for the root
-    cell_start: np.ndarray  # (N + 1,)
-    cells: np.ndarray       # cells grouped by node
-    depth: int
-
-    @property
-    def n_nodes(self) -> int:
-        return len(self.parent)
-
-
-def build_octree(cell_lo: np.ndarray, cell_hi: np.ndarray, depth: int, insert: str = "centroid") -> Octree:
-    """Regular octree of ``depth`` levels below the root over the cells' bounding boxes.
-
-    ``insert="centroid"``: every cell in the leaf holding its box centre; a node's box is the union of
-    the boxes of the cells below it (the bounding box of its primitives, as the paper describes the
-    tree of [22]), so a plane draws the cells of leaves whose boxes it cuts.
-    ``insert="containing"``: every cell at the deepest node whose region contains the cell's box,
-    node boxes the regions (cells straddling a split stay high and are drawn for many planes).
-    Only non-empty nodes and their ancestors are kept.
-
-    Examples
-    --------
-    >>> lo = np.array([[0, 0, 0], [0.6, 0.6, 0.6], [0.4, 0, 0]]); hi = lo + 0.3
-    >>> t = build_octree(lo, hi, 2, "containing")
-    >>> t.n_nodes, [int(n) for n in np.diff(t.cell_start)]        # root holds the straddling cell
-    (3, [1, 1, 1])
-    >>> t = build_octree(lo, hi, 2)
-    >>> [int(n) for n in np.diff(t.cell_start)], t.hi[0].round(6).tolist()  # cells in leaves; tight root box
-    ([0, 0, 0, 0, 1, 1, 1], [0.9, 0.9, 0.9])
-    """
-    glo, ghi = cell_lo.min(axis=0), cell_hi.max(axis=0)
-    ext = np.maximum(ghi - glo, 1e-300)
-    n_leaf = 2 ** depth
-    if insert == "centroid":
-        level = np.full(len(cell_lo), depth, np.int64)
-        idx = np.clip(np.floor((0.5 * (cell_lo + cell_hi) - glo) / ext * n_leaf), 0, n_leaf - 1).astype(np.int64)
-    elif insert == "containing":
-        level = np.zeros(len(cell_lo), np.int64)
-        idx = np.zeros((len(cell_lo), 3), np.int64)
-        for lv in range(1, depth + 1):
-            n = 2 ** lv
-            a = np.clip(np.floor((cell_lo - glo) / ext * n), 0, n - 1).astype(np.int64)
-            b = np.clip(np.floor((cell_hi - glo) / ext * n), 0, n - 1).astype(np.int64)
-            ok = (a == b).all(axis=1) & (level == lv - 1)
-            level[ok], idx[ok] = lv, a[ok]
-    else:
-        raise ConfigError(f"insert: {insert!r} not allowed; allowed: centroid, containing")
-    # node keys: (level, ix, iy, iz) for every cell's node and all its ancestors
-    keys = []
-    for lv in range(depth + 1):
-        sel = level >= lv
-        keys.append(np.column_stack([np.full(sel.sum(), lv), idx[sel] >> (level[sel] - lv)[:, None]]))
-    def code(k: np.ndarray) -> np.ndarray:  # (level, ix, iy, iz) -> one int64, ordered by level first
-        return ((k[:, 0] * (1 << 20) + k[:, 1]) * (1 << 20) + k[:, 2]) * (1 << 20) + k[:, 3]
-
-    allk = np.concatenate(keys)
-    ncode, first = np.unique(code(allk), return_index=True)
-    allk = allk[first]
-    size = ext / (2.0 ** allk[:, 0])[:, None]
-    nlo = glo + allk[:, 1:] * size
-    nhi = nlo + size
-    par = allk.copy()
-    par[:, 0] -= 1
-    par[:, 1:] >>= 1
-    parent = np.where(allk[:, 0] > 0, np.searchsorted(ncode, code(np.maximum(par, 0))), -1)
-    node_of_cell = np.searchsorted(ncode, code(np.column_stack([level, idx])))
-    cells = np.argsort(node_of_cell, kind="stable")
-    start = np.concatenate([[0], np.cumsum(np.bincount(node_of_cell, minlength=len(allk)))])
-    if insert == "centroid":
-        # tight boxes: union of the cells' boxes, propagated from the leaves up (deepest level first)
-        nlo = np.full((len(allk), 3), np.inf)
-        nhi = np.full((len(allk), 3), -np.inf)
-        np.minimum.at(nlo, node_of_cell, cell_lo)
-        np.maximum.at(nhi, node_of_cell, cell_hi)
-        for lv in range(depth, 0, -1):
-            sel = np.nonzero(allk[:, 0] == lv)[0]
-            np.minimum.at(nlo, parent[sel], nlo[sel])
-            np.maximum.at(nhi, parent[sel], nhi[sel])
-    return Octree(nlo, nhi, parent, start, cells, depth)
-
-
-def plane_node_hits(tree: Octree, camera, rows: np.ndarray) -> np.ndarray:
-    """(P, N) bool: sweep plane of image row ``rows[p]`` cuts node ``n``'s box (world-space test)."""
-    corners = np.stack([np.where(np.array([(m >> k) & 1 for k in range(3)], bool), tree.hi, tree.lo)
-                        for m in range(8)], axis=1) - camera.eye  # (N, 8, 3)
-    y, z = corners @ camera.true_up, corners @ camera.forward
-    yn = 1.0 - 2.0 * (rows + 0.5) / camera.height_px
-    if camera.projection == "orthographic":
-        dist = y[None] - (yn * camera.height / 2.0)[:, None, None]
-    else:  # plane through the eye containing the row's rays: y = z * tan(fov/2) * y_ndc
-        dist = y[None] - z[None] * (yn * np.tan(np.radians(camera.fov_y_deg) / 2.0))[:, None, None]
-    return (dist.min(axis=2) <= 0.0) & (dist.max(axis=2) >= 0.0)
-
-
-def _expand(starts: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """For CSR ranges ``starts[i] .. starts[i] + counts[i]``: (owner index, item index) of every item."""
-    owner = np.repeat(np.arange(len(counts)), counts)
-    base = np.repeat(starts - np.concatenate([[0], np.cumsum(counts)[:-1]]), counts)
-    return owner, base + np.arange(len(owner))
-
-
-# ------------------------------------------------------------------------------------------------
 # the renderer
 # ------------------------------------------------------------------------------------------------
 
@@ -214,13 +106,20 @@ def _unit_counters():
     out.update(c.as_dict())
 
 
-def _device_cells(cm: ConvexCellMesh, origin: np.ndarray, device: str):
+def _device_cells(cm: ConvexCellMesh, origin: np.ndarray, device: str, camera=None):
     import warp as wp
 
     from .kernels import vsbuffer as kv
 
     tm = cm.pieces
     fp = tm.face_planes.copy()
+    # a ray lying in a face plane: with the camera given (the rewalking walk of vsbuffer_best), inside
+    # that face's piece as in the reference (moved by an infinitesimal step along the camera's right,
+    # then up, it falls on the inner side); without, inside every piece it bounds (the paper's walk)
+    tie = np.ones(fp.shape[:2], np.int32)
+    if camera is not None:
+        nr, nu = fp[..., :3] @ camera.right, fp[..., :3] @ camera.true_up
+        tie = np.where(np.abs(nr) > 1e-12, nr < 0.0, nu < 0.0).astype(np.int32)
     fp[..., 3] += np.einsum("mfk,k->mf", fp[..., :3], origin)
     c = kv.VsbCells()
     c.points = wp.array((tm.points - origin).astype(np.float32), dtype=wp.vec3, device=device)
@@ -232,6 +131,7 @@ def _device_cells(cm: ConvexCellMesh, origin: np.ndarray, device: str):
     c.grad = wp.array(np.column_stack([tm.gradients, g0]).astype(np.float32), dtype=wp.vec4, device=device)
     c.piece_cell = wp.array(cm.piece_cell.astype(np.int32), dtype=wp.int32, device=device)
     c.cell_start = wp.array(cm.cell_start.astype(np.int32), dtype=wp.int32, device=device)
+    c.tie = wp.array(tie.reshape(-1), dtype=wp.int32, device=device)
     return c
 
 
@@ -280,7 +180,7 @@ def _zero_counts(planes: int) -> dict:
 
 def _walk_inputs(cells: ConvexCellMesh, transfer, camera, device: str, rows: int, cmin: float, cspan: float,
                  integration: str, steps: int, neighbour_check: bool, adjacency: str, t_min: float, max_list: int,
-                 table=None, weight_bits: int | None = 8, texture_cache: dict | None = None):
+                 table=None, weight_bits: int | None = 8, texture_cache: dict | None = None, ties: bool = False):
     """``(Walk, VsbCells, ray origins, ray directions, tf_s, tf_v, textures)`` on ``device`` for one
     frame; ``textures``: the 3D table's texture (``"table"``; kept alive, its fetches counted) or none."""
     import warp as wp
@@ -290,7 +190,7 @@ def _walk_inputs(cells: ConvexCellMesh, transfer, camera, device: str, rows: int
     from .kernels import vsbuffer as kv
 
     origin = 0.5 * (cells.bounds[0] + cells.bounds[1])
-    dc = _device_cells(cells, origin, device)
+    dc = _device_cells(cells, origin, device, camera if ties else None)
     o_np, d_np = camera.rays(normalise=True)
     # origins moved along their rays (float64) to the sphere around the mesh: ray parameters then stay
     # of the mesh's size in float32 however far the eye is (lengths, not positions, are integrated)
@@ -366,7 +266,8 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
                     max_list: int = 1024, planes_per_batch: int = 16, threads: int = 0,
                     tile_size: int = 4, tree_insert: str = "centroid", raster_rules: dict | None = None, count=None,
                     keep_lists: bool = False, audit: bool = True, rewalk: bool = False, table=None,
-                    weight_bits: int = 8, texture_cache: dict | None = None) -> tuple[np.ndarray, dict]:
+                    weight_bits: int = 8, texture_cache: dict | None = None,
+                    on_batch=None) -> tuple[np.ndarray, dict]:
     """Render ``cells`` with the VSBUFFER algorithm; returns ``(image (H, W, 4) premultiplied, stats)``.
 
     Parameters
@@ -411,13 +312,20 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         ``stats["missed_per_ray"]``): no loss goes unreported.
     rewalk : bool
         Integrate every ray the audit flagged again, from all cells its plane cuts over its column
-        sorted by entry (an improvement over the paper, which does not sort; needs ``audit``).
+        sorted by entry (an improvement over the paper, which does not sort; needs ``audit``). Also
+        decides rays lying exactly in a face plane (pixel centres on boundary faces seen edge-on) by
+        the reference's rule (:func:`warpvol.kernels.vsbuffer.piece_interval`); without it such a ray
+        is inside every cell whose face it lies in.
     keep_lists : bool
         Return every ray's list of integrated cells, in order (``stats["lists"]``, (H, W, max_list),
         -1 padded; for inspection of small images).
     count : callable, optional
         ``count(name=int, ...)`` receives the hardware work (:func:`work_counters`; a stage passes
         ``ctx.count``).
+    on_batch : callable, optional
+        ``on_batch(first_row, n_rows)`` before each batch of planes: progress, and the point where an
+        exception raised there (or a Ctrl-C's ``KeyboardInterrupt``) stops the sweep. A batch draws
+        at most :data:`BATCH_PIXELS` ID-buffer pixels, so Ctrl-C waits for one short batch.
 
     ``stats`` holds ``counters`` (all counted work), ``id_s`` (octree query + both ID passes + read-back
     + comparison) and ``walk_s`` (column walk and integration), ``depth_res``, ``range``, ``cells``
@@ -475,11 +383,12 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     node_cnt = np.diff(tree.cell_start)
     w, dc, ray_o, ray_d, tf_s, tf_v, textures = _walk_inputs(
         cells, transfer, camera, device, R, cmin, cspan, integration, steps, neighbour_check, adjacency, t_min,
-        max_list, table=table, weight_bits=weight_bits or None, texture_cache=texture_cache)
+        max_list, table=table, weight_bits=weight_bits or None, texture_cache=texture_cache, ties=rewalk)
     out = wp.zeros(W * H, dtype=wp.vec4, device=device)
     rules = dict(raster_rules or {})
     # planes of one batch are stacked in one ID buffer: keep it within the rasteriser's 65536 rows
-    P = max(1, min(int(planes_per_batch), H, 65536 // stride))
+    # and within BATCH_PIXELS, so a Ctrl-C waits for one short batch of launches
+    P = max(1, min(int(planes_per_batch), H, 65536 // stride, BATCH_PIXELS // (stride * W)))
     threads = threads or cpu_threads()
     cnt = _zero_counts(H)
     missed_length = 0.0
@@ -490,6 +399,8 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     counters = wp.zeros((P * W, kv.NCOUNT), dtype=wp.int32, device=device)
     lists = np.full((H, W, max(1, int(max_list))), -1, np.int32) if keep_lists else None
     for j0 in range(0, H, P):
+        if on_batch is not None:
+            on_batch(j0, min(P, H - j0))
         t1 = time.perf_counter()
         rows = np.arange(j0, min(H, j0 + P))
         np_ = len(rows)
@@ -563,10 +474,13 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
             cnt[name] += int(c[k])
         if audit:
             # (plane, column, cell) for cells the plane cuts whose column range holds column centres
-            cut = (cb_lo[pc_cell] <= rows[pc_plane] + 0.5) & (rows[pc_plane] + 0.5 <= cb_hi[pc_cell])
+            # (ranges widened by AUDIT_SLACK pixels: a ray exactly in a cell's boundary face, rounded
+            # out of the float64 range, is still checked)
+            cut = ((cb_lo[pc_cell] - AUDIT_SLACK <= rows[pc_plane] + 0.5)
+                   & (rows[pc_plane] + 0.5 <= cb_hi[pc_cell] + AUDIT_SLACK))
             ap, ac = pc_plane[cut], pc_cell[cut]
-            c0 = np.clip(np.ceil(ca_lo[ac] - 0.5), 0, W).astype(np.int64)
-            c1 = np.clip(np.floor(ca_hi[ac] - 0.5), -1, W - 1).astype(np.int64)
+            c0 = np.clip(np.ceil(ca_lo[ac] - 0.5 - AUDIT_SLACK), 0, W).astype(np.int64)
+            c1 = np.clip(np.floor(ca_hi[ac] - 0.5 + AUDIT_SLACK), -1, W - 1).astype(np.int64)
             n = np.maximum(c1 - c0 + 1, 0)
             own3, col3 = _expand(c0, n)
             if len(own3):

@@ -13,6 +13,13 @@ Conventions: ``tets`` (T, 4) lists the pieces, grouped by cell (``cell_start[c] 
 neighbour piece belongs to another cell or to none), ``face_cell`` (F,) their cell and
 ``face_piece`` (F, 2) the ``(piece, local face)`` they come from.
 
+The sweep needs every cell convex: a point of the sweep plane belongs to a cell where the nearest back
+face behind it and the nearest front face before it are both that cell's. A hexahedron with a
+non-planar face folded inwards (a jittered or curvilinear grid) is not, and drawn whole it claims
+points in its concavity and loses the neighbour there. :attr:`ConvexCellMesh.nonconvex` finds such
+cells (every vertex of a cell must lie behind the plane of each of its boundary triangles, up to what
+float32 resolves at the mesh's scale) and :meth:`ConvexCellMesh.drawable` draws them as their tets.
+
 Example
 -------
 >>> import numpy as np, pyvista as pv
@@ -50,6 +57,10 @@ SPLITS = {
 }
 #: number of points per VTK cell type accepted
 CELL_POINTS = {VTK_TETRA: 4, VTK_HEXAHEDRON: 8, VTK_VOXEL: 8, VTK_WEDGE: 6, VTK_PYRAMID: 5}
+#: a cell is convex when no vertex lies in front of a boundary triangle's plane by more than this
+#: fraction of the mesh's radius: 8 float32 units of roundoff, what the sweep's float32 geometry (points
+#: relative to the mesh centre) can resolve
+CONVEX_RTOL = 8.0 * 2.0 ** -24
 
 
 class ConvexCellMesh:
@@ -180,6 +191,73 @@ class ConvexCellMesh:
         lo = np.minimum.reduceat(p.min(axis=1), self.cell_start[:-1], axis=0)
         hi = np.maximum.reduceat(p.max(axis=1), self.cell_start[:-1], axis=0)
         return lo, hi
+
+    @cached_property
+    def nonconvex(self) -> np.ndarray:
+        """(C,) bool: cells whose triangulated boundary is not a convex polyhedron within float32
+        resolution: some vertex of the cell lies in front of the plane of one of its boundary
+        triangles by more than :data:`CONVEX_RTOL` of the mesh's radius (a non-planar face folded
+        inwards, or any other concavity), or a boundary triangle has no area. One-piece cells (tets)
+        are convex.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> g = pv.ImageData(dimensions=(3, 2, 2)).cast_to_unstructured_grid()
+        >>> g.point_data["s"] = g.points[:, 0]
+        >>> m = ConvexCellMesh.from_pyvista(g, "s"); m.nonconvex.tolist()
+        [False, False]
+        >>> g.points[11] += (0.0, 0.0, -0.2)   # pull a top corner of the second hex in: its top face folds in
+        >>> bent = ConvexCellMesh.from_pyvista(g, "s"); bent.nonconvex.tolist()
+        [False, True]
+        >>> bent.drawable.n_cells, bent.drawable.n_tets                   # drawn as the first hex and 6 tets
+        (7, 12)
+        """
+        out = np.zeros(self.n_cells, bool)
+        multi = np.diff(self.cell_start) > 1
+        if not multi.any():
+            return out
+        lo, hi = self.bounds
+        centre = 0.5 * (lo + hi)
+        pts = self.points - centre
+        tol = CONVEX_RTOL * max(float(np.abs(pts).max()), 1e-300)
+        # the distinct vertices of every multi-piece cell (CSR over cells)
+        pc = self.piece_cell
+        sel = multi[pc]
+        key = np.unique(pc[sel][:, None] * np.int64(self.pieces.n_points) + self.pieces.tets[sel])
+        vcell, vert = np.divmod(key, np.int64(self.pieces.n_points))
+        vcnt = np.bincount(vcell, minlength=self.n_cells)
+        vstart = np.concatenate([[0], np.cumsum(vcnt)])[:-1]
+        faces = np.nonzero(multi[self.face_cell])[0]
+        tri = pts[self.boundary[faces]]  # (F', 3, 3)
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        area = np.linalg.norm(n, axis=1)
+        np.logical_or.at(out, self.face_cell[faces], ~(area > 0.0))
+        n = n / np.maximum(area, 1e-300)[:, None]
+        fc = self.face_cell[faces]
+        step = 1 << 20  # (triangle, vertex) pairs per chunk
+        for f0 in range(0, len(faces), max(1, step // 16)):
+            f1 = min(len(faces), f0 + max(1, step // 16))
+            counts = vcnt[fc[f0:f1]]
+            owner = np.repeat(np.arange(f0, f1), counts)
+            item = np.repeat(vstart[fc[f0:f1]] - np.concatenate([[0], np.cumsum(counts)[:-1]]), counts)
+            v = vert[item + np.arange(len(owner))]
+            d = np.einsum("ik,ik->i", pts[v] - tri[owner, 0], n[owner])
+            np.logical_or.at(out, fc[owner], d > tol)
+        return out
+
+    @cached_property
+    def drawable(self) -> "ConvexCellMesh":
+        """This mesh with every :attr:`nonconvex` cell replaced by its pieces, one cell each (the
+        same field; the sweep draws convex cells only). ``self`` where every cell is convex."""
+        bad = self.nonconvex
+        if not bad.any():
+            return self
+        keep = np.ones(self.n_tets + 1, bool)
+        keep[1:-1] = False
+        keep[self.cell_start] = True  # every cell's first piece starts a cell ...
+        keep[np.nonzero(bad[self.piece_cell])[0]] = True  # ... and every piece of a non-convex cell
+        return ConvexCellMesh(self.pieces, np.nonzero(keep)[0], name=self.name)
 
     def __repr__(self) -> str:
         return f"ConvexCellMesh({self.name!r}, {self.n_cells} cells, {self.n_tets} tets)"
