@@ -364,6 +364,10 @@ def harc_march(
                 # among its edge neighbours and theirs on the front boundary
                 wp.atomic_add(counters, chunk, 7, 1)
                 b2, ok, t, s = ring_search(b, bf_tet, bf_face, bf_nbr, tets, verts, r)
+                if ok and prev >= 0:
+                    # a re-entry (peel pass): at a crack the faces around belong to other cells,
+                    # whose surface neighbours do not reach the crossed face; redone in float64
+                    ok = False
                 if ok:
                     c = int(bf_tet[b2])
                     f = int(bf_face[b2])
