@@ -127,8 +127,73 @@ def thin_layer_cases(simple, with_ref, sc) -> None:
     """Thin layers that carry the image, huge on-screen extents, edge-on slabs."""
 
 
+def _jittered_hexes(jitter: float, seed: int):
+    """A 6x5x5-point grid of hexahedra (unstructured, split by the loader with the cells recorded), every
+    point moved by up to ``jitter`` of the spacing: faces non-planar, many cells no longer convex."""
+    import numpy as np
+    import pyvista as pv
+
+    from .mesh import TetMesh
+
+    x, y, z = np.linspace(-1, 1, 6), np.linspace(-0.9, 0.9, 5), np.linspace(-0.8, 0.8, 5)
+    X, Y, Z = np.meshgrid(x, y, z, indexing="ij")
+    sp = np.array([x[1] - x[0], y[1] - y[0], z[1] - z[0]])
+    P = np.stack([X, Y, Z], -1) + np.random.default_rng(seed).uniform(-jitter, jitter, X.shape + (3,)) * sp
+    g = pv.StructuredGrid(P[..., 0], P[..., 1], P[..., 2]).cast_to_unstructured_grid()
+    p = np.asarray(g.points)
+    g.point_data["s"] = 0.4 + 0.3 * p[:, 0] - 0.2 * p[:, 1] * p[:, 2]
+    return TetMesh.from_pyvista(g, "s")
+
+
 def sweep_cases(simple, with_ref, sc) -> None:
-    """VSBUFFER-specific: non-planar hexahedra, pixel centres on boundary faces."""
+    """VSBUFFER-specific: non-planar hexahedra, pixel centres on boundary faces, a thin layer."""
+    import numpy as np
+
+    from .builtin import grid_points
+    from .camera import Camera
+    from .mesh import TetMesh, structured_to_tets
+    from .transfer import TransferFunction
+
+    tf_hex = TransferFunction([[0.0, 1.0, 0.1, 0.0, 9.0], [0.4, 0.0, 1.0, 0.1, 0.5], [0.8, 0.1, 0.0, 1.0, 9.0]])
+    for jit in (0.05, 0.2):
+        simple(f"hexahedra_nonplanar_{round(jit * 100)}pct",
+               f"unstructured hexahedra, points jittered by +-{jit:.0%} of the spacing: non-planar faces, "
+               "cells no longer convex (vsbuffer_best draws those as their tets)",
+               lambda q, jit=jit: sc(_jittered_hexes(jit, 3), tf_hex,
+                                     Camera(projection="orthographic", eye=(2.2, 1.7, 3.1), target=(0, 0, 0),
+                                            height=2.8, width_px=24 if q else 96, height_px=24 if q else 96),
+                                     f"hexahedra_nonplanar_{round(jit * 100)}pct"))
+
+    def on_faces(q):
+        # pixel size 1/4 (--quick) or 1/16: rows and columns of pixel centres in the planes x, y = +-1
+        n = 9 if q else 33
+        x = np.linspace(-1, 1, 4)
+        pts = grid_points(x, x, x)
+        mesh = TetMesh(pts, structured_to_tets((4, 4, 4)), 0.6 + 0.25 * pts[:, 0] - 0.15 * pts[:, 1] * pts[:, 2],
+                       name="box_on_faces")
+        tf = TransferFunction([[0.0, 0.9, 0.5, 0.1, 2.5], [1.0, 0.2, 0.4, 1.0, 5.0]])
+        cam = Camera(projection="orthographic", eye=(0, 0, 5), target=(0, 0, 0), height=2.0 * n / (n - 1),
+                     width_px=n, height_px=n)
+        return sc(mesh, tf, cam, "pixel_centres_on_boundary_faces")
+
+    simple("pixel_centres_on_boundary_faces", "orthographic view down -z with pixel centres exactly in the "
+           "boundary planes x, y = +-1 (faces seen edge-on; the reference's tie rule decides in or out)", on_faces)
+
+    def thin(q):
+        th = 1e-6
+        x = np.linspace(-0.8, 0.8, 4)
+        slab = TetMesh(grid_points(x, x, [0.35, 0.35 + th]), structured_to_tets((4, 4, 2)), np.ones(32))
+        y = np.linspace(-1, 1, 3)
+        back = TetMesh(grid_points(y, y, [-1.0, -0.45, 0.1]), structured_to_tets((3, 3, 3)), np.zeros(27))
+        mesh = TetMesh(np.vstack([slab.points, back.points]), np.vstack([slab.tets, back.tets + 32]),
+                       np.concatenate([slab.scalars, back.scalars]), name="thin_layer")
+        tf = TransferFunction([[0.0, 0.1, 0.4, 0.8, 0.4], [1.0, 0.9, 0.7, 0.1, 0.25 / th]])
+        cam = Camera(projection="orthographic", eye=(0.2, 0.4, 5), target=(0.1, -0.1, 0), height=2.4,
+                     width_px=24 if q else 96, height_px=24 if q else 96)
+        return sc(mesh, tf, cam, "thin_layer_1e-6_sweep")
+
+    simple("thin_layer_1e-6_sweep", "a slab 1e-6 thick carrying optical depth 0.25 in front of a dim block "
+           "(float32 segment lengths cannot resolve it: warned)", thin)
 
 
 def add_real_data_cases(simple, with_ref, sc) -> None:

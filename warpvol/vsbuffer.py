@@ -330,7 +330,9 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     ``stats`` holds ``counters`` (all counted work), ``id_s`` (octree query + both ID passes + read-back
     + comparison) and ``walk_s`` (column walk and integration), ``depth_res``, ``range``, ``cells``
     (as drawn) and ``nonconvex_cells``: cells of ``cells`` that are not convex within float32
-    resolution (:attr:`ConvexCellMesh.nonconvex`), drawn as their pieces (:attr:`ConvexCellMesh.drawable`).
+    resolution (:attr:`ConvexCellMesh.nonconvex`), drawn as their pieces (:attr:`ConvexCellMesh.drawable`),
+    and ``thin_pieces``: pieces too thin for float32 segment lengths at their extinction
+    (:meth:`ConvexCellMesh.thin_pieces`; pixels crossing them are approximate).
     """
     import warp as wp
 
@@ -521,7 +523,8 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     for t in textures:  # the 3D table: one trilinear fetch per lookup (the unit's counters)
         t.count(cnt["table_lookups"])
     img = out.numpy().reshape(H, W, 4)
-    return img, {"counters": cnt, "id_s": id_s, "walk_s": walk_s, "setup_s": t_setup, "depth_res": R,
+    thin = int(cells.thin_pieces(transfer).sum())
+    return img, {"thin_pieces": thin, "counters": cnt, "id_s": id_s, "walk_s": walk_s, "setup_s": t_setup, "depth_res": R,
                  "range": brange, "lists": lists, "missed_length": missed_length,
                  "missed_per_ray": ray_missed.numpy().reshape(H, W) if audit else None, "octree_nodes": tree.n_nodes, "cells": cells.n_cells, "tets": cells.n_tets,
                  "nonconvex_cells": nonconvex}

@@ -109,4 +109,9 @@ class VsbSweep(Stage):
                 f"{c['missed_cells']} ray/cell crossings missed by the VSBUFFER "
                 f"({int((st['missed_per_ray'] > 0).sum()) if st['missed_per_ray'] is not None else '?'} rays), "
                 f"{c['lost_segments']} gaps behind interior faces; raise depth_res or use vsbuffer_best")
+        if st.get("thin_pieces"):
+            thin = (f"{st['thin_pieces']} cells are thinner than float32 segment lengths resolve at their "
+                    "extinction (optical-depth error over 1e-5 per crossing): pixels crossing them are approximate")
+            w = ctx.stats["vsbuffer"].get("warning")
+            ctx.stats["vsbuffer"]["warning"] = f"{w}; {thin}" if w else thin
         ctx.image = img
