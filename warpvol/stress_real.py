@@ -121,6 +121,9 @@ def conditioning_cases(simple, with_ref, sc) -> None:
 
 def topology_cases(simple, with_ref, sc) -> None:
     """Cells that meet without sharing faces: glued blocks, split hexahedra / wedges / pyramids."""
+    from .stress_topology import add_topology_cases
+
+    add_topology_cases(simple, sc)
 
 
 def thin_layer_cases(simple, with_ref, sc) -> None:

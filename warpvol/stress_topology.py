@@ -92,3 +92,35 @@ def explode(grid):
     for name in grid.point_data.keys():
         out.point_data[name] = np.asarray(grid.point_data[name])[conn]
     return out
+
+
+#: TF of the topology cases over the field's range (about [-1.7, 2.7]): [s, r, g, b, extinction]
+TOPOLOGY_TF = ((-1.7, 0.9, 0.3, 0.1, 0.7), (0.3, 0.2, 0.8, 0.4, 1.8), (2.7, 0.2, 0.3, 1.0, 0.9))
+
+
+def add_topology_cases(simple, sc) -> None:
+    """Register the stress cases of this module with ``simple(name, doc, build)`` (see
+    :func:`warpvol.stress_real.topology_cases`)."""
+    from .camera import Camera
+    from .transfer import TransferFunction
+
+    def cam(quick: bool) -> Camera:
+        px = 24 if quick else 128
+        return Camera(eye=(2.4, 1.8, 3.0), target=(0.05, -0.05, 0.0), fov_y_deg=42.0, width_px=px, height_px=px)
+
+    def tf() -> TransferFunction:
+        return TransferFunction([list(p) for p in TOPOLOGY_TF])
+
+    def hybrid(quick: bool, exploded: bool) -> TetMesh:
+        g = hybrid_grid(n=3 if quick else 6, seed=3, spacing=(0.7, 0.6, 0.65) if quick else (0.35, 0.3, 0.325))
+        return TetMesh.from_pyvista(explode(g) if exploded else g, "s", name="hybrid_cells")
+
+    simple("topology_glued_blocks", "two tet blocks glued along x = 0 with opposite quad diagonals (watertight, "
+           "no shared face across the interface): non-conforming faces, re-entry at the interface",
+           lambda q: sc(glued_blocks(3 if q else 7), tf(), cam(q), "topology_glued_blocks"))
+    simple("topology_hybrid_cells", "unstructured hexahedra, pyramids and wedges with shuffled point ids, split "
+           "into tets by the loader (conforming quad diagonals)",
+           lambda q: sc(hybrid(q, False), tf(), cam(q), "topology_hybrid_cells"))
+    simple("topology_duplicated_points", "the hexahedron / pyramid / wedge grid with every cell on its own copies "
+           "of its points: interior faces coincide without being shared (crack faces)",
+           lambda q: sc(hybrid(q, True), tf(), cam(q), "topology_duplicated_points"))
