@@ -489,7 +489,7 @@ def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, refere
         raise ConfigError(f"pipelines: expected one or more preset names, files or Pipelines; got {pipelines!r}")
     pipes = [_pipeline(p, device, arg=f"pipelines[{k}]") for k, p in enumerate(names)]
     scene = _interned(_scene_of(scene_or_parts, scalars))
-    ref, ref_s = _reference(reference, scene)
+    ref, ref_s = _reference(reference, scene, "compare")
     results: dict[str, Rendering] = {}
     table: list[dict] = []
     for pipe, pkey in pipes:

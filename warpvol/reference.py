@@ -350,24 +350,28 @@ def _plan(mesh: TetMesh, camera: Camera):
 
 
 def _iter_chunks(mesh: TetMesh, camera: Camera, *, chunk_tets: int, chunk_pairs: int, band_pairs: int,
-                 progress: Callable[[float], None] | None):
-    """Yield ``(band_rows, chunk_dict_or_None)``; ``None`` marks the end of a band."""
+                 progress: Callable[[float], None] | None, rows: tuple[int, int] | None = None):
+    """Yield ``(band_rows, chunk_dict_or_None)``; ``None`` marks the end of a band. ``rows``: the
+    first and last image row to trace (default: all); a pixel's segments do not depend on it."""
     fr, Pc, tsorted, orient, ids, i0, i1, j0, j1 = _plan(mesh, camera)
     scal = np.asarray(mesh.scalars, dtype=np.float64)
     grad, offs = (mesh.gradients, mesh.offsets) if fr.persp else (None, None)
     H = fr.H
+    first, last = (0, H - 1) if rows is None else rows
     nj = j1 - j0 + 1
     per_row = (np.bincount(i0, weights=nj, minlength=H + 1)
                - np.bincount(i1 + 1, weights=nj, minlength=H + 1))[:H].cumsum()
+    per_row[:first] = 0
+    per_row[last + 1:] = 0
     grand = float(per_row.sum())
     done = 0.0
     # bands of rows with a bounded number of candidate pairs
     cum = np.cumsum(per_row)
-    r0 = 0
-    while r0 < H:
+    r0 = first
+    while r0 <= last:
         base = cum[r0] - per_row[r0]
         r1 = int(np.searchsorted(cum, base + band_pairs, side="right")) - 1
-        r1 = min(max(r1, r0), H - 1)
+        r1 = min(max(r1, r0), last)
         sel = np.flatnonzero((i0 <= r1) & (i1 >= r0))
         bi0 = np.maximum(i0[sel], r0)
         bi1 = np.minimum(i1[sel], r1)
@@ -437,8 +441,8 @@ def trace_segments(mesh: TetMesh, camera: Camera, *, chunk_tets: int = 65536,
 
 def render_reference(mesh: TetMesh, tf: TransferFunction, camera: Camera, *, chunk_tets: int = 65536,
                      progress: Callable[[float], None] | None = None, stats: dict | None = None,
-                     band_pairs: int = _DEFAULT_BAND_PAIRS, method: str = "warp",
-                     device: str | None = None) -> np.ndarray:
+                     band_pairs: int = _DEFAULT_BAND_PAIRS, rows: tuple[int, int] | None = None,
+                     method: str = "warp", device: str | None = None) -> np.ndarray:
     """Exact float64 reference image of ``mesh`` under ``tf`` seen by ``camera``.
 
     ``method="warp"`` (default) computes it with the float64 Warp kernels of
@@ -464,12 +468,15 @@ def render_reference(mesh: TetMesh, tf: TransferFunction, camera: Camera, *, chu
         ``n_exact`` (edge predicates the float filter could not decide, evaluated exactly).
     band_pairs : int
         Candidate pairs per band of image rows; a band's segments are held in memory at once.
+    rows : (int, int), optional
+        First and last image row (inclusive) to render: the image's rows ``first..last``, bit-identical
+        to the same rows of the whole image (:mod:`warpvol.bands` spreads bands over a cluster).
 
     Returns
     -------
     (H, W, 4) float64
         Premultiplied RGBA composited front to back over transparent black, row 0 = top:
-        RGB is the radiance, A = 1 - total transmittance.
+        RGB is the radiance, A = 1 - total transmittance. With ``rows``: ``(last - first + 1, W, 4)``.
 
     Examples
     --------
@@ -484,17 +491,19 @@ def render_reference(mesh: TetMesh, tf: TransferFunction, camera: Camera, *, chu
     check_choice("render_reference: method", method, REFERENCE_METHODS)
     if int(chunk_tets) < 1:
         raise ConfigError(f"render_reference: chunk_tets must be >= 1, got {chunk_tets}")
+    W, H = int(camera.width_px), int(camera.height_px)
+    first, last = check_rows(rows, H)
     if method == "warp":
         from .reference_warp import render_reference_warp
 
-        return render_reference_warp(mesh, tf, camera, device=device, progress=progress, stats=stats)
-    W, H = int(camera.width_px), int(camera.height_px)
-    img = np.zeros((H * W, 4), dtype=np.float64)
+        return render_reference_warp(mesh, tf, camera, device=device, progress=progress, stats=stats,
+                                     rows=(first, last))
+    img = np.zeros(((last - first + 1) * W, 4), dtype=np.float64)
     n_pairs = n_seg = n_bands = 0
     n_exact0 = _STATS["exact"]
     band: list[tuple] = []
     for (r0, r1), ch in _iter_chunks(mesh, camera, chunk_tets=int(chunk_tets), chunk_pairs=_DEFAULT_CHUNK_PAIRS,
-                                     band_pairs=int(band_pairs), progress=progress):
+                                     band_pairs=int(band_pairs), progress=progress, rows=(first, last)):
         if ch is not None:
             n_pairs += ch["n_pairs"]
             n_seg += len(ch["pixel"])
@@ -509,8 +518,33 @@ def render_reference(mesh: TetMesh, tf: TransferFunction, camera: Camera, *, chu
             rgb = np.concatenate([b[3] for b in band])
             tau = np.concatenate([b[4] for b in band])
             band = []
-            img[r0 * W:(r1 + 1) * W] = composite_front_to_back(pix, dep, rgb, tau, (r1 - r0 + 1) * W, dep2)
+            img[(r0 - first) * W:(r1 + 1 - first) * W] = composite_front_to_back(pix, dep, rgb, tau, (r1 - r0 + 1) * W,
+                                                                                 dep2)
     if stats is not None:
         stats.update(n_pairs=int(n_pairs), n_segments=int(n_seg), n_bands=int(n_bands),
                      n_exact=int(_STATS["exact"] - n_exact0))
-    return img.reshape(H, W, 4)
+    return img.reshape(last - first + 1, W, 4)
+
+
+def check_rows(rows, height: int) -> tuple[int, int]:
+    """``(first, last)`` image rows of a band (inclusive), checked against the image height.
+
+    Examples
+    --------
+    >>> check_rows(None, 8), check_rows((2, 5), 8)
+    ((0, 7), (2, 5))
+    >>> check_rows((5, 2), 8)
+    Traceback (most recent call last):
+    ...
+    warpvol.errors.ConfigError: rows: expected (first, last) with 0 <= first <= last < 8, got (5, 2)
+    """
+    if rows is None:
+        return 0, int(height) - 1
+    try:
+        first, last = (int(r) for r in rows)
+        ok = 0 <= first <= last < height and all(float(r) == int(r) for r in rows)
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ConfigError(f"rows: expected (first, last) with 0 <= first <= last < {height}, got {rows!r}")
+    return first, last

@@ -199,7 +199,8 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
         ``n_failed`` (walks that met a tet without one exit face; 0 for a valid mesh), ``warning``
         when ``n_failed > 0``, and ``setup_s`` / ``render_s``.
     show_progress : bool, optional
-        Progress bar with the time left (default: on a terminal or in a notebook).
+        Progress bar with the time left (default: on a terminal or in a notebook, unless ``progress``
+        is given).
     threads : int
         Host threads launching row blocks on the CPU (0: all cores).
     rows_per_block : int
@@ -306,7 +307,8 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     common = [P, S, T, adj, orient, s_eye, near, ent_start, ent_t, ent_tet, cxs, cys, persp,
               int(mesh.n_tets) + 1, f64(c_bound), tf_s, tf_c, arr(x10, f64), arr(w10, f64), arr(x5, f64),
               arr(w5, f64), ed, img, counters]
-    bar = _progress_bar(show_progress, len(rblocks))
+    # a caller's own progress callback (the command line's bar, bench, stress) replaces the default bar
+    bar = _progress_bar(show_progress if show_progress is not None or progress is None else False, len(rblocks))
     task = bar.add_task("reference", total=nrows) if bar is not None else None
     lock = threading.Lock()
     done = [0]

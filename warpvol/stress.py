@@ -257,6 +257,7 @@ def run_case(case: Case, pipes: list[Any], device: str = "cpu",
         try:
             res = pipe.render(case.scene, quiet=True, device=device)
             row["time_s"] = res.report["total_s"]
+            row.update({k: res.report.get(k) for k in ("render_s", "setup_s", "compile_s")})
             row["finite"] = bool(np.isfinite(res.image).all())
             row["status"] = "ok" if row["finite"] else "failed"
             if ref is not None and row["finite"]:
