@@ -107,5 +107,6 @@ def test_exact_presets_cross_interfaces(cases, name, preset):
     if name != "hybrid" and preset != "pt_best":  # the re-entry passes ran and re-entered at the interface
         key = "peel" if preset == "raycast" else "harc_peel"
         assert stats[key]["reentries"] > 0
+        assert stats[key]["crack_faces"] + stats[key]["nonconforming_faces"] == len(m.crack_faces) + len(m.nonconforming_faces) > 0
     if name != "hybrid" and preset == "pt_best":
         assert stats["sort"]["method"] == "xmpvo"

@@ -46,8 +46,10 @@ class HarcPeel(Stage):
                 break
             entries += c["entries"]
         redone = hs["resolve"]()
+        mesh = ctx.scene.mesh  # interior faces without a neighbour: rays re-enter at the coincident face
         ctx.stats["harc_peel"] = {"passes": passes, "reentries": entries, "unresolved_rays": redone, **total,
-                                  "exhausted": passes == self.max_passes}
+                                  "exhausted": passes == self.max_passes, "crack_faces": len(mesh.crack_faces),
+                                  "nonconforming_faces": len(mesh.nonconforming_faces)}
         st = hs["state"]
         cam = ctx.scene.camera
         ctx.image = st.image(cam.height_px, cam.width_px)

@@ -59,6 +59,8 @@ class Peel(Stage):
             ctx.progress(f"peel pass {passes}: {int(c[0])} rays re-entered")
         redone = resolve_failed(ctx, state)
         ctx.count(float64_rays=redone)
-        ctx.stats["peel"] = {"passes": passes, "reentries": entries, "float64_rays": redone, "thin_layer_rays": thin}
+        mesh = ctx.scene.mesh  # interior faces without a neighbour: rays re-enter at the coincident face
+        ctx.stats["peel"] = {"passes": passes, "reentries": entries, "float64_rays": redone, "thin_layer_rays": thin,
+                             "crack_faces": len(mesh.crack_faces), "nonconforming_faces": len(mesh.nonconforming_faces)}
         cam = ctx.scene.camera
         ctx.image = state.image(cam.height_px, cam.width_px)
