@@ -73,8 +73,11 @@ def scene_hash(scene: Any) -> str:
     h.update(repr((cam.projection, tuple(map(float, cam.eye)), tuple(map(float, cam.target)),
                    tuple(map(float, cam.up)), float(cam.fov_y_deg), float(cam.height),
                    int(cam.width_px), int(cam.height_px))).encode())
+    from . import kernels
+
     for name in reference.REFERENCE_SOURCES:  # a change of the reference code invalidates the cache
         h.update((Path(reference.__file__).parent / name).read_bytes())
+    h.update((Path(kernels.__file__).parent / "reference.py").read_bytes())  # the Warp reference's kernels
     return h.hexdigest()
 
 
