@@ -35,9 +35,13 @@ LIMITS = {"segment": 1, "direction": 0}
 
 
 def iso_values(tf) -> np.ndarray:
-    """The TF's control points normalised to [0, 1] over its range (float32, ascending)."""
+    """The TF's control points normalised to [0, 1] over its range (float32, ascending), as the kernels
+    see them: collinear runs merged (:func:`warpvol.kernels.tf.device_points`; a densely sampled TF has
+    the iso values of the pieces it samples)."""
+    from ..kernels.tf import device_points
+
     lo, hi = tf.srange
-    return ((tf.s - lo) / (hi - lo)).astype(np.float32)
+    return ((device_points(tf.points)[:, 0] - lo) / (hi - lo)).astype(np.float32)
 
 
 def iso_hash(tf) -> str:
