@@ -67,7 +67,7 @@ def test_looking_away_is_transparent(name, view):
     assert "transparent" in res.report["stats"]["pt"]["note"]
     assert res.report["counters"]["vertex"]["primitives_culled"] == sc.mesh.n_tets
     ran = set(res.report["stages"])
-    assert ran == {"vertex"} and {s["stage"] for s in res.report["skipped"]} >= {"pt_project"}
+    assert ran - {"condition"} == {"vertex"} and {s["stage"] for s in res.report["skipped"]} >= {"pt_project"}
 
 
 CROSSING = {
