@@ -79,3 +79,33 @@ class PTIntegrate(Stage):
             bands = cpu_threads() if str(ctx.device).startswith("cpu") else 1
         info = composite(self, ctx, attrs, program, bands=bands, walk=self.config["walk"])
         ctx.count(segment_integrals=info["fragments"])
+        self.redo_unresolved(ctx)
+
+    def redo_unresolved(self, ctx: Context) -> None:
+        """Pixels covered by tets float32 cannot draw right (thin cells that carry the image, faces seen
+        edge-on from the eye; :func:`warpvol.pt_thin.unresolved_pixels`): redone with the float64 ray
+        tracer in an fp32 frame buffer, counted; in a lower-precision buffer (a format's rounding is
+        its artifact) counted and reported as a warning."""
+        import numpy as np
+
+        from ...pt_thin import unresolved_pixels
+        from ..raycasting.raycast import redo_pixels_float64
+
+        sc = ctx.scene
+        u = unresolved_pixels(sc.mesh, sc.transfer, sc.camera)
+        px = u["pixels"]
+        st = {"thin_tets": u["thin_tets"], "edge_on_faces": u["edge_on_faces"], "float64_pixels": 0}
+        if len(px) and self.config["format"] == "fp32":
+            val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, px)
+            img = ctx.image.reshape(-1, 4)
+            img[px] = val.astype(img.dtype)
+            ctx.image = img.reshape(ctx.image.shape)
+            st["float64_pixels"] = int(len(px))
+            ctx.count(float64_rays=int(len(px)))
+            ctx.progress(f"pt_integrate: {len(px)} pixels covered by {u['thin_tets']} thin tets and "
+                         f"{u['edge_on_faces']} faces seen edge-on were redone in float64")
+        elif len(px):
+            st["warning"] = (f"{len(px)} pixels are covered by {u['thin_tets']} tets thinner than float32 resolves "
+                             f"with significant extinction or {u['edge_on_faces']} faces seen edge-on from "
+                             f"the eye; drawn in the {self.config['format']} buffer as computed (may be wrong)")
+        ctx.stats["pt_integrate"] = st

@@ -1,0 +1,115 @@
+"""Thin layers that carry the image, and faces seen edge-on from the eye: the exact presets find the rays
+or pixels float32 cannot resolve, redo them in float64 and count them, and stay within their
+tests/tolerances.py rows against the float64 reference."""
+
+import numpy as np
+import pytest
+
+from tolerances import TOLERANCES
+from warpvol.builtin import builtin_scene, grid_points
+from warpvol.camera import Camera
+from warpvol.mesh import TetMesh, structured_to_tets
+from warpvol.metrics import image_error
+from warpvol.pipeline import Pipeline
+from warpvol.pt_thin import density_max, thin_tets
+from warpvol.reference import render_reference
+from warpvol.scene import Scene
+from warpvol.stress import _box, _tf
+from warpvol.transfer import TransferFunction
+
+ROWS = {"raycast": "raycast/fp32", "harc_best": "harc_best", "pt_best": "pt_best"}
+
+
+def layer_scene(thick: float, depth: float, camera: Camera, z0: float = 0.15) -> Scene:
+    """Box [-1, 1]^3, 4 x 4 cells across, a layer ``thick`` thick at ``z0`` across which the scalar
+    steps from 0 to 1; the TF's extinction is a tent over s in [0.25, 0.75], so only the layer is
+    visible, with optical depth ``depth`` along z."""
+    x = np.linspace(-1.0, 1.0, 5)
+    zs = np.array([-1.0, -0.4, z0, z0 + thick, 1.0])
+    pts = grid_points(x, x, zs)
+    s = np.where(pts[:, 2] > z0 + 0.5 * thick, 1.0, 0.0)
+    peak = depth / (0.25 * thick)  # mean extinction over s in [0, 1]: peak / 4
+    tf = TransferFunction([[0.0, 0.7, 0.2, 0.3, 0.0], [0.25, 0.7, 0.2, 0.3, 0.0], [0.5, 0.1, 0.9, 0.5, peak],
+                           [0.75, 0.2, 0.3, 0.8, 0.0], [1.0, 0.2, 0.3, 0.8, 0.0]])
+    mesh = TetMesh(pts, structured_to_tets((5, 5, len(zs))), s, name="thin_layer")
+    return Scene(mesh=mesh, transfer=tf, camera=camera, name="thin_layer")
+
+
+VIEWS = {
+    "ortho_down": Camera(projection="orthographic", eye=(0.11, -0.06, 4.0), target=(0.11, -0.06, 0.0), up=(0, 1, 0),
+                         height=2.6, width_px=24, height_px=24),
+    "persp": Camera(eye=(1.7, -1.1, 3.9), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=35.0, width_px=24, height_px=24),
+    "grazing": Camera(eye=(3.8, 0.7, 0.9), target=(0, 0, 0.15), up=(0, 0, 1), fov_y_deg=40.0, width_px=24,
+                      height_px=24),
+}
+
+
+def _stat(report, key):
+    return sum(int(v.get(key, 0)) for v in report["stats"].values() if isinstance(v, dict))
+
+
+@pytest.mark.parametrize("view", sorted(VIEWS))
+@pytest.mark.parametrize("preset", ["raycast", "harc_best"])
+def test_ray_casters_redo_thin_layer_rays_in_float64(preset, view):
+    sc = layer_scene(4e-6, 0.25, VIEWS[view])
+    ref = render_reference(sc.mesh, sc.transfer, sc.camera)
+    assert ref[..., 3].max() > 0.2  # the layer carries the image
+    res = Pipeline.load(preset).render(sc, quiet=True)
+    err = image_error(res.image, ref)
+    tol = TOLERANCES[ROWS[preset]]
+    assert err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"], err
+    assert _stat(res.report, "thin_layer_rays") > 0
+    assert _stat(res.report, "float64_rays") + _stat(res.report, "unresolved_rays") >= \
+        _stat(res.report, "thin_layer_rays")
+
+
+@pytest.mark.parametrize("view", sorted(VIEWS))
+def test_pt_best_redoes_thin_layer_pixels_in_float64(view):
+    sc = layer_scene(4e-6, 0.25, VIEWS[view])
+    ref = render_reference(sc.mesh, sc.transfer, sc.camera)
+    res = Pipeline.load("pt_best").render(sc, quiet=True)
+    err = image_error(res.image, ref)
+    tol = TOLERANCES["pt_best"]
+    assert err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"], err
+    st = res.report["stats"]["pt_integrate"]
+    assert st["thin_tets"] > 0 and st["float64_pixels"] > 0
+
+
+def test_pt_best_eye_in_the_plane_of_interior_diagonal_faces():
+    # the 6-tet split cuts each cube along x = y planes: the eye at x = y sees those faces edge-on
+    sc = Scene(mesh=_box(5), transfer=_tf(2.5), name="diag",
+               camera=Camera(eye=(0.42, 0.42, 3.7), target=(0.05, 0.05, 0.0), up=(0, 1, 0), fov_y_deg=30.0,
+                             width_px=40, height_px=40))
+    ref = render_reference(sc.mesh, sc.transfer, sc.camera)
+    res = Pipeline.load("pt_best").render(sc, quiet=True)
+    err = image_error(res.image, ref)
+    tol = TOLERANCES["pt_best"]
+    assert err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"], err
+    st = res.report["stats"]["pt_integrate"]
+    assert st["edge_on_faces"] > 0 and st["float64_pixels"] > 0
+
+
+@pytest.mark.parametrize("preset", ["raycast", "harc_best"])
+def test_no_thin_layer_rays_on_ordinary_scenes(preset):
+    for name in ("box", "linear_box", "stiff"):
+        sc = builtin_scene(name).with_camera(width_px=24, height_px=24)
+        res = Pipeline.load(preset).render(sc, quiet=True)
+        assert _stat(res.report, "thin_layer_rays") == 0, name
+
+
+def test_thin_tets_need_density():
+    thick = layer_scene(4e-6, 0.25, VIEWS["persp"])
+    assert len(thin_tets(thick.mesh, thick.transfer, thick.camera)) > 0
+    clear = TransferFunction([[0.0, 1, 1, 1, 0.0], [1.0, 1, 1, 1, 0.0]])
+    assert len(thin_tets(thick.mesh, clear, thick.camera)) == 0
+
+
+def test_density_max_matches_dense_sampling():
+    rng = np.random.default_rng(3)
+    pts = np.column_stack([np.sort(rng.uniform(-2, 2, 40)), rng.uniform(0, 1, (40, 3)), rng.uniform(0, 9, 40)])
+    tf = TransferFunction(pts)
+    a, b = np.sort(rng.uniform(-3, 3, (2, 200)), axis=0)
+    got = density_max(tf, a, b)
+    for lo, hi, g in zip(a, b, got):
+        s = np.concatenate([np.linspace(lo, hi, 2001), pts[(pts[:, 0] > lo) & (pts[:, 0] < hi), 0]])
+        assert g == pytest.approx(np.interp(s, pts[:, 0], pts[:, 4]).max(), rel=1e-12)
