@@ -211,3 +211,16 @@ def test_mesh_scaled_to_1e_minus_13_renders_with_the_paper_vsbuffer():
     assert within(res.report["error"], "vsbuffer/westermann1997")
     m = box_mesh(scalar=lambda p: p[:, 0])
     assert TetMesh(m.points * 1e-13, m.tets, m.scalars).n_tets == m.n_tets
+
+
+def test_convex_cell_mesh_input_is_conditioned_with_its_cells():
+    from warpvol.vsbuffer_cells import ConvexCellMesh
+
+    sc = case_scene("georeferenced_perspective", 16)
+    cells = ConvexCellMesh.from_tetmesh(sc.mesh)
+    c, info = condition_scene(scene(cells, sc.transfer, sc.camera))
+    assert isinstance(c.mesh, ConvexCellMesh) and np.array_equal(c.mesh.cell_start, cells.cell_start)
+    assert np.abs(c.mesh.pieces.points).max() == pytest.approx(1.0)
+    res = Pipeline.load("vsbuffer_best").render(scene(cells, sc.transfer, sc.camera), reference=reference(sc),
+                                                quiet=True)
+    assert within(res.report["error"], "vsbuffer/vsbuffer_best"), res.report["error"]

@@ -194,17 +194,22 @@ def condition_scene(scene, cache: dict | None = None) -> tuple[object, dict]:
     """
     import weakref
 
-    mesh, tf = scene.mesh, scene.transfer
+    source, tf = scene.mesh, scene.transfer
+    # convex cells drawn whole (warpvol.vsbuffer_cells.ConvexCellMesh) wrap their tets as ``pieces``
+    mesh = source if isinstance(source, TetMesh) or not isinstance(getattr(source, "pieces", None), TetMesh) \
+        else source.pieces
     centre, h = mesh_frame(mesh)
     data_range = mesh.scalar_range
     s_mid, s_half = scalar_frame(tf, data_range)
     hit = None if cache is None else cache.get("mesh")  # (weakref to the source, scalar mapping, result)
-    if hit is not None and hit[0]() is mesh and hit[1] == (s_mid, s_half):
+    if hit is not None and hit[0]() is source and hit[1] == (s_mid, s_half):
         cmesh, cached = hit[2], True
     else:
         cmesh, cached = _conditioned_mesh(mesh, centre, h, s_mid, s_half), False
+        if mesh is not source:
+            cmesh = type(source)(cmesh, source.cell_start, name=source.name)
         if cache is not None:
-            cache["mesh"] = (weakref.ref(mesh), (s_mid, s_half), cmesh)
+            cache["mesh"] = (weakref.ref(source), (s_mid, s_half), cmesh)
     out = copy.copy(scene)
     out.mesh = cmesh
     out.transfer = conditioned_transfer(tf, h, s_mid, s_half, data_range, _diagonal(mesh))

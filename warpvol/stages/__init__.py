@@ -3,6 +3,8 @@
 ==============  ==================================================================================
 subpackage      stages
 ==============  ==================================================================================
+(top level)     ``condition``: the scene centred, scaled to unit size and its scalars mapped by the
+                transfer function's range, in float64 (first in the exact presets)
 ``tables``      pre-integration tables (``table_*``: exact, Roettger software/hardware, Guthe
                 ping-pong and 2D tables, incremental/log axis, cylindrical planes, psi, iso-crossing)
 ``projection``  cell projection: ``vertex``, ``sort`` (centroid/MPVO/MPVONC/XMPVO), ``pt_*``
