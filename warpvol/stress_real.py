@@ -126,8 +126,48 @@ def topology_cases(simple, with_ref, sc) -> None:
     add_topology_cases(simple, sc)
 
 
+def thin_layer_scene(thick: float, depth: float, camera, z0: float = -0.2, name: str = "thin_layer"):
+    """Box [-1, 1]^3 (4 x 4 cells across) with a layer ``thick`` thick at ``z0`` across which the scalar
+    steps from 0 to 1; extinction is a tent over s in [0.2, 0.8], so the layer alone carries the image,
+    with optical depth ``depth`` along z. Returns ``(mesh, tf)``."""
+    import numpy as np
+
+    from .builtin import grid_points
+    from .mesh import TetMesh, structured_to_tets
+    from .transfer import TransferFunction
+
+    x = np.linspace(-1.0, 1.0, 5)
+    zs = np.array([-1.0, z0, z0 + thick, 0.6, 1.0])
+    pts = grid_points(x, x, zs)
+    s = np.where(pts[:, 2] > z0 + 0.5 * thick, 1.0, 0.0)
+    peak = depth / (0.3 * thick)  # mean extinction over s in [0, 1]: 0.3 peak
+    tf = TransferFunction([[0.0, 0.9, 0.3, 0.1, 0.0], [0.2, 0.9, 0.3, 0.1, 0.0], [0.5, 0.2, 0.8, 0.4, peak],
+                           [0.8, 0.1, 0.3, 0.9, 0.0], [1.0, 0.1, 0.3, 0.9, 0.0]])
+    return TetMesh(pts, structured_to_tets((5, 5, len(zs))), s, name=name), tf
+
+
 def thin_layer_cases(simple, with_ref, sc) -> None:
     """Thin layers that carry the image, huge on-screen extents, edge-on slabs."""
+    from .camera import Camera
+    from .stress import _box, _tf
+
+    def persp(px, eye, target=(0.0, 0.0, 0.0), up=(0, 1, 0), fov=35.0):
+        return Camera(eye=eye, target=target, up=up, fov_y_deg=fov, width_px=px, height_px=px)
+
+    for name, doc, eye, up in (
+            ("thin_layer_oblique", "layer 2.5e-6 thick (edge ratio 2e5) with optical depth 0.35 carries the image, "
+             "seen obliquely", (2.3, -1.4, 3.3), (0, 1, 0)),
+            ("thin_layer_grazing", "layer 2.5e-6 thick with optical depth 0.35 seen at a grazing angle",
+             (3.6, 0.9, 0.5), (0, 0, 1))):
+        simple(name, doc, lambda q, eye=eye, up=up, name=name: sc(
+            *thin_layer_scene(2.5e-6, 0.35, None), persp(24 if q else 96, eye, (0, 0, -0.2), up), name))
+    simple("eye_in_diagonal_face_plane", "perspective eye in the plane x = y of the grid's interior diagonal faces "
+           "(those faces are seen edge-on)",
+           lambda q: sc(_box(5), _tf(2.5), persp(40 if q else 128, (0.37, 0.37, 3.4), (0.05, 0.05, 0.0)),
+                        "eye_in_diagonal_face_plane"))
+    simple("slab_edge_on", "a layer 1e-9 thick seen exactly edge-on: the eye lies in its mid-plane, the centre row of rays runs inside it",
+           lambda q: sc(*thin_layer_scene(1e-9, 0.3, None, z0=0.0, name="slab"),
+                        persp(25 if q else 97, (3.1, 0.4, 5e-10), (0.0, 0.0, 5e-10), (0, 0, 1)), "slab_edge_on"))
 
 
 def _jittered_hexes(jitter: float, seed: int):
