@@ -135,6 +135,13 @@ def _conditioned_mesh(mesh: TetMesh, centre: np.ndarray, h: float, s_mid: float,
     return out
 
 
+def _tets_of(mesh):
+    """The TetMesh of a scene's mesh: itself, or the tets (``pieces``) of convex cells drawn whole
+    (:class:`warpvol.vsbuffer_cells.ConvexCellMesh`)."""
+    pieces = getattr(mesh, "pieces", None)
+    return pieces if not isinstance(mesh, TetMesh) and isinstance(pieces, TetMesh) else mesh
+
+
 def _diagonal(mesh: TetMesh) -> float:
     lo, hi = (np.asarray(b, dtype=np.float64) for b in mesh.bounds)
     return 2.0 * float(np.linalg.norm(0.5 * hi - 0.5 * lo))
@@ -162,7 +169,7 @@ def check_float32_ranges(scene) -> None:
     """Refuse inputs a pipeline that casts them to float32 as they are cannot hold, naming the field
     and the range: the optical depth and colours (:func:`_check_values`), points, scalars and
     transfer-function points beyond +-:data:`FLOAT32_SAFE`."""
-    mesh, tf = scene.mesh, scene.transfer
+    mesh, tf = _tets_of(scene.mesh), scene.transfer
     where = getattr(tf, "where", "transfer")
     _check_values(np.asarray(tf.points[:, 1:], dtype=np.float64), tf.s, tf.emission, _diagonal(mesh), where)
     name = getattr(mesh, "name", "mesh")
@@ -195,9 +202,7 @@ def condition_scene(scene, cache: dict | None = None) -> tuple[object, dict]:
     import weakref
 
     source, tf = scene.mesh, scene.transfer
-    # convex cells drawn whole (warpvol.vsbuffer_cells.ConvexCellMesh) wrap their tets as ``pieces``
-    mesh = source if isinstance(source, TetMesh) or not isinstance(getattr(source, "pieces", None), TetMesh) \
-        else source.pieces
+    mesh = _tets_of(source)  # convex cells drawn whole are conditioned through their tets
     centre, h = mesh_frame(mesh)
     data_range = mesh.scalar_range
     s_mid, s_half = scalar_frame(tf, data_range)
@@ -272,9 +277,10 @@ def precision_bits(scene) -> dict[str, int]:
     """Bits a float32 cast of the scene's inputs as they are loses: ``scalars`` (the largest
     |value| of the transfer function's range over its span) and ``points`` (the largest |coordinate|
     of the mesh over its largest extent)."""
-    mid, half = scalar_frame(scene.transfer, scene.mesh.scalar_range)
-    bounds_lo, bounds_hi = (np.asarray(b, dtype=np.float64) for b in scene.mesh.bounds)
-    centre, h = mesh_frame(scene.mesh)
+    mesh = _tets_of(scene.mesh)
+    mid, half = scalar_frame(scene.transfer, mesh.scalar_range)
+    bounds_lo, bounds_hi = (np.asarray(b, dtype=np.float64) for b in mesh.bounds)
+    centre, h = mesh_frame(mesh)
     mag = float(np.maximum(np.abs(bounds_lo), np.abs(bounds_hi)).max())
     return {"scalars": _bits_lost(abs(mid) + half, 2.0 * half), "points": _bits_lost(mag, 2.0 * h)}
 
@@ -296,11 +302,11 @@ def precision_warnings(scene) -> dict | None:
     bits = precision_bits(scene)
     parts = []
     if bits["scalars"] > WARN_BITS:
-        mid, half = scalar_frame(scene.transfer, scene.mesh.scalar_range)
+        mid, half = scalar_frame(scene.transfer, _tets_of(scene.mesh).scalar_range)
         parts.append(f"scalars: offset {abs(mid) + half:.3g} over a range of {2 * half:.3g} (where data and transfer "
                      f"function overlap): {bits['scalars']} of float32's {FLOAT32_BITS} bits lost")
     if bits["points"] > WARN_BITS:
-        blo, bhi = scene.mesh.bounds
+        blo, bhi = _tets_of(scene.mesh).bounds
         mag = float(np.maximum(np.abs(blo), np.abs(bhi)).max())
         parts.append(f"points: coordinates up to {mag:.3g} for a mesh {float((bhi - blo).max()):.3g} across: "
                      f"{bits['points']} of float32's {FLOAT32_BITS} bits lost")
