@@ -119,7 +119,7 @@ def entry_fragments(mesh, camera, device: str = "cpu") -> dict:
     """
     import warp as wp
 
-    from .gpu.raster import Rasterizer
+    from .gpu.raster import GUARD_PX, Rasterizer, guard_band_overflow
     from .gpu.vertex import VertexStage
     from .stages.raycasting.entry_bins import entry_face_mask
 
@@ -134,6 +134,12 @@ def entry_fragments(mesh, camera, device: str = "cpu") -> dict:
     if len(bf) and in_front:
         near, far = camera.depth_range(*mesh.bounds)
         vs = VertexStage.from_camera(camera, near, far, device=device).transform(mesh.points)
+        n_over, extent = guard_band_overflow(vs.window, tris, w, h)
+        if n_over:  # the rasteriser would drop these ray starts: rays lost, never silently
+            raise ConfigError(f"ray start by rasterisation: {n_over:,} front boundary faces reach {extent:.3g} px "
+                              f"from the image, beyond the rasteriser's guard band of {GUARD_PX:.0f} px (fixed-point "
+                              "window coordinates, no geometric clipping); use raycast (its rays start without "
+                              "the rasteriser), or a view that shows more of the mesh")
         rast = Rasterizer(w, h, device=device, depth_clip=False)
         fr = rast.fragments(vs.window_array, tris.astype(np.int32))
         count = fr.count

@@ -168,6 +168,10 @@ def thin_layer_cases(simple, with_ref, sc) -> None:
     simple("slab_edge_on", "a layer 1e-9 thick seen exactly edge-on: the eye lies in its mid-plane, the centre row of rays runs inside it",
            lambda q: sc(*thin_layer_scene(1e-9, 0.3, None, z0=0.0, name="slab"),
                         persp(25 if q else 97, (3.1, 0.4, 5e-10), (0.0, 0.0, 5e-10), (0, 0, 1)), "slab_edge_on"))
+    simple("huge_zoom", "a field of view of 3e-6 degrees: the mesh reaches ~1e7 pixels beyond the image, past the "
+           "rasteriser's fixed-point guard band (presets that rasterise the mesh decline)",
+           lambda q: sc(_box(5), _tf(2.5), persp(12 if q else 48, (0.31, -0.27, 5.0), (0.31, -0.27, 0.0), fov=3e-6),
+                        "huge_zoom"))
 
 
 def _jittered_hexes(jitter: float, seed: int):

@@ -90,6 +90,40 @@ SNAP_TIES = ("even", "away")
 INTERP_RULES = {"barycentric": 0, "llvmpipe": 1}
 #: The rules of Mesa's llvmpipe (checked by ``scripts/gl_conformance.py``); the defaults but ``interp_rule``.
 LLVMPIPE_RULES = {"fill_rule": "bottom_left", "snap_ties": "even", "interp_rule": "llvmpipe"}
+#: the guard band in window pixels: the rasteriser discards a triangle with a vertex beyond it (fixed-point
+#: snapping keeps |x|, |y| <= 2^20 px; there is no geometric clipping), see :mod:`warpvol.kernels.raster`
+GUARD_PX = float(kr.GUARD)
+
+
+def guard_band_overflow(window: np.ndarray, prims: np.ndarray, width: int, height: int) -> tuple[int, float]:
+    """``(n, extent)``: how many primitives (rows of vertex indices: triangles or tets) the rasteriser
+    would discard while they reach into the image, because a vertex in front of the eye (w > 0) lies
+    beyond the guard band, and the largest window coordinate (pixels) of those vertices. Primitives
+    entirely off one side of the image are not counted (they draw nothing either way).
+
+    Examples
+    --------
+    >>> win = np.array([[0, 0, 0.5, 1], [8, 0, 0.5, 1], [0, 8, 0.5, 1], [3e6, 4, 0.5, 1]], np.float32)
+    >>> guard_band_overflow(win, np.array([[0, 1, 2], [0, 1, 3]]), 8, 8)
+    (1, 3000000.0)
+    """
+    win = np.asarray(window, dtype=np.float64)
+    prims = np.asarray(prims, dtype=np.int64)
+    if len(prims) == 0:
+        return 0, 0.0
+    x, y, w = win[:, 0], win[:, 1], win[:, 3]
+    with np.errstate(invalid="ignore"):
+        beyond = (w > 0) & ~((np.abs(x) <= GUARD_PX) & (np.abs(y) <= GUARD_PX))
+    px, py = x[prims], y[prims]
+    off = (px < 0).all(1) | (px > width).all(1) | (py < 0).all(1) | (py > height).all(1)
+    bad = beyond[prims].any(axis=1) & ~off
+    n = int(bad.sum())
+    if not n:
+        return 0, 0.0
+    v = np.unique(prims[bad])
+    v = v[beyond[v]]
+    ext = np.abs(np.stack([x[v], y[v]], axis=1))
+    return n, float(np.nanmax(np.where(np.isfinite(ext), ext, np.inf)))
 
 
 @dataclass

@@ -60,6 +60,7 @@ class Vertex(Stage):
             raise ConfigError(f"{self.where}.far: {self.config['far']} must exceed near ({self.config['near']})")
 
     def run(self, ctx: Context) -> None:
+        from ...gpu.raster import GUARD_PX, guard_band_overflow
         from ...gpu.vertex import VertexStage
 
         from ...errors import ConfigError
@@ -83,5 +84,12 @@ class Vertex(Stage):
             lo, hi = (np.asarray(b, dtype=np.float64) for b in mesh.bounds)
             offset = float(np.dot((lo + hi) / 2.0 - cam.eye, cam.forward))
         vs = VertexStage.from_camera(cam, near, far, device=ctx.device, eye_offset=offset)
+        vertices = vs.transform(mesh.points)
+        n_over, extent = guard_band_overflow(vertices.window, mesh.tets, cam.width_px, cam.height_px)
+        if n_over:  # the rasteriser would drop them: a wrong image, never drawn silently
+            raise ConfigError(f"{self.where}: {n_over:,} tets reach {extent:.3g} px from the image, beyond the "
+                              f"rasteriser's guard band of {GUARD_PX:.0f} px (fixed-point window coordinates, no "
+                              "geometric clipping): cell projection cannot draw them — use raycast, or a view that "
+                              "shows more of the mesh (a wider field of view, the eye farther away)")
         ctx.buffers["vertex_stage"] = vs
-        ctx.buffers["vertices"] = vs.transform(mesh.points)
+        ctx.buffers["vertices"] = vertices
