@@ -1,0 +1,244 @@
+"""MkDocs hooks: the parts of the site that are generated, not written by hand.
+
+Markers in a page's Markdown (HTML comments, so a page reads fine without the hook) are replaced
+when the site is built:
+
+``<!-- table: PAPER/TABLE -->``
+    A reproduced table from ``docs/data/PAPER.json``, the JSON a reproduction script writes.
+    Expected layout::
+
+        {"source": "python scripts/reproduce_PAPER.py ...",      # how the file was made (optional)
+         "tables": {"TABLE": {"title": "...",                    # optional
+                              "columns": ["row", "paper", "warpvol", ...],
+                              "rows": [[...], ...] or [{column: value}, ...],
+                              "notes": "..."}}}                  # optional
+
+    Until that file (or that table in it) exists the marker becomes a note saying the table is not
+    generated yet.
+``<!-- bench: NAME -->``
+    The table of a ``warpvol bench ... -o DIR`` run, ``DIR/table.json`` copied to
+    ``docs/data/NAME.json``: one row per preset with its time, error and Pareto mark.
+``<!-- preset: NAME -->``
+    The stages of a shipped preset, read from its TOML file, with the parameters the preset sets.
+``<!-- presets -->``
+    Every shipped preset with its one-line description.
+``<!-- cli: SUBCOMMAND -->``
+    The ``--help`` text of ``warpvol SUBCOMMAND`` (``<!-- cli: -->`` for ``warpvol --help``),
+    taken from the installed command when the site is built.
+
+The contributors' architecture page (``docs/architecture.md``) is added to the navigation when the
+file exists, and ``<!-- architecture-link -->`` becomes a link to it (or a sentence saying it is not
+written yet), so the site builds with ``--strict`` either way.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+DOCS = Path(__file__).resolve().parent
+DATA = DOCS / "data"
+ROOT = DOCS.parent
+
+MARKER = re.compile(r"(?<!`)<!--\s*(table|bench|presets|preset|cli|architecture-link)\b\s*:?\s*([^>]*?)\s*-->")
+
+
+# -- formatting -----------------------------------------------------------------------------------
+def _cell(v) -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            return str(v)
+        if v == 0:
+            return "0"
+        a = abs(v)
+        return f"{v:.3g}" if 1e-3 <= a < 1e5 else f"{v:.2e}"
+    if isinstance(v, (list, tuple)):
+        return ", ".join(_cell(x) for x in v)
+    if isinstance(v, dict):
+        return ", ".join(f"{k} {_cell(x)}" for k, x in v.items())
+    return str(v).replace("|", "\\|").replace("\n", " ")
+
+
+def markdown_table(columns: list[str], rows: list) -> str:
+    """A Markdown table; ``rows`` are lists in column order or dicts keyed by column."""
+    lines = ["| " + " | ".join(_cell(c) for c in columns) + " |", "|" + " --- |" * len(columns)]
+    for r in rows:
+        vals = [r.get(c) for c in columns] if isinstance(r, dict) else list(r) + [None] * (len(columns) - len(r))
+        lines.append("| " + " | ".join(_cell(v) for v in vals[:len(columns)]) + " |")
+    return "\n".join(lines)
+
+
+def _note(kind: str, title: str, text: str) -> str:
+    body = "\n".join("    " + line for line in text.splitlines())
+    return f'!!! {kind} "{title}"\n{body}\n'
+
+
+# -- markers --------------------------------------------------------------------------------------
+def paper_table(arg: str) -> str:
+    paper, _, table = arg.partition("/")
+    path = DATA / f"{paper}.json"
+    missing = f"Not generated yet: table `{table}` of `docs/data/{paper}.json`, which the reproduction script " \
+              f"in `scripts/` writes."
+    if not path.is_file():
+        return _note("note", f"{paper} {table}: not generated yet", missing)
+    data = json.loads(path.read_text())
+    t = (data.get("tables") or {}).get(table)
+    if not t:
+        return _note("note", f"{paper} {table}: not generated yet", missing)
+    rows = t.get("rows") or []
+    cols = t.get("columns") or (list(rows[0]) if rows and isinstance(rows[0], dict) else [])
+    out = []
+    if t.get("title"):
+        out.append(f"**{_cell(t['title'])}**\n")
+    out.append(markdown_table(cols, rows))
+    src = t.get("source") or data.get("source")
+    if t.get("notes"):
+        out.append(f"\n{t['notes']}")
+    if src:
+        out.append(f"\n*Generated from `docs/data/{paper}.json` (`{src}`).*")
+    return "\n".join(out) + "\n"
+
+
+BENCH_COLUMNS = [("pipeline", "preset"), ("status", "status"), ("total_s", "time [s]"), ("first_s", "first [s]"),
+                 ("setup_s", "set-up [s]"), ("compile_s", "compile [s]"), ("rmse", "RMSE"), ("max_abs", "max abs"),
+                 ("psnr", "PSNR [dB]"), ("pareto", "Pareto")]
+
+
+def bench_table(arg: str) -> str:
+    path = DATA / f"{arg}.json"
+    if not path.is_file():
+        return _note("note", f"{arg}: not generated yet",
+                     f"Run `warpvol bench ... -o DIR` and copy `DIR/table.json` to `docs/data/{arg}.json`.")
+    data = json.loads(path.read_text())
+    rows = data.get("rows") or []
+    present = [(k, h) for k, h in BENCH_COLUMNS if any(k in r for r in rows)]
+    # spread over the timed renders, where the bench records it
+    for k, h in (("min_s", "min [s]"), ("max_s", "max [s]"), ("total_min_s", "min [s]"), ("total_max_s", "max [s]")):
+        if any(k in r for r in rows) and h not in [x[1] for x in present]:
+            present.insert(3, (k, h))
+    table_rows = []
+    for r in rows:
+        row = [r.get(k) for k, _ in present]
+        if r.get("status") not in (None, "ok"):
+            row[present.index(("status", "status"))] = f"{r.get('status')}: {r.get('message') or ''}".strip(": ")
+        table_rows.append(row)
+    sc = data.get("scene") or {}
+    head = []
+    if sc:
+        img = sc.get("image") or ["?", "?"]
+        head.append(f"Scene `{sc.get('name')}`: {sc.get('tets')} tets, {sc.get('projection')} camera, "
+                    f"{img[0]}x{img[1]} pixels; median over {rows[0].get('repeats', '?') if rows else '?'} "
+                    f"timed renders after a warm-up render (`first [s]`).\n")
+    meta = data.get("meta") or data.get("metadata")
+    if isinstance(meta, dict) and meta:
+        head.append(markdown_table(["", ""], [[k, v] for k, v in meta.items()]) + "\n")
+    return "\n".join(head) + markdown_table([h for _, h in present], table_rows) + \
+        f"\n\n*Generated from `docs/data/{arg}.json`.*\n"
+
+
+def _preset_dir():
+    from importlib import resources
+
+    return resources.files("warpvol.presets")
+
+
+def preset_stages(name: str) -> str:
+    p = _preset_dir() / f"{name}.toml"
+    if not p.is_file():
+        raise ValueError(f"docs: preset marker names {name!r}, which is not a shipped preset")
+    cfg = tomllib.loads(p.read_text())
+    rows = []
+    for k, st in enumerate(cfg.get("stages", []), 1):
+        params = {key: v for key, v in st.items() if key != "stage"}
+        rows.append([k, f"`{st['stage']}`", ", ".join(f"`{key} = {json.dumps(v)}`" for key, v in params.items())
+                     or "(defaults)"])
+    return f"`{name}`: {cfg.get('description', '').strip()}\n\n" + markdown_table(["#", "stage", "set by the preset"],
+                                                                                  rows) + "\n"
+
+
+def presets_list(_: str) -> str:
+    rows = []
+    for p in sorted(_preset_dir().iterdir(), key=lambda p: p.name):
+        if p.name.endswith(".toml"):
+            cfg = tomllib.loads(p.read_text())
+            rows.append([f"`{p.name[:-5]}`", cfg.get("description", "").strip()])
+    return markdown_table(["preset", "description"], rows) + "\n"
+
+
+_HELP: dict[str, str] = {}
+
+
+def _warpvol_command() -> list[str]:
+    exe = Path(sys.executable).with_name("warpvol")
+    if exe.is_file():
+        return [str(exe)]
+    found = shutil.which("warpvol")
+    if found:
+        return [found]
+    raise RuntimeError("docs: the `warpvol` command is not installed in this environment (pip install -e .)")
+
+
+def cli_help(sub: str) -> str:
+    if sub not in _HELP:
+        env = dict(os.environ, COLUMNS="100", NO_COLOR="1", TERM="dumb")
+        args = _warpvol_command() + ([sub] if sub else []) + ["--help"]
+        r = subprocess.run(args, capture_output=True, text=True, env=env, timeout=120, cwd=ROOT)
+        if r.returncode != 0:
+            raise RuntimeError(f"docs: `{' '.join(args)}` failed ({r.returncode}): {r.stderr.strip()}")
+        _HELP[sub] = r.stdout.rstrip()
+    return "```text\n$ warpvol " + (sub + " " if sub else "") + "--help\n" + _HELP[sub] + "\n```\n"
+
+
+def _architecture_exists() -> bool:
+    return (DOCS / "architecture.md").is_file()
+
+
+def architecture_link(_: str, page_url: str = "") -> str:
+    if _architecture_exists():
+        return "[Architecture](architecture.md): how the package is laid out and how a render flows through it."
+    return "The architecture page (`docs/architecture.md`) is not written yet."
+
+
+HANDLERS = {"table": paper_table, "bench": bench_table, "preset": preset_stages, "presets": presets_list,
+            "cli": cli_help, "architecture-link": architecture_link}
+
+
+def expand(markdown: str) -> str:
+    """Replace every marker in ``markdown`` (outside code blocks and `inline code`) by what it stands for."""
+    out, in_code = [], False
+    for line in markdown.splitlines(keepends=True):
+        if line.lstrip().startswith("```"):
+            in_code = not in_code
+        if not in_code:
+            line = MARKER.sub(lambda m: HANDLERS[m.group(1)](m.group(2)), line)
+        out.append(line)
+    return "".join(out)
+
+
+# -- MkDocs events --------------------------------------------------------------------------------
+def on_config(config, **kwargs):
+    """Add the architecture page to the contributors' section when the file exists."""
+    if not _architecture_exists():
+        return config
+    nav = config.get("nav") or []
+    for item in nav:
+        if isinstance(item, dict) and "Contributing" in item:
+            section = item["Contributing"]
+            if isinstance(section, list) and not any("architecture.md" in str(e) for e in section):
+                section.append({"Architecture": "architecture.md"})
+    return config
+
+
+def on_page_markdown(markdown, page=None, config=None, files=None, **kwargs):
+    return expand(markdown)
