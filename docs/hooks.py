@@ -143,7 +143,7 @@ def bench_table(arg: str) -> str:
     meta = data.get("meta") or data.get("metadata")
     if isinstance(meta, dict) and meta:
         head.append(markdown_table(["", ""], [[k, v] for k, v in meta.items()]) + "\n")
-    return "\n".join(head) + markdown_table([h for _, h in present], table_rows) + \
+    return "\n".join(h.rstrip("\n") + "\n\n" for h in head) + markdown_table([h for _, h in present], table_rows) + \
         f"\n\n*Generated from `docs/data/{arg}.json`.*\n"
 
 
@@ -242,3 +242,17 @@ def on_config(config, **kwargs):
 
 def on_page_markdown(markdown, page=None, config=None, files=None, **kwargs):
     return expand(markdown)
+
+
+# the package's docstrings are numpy style with Sphinx cross-reference roles (:class:`Camera`);
+# mkdocstrings shows them as text, so the role is dropped and the name kept as code
+ROLE = re.compile(r":(?:py:)?(?:class|meth|func|data|attr|mod|exc|obj|const):<code>~?([^<]*)</code>")
+
+
+def _role(m: re.Match) -> str:
+    name = m.group(1)
+    return f"<code>{name.rsplit('.', 1)[-1] if m.group(0).count('~') else name}</code>"
+
+
+def on_page_content(html, page=None, config=None, files=None, **kwargs):
+    return ROLE.sub(_role, html)
