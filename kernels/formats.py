@@ -1,4 +1,4 @@
-"""Number formats of the emulated GPU, as Warp ``@wp.func`` s (host side: :mod:`warpvol.formats`).
+"""Number formats of the emulated GPU, as Warp ``@wp.func`` s (host side: :mod:`warpvol.gpu.formats`).
 
 A format reaches a kernel as a :class:`NumFmt` struct (build it with ``fmt.kernel_params()``):
 
@@ -153,7 +153,7 @@ def quantize4(f: NumFmt, v: wp.vec4) -> wp.vec4:
 
 
 # ------------------------------------------------------------------------------------------------
-# array kernels (vectorised encode / decode / quantize; used by warpvol.formats and the tests)
+# array kernels (vectorised encode / decode / quantize; used by warpvol.gpu.formats and the tests)
 # ------------------------------------------------------------------------------------------------
 
 

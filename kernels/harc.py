@@ -16,7 +16,7 @@ Two walks, one kernel:
 
 The ray origin and direction come from :func:`warpvol.kernels.raycast.pixel_ray` (float64 set-up,
 origin moved to the mesh). Ray start: the front-facing boundary faces were rasterised on the host
-side (:mod:`warpvol.harc`) into per-pixel fragment lists sorted by depth; pass ``k`` takes the
+side (:mod:`warpvol.raycasting.harc`) into per-pixel fragment lists sorted by depth; pass ``k`` takes the
 first fragment beyond the ray's last exit -- the depth-peeling test "depth greater than the last
 layer's" -- so pass 0 is the plain boundary rasterisation and passes >= 1 are peel layers.
 

@@ -1,4 +1,4 @@
-"""Exact float64 reference renderer as Warp kernels (host side: :mod:`warpvol.reference_warp`).
+"""Exact float64 reference renderer as Warp kernels (host side: :mod:`warpvol.reference.warp_render`).
 
 An independent judge: none of the renderers' ``@wp.func``s are used here. All arithmetic is float64
 in camera coordinates (``x`` right, ``y`` up, ``z`` forward from the eye).

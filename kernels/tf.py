@@ -2,7 +2,7 @@
 
 A transfer function is two arrays: ``tf_s`` (float32[K], strictly ascending control-point scalars)
 and ``tf_v`` (vec4[K]: r, g, b, extinction). Values are linear between control points and clamped
-outside, exactly like :meth:`warpvol.transfer.TransferFunction.evaluate`.
+outside, exactly like :meth:`warpvol.scene.transfer.TransferFunction.evaluate`.
 
 Searches are binary (O(log K)) and a segment walks only the control points it crosses, so the cost
 of a segment is O(log K + pieces crossed). :func:`device_points` (host side) prepares the device

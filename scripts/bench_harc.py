@@ -50,7 +50,7 @@ def vtk_partial_renderer(scene):
 def tf_edit(scene, preset: str) -> dict:
     """Render, edit the TF (colours only; then control points moved), render again: what ran, and times."""
     from warpvol.pipeline import Pipeline
-    from warpvol.transfer import TransferFunction
+    from warpvol.scene.transfer import TransferFunction
 
     pipe = Pipeline.load(preset)
     pipe.render(scene, quiet=True)

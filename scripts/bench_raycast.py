@@ -11,7 +11,7 @@ Renders a scene (default: NASA Blunt Fin, perspective, 512x512, from ``scenes/bl
   through Mesa llvmpipe here), the fastest unstructured-grid mapper a pyvista user has,
 
 in one run, and prints all times, the ratios VTK / warpvol and all errors against the exact
-reference (``warpvol.reference``, cached in ``--out``). Times are the median (and minimum) of
+reference (``warpvol.reference.numpy_render``, cached in ``--out``). Times are the median (and minimum) of
 ``--repeat`` rounds after one warm-up round (Warp kernels compiled, per-mesh cell data built, VTK
 structures built); each round renders once with every renderer in turn, so load from other
 processes on a shared machine hits all of them alike. VTK's mappers keep their image in 8-bit RGBA, so their errors include 8-bit quantisation:
@@ -137,10 +137,10 @@ def interleaved_times(renderers, repeat: int) -> dict[str, list[float]]:
 def scene_and_reference(scene_path: str, size: int, out: Path):
     """The scene (file or ``builtin:NAME``) at ``size`` x ``size`` and its exact reference (cached as
     EXR in ``out``)."""
-    from warpvol.builtin import builtin_scene
     from warpvol.io import read_exr, write_exr
-    from warpvol.reference import render_reference
-    from warpvol.scene import load_scene
+    from warpvol.reference.numpy_render import render_reference
+    from warpvol.scene.builtin import builtin_scene
+    from warpvol.scene.scene_file import load_scene
 
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()

@@ -1,9 +1,9 @@
 """Benchmark: the exact reference (Warp kernels and NumPy) against ``raycast``'s warm frame time.
 
 One run on a scene (default NASA Blunt Fin, ``scenes/bluntfin.toml``) at each ``--sizes``: the Warp
-reference (:mod:`warpvol.reference_warp`; its kernels compiled beforehand on a tiny image, per-mesh
+reference (:mod:`warpvol.reference.warp_render`; its kernels compiled beforehand on a tiny image, per-mesh
 set-up included since the reference keeps no cache), ``raycast``'s warm frame (one render to warm
-up, then the median of ``--repeat``), and the NumPy reference (:mod:`warpvol.reference`, the
+up, then the median of ``--repeat``), and the NumPy reference (:mod:`warpvol.reference.numpy_render`, the
 oracle) at the sizes in ``--numpy-sizes`` (it takes minutes at 1024^2). Rounds are interleaved so
 load from other processes hits all alike. Prints a table with the ratio reference / raycast and,
 where both references ran, their largest difference.
@@ -37,11 +37,11 @@ def main(argv=None) -> int:
     ap.add_argument("--device", default="cpu")
     args = ap.parse_args(argv)
 
-    from warpvol.builtin import builtin_scene
     from warpvol.pipeline import Pipeline
-    from warpvol.reference import render_reference
-    from warpvol.reference_warp import render_reference_warp
-    from warpvol.scene import load_scene
+    from warpvol.reference.numpy_render import render_reference
+    from warpvol.reference.warp_render import render_reference_warp
+    from warpvol.scene.builtin import builtin_scene
+    from warpvol.scene.scene_file import load_scene
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -29,7 +29,7 @@ def bench(fn, repeat):
 def counting_off():
     """No counting anywhere: Counters never become active (also inside Pipeline.render), ctx.count is a no-op."""
     from warpvol.gpu.counters import Counters
-    from warpvol.pipeline import Context
+    from warpvol.stage import Context
 
     saved = Counters.__enter__, Counters.__exit__, Context.count
     Counters.__enter__ = lambda self: self
@@ -63,15 +63,15 @@ def bench_counting(device, repeat):
     from warpvol.gpu.blend import BlendUnit, FrameBuffer
     from warpvol.gpu.raster import Rasterizer
     from warpvol.pipeline import Pipeline
+    from warpvol.scene.transfer import TransferFunction
     from warpvol.tables.roettger_hw import build_roettger_hw
-    from warpvol.transfer import TransferFunction
 
     tf = TransferFunction.from_table(np.random.default_rng(1).random((64, 4)), (0.0, 1.0), "emission_density")
     cases = [("roettger_hw 128x128x64, 64 steps, 12 bit",
               lambda: build_roettger_hw(tf, n_s=128, n_l=64, steps=64, bits=12, device=device))]
     here = os.path.dirname(os.path.abspath(__file__))
     try:
-        from warpvol.scene import load_scene
+        from warpvol.scene.scene_file import load_scene
 
         scene = load_scene(os.path.join(here, "..", "scenes", "bluntfin.toml"))
         pipe = Pipeline.load("raycast", device=device)
@@ -119,10 +119,10 @@ def main(argv=None):
         bench_counting(a.device, max(a.repeat, 5))
     if a.only == "counting":
         return
+    from warpvol.scene.transfer import TransferFunction
     from warpvol.tables.exact import build_exact3d
     from warpvol.tables.isocross import build_isocross
     from warpvol.tables.psi import build_psi
-    from warpvol.transfer import TransferFunction
 
     rng = np.random.default_rng(0)
     for m in (16, 64, 256):

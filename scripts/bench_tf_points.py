@@ -22,7 +22,7 @@ TABLE_STAGES = ("table_",)
 
 
 def smooth8(tf, seed):
-    from warpvol.transfer import TransferFunction
+    from warpvol.scene.transfer import TransferFunction
 
     lo, hi = tf.srange
     rng = np.random.default_rng(seed)
@@ -32,7 +32,7 @@ def smooth8(tf, seed):
 
 
 def dense(tf8, n):
-    from warpvol.transfer import TransferFunction
+    from warpvol.scene.transfer import TransferFunction
 
     lo, hi = tf8.srange
     s = np.union1d(np.linspace(lo, hi, n - len(tf8.s)), tf8.s)
@@ -78,8 +78,8 @@ def main():
     import warp as wp
 
     wp.config.quiet = True
-    from warpvol.builtin import builtin_scene
-    from warpvol.scene import load_scene
+    from warpvol.scene.builtin import builtin_scene
+    from warpvol.scene.scene_file import load_scene
 
     only = [x for x in a.only.split(",") if x]
     exact = [p for p in EXACT if not only or p in only]

@@ -27,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from warpvol.reproduce.espinha2005 import resampled_tf
+
 ROOT = Path(__file__).resolve().parents[1]
 
 #: the paper's Tables 2 and 3 (GeForce 6800 GT, 512x512): (min, max) tets/s
@@ -40,14 +42,6 @@ METHODS = (("VICP", "weiler2003_vicp", None), ("HARC-Full", "espinha2005_full", 
            ("HARC-Partial-10", "espinha2005_partial", 10), ("HARC-Partial-255", "espinha2005_partial", 255))
 
 
-def resampled_tf(tf, segments: int):
-    """The TF sampled at ``segments + 1`` uniformly spaced control points over its range (piecewise
-    linear with ``segments`` segments, as the paper approximates its TFs)."""
-    from warpvol.transfer import TransferFunction
-
-    lo, hi = tf.srange
-    s = np.linspace(lo, hi, segments + 1)
-    return TransferFunction.from_table(tf.evaluate(s), (lo, hi), emission=tf.emission)
 
 
 def views(camera, n: int):
@@ -76,7 +70,7 @@ def modelled(report: dict, profile) -> tuple[float | None, dict]:
 def tables(args) -> dict:
     from warpvol.model import load_profile
     from warpvol.pipeline import Pipeline
-    from warpvol.scene import load_scene
+    from warpvol.scene.scene_file import load_scene
 
     profile = load_profile("geforce6800gt")
 
@@ -141,11 +135,11 @@ def print_tables(result: dict) -> None:
 
 def fig8(args, out: Path) -> dict:
     """Full vs partial pre-integration on a mesh with cells of very different sizes."""
-    from warpvol.builtin import builtin_scene
     from warpvol.io import write_png
     from warpvol.metrics import image_error
     from warpvol.pipeline import Pipeline
-    from warpvol.reference import render_reference
+    from warpvol.reference.numpy_render import render_reference
+    from warpvol.scene.builtin import builtin_scene
 
     sc = builtin_scene("stiff").with_camera(width_px=args.fig8_size, height_px=args.fig8_size)
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)

@@ -17,6 +17,8 @@ import time
 
 import numpy as np
 
+from warpvol.reproduce.guthe2002 import guthe_t4_model, guthe_tf
+
 PAPER_T4 = {1: (4.4, 0.6), 2: (6.6, 1.0), 4: (11.0, 1.7)}
 #: Table 5, fps: card -> data set -> (numeric, MPVO, XMPVO)
 PAPER_T5 = {"geforce4": {"Blunt Fin": (3.18, 2.64, 2.35), "Bucky Ball": (2.46, 2.19, 2.05)},
@@ -25,16 +27,6 @@ SORTS = (("numeric", "centroid"), ("MPVO", "mpvo"), ("XMPVO", "xmpvo"))
 PROFILES = {"geforce4": "geforce4_ti4600", "radeon8500": "radeon8500"}
 
 
-def guthe_tf(m=128):
-    """m entries, colour times extinction, with steep gradients (what the polynomial is for)."""
-    from warpvol.transfer import TransferFunction
-
-    x = np.linspace(0, 1, m)
-    r = 0.5 + 0.5 * np.sin(9 * x)
-    g = np.clip(np.exp(-((x - 0.55) / 0.05) ** 2) + 0.2, 0, 1)
-    b = np.clip(1 - x, 0, 1)
-    rho = 0.5 + 6.0 * np.exp(-((x - 0.55) / 0.04) ** 2) + 2.0 * (x > 0.8)
-    return TransferFunction.from_table(np.column_stack([r, g, b, rho]), (0.0, 1.0), "color_extinction")
 
 
 def save(path, img):
@@ -120,7 +112,6 @@ def figs(a, tf, N):
 
 
 def table4(a, tf, N):
-    from validate_model import guthe_t4_model
 
     from warpvol.tables.guthe2d import build_guthe2d
 
@@ -155,10 +146,11 @@ def table5_scenes(width, height):
     import warnings
     from pathlib import Path
 
-    from warpvol.camera import Camera
-    from warpvol.loaders import load_mesh
-    from warpvol.scene import Scene, scene_from_config
-    from warpvol.transfer import TransferFunction
+    from warpvol.scene.camera import Camera
+    from warpvol.scene.loaders import load_mesh
+    from warpvol.scene.scene import Scene
+    from warpvol.scene.scene_file import scene_from_config
+    from warpvol.scene.transfer import TransferFunction
 
     root = Path(__file__).resolve().parents[1]
     p = root / "scenes" / "bluntfin.toml"

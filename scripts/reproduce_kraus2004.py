@@ -105,7 +105,7 @@ def bluntfin187(width, height):
     """Scene file scenes/bluntfin.toml with the paper's 5-tet split (187,318 tets)."""
     import tomllib
 
-    from warpvol.scene import scene_from_config
+    from warpvol.scene.scene_file import scene_from_config
 
     p = ROOT / "scenes" / "bluntfin.toml"
     cfg = tomllib.loads(p.read_text())
@@ -118,10 +118,10 @@ def bluntfin187(width, height):
 
 
 def spx_scene(width, height):
-    from warpvol.camera import Camera
-    from warpvol.loaders import load_mesh
-    from warpvol.scene import Scene
-    from warpvol.transfer import TransferFunction
+    from warpvol.scene.camera import Camera
+    from warpvol.scene.loaders import load_mesh
+    from warpvol.scene.scene import Scene
+    from warpvol.scene.transfer import TransferFunction
 
     mesh = load_mesh({"path": str(DATA / "spx.vtk"), "scalars": "scalars"})
     lo, hi = float(mesh.scalars.min()), float(mesh.scalars.max())
@@ -135,7 +135,7 @@ def spx_scene(width, height):
 
 
 def file_scene(name, width, height):
-    from warpvol.scene import load_scene
+    from warpvol.scene.scene_file import load_scene
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -202,10 +202,10 @@ def table2(a):
 
 
 def artifacts(a):
-    from warpvol.builtin import builtin_scene
     from warpvol.io import write_png
     from warpvol.metrics import image_error
-    from warpvol.reference import render_reference
+    from warpvol.reference.numpy_render import render_reference
+    from warpvol.scene.builtin import builtin_scene
 
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -257,7 +257,7 @@ def iso_surface_scene(sc, rho: float = 500.0, width: float = 0.02):
     thickness axis then under-samples the thin cells, whose alpha saturates within its first slice)."""
     import dataclasses
 
-    from warpvol.transfer import TransferFunction
+    from warpvol.scene.transfer import TransferFunction
 
     lo, hi = sc.mesh.scalar_range
     m, w = 0.5 * (lo + hi), width * (hi - lo)

@@ -25,6 +25,8 @@ import time
 
 import numpy as np
 
+from warpvol.reproduce.roettger2002 import fig4_tf, fig9_tf, roettger_t2_model
+
 PAPER_T1 = {12: {32: (0.1348, 13.9828), 64: (0.1515, 13.9661), 128: (0.2445, 13.8732), 256: (0.4565, 14.4455),
                  512: (0.9102, 19.8741), 1024: (1.8131, 24.0693)},
             8: {32: (1.1050, 18.5028), 64: (2.0477, 27.3640), 128: (3.4929, 43.9580), 256: (5.0901, 70.5962)}}
@@ -36,26 +38,15 @@ PAPER_F8 = {"Voodoo3 2000": (None, 8.9, "-"), "GeForce2 MX": (None, 33.8, "-"), 
             "Octane2 V8": (11.4, 32.2, "282%"), "Onyx 3000": (11.3, 24.1, "213%")}
 
 
-def fig9_tf():
-    """Four interleaved orange and blue regions over the distance range, constant opacity."""
-    from warpvol.transfer import TransferFunction
-
-    orange, blue, w = (1.0, 0.55, 0.1), (0.15, 0.35, 1.0), 0.01
-    pts = []
-    for k in range(4):
-        c = orange if k % 2 == 0 else blue
-        lo, hi = 0.45 * k, 0.45 * (k + 1)
-        pts += [[lo + (w if k else 0.0), *c, 2.0], [hi - (w if k < 3 else 0.0), *c, 2.0]]
-    return TransferFunction(pts, "emission_density")
 
 
 def fig8(size: int, repeat: int, device: str) -> None:
     """3D texture vs 2D cylindrical planes on the spherical distance volume (module docstring)."""
     import statistics
 
-    from warpvol.builtin import builtin_scene
     from warpvol.pipeline import Pipeline
-    from warpvol.reference import render_reference
+    from warpvol.reference.numpy_render import render_reference
+    from warpvol.scene.builtin import builtin_scene
 
     sc = builtin_scene("sphere")
     sc = type(sc)(mesh=sc.mesh, transfer=fig9_tf(), camera=sc.camera.replace(width_px=size, height_px=size),
@@ -134,17 +125,6 @@ def gpu_seconds(report, profile):
     return total
 
 
-def fig4_tf(rho_scale: float = 1.0):
-    """64 entries, emission density: smooth colour ramps with bumps, extinction with a few peaks
-    (times ``rho_scale``: the one number calibrated on Table 1)."""
-    from warpvol.transfer import TransferFunction
-
-    x = np.linspace(0, 1, 64)
-    r = np.clip(0.2 + 0.8 * np.exp(-((x - 0.7) / 0.12) ** 2) + 0.3 * x, 0, 1)
-    g = np.clip(0.6 * np.exp(-((x - 0.4) / 0.1) ** 2) + 0.2 * np.sin(6 * x) ** 2, 0, 1)
-    b = np.clip(0.9 * np.exp(-((x - 0.15) / 0.1) ** 2) + 0.1, 0, 1)
-    rho = 0.2 + 2.0 * np.exp(-((x - 0.7) / 0.05) ** 2) + 1.0 * np.exp(-((x - 0.3) / 0.08) ** 2)
-    return TransferFunction.from_table(np.column_stack([r, g, b, rho_scale * rho]), (0.0, 1.0), "emission_density")
 
 
 def save(path, img):
@@ -251,7 +231,6 @@ def main(argv=None):
           "the counted work on the octane_mxi profile (warpvol.model; 64 row = calibration, others predictions)")
     print(f"{'size':>13} | {'paper sw':>9} {'hw':>7} {'ratio':>6} | {'emul sw':>8} {'emul hw':>8} {'ratio':>6} | "
           f"{'model sw':>9} {'model hw':>8} {'hw/paper':>8} | {'paper sw / model hw':>19} | {'emulated blends':>15}")
-    from validate_model import roettger_t2_model
 
     build_roettger_hw(tf, n_s=8, n_l=1, steps=4, device=a.device)  # warm-up (kernel load)
     for N in (int(v) for v in a.sizes.split(",")):

@@ -21,77 +21,29 @@ import sys
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from warpvol.reproduce.espinha2005 import resampled_tf
+from warpvol.reproduce.guthe2002 import GUTHE_T4, guthe_steps_per_pass_speedup, guthe_t4_model
+from warpvol.reproduce.roettger2002 import ROETTGER_T2, roettger_combiner_speedup, roettger_t2_model
+from warpvol.reproduce.westermann1997 import PAPER, dataset
 
-ROETTGER_T2 = {64: (13.499, 0.188, 71.80), 128: (216.204, 2.859, 75.62), 256: (3413.444, 35.550, 96.01)}
-GUTHE_T4 = {1: (4.4, 0.6), 2: (6.6, 1.0), 4: (11.0, 1.7)}
 ESPINHA_T2_HARC = {"bluntfin": (6.09, 8.76), "loxpost": (3.40, 3.40)}  # fps min, max (LOX: one value in the text)
 
 
-def counted(fn, *a, **kw) -> dict:
-    from warpvol.gpu.counters import Counters
-
-    with Counters() as c:
-        fn(*a, **kw)
-    return c.as_dict()
 
 
-def roettger_t2_model(N: int, device: str = "cpu") -> dict:
-    """Modelled Table 2 row N (N x N x N/2, N/2 steps): Octane MXI hardware build and R10K software."""
-    from warpvol.model import load_profile, model_counters
-    from warpvol.tables.roettger_hw import build_roettger_hw
-    from warpvol.tables.roettger_sw import sw_samples
-    from reproduce_roettger2002 import fig4_tf
-
-    p = load_profile("octane_mxi")
-    hw = counted(build_roettger_hw, fig4_tf(), n_s=N, n_l=N // 2, steps=N // 2, bits=12, emulate=False,
-                 device=device)
-    x = (np.arange(N) + 0.5) / N
-    sw = {"sw_samples": sw_samples(x, x, N // 2, 2.0, 1) * (N // 2)}
-    return {"hw": model_counters(hw, p)["s"], "sw": model_counters(sw, p)["s"], "hw_counters": hw}
 
 
-def roettger_combiner_speedup(N: int = 256, device: str = "cpu") -> float:
-    """GeForce3: modelled time of plain 8-bit blending over the 4-steps-per-pass register-combiner build."""
-    from warpvol.model import load_profile, model_counters
-    from warpvol.tables.roettger_hw import build_roettger_hw
-    from reproduce_roettger2002 import fig4_tf
-
-    p = load_profile("geforce3")
-    kw = dict(n_s=N, n_l=N // 2, steps=N // 2, bits=8, passes="one", emulate=False, device=device)
-    plain = counted(build_roettger_hw, fig4_tf(), **kw)
-    comb = counted(build_roettger_hw, fig4_tf(), variant="geforce3", **kw)
-    return model_counters(plain, p)["s"] / model_counters(comb, p)["s"]
 
 
-def guthe_t4_model(degree: int, device: str = "cpu", gpu: str = "radeon8500") -> float:
-    """Modelled Table 4 hardware row (512^2, m = 128, ping-pong slices + host coefficient fit)."""
-    from warpvol.model import load_profile, model_counters
-    from warpvol.tables.guthe2d import build_guthe2d
-    from reproduce_guthe2002 import guthe_tf
-
-    c = counted(build_guthe2d, guthe_tf(), n_s=512, degree=degree, lmax=1.0, slices="pingpong", m=128,
-                emulate=False, device=device)
-    return model_counters(c, load_profile(gpu))["s"]
 
 
-def guthe_steps_per_pass_speedup(device: str = "cpu") -> float:
-    """Radeon 8500: modelled GPU time of 1 over 4 integration steps per pass (one channel slice)."""
-    from warpvol.model import load_profile, model_counters
-    from warpvol.tables.pingpong import build_pingpong
-    from reproduce_guthe2002 import guthe_tf
-
-    p = load_profile("radeon8500")
-    t = [model_counters(counted(build_pingpong, guthe_tf(), n_s=512, lengths=(1.0,), m=128, per_pass=k,
-                                emulate=False, device=device), p)["gpu_s"] for k in (1, 4)]
-    return t[0] / t[1]
 
 
 def harc_rows(device: str = "cpu") -> list:
     """Espinha & Celes 2005 Table 2 HARC fps on the GeForce 6800 GT from our ray walks at 512^2."""
     from warpvol.model import load_profile, model_report
     from warpvol.pipeline import Pipeline
-    from warpvol.scene import load_scene
+    from warpvol.scene.scene_file import load_scene
 
     root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
     rows = []
@@ -117,7 +69,6 @@ def westermann_rows(device: str = "cpu") -> list:
     (orthographic, long diagonal = image height, ``scripts/reproduce_westermann1997.py``)."""
     from warpvol.model import load_profile, model_counters
     from warpvol.pipeline import Pipeline
-    from reproduce_westermann1997 import PAPER, dataset
 
     rows = []
     for name, paper_name in (("bluntfin", "bluntfin"), ("fe", "fedata")):
@@ -150,8 +101,7 @@ def espinha_rows(device: str = "cpu") -> list:
 
     from warpvol.model import load_profile, model_report
     from warpvol.pipeline import Pipeline
-    from warpvol.scene import load_scene
-    from reproduce_espinha2005 import resampled_tf
+    from warpvol.scene.scene_file import load_scene
 
     root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
     rows = []

@@ -136,7 +136,7 @@ def test_compare_one_panel_pair_per_pipeline(tmp_path, monkeypatch):
     def boom(*a, **k):
         raise AssertionError("reference computed before the pipelines were checked")
 
-    monkeypatch.setattr("warpvol.reference.render_reference", boom)
+    monkeypatch.setattr("warpvol.reference.numpy_render.render_reference", boom)
     with pytest.raises(ConfigError, match=r"^pipelines\[1\]: 'kraus2099_full' is neither a preset"):
         warpvol.compare(small("box", 8), ["raycast", "kraus2099_full"])  # (kraus2004_full exists since issue 10)
     with pytest.raises(ConfigError, match=r"^pipelines: expected one or more"):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from warpvol import Camera, ConfigError, MeshError, Pipeline, TetMesh, TransferFunction
-from warpvol.builtin import builtin_scene
+from warpvol.scene.builtin import builtin_scene
 
 TET_P = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
 

@@ -5,7 +5,7 @@ import pytest
 import pyvista as pv
 
 from warpvol import Camera, ConfigError, TetMesh
-from warpvol.scene import load_scene
+from warpvol.scene.scene_file import load_scene
 
 
 def _image_data():

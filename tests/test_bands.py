@@ -10,7 +10,7 @@ import pytest
 import warpvol
 from warpvol.bands import band_rows, reference_in_bands
 from warpvol.errors import ConfigError
-from warpvol.reference import render_reference
+from warpvol.reference.numpy_render import render_reference
 
 
 def test_band_rows_cover_the_image_once():

@@ -10,11 +10,11 @@ import pytest
 
 import warpvol
 from tolerances import TOLERANCES
-from warpvol.bench import pareto_front, quick_pipeline, scene_hash
-from warpvol.builtin import BUILTIN_SCENES
-from warpvol.errors import ConfigError
 from warpvol.cli import main
+from warpvol.errors import ConfigError
 from warpvol.pipeline import Pipeline, list_presets
+from warpvol.scene.builtin import BUILTIN_SCENES
+from warpvol.tools.bench import pareto_front, quick_pipeline, scene_hash
 
 
 def _dominated(p, q):
@@ -72,7 +72,7 @@ def test_pareto_front():
 
 
 def test_reference_is_cached_by_scene_content(tmp_path):
-    from warpvol.bench import cached_reference
+    from warpvol.tools.bench import cached_reference
 
     scene = warpvol.builtin_scene("linear_box").with_camera(width_px=6, height_px=5)
     a, _, hit_a = cached_reference(scene, tmp_path)
@@ -92,7 +92,7 @@ def test_bench_rejects_bad_input_before_work(tmp_path, capsys):
 
 
 def test_gpu_profiles_give_modelled_times_or_say_why_not(tmp_path, capsys):
-    from warpvol.bench import gpu_support
+    from warpvol.tools.bench import gpu_support
 
     if gpu_support("geforce6800gt") is not None:
         pytest.skip(f"no GPU profiles in this build: {gpu_support('geforce6800gt')}")
@@ -195,7 +195,7 @@ class _ModelledPipeline(Pipeline):
 
 
 def test_modelled_times_have_their_own_pareto_front(tmp_path):
-    from warpvol.bench import BenchResult, bench_pipeline, describe_scene, mark_pareto, write_bench
+    from warpvol.tools.bench import BenchResult, bench_pipeline, describe_scene, mark_pareto, write_bench
 
     scene = warpvol.builtin_scene("box").with_camera(width_px=6, height_px=6)
     base = Pipeline.load("raycast")
@@ -246,7 +246,7 @@ def test_plot_labels_do_not_overlap():
     covers a marker."""
     import itertools
 
-    from warpvol.report_html import label_offsets
+    from warpvol.tools.report_html import label_offsets
 
     rng = np.random.default_rng(3)
     pts = [(300 + rng.uniform(-15, 15), 200 + rng.uniform(-10, 10), 60 + 5 * k % 40, 12.0) for k in range(17)]

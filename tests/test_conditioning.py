@@ -1,10 +1,10 @@
 """Scenes far from the origin, at extreme scales, with offset scalars and inputs beyond float32 (issue 25
 items 1, 2 and 6): the exact presets condition the scene in float64 first (``condition`` stage) and stay
-within their tests/tolerances.py rows against warpvol.reference on the original scene; the paper
+within their tests/tolerances.py rows against warpvol.reference.numpy_render on the original scene; the paper
 presets keep their float32 cast and say how many bits it loses; inputs no float32 format holds are
 refused naming the field.
 
-Scenes come from :func:`warpvol.stress_real.offset_scene`: the same image at any scalar offset,
+Scenes come from :func:`warpvol.tools.stress_real.offset_scene`: the same image at any scalar offset,
 origin and scale, so one reference shape serves every variant.
 """
 
@@ -15,16 +15,16 @@ import pytest
 
 from helpers import box_mesh, scene
 from tolerances import TOLERANCES
-from warpvol.camera import Camera
-from warpvol.conditioning import condition_scene, precision_warnings
+from warpvol.conditioning.conditioning import condition_scene, precision_warnings
 from warpvol.errors import ConfigError
-from warpvol.mesh import TetMesh
 from warpvol.metrics import image_error
 from warpvol.pipeline import Pipeline
-from warpvol.reference import render_reference
-from warpvol.stress import report_warnings
-from warpvol.stress_real import offset_scene
-from warpvol.transfer import TransferFunction
+from warpvol.reference.numpy_render import render_reference
+from warpvol.scene.camera import Camera
+from warpvol.scene.mesh import TetMesh
+from warpvol.scene.transfer import TransferFunction
+from warpvol.tools.stress import report_warnings
+from warpvol.tools.stress_real import offset_scene
 
 ROWS = {"raycast": "raycast/fp32", "harc_best": "harc_best", "pt_best": "pt_best",
         "vsbuffer_best": "vsbuffer/vsbuffer_best"}
@@ -214,7 +214,7 @@ def test_mesh_scaled_to_1e_minus_13_renders_with_the_paper_vsbuffer():
 
 
 def test_convex_cell_mesh_input_is_conditioned_with_its_cells():
-    from warpvol.vsbuffer_cells import ConvexCellMesh
+    from warpvol.vsbuffer.cells import ConvexCellMesh
 
     sc = case_scene("georeferenced_perspective", 16)
     cells = ConvexCellMesh.from_tetmesh(sc.mesh)

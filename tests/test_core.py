@@ -7,10 +7,10 @@ import pytest
 import warp as wp
 
 from tolerances import TOLERANCES
-from warpvol.camera import Camera
 from warpvol.io import read_exr, write_exr, write_png
 from warpvol.kernels import tf as ktf
-from warpvol.transfer import TransferFunction
+from warpvol.scene.camera import Camera
+from warpvol.scene.transfer import TransferFunction
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 
@@ -109,8 +109,8 @@ def test_real_meshes_raycast_matches_reference(name):
 
     from warpvol.metrics import image_error
     from warpvol.pipeline import Pipeline
-    from warpvol.reference import render_reference
-    from warpvol.scene import load_scene
+    from warpvol.reference.numpy_render import render_reference
+    from warpvol.scene.scene_file import load_scene
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

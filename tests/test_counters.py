@@ -7,17 +7,17 @@ import pytest
 
 from helpers import box_mesh, scene
 from test_tables_common import smooth_tf
-from warpvol.camera import Camera
 from warpvol.gpu.blend import BlendUnit, FrameBuffer
 from warpvol.gpu.counters import Counters
 from warpvol.gpu.raster import Rasterizer, draw_textured_quads
 from warpvol.gpu.texture import Texture1D, Texture2D, Texture3D
 from warpvol.gpu.vertex import VertexStage
 from warpvol.pipeline import Pipeline
+from warpvol.scene.camera import Camera
+from warpvol.scene.transfer import TransferFunction
 from warpvol.tables.pingpong import build_pingpong
 from warpvol.tables.roettger_hw import build_roettger_hw
 from warpvol.tables.roettger_sw import build_roettger_sw
-from warpvol.transfer import TransferFunction
 
 
 def quad(x0, y0, x1, y1, z):

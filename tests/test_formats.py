@@ -5,7 +5,7 @@ import pytest
 import warp as wp
 
 from warpvol.errors import ConfigError
-from warpvol.formats import (FP16, FP32, Pair16, SNorm, Split12, UNorm, decode_warp, encode_warp, get_format,
+from warpvol.gpu.formats import (FP16, FP32, Pair16, SNorm, Split12, UNorm, decode_warp, encode_warp, get_format,
                              quantize_warp)
 
 from helpers import DEVICES

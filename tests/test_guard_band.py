@@ -7,7 +7,7 @@ import pytest
 import warpvol
 from warpvol.errors import ConfigError
 from warpvol.gpu.raster import GUARD_PX, guard_band_overflow
-from warpvol.reference import render_reference
+from warpvol.reference.numpy_render import render_reference
 
 from tolerances import TOLERANCES as TOL
 

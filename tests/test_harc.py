@@ -13,12 +13,12 @@ import warp as wp
 
 from helpers import box_mesh, merge, scene
 from tolerances import TOLERANCES
-from warpvol.builtin import builtin_scene
-from warpvol.camera import Camera
 from warpvol.metrics import image_error
 from warpvol.pipeline import Pipeline
-from warpvol.reference import render_reference
-from warpvol.transfer import TransferFunction
+from warpvol.reference.numpy_render import render_reference
+from warpvol.scene.builtin import builtin_scene
+from warpvol.scene.camera import Camera
+from warpvol.scene.transfer import TransferFunction
 
 SIZE = 32
 _PIPES = {}
@@ -116,8 +116,8 @@ def test_rays_through_vertices_and_edges(direction):
 
 
 def segments(mode, tf, sf, sb, l, **kw):
-    from warpvol.harc import integ_setup
     from warpvol.kernels import harc as kh
+    from warpvol.raycasting.harc import integ_setup
 
     ig, _keep = integ_setup(mode, tf, "cpu", **kw)
     n = len(sf)
@@ -158,7 +158,7 @@ def test_partial_iso_splits_equal_exact_integral_255_segments(emission):
 
 
 def test_mesh_textures_and_bytes_per_tet():
-    from warpvol.harc import layout_bytes, mesh_textures
+    from warpvol.raycasting.harc import layout_bytes, mesh_textures
 
     m = grid_mesh()
     origin = np.array([0.25, -0.5, 0.125])

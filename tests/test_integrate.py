@@ -8,7 +8,7 @@ import warp as wp
 
 from tolerances import TOLERANCES
 from warpvol.kernels import integrate as ki
-from warpvol.transfer import TransferFunction
+from warpvol.scene.transfer import TransferFunction
 
 TOL = TOLERANCES["segment/fp32"]
 

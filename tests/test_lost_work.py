@@ -174,8 +174,8 @@ def test_bench_resume_keys_on_the_pipeline_toml(tmp_path, capsys):
 
 
 def test_sweep_task_keys_follow_the_scene_files_content(tmp_path):
-    from warpvol.scene import scene_digest
-    from warpvol.sweep import load_config, plan_tasks, run_sweep
+    from warpvol.scene.scene_file import scene_digest
+    from warpvol.tools.sweep import load_config, plan_tasks, run_sweep
 
     scene = _box_scene(tmp_path / "s.toml", w=8, h=8, ex=2.0)
     cfg_file = tmp_path / "sweep.toml"
@@ -229,7 +229,8 @@ def test_deeply_nested_toml_is_a_clean_error_naming_the_file(tmp_path, capsys, k
 
 
 def test_a_volume_too_large_for_memory_names_the_volume_not_the_image(tmp_path, capsys, monkeypatch):
-    from warpvol import cli, io, loaders
+    from warpvol import cli, io
+    from warpvol.scene import loaders
 
     raw = tmp_path / "v.raw"
     raw.write_bytes(np.arange(30 * 20 * 25, dtype=np.uint8).tobytes())

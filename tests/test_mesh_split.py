@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from warpvol.errors import ConfigError
-from warpvol.loaders import load_mesh
+from warpvol.scene.loaders import load_mesh
 
 
 def _raw(tmp_path, dims=(4, 3, 3)):

@@ -4,12 +4,13 @@ import numpy as np
 import pytest
 
 from helpers import box_mesh, scene
-from warpvol.camera import Camera
 from warpvol.errors import ConfigError
 from warpvol.gpu.blend import BlendUnit, FrameBuffer
 from warpvol.model import check_caps, list_profiles, load_profile, model_counters, model_report
-from warpvol.pipeline import STAGES, Param, Pipeline, Stage, register_stage
-from warpvol.transfer import TransferFunction
+from warpvol.pipeline import Pipeline
+from warpvol.scene.camera import Camera
+from warpvol.scene.transfer import TransferFunction
+from warpvol.stage import STAGES, Param, Stage, register_stage
 
 
 def test_every_profile_loads_and_every_number_has_a_source():

@@ -6,10 +6,11 @@ import sys
 import pytest
 
 from helpers import box_mesh, scene
-from warpvol.camera import Camera
 from warpvol.errors import ConfigError
-from warpvol.pipeline import STAGES, Pipeline, Stage, get_stage_class, list_presets
-from warpvol.transfer import TransferFunction
+from warpvol.pipeline import Pipeline, get_stage_class, list_presets
+from warpvol.scene.camera import Camera
+from warpvol.scene.transfer import TransferFunction
+from warpvol.stage import STAGES, Stage
 
 
 def test_unknown_stage_names_it_and_lists_allowed():

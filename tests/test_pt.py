@@ -7,13 +7,13 @@ import pytest
 
 from helpers import DEVICES
 from test_sort import jittered_box, random_camera
-from warpvol.builtin import builtin_scene
-from warpvol.camera import Camera
 from warpvol.gpu.raster import Rasterizer
 from warpvol.gpu.vertex import VertexStage
-from warpvol.mesh import FACE_VERTS
-from warpvol.pt import RASTER_RULES, decompose
-from warpvol.sort import visibility_order
+from warpvol.projection.pt import RASTER_RULES, decompose
+from warpvol.projection.sort import visibility_order
+from warpvol.scene.builtin import builtin_scene
+from warpvol.scene.camera import Camera
+from warpvol.scene.mesh import FACE_VERTS
 
 
 def pixel_tet_pairs(frags, tet_of_prim):
@@ -103,7 +103,7 @@ def test_bluntfin_coverage_exact_with_moved_thick_vertices():
     every (pixel, tet) pair still gets exactly one fragment."""
     import warnings
 
-    from warpvol.scene import load_scene
+    from warpvol.scene.scene_file import load_scene
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

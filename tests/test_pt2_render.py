@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from test_pt_render import check, preset, ref_of
-from warpvol.builtin import builtin_scene
 from warpvol.errors import ConfigError
-from warpvol.transfer import TransferFunction
+from warpvol.scene.builtin import builtin_scene
+from warpvol.scene.transfer import TransferFunction
 
 SMALL_GUTHE = {"table_guthe": {"n_s": 64}}
 SMALL_KRAUS = {"table_incremental": {"n_s": 64}}
@@ -189,8 +189,8 @@ def test_front_and_back_points_of_thick_vertices():
     the eye (eye space looks down -z), and both project onto the thick vertex (within the 1/256 snap
     and the sliver moves); silhouette vertices carry their own point twice."""
     from warpvol.gpu.vertex import VertexStage
-    from warpvol.pt import decompose
-    from warpvol.sort import visibility_order
+    from warpvol.projection.pt import decompose
+    from warpvol.projection.sort import visibility_order
 
     sc = scene("concave", 32)
     vs = VertexStage.from_camera(sc.camera, *sc.camera.depth_range(*sc.mesh.bounds))
@@ -224,7 +224,7 @@ def test_pt_best_with_the_eye_far_away():
     (~1e6, steps of 0.06) loses the depth differences Kraus' thickness is made of (RMSE 0.03 before
     the fix); pt_best's vertex stage moves the eye-space origin to the data's depth and stays within
     its tolerance."""
-    from warpvol.stress import build_case
+    from warpvol.tools.stress import build_case
 
     sc = build_case("camera_far", quick=True).scene
     ref = ref_of(sc)
@@ -253,8 +253,8 @@ def test_fused_walk_needs_the_exact_program():
     """draw(walk="fused") with a program that has no fused form is an error naming the walk."""
     from warpvol.gpu.blend import BlendUnit, FrameBuffer
     from warpvol.gpu.vertex import VertexStage
-    from warpvol.pt import decompose, draw, vertex_color_program, vertex_colors
-    from warpvol.sort import visibility_order
+    from warpvol.projection.pt import decompose, draw, vertex_color_program, vertex_colors
+    from warpvol.projection.sort import visibility_order
 
     sc = scene("box", 8)
     vs = VertexStage.from_camera(sc.camera, *sc.camera.depth_range(*sc.mesh.bounds))

@@ -1,23 +1,23 @@
 """Cell projection and the eye plane: every preset with the ``vertex`` and ``pt_project`` stages gives
 a transparent image when nothing is in view, and refuses (a :class:`~warpvol.errors.ConfigError`
 naming the alternatives) a view where tets cross the eye plane, which projected tetrahedra cannot
-draw -- never a silently wrong image. :func:`warpvol.pt.eye_plane_check` is the one place deciding."""
+draw -- never a silently wrong image. :func:`warpvol.projection.pt.eye_plane_check` is the one place deciding."""
 
 import numpy as np
 import pytest
 
 from helpers import box_mesh, merge, scene
 from tolerances import TOLERANCES
-from warpvol.bench import quick_pipeline
-from warpvol.builtin import builtin_scene
-from warpvol.camera import Camera
 from warpvol.errors import ConfigError
-from warpvol.mesh import TetMesh
 from warpvol.metrics import image_error
 from warpvol.pipeline import Pipeline, list_presets
-from warpvol.pt import eye_plane_check
-from warpvol.reference import render_reference
-from warpvol.stress import build_case, run_case
+from warpvol.projection.pt import eye_plane_check
+from warpvol.reference.numpy_render import render_reference
+from warpvol.scene.builtin import builtin_scene
+from warpvol.scene.camera import Camera
+from warpvol.scene.mesh import TetMesh
+from warpvol.tools.bench import quick_pipeline
+from warpvol.tools.stress import build_case, run_case
 
 
 def pt_presets():

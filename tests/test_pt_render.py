@@ -7,10 +7,10 @@ import pytest
 
 from helpers import DEVICES
 from tolerances import TOLERANCES
-from warpvol.builtin import builtin_scene
-from warpvol.camera import Camera
 from warpvol.pipeline import Pipeline, _read_pipeline_text
-from warpvol.reference import render_reference
+from warpvol.reference.numpy_render import render_reference
+from warpvol.scene.builtin import builtin_scene
+from warpvol.scene.camera import Camera
 
 _REFS = {}
 
@@ -145,7 +145,7 @@ def test_cylindrical_planes_reconstruct_the_3d_table():
 
 def test_constant_tf_emission_density_orthographic():
     """Emission density (Roettger & Ertl's model): the fragment colour is c (1 - exp(-tau l)) / tau."""
-    from warpvol.transfer import TransferFunction
+    from warpvol.scene.transfer import TransferFunction
 
     sc = builtin_scene("box").with_camera(width_px=48, height_px=48, **BOX_VIEWS["ortho"])
     sc.transfer = TransferFunction([[0.0, 0.8, 0.6, 0.4, 1.5], [2.0, 0.8, 0.6, 0.4, 1.5]], "emission_density")
@@ -154,7 +154,7 @@ def test_constant_tf_emission_density_orthographic():
 
 
 def test_planner_reuses_cached_table_and_says_so():
-    from warpvol.transfer import TransferFunction
+    from warpvol.scene.transfer import TransferFunction
 
     sc = builtin_scene("linear_box").with_camera(width_px=16, height_px=16)
     pipe = preset("roettger2000_3d", table_roettger_sw={"n_s": 16, "n_l": 8, "m": 16})

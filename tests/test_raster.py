@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 import warp as wp
 
-from warpvol.camera import Camera
 from warpvol.errors import ConfigError
 from warpvol.gpu.blend import BlendUnit, FrameBuffer
 from warpvol.gpu.raster import Rasterizer, rasterize
 from warpvol.gpu.vertex import VertexStage, transform_vertices, viewport_matrix
+from warpvol.scene.camera import Camera
 
 from helpers import DEVICES
 
@@ -453,8 +453,9 @@ def test_rasterizer_validation_names_the_argument():
 
 
 def test_vertex_stage_registered_and_runs():
-    from warpvol.builtin import builtin_scene
-    from warpvol.pipeline import Context, get_stage_class
+    from warpvol.pipeline import get_stage_class
+    from warpvol.scene.builtin import builtin_scene
+    from warpvol.stage import Context
 
     scene = builtin_scene("box").with_camera(width_px=12, height_px=10)
     ctx = Context(scene=scene, quiet=True)

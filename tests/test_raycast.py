@@ -5,9 +5,9 @@ import pytest
 
 from helpers import DEVICES, box_mesh, merge, scene
 from tolerances import TOLERANCES
-from warpvol.camera import Camera
 from warpvol.pipeline import Pipeline
-from warpvol.transfer import TransferFunction
+from warpvol.scene.camera import Camera
+from warpvol.scene.transfer import TransferFunction
 
 TOL = TOLERANCES["raycast/fp32"]
 
@@ -65,7 +65,7 @@ def test_disconnected_boxes_need_peeling(device):
 
 
 def test_neighbour_vertex_is_the_vertex_beyond_each_face():
-    from warpvol.stages.raycasting.cell_setup import neighbour_faces, neighbour_vertices
+    from warpvol.raycasting.stages.cell_setup import neighbour_faces, neighbour_vertices
 
     m = box_mesh(dims=(3, 2, 2))
     nbr = neighbour_faces(m.adjacency)
@@ -119,9 +119,9 @@ def test_max_steps_limits_and_reports_unfinished_rays():
 
 @pytest.mark.parametrize("name", ["sphere", "box", "linear_box", "concave", "stiff"])
 def test_builtin_scenes_match_reference(name):
-    from warpvol.builtin import builtin_scene
     from warpvol.metrics import image_error
-    from warpvol.reference import render_reference
+    from warpvol.reference.numpy_render import render_reference
+    from warpvol.scene.builtin import builtin_scene
 
     sc = builtin_scene(name)
     sc.camera = sc.camera.replace(width_px=48, height_px=40)
@@ -137,8 +137,8 @@ def test_grazing_ray_does_not_enter_a_face_it_misses():
     # Tet A's front face ends 3e-6 beside the pixel ray: more than float32 rounding, less than the
     # loose edge tolerance. The ray must skip A and enter tet B behind it (regression: a single
     # tolerance let such rays walk a bogus segment through A; seen on the LOX post's silhouette).
-    from warpvol.mesh import TetMesh
-    from warpvol.reference import render_reference
+    from warpvol.reference.numpy_render import render_reference
+    from warpvol.scene.mesh import TetMesh
 
     dlt = 3e-6
     pts = np.array([[dlt, -0.5, 1.0], [1.0, -0.5, 1.0], [dlt, 0.5, 1.0], [dlt, -0.5, 0.5],
@@ -155,7 +155,7 @@ def test_grazing_ray_does_not_enter_a_face_it_misses():
 
 @pytest.mark.parametrize("eye", [[0.2, 0.1, 0.3], [0.0, 0.0, 0.0]])
 def test_perspective_eye_inside_mesh_starts_in_its_cell(eye):
-    from warpvol.reference import render_reference
+    from warpvol.reference.numpy_render import render_reference
 
     tf = TransferFunction([[-2, 1, 0.5, 0.2, 0.6], [2, 0.2, 0.5, 1, 1.4]])
     m = box_mesh(dims=(4, 5, 4), scalar=lambda p: p[:, 0] + 0.5 * p[:, 2])

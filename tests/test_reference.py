@@ -1,4 +1,4 @@
-"""The exact float64 reference renderer (warpvol/reference.py) against closed forms.
+"""The exact float64 reference renderer (warpvol/reference/numpy_render.py) against closed forms.
 
 Every expected value here is derived independently of the code under test: slab formulas for
 constant media, closed forms (erfc / an all-positive series) for linear extinction, a fine composite
@@ -11,17 +11,18 @@ import numpy as np
 import pytest
 
 from helpers import merge
-from warpvol.builtin import grid_points
-from warpvol.camera import Camera
-from warpvol.mesh import TetMesh, structured_to_tets
-from warpvol.reference import (
+from warpvol.scene.camera import Camera
+from warpvol.scene.grids import grid_points
+from warpvol.scene.grids import structured_to_tets
+from warpvol.scene.mesh import TetMesh
+from warpvol.reference.numpy_render import (
     composite_front_to_back,
     integrate_segments,
     render_reference,
     segmented_exclusive_cumsum,
     trace_segments,
 )
-from warpvol.transfer import TransferFunction
+from warpvol.scene.transfer import TransferFunction
 
 EMISSIONS = ["color_extinction", "emission_density"]
 
@@ -439,7 +440,7 @@ def test_coverage_identity_near_degenerate_cameras(eye, target, projection):
 def test_exact_edge_predicate_matches_rational_arithmetic():
     from fractions import Fraction
 
-    from warpvol.reference import _exact_sum_of_products
+    from warpvol.reference.numpy_render import _exact_sum_of_products
 
     rng = np.random.default_rng(11)
     n = 3000

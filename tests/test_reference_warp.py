@@ -1,4 +1,4 @@
-"""The Warp reference (warpvol/reference_warp.py, kernels/reference.py) against the NumPy oracle.
+"""The Warp reference (warpvol/reference/warp_render.py, kernels/reference.py) against the NumPy oracle.
 
 Both evaluate Contract 2's ray integral exactly (up to rounding) with independent code; they must
 agree to 1e-12 (max abs over RGBA) on every built-in scene and on the degenerate configurations
@@ -12,14 +12,16 @@ import warnings
 import numpy as np
 import pytest
 
-from warpvol.builtin import builtin_scene, grid_points
-from warpvol.camera import Camera
 from warpvol.errors import ConfigError
-from warpvol.mesh import TetMesh, structured_to_tets
-from warpvol.reference import render_reference
-from warpvol.reference_warp import render_reference_warp
-from warpvol.stress import build_case
-from warpvol.transfer import TransferFunction
+from warpvol.reference.numpy_render import render_reference
+from warpvol.reference.warp_render import render_reference_warp
+from warpvol.scene.builtin import builtin_scene
+from warpvol.scene.camera import Camera
+from warpvol.scene.grids import grid_points
+from warpvol.scene.grids import structured_to_tets
+from warpvol.scene.mesh import TetMesh
+from warpvol.scene.transfer import TransferFunction
+from warpvol.tools.stress import build_case
 
 TOL = 1e-12
 TF_LIN = TransferFunction([[-1.0, 1.0, 0.2, 0.1, 0.5], [0.0, 0.3, 0.9, 0.2, 1.2], [1.0, 0.1, 0.3, 1.0, 2.0]])

@@ -8,12 +8,12 @@ import pytest
 
 from helpers import box_mesh, scene
 from tolerances import TOLERANCES
-from warpvol.camera import Camera
 from warpvol.errors import MeshError
-from warpvol.mesh import TetMesh
 from warpvol.pipeline import Pipeline
-from warpvol.reference import render_reference
-from warpvol.transfer import TransferFunction
+from warpvol.reference.numpy_render import render_reference
+from warpvol.scene.camera import Camera
+from warpvol.scene.mesh import TetMesh
+from warpvol.scene.transfer import TransferFunction
 
 TOL = TOLERANCES["raycast/fp32"]
 TF = TransferFunction([[-1.0, 0.2, 0.4, 1.0, 0.8], [1.0, 1.0, 0.5, 0.2, 1.6], [3.0, 1.0, 1.0, 1.0, 0.4]])
@@ -85,8 +85,8 @@ def test_cell_data_cached_per_mesh():
 @pytest.mark.parametrize("projection", ["perspective", "orthographic"])
 def test_unresolved_rays_are_redone_in_float64_and_counted(projection):
     # mark rays as failed after the float32 pass: the stage must redo them exactly and count them
-    from warpvol.pipeline import Context
-    from warpvol.stages.raycasting import raycast as rc
+    from warpvol.raycasting.stages import raycast as rc
+    from warpvol.stage import Context
 
     m = box_mesh(dims=(4, 4, 4), scalar=lambda p: np.sin(2 * p[:, 0]) + p[:, 1])
     cam = Camera(projection=projection, eye=[1.2, 1.5, 4.0], height=2.5, width_px=12, height_px=10)

@@ -1,7 +1,7 @@
 """``raycast`` on meshes and cameras that break naive float32 walks (issue 7).
 
 Every case renders a small image and compares it with the exact float64 reference
-(:mod:`warpvol.reference`) within the ``raycast/fp32`` entry of ``tests/tolerances.py`` -- slivers
+(:mod:`warpvol.reference.numpy_render`) within the ``raycast/fp32`` entry of ``tests/tolerances.py`` -- slivers
 included: the walk's edge tests, depths and scalars never use a cell's gradient or face planes. The
 cases: Delaunay meshes of jittered grids (slivers of every shape), flat
 "cap" and "kite" slivers, rays exactly through vertices and along edges, eyes up to 1e6 mesh sizes
@@ -15,12 +15,12 @@ import pytest
 
 from helpers import DEVICES, box_mesh, scene
 from tolerances import TOLERANCES
-from warpvol.camera import Camera
-from warpvol.mesh import TetMesh
 from warpvol.metrics import image_error
 from warpvol.pipeline import Pipeline
-from warpvol.reference import render_reference
-from warpvol.transfer import TransferFunction
+from warpvol.reference.numpy_render import render_reference
+from warpvol.scene.camera import Camera
+from warpvol.scene.mesh import TetMesh
+from warpvol.scene.transfer import TransferFunction
 
 TOL = TOLERANCES["raycast/fp32"]
 

@@ -8,14 +8,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from warpvol.builtin import BUILTIN_SCENES, builtin_mesh, builtin_scene, structured_to_tets5
-from warpvol.camera import Camera
 from warpvol.errors import ConfigError, MeshError
-from warpvol.loaders import (PLOT3D_FUNCTIONS, load_mesh, plot3d_function, read_plot3d, read_plot3d_grid,
+from warpvol.scene.builtin import BUILTIN_SCENES, builtin_mesh, builtin_scene
+from warpvol.scene.camera import Camera
+from warpvol.scene.grids import structured_to_tets5
+from warpvol.scene.loaders import (PLOT3D_FUNCTIONS, load_mesh, plot3d_function, read_plot3d, read_plot3d_grid,
                              read_plot3d_solution, read_raw)
-from warpvol.mesh import TetMesh, signed_volumes, structured_to_tets
-from warpvol.scene import Scene, load_scene, scene_from_config
-from warpvol.transfer import TransferFunction
+from warpvol.scene.grids import structured_to_tets
+from warpvol.scene.mesh import TetMesh, signed_volumes
+from warpvol.scene.scene import Scene
+from warpvol.scene.scene_file import load_scene, scene_from_config
+from warpvol.scene.transfer import TransferFunction
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 

@@ -1,15 +1,16 @@
-"""Visibility sorting (``warpvol.sort``) against brute-force occlusion along exact pixel rays."""
+"""Visibility sorting (``warpvol.projection.sort``) against brute-force occlusion along exact pixel rays."""
 
 import numpy as np
 import pytest
 
 from helpers import box_points, scene
-from warpvol.builtin import builtin_scene
-from warpvol.camera import Camera
-from warpvol.mesh import TetMesh, structured_to_tets
-from warpvol.pipeline import Context
-from warpvol.sort import centroid_order, face_directions, occlusion_violations, visibility_order
-from warpvol.stages.projection.sort_cells import SortCells
+from warpvol.projection.sort import centroid_order, face_directions, occlusion_violations, visibility_order
+from warpvol.projection.stages.sort_cells import SortCells
+from warpvol.scene.builtin import builtin_scene
+from warpvol.scene.camera import Camera
+from warpvol.scene.grids import structured_to_tets
+from warpvol.scene.mesh import TetMesh
+from warpvol.stage import Context
 
 
 def jittered_box(rng, dims=(5, 5, 5), jitter=0.12, drop=0.0):
@@ -92,7 +93,7 @@ def test_face_directions_antisymmetric_and_cycle_counted():
     back = np.argmax(mesh.adjacency[b] == a[:, None], axis=1)
     assert (d[a, f] == -d[b, back]).all() and (d[mesh.adjacency < 0] == 0).all()
     # three cells around one edge, constrained in a ring A -> B -> C -> A
-    from warpvol.sort import topological_order
+    from warpvol.projection.sort import topological_order
 
     ring = TetMesh([[0, 0, 0], [0, 0, 1], [1, 0, 0.5], [-0.5, 0.9, 0.5], [-0.5, -0.9, 0.5]],
                    [[0, 1, 2, 3], [0, 1, 3, 4], [0, 1, 4, 2]], np.zeros(5))
@@ -151,9 +152,9 @@ def test_exact_orders_from_a_queue_draw_the_priority_orders_image(monkeypatch):
     mesh by XMPVO, the sphere by MPVO); MPVONC keeps its priority (the order changes without it)."""
     import numpy as np
 
-    import warpvol.sort as S
+    import warpvol.projection.sort as S
     from test_pt_render import preset
-    from warpvol.builtin import builtin_scene
+    from warpvol.scene.builtin import builtin_scene
 
     orig = S.topological_order
     for name in ("concave", "sphere"):

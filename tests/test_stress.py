@@ -7,7 +7,7 @@ import pytest
 
 from warpvol.cli import main
 from warpvol.pipeline import list_presets
-from warpvol.stress import CASES, Case, build_case, run_case
+from warpvol.tools.stress import CASES, Case, build_case, run_case
 
 
 def test_stress_quick_runs_every_case_with_every_preset(tmp_path, capsys):
@@ -33,11 +33,11 @@ def test_stress_quick_runs_every_case_with_every_preset(tmp_path, capsys):
 
 
 def test_closed_form_cases_match_the_exact_reference():
-    from warpvol.reference import render_reference
+    from warpvol.reference.numpy_render import render_reference
 
     c = build_case("image_4096x4096", quick=True).scene.with_camera(width_px=24, height_px=24)
     ref = render_reference(c.mesh, c.transfer, c.camera)
-    from warpvol.stress import _box_closed_form
+    from warpvol.tools.stress import _box_closed_form
 
     assert np.abs(_box_closed_form(c.camera)() - ref).max() < 1e-9
 
@@ -63,7 +63,7 @@ def test_a_crash_or_nan_is_a_failed_row_and_the_exit_status_says_so(monkeypatch,
     assert rows[1]["message"] == "ZeroDivisionError: boom" and rows[2]["finite"] is False
     bad = Case("one_tet", case.scene, "", analytic=lambda: np.full((24, 24, 4), np.nan))
     assert run_case(bad, [])[0]["status"] == "failed"
-    import warpvol.stress as st
+    import warpvol.tools.stress as st
 
     monkeypatch.setattr(st, "run_case", lambda c, pipes, device="cpu", on_step=None: [{"case": c.name, "pipeline": "x",
                         "status": "failed", "finite": None, "time_s": 0.0, "message": "boom"}])
@@ -80,7 +80,7 @@ def test_stage_warnings_reach_the_stress_table():
     """A pipeline that flags its own losses in a stage's stats (the faithful VSBUFFER on a 1x1 image:
     one depth row misses the cells) has the warning in its stress row, not an empty note."""
     from warpvol.pipeline import Pipeline
-    from warpvol.stress import build_case, run_case
+    from warpvol.tools.stress import build_case, run_case
 
     rows = run_case(build_case("image_1x1", quick=True), [Pipeline.load("westermann1997")])
     row = rows[-1]

@@ -10,7 +10,7 @@ import pytest
 
 from warpvol.cli import main
 from warpvol.errors import ConfigError
-from warpvol.sweep import load_config, plan_tasks, run_sweep
+from warpvol.tools.sweep import load_config, plan_tasks, run_sweep
 
 CONFIG = """
 name = "test"

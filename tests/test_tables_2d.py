@@ -207,8 +207,8 @@ def test_psi_matches_quadrature():
 
 def test_psi_combination_is_exact_for_linear_segments():
     """I0 zeta + Cb (psi - zeta) + Cf (1 - psi) equals the exact integral of a linear TF segment."""
-    from warpvol.reference import integrate_segments
-    from warpvol.transfer import TransferFunction
+    from warpvol.reference.numpy_render import integrate_segments
+    from warpvol.scene.transfer import TransferFunction
 
     cf, cb, rf, rb, l = np.array([0.9, 0.2, 0.4]), np.array([0.1, 0.7, 0.3]), 1.5, 4.0, 0.8
     tf = TransferFunction([[0, *cf, rf], [1, *cb, rb]], "color_extinction")
@@ -237,7 +237,7 @@ def test_iso_table_paper_worked_example():
 
 
 def test_iso_table_from_tf_uses_normalised_control_points():
-    from warpvol.transfer import TransferFunction
+    from warpvol.scene.transfer import TransferFunction
 
     tf = TransferFunction([[10, 0, 0, 0, 0], [12.5, 1, 0, 0, 1], [15, 0, 1, 0, 1], [17.5, 0, 0, 1, 1],
                            [20, 0, 0, 0, 0]])

@@ -5,9 +5,10 @@ import pytest
 
 from test_tables_common import smooth_tf
 from warpvol.errors import ConfigError
-from warpvol.pipeline import Context, get_stage_class
+from warpvol.pipeline import get_stage_class
+from warpvol.scene.transfer import TransferFunction
+from warpvol.stage import Context
 from warpvol.tables.cache import TableCache
-from warpvol.transfer import TransferFunction
 
 
 def test_tf_edit_rebuilds_only_dependent_tables():

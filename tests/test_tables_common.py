@@ -26,8 +26,8 @@ psi/fp32                       psi table vs float64 quadrature
 import numpy as np
 import pytest
 
-from warpvol.reference import integrate_segments
-from warpvol.transfer import TransferFunction
+from warpvol.reference.numpy_render import integrate_segments
+from warpvol.scene.transfer import TransferFunction
 
 TOLERANCES = {
     "exact3d/fp32": {"rtol": 2e-5, "atol": 2e-6},

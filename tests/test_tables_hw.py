@@ -75,7 +75,7 @@ def test_geforce3_combiners_beat_plain_8bit_blending():
 
 
 def test_gl_dither_is_an_ordered_4x4_pattern_within_one_lsb_per_blend():
-    from warpvol.transfer import TransferFunction
+    from warpvol.scene.transfer import TransferFunction
 
     tf = TransferFunction.from_table(np.tile([0.6, 0.3, 0.8, 1.5], (4, 1)), (0.0, 1.0), "emission_density")
     kw = dict(n_s=8, n_l=1, lmax=1.0, steps=3, bits=8)
@@ -132,8 +132,8 @@ def test_concurrent_slices_match_serial_bit_for_bit(monkeypatch):
 def test_tf_texture_texel_k_is_tf_entry_k():
     """Roettger & Ertl eq. 8: texel k of m holds TF entry k, and the scalar w = k/(m-1) is read at
     texel k's centre. With one step per slice the table at (sf, sb) is T1D(sb) blended once."""
-    from warpvol.formats import UNorm
-    from warpvol.transfer import TransferFunction
+    from warpvol.gpu.formats import UNorm
+    from warpvol.scene.transfer import TransferFunction
 
     kap = np.array([0.1, 0.9, 0.2, 0.7, 0.4])
     tf = TransferFunction.from_table(np.column_stack([kap, kap, kap, np.ones(5)]), (0.0, 1.0), "emission_density")
@@ -147,7 +147,7 @@ def test_tf_texture_texel_k_is_tf_entry_k():
 
 def test_pingpong_values_are_split12_values():
     """One definition of the 12-bit hi/lo pair: every ping-pong result is a Split12 value k / 4080."""
-    from warpvol.formats import Split12
+    from warpvol.gpu.formats import Split12
 
     pp = build_pingpong(smooth_tf("color_extinction"), n_s=8, lengths=(1.0,), m=8)
     c = pp.data[..., :3].astype(np.float64)

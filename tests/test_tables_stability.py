@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from test_tables_common import reference_at_nodes, report
+from warpvol.scene.transfer import TransferFunction
 from warpvol.tables.base import isfinite_table
 from warpvol.tables.cylindrical import build_cylindrical, to_cylinder
 from warpvol.tables.exact import build_exact3d
@@ -18,7 +19,6 @@ from warpvol.tables.isocross import build_isocross
 from warpvol.tables.psi import build_psi, psi_exact
 from warpvol.tables.roettger_hw import build_roettger_hw
 from warpvol.tables.roettger_sw import build_roettger_sw
-from warpvol.transfer import TransferFunction
 
 
 def all_tables(tf, n=8):

@@ -5,7 +5,7 @@ import pytest
 import warp as wp
 
 from warpvol.errors import ConfigError
-from warpvol.formats import Pair16, UNorm
+from warpvol.gpu.formats import Pair16, UNorm
 from warpvol.gpu.texture import (TEXEL_FORMATS, Texture1D, Texture2D, Texture3D, TextureAtlas, expand_rgba,
                                  sample_dependent)
 

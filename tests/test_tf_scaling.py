@@ -8,12 +8,12 @@ import warp as wp
 
 import warpvol
 from tolerances import TOLERANCES
-from warpvol.builtin import builtin_scene
 from warpvol.kernels import integrate as ki
 from warpvol.kernels import tf as ktf
-from warpvol.reference import integrate_segments
+from warpvol.reference.numpy_render import integrate_segments
+from warpvol.scene.builtin import builtin_scene
+from warpvol.scene.transfer import TransferFunction
 from warpvol.tables import common
-from warpvol.transfer import TransferFunction
 
 TOL = TOLERANCES["segment/fp32"]
 
@@ -137,7 +137,7 @@ def segments(tf_s, tf_v, model, sf, sb, ln):
 @pytest.mark.parametrize("n", [2, 100, 2000, 20000])
 def test_segment_integrals_over_many_pieces_match_closed_form(n, emission):
     """Segments crossing up to all ``n`` pieces (unmerged: every control point a piece boundary) and
-    the merged upload both equal the float64 closed form (warpvol.reference)."""
+    the merged upload both equal the float64 closed form (warpvol.reference.numpy_render)."""
     rng = np.random.default_rng(n)
     s = np.linspace(0.0, 1.0, n)
     v = np.column_stack([0.5 + 0.5 * np.sin(40 * s), 0.5 + 0.5 * np.cos(17 * s), s, 2.0 + 1.5 * np.sin(9 * s)])

@@ -6,16 +6,18 @@ import numpy as np
 import pytest
 
 from tolerances import TOLERANCES
-from warpvol.builtin import builtin_scene, grid_points
-from warpvol.camera import Camera
-from warpvol.mesh import TetMesh, structured_to_tets
 from warpvol.metrics import image_error
 from warpvol.pipeline import Pipeline
-from warpvol.pt_thin import density_max, thin_tets
-from warpvol.reference import render_reference
-from warpvol.scene import Scene
-from warpvol.stress import _box, _tf
-from warpvol.transfer import TransferFunction
+from warpvol.projection.pt_thin import density_max, thin_tets
+from warpvol.reference.numpy_render import render_reference
+from warpvol.scene.builtin import builtin_scene
+from warpvol.scene.camera import Camera
+from warpvol.scene.grids import grid_points
+from warpvol.scene.grids import structured_to_tets
+from warpvol.scene.mesh import TetMesh
+from warpvol.scene.scene import Scene
+from warpvol.scene.transfer import TransferFunction
+from warpvol.tools.stress_meshes import _box, _tf
 
 ROWS = {"raycast": "raycast/fp32", "harc_best": "harc_best", "pt_best": "pt_best"}
 

@@ -4,8 +4,8 @@
 import numpy as np
 import pytest
 
-import warpvol
 from warpvol import cache
+import warpvol
 from warpvol.errors import ConfigError
 from warpvol.timing import CompileClock, split_times
 

@@ -9,13 +9,13 @@ import pytest
 
 from helpers import scene
 from tolerances import TOLERANCES
-from warpvol.camera import Camera
-from warpvol.mesh import TetMesh, overlapping_opposite_faces
 from warpvol.pipeline import Pipeline
-from warpvol.reference import render_reference
-from warpvol.split_cells import VTK_HEXAHEDRON, VTK_PYRAMID, VTK_WEDGE, _REF, quad_bits, split_table
-from warpvol.stress_topology import explode, glued_blocks, hybrid_grid
-from warpvol.transfer import TransferFunction
+from warpvol.reference.numpy_render import render_reference
+from warpvol.scene.camera import Camera
+from warpvol.scene.mesh import TetMesh, overlapping_opposite_faces
+from warpvol.scene.split_cells import VTK_HEXAHEDRON, VTK_PYRAMID, VTK_WEDGE, _REF, quad_bits, split_table
+from warpvol.scene.transfer import TransferFunction
+from warpvol.tools.stress_topology import explode, glued_blocks, hybrid_grid
 
 TF = TransferFunction([[-1.5, 0.8, 0.3, 0.1, 0.6], [0.2, 0.2, 0.7, 0.4, 1.7], [2.2, 0.1, 0.4, 0.9, 0.9]])
 CAM = Camera(eye=[2.3, 1.9, 2.9], target=[0.05, -0.05, 0.0], fov_y_deg=42.0, width_px=40, height_px=40)

@@ -8,8 +8,8 @@ from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction
 from vtkmodules.vtkRenderingCore import vtkColorTransferFunction
 
 from warpvol import ConfigError, TransferFunction
-from warpvol.scene import scene_from_config
-from warpvol.transfer import DEFAULT_RESAMPLE, OPACITY_MAX
+from warpvol.scene.scene_file import scene_from_config
+from warpvol.scene.transfer import DEFAULT_RESAMPLE, OPACITY_MAX
 
 # a ParaView-exported preset: colour nodes and opacity nodes at different scalars
 PRESET = {

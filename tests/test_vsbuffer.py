@@ -7,9 +7,9 @@ import pyvista as pv
 
 import warpvol
 from warpvol.errors import ConfigError
-from warpvol.reference import render_reference
-from warpvol.transfer import TransferFunction
-from warpvol.vsbuffer import ConvexCellMesh, render_vsbuffer, walk_column
+from warpvol.reference.numpy_render import render_reference
+from warpvol.scene.transfer import TransferFunction
+from warpvol.vsbuffer.vsbuffer import ConvexCellMesh, render_vsbuffer, walk_column
 
 from helpers import box_mesh
 from tolerances import TOLERANCES
@@ -106,8 +106,9 @@ def test_thin_cells_found_or_counted():
     # a layer 1/1000 of a buffer row thick: the passes cannot see it; the neighbour check or the
     # entry/exit-face checks find it, or the loss is counted -- never silent
     z = np.array([-1.0, -0.0005, 0.0005, 1.0])
-    from warpvol.builtin import grid_points
-    from warpvol.mesh import TetMesh, structured_to_tets
+    from warpvol.scene.grids import grid_points
+    from warpvol.scene.grids import structured_to_tets
+    from warpvol.scene.mesh import TetMesh
 
     x = np.linspace(-1, 1, 4)
     pts = grid_points(x, x, z)
@@ -313,7 +314,7 @@ def test_sweep_work_limit_and_tall_plane_batches():
     depth resolution whose 16-plane batch would exceed the rasteriser's 65536 rows runs with fewer
     planes per batch (an emulation detail) instead of failing."""
     from test_pt_render import preset
-    from warpvol.builtin import builtin_scene
+    from warpvol.scene.builtin import builtin_scene
 
     s = builtin_scene("box").with_camera(width_px=16, height_px=16)
     with pytest.raises(ConfigError, match=r"vsb_sweep.*2\.56e\+06 pixels, over max_sweep_pixels = 1e\+06"):

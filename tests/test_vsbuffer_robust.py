@@ -7,9 +7,9 @@ import pytest
 import pyvista as pv
 
 import warpvol
-from warpvol.reference import render_reference
-from warpvol.transfer import TransferFunction
-from warpvol.vsbuffer import BATCH_PIXELS, ConvexCellMesh, render_vsbuffer
+from warpvol.reference.numpy_render import render_reference
+from warpvol.scene.transfer import TransferFunction
+from warpvol.vsbuffer.vsbuffer import BATCH_PIXELS, ConvexCellMesh, render_vsbuffer
 
 from helpers import box_mesh, merge
 from tolerances import TOLERANCES

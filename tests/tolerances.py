@@ -1,6 +1,6 @@
 """Tolerances of whole renders against the exact reference, one row per pipeline / number format.
 
-Every test that compares a render with ``warpvol.reference`` takes its bounds from here, so the
+Every test that compares a render with ``warpvol.reference.numpy_render`` takes its bounds from here, so the
 accuracy each pipeline promises is stated in one place. Values are on premultiplied RGBA in [0, 1].
 
 =====================  ===========  ===========  ==================================================

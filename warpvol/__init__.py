@@ -19,16 +19,18 @@ __version__ = "0.1.0"
 
 # the preset folder is a subpackage named like the presets() function below: import it first, so
 # later imports of ``warpvol.presets`` (by importlib.resources) find it loaded and leave the name alone
-from . import presets as _presets_package  # noqa: F401
-from .api import Comparison, Rendering, compare, presets, render
-from .builtin import builtin_scene
-from .cache import cache_info, clear_cache, set_cache_budget
-from .camera import Camera
-from .errors import ConfigError, MeshError, WarpvolError
-from .mesh import TetMesh
-from .pipeline import Pipeline, Stage, list_presets, register_stage
-from .scene import Scene, load_scene
-from .transfer import TransferFunction
+from warpvol import presets as _presets_package  # noqa: F401
+from warpvol.api import Comparison, Rendering, compare, presets, render
+from warpvol.cache import cache_info, clear_cache, set_cache_budget
+from warpvol.errors import ConfigError, MeshError, WarpvolError
+from warpvol.pipeline import Pipeline, list_presets
+from warpvol.scene.builtin import builtin_scene
+from warpvol.scene.camera import Camera
+from warpvol.scene.mesh import TetMesh
+from warpvol.scene.scene import Scene
+from warpvol.scene.scene_file import load_scene
+from warpvol.scene.transfer import TransferFunction
+from warpvol.stage import Stage, register_stage
 
 __all__ = ["Camera", "Comparison", "ConfigError", "MeshError", "Pipeline", "Rendering", "Scene", "Stage",
            "TetMesh", "TransferFunction", "WarpvolError", "builtin_scene", "cache_info", "clear_cache", "compare",

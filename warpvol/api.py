@@ -18,14 +18,16 @@ from typing import Any
 
 import numpy as np
 
-from . import cache
-from .camera import Camera
-from .errors import ConfigError
-from .mesh import TetMesh
-from .pipeline import DEFAULT_PIPELINE, Pipeline, RenderResult, check_device, list_presets, quiet_warp
-from .scene import Scene, load_scene, scene_from_config
-from .timing import time_summary
-from .transfer import TransferFunction
+from warpvol import cache
+from warpvol.errors import ConfigError
+from warpvol.pipeline import DEFAULT_PIPELINE, Pipeline, RenderResult, check_device, list_presets, quiet_warp
+from warpvol.scene.camera import Camera
+from warpvol.scene.loaders import mesh_from_pyvista
+from warpvol.scene.mesh import TetMesh
+from warpvol.scene.scene import Scene
+from warpvol.scene.scene_file import load_scene, scene_from_config
+from warpvol.scene.transfer import TransferFunction
+from warpvol.timing import time_summary
 
 IMAGE_EXTENSIONS = (".exr", ".png")
 
@@ -48,8 +50,6 @@ def as_mesh(mesh: Any, scalars: str | None = None, split: int | None = None) -> 
         if scalars is not None or split is not None:
             raise ConfigError("scalars/split: only used when mesh is a pyvista data set; a TetMesh has its scalars")
         return mesh
-    from .interop import mesh_from_pyvista
-
     return mesh_from_pyvista(mesh, scalars, split, arg="mesh")
 
 
@@ -173,7 +173,7 @@ def _reference(reference: Any, scene: Scene, fn: str = "render") -> tuple[np.nda
     if reference is False or reference is None:
         return None, None
     if reference is True:
-        from .reference import render_reference
+        from warpvol.reference.numpy_render import render_reference
 
         t0 = time.perf_counter()
         img, hit = cache.reference(scene, lambda: render_reference(scene.mesh, scene.transfer, scene.camera))
@@ -182,7 +182,7 @@ def _reference(reference: Any, scene: Scene, fn: str = "render") -> tuple[np.nda
     accepted = ("expected True (compute the exact reference), False or None (no reference), the name of an "
                 "existing EXR image file or an (H, W, 4) image array")
     if isinstance(reference, (str, Path)):
-        from .io import read_exr
+        from warpvol.io import read_exr
 
         if not Path(reference).is_file():
             raise ConfigError(f"{arg}: {str(reference)!r} is no image file (file not found); {accepted}")
@@ -204,7 +204,7 @@ def _reference(reference: Any, scene: Scene, fn: str = "render") -> tuple[np.nda
 
 # -- results --------------------------------------------------------------------------------------
 def _rgb(image: np.ndarray, background=(0.0, 0.0, 0.0)) -> np.ndarray:
-    from .io import composite_over
+    from warpvol.io import composite_over
 
     return np.clip(composite_over(np.asarray(image, np.float64), background), 0.0, 1.0)
 
@@ -242,14 +242,14 @@ class Rendering(RenderResult):
         """Per-pixel max absolute error over RGBA, (H, W), or ``None`` without a reference."""
         if self.reference is None:
             return None
-        from .metrics import error_image
+        from warpvol.metrics import error_image
 
         return error_image(self.image, self.reference)
 
     def save(self, path: str | Path, *, background=(0.0, 0.0, 0.0)) -> Path:
         """Write the image: ``.exr`` (float32 RGBA, as ``warpvol render -o``) or ``.png`` (8-bit,
         composited over ``background``), chosen by the extension. Returns the path."""
-        from .io import write_exr, write_png
+        from warpvol.io import write_exr, write_png
 
         p = Path(path)
         ext = p.suffix.lower()
@@ -287,7 +287,7 @@ class Rendering(RenderResult):
         return fig
 
     def _repr_png_(self) -> bytes:
-        from .io import write_png
+        from warpvol.io import write_png
 
         with tempfile.TemporaryDirectory() as d:
             path = Path(d) / "image.png"
@@ -474,7 +474,7 @@ def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, refere
     """
     from matplotlib.figure import Figure
 
-    from .errors import WarpvolError
+    from warpvol.errors import WarpvolError
 
     gpu_profile(gpu)
     device = _device(device)

@@ -2,7 +2,7 @@
 and stitched.
 
 A pixel's reference value depends only on its own ray, so the rows ``first..last`` of
-:func:`warpvol.reference.render_reference` (``rows=``) are bit-identical to the same rows of the whole
+:func:`warpvol.reference.numpy_render.render_reference` (``rows=``) are bit-identical to the same rows of the whole
 image, and the bands can be computed anywhere. ``scheduler="local"`` starts a local cluster of worker
 processes (one thread each, on 127.0.0.1); any other string is the address of a running Dask scheduler
 (``tcp://host:8786``), so the reference of a mesh too slow for one machine spreads over a cluster. The
@@ -24,8 +24,9 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .errors import ConfigError
-from .progress import ProgressBar
+from warpvol.errors import ConfigError
+from warpvol.progress import ProgressBar
+from warpvol.reference.numpy_render import render_reference
 
 
 def band_rows(height: int, n_bands: int) -> list[tuple[int, int]]:
@@ -37,15 +38,13 @@ def band_rows(height: int, n_bands: int) -> list[tuple[int, int]]:
 
 
 def _worker_setup() -> None:
-    from .pipeline import quiet_warp
+    from warpvol.pipeline import quiet_warp
 
     quiet_warp()
 
 
 def reference_band(scene: Any, first: int, last: int) -> np.ndarray:
     """Rows ``first..last`` of the scene's exact reference (runs on a worker; top-level so it pickles)."""
-    from .reference import render_reference
-
     _worker_setup()
     return render_reference(scene.mesh, scene.transfer, scene.camera, rows=(first, last))
 
@@ -94,7 +93,7 @@ def reference_in_bands(scene: Any, scheduler: str = "local", *, bands: int | Non
     Returns
     -------
     (H, W, 4) float64
-        Equal bit for bit to :func:`warpvol.reference.render_reference` of the whole image.
+        Equal bit for bit to :func:`warpvol.reference.numpy_render.render_reference` of the whole image.
     """
     from dask.distributed import as_completed
 
@@ -125,3 +124,16 @@ def reference_in_bands(scene: Any, scheduler: str = "local", *, bands: int | Non
     if stats is not None:
         stats.update(bands=len(rows), workers=n_workers, seconds=time.perf_counter() - t0)
     return img
+
+
+def compute_reference(scene, quiet: bool = False, scheduler: str | None = None, bands: int | None = None,
+                      workers: int = 2) -> tuple[np.ndarray, float]:
+    """The exact reference with a progress bar (ETA) on a terminal; with ``scheduler`` in row bands on a
+    Dask cluster (:mod:`warpvol.bands`)."""
+    t0 = time.perf_counter()
+    if scheduler is not None:
+        img = reference_in_bands(scene, scheduler, bands=bands, workers=workers, quiet=quiet)
+    else:
+        with ProgressBar("reference", enabled=not quiet) as bar:
+            img = render_reference(scene.mesh, scene.transfer, scene.camera, progress=bar.fraction)
+    return img, time.perf_counter() - t0

@@ -173,7 +173,7 @@ def set_cache_budget(n_bytes: int) -> None:
     """Bytes all session caches together may hold (least recently used entries go first)."""
     global BUDGET_BYTES
     if not isinstance(n_bytes, (int, np.integer)) or isinstance(n_bytes, bool) or n_bytes < 0:
-        from .errors import ConfigError
+        from warpvol.errors import ConfigError
 
         raise ConfigError(f"set_cache_budget(n_bytes): expected an integer >= 0, got {n_bytes!r}")
     with _lock:

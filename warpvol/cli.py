@@ -27,14 +27,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ConfigError, WarpvolError, check_number
-from .io import check_inputs
-from .timing import time_summary
+from warpvol.bands import compute_reference
+from warpvol.errors import ConfigError, WarpvolError, check_number
+from warpvol.io import check_inputs
+from warpvol.timing import time_summary
 
 
 def _load_scene(spec: str, args) -> "object":
-    from .builtin import builtin_scene
-    from .scene import load_scene
+    from warpvol.scene.builtin import builtin_scene
+    from warpvol.scene.scene_file import load_scene
 
     if spec.startswith("builtin:"):
         try:
@@ -99,9 +100,9 @@ def _check_writable(flag: str, folder: Path) -> None:
 
 
 def scene_inputs(spec: str) -> list[tuple[Path, str]]:
-    """The files a scene reads (:func:`warpvol.scene.scene_files`); ``[]`` for a built-in, and for a
+    """The files a scene reads (:func:`warpvol.scene.scene_file.scene_files`); ``[]`` for a built-in, and for a
     scene file that cannot be read (loading it then says why)."""
-    from .scene import scene_files
+    from warpvol.scene.scene_file import scene_files
 
     if spec.startswith("builtin:"):
         return []
@@ -113,7 +114,7 @@ def scene_inputs(spec: str) -> list[tuple[Path, str]]:
 
 def pipeline_inputs(names) -> list[tuple[Path, str]]:
     """The pipeline files among preset names and files."""
-    from .pipeline import _preset_files
+    from warpvol.pipeline import _preset_files
 
     presets = _preset_files()
     names = [names] if isinstance(names, (str, Path)) else list(names or [])
@@ -129,7 +130,7 @@ MAX_PIXELS = 2**31 - 1
 
 def _available_memory() -> int | None:
     """Bytes of memory available to this process now (:func:`warpvol.io.available_memory`)."""
-    from .io import available_memory
+    from warpvol.io import available_memory
 
     return available_memory()
 
@@ -169,24 +170,6 @@ def _size(nbytes: int) -> str:
     return f"{nbytes / 2**30:.1f} GiB" if nbytes >= 2**30 else f"{nbytes / 2**20:.0f} MiB"
 
 
-def compute_reference(scene, quiet: bool = False, scheduler: str | None = None, bands: int | None = None,
-                      workers: int = 2) -> tuple[np.ndarray, float]:
-    """The exact reference with a progress bar (ETA) on a terminal; with ``scheduler`` in row bands on a
-    Dask cluster (:mod:`warpvol.bands`)."""
-    from .progress import ProgressBar
-    from .reference import render_reference
-
-    t0 = time.perf_counter()
-    if scheduler is not None:
-        from .bands import reference_in_bands
-
-        img = reference_in_bands(scene, scheduler, bands=bands, workers=workers, quiet=quiet)
-    else:
-        with ProgressBar("reference", enabled=not quiet) as bar:
-            img = render_reference(scene.mesh, scene.transfer, scene.camera, progress=bar.fraction)
-    return img, time.perf_counter() - t0
-
-
 def _check_bands(args) -> None:
     """``--scheduler`` / ``--bands`` / ``--workers``, checked before any work."""
     if args.scheduler is None:
@@ -204,9 +187,9 @@ def _check_bands(args) -> None:
 
 
 def cmd_render(args) -> int:
-    from .io import Outputs, read_exr
-    from .metrics import write_error_png
-    from .pipeline import Pipeline, report_json
+    from warpvol.io import Outputs, read_exr
+    from warpvol.metrics import write_error_png
+    from warpvol.pipeline import Pipeline, report_json
 
     # everything a user can get wrong is checked before any costly work
     outs = check_outputs({"-o": args.output, "--report": args.report, "--png": args.png,
@@ -266,7 +249,7 @@ def _summary(report: dict) -> None:
 
 
 def cmd_gpus(args) -> int:
-    from .model import list_profiles
+    from warpvol.model import list_profiles
 
     for name, title, host in list_profiles():
         print(f"{name:<16} {title}" + (f"; host: {host}" if host else ""))
@@ -274,7 +257,7 @@ def cmd_gpus(args) -> int:
 
 
 def cmd_reference(args) -> int:
-    from .io import write_exr
+    from warpvol.io import write_exr
 
     out = check_outputs({"-o": args.output})["-o"]
     check_inputs(scene_inputs(args.scene), {"-o": out})
@@ -292,7 +275,8 @@ def cmd_reference(args) -> int:
 
 
 def cmd_pipelines(args) -> int:
-    from .pipeline import STAGES, _load_builtin_stages, list_presets
+    from warpvol.pipeline import _load_builtin_stages, list_presets
+    from warpvol.stage import STAGES
 
     for name, desc in list_presets():
         print(f"{name:<24} {desc}")
@@ -309,10 +293,10 @@ DEMO_FILES = ("image.exr", "reference.exr", "image.png", "error.png", "report.js
 
 
 def cmd_demo(args) -> int:
-    from .builtin import BUILTIN_SCENES, builtin_scene
-    from .io import Outputs, OwnedFiles
-    from .metrics import write_error_png
-    from .pipeline import DEFAULT_PIPELINE, Pipeline, report_json
+    from warpvol.io import Outputs, OwnedFiles
+    from warpvol.metrics import write_error_png
+    from warpvol.pipeline import DEFAULT_PIPELINE, Pipeline, report_json
+    from warpvol.scene.builtin import BUILTIN_SCENES, builtin_scene
 
     if args.scene not in BUILTIN_SCENES:
         raise ConfigError(f"--scene: unknown built-in scene {args.scene!r}; allowed: {', '.join(BUILTIN_SCENES)}")
@@ -367,8 +351,8 @@ def _outdir(path: str) -> Path:
 
 
 def cmd_bench(args) -> int:
-    from .bench import check_gpu, gpu_support, load_pipelines, resolve_pipelines, run_bench, write_bench
-    from .report_html import table_markdown
+    from warpvol.tools.bench import check_gpu, gpu_support, load_pipelines, resolve_pipelines, run_bench, write_bench
+    from warpvol.tools.report_html import table_markdown
 
     _check_sizes(args)
     check_number("--repeats", args.repeats, lo=1, integer=True)
@@ -376,9 +360,9 @@ def cmd_bench(args) -> int:
     pipes = load_pipelines(names, args.device, quick=args.quick)  # bad names fail first
     plan_pipes = dict(zip(names, pipes))
     check_gpu(args.gpu)
-    from .bench import (BENCH_FILES, BENCH_MODELLED_FILES, ROW_DIR, pipeline_digest, pipeline_keys, row_stem,
-                        row_store)
-    from .io import OwnedFiles
+    from warpvol.tools.bench import (BENCH_FILES, BENCH_MODELLED_FILES, ROW_DIR, pipeline_digest, pipeline_keys,
+                                     row_stem, row_store)
+    from warpvol.io import OwnedFiles
 
     keys = pipeline_keys(pipes)
     rels = [f"{ROW_DIR}/{row_stem(k)}{ext}" for k in keys for ext in (".json", ".npy")] + list(BENCH_FILES) \
@@ -416,7 +400,7 @@ def cmd_bench(args) -> int:
 
 
 def cmd_plan(args) -> int:
-    from .bench import bench_pipeline, load_pipelines
+    from warpvol.tools.bench import bench_pipeline, load_pipelines
 
     _check_sizes(args)
     check_number("--repeats", args.repeats, lo=1, integer=True)
@@ -446,14 +430,14 @@ def cmd_plan(args) -> int:
 
 
 def cmd_stress(args) -> int:
-    from .io import Outputs
-    from .pipeline import report_json
-    from .report_html import table_csv
-    from .stress import run_stress, stress_markdown, stress_matrix, stress_page
+    from warpvol.io import Outputs
+    from warpvol.pipeline import report_json
+    from warpvol.tools.report_html import table_csv
+    from warpvol.tools.stress import run_stress, stress_markdown, stress_matrix, stress_page
 
-    from .bench import load_pipelines, pipeline_digest, resolve_pipelines
-    from .io import OwnedFiles
-    from .stress import CASE_DIR, STRESS_FILES, case_store, check_case_names
+    from warpvol.io import OwnedFiles
+    from warpvol.tools.bench import load_pipelines, pipeline_digest, resolve_pipelines
+    from warpvol.tools.stress import CASE_DIR, STRESS_FILES, case_store, check_case_names
 
     if args.resume and not args.output:
         raise ConfigError("--resume: needs -o, the folder of the run to resume")
@@ -501,9 +485,9 @@ def cmd_stress(args) -> int:
 
 
 def cmd_sweep(args) -> int:
-    from .report_html import table_markdown
-    from .io import OwnedFiles
-    from .sweep import SWEEP_FILES, load_config, plan_tasks, run_sweep, write_sweep
+    from warpvol.io import OwnedFiles
+    from warpvol.tools.report_html import table_markdown
+    from warpvol.tools.sweep import SWEEP_FILES, load_config, plan_tasks, run_sweep, write_sweep
 
     check_number("--workers", args.workers, lo=1, integer=True)
     if args.scheduler is not None and not args.scheduler.startswith(("tcp://", "tls://", "inproc://")):
@@ -616,7 +600,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     st = sub.add_parser("stress", help="stiff and extreme scenes x every pipeline: finite? error? time? (exit 1 on a failure)")
     st.add_argument("--quick", action="store_true", help="the same cases at reduced sizes (CI)")
-    st.add_argument("--cases", nargs="+", help="case names (default: all; see warpvol.stress.CASES)")
+    st.add_argument("--cases", nargs="+", help="case names (default: all; see warpvol.tools.stress.CASES)")
     st.add_argument("--pipelines", nargs="+", default=["all"], help="'all' (every preset) or names/files")
     st.add_argument("-o", "--output", help="folder for stress.json / .csv / .md / .html (and cases/: each case's rows "
                     "saved as it finishes)")
@@ -626,7 +610,7 @@ def build_parser() -> argparse.ArgumentParser:
     st.set_defaults(func=cmd_stress)
 
     sw = sub.add_parser("sweep", help="scenes x views x presets x options as tasks on Dask (resumable)")
-    sw.add_argument("config", help="sweep TOML (see warpvol.sweep)")
+    sw.add_argument("config", help="sweep TOML (see warpvol.tools.sweep)")
     sw.add_argument("-o", "--output", required=True, help="output folder (tasks/, references/, table, plots, HTML)")
     sw.add_argument("--scheduler", help="tcp://HOST:PORT of a running Dask scheduler (default: a local cluster)")
     sw.add_argument("--workers", type=int, default=2, help="worker processes of the local cluster")
@@ -640,7 +624,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         if args.cmd in ("render", "reference", "demo", "bench", "plan", "stress", "sweep"):
-            from .pipeline import quiet_warp
+            from warpvol.pipeline import quiet_warp
 
             # the CLI keeps stdout for its summary and reports progress on stderr itself
             quiet_warp(cuda=str(getattr(args, "device", "cpu")).startswith("cuda"))

@@ -17,7 +17,7 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from .errors import ConfigError
+from warpvol.errors import ConfigError
 
 
 def _umask() -> int:

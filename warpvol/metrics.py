@@ -44,7 +44,7 @@ def write_error_png(path, image: np.ndarray, reference: np.ndarray, outputs=None
 
     With ``outputs`` (a :class:`warpvol.io.Outputs`) the file is staged there instead of written now.
     """
-    from .io import Outputs
+    from warpvol.io import Outputs
 
     err = error_image(image, reference)
     scale = float(err.max())

@@ -65,7 +65,7 @@ from dataclasses import dataclass, field
 from importlib import resources
 from typing import Any
 
-from .errors import ConfigError
+from warpvol.errors import ConfigError
 
 INFORMATIONAL = frozenset({"fragments_passed", "primitives", "primitives_culled", "texels", "texture_bytes",
                            "readbacks", "clears", "dependent_fetches", "rays", "entries", "passes",

@@ -1,8 +1,9 @@
-"""Stage framework: registry, parameters, planner, timing and the render report.
+"""Pipelines: stages chained from a preset or a config, the planner, timing and the render report.
 
-A *stage* is one hardware unit or host step. It validates its parameters when built, owns the buffers
-it creates (stored on the render :class:`Context`), launches its own kernels in :meth:`Stage.run`, and
-may tell the planner through :meth:`Stage.skip_reason` that the current scene does not need it.
+A *stage* (the framework: :mod:`warpvol.stage`) is one hardware unit or host step. It validates its
+parameters when built, owns the buffers it creates (stored on the render :class:`Context`), launches its
+own kernels in :meth:`Stage.run`, and may tell the planner through :meth:`Stage.skip_reason` that the
+current scene does not need it.
 
 A *pipeline* is an ordered list of stages built from a plain config (TOML or dict)::
 
@@ -31,74 +32,14 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .errors import ConfigError, check_choice, check_keys, check_number
-from .timing import CompileClock, announce_compile, split_times
-
-# ------------------------------------------------------------------------------------------------
-# parameters
-# ------------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Param:
-    """One stage parameter: type, default, allowed values and a one-line doc."""
-
-    name: str
-    kind: type
-    default: Any
-    doc: str
-    choices: tuple | None = None
-    lo: float | None = None
-    hi: float | None = None
-    lo_open: bool = False
-    hi_open: bool = False
-
-    def validate(self, where: str, value: Any) -> Any:
-        key = f"{where}.{self.name}"
-        if self.choices is not None:
-            return check_choice(key, value, self.choices)
-        if self.kind is bool:
-            if not isinstance(value, bool):
-                raise ConfigError(f"{key}: expected true or false, got {value!r}")
-            return value
-        if self.kind in (int, float):
-            return check_number(key, value, lo=self.lo, hi=self.hi, lo_open=self.lo_open,
-                                hi_open=self.hi_open, integer=self.kind is int)
-        if not isinstance(value, self.kind):
-            raise ConfigError(f"{key}: expected {self.kind.__name__}, got {value!r}")
-        return value
-
-    def describe(self) -> str:
-        rng = ""
-        if self.choices:
-            rng = " | ".join(map(str, self.choices))
-        elif self.lo is not None or self.hi is not None:
-            lo = "-inf" if self.lo is None else self.lo
-            hi = "inf" if self.hi is None else self.hi
-            rng = f"{'(' if self.lo_open else '['}{lo}, {hi}{')' if self.hi_open else ']'}"
-        return f"{self.name:<18} {self.kind.__name__:<6} {self.default!r:<12} {rng:<22} {self.doc}"
-
-
-# ------------------------------------------------------------------------------------------------
-# registry
-# ------------------------------------------------------------------------------------------------
-
-STAGES: dict[str, type["Stage"]] = {}
-
-
-def register_stage(cls: type["Stage"]) -> type["Stage"]:
-    """Class decorator: make a stage available to pipeline configs under ``cls.name``."""
-    if not getattr(cls, "name", None):
-        raise TypeError(f"{cls.__name__} has no stage name")
-    if cls.name in STAGES and STAGES[cls.name] is not cls:
-        raise TypeError(f"stage name {cls.name!r} registered twice")
-    STAGES[cls.name] = cls
-    return cls
+from warpvol.errors import ConfigError, check_choice, check_keys, check_number
+from warpvol.stage import STAGES, Context, Param, Stage, register_stage  # noqa: F401  (the framework's names)
+from warpvol.timing import CompileClock, announce_compile, split_times
 
 
 def _load_builtin_stages() -> None:
     # importing the package registers every stage module it lists
-    from . import stages  # noqa: F401
+    from warpvol import stages  # noqa: F401  (the catalog sits above the families; loaded on first use)
 
 
 def get_stage_class(name: str, where: str = "stage") -> type["Stage"]:
@@ -108,113 +49,13 @@ def get_stage_class(name: str, where: str = "stage") -> type["Stage"]:
     return STAGES[name]
 
 
-class Stage:
-    """Base class of all stages.
-
-    Subclasses set ``name``, ``summary`` and ``params`` (a tuple of :class:`Param`) and implement
-    :meth:`run`. They may override :meth:`skip_reason` (planner hook).
-    """
-
-    name: ClassVar[str] = ""
-    summary: ClassVar[str] = ""
-    params: ClassVar[tuple[Param, ...]] = ()
-    #: names of what the stage reads (``ctx.buffers`` keys; ``"image"`` for ``ctx.image``) and what it
-    #: writes; a pipeline whose stages lack what they need is rejected when it is built. A name may
-    #: refer to a parameter as ``"{param}"`` (e.g. a table stage's ``"{output}"`` key).
-    needs: ClassVar[tuple[str, ...]] = ()
-    provides: ClassVar[tuple[str, ...]] = ()
-    #: a per-mesh / per-TF set-up step whose result is kept across renders (tables, cell data): its time
-    #: is reported as ``setup_s``, apart from the frame (``render_s``); when it reuses what it built
-    #: before it says so with ``ctx.stats[name]["cached"] = True`` (or is skipped by the planner)
-    setup: ClassVar[bool] = False
-
-    def __init__(self, device: str = "cpu", where: str | None = None, **params: Any):
-        self.device = device
-        self.where = where or f"stage {self.name!r}"
-        allowed = {p.name: p for p in self.params}
-        check_keys(self.where, params, list(allowed))
-        self.config: dict[str, Any] = {}
-        for p in self.params:
-            self.config[p.name] = p.validate(self.where, params[p.name]) if p.name in params else p.default
-        self.validate()
-
-    def validate(self) -> None:
-        """Cross-parameter checks (override)."""
-
-    def __getattr__(self, item: str) -> Any:
-        cfg = self.__dict__.get("config")
-        if cfg is not None and item in cfg:
-            return cfg[item]
-        raise AttributeError(item)
-
-    def requires_caps(self) -> dict[str, Any]:
-        """Capabilities a modelled GPU must have for this stage (``render(gpu=...)``): ``{cap: True,
-        a minimum number, or a value the profile's list holds}``; names in :mod:`warpvol.model`."""
-        return {}
-
-    def skip_reason(self, ctx: "Context") -> str | None:
-        """Planner hook: return a reason if this scene does not need the stage, else ``None``."""
-        return None
-
-    def run(self, ctx: "Context") -> None:  # pragma: no cover - abstract
-        raise NotImplementedError
-
-    @classmethod
-    def doc_table(cls) -> str:
-        """Plain-text parameter table (used by ``warpvol pipelines --stages``)."""
-        lines = [f"{cls.name}: {cls.summary}",
-                 f"    needs: {', '.join(cls.needs) or '-'}; provides: {', '.join(cls.provides) or '-'}"]
-        lines += ["    " + p.describe() for p in cls.params] or ["    (no parameters)"]
-        return "\n".join(lines)
-
-    def __repr__(self) -> str:
-        return f"{type(self).__name__}({', '.join(f'{k}={v!r}' for k, v in self.config.items())})"
-
-
-# ------------------------------------------------------------------------------------------------
-# context and report
-# ------------------------------------------------------------------------------------------------
-
-
-@dataclass
-class Context:
-    """What the stages of one render share: the scene, the device, buffers and the output image."""
-
-    scene: Any
-    device: str = "cpu"
-    buffers: dict[str, Any] = field(default_factory=dict)
-    stats: dict[str, Any] = field(default_factory=dict)
-    image: np.ndarray | None = None
-    quiet: bool = False
-    #: state that outlives one render and belongs to the pipeline (e.g. the table cache), so
-    #: rendering again, or after a TF edit, rebuilds only what changed
-    persistent: dict[str, Any] = field(default_factory=dict)
-    #: counted work per stage (report key -> counter name -> integer), filled through :meth:`count`
-    counters: dict[str, dict[str, int]] = field(default_factory=dict)
-    #: report key of the stage now running (``None`` outside a stage)
-    stage_key: str | None = None
-    #: set by a stage that wrote the final image early (e.g. nothing in view): why the later stages
-    #: are skipped
-    finished: str | None = None
-
-    def count(self, **amounts: int) -> None:
-        """Add to the running stage's counters, e.g. ``ctx.count(cell_steps=n, fragments=m)``."""
-        d = self.counters.setdefault(self.stage_key or "_host", {})
-        for k, v in amounts.items():
-            d[k] = d.get(k, 0) + int(v)
-
-    def progress(self, msg: str) -> None:
-        if not self.quiet:
-            print(f"[warpvol] {msg}", file=sys.stderr, flush=True)
-
-
 @dataclass
 class RenderResult:
     image: np.ndarray
     report: dict
 
     def write_report(self, path: str | Path) -> None:
-        from .io import atomic_write_text
+        from warpvol.io import atomic_write_text
 
         atomic_write_text(path, report_json(self.report))
 
@@ -407,7 +248,7 @@ class Pipeline:
 
         Examples
         --------
-        >>> from warpvol.builtin import builtin_scene
+        >>> from warpvol.scene.builtin import builtin_scene
         >>> [(p["stage"], p["run"]) for p in Pipeline.load("raycast").plan(builtin_scene("box"))]
         [('condition', True), ('cell_setup', True), ('entry_bins', True), ('raycast', True), ('peel', False)]
         """
@@ -430,7 +271,7 @@ class Pipeline:
         or report keys that run even when their :meth:`Stage.skip_reason` says the scene does not need
         them (the planner audit's "with the skipped stage" render); they are listed under
         ``report["forced"]`` with the reason."""
-        from .gpu.counters import Counters
+        from warpvol.gpu.counters import Counters
 
         force = {force} if isinstance(force, str) else set(force)
         if device is not None and not isinstance(device, str):
@@ -447,14 +288,14 @@ class Pipeline:
                                   "(height_px, width_px, RGBA)")
         model = None
         if gpu is not None:
-            from . import model
+            from warpvol import model
 
             profile = model.load_profile(gpu)
             for st in self.stages:
                 model.check_caps(profile, st.where, st.requires_caps())
         ctx = Context(scene=scene, device=device, quiet=quiet, persistent=self.persistent)
         if not any(st.name == "condition" for st in self.stages):  # input cast to float32 as it is: say what it loses
-            from .conditioning import precision_warnings
+            from warpvol.conditioning.conditioning import precision_warnings
 
             if (precision := precision_warnings(scene)) is not None:
                 ctx.stats["precision"] = precision
@@ -511,7 +352,7 @@ class Pipeline:
         if ctx.stats:
             report["stats"] = ctx.stats
         if reference is not None:
-            from .metrics import image_error
+            from warpvol.metrics import image_error
 
             report["error"] = image_error(img, reference)
         return RenderResult(img, report)

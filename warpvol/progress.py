@@ -13,6 +13,7 @@ Examples
 from __future__ import annotations
 
 import sys
+import time
 
 
 class ProgressBar:
@@ -49,3 +50,30 @@ class ProgressBar:
         self.done = min(self.total, self.done + n)
         if self._bar is not None:
             self._bar.update(self._task, completed=self.done)
+
+
+class Progress:
+    """A one-line progress bar on stderr (a line per step when stderr is not a terminal)."""
+
+    def __init__(self, total: int, label: str, enabled: bool = True, stream=None):
+        self.total, self.label, self.done, self.enabled = max(int(total), 1), label, 0, enabled
+        self.stream = stream or sys.stderr
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.t0 = time.perf_counter()
+
+    def step(self, what: str, n: int = 1) -> None:
+        self.done = min(self.done + n, self.total)
+        if not self.enabled:
+            return
+        frac = self.done / self.total
+        bar = "#" * int(frac * 24)
+        line = f"[warpvol] {self.label} [{bar:<24}] {self.done}/{self.total} {time.perf_counter() - self.t0:6.1f} s  {what}"
+        if self.tty:
+            self.stream.write("\r" + line[:150].ljust(150) + ("\n" if self.done >= self.total else ""))
+        else:
+            self.stream.write(line + "\n")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.enabled and self.tty and self.done < self.total:
+            self.stream.write("\n")

@@ -1,1 +1,1 @@
-"""Emulated GPU units: number formats live in warpvol.formats; textures, rasteriser, blending, vertex stage here."""
+"""Emulated GPU units: number formats (:mod:`.formats`), counters, textures, rasteriser, blending, vertex stage."""

@@ -1,7 +1,7 @@
 """Blending unit and frame buffers of the emulated GPU.
 
 A :class:`FrameBuffer` holds RGBA values of one number format (``unorm8``, ``unorm12``,
-``unorm16``, ``fp16``, ``fp32``, any ``unorm<n>``; see :mod:`warpvol.formats`); a
+``unorm16``, ``fp16``, ``fp32``, any ``unorm<n>``; see :mod:`warpvol.gpu.formats`); a
 :class:`BlendUnit` holds the blend function ``(src factor, dst factor)`` and blends fragments into a
 frame buffer, rounding to the buffer's format after *every* blend (this is what makes 8-bit buffers
 band). The exact arithmetic (integer for fixed point, binary16 for fp16) is documented in
@@ -53,12 +53,12 @@ import numpy as np
 import warp as wp
 
 from warpvol.errors import ConfigError, check_choice, check_number
-from warpvol.formats import NumberFormat, SNorm, UNorm, get_format
+from warpvol.gpu.formats import NumberFormat, SNorm, UNorm, get_format
 
-from . import counters as _cnt
+from warpvol.gpu import counters as _cnt
 from warpvol.kernels import blend as kblend
 
-from .dither import dither_table
+from warpvol.gpu.dither import dither_table
 
 FACTORS = {
     "zero": 0, "one": 1, "src_color": 2, "one_minus_src_color": 3, "src_alpha": 4, "one_minus_src_alpha": 5,
@@ -182,7 +182,7 @@ class FrameBuffer:
         ``fmt`` defaults to the texel format that holds the buffer exactly: ``rgba8`` for unorm8,
         ``rgba16`` for unorm16, ``rgba16f`` for fp16, else ``rgba32f``. Texture row ``r`` = buffer row ``r``.
         """
-        from .texture import Texture2D
+        from warpvol.gpu.texture import Texture2D
 
         if fmt is None:
             fmt = {"unorm8": "rgba8", "unorm16": "rgba16", "fp16": "rgba16f"}.get(self.fmt.name, "rgba32f")

@@ -295,7 +295,7 @@ def _positions(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def emulated_coverage(xy: np.ndarray, width: int, height: int, **rules) -> np.ndarray:
     """Per-triangle coverage (T, H, W) bool of the emulated rasteriser (warpvol rows, row 0 = top)."""
-    from .raster import Rasterizer
+    from warpvol.gpu.raster import Rasterizer
 
     pos, tris = _positions(xy)
     fr = Rasterizer(width, height, **rules).fragments(pos, tris)
@@ -307,8 +307,8 @@ def emulated_coverage(xy: np.ndarray, width: int, height: int, **rules) -> np.nd
 def emulated_draw(xy: np.ndarray, colors: np.ndarray, width: int, height: int, blend: tuple, background: np.ndarray,
                   arithmetic: str, interpolation: str, **rules) -> np.ndarray:
     """The emulated units' RGBA8 codes (H, W, 4) after drawing ``xy`` with vertex colour codes over ``background``."""
-    from .blend import BlendUnit, FrameBuffer
-    from .raster import Rasterizer
+    from warpvol.gpu.blend import BlendUnit, FrameBuffer
+    from warpvol.gpu.raster import Rasterizer
 
     pos, tris = _positions(xy)
     fb = FrameBuffer(width, height, "unorm8")
@@ -322,7 +322,7 @@ def emulated_draw(xy: np.ndarray, colors: np.ndarray, width: int, height: int, b
 
 def _last_fragment_values(xy: np.ndarray, colors: np.ndarray, width: int, height: int) -> np.ndarray:
     """fp32 barycentric Gouraud colour (H, W, 4) of the last fragment at each pixel (NaN where none)."""
-    from .raster import Rasterizer
+    from warpvol.gpu.raster import Rasterizer
 
     pos, tris = _positions(xy)
     rgba = colors.reshape(-1, 4).astype(np.float32) * np.float32(1 / 255)
@@ -345,7 +345,7 @@ def conformance_figures(canvas: GLCanvas, seed: int) -> dict:
     ``gouraud`` {interp_rule/arithmetic: (codes differing, max difference, codes, how many of the
     differing were within 1e-3 code of an exact k + 1/2 tie in the barycentric fp32 value)}.
     """
-    from .raster import LLVMPIPE_RULES
+    from warpvol.gpu.raster import LLVMPIPE_RULES
 
     w, h = canvas.width, canvas.height
     xy, group, names = conformance_soup(seed, w, h)

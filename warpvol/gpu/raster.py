@@ -76,7 +76,7 @@ from warpvol.kernels import raster as kr
 from warpvol.kernels import raster_draw as krd
 from warpvol.parallel import blocks, launch_blocks, preload
 
-from . import counters as _cnt
+from warpvol.gpu import counters as _cnt
 
 CULL_MODES = {"none": 0, "back": 1, "front": 2}
 FRONT_FACES = ("ccw", "cw")
@@ -468,7 +468,7 @@ class Rasterizer:
         ``blend`` is a :class:`~warpvol.gpu.blend.BlendUnit`; ``depth`` defaults to ``fb.depth``.
         ``prim0`` offsets primitive numbers (dither-table indexing) for multi-call sequences.
         """
-        from .blend import FrameBuffer
+        from warpvol.gpu.blend import FrameBuffer
 
         if not isinstance(fb, FrameBuffer) or fb.shape != self.shape:
             raise ConfigError(f"fb: expected a FrameBuffer of {self.width}x{self.height}")
@@ -545,8 +545,8 @@ def draw_textured_quads(fb, blend, texture, corners: Any, modulate: Sequence[flo
     """
     from warpvol.kernels import raster_draw as _krd
 
-    from .blend import FrameBuffer
-    from .texture import Texture1D
+    from warpvol.gpu.blend import FrameBuffer
+    from warpvol.gpu.texture import Texture1D
 
     if not isinstance(fb, FrameBuffer):
         raise ConfigError(f"fb: expected a FrameBuffer, got {type(fb).__name__}")

@@ -1,6 +1,6 @@
 """Texture units of the emulated GPU: 1D/2D/3D textures with a texel format, filtering, atlas.
 
-Texel formats (``fmt=``), each a number format from :mod:`warpvol.formats` plus a channel layout;
+Texel formats (``fmt=``), each a number format from :mod:`warpvol.gpu.formats` plus a channel layout;
 what a lookup returns is always RGBA:
 
 ============  =========  ========  ====================  ============================================
@@ -35,10 +35,10 @@ import numpy as np
 import warp as wp
 
 from warpvol.errors import ConfigError, check_choice, check_number
-from warpvol.formats import FP16, FP32, SNORM8, UNORM8, UNORM12, UNORM16, NumberFormat
+from warpvol.gpu.formats import FP16, FP32, SNORM8, UNORM8, UNORM12, UNORM16, NumberFormat
 from warpvol.kernels import texture as ktex
 
-from . import counters as _cnt
+from warpvol.gpu import counters as _cnt
 
 FILTERS = ("nearest", "linear")
 

@@ -2,7 +2,7 @@
 
 Example
 -------
->>> from warpvol.camera import Camera
+>>> from warpvol.scene.camera import Camera
 >>> cam = Camera(eye=[0, 0, 5], target=[0, 0, 0], width_px=4, height_px=4, fov_y_deg=90)
 >>> vs = VertexStage.from_camera(cam, near=1.0, far=10.0)
 >>> out = vs.transform([[0.0, 0.0, 0.0]])
@@ -21,7 +21,7 @@ import warp as wp
 from warpvol.errors import ConfigError, check_number
 from warpvol.kernels import vertex as kv
 
-from . import counters as _cnt
+from warpvol.gpu import counters as _cnt
 
 
 @dataclass
@@ -88,7 +88,7 @@ class VertexStage:
     @classmethod
     def from_camera(cls, camera, near: float, far: float, model: Any = None, device: str = "cpu",
                     eye_offset: float = 0.0) -> "VertexStage":
-        """Matrices of a :class:`~warpvol.camera.Camera` (``model`` defaults to identity)."""
+        """Matrices of a :class:`~warpvol.scene.camera.Camera` (``model`` defaults to identity)."""
         near = check_number("near", near)
         far = check_number("far", far)
         mv = camera.view_matrix() @ (np.eye(4) if model is None else _mat(model, "model"))

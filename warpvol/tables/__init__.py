@@ -1,4 +1,4 @@
-"""Pre-integration table builders of the five papers (plain functions; stages in ``warpvol.stages.tables.table_*``).
+"""Pre-integration table builders of the five papers (plain functions; stages in ``warpvol.tables.stages.table_*``).
 
 Every builder returns a :class:`~warpvol.tables.base.Table` (decoded float32 ``data`` in texture order,
 ``axes``, ``channels``, stored ``format`` with ``raw`` texels, cache ``key``, ``meta``) and takes
@@ -23,7 +23,7 @@ positions only; psi: nothing) and parameters. Tolerances of every builder/format
 table, ``TOLERANCES`` in ``tests/test_tables_common.py``.
 """
 
-from .base import Axis, Table, sample3d  # noqa: F401
+from warpvol.tables.base import Axis, Table, sample3d  # noqa: F401
 
 
 def __getattr__(name):

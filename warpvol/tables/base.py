@@ -20,7 +20,7 @@ Stored formats
 ``fp32`` (as computed), ``fp16``, ``rgba8`` (UNorm8 per channel), ``hilo16`` (UNorm16 per channel,
 NVIDIA HILO: two 16-bit channels per texture, so an RGBA table is two HILO textures),
 ``snorm8`` (signed texels in [-1, 1], Guthe's polynomial coefficients) and ``al16`` (Guthe's 16-bit
-opacity in an 8-bit A/L pair). Quantisation goes through :mod:`warpvol.formats` (the emulated GPU's
+opacity in an 8-bit A/L pair). Quantisation goes through :mod:`warpvol.gpu.formats` (the emulated GPU's
 number formats); this module only picks the codec.
 """
 
@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConfigError, check_choice
+from warpvol.errors import ConfigError, check_choice
 
 AXIS_KINDS = ("centred", "endpoint", "log2")
 TABLE_FORMATS = ("fp32", "fp16", "rgba8", "hilo16", "snorm8", "al16")
@@ -99,12 +99,12 @@ class Axis:
 
 
 # ------------------------------------------------------------------------------------------------
-# formats (codec choice only; the arithmetic is warpvol.formats)
+# formats (codec choice only; the arithmetic is warpvol.gpu.formats)
 # ------------------------------------------------------------------------------------------------
 
 
 STORAGE = {
-    # table format -> warpvol.formats object (per channel) and what the raw texels are
+    # table format -> warpvol.gpu.formats object (per channel) and what the raw texels are
     "fp16": "fp16",      # raw: IEEE binary16 bit patterns (uint16)
     "rgba8": "unorm8",   # raw: 8-bit codes per channel, round to nearest, saturate
     "hilo16": "unorm16", # raw: 16-bit codes per channel (HILO: 2 channels per texture)
@@ -115,10 +115,10 @@ STORAGE = {
 def quantise(values: np.ndarray, fmt: str) -> tuple[np.ndarray, np.ndarray | None]:
     """``(decoded float32 values, raw stored texels or None)`` of ``values`` stored as ``fmt``.
 
-    Every conversion is :mod:`warpvol.formats` (one emulated GPU); ``al16`` stores each channel as
+    Every conversion is :mod:`warpvol.gpu.formats` (one emulated GPU); ``al16`` stores each channel as
     Guthe's 8-bit A/L pair (raw has a trailing axis of 2: A code, L code).
     """
-    from .. import formats as F
+    from warpvol.gpu import formats as F
 
     check_choice("format", fmt, TABLE_FORMATS)
     v = np.asarray(values, dtype=np.float32)
@@ -236,13 +236,13 @@ def model_id(tf) -> int:
 
 
 def check_resolution(name: str, n: Any, lo: int = 1, hi: int = 4096) -> int:
-    from ..errors import check_number
+    from warpvol.errors import check_number
 
     return int(check_number(name, n, lo=lo, hi=hi, integer=True))
 
 
 def check_positive(name: str, v: Any) -> float:
-    from ..errors import check_number
+    from warpvol.errors import check_number
 
     return float(check_number(name, v, lo=0.0, lo_open=True))
 

@@ -19,29 +19,29 @@ from __future__ import annotations
 from collections import OrderedDict
 from typing import Any
 
-from ..errors import check_choice
-from .base import Table, table_key
+from warpvol.errors import check_choice
+from warpvol.tables.base import Table, table_key
 
 
 def _builders() -> dict:
-    from .cylindrical import build_cylindrical
-    from .exact import build_exact3d
-    from .guthe2d import build_guthe2d
-    from .incremental import build_incremental
-    from .isocross import build_isocross
-    from .psi import build_psi
-    from .roettger_sw import build_roettger_sw
+    from warpvol.tables.cylindrical import build_cylindrical
+    from warpvol.tables.exact import build_exact3d
+    from warpvol.tables.guthe2d import build_guthe2d
+    from warpvol.tables.incremental import build_incremental
+    from warpvol.tables.isocross import build_isocross
+    from warpvol.tables.psi import build_psi
+    from warpvol.tables.roettger_sw import build_roettger_sw
 
     b = {"exact3d": build_exact3d, "roettger_sw": build_roettger_sw, "incremental": build_incremental,
          "cylindrical": build_cylindrical, "guthe2d": build_guthe2d, "psi": build_psi, "isocross": build_isocross}
     try:
-        from .roettger_hw import build_roettger_hw
+        from warpvol.tables.roettger_hw import build_roettger_hw
 
         b["roettger_hw"] = build_roettger_hw
     except ImportError:  # pragma: no cover - hardware units not available
         pass
     try:
-        from .pingpong import build_pingpong
+        from warpvol.tables.pingpong import build_pingpong
 
         b["pingpong"] = build_pingpong
     except ImportError:  # pragma: no cover
@@ -57,7 +57,7 @@ def dependency_hash(builder: str, tf) -> str | None:
     if builder in TF_FREE:
         return None
     if builder == "isocross":
-        from .isocross import iso_hash
+        from warpvol.tables.isocross import iso_hash
 
         return iso_hash(tf)
     return tf.hash

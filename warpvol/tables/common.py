@@ -8,9 +8,9 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from ..errors import ConfigError, check_choice, check_number
-from ..transfer import TransferFunction
-from .base import Axis, Table, model_id, quantise, table_key
+from warpvol.errors import ConfigError, check_choice, check_number
+from warpvol.scene.transfer import TransferFunction
+from warpvol.tables.base import Axis, Table, model_id, quantise, table_key
 
 _KERNELS = None
 #: builders that count their own work (GPU units, software samples) rather than host texels
@@ -24,7 +24,7 @@ def kernels():
         import warp as wp
 
         wp.init()
-        from ..kernels import preint
+        from warpvol.kernels import preint
 
         _KERNELS = preint
     return _KERNELS
@@ -90,7 +90,7 @@ def launch_bands(kernel, n_l: int | None, n_rows: int, n_cols: int, device: str,
     """
     import warp as wp
 
-    from ..parallel import launch_blocks
+    from warpvol.parallel import launch_blocks
 
     rows = max(1, min(n_rows, BAND_WORK // max(1, n_cols * (1 + max(1, pieces)))))
     slabs = [(l0, j0, min(rows, n_rows - j0)) for l0 in range(n_l or 1) for j0 in range(0, n_rows, rows)]
@@ -117,7 +117,7 @@ def launch_bands(kernel, n_l: int | None, n_rows: int, n_cols: int, device: str,
 
 def tf_pieces(tf: TransferFunction) -> int:
     """Pieces of the TF as the kernels see it (collinear runs merged: :func:`warpvol.kernels.tf.device_points`)."""
-    from ..kernels.tf import device_points
+    from warpvol.kernels.tf import device_points
 
     return max(1, len(device_points(tf.points)) - 1)
 
@@ -152,7 +152,7 @@ def finish(name: str, values: np.ndarray, axes, channels, fmt: str, key: tuple, 
     if not np.isfinite(v).all():  # a builder bug, never an input problem: fail loudly
         raise FloatingPointError(f"table {name}: {int((~np.isfinite(v)).sum())} non-finite entries")
     if name not in SELF_COUNTING:  # texels computed on the host (the hardware builders count their units)
-        from ..gpu import counters as cnt
+        from warpvol.gpu import counters as cnt
 
         cnt.count(host_texels=int(np.prod(v.shape[:-1])))
     dec, raw = quantise(v, fmt)

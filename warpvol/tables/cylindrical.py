@@ -43,10 +43,10 @@ import math
 
 import numpy as np
 
-from .base import TABLE_FORMATS, Axis, Table
-from .common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_bands,
+from warpvol.tables.base import TABLE_FORMATS, Axis, Table
+from warpvol.tables.common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_bands,
                      linear_index_map, model_id, table_key, tf_arrays, tf_pieces, timed)
-from .exact import build_exact3d
+from warpvol.tables.exact import build_exact3d
 
 PLANE_FACTORS = {"4x": 4, "2x": 2, "1x": 1}
 
@@ -160,7 +160,7 @@ def build_cylindrical(tf, *, n_s: int = 64, n_l: int | None = None, lmax: float 
 
 
 def _make_texture(planes: Table, device: str, weight_bits: int | None):
-    from ..gpu.texture import TextureAtlas
+    from warpvol.gpu.texture import TextureAtlas
 
     return TextureAtlas(planes.data, fmt=TEXEL_FORMAT[planes.format], filter="linear", device=device,
                         weight_bits=weight_bits)

@@ -3,7 +3,7 @@
 Opacity, separated exactly: ``rho_hat(sf, sb) = int_0^1 rho(sf + t (sb - sf)) dt`` (a 2D texture,
 stored normalised by its maximum ``rho_max``) and ``alpha = alpha1D(l rho_hat)``,
 ``alpha1D(x) = 1 - exp(-x)``, a 1D dependent texture over ``x_n = (l / lmax)(rho_hat / rho_max)``
-holding 16-bit opacity as an 8-bit A/L pair (``alpha = 256 A/257 + L/257``, :class:`warpvol.formats.Pair16`).
+holding 16-bit opacity as an 8-bit A/L pair (``alpha = 256 A/257 + L/257``, :class:`warpvol.gpu.formats.Pair16`).
 
 Colour: normalised emission ``C_hat(l) = C(l) / alpha(l)`` approximated by a polynomial in
 ``x = l / lmax``: ``C ~ alpha sum_i x^i C~_i``. The coefficients interpolate ``degree + 1`` equally
@@ -24,10 +24,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ConfigError
-from .base import Axis, Table, quantise
-from .common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_bands, model_id,
-                     scalar_axis, table_key, tf_arrays, tf_pieces, timed)
+from warpvol.errors import ConfigError
+from warpvol.tables.base import Axis, Table, quantise
+from warpvol.tables.common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels,
+                                   launch_bands, model_id, scalar_axis, table_key, tf_arrays, tf_pieces, timed)
 
 COEF_FORMATS = ("snorm8", "fp16", "fp32")
 ALPHA_FORMATS = ("al16", "rgba8", "fp32")
@@ -116,7 +116,7 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
                 sl[l0:l0 + nl, j0:j0 + nj]], pieces=pieces, what=f"Guthe slices {degree}x{n_s}x{n_s}")
             s = sl.numpy().astype(np.float64)
         else:
-            from .pingpong import build_pingpong
+            from warpvol.tables.pingpong import build_pingpong
 
             pp = build_pingpong(tf, n_s=n_s, lengths=tuple(np.arange(1, degree + 1) / degree), lmax=lmax, m=m,
                                 gpu=gpu, device=device, emulate=emulate)
@@ -179,7 +179,7 @@ def textures(table: Table, device: str = "cpu", weight_bits: int | None = 8) -> 
     """The stored tables as the emulated texture unit holds them: ``coef`` (one RGBA 2D texture per
     coefficient, signed 8-bit for ``snorm8``), ``rho`` (unsigned 8-bit 2D: ``SIGNED_RGB_UNSIGNED_ALPHA``)
     and ``alpha1d`` (1D, the 16-bit opacity as an A/L pair in ``la8``)."""
-    from ..gpu.texture import Texture1D, Texture2D
+    from warpvol.gpu.texture import Texture1D, Texture2D
 
     kw = dict(filter="linear", device=device, weight_bits=weight_bits)
     d = table.data
@@ -210,12 +210,12 @@ def reconstruct(table: Table, sf, sb, l, device: str = "cpu", via: str = "textur
         what the 2002 hardware computed. ``"float"``: float64 bilinear filtering of the decoded
         textures, the approximation error alone (``weight_bits`` unused).
     """
-    from ..errors import check_choice
+    from warpvol.errors import check_choice
 
     via = check_choice("via", via, RECONSTRUCT_VIA)
     if via == "float":
         return _reconstruct_float(table, sf, sb, l)
-    from ..formats import Pair16
+    from warpvol.gpu.formats import Pair16
 
     sf, sb, l = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in (sf, sb, l)))
     shape = sf.shape
@@ -227,7 +227,7 @@ def reconstruct(table: Table, sf, sb, l, device: str = "cpu", via: str = "textur
     na = tx["alpha1d"].shape[0]
     ua = np.float32(0.5 / na) + lc * rho_n * np.float32(1.0 - 1.0 / na)
     a = tx["alpha1d"].sample(ua)
-    from ..gpu import counters as cnt
+    from warpvol.gpu import counters as cnt
 
     cnt.count(dependent_fetches=uv.shape[0])  # the alpha1D fetch's coordinate came from the rho fetch
     alpha = Pair16.value(a[:, 3], a[:, 0]) if tx["alpha_format"] == "al16" else a[:, 0]

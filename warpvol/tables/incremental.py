@@ -22,8 +22,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import TABLE_FORMATS, Axis
-from .common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_bands,
+from warpvol.tables.base import TABLE_FORMATS, Axis
+from warpvol.tables.common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_bands,
                      linear_index_map, model_id, scalar_axis, table_key, tf_arrays, tf_pieces, timed)
 
 THICKNESS_AXES = {"uniform": "endpoint", "log2": "log2"}

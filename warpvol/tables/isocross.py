@@ -28,8 +28,8 @@ import hashlib
 
 import numpy as np
 
-from .base import Axis, Table
-from .common import check_choice, check_res, check_tf, farr, finish, kernels, table_key, timed
+from warpvol.tables.base import Axis, Table
+from warpvol.tables.common import check_choice, check_res, check_tf, farr, finish, kernels, table_key, timed
 
 LIMITS = {"segment": 1, "direction": 0}
 
@@ -38,7 +38,7 @@ def iso_values(tf) -> np.ndarray:
     """The TF's control points normalised to [0, 1] over its range (float32, ascending), as the kernels
     see them: collinear runs merged (:func:`warpvol.kernels.tf.device_points`; a densely sampled TF has
     the iso values of the pieces it samples)."""
-    from ..kernels.tf import device_points
+    from warpvol.kernels.tf import device_points
 
     lo, hi = tf.srange
     return ((device_points(tf.points)[:, 0] - lo) / (hi - lo)).astype(np.float32)

@@ -1,5 +1,5 @@
 """Guthe et al. 2002 §4: hardware pre-integration by ping-pong filtering at 12 bits, on the emulated
-GPU (texture unit for the TF texture, :mod:`warpvol.formats` for every channel write).
+GPU (texture unit for the TF texture, :mod:`warpvol.gpu.formats` for every channel write).
 
 A 12-bit value is an 8-bit high part plus 4 low bits: ``C = H + L / 256`` (H, L the channels'
 normalised values, 255 in H meaning 1.0). The TF texture (RGBA8, ``n_tex`` texels, linear) holds
@@ -18,18 +18,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import ConfigError, check_number
-from ..parallel import launch_blocks, row_blocks
-from .base import TABLE_FORMATS, Axis
-from .common import check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, scalar_axis, table_key, timed
+from warpvol.errors import ConfigError, check_number
+from warpvol.parallel import launch_blocks, row_blocks
+from warpvol.tables.base import TABLE_FORMATS, Axis
+from warpvol.tables.common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels,
+                                   scalar_axis, table_key, timed)
 
 OVERFLOW = {"radeon8500": "wrap", "geforce4": "saturate"}
 
 
 def split_texture_values(tf, n_tex: int, l: float, m: int, channel: int) -> np.ndarray:
     """RGBA8 texel values (n_tex, 4) of the TF texture for one colour channel (hi/lo split,
-    :class:`warpvol.formats.Split12` truncating, as the shader's 8-bit writes)."""
-    from ..formats import Split12
+    :class:`warpvol.gpu.formats.Split12` truncating, as the shader's 8-bit writes)."""
+    from warpvol.gpu.formats import Split12
 
     lo_s, hi_s = tf.srange
     x = (np.arange(n_tex) + 0.5) / n_tex
@@ -49,7 +50,7 @@ def count_pingpong(jobs, m: int, per_pass: int, n_s: int) -> None:
     full-slice quad; a fragment fetches the ping texel (2D RGBA8, nearest) and one TF texel per step,
     runs ``per_pass`` shader steps and writes RGBA8 (no blending); the pong buffer is copied to the
     ping texture after each pass (on the card) and the channel's last pass is read back."""
-    from ..gpu import counters as cnt
+    from warpvol.gpu import counters as cnt
 
     c = cnt.active()
     if c is None:
@@ -66,7 +67,7 @@ def count_pingpong(jobs, m: int, per_pass: int, n_s: int) -> None:
 
 def count_moments(n_s: int) -> None:
     """Host work of the exact opacity (and colour) moments: one software integral per texel."""
-    from ..gpu import counters as cnt
+    from warpvol.gpu import counters as cnt
 
     cnt.count(host_texels=n_s * n_s)
 
@@ -102,8 +103,8 @@ def build_pingpong(tf, *, n_s: int = 128, lengths=(1.0,), lmax: float = 1.0, m: 
     """
     import warp as wp
 
-    from ..formats import UNorm
-    from ..gpu.texture import Texture1D
+    from warpvol.gpu.formats import UNorm
+    from warpvol.gpu.texture import Texture1D
 
     check_tf(tf)
     if tf.emission != "color_extinction":

@@ -30,11 +30,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import check_number
-from ..parallel import launch_blocks, row_blocks
-from .base import AXIS_KINDS, TABLE_FORMATS
-from .common import check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, scalar_axis, table_key, timed
-from .exact import length_axis
+from warpvol.errors import check_number
+from warpvol.parallel import launch_blocks, row_blocks
+from warpvol.tables.base import AXIS_KINDS, TABLE_FORMATS
+from warpvol.tables.common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels,
+                                   scalar_axis, table_key, timed)
+from warpvol.tables.exact import length_axis
 
 VARIANTS = ("blend", "geforce3")
 FB_BUDGET = 256 << 20  # bytes of frame buffers (colour + depth) alive at once: slices are drawn in waves
@@ -60,7 +61,7 @@ def tf_texture_values(tf, n_tex: int, l: float, n: int, kappa_only: bool = False
 def count_slice_draws(jobs, nblend: int, draw: int, group: int, n_s: int) -> None:
     """Counters of one wave of slice draws (each job: one pass of ``nblend`` full-slice rectangles,
     ``group`` texture fetches per fragment, GeForce3: ``group`` combiner steps, read back at the end)."""
-    from ..gpu import counters as cnt
+    from warpvol.gpu import counters as cnt
 
     c = cnt.active()
     if c is None:
@@ -77,7 +78,7 @@ def count_slice_draws(jobs, nblend: int, draw: int, group: int, n_s: int) -> Non
 
 def make_tf_texture(values: np.ndarray, bits: int, device: str):
     """The TF as a texture of the emulated texture unit, in ``bits`` precision."""
-    from ..gpu.texture import Texture1D
+    from warpvol.gpu.texture import Texture1D
 
     if bits == 8:
         return Texture1D(values, fmt="rgba8", filter="linear", device=device)
@@ -132,8 +133,8 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
     Table
         ``data[l, sb, sf] = (C, alpha)``, values of the frame buffer read back (then stored in ``format``).
     """
-    from ..gpu.blend import BlendUnit, FrameBuffer
-    from ..formats import UNORM12
+    from warpvol.gpu.blend import BlendUnit, FrameBuffer
+    from warpvol.gpu.formats import UNORM12
     import warp as wp
 
     check_tf(tf)

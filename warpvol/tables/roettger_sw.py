@@ -18,11 +18,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import AXIS_KINDS, TABLE_FORMATS
-from .common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_bands, model_id,
-                     scalar_axis, table_key, tf_arrays, timed)
-from .exact import length_axis
-from ..errors import check_number
+from warpvol.tables.base import AXIS_KINDS, TABLE_FORMATS
+from warpvol.tables.common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels,
+                                   launch_bands, model_id, scalar_axis, table_key, tf_arrays, timed)
+from warpvol.errors import check_number
+from warpvol.tables.exact import length_axis
 
 
 def sw_samples(xf, xb, m: int, o: float, n_min: int) -> int:
@@ -81,7 +81,7 @@ def build_roettger_sw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, m:
             xf, xb[j0:j0 + nj], ls[l0:l0 + nl], lo, hi - lo, tf_s, tf_v, model_id(tf), float(m), o, n_min,
             out[l0:l0 + nl, j0:j0 + nj]], pieces=max(n_min, int(o * m)) // 2, what=f"software table {n_l}x{n_s}x{n_s}")
     meta["samples"] = sw_samples(ax_f.nodes, ax_b.nodes, m, o, n_min) * n_l
-    from ..gpu import counters as cnt
+    from warpvol.gpu import counters as cnt
 
     cnt.count(sw_samples=meta["samples"])
     return finish("roettger_sw", out.numpy(), (ax_l, ax_b, ax_f), ("r", "g", "b", "a"), format, key, meta)

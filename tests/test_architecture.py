@@ -1,0 +1,146 @@
+"""The package's layers: a module imports only from its own layer or below, and no modules import each
+other in a circle (docs/architecture.md draws the layers).
+
+Every import of every module under ``warpvol/`` (and ``kernels/``, installed as ``warpvol.kernels``)
+is read with ``ast``, those inside functions too; imports of other packages (warp, pyvista, dask,
+matplotlib, ...) are not looked at.
+"""
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: module prefix -> layer; a module takes the layer of its longest matching prefix
+LAYERS = {
+    # 0 base: errors, helpers for threads, timing, progress, files and image errors
+    "warpvol.errors": 0, "warpvol.parallel": 0, "warpvol.timing": 0, "warpvol.progress": 0, "warpvol.io": 0,
+    "warpvol.metrics": 0,
+    # 1 Warp kernels, one module per unit
+    "warpvol.kernels": 1,
+    # 2 the scene data model
+    "warpvol.scene": 2,
+    # 3 emulated GPU units (formats, counters), the exact reference, the performance model, conditioning
+    "warpvol.gpu": 3, "warpvol.reference": 3, "warpvol.model": 3, "warpvol.conditioning.conditioning": 3,
+    # 4 pre-integration tables
+    "warpvol.tables": 4,
+    # 5 the stage framework
+    "warpvol.stage": 5,
+    # 6 the pipeline families: host code and stages (the table stages and the condition stage too)
+    "warpvol.tables.stages": 6, "warpvol.conditioning": 6, "warpvol.projection": 6, "warpvol.raycasting": 6,
+    "warpvol.vsbuffer": 6,
+    # 7 the stage catalog and pipelines (presets)
+    "warpvol.stages": 7, "warpvol.pipeline": 7, "warpvol.presets": 7, "warpvol.profiles": 7,
+    # 8 the Python API, the session caches, the reference in bands
+    "warpvol.api": 8, "warpvol.cache": 8, "warpvol.bands": 8,
+    # 9 tools and the reproduction of the papers
+    "warpvol.tools": 9, "warpvol.reproduce": 9,
+    # 10 the command line and the package's face
+    "warpvol.cli": 10, "warpvol": 10,
+}
+
+
+def module_name(path: Path) -> str:
+    rel = path.relative_to(ROOT).with_suffix("")
+    parts = list(rel.parts)
+    if parts[0] == "kernels":
+        parts = ["warpvol", "kernels"] + parts[1:]
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+def all_modules() -> dict[str, Path]:
+    paths = sorted(ROOT.glob("warpvol/**/*.py")) + sorted(ROOT.glob("kernels/*.py"))
+    return {module_name(p): p for p in paths}
+
+
+MODULES = all_modules()
+
+
+def layer(mod: str) -> int:
+    best = max((k for k in LAYERS if mod == k or mod.startswith(k + ".")), key=len)
+    return LAYERS[best]
+
+
+def imports(mod: str, path: Path) -> list[tuple[str, int]]:
+    """The warpvol modules ``mod`` imports, with the line (a name imported from a package that is a
+    module of it counts as that module)."""
+    is_pkg = path.name == "__init__.py"
+    pkg = mod.split(".") if is_pkg else mod.split(".")[:-1]
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            out += [(a.name, node.lineno) for a in node.names if a.name.split(".")[0] == "warpvol"]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = ".".join(pkg[:len(pkg) - node.level + 1] + ([node.module] if node.module else []))
+            else:
+                base = node.module or ""
+            if base.split(".")[0] != "warpvol":
+                continue
+            for a in node.names:
+                sub = f"{base}.{a.name}"
+                out.append((sub if sub in MODULES else base, node.lineno))
+    return [(t, line) for t, line in out if t != mod]
+
+
+GRAPH = {m: imports(m, p) for m, p in MODULES.items()}
+
+
+def test_every_module_has_a_layer_and_every_import_resolves():
+    assert "warpvol.scene.mesh" in MODULES and "warpvol.kernels.raycast" in MODULES
+    missing = [(m, t, line) for m, ts in GRAPH.items() for t, line in ts if t not in MODULES]
+    assert not missing, f"imports of modules that do not exist: {missing}"
+
+
+def test_a_module_imports_only_from_its_layer_or_below():
+    up = [f"{MODULES[m].relative_to(ROOT)}:{line}: {m} (layer {layer(m)}) imports {t} (layer {layer(t)})"
+          for m, ts in GRAPH.items() for t, line in ts if layer(t) > layer(m)]
+    assert not up, "imports that run up a layer:\n" + "\n".join(up)
+
+
+def find_cycle(graph: dict[str, list[str]]) -> list[str] | None:
+    state: dict[str, int] = {}
+    stack: list[str] = []
+
+    def visit(m):
+        state[m] = 1
+        stack.append(m)
+        for t in graph.get(m, ()):
+            if state.get(t) == 1:
+                return stack[stack.index(t):] + [t]
+            if t not in state:
+                c = visit(t)
+                if c:
+                    return c
+        stack.pop()
+        state[m] = 2
+        return None
+
+    for m in sorted(graph):
+        if m not in state:
+            c = visit(m)
+            if c:
+                return c
+    return None
+
+
+def test_no_import_circle():
+    graph = {m: sorted({t for t, _ in ts if t in MODULES}) for m, ts in GRAPH.items()}
+    cycle = find_cycle(graph)
+    assert cycle is None, "modules that import each other in a circle: " + " -> ".join(cycle)
+
+
+@pytest.mark.parametrize("graph, circle", [({"a": ["b"], "b": ["c"], "c": ["a"]}, True),
+                                           ({"a": ["b", "c"], "b": ["c"], "c": []}, False)])
+def test_the_circle_finder_finds_circles(graph, circle):
+    assert (find_cycle(graph) is not None) == circle
+
+
+def test_the_layer_check_sees_imports_inside_functions():
+    src = MODULES["warpvol.pipeline"]
+    found = [t for t, _ in imports("warpvol.pipeline", src)]
+    assert "warpvol.stages" in found  # imported on first use, inside a function

@@ -1,0 +1,316 @@
+"""Host-side conditioning of a scene before any float32 cast, and the precision checks of the rest.
+
+Real data is rarely centred on the origin at unit size: georeferenced meshes sit millions of metres
+from it, pressures are ``1e5`` Pa give or take a few, meshes come in metres or in nanometres. A float32
+cast of such inputs keeps only the bits the offset leaves over.
+
+:func:`condition_scene` (the ``condition`` stage, first in the exact presets ``raycast``,
+``harc_best``, ``pt_best`` and ``vsbuffer_best``) maps a scene, in float64, to one that renders the
+same image:
+
+============  ===========================================================================================
+input         mapped to
+============  ===========================================================================================
+points        ``(p - c) / h``: ``c`` the centre of the mesh's bounding box, ``h`` its largest half-extent,
+              so the mesh fills ``[-1, 1]`` along its longest axis
+camera        ``eye``, ``target`` the same way; orthographic ``height / h``; field of view and ``up`` as
+              they are (a similarity transform keeps every ray through every pixel centre)
+scalars       ``(s - m) / r`` with ``m``, ``r`` the midpoint and half-span of the scalars that matter
+              (the transfer function's range within the data's, :func:`scalar_frame`); the control
+              points the same way, restricted to the data's range (no scalar beyond it is looked up)
+extinction    ``rho * h`` (extinction is per world unit of length, the new unit is ``h`` long)
+colour        as it is for ``color_extinction``; ``c * h`` for ``emission_density`` (``c`` is an
+              emission per unit length there)
+============  ===========================================================================================
+
+Every ray integral is unchanged: a ray parameter ``t`` becomes ``t / h`` and both ``rho dt`` and
+``c dt`` (emission density) keep their value. Thresholds of the later stages then act relative to
+the mesh's size, whatever its units.
+
+Inputs the pipeline's float32 formats cannot hold are refused naming the field and the range
+(:func:`check_float32_ranges`). Pipelines without the ``condition`` stage (the paper presets) keep
+their hardware's arithmetic; :func:`precision_warnings` says how many bits their float32 cast of the
+input loses, and the render report carries it under ``stats["precision"]["warning"]``.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from functools import cached_property
+
+import numpy as np
+
+from warpvol.errors import ConfigError
+from warpvol.scene.camera import Camera
+from warpvol.scene.mesh import TetMesh
+from warpvol.scene.transfer import TransferFunction
+
+#: largest finite float32
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+#: bound on optical depths and scaled inputs: kernels form sums and products of a few of them
+#: (e.g. ``rho_a l + rho_b l``, ``(rho_b - rho_a) l^2 / 2``) before the exponential
+FLOAT32_SAFE = FLOAT32_MAX / 1024.0
+#: float32 significand bits (implicit bit included)
+FLOAT32_BITS = 24
+#: precision warnings are given from this many lost bits on
+WARN_BITS = 4
+
+#: cached properties of a :class:`TetMesh` that describe its topology only; a similarity transform
+#: keeps them, so the conditioned mesh takes them over instead of computing them again
+TOPOLOGY_CACHE = ("adjacency", "boundary_faces", "crack_faces", "nonconforming_faces", "is_convex",
+                  "_position_ids")
+
+
+def _shift_scale(x: np.ndarray, centre, scale: float, field: str) -> np.ndarray:
+    """``(x - centre) / scale`` in float64 without intermediate overflow; a result beyond float64
+    is an error naming ``field``."""
+    x = np.asarray(x, dtype=np.float64)
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = (x - centre) / scale
+        bad = ~np.isfinite(out)
+        if bad.any():  # x - centre overflowed (inputs near +-1.8e308): scale first
+            alt = np.broadcast_to(x / scale - np.asarray(centre) / scale, out.shape)
+            out = np.where(bad, alt, out)
+    if not np.isfinite(out).all():
+        raise ConfigError(f"{field}: values up to {float(np.abs(x).max()):.3g} are too far from the centre "
+                          f"{np.asarray(centre).tolist()} for a scale of {scale:.3g}; float64 cannot hold them")
+    return out
+
+
+def mesh_frame(mesh: TetMesh) -> tuple[np.ndarray, float]:
+    """``(centre, h)``: the bounding-box centre and largest half-extent, both finite (no overflow of
+    the extent for coordinates near +-1.8e308)."""
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in mesh.bounds)
+    centre = 0.5 * lo + 0.5 * hi
+    h = float((0.5 * hi - 0.5 * lo).max())
+    if not h > 0:  # extents below the smallest normal float64 (a tet has volume, so not all zero)
+        h = float((hi - lo).max())
+    return centre, h
+
+
+def scalar_frame(tf: TransferFunction, data_range: tuple[float, float]) -> tuple[float, float]:
+    """``(midpoint, half-span)`` of the scalars that matter: the transfer function's range within the
+    data's (where both vary), else the data's range (the TF is constant over the data), else
+    ``(value, 1)`` for constant data. Both finite (no overflow of a span near +-1.8e308)."""
+    t_lo, t_hi = tf.srange
+    d_lo, d_hi = (float(v) for v in data_range)
+    lo, hi = max(t_lo, d_lo), min(t_hi, d_hi)
+    if not hi > lo:
+        lo, hi = d_lo, d_hi
+    if not hi > lo:
+        return lo, 1.0
+    mid = 0.5 * lo + 0.5 * hi
+    half = 0.5 * hi - 0.5 * lo
+    if not half > 0:
+        half = hi - lo
+    return mid, half
+
+
+def _conditioned_mesh(mesh: TetMesh, centre: np.ndarray, h: float, s_mid: float, s_half: float) -> TetMesh:
+    """The mesh with points ``(p - centre) / h`` and scalars ``(s - s_mid) / s_half``, sharing the
+    tets, cells and topology of ``mesh`` (no validation again: the same tets stay, the same ones
+    dropped)."""
+    name = getattr(mesh, "name", "mesh")
+    pts = _shift_scale(mesh.points, centre, h, f"{name}: points")
+    s = _shift_scale(mesh.scalars, s_mid, s_half, f"{name}: scalars")
+    if np.abs(s).max() > FLOAT32_SAFE:
+        k = int(np.abs(s).argmax())
+        raise ConfigError(
+            f"{name}: scalars: {float(mesh.scalars[k]):.6g} lies {abs(float(s[k])):.3g} times {s_half:.3g} from "
+            f"{s_mid:.6g}, the middle of the transfer function's range within the data; float32 holds up to "
+            f"{FLOAT32_SAFE:.3g} (widen the transfer function's range or clip the data)")
+    out = TetMesh.__new__(TetMesh)
+    cls_attrs = vars(TetMesh)
+    for key, value in vars(mesh).items():
+        if isinstance(cls_attrs.get(key), cached_property):
+            keep = key in TOPOLOGY_CACHE  # geometry (bounds, planes, gradients, ...) is computed again
+        else:
+            keep = not key.startswith("_")  # tets, cell_start, counts, ...; not private caches (content hashes)
+        if keep:
+            out.__dict__[key] = value
+    for arr in (pts, s):
+        arr.setflags(write=False)
+    out.points, out.scalars = pts, s
+    return out
+
+
+def _tets_of(mesh):
+    """The TetMesh of a scene's mesh: itself, or the tets (``pieces``) of convex cells drawn whole
+    (:class:`warpvol.vsbuffer.cells.ConvexCellMesh`)."""
+    pieces = getattr(mesh, "pieces", None)
+    return pieces if not isinstance(mesh, TetMesh) and isinstance(pieces, TetMesh) else mesh
+
+
+def _diagonal(mesh: TetMesh) -> float:
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in mesh.bounds)
+    return 2.0 * float(np.linalg.norm(0.5 * hi - 0.5 * lo))
+
+
+def _check_values(values: np.ndarray, s: np.ndarray, emission: str, diag: float, where: str) -> None:
+    """Optical depth ``max extinction x mesh diagonal`` (the same in any unit of length) and colours
+    (``emission_density``: colour x mesh diagonal) within what float32 formats hold. ``values`` are
+    rows ``[r, g, b, extinction]`` at the scalars ``s``."""
+    k = int(np.argmax(values[:, 3]))
+    tau = float(values[k, 3]) * diag
+    if not tau <= FLOAT32_SAFE:
+        raise ConfigError(
+            f"{where}.points: extinction {float(values[k, 3]):.3g} (at s = {float(s[k]):.6g}) over the mesh's diagonal "
+            f"{diag:.3g} is an optical depth of {tau:.3g}; float32 formats hold up to {FLOAT32_SAFE:.3g}")
+    rgb = values[:, :3] * (diag if emission == "emission_density" else 1.0)
+    if not rgb.max() <= FLOAT32_SAFE:
+        k = int(np.argmax(rgb.max(axis=1)))
+        what = " times the mesh diagonal" if emission == "emission_density" else ""
+        raise ConfigError(f"{where}.points: colour {values[k, :3].tolist()} (at s = {float(s[k]):.6g}){what} exceeds "
+                          f"what float32 formats hold ({FLOAT32_SAFE:.3g})")
+
+
+def check_float32_ranges(scene) -> None:
+    """Refuse inputs a pipeline that casts them to float32 as they are cannot hold, naming the field
+    and the range: the optical depth and colours (:func:`_check_values`), points, scalars and
+    transfer-function points beyond +-:data:`FLOAT32_SAFE`."""
+    mesh, tf = _tets_of(scene.mesh), scene.transfer
+    where = getattr(tf, "where", "transfer")
+    _check_values(np.asarray(tf.points[:, 1:], dtype=np.float64), tf.s, tf.emission, _diagonal(mesh), where)
+    name = getattr(mesh, "name", "mesh")
+    for field, arr in ((f"{name}: points", mesh.bounds), (f"{name}: scalars", mesh.scalar_range),
+                       (f"{where}.points (s)", tf.srange)):
+        m = float(np.abs(np.asarray(arr, dtype=np.float64)).max())  # cached extremes, not a pass over the data
+        if m > FLOAT32_SAFE:
+            raise ConfigError(f"{field}: |value| up to {m:.3g} is beyond float32's range (+-{FLOAT32_SAFE:.3g} "
+                              "with headroom); this pipeline casts it to float32 as it is (the exact presets "
+                              "'raycast', 'harc_best', 'pt_best', 'vsbuffer_best' condition it first)")
+
+
+def condition_scene(scene, cache: dict | None = None) -> tuple[object, dict]:
+    """``(conditioned scene, info)``: the scene mapped as in the module docstring, in float64.
+
+    ``info`` holds ``origin`` (the world point that becomes 0), ``scale`` (the world length that
+    becomes 1), ``scalar_offset`` and ``scalar_scale`` (``s' = (s - offset) / scale``) and ``cached``.
+    The scene object is copied (any object with ``mesh``, ``transfer`` and ``camera``), the input
+    untouched. With ``cache`` (a dict kept across calls) the conditioned mesh is reused while the
+    mesh object and the scalar mapping stay the same, so per-mesh caches downstream keep hitting.
+
+    Examples
+    --------
+    >>> from warpvol.scene.builtin import builtin_scene
+    >>> s = builtin_scene("box")
+    >>> c, info = condition_scene(s)
+    >>> info["scale"], [float(v) for v in c.mesh.bounds[1]]
+    (1.0, [1.0, 1.0, 1.0])
+    """
+    import weakref
+
+    source, tf = scene.mesh, scene.transfer
+    mesh = _tets_of(source)  # convex cells drawn whole are conditioned through their tets
+    centre, h = mesh_frame(mesh)
+    data_range = mesh.scalar_range
+    s_mid, s_half = scalar_frame(tf, data_range)
+    hit = None if cache is None else cache.get("mesh")  # (weakref to the source, scalar mapping, result)
+    if hit is not None and hit[0]() is source and hit[1] == (s_mid, s_half):
+        cmesh, cached = hit[2], True
+    else:
+        cmesh, cached = _conditioned_mesh(mesh, centre, h, s_mid, s_half), False
+        if mesh is not source:
+            cmesh = type(source)(cmesh, source.cell_start, name=source.name)
+        if cache is not None:
+            cache["mesh"] = (weakref.ref(source), (s_mid, s_half), cmesh)
+    out = copy.copy(scene)
+    out.mesh = cmesh
+    out.transfer = conditioned_transfer(tf, h, s_mid, s_half, data_range, _diagonal(mesh))
+    out.camera = conditioned_camera(scene.camera, centre, h)
+    info = {"origin": [float(v) for v in centre], "scale": h, "scalar_offset": s_mid, "scalar_scale": s_half,
+            "cached": cached}
+    return out, info
+
+
+def conditioned_transfer(tf: TransferFunction, h: float, s_mid: float, s_half: float,
+                         data_range: tuple[float, float], diag: float) -> TransferFunction:
+    """The transfer function in conditioned units (see :func:`condition_scene`), restricted to the
+    data's scalar range ``data_range``: its value at both ends and the control points between. A tet
+    interpolates its vertex scalars linearly, so no scalar outside that range is ever looked up and
+    the restriction changes no colour; control points far outside (e.g. at +-1.7e308) drop out.
+    ``diag``: the mesh diagonal in world units (optical depth and emission bounds)."""
+    where = getattr(tf, "where", "transfer")
+    d_lo, d_hi = (float(v) for v in data_range)
+    inner = (tf.s > d_lo) & (tf.s < d_hi)
+    s = np.concatenate([[d_lo], tf.s[inner], [d_hi]])
+    vals = np.concatenate([tf.evaluate(d_lo)[None], tf.points[inner, 1:], tf.evaluate(d_hi)[None]])
+    _check_values(vals, s, tf.emission, diag, where)
+    u = _shift_scale(s, s_mid, s_half, f"{where}.points (s)")
+    if not u[-1] > u[0]:  # constant data: the TF is constant on it
+        u, vals = np.array([u[0] - 1.0, u[0] + 1.0]), vals[[0, 0]]
+    keep = np.concatenate([[True], np.diff(u) > 0])  # points within float64 rounding of each other: the first
+    u, vals = u[keep], vals[keep]
+    vals = vals.copy()
+    vals[:, 3] *= h
+    if tf.emission == "emission_density":
+        vals[:, :3] *= h
+    return TransferFunction(np.column_stack([u, vals]), tf.emission, where=where)
+
+
+def conditioned_camera(cam: Camera, centre: np.ndarray, h: float) -> Camera:
+    """The camera in conditioned units: the same rays through the same pixel centres."""
+    w = getattr(cam, "where", "camera")
+    eye = _shift_scale(cam.eye, centre, h, f"{w}.eye")
+    target = _shift_scale(cam.target, centre, h, f"{w}.target")
+    if np.array_equal(eye, target):  # target - eye below the rounding of the mapping: keep the direction
+        target = eye + cam.forward
+    return Camera(projection=cam.projection, eye=eye, target=target, up=cam.up, fov_y_deg=cam.fov_y_deg,
+                  height=cam.height / h, width_px=cam.width_px, height_px=cam.height_px, where=w)
+
+
+# ------------------------------------------------------------------------------------------------
+# faithful pipelines: what the float32 cast of the input loses
+# ------------------------------------------------------------------------------------------------
+
+
+def _bits_lost(magnitude: float, span: float) -> int:
+    """Significand bits of a float32 value of size ``magnitude`` spent on its offset, not on the
+    ``span`` the data varies over: ``floor(log2(magnitude / span))``, at least 0."""
+    if not (span > 0 and magnitude > span):
+        return 0
+    return int(math.floor(math.log2(magnitude / span)))
+
+
+def precision_bits(scene) -> dict[str, int]:
+    """Bits a float32 cast of the scene's inputs as they are loses: ``scalars`` (the largest
+    |value| of the transfer function's range over its span) and ``points`` (the largest |coordinate|
+    of the mesh over its largest extent)."""
+    mesh = _tets_of(scene.mesh)
+    mid, half = scalar_frame(scene.transfer, mesh.scalar_range)
+    bounds_lo, bounds_hi = (np.asarray(b, dtype=np.float64) for b in mesh.bounds)
+    centre, h = mesh_frame(mesh)
+    mag = float(np.maximum(np.abs(bounds_lo), np.abs(bounds_hi)).max())
+    return {"scalars": _bits_lost(abs(mid) + half, 2.0 * half), "points": _bits_lost(mag, 2.0 * h)}
+
+
+def precision_warnings(scene) -> dict | None:
+    """For a pipeline that casts the input to float32 as it is: ``{"warning": text, "bits_lost":
+    {...}}`` when a cast loses more than :data:`WARN_BITS` of float32's 24 significand bits, else
+    ``None``. Inputs beyond float32's range are refused (:func:`check_float32_ranges`).
+
+    Examples
+    --------
+    >>> from warpvol.tools.stress_real import offset_scene
+    >>> print(precision_warnings(offset_scene(8, scalar_offset=2e5, scalar_span=4.0))["warning"])
+    scalars: offset 2e+05 over a range of 3.99 (where data and transfer function overlap): 15 of float32's 24 bits lost; the exact presets (raycast, harc_best, pt_best, vsbuffer_best) condition the input first
+    >>> precision_warnings(offset_scene(8)) is None
+    True
+    """
+    check_float32_ranges(scene)
+    bits = precision_bits(scene)
+    parts = []
+    if bits["scalars"] > WARN_BITS:
+        mid, half = scalar_frame(scene.transfer, _tets_of(scene.mesh).scalar_range)
+        parts.append(f"scalars: offset {abs(mid) + half:.3g} over a range of {2 * half:.3g} (where data and transfer "
+                     f"function overlap): {bits['scalars']} of float32's {FLOAT32_BITS} bits lost")
+    if bits["points"] > WARN_BITS:
+        blo, bhi = _tets_of(scene.mesh).bounds
+        mag = float(np.maximum(np.abs(blo), np.abs(bhi)).max())
+        parts.append(f"points: coordinates up to {mag:.3g} for a mesh {float((bhi - blo).max()):.3g} across: "
+                     f"{bits['points']} of float32's {FLOAT32_BITS} bits lost")
+    if not parts:
+        return None
+    text = "; ".join(parts) + "; the exact presets (raycast, harc_best, pt_best, vsbuffer_best) condition the input first"
+    return {"warning": text, "bits_lost": bits}

@@ -1,0 +1,3 @@
+"""Projected tetrahedra: host code (:mod:`.pt`, :mod:`.sort`, :mod:`.pt_thin`) and the stages
+(:mod:`.stages`) of Shirley & Tuchman, Roettger & Ertl, Guthe et al., Kraus et al. and ``pt_best``.
+"""

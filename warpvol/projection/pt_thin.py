@@ -1,0 +1,222 @@
+"""Cells projected tetrahedra cannot draw right in float32: thin cells that carry the image, and the
+pixels where the eye lies in the plane of a face.
+
+Cell projection computes each fragment's thickness ``l`` from float32 window positions and
+eye-space depths interpolated across the projected triangles (positions snapped to 1/256 pixel). A
+tet whose smallest height is below :data:`THIN_ULPS` float32 units of the mesh radius has a
+thickness float32 resolves only coarsely, and seen at a grazing angle its triangles are slivers the
+snapping moves by more than their width; when its density times that thickness error exceeds
+:data:`THIN_TAU` the pixels it covers may be visibly wrong (:func:`thin_tets`). Likewise a face whose
+plane passes within float32 resolution of the perspective eye projects to a segment: the tets on
+either side are classified by rounding (:func:`edge_on_faces`).
+
+:func:`unresolved_pixels` finds both in float64 on the host, from the scene alone, and returns the
+pixels they cover (their projected bounding boxes grown by one pixel); ``pt_integrate`` redoes those
+pixels with the float64 ray tracer (:func:`warpvol.raycasting.stages.raycast.redo_pixels_float64`)
+and counts them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: a tet whose smallest height is below this many float32 units (2^-23) of the mesh radius is thin
+THIN_ULPS = 1024.0
+#: ... and matters when its largest density times its thickness error exceeds this optical depth
+THIN_TAU = 2e-3  # half of pt_best's max_abs tolerance (tests/tolerances.py)
+#: a face plane within this many float32 units (of the eye's distance to the mesh plus the mesh
+#: radius) of the perspective eye is seen edge-on
+EDGE_ON_ULPS = 64.0
+EPS32 = float(np.finfo(np.float32).eps)
+
+
+def _density_points(tf) -> tuple[np.ndarray, np.ndarray]:
+    """Control-point scalars and densities (extinction, plus the largest colour channel for the
+    emission-density model, which multiplies a segment's length as the extinction does)."""
+    p = np.asarray(tf.points, dtype=np.float64)
+    dens = p[:, 4] + (p[:, 1:4].max(axis=1) if tf.emission == "emission_density" else 0.0)
+    return p[:, 0], dens
+
+
+def density_max(tf, smin: np.ndarray, smax: np.ndarray) -> np.ndarray:
+    """Largest density of ``tf`` over each scalar range ``[smin, smax]`` (piecewise linear: the ends
+    and the control points between), float64."""
+    s, dens = _density_points(tf)
+    out = np.maximum(np.interp(smin, s, dens), np.interp(smax, s, dens))
+    lo = np.searchsorted(s, smin, side="right")  # control points strictly inside: lo .. hi-1
+    hi = np.searchsorted(s, smax, side="left")
+    has = hi > lo
+    if not has.any():
+        return out
+    # range maximum over control points by a sparse table (log K levels)
+    levels = [dens]
+    while 2 ** len(levels) <= len(dens):
+        prev, w = levels[-1], 2 ** (len(levels) - 1)
+        levels.append(np.maximum(prev[:-w], prev[w:]))
+    a, b = lo[has], hi[has]
+    k = np.floor(np.log2(b - a)).astype(np.int64)
+    m = np.empty(len(a))
+    for lv in np.unique(k):
+        sel = k == lv
+        tab = levels[lv]
+        m[sel] = np.maximum(tab[a[sel]], tab[b[sel] - 2 ** lv])
+    out[has] = np.maximum(out[has], m)
+    return out
+
+
+def _geometry(mesh, tf) -> dict:
+    """View-independent part of :func:`thin_tets` (cached on the mesh per transfer function): the
+    candidate tets (smallest height below :data:`THIN_ULPS` float32 units of the mesh radius), their
+    volumes, longest edges and largest densities, and the mesh radius."""
+    key = np.asarray(tf.points).tobytes() + tf.emission.encode()
+    cache = mesh.__dict__.setdefault("_pt_thin_cache", {})
+    if key in cache:
+        return cache[key]
+    pts = np.asarray(mesh.points, dtype=np.float64)
+    tets = np.asarray(mesh.tets)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    radius = 0.5 * float(np.linalg.norm(hi - lo))
+    p = [pts[tets[:, k]] for k in range(4)]
+    vol6 = np.abs(np.einsum("ij,ij->i", p[1] - p[0], np.cross(p[2] - p[0], p[3] - p[0])))
+    area2 = np.max([np.linalg.norm(np.cross(p[b] - p[a], p[c] - p[a]), axis=1)
+                    for a, b, c in ((1, 2, 3), (0, 2, 3), (0, 1, 3), (0, 1, 2))], axis=0)
+    height = vol6 / np.maximum(area2, 1e-300)  # 3 V / largest face area
+    cand = np.flatnonzero(height < THIN_ULPS * EPS32 * radius)
+    sc = np.asarray(mesh.scalars, dtype=np.float64)[tets[cand]]
+    diam = np.max([np.linalg.norm(p[a][cand] - p[b][cand], axis=1)
+                   for a, b in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))], axis=0) if len(cand) else \
+        np.zeros(0)
+    dens = density_max(tf, sc.min(axis=1), sc.max(axis=1)) if len(cand) else np.zeros(0)
+    keep = dens > 0.0  # a tet without density cannot matter
+    out = {"cand": cand[keep], "vol": vol6[cand][keep] / 6.0, "diam": diam[keep], "dens": dens[keep],
+           "radius": radius}
+    cache.clear()
+    cache[key] = out
+    return out
+
+
+def _window(mesh, camera, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Window columns, rows (float64, pixel centres at +0.5) and eye depths of the vertices of
+    ``tets``, each (n, 4)."""
+    w, h = camera.width_px, camera.height_px
+    pts = np.asarray(mesh.points, dtype=np.float64)[np.asarray(mesh.tets)[tets]].reshape(-1, 3)
+    rel = pts - np.asarray(camera.eye, dtype=np.float64)
+    x, y, d = rel @ camera.right, rel @ camera.true_up, rel @ camera.forward
+    if camera.projection == "perspective":
+        th = np.tan(np.radians(camera.fov_y_deg) / 2.0)
+        dd = np.maximum(d, 1e-300)
+        xn, yn = x / (dd * th * camera.aspect), y / (dd * th)
+    else:
+        hh = camera.height / 2.0
+        xn, yn = x / (hh * camera.aspect), y / hh
+    return ((xn + 1.0) * 0.5 * w).reshape(-1, 4), ((1.0 - yn) * 0.5 * h).reshape(-1, 4), d.reshape(-1, 4)
+
+
+def thin_tets(mesh, tf, camera) -> np.ndarray:
+    """Indices of the tets thinner than float32 resolves (smallest height below :data:`THIN_ULPS`
+    float32 units of the mesh radius) whose fragments may be visibly wrong: largest density over the
+    tet's scalar range times the thickness error -- float32 depth resolution (4 units of the radius)
+    plus, for a tet whose projection is narrower than the rasteriser's 1/256-pixel snapping, its
+    largest thickness along the view (3 V / projected area) scaled by how much the snapping moves it
+    -- above :data:`THIN_TAU`."""
+    g = _geometry(mesh, tf)
+    cand = g["cand"]
+    if len(cand) == 0:
+        return cand
+    col, row, depth = _window(mesh, camera, cand)
+    tri = [(0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)]
+    area_px = 0.25 * sum(np.abs((col[:, b] - col[:, a]) * (row[:, c] - row[:, a])
+                                - (col[:, c] - col[:, a]) * (row[:, b] - row[:, a])) for a, b, c in tri)
+    longest = np.max([np.hypot(col[:, a] - col[:, b], row[:, a] - row[:, b])
+                      for a, b in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))], axis=0)
+    width_px = area_px / np.maximum(longest, 1e-300)  # hull area / longest projected edge
+    if camera.projection == "perspective":
+        px_size = 2.0 * np.abs(depth).mean(axis=1) * np.tan(np.radians(camera.fov_y_deg) / 2.0) / camera.height_px
+    else:
+        px_size = np.full(len(cand), camera.height / camera.height_px)
+    lmax = np.minimum(g["diam"], 3.0 * g["vol"] / np.maximum(area_px * px_size ** 2, 1e-300))
+    snap = np.minimum(1.0, (1.0 / 256.0) / np.maximum(width_px, 1e-300))
+    err = g["dens"] * (4.0 * EPS32 * g["radius"] + lmax * snap)
+    return cand[err > THIN_TAU]
+
+
+def edge_on_faces(mesh, camera) -> np.ndarray:
+    """The faces ``(n, 3)`` vertex indices) whose plane passes within float32 resolution of a
+    perspective eye: each projects to a segment and the tets on either side are classified by
+    rounding. Empty for orthographic cameras (no eye point)."""
+    if camera.projection != "perspective":
+        return np.zeros((0, 3), dtype=np.int64)
+    pts = np.asarray(mesh.points, dtype=np.float64)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    centre, radius = 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
+    eye = np.asarray(camera.eye, dtype=np.float64)
+    tol = EDGE_ON_ULPS * EPS32 * (float(np.linalg.norm(eye - centre)) + radius)
+    tets = np.asarray(mesh.tets)
+    hits = []
+    for f in ((1, 2, 3), (0, 2, 3), (0, 1, 3), (0, 1, 2)):  # every face of every tet (shared ones twice)
+        p = [pts[tets[:, k]] - eye for k in f]
+        n = np.cross(p[1] - p[0], p[2] - p[0])
+        nn = np.linalg.norm(n, axis=1)
+        dist = np.abs(np.einsum("ij,ij->i", n, p[0])) / np.maximum(nn, 1e-300)  # eye to the face's plane
+        hits.append(tets[(dist < tol) & (nn > 0)][:, list(f)])
+    faces = np.unique(np.sort(np.concatenate(hits), axis=1), axis=0)
+    return faces
+
+
+def _mark_boxes(cover: np.ndarray, col: np.ndarray, row: np.ndarray) -> None:
+    """Mark in ``cover`` (H, W) the pixels whose centres lie within one pixel of the bounding box of
+    each row of window points ``col``, ``row`` (n, k)."""
+    h, w = cover.shape
+    big = 4.0 * (w + h) + 4.0  # clamp before the int casts (off-screen boxes)
+    j0 = np.ceil(np.clip(col.min(axis=1) - 0.5, -big, big)).astype(np.int64) - 1
+    j1 = np.floor(np.clip(col.max(axis=1) - 0.5, -big, big)).astype(np.int64) + 1
+    i0 = np.ceil(np.clip(row.min(axis=1) - 0.5, -big, big)).astype(np.int64) - 1
+    i1 = np.floor(np.clip(row.max(axis=1) - 0.5, -big, big)).astype(np.int64) + 1
+    j0, j1, i0, i1 = np.clip(j0, 0, w), np.clip(j1 + 1, 0, w), np.clip(i0, 0, h), np.clip(i1 + 1, 0, h)
+    ok = (j1 > j0) & (i1 > i0)
+    diff = np.zeros((h + 1, w + 1), dtype=np.int64)  # boxes summed by a 2D difference array
+    np.add.at(diff, (i0[ok], j0[ok]), 1)
+    np.add.at(diff, (i0[ok], j1[ok]), -1)
+    np.add.at(diff, (i1[ok], j0[ok]), -1)
+    np.add.at(diff, (i1[ok], j1[ok]), 1)
+    cover |= diff.cumsum(axis=0).cumsum(axis=1)[:h, :w] > 0
+
+
+def _segment_samples(col: np.ndarray, row: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Points every half pixel along each row's projected face (three collinear window points): the
+    segment between its two farthest vertices, as (m, 1) columns and rows."""
+    cs, rs = [], []
+    for c, r in zip(col, row):
+        a, b = max(((0, 1), (0, 2), (1, 2)), key=lambda e: np.hypot(c[e[0]] - c[e[1]], r[e[0]] - r[e[1]]))
+        n = int(min(np.hypot(c[a] - c[b], r[a] - r[b]), 1e5) * 2.0) + 2
+        u = np.linspace(0.0, 1.0, n)
+        cs.append(c[a] + (c[b] - c[a]) * u)
+        rs.append(r[a] + (r[b] - r[a]) * u)
+    return np.concatenate(cs)[:, None], np.concatenate(rs)[:, None]
+
+
+def unresolved_pixels(mesh, tf, camera) -> dict:
+    """The thin tets (:func:`thin_tets`), the faces seen edge-on from the eye (:func:`edge_on_faces`)
+    and the pixels they may make wrong (``pixels``, flat indices): within one pixel of a thin tet's
+    projected bounding box or of an edge-on face's projected segment."""
+    cover = np.zeros((camera.height_px, camera.width_px), dtype=bool)
+    thin = thin_tets(mesh, tf, camera)
+    if len(thin):
+        col, row, _ = _window(mesh, camera, thin)
+        _mark_boxes(cover, col, row)
+    faces = edge_on_faces(mesh, camera)
+    if len(faces):
+        tmp = TetMeshFaces(mesh, faces)
+        col, row, _ = _window(tmp, camera, np.arange(len(faces)))
+        _mark_boxes(cover, *_segment_samples(col[:, :3], row[:, :3]))
+    return {"thin_tets": int(len(thin)), "edge_on_faces": int(len(faces)), "pixels": np.flatnonzero(cover.ravel())}
+
+
+class TetMeshFaces:
+    """Faces posing as degenerate tets (fourth vertex repeated) for :func:`_window`."""
+
+    def __init__(self, mesh, faces: np.ndarray):
+        self.points = mesh.points
+        self.tets = np.column_stack([faces, faces[:, 2]])
+
+

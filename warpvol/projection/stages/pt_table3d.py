@@ -1,0 +1,85 @@
+"""Stage ``pt_table3d``: the 3D pre-integration fragment program (Röttger, Kraus & Ertl 2000).
+
+The rasteriser interpolates ``(sf, sb, l)`` linearly in screen space (the thick vertex's front and
+back scalars and thickness, ``(s, s, 0)`` on silhouette vertices); the fragment program normalises
+them over the table's axes and looks the premultiplied ``(C, α)`` up in the 3D table through the
+emulated 3D texture unit (trilinear with 8-bit filter-weight fractions by default); the blending unit
+composites back to front. With stage ``pt_perspective`` before it, the fragments' (sf, sb, l)
+come from Kraus et al.'s per-fragment perspective division instead. Any 3D table from the table stages (``table_exact``,
+``table_roettger_sw``, ``table_roettger_hw``, ``table_incremental``) via ``ctx.buffers[table]``.
+Writes ``ctx.image``; counts ``texture_lookups``, the fetches by texel format (``rgba16``: two
+``hilo16`` fetches, as on the NV3x) and ``combiner_ops`` (Kraus et al. 2004 §5's instruction counts);
+the rasteriser and blending unit count fragments and blends.
+"""
+
+from __future__ import annotations
+
+from warpvol.projection.stages.pt_perspective import fragment_inputs
+from warpvol.projection.stages.pt_vertex_color import BATCH, DITHER, composite, fb_param, table_from
+from warpvol.stage import Context, Param, Stage, register_stage
+
+TEXELS = ("auto", "rgba8", "rgba12", "rgba16", "rgba16f", "rgba32f")
+
+
+@register_stage
+class PTTable3D(Stage):
+    """(sf, sb, l) → 3D table lookup through the texture unit, back-to-front blending.
+
+    ============  =====  ========  ===============================================  ====================
+    parameter     type   default   allowed                                          meaning
+    ============  =====  ========  ===============================================  ====================
+    table         str    table3d   ``ctx.buffers`` key                              the 3D table
+    texel_format  str    auto      ``auto`` ``rgba8`` ``rgba12`` ``rgba16``         3D texture format
+                                   ``rgba16f`` ``rgba32f``                          (auto: the table's)
+    filter        str    linear    ``linear`` | ``nearest``                         texture filter
+    weight_bits   int    8         [0, 16]; 0 = fp32 filter weights                 filter-weight bits
+    format        str    unorm8    ``unorm8`` ``unorm12`` ``unorm16`` ``fp16``     frame-buffer format
+                                   ``fp32``
+    dither        bool   false                                                      alpha dithering
+    batch_tets    int    65536     [1, 2^26]                                        tets per batch
+    ============  =====  ========  ===============================================  ====================
+
+    Example
+    -------
+    >>> from warpvol.pipeline import Pipeline
+    >>> from warpvol.scene.builtin import builtin_scene
+    >>> res = Pipeline.load("roettger2000_3d").render(builtin_scene("box").with_camera(width_px=8, height_px=8),
+    ...                                              quiet=True)
+    >>> res.report["counters"]["pt_table3d"]["texture_lookups"] == res.report["counters"]["pt_table3d"]["fragments"]
+    True
+    """
+
+    name = "pt_table3d"
+    summary = "PT fragment program: 3D pre-integration table lookup of (sf, sb, l) through the texture unit"
+    params = (
+        Param("table", str, "table3d", "ctx.buffers key of the 3D table"),
+        Param("texel_format", str, "auto", "3D texture texel format (auto: holds the table's stored values)",
+              choices=TEXELS),
+        Param("filter", str, "linear", "texture filter", choices=("linear", "nearest")),
+        Param("weight_bits", int, 8, "filter-weight fraction bits (0: fp32 weights)", lo=0, hi=16),
+        fb_param(), DITHER, BATCH,
+    )
+    needs = ("pt_geometry",)
+    provides = ("image",)
+
+    def run(self, ctx: Context) -> None:
+        from warpvol.projection.pt import table3d_program
+
+        table = table_from(self, ctx, "table")
+        attrs, mode, ortho, z_off = fragment_inputs(ctx)
+        program, texel = table3d_program(table, self.config["texel_format"], self.config["filter"],
+                                         self.config["weight_bits"] or None, device=ctx.device, mode=mode, ortho=ortho,
+                                         z_off=z_off)
+        ctx.stats["pt"]["texel_format"] = texel
+        info = composite(self, ctx, attrs, program)
+        n = info["fragments"]
+        flt = self.config["filter"]
+        # a 16-bit RGBA table is two HILO16 textures (two fetches); fragment-program instructions: lookup
+        # set-up 2 (estimate), perspective division 11 and logarithmic lookup 7 (Kraus et al. 2004 §5),
+        # alpha dithering 10 and two 2D fetches in the random tables (ibid.)
+        fetch = {f"tex_3d_hilo16_{flt}": 2 * n} if texel == "rgba16" else {f"tex_3d_{texel}_{flt}": n}
+        ops = 2 + (11 if mode != "off" else 0) + (7 if table.axes[0].kind == "log2" else 0)
+        if self.config["dither"]:
+            ops += 10
+            fetch["tex_2d_rgba8_nearest"] = 2 * n
+        ctx.count(texture_lookups=n, combiner_ops=ops * n, **fetch)

@@ -1,0 +1,3 @@
+"""Ray casting: the consistent float32 walk (``raycast``, ``peel``) and hardware ray casting (HARC,
+Espinha & Celes 2005; host code in :mod:`.harc`); the stages in :mod:`.stages`.
+"""

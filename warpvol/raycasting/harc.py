@@ -1,0 +1,313 @@
+"""Hardware ray casting (Weiler et al. 2003; Espinha & Celes 2005) on the emulated GPU: host side.
+
+Plain functions the ``harc*`` stages are thin over (tests call them directly):
+
+* :func:`mesh_textures` -- the paper's Table 1 (96 bytes/tet: four face planes, gradient + offset,
+  adjacency; float32) as rgba32f 2D textures of the texture unit, and :func:`layout_bytes`, which
+  also sizes the compact layout the consistent walk reads (4 vertex indices + 4 neighbour faces per
+  tet, ``(x, y, z, s)`` per point: 32 bytes/tet + 16 bytes/point);
+* :func:`entry_fragments` -- ray start: the front-facing boundary faces rasterised by the rasteriser
+  unit into per-pixel fragment lists (entry tet, local face) sorted by window depth; pass ``k`` of
+  the kernel takes the first fragment beyond the ray's last exit (depth peeling);
+* :func:`integ_setup` -- the kernel's integration set-up (exact, full table, or partial with psi and
+  iso tables);
+* :func:`march_pass`, :func:`resolve_failed` -- one propagation pass over all active rays, and the
+  float64 redo of rays the float32 walk could not resolve.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from warpvol.errors import ConfigError
+
+TEX_ROW = 4096  # texels per row of the mesh textures (GeForce 6800: 4096 x 4096 max)
+WALKS = {"planes": 0, "plucker": 1}
+INTEGRATIONS = {"exact": 0, "full": 1, "partial": 2}
+ISO_RULES = {"paper": 0, "behind": 1}
+
+
+def layout_bytes(mesh) -> dict:
+    """Bytes per tet of the two mesh layouts: ``paper96`` (Table 1) and ``compact`` (points shared)."""
+    m, v = mesh.n_tets, mesh.n_points
+    return {"paper96": 96.0, "compact": (32.0 * m + 16.0 * v) / max(m, 1)}
+
+
+def mesh_textures(mesh, origin: np.ndarray, device: str = "cpu"):
+    """Table 1 of the paper as six rgba32f textures ``(n0, n1, n2, n3, grad, adj)``, positions relative
+    to ``origin`` (float64 shift before the float32 cast, as the cells' points).
+
+    Returns ``(struct, textures)``: the kernel's :class:`warpvol.kernels.harc.MeshTex` and the
+    :class:`~warpvol.gpu.texture.Texture2D` objects (they own the device arrays).
+
+    Example
+    -------
+    >>> from warpvol.scene.builtin import builtin_scene
+    >>> m = builtin_scene("box").mesh
+    >>> st, tex = mesh_textures(m, m.points.mean(axis=0))
+    >>> len(tex), tex[0].fmt, st.width == min(m.n_tets, TEX_ROW)
+    (6, 'rgba32f', True)
+    """
+    from warpvol.gpu.texture import Texture2D
+    from warpvol.kernels import harc as kh
+    from warpvol.raycasting.stages.cell_setup import neighbour_faces
+
+    m = mesh.n_tets
+    width = max(1, min(m, TEX_ROW))
+    rows = -(-m // width)
+    origin = np.asarray(origin, np.float64)
+    planes = mesh.face_planes.copy()  # (M, 4, 4) unit outward normals
+    planes[..., 3] += planes[..., :3] @ origin
+    grad = np.c_[mesh.gradients, mesh.offsets + mesh.gradients @ origin]
+    adj = neighbour_faces(mesh.adjacency).astype(np.float64)
+    if 4 * m >= 2 ** 24:
+        raise ConfigError(f"mesh: {m} tets do not fit the float32 adjacency texture (4 M < 2^24)")
+
+    def tex(a):
+        buf = np.zeros((rows * width, 4), np.float64)
+        buf[:m] = a
+        return Texture2D(buf.reshape(rows, width, 4), fmt="rgba32f", filter="nearest", device=device)
+
+    texs = [tex(planes[:, i]) for i in range(4)] + [tex(grad), tex(adj)]
+    st = kh.MeshTex()
+    st.n0, st.n1, st.n2, st.n3, st.grad, st.adj = (t.struct for t in texs)
+    st.width = width
+    return st, texs
+
+
+def empty_mesh_tex(device: str = "cpu"):
+    """A :class:`warpvol.kernels.harc.MeshTex` of 1x1 textures for walks that do not read Table 1."""
+    from warpvol.gpu.texture import Texture2D
+    from warpvol.kernels import harc as kh
+
+    t = Texture2D(np.zeros((1, 1, 4)), fmt="rgba32f", filter="nearest", device=device)
+    st = kh.MeshTex()
+    st.n0 = st.n1 = st.n2 = st.n3 = st.grad = st.adj = t.struct
+    st.width = 1
+    return st, t
+
+
+def surface_neighbours(tris: np.ndarray) -> np.ndarray:
+    """``(B, 3)`` int32: for each triangle of ``tris`` (B, 3 point indices) the triangle sharing its
+    edge ``k`` (opposite vertex ``k``), -1 where none of ``tris`` does."""
+    b = len(tris)
+    out = np.full((b, 3), -1, np.int64)
+    if b == 0:
+        return out.astype(np.int32)
+    e = np.stack([tris[:, [1, 2]], tris[:, [2, 0]], tris[:, [0, 1]]], axis=1).reshape(-1, 2)
+    e.sort(axis=1)
+    key = e[:, 0].astype(np.int64) * (int(tris.max()) + 1) + e[:, 1]
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    same = np.flatnonzero(ks[1:] == ks[:-1])
+    a, c = order[same], order[same + 1]
+    out.reshape(-1)[a] = c // 3
+    out.reshape(-1)[c] = a // 3
+    return out.astype(np.int32)
+
+
+def entry_fragments(mesh, camera, device: str = "cpu") -> dict:
+    """Rasterise the front-facing boundary faces (the rasteriser unit, window coordinates from the
+    vertex stage) into per-pixel fragment lists sorted by depth.
+
+    Returns ``dict(frag_start (H*W+1), frag_bf, bf_tet, bf_face, bf_nbr, fragments, faces,
+    max_layers)``: per fragment the index of its face in the front-face list; per front face its tet,
+    local face and the three front faces sharing its edges (-1: none; the consistent walk searches
+    them when the rasteriser's snapped coverage and its edge test disagree near an edge);
+    ``max_layers`` is the most fragments any pixel has (the boundary layers depth peeling goes
+    through).
+    """
+    import warp as wp
+
+    from warpvol.gpu.raster import GUARD_PX, Rasterizer, guard_band_overflow
+    from warpvol.gpu.vertex import VertexStage
+    from warpvol.raycasting.stages.entry_bins import entry_face_mask
+
+    front = entry_face_mask(mesh, camera)
+    bf = mesh.boundary_faces[front]
+    tris = mesh.boundary_triangles()[front]
+    w, h = camera.width_px, camera.height_px
+    npx = w * h
+    count = 0
+    # a mesh wholly behind the eye plane (camera looking away) has nothing to rasterise: no ray starts
+    in_front = bool((((mesh.points - camera.eye) @ camera.forward) > 0).any())
+    if len(bf) and in_front:
+        near, far = camera.depth_range(*mesh.bounds)
+        vs = VertexStage.from_camera(camera, near, far, device=device).transform(mesh.points)
+        n_over, extent = guard_band_overflow(vs.window, tris, w, h)
+        if n_over:  # the rasteriser would drop these ray starts: rays lost, never silently
+            raise ConfigError(f"ray start by rasterisation: {n_over:,} front boundary faces reach {extent:.3g} px "
+                              f"from the image, beyond the rasteriser's guard band of {GUARD_PX:.0f} px (fixed-point "
+                              "window coordinates, no geometric clipping); use raycast (its rays start without "
+                              "the rasteriser), or a view that shows more of the mesh")
+        rast = Rasterizer(w, h, device=device, depth_clip=False)
+        fr = rast.fragments(vs.window_array, tris.astype(np.int32))
+        count = fr.count
+    if count:
+        pix = fr.pixel_index()
+        prim = fr.prim.numpy()[:count]
+        depth = fr.depth.numpy()[:count]
+        order = np.lexsort((depth, pix))
+        start = fr.offsets.numpy().astype(np.int32)
+        frag_bf = prim[order]
+        layers = int(np.diff(start).max())
+    else:
+        start = np.zeros(npx + 1, np.int32)
+        frag_bf = np.zeros(0, np.int64)
+        layers = 0
+
+    def arr(a, dtype=wp.int32):
+        a = np.ascontiguousarray(a, dtype=np.int32)
+        if len(a) == 0:
+            a = np.zeros((1,) + a.shape[1:], np.int32)
+        return wp.array(a, dtype=dtype, device=device)
+
+    return {"frag_start": arr(start), "frag_bf": arr(frag_bf), "bf_tet": arr(bf[:, 0]), "bf_face": arr(bf[:, 1]),
+            "bf_nbr": arr(surface_neighbours(tris).reshape(-1, 3), wp.vec3i), "fragments": int(count),
+            "faces": int(len(bf)), "max_layers": layers}
+
+
+def integ_setup(mode: str, tf, device: str, *, table=None, psi=None, iso=None, iso_rule: str = "paper",
+                lmax: float = 1.0, table_texel: str = "auto", weight_bits: int | None = 8,
+                cache: dict | None = None):
+    """The kernel's :class:`warpvol.kernels.harc.Integ` and the textures it holds.
+
+    ``table``: a 3D pre-integration table (``data[l, sb, sf]``) for ``full``; ``psi`` (the psi
+    table) and ``iso`` (the iso-crossing table) for ``partial``. ``cache`` (a dict kept by the
+    pipeline) holds the textures made from tables by table key, so redrawing with the same tables
+    uploads nothing (as a texture stays resident on the card until the TF changes)."""
+    from warpvol.gpu.texture import Texture2D, Texture3D
+    from warpvol.kernels import harc as kh
+    from warpvol.projection.pt import TEXEL_FOR_TABLE, _axis_affine
+
+    if mode not in INTEGRATIONS:
+        raise ConfigError(f"integration: {mode!r} not allowed; allowed: {', '.join(INTEGRATIONS)}")
+    ig = kh.Integ()
+    ig.mode = INTEGRATIONS[mode]
+    ig.model = 0 if tf.emission == "color_extinction" else 1
+    ig.tf_s, ig.tf_v = tf.to_warp(device)
+    lo, hi = tf.srange
+    ig.s_off, ig.s_inv = float(lo), 1.0 / float(hi - lo)
+    keep = []
+    cache = {} if cache is None else cache
+
+    def cached(key, make):
+        key = (str(device),) + key
+        if key not in cache:
+            if len(cache) > 16:
+                cache.clear()
+            cache[key] = make()
+        return cache[key]
+
+    dummy2 = cached(("empty2d",), lambda: Texture2D(np.zeros((1, 1, 4)), fmt="rgba32f", filter="nearest",
+                                                     device=device))
+    dummy3 = cached(("empty3d",), lambda: Texture3D(np.zeros((1, 1, 1, 4)), fmt="rgba32f", filter="nearest",
+                                                     device=device))
+    ig.table, ig.psi, ig.iso = dummy3.struct, dummy2.struct, dummy2.struct
+    ig.t_sa, ig.t_sb, ig.l_inv, ig.t_la, ig.t_lb, ig.t_llog = 1.0, 0.0, 1.0 / lmax, 1.0, 0.0, 0
+    ig.iso_rule = ISO_RULES[iso_rule]
+    ig.p_a, ig.p_b = 1.0, 0.0
+    keep += [dummy2, dummy3]
+    if mode == "full":
+        if table is None or table.data.ndim != 4:
+            raise ConfigError("integration 'full' needs a 3D table (a table stage before this one)")
+        ax_l, _, ax_f = table.axes
+        fmt = TEXEL_FOR_TABLE[table.format] if table_texel == "auto" else table_texel
+        t3 = cached(("table", table.key, fmt, weight_bits),
+                    lambda: Texture3D(table.data, fmt=fmt, filter="linear", device=device, weight_bits=weight_bits))
+        ig.table = t3.struct
+        ig.s_off, ig.s_inv = float(ax_f.offset), 1.0 / float(ax_f.scale)
+        ig.t_sa, ig.t_sb, _ = _axis_affine(ax_f)
+        ig.t_la, ig.t_lb, ig.t_llog = _axis_affine(ax_l)
+        ig.l_inv = 1.0 / float(ax_l.scale)
+        keep.append(t3)
+    elif mode == "partial":
+        if psi is None or iso is None:
+            raise ConfigError("integration 'partial' needs the psi and iso tables (table_psi, table_iso)")
+        pfmt = {"fp16": "rgba16f"}.get(psi.format, "rgba32f")  # fp16: linearly filtered on NV40
+        pt = cached(("psi", psi.key, pfmt, weight_bits), lambda: Texture2D(
+            rgba(psi.data), fmt=pfmt, filter="linear", device=device, weight_bits=weight_bits))
+        ifmt = {"fp16": "rgba16f"}.get(iso.format, "rgba32f")
+        it = cached(("iso", iso.key, ifmt), lambda: Texture2D(rgba(iso.data), fmt=ifmt, filter="nearest",
+                                                               device=device))
+        ig.psi, ig.iso = pt.struct, it.struct
+        ig.p_a, ig.p_b, _ = _axis_affine(psi.axes[1])
+        keep += [pt, it]
+    return ig, keep
+
+
+def rgba(two: np.ndarray) -> np.ndarray:
+    """A two-channel table ``(..., 2)`` as RGBA texels ``(a, b, 1, 1)``."""
+    return np.concatenate([two, np.ones(two.shape[:-1] + (2,), two.dtype)], axis=-1)
+
+
+class HarcState:
+    """Per-pixel ray state on the device: accumulated RGBA, ray parameter, status, last cell."""
+
+    def __init__(self, n: int, device: str):
+        import warp as wp
+
+        from warpvol.kernels import harc as kh
+
+        self.n, self.device = n, device
+        self.rgba = wp.zeros(n, dtype=wp.vec4, device=device)
+        self.tcur = wp.zeros(n, dtype=wp.float32, device=device)
+        self.status = wp.zeros(n, dtype=wp.int32, device=device)
+        self.last = wp.zeros(n, dtype=wp.int32, device=device)
+        wp.launch(kh.init_state, dim=n, inputs=[self.rgba, self.tcur, self.status, self.last], device=device)
+
+    def image(self, height: int, width: int) -> np.ndarray:
+        return self.rgba.numpy().reshape(height, width, 4).astype(np.float32)
+
+
+N_COUNTERS = 9
+COUNTER_NAMES = ("entries", "steps", "cells", "failed", "step_bound", "iso_missed", "texture_fetches",
+                 "entry_searches", "thin_layer_rays")
+
+
+def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, fb_format: str, t_stop: float,
+               max_steps: int, threads: int, rows_per_block: int = 16) -> dict:
+    """One propagation pass over all active rays; returns the summed counters by name."""
+    import warp as wp
+
+    from warpvol.gpu.formats import get_format
+    from warpvol.kernels import harc as kh
+    from warpvol.parallel import launch_blocks
+    from warpvol.raycasting.stages.raycast import camera_launch_args
+
+    cells = ctx.buffers["cells"]
+    w, rows, cam_args = camera_launch_args(ctx, rows_per_block)
+    counters = wp.zeros((len(rows), N_COUNTERS), dtype=wp.int32, device=ctx.device)
+    common = cam_args + [WALKS[walk], mesh_tex, cells["verts"], cells["tets"], cells["nbr"], entry["frag_start"],
+                         entry["frag_bf"], entry["bf_tet"], entry["bf_face"], entry["bf_nbr"], ig,
+                         get_format(fb_format).kernel_params(), float(t_stop), int(max_steps), 1e-6 * cells["radius"]]
+
+    def launch(b: int) -> None:
+        r0, nr = rows[b]
+        wp.launch(kh.harc_march, dim=nr * w, device=ctx.device,
+                  inputs=common + [r0, state.rgba, state.tcur, state.status, state.last, counters, b])
+
+    launch_blocks(ctx.device, len(rows), launch, threads)
+    return dict(zip(COUNTER_NAMES, (int(x) for x in counters.numpy().sum(axis=0))))
+
+
+def resolve_failed(ctx, state: HarcState) -> int:
+    """Redo the rays marked failed in float64 on the host (whole ray, the reference's watertight
+    tracer: :func:`warpvol.raycasting.stages.raycast.redo_pixels_float64`); returns how many."""
+    import warp as wp
+
+    from warpvol.kernels import raycast as kr
+    from warpvol.raycasting.stages.raycast import redo_pixels_float64
+
+    status = state.status.numpy()
+    failed = np.flatnonzero(status == int(kr.STATUS_FAILED))
+    if len(failed) == 0:
+        return 0
+    sc = ctx.scene
+    val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, failed)
+    rgba = state.rgba.numpy()
+    rgba[failed] = val
+    status[failed] = int(kr.STATUS_DONE)
+    state.rgba = wp.array(rgba, dtype=wp.vec4, device=state.device)
+    state.status = wp.array(status, dtype=wp.int32, device=state.device)
+    return int(len(failed))

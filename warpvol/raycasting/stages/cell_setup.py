@@ -1,0 +1,109 @@
+"""Host step ``cell_setup``: per-mesh cell data for ray propagation, kept across renders.
+
+Layout (float32 / int32, 32 bytes per tet plus 16 per point): per point ``(x, y, z, s)``, the
+position relative to ``cells["origin"]`` (the centre of the mesh's bounding box; float64 shift before
+the float32 cast, so rounding scales with the mesh's size, not with its distance from the world
+origin) and the scalar; per tet the 4 vertex indices and per local face ``4 * neighbour + (the face's local index
+in the neighbour)`` (``-1`` on the boundary). The walk (:mod:`warpvol.kernels.raycast`) needs no
+face planes or gradients: Plücker edge tests on the shared points decide faces, barycentric weights
+give depth and scalar. The transfer function is uploaded per render.
+
+The mesh arrays are built once per (mesh, device) and kept in the pipeline's persistent state
+(``ctx.persistent["cells"]``), so re-rendering (new camera, TF edit) skips them; a different mesh
+object rebuilds them.
+"""
+
+from __future__ import annotations
+
+import weakref
+
+import numpy as np
+
+from warpvol.stage import Context, Stage, register_stage
+
+
+def neighbour_faces(adjacency: np.ndarray) -> np.ndarray:
+    """``(M, 4)`` int32: ``4 * n + j`` for the neighbour ``n`` across each local face and the local
+    index ``j`` of the same face in ``n``; ``-1`` on the boundary."""
+    adj = np.asarray(adjacency, dtype=np.int64)
+    m = len(adj)
+    c, i = np.nonzero(adj >= 0)
+    n = adj[c, i]
+    j = np.argmax(adj[n] == c[:, None], axis=1)
+    out = np.full((m, 4), -1, dtype=np.int64)
+    out[c, i] = 4 * n + j
+    return out.astype(np.int32)
+
+
+def neighbour_vertices(nbr: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """``(M, 4)`` int32: the global index of the neighbour's vertex opposite each local face (the
+    vertex a ray walking through that face meets next), ``-1`` on the boundary. With it a walker
+    fetches the next vertex in parallel with the next cell's record instead of after it."""
+    nb = np.asarray(nbr, dtype=np.int64)
+    ok = nb >= 0
+    out = np.full(nb.shape, -1, dtype=np.int32)
+    out[ok] = np.asarray(tets)[nb[ok] >> 2, nb[ok] & 3]
+    return out
+
+
+def mesh_arrays(mesh, device: str) -> dict:
+    """Device arrays of the per-mesh cell layout (plain function for tests and other walkers)."""
+    import warp as wp
+
+    lo, hi = mesh.bounds
+    origin = 0.5 * (lo + hi)
+    rel = mesh.points - origin
+    tets = np.ascontiguousarray(mesh.tets, dtype=np.int32)
+    nbr = neighbour_faces(mesh.adjacency)
+    return {
+        "origin": origin,
+        "radius": float(np.sqrt((rel * rel).sum(axis=1).max())),
+        "diameter": float(np.linalg.norm(hi - lo)),
+        "verts": wp.array(np.ascontiguousarray(np.c_[rel, mesh.scalars], dtype=np.float32), dtype=wp.vec4,
+                          device=device),
+        "tets": wp.array(tets, dtype=wp.vec4i, device=device),
+        "nbr": wp.array(nbr, dtype=wp.vec4i, device=device),
+        "nbr_vertex": wp.array(neighbour_vertices(nbr, tets), dtype=wp.vec4i, device=device),
+    }
+
+
+def cell_arrays(mesh, tf, device: str, cache: dict | None = None) -> dict:
+    """Mesh arrays (from ``cache`` when it holds them for this mesh and device) plus the TF."""
+    key = str(device)
+    hit = None if cache is None else cache.get(key)
+    if hit is not None and hit["mesh"]() is mesh:
+        cells = dict(hit["arrays"])
+        cells["cached"] = True
+    else:
+        arrays = mesh_arrays(mesh, device)
+        if cache is not None:
+            cache[key] = {"mesh": weakref.ref(mesh), "arrays": arrays}
+        cells = dict(arrays)
+        cells["cached"] = False
+    tf_s, tf_v = tf.to_warp(device)
+    cells.update(tf_s=tf_s, tf_v=tf_v, model=0 if tf.emission == "color_extinction" else 1)
+    return cells
+
+
+@register_stage
+class CellSetup(Stage):
+    """Per-mesh cell data (points, scalars, tets, neighbour faces; cached per mesh) and the TF.
+
+    ==========  =====  =========  ===========================
+    parameter   type   default    meaning
+    ==========  =====  =========  ===========================
+    (none)
+    ==========  =====  =========  ===========================
+    """
+
+    name = "cell_setup"
+    summary = "upload points, scalars, tets, neighbour faces (cached per mesh) and the TF"
+    needs = ()
+    provides = ("cells",)
+    setup = True
+
+    def run(self, ctx: Context) -> None:
+        cache = ctx.persistent.setdefault("cells", {})
+        cells = cell_arrays(ctx.scene.mesh, ctx.scene.transfer, ctx.device, cache)
+        ctx.buffers["cells"] = cells
+        ctx.stats["cell_setup"] = {"cached": cells["cached"]}

@@ -1,0 +1,143 @@
+"""Host step ``entry_bins``: bin the front-facing boundary faces into screen tiles.
+
+Rays start on the mesh boundary. Instead of testing every pixel against every boundary face, each
+boundary face a ray may enter through (:func:`entry_face_mask`) is projected along the camera's rays
+(no near/far planes, so a camera looking away from the mesh is fine), its pixel bounding box (grown
+by one pixel) is mapped to ``tile x tile`` screen tiles, and the (tile, face) pairs are sorted into a
+CSR list. A ray then only tests the faces of its tile. Faces straddling the eye plane cover every
+tile (conservative).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from warpvol.stage import Context, Param, Stage, register_stage
+
+
+def entry_face_mask(mesh, camera) -> np.ndarray:
+    """Boundary faces a ray may enter through (conservative: the kernel's Plücker test decides).
+
+    Orthographic: faces with ``n . f < tol`` (edge-on faces included). Perspective: faces with the
+    eye on (or within ``tol`` of) their outer side; all faces when the eye lies in the mesh's
+    bounding sphere, because rays then start walking behind the eye (``t_clip``) and enter through
+    faces there."""
+    bf = mesh.boundary_faces
+    planes = mesh.face_planes[bf[:, 0], bf[:, 1]]  # (B,4)
+    lo, hi = mesh.bounds
+    diam = float(np.linalg.norm(hi - lo))
+    centre = 0.5 * (lo + hi)
+    radius = float(np.sqrt(((mesh.points - centre) ** 2).sum(axis=1).max()))
+    if camera.projection == "perspective":
+        if np.linalg.norm(camera.eye - centre) <= 1.001 * radius:
+            return np.ones(len(bf), dtype=bool)
+        return planes[:, :3] @ camera.eye + planes[:, 3] > -1e-9 * diam
+    return planes[:, :3] @ camera.forward < 1e-9
+
+
+def window_xy(camera, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(wx, wy, bad, z)``: window coordinates (x right in pixels, y down in rows) of points ``p``
+    (n, 3), a mask of points too close to the eye plane to project (perspective) and their depth
+    along the view direction. A point behind the eye projects to the pixel whose ray *line* passes
+    through it."""
+    rel = p - camera.eye
+    x, y, z = rel @ camera.right, rel @ camera.true_up, rel @ camera.forward
+    if camera.projection == "perspective":
+        th = np.tan(np.radians(camera.fov_y_deg) / 2.0)
+        sx, sy = th * camera.aspect, th
+        scale = np.sqrt(x * x + y * y + z * z)
+        bad = np.abs(z) <= 1e-9 * np.maximum(scale, 1e-300)
+        zs = np.where(bad, 1.0, z)
+        x, y = x / zs, y / zs
+    else:
+        sx, sy = camera.height / 2.0 * camera.aspect, camera.height / 2.0
+        bad = np.zeros(len(p), dtype=bool)
+    wx = (x / sx + 1.0) * camera.width_px / 2.0
+    wy = (1.0 - y / sy) * camera.height_px / 2.0
+    return wx, wy, bad, z
+
+
+def bin_boundary_faces(mesh, camera, tile: int) -> dict:
+    """CSR bins of the boundary faces rays may enter through, over screen tiles (plain NumPy).
+
+    Returns ``dict(bface_tet, bface_local, bface_box, tile_start, tile_items, tiles_x, tiles_y, tile)``;
+    ``bface_box`` (int32, 4 per face: first column, first row, last column, last row) bounds the
+    pixels whose rays may cross the face (its projected box grown by one pixel, plus one).
+    """
+    front = entry_face_mask(mesh, camera)
+    bf = mesh.boundary_faces[front]
+    tris = mesh.boundary_triangles()[front]
+    w, h = camera.width_px, camera.height_px
+    tiles_x, tiles_y = -(-w // tile), -(-h // tile)
+    n_tiles = tiles_x * tiles_y
+    if len(bf) == 0:
+        return dict(bface_tet=np.zeros(0, np.int32), bface_local=np.zeros(0, np.int32),
+                    bface_box=np.zeros(0, np.int32),
+                    tile_start=np.zeros(n_tiles + 1, np.int32), tile_items=np.zeros(0, np.int32),
+                    tiles_x=tiles_x, tiles_y=tiles_y, tile=tile)
+    wx, wy, bad, z = window_xy(camera, mesh.points[tris.reshape(-1)])
+    win = np.stack([wx, wy], axis=-1).reshape(-1, 3, 2)
+    # a triangle whose vertices are not all on one side of the eye plane has an unbounded projection
+    zt = z.reshape(-1, 3)
+    straddle = bad.reshape(-1, 3).any(axis=1) | ((zt > 0).any(axis=1) & (zt < 0).any(axis=1))
+    with np.errstate(invalid="ignore"):
+        lo = np.floor(win.min(axis=1) - 1.0)
+        hi = np.ceil(win.max(axis=1) + 1.0)
+    lo[straddle] = 0
+    hi[straddle] = [w, h]
+    lo = np.clip(lo, -1.0, float(max(w, h)) + 1.0)
+    hi = np.clip(hi, -1.0, float(max(w, h)) + 1.0)
+    # pixel index ranges -> tile ranges (clipped to the screen)
+    tx0 = np.clip(lo[:, 0] // tile, 0, tiles_x - 1).astype(np.int64)
+    tx1 = np.clip(hi[:, 0] // tile, 0, tiles_x - 1).astype(np.int64)
+    ty0 = np.clip(lo[:, 1] // tile, 0, tiles_y - 1).astype(np.int64)
+    ty1 = np.clip(hi[:, 1] // tile, 0, tiles_y - 1).astype(np.int64)
+    offscreen = (hi[:, 0] < 0) | (hi[:, 1] < 0) | (lo[:, 0] > w) | (lo[:, 1] > h)
+    nx = np.where(offscreen, 0, tx1 - tx0 + 1)
+    ny = np.where(offscreen, 0, ty1 - ty0 + 1)
+    cnt = nx * ny
+    face = np.repeat(np.arange(len(bf)), cnt)
+    k = np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    tx = tx0[face] + k % nx[face]
+    ty = ty0[face] + k // nx[face]
+    tid = ty * tiles_x + tx
+    order = np.argsort(tid, kind="stable")
+    start = np.zeros(n_tiles + 1, np.int64)
+    np.cumsum(np.bincount(tid, minlength=n_tiles), out=start[1:])
+    # per face, the pixel columns / rows whose centres its grown box may contain (one more pixel of
+    # margin): the kernel skips a face's ray test outside it, as the binning does per tile
+    box = np.stack([lo[:, 0] - 1, lo[:, 1] - 1, hi[:, 0], hi[:, 1]], axis=1)
+    box[~np.isfinite(box).all(axis=1)] = [-1, -1, w, h]
+    return dict(bface_tet=bf[:, 0].astype(np.int32), bface_local=bf[:, 1].astype(np.int32),
+                bface_box=np.ascontiguousarray(box, dtype=np.int32).reshape(-1),
+                tile_start=start.astype(np.int32), tile_items=face[order].astype(np.int32),
+                tiles_x=tiles_x, tiles_y=tiles_y, tile=tile)
+
+
+@register_stage
+class EntryBins(Stage):
+    """Bin the boundary faces rays may enter through into screen tiles (ray start / re-entry search).
+
+    ==========  =====  =======  ======================================
+    parameter   type   default  meaning
+    ==========  =====  =======  ======================================
+    tile        int    8        tile edge in pixels (1 .. 256)
+    ==========  =====  =======  ======================================
+    """
+
+    name = "entry_bins"
+    summary = "bin entry boundary faces into screen tiles for ray entry"
+    needs = ()
+    provides = ("entry_bins",)
+    params = (Param("tile", int, 8, "tile edge in pixels", lo=1, hi=256),)
+
+    def run(self, ctx: Context) -> None:
+        import warp as wp
+
+        b = bin_boundary_faces(ctx.scene.mesh, ctx.scene.camera, self.tile)
+        ctx.stats["entry_faces"] = int(len(b["bface_tet"]))
+        ctx.stats["entry_bin_items"] = int(len(b["tile_items"]))
+        ctx.buffers["entry_bins"] = {
+            k: (wp.array(v, dtype=wp.int32, device=ctx.device) if isinstance(v, np.ndarray) else v)
+            for k, v in b.items()
+        }

@@ -1,0 +1,142 @@
+"""Stage ``harc``: hardware ray casting, first pass (Weiler et al. 2003; Espinha & Celes 2005 Fig. 6).
+
+Each pixel's ray starts at its first rasterised front boundary face (``harc_raster``) and walks one
+cell per fragment-program step (:mod:`warpvol.kernels.harc`): the paper's plane arithmetic on the
+96 bytes/tet textures (``walk = "planes"``) or the consistent Plücker walk shared with ``raycast``
+(``walk = "plucker"``). Segments are integrated exactly, with a 3D pre-integration table (``full``)
+or by partial pre-integration with iso splits (``partial``), composited front to back and written to
+the frame buffer in ``format``. Rays the float32 walk cannot resolve are redone in float64 on the
+host and counted (``unresolved_rays``).
+"""
+
+from __future__ import annotations
+
+from warpvol.errors import ConfigError
+from warpvol.parallel import cpu_threads
+from warpvol.stage import Context, Param, Stage, register_stage
+
+def count_pass(ctx: Context, c: dict, textures: list, walk: str, integration: str, fmt: str) -> None:
+    """Count one propagation pass for the throughput model: the pass, its fragment-program steps
+    (``cell_steps``: one per cell, plus the iso sub-steps of partial pre-integration), the texture
+    fetches by texture (mesh textures: 6 nearest rgba32f fetches per cell of the plane walk; the 3D
+    table one per step; psi and iso one each per sub-step) and one frame-buffer write per ray that
+    entered. Diagnostics (unresolved rays, iso misses, entry searches) go to ``stats``."""
+    from warpvol.gpu.counters import active
+
+    ctx.count(passes=1, entries=c["entries"], cell_steps=c["steps"])
+    cnt = active()
+    if cnt is None:
+        return
+    tex = [t for t in textures if t.shape != (1, 1) and t.shape != (1, 1, 1)]
+    if walk == "planes" and c["texture_fetches"]:
+        cnt.add(**{"tex_2d_rgba32f_nearest": c["texture_fetches"], "texels": c["texture_fetches"]})
+    for t in tex:  # full: the 3D table; partial: psi, then iso
+        t.count(c["steps"])
+    if c["entries"]:
+        cnt.blend(fmt, c["entries"], blending=False)
+
+
+HARC_PARAMS = (
+    Param("early_termination", float, 0.0, "stop a ray once its transmittance 1 - A is below this (0: off, "
+          "as in the paper's measurements)", lo=0.0, hi=1.0),
+    Param("max_steps", int, 1_000_000, "cells per ray and pass (bounded passes); a ray reaching it is counted",
+          lo=1),
+    Param("threads", int, 0, "host threads launching row blocks on the CPU (0: all cores)", lo=0, hi=256),
+)
+
+
+@register_stage
+class Harc(Stage):
+    """First ray-casting pass: boundary entry, cell-to-cell propagation, front-to-back compositing.
+
+    =================  =====  =========  ==========================================================
+    parameter          type   default    meaning
+    =================  =====  =========  ==========================================================
+    walk               str    planes     ``planes`` (paper's Fig. 6 on the texture layout) |
+                                         ``plucker`` (consistent walk of ``raycast``)
+    integration        str    exact      ``exact`` | ``full`` (3D table) | ``partial`` (psi + iso)
+    table              str    table3d    ``ctx.buffers`` key of the 3D table (``full``)
+    psi                str    psi        ``ctx.buffers`` key of the psi table (``partial``)
+    iso                str    iso        ``ctx.buffers`` key of the iso table (``partial``)
+    iso_rule           str    paper      ``paper`` (``sf == s_iso``) | ``behind`` (edge-anchored table)
+    weight_bits        int    8          texture filter-weight bits (0: fp32 weights)
+    format             str    fp32       frame-buffer format of each pass's result
+    early_termination  float  0          1 - A below this stops the ray (0: off)
+    max_steps          int    1000000    cells per ray and pass
+    threads            int    0          host threads for CPU row blocks (0: all cores)
+    =================  =====  =========  ==========================================================
+    """
+
+    name = "harc"
+    summary = ("hardware ray casting (HARC): rasterised boundary entry, one cell per fragment-program step, "
+               "exact / full / partial pre-integration, front-to-back in the buffer's format")
+    needs = ("cells", "harc_mesh", "harc_entry")
+    provides = ("harc_state", "image")
+    params = (
+        Param("walk", str, "planes", "exit-face arithmetic", choices=("planes", "plucker")),
+        Param("integration", str, "exact", "segment integration", choices=("exact", "full", "partial")),
+        Param("table", str, "table3d", "ctx.buffers key of the 3D table (full)"),
+        Param("psi", str, "psi", "ctx.buffers key of the psi table (partial)"),
+        Param("iso", str, "iso", "ctx.buffers key of the iso-crossing table (partial)"),
+        Param("iso_rule", str, "paper", "next_s_iso rule", choices=("paper", "behind")),
+        Param("weight_bits", int, 8, "texture filter-weight fraction bits (0: fp32)", lo=0, hi=16),
+        Param("format", str, "fp32", "frame-buffer format", choices=("unorm8", "unorm12", "unorm16", "fp16", "fp32")),
+    ) + HARC_PARAMS
+
+    def requires_caps(self) -> dict:
+        caps = {"fragment_loops": True, "float_textures": True}
+        if self.integration == "full":
+            caps["tex3d"] = True
+        return caps
+
+    def run(self, ctx: Context) -> None:
+        from warpvol.raycasting.harc import HarcState, integ_setup, march_pass, resolve_failed
+
+        mt = ctx.buffers["harc_mesh"]
+        if self.walk == "planes" and mt["struct"] is None:
+            raise ConfigError(f"{self.where}.walk: 'planes' needs harc_mesh layout = 'paper96'")
+        st = mt["struct"]
+        keep_st = None
+        if st is None:  # the plucker walk reads the compact layout (the cells' arrays)
+            from warpvol.raycasting.harc import empty_mesh_tex
+
+            st, keep_st = empty_mesh_tex(ctx.device)
+        tables = {}
+        for key in (("table",) if self.integration == "full" else ("psi", "iso") if self.integration == "partial"
+                    else ()):
+            name = self.config[key]
+            if name not in ctx.buffers:
+                raise ConfigError(f"{self.where}.{key}: no table {name!r} in this pipeline; put a table stage "
+                                  f"with output = {name!r} before this stage")
+            tables[key] = ctx.buffers[name]
+        ig, keep = integ_setup(self.integration, ctx.scene.transfer, ctx.device, iso_rule=self.iso_rule,
+                               weight_bits=self.weight_bits or None, lmax=ctx.scene.mesh.lmax,
+                               cache=ctx.persistent.setdefault("harc_textures", {}), **tables)
+        cam = ctx.scene.camera
+        state = HarcState(cam.width_px * cam.height_px, ctx.device)
+        entry = ctx.buffers["harc_entry"]
+        threads = self.threads or cpu_threads()
+
+        def run_pass(max_steps=self.max_steps):
+            return march_pass(ctx, state, walk=self.walk, mesh_tex=st, entry=entry, ig=ig, fb_format=self.format,
+                              t_stop=self.early_termination, max_steps=max_steps, threads=threads)
+
+        import time
+
+        t0 = time.perf_counter()
+        c = run_pass()
+        t1 = time.perf_counter()
+        ctx.buffers["harc_state"] = {"state": state, "run_pass": run_pass, "keep": (keep, keep_st),
+                                     "count": lambda c: count_pass(ctx, c, keep, self.walk, self.integration,
+                                                                   self.format),
+                                     "resolve": lambda: resolve_failed(ctx, state)}
+        # failed rays are redone whole in float64 now (and then done: later peel passes skip them)
+        redone = resolve_failed(ctx, state)
+        t2 = time.perf_counter()
+        count_pass(ctx, c, keep, self.walk, self.integration, self.format)
+        ctx.count(rays=state.n)
+        ctx.stats["harc"] = {"walk": self.walk, "integration": self.integration, **c, "unresolved_rays": redone,
+                             "pass_s": t1 - t0, "float64_s": t2 - t1}
+        if redone:
+            ctx.progress(f"harc: {redone} rays the float32 walk could not resolve were redone in float64")
+        ctx.image = state.image(cam.height_px, cam.width_px)

@@ -1,0 +1,59 @@
+"""Host step ``harc_mesh``: the mesh in textures for hardware ray casting (Espinha & Celes 2005 Table 1)."""
+
+from __future__ import annotations
+
+import weakref
+
+from warpvol.stage import Context, Param, Stage, register_stage
+
+
+@register_stage
+class HarcMesh(Stage):
+    """Mesh textures of the ray caster; reports bytes/tet.
+
+    ``paper96``: four face planes ``(n, o)``, gradient ``(g, g0)`` and adjacency per tet, float32,
+    six rgba32f textures (96 bytes/tet), read by the ``planes`` walk through the texture unit.
+    ``compact``: the cells' layout (4 vertex indices + 4 neighbour faces per tet, ``(x, y, z, s)`` per
+    point: 32 bytes/tet + 16 bytes/point, ~35 bytes/tet on the NASA meshes); planes and scalars are
+    derived in the fragment program (the ``plucker`` walk). Kept across renders of the same mesh.
+
+    ==========  =====  =========  ==========================================
+    parameter   type   default    meaning
+    ==========  =====  =========  ==========================================
+    layout      str    paper96    ``paper96`` | ``compact``
+    ==========  =====  =========  ==========================================
+    """
+
+    name = "harc_mesh"
+    summary = "mesh textures for hardware ray casting (paper's 96 bytes/tet, or compact); bytes/tet reported"
+    needs = ("cells",)
+    provides = ("harc_mesh",)
+    setup = True
+    params = (Param("layout", str, "paper96", "mesh layout", choices=("paper96", "compact")),)
+
+    def run(self, ctx: Context) -> None:
+        from warpvol.raycasting.harc import layout_bytes, mesh_textures
+
+        mesh = ctx.scene.mesh
+        sizes = layout_bytes(mesh)
+        out = {"layout": self.layout, "struct": None, "textures": (), "bytes_per_tet": sizes[self.layout]}
+        if self.layout == "paper96":
+            cache = ctx.persistent.setdefault("harc_mesh", {})
+            hit = cache.get(str(ctx.device))
+            cells = ctx.buffers["cells"]
+            if hit is not None and hit[0]() is mesh:
+                st, texs = hit[1]
+                cached = True
+            else:
+                st, texs = mesh_textures(mesh, cells["origin"], ctx.device)
+                cache[str(ctx.device)] = (weakref.ref(mesh), (st, texs))
+                cached = False
+            out.update(struct=st, textures=texs)
+        else:
+            cached = ctx.buffers["cells"]["cached"]
+        ctx.buffers["harc_mesh"] = out
+        if not cached and self.layout == "compact":  # the texture unit counts the paper96 textures itself
+            ctx.count(texture_bytes=int(round(sizes[self.layout] * mesh.n_tets)))
+        ctx.stats["harc_mesh"] = {"layout": self.layout, "bytes_per_tet": round(sizes[self.layout], 2),
+                                  "bytes_per_tet_all": {k: round(v, 2) for k, v in sizes.items()},
+                                  "cached": cached}

@@ -1,0 +1,55 @@
+"""Stage ``harc_peel``: depth peeling over the boundary layers for non-convex meshes."""
+
+from __future__ import annotations
+
+from warpvol.stage import Context, Param, Stage, register_stage
+
+
+@register_stage
+class HarcPeel(Stage):
+    """Further ray-casting passes: each re-rasterises the front boundary faces with the depth test
+    "beyond the last exit" (the next boundary layer) and walks on, until no ray re-enters or
+    ``max_passes``. Skipped by the planner when the mesh boundary is convex.
+
+    ==========  =====  =========  ===================================
+    parameter   type   default    meaning
+    ==========  =====  =========  ===================================
+    max_passes  int    64         upper bound on peel passes (>= 1)
+    ==========  =====  =========  ===================================
+    """
+
+    name = "harc_peel"
+    summary = "depth peeling: re-enter non-convex meshes at the next boundary layer (skipped when convex)"
+    needs = ("harc_state", "harc_entry")
+    provides = ("image",)
+    params = (Param("max_passes", int, 64, "upper bound on peel passes", lo=1),)
+
+    def skip_reason(self, ctx: Context) -> str | None:
+        if ctx.scene.mesh.is_convex:
+            return "mesh boundary is convex: every ray enters the mesh at most once (no boundary layer to peel)"
+        return None
+
+    def run(self, ctx: Context) -> None:
+        hs = ctx.buffers["harc_state"]
+        entry = ctx.buffers["harc_entry"]
+        passes, entries = 0, 0
+        total = {}
+        for _ in range(self.max_passes):
+            c = hs["run_pass"]()
+            passes += 1
+            # every peel pass rasterises the front boundary faces again (depth test against the last layer)
+            ctx.count(fragments=entry["fragments"])
+            hs["count"](c)
+            for k, v in c.items():
+                total[k] = total.get(k, 0) + v
+            if c["entries"] == 0:
+                break
+            entries += c["entries"]
+        redone = hs["resolve"]()
+        mesh = ctx.scene.mesh  # interior faces without a neighbour: rays re-enter at the coincident face
+        ctx.stats["harc_peel"] = {"passes": passes, "reentries": entries, "unresolved_rays": redone, **total,
+                                  "exhausted": passes == self.max_passes, "crack_faces": len(mesh.crack_faces),
+                                  "nonconforming_faces": len(mesh.nonconforming_faces)}
+        st = hs["state"]
+        cam = ctx.scene.camera
+        ctx.image = st.image(cam.height_px, cam.width_px)

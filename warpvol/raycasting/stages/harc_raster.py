@@ -1,0 +1,33 @@
+"""Host step ``harc_raster``: ray start by rasterising the front-facing boundary faces."""
+
+from __future__ import annotations
+
+from warpvol.stage import Context, Stage, register_stage
+
+
+@register_stage
+class HarcRaster(Stage):
+    """Rasterise the front-facing boundary faces (vertex stage + rasteriser unit) into per-pixel
+    fragment lists (entry tet, local face) sorted by depth: the first is the ray's entry, the next
+    ones the layers depth peeling goes through (:func:`warpvol.raycasting.harc.entry_fragments`).
+
+    ==========  =====  =========  ===========================
+    parameter   type   default    meaning
+    ==========  =====  =========  ===========================
+    (none)
+    ==========  =====  =========  ===========================
+    """
+
+    name = "harc_raster"
+    summary = "ray start: rasterise front-facing boundary faces (entry tet and depth order per pixel)"
+    needs = ()
+    provides = ("harc_entry",)
+
+    def run(self, ctx: Context) -> None:
+        from warpvol.raycasting.harc import entry_fragments
+
+        e = entry_fragments(ctx.scene.mesh, ctx.scene.camera, ctx.device)
+        ctx.buffers["harc_entry"] = e
+        # the vertex stage and the rasteriser count their own work (vertices, primitives, fragments)
+        ctx.stats["harc_raster"] = {"front_faces": e["faces"], "fragments": e["fragments"],
+                                    "boundary_layers": e["max_layers"]}

@@ -1,0 +1,213 @@
+"""Stage ``raycast``: float32 ray propagation through the cell adjacency (first pass).
+
+Each pixel's ray (origin moved to the mesh in float64) enters at the nearest boundary face of its
+screen tile (from ``entry_bins``) and walks cell to cell with consistent Plücker edge tests (see
+:mod:`warpvol.kernels.raycast`), integrates each segment exactly for the piecewise-linear transfer
+function and composites front to back. The pass ends where the ray leaves the mesh; for non-convex
+meshes the ``peel`` stage continues from there. Rays the float32 walk cannot resolve are redone in
+float64 on the host (:func:`redo_pixels_float64`) and counted.
+
+On the CPU a Warp launch runs its threads serially, so the image is cut into row blocks that a pool
+of host threads launches concurrently (``threads``); Warp releases the GIL while a CPU kernel runs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from warpvol.parallel import blocks, cpu_threads, launch_blocks
+from warpvol.stage import Context, Param, Stage, register_stage
+
+
+class MarchState:
+    """Per-pixel ray state on the device: radiance, transmittance, ray parameter, status."""
+
+    def __init__(self, n: int, device: str):
+        import warp as wp
+
+        from warpvol.kernels import raycast as k
+
+        self.n, self.device = n, device
+        self.rgb = wp.zeros(n, dtype=wp.vec3, device=device)
+        self.trans = wp.zeros(n, dtype=wp.float32, device=device)
+        self.tcur = wp.zeros(n, dtype=wp.float32, device=device)
+        self.status = wp.zeros(n, dtype=wp.int32, device=device)
+        self.last = wp.zeros(n, dtype=wp.int32, device=device)  # cell each ray last left
+        self.active = n  # rays a further pass must search (set by each pass)
+        wp.launch(k.init_state, dim=n, inputs=[self.rgb, self.trans, self.tcur, self.status, self.last, 0.0],
+                  device=device)
+
+    def image(self, height: int, width: int) -> np.ndarray:
+        import warp as wp
+
+        from warpvol.kernels import raycast as k
+
+        out = wp.zeros(self.n, dtype=wp.vec4, device=self.device)
+        wp.launch(k.finish, dim=self.n, inputs=[self.rgb, self.trans, out], device=self.device)
+        return out.numpy().reshape(height, width, 4)
+
+
+def redo_pixels_float64(mesh, tf, camera, pixels: np.ndarray, max_pairs: int = 1_000_000) -> np.ndarray:
+    """Exact float64 colours (n, 4) of the pixels ``pixels`` (flat indices), for rays the float32
+    walk could not resolve: the reference's watertight tracer (exact edge signs, simulation of
+    simplicity) on just the candidate (tet, pixel) pairs of those pixels, integrated and composited
+    in float64."""
+    from warpvol.reference import numpy_render as ref
+
+    pixels = np.asarray(pixels, dtype=np.int64)
+    out = np.zeros((len(pixels), 4))
+    if len(pixels) == 0:
+        return out
+    fr, pc, tsorted, orient, ids, i0, i1, j0, j1 = ref._plan(mesh, camera)
+    grad, offs = (mesh.gradients, mesh.offsets) if fr.persp else (None, None)
+    rows, cols = np.divmod(pixels, camera.width_px)
+    cand = [np.flatnonzero((i0 <= r) & (i1 >= r) & (j0 <= c) & (j1 >= c)) for r, c in zip(rows, cols)]
+    segs = []
+    start = 0
+    while start < len(pixels):
+        stop, n = start, 0
+        while stop < len(pixels) and (n == 0 or n + len(cand[stop]) <= max_pairs):
+            n += len(cand[stop])
+            stop += 1
+        k = np.concatenate(cand[start:stop])
+        who = np.repeat(np.arange(start, stop), [len(c) for c in cand[start:stop]])
+        if len(k):
+            ch = ref._trace_chunk(fr, pc, np.asarray(mesh.scalars, np.float64), tsorted, orient, ids[k],
+                                  rows[who], rows[who], cols[who], cols[who], grad, offs)
+            # the tracer reports flat pixel indices; map them back to positions in ``pixels``
+            lookup = dict(zip(pixels[start:stop].tolist(), range(start, stop)))
+            pos = np.array([lookup[p] for p in ch["pixel"].tolist()], dtype=np.int64)
+            segs.append((pos, ch))
+        start = stop
+    if not segs:
+        return out
+    pos = np.concatenate([p for p, _ in segs])
+    cat = {key: np.concatenate([c[key] for _, c in segs]) for key in ("t_in", "t_out", "s_in", "s_out")}
+    rgb, tau = ref.integrate_segments(cat["s_in"], cat["s_out"], cat["t_out"] - cat["t_in"], tf)
+    return ref.composite_front_to_back(pos, cat["t_in"], rgb, tau, len(pixels), cat["t_out"])
+
+
+def camera_launch_args(ctx: Context, rows_per_block: int = 16) -> tuple[int, list, list]:
+    """``(width, row blocks, camera arguments)`` of a per-pixel ray kernel (``march`` and the HARC
+    walker): image size, float64 eye relative to the cells' origin (the kernel moves each ray's
+    origin to the mesh) and camera frame, projection, half height, aspect, mesh radius."""
+    import warp as wp
+
+    cam = ctx.scene.camera
+    cells = ctx.buffers["cells"]
+    w, h = cam.width_px, cam.height_px
+    if cam.projection == "perspective":
+        half_h = float(np.tan(np.radians(cam.fov_y_deg) / 2.0))
+    else:
+        half_h = cam.height / 2.0
+    eye = np.asarray(cam.eye, dtype=np.float64) - cells["origin"]
+    on_cpu = str(ctx.device).startswith("cpu")
+    rows = blocks(h, rows_per_block if on_cpu else h)
+    v3 = wp.vec3d
+    return w, rows, [w, h, v3(*eye), v3(*cam.forward), v3(*cam.right), v3(*cam.true_up),
+                     int(cam.projection == "orthographic"), wp.float64(half_h), wp.float64(cam.aspect),
+                     wp.float64(max(cells["radius"], 1e-30))]
+
+
+def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float, threads: int,
+               rows_per_block: int = 16) -> np.ndarray:
+    """One propagation pass over all active rays; returns summed counters
+    ``(entries, steps, unfinished, failed, left active, failed on a thin layer)`` and sets ``state.active`` to the last (rays
+    that may re-enter: 0 means a further pass would find nothing). Failed rays keep
+    ``STATUS_FAILED`` for :func:`resolve_failed`."""
+    import warp as wp
+
+    from warpvol.kernels import raycast as k
+
+    cells, bins = ctx.buffers["cells"], ctx.buffers["entry_bins"]
+    w, rows, cam_args = camera_launch_args(ctx, rows_per_block)
+    counters = wp.zeros((len(rows), 6), dtype=wp.int32, device=ctx.device)
+    common = cam_args + [cells["verts"], cells["tets"], cells["nbr"], cells["nbr_vertex"], bins["bface_tet"], bins["bface_local"],
+                         bins["bface_box"], bins["tile_start"], bins["tile_items"], bins["tile"], bins["tiles_x"],
+                         cells["tf_s"], cells["tf_v"], cells["model"], max_steps, t_min, 1e-6 * cells["radius"]]
+
+    def launch(b: int) -> None:
+        r0, nr = rows[b]
+        wp.launch(k.march, dim=nr * w, device=ctx.device,
+                  inputs=common + [r0, state.rgb, state.trans, state.tcur, state.status, state.last, counters, b])
+
+    launch_blocks(ctx.device, len(rows), launch, threads)
+    c = counters.numpy().sum(axis=0)
+    state.active = int(c[4])
+    return c
+
+
+def resolve_failed(ctx: Context, state: MarchState) -> int:
+    """Redo the rays marked ``STATUS_FAILED`` in float64 on the host (whole ray), store them as done;
+    returns how many."""
+    import warp as wp
+
+    from warpvol.kernels import raycast as k
+
+    status = state.status.numpy()
+    failed = np.flatnonzero(status == int(k.STATUS_FAILED))
+    if len(failed) == 0:
+        return 0
+    sc = ctx.scene
+    val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, failed)
+    rgb, trans = state.rgb.numpy(), state.trans.numpy()
+    rgb[failed] = val[:, :3]
+    trans[failed] = 1.0 - val[:, 3]
+    status[failed] = int(k.STATUS_DONE)
+    state.rgb = wp.array(rgb, dtype=wp.vec3, device=state.device)
+    state.trans = wp.array(trans, dtype=wp.float32, device=state.device)
+    state.status = wp.array(status, dtype=wp.int32, device=state.device)
+    return int(len(failed))
+
+
+RAY_PARAMS = (
+    Param("max_steps", int, 1_000_000, "cell steps per ray and pass before giving up", lo=1),
+    Param("t_min", float, 1e-6, "early ray termination below this transmittance (0: off)", lo=0.0, hi=1.0),
+    Param("threads", int, 0, "host threads launching row blocks on the CPU (0: all cores)", lo=0, hi=256),
+)
+
+
+@register_stage
+class Raycast(Stage):
+    """First ray-propagation pass (entry at the nearest boundary face, walk to the boundary exit).
+
+    Every ray's origin is moved in float64 to just before the mesh's bounding sphere. A perspective
+    eye or orthographic eye plane inside the mesh is handled by walking from the boundary behind it
+    and integrating only from the ray's true start (``t_clip``); a mesh behind or beside the camera
+    gives a transparent image. Rays the float32 walk cannot resolve -- among them rays through a
+    layer too thin for float32 segment lengths whose extinction makes that visible -- are redone in
+    float64 on the host (:func:`redo_pixels_float64`) and counted (``float64_rays`` in the stats and
+    counters; ``thin_layer_rays`` of them for thin layers).
+
+    ==========  =====  =========  =============================================================
+    parameter   type   default    meaning
+    ==========  =====  =========  =============================================================
+    max_steps   int    1000000    cell steps per ray and pass before giving up (>= 1)
+    t_min       float  1e-6       early termination below this transmittance, [0, 1] (0: off)
+    threads     int    0          host threads launching CPU row blocks (0: all cores)
+    ==========  =====  =========  =============================================================
+
+    Needs ``cell_setup`` and ``entry_bins`` before it; writes ``ctx.image``.
+    """
+
+    name = "raycast"
+    summary = ("float32 ray propagation through cell adjacency (consistent Plücker walk, unresolved rays redone "
+               "in float64), exact piecewise-linear segment integrals")
+    needs = ("cells", "entry_bins")
+    provides = ("march", "image")
+    params = RAY_PARAMS
+
+    def run(self, ctx: Context) -> None:
+        cam = ctx.scene.camera
+        state = MarchState(cam.width_px * cam.height_px, ctx.device)
+        ctx.buffers["march"] = state
+        threads = self.threads or cpu_threads()
+        c = march_pass(ctx, state, max_steps=self.max_steps, t_min=self.t_min, threads=threads)
+        redone = resolve_failed(ctx, state)
+        ctx.count(rays=cam.width_px * cam.height_px, entries=int(c[0]), cell_steps=int(c[1]),
+                  float64_rays=redone)
+        ctx.stats["raycast"] = {"entries": int(c[0]), "cell_steps": int(c[1]), "unfinished_rays": int(c[2]),
+                                "float64_rays": redone, "thin_layer_rays": int(c[5])}
+        if redone:
+            ctx.progress(f"raycast: {redone} rays the float32 walk could not resolve were redone in float64")
+        ctx.image = state.image(cam.height_px, cam.width_px)

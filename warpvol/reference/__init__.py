@@ -1,0 +1,3 @@
+"""The exact reference: the numpy renderer (:mod:`.numpy_render`), its exact predicates (:mod:`.exact`),
+the ray-segment integration (:mod:`.integrate`) and the same renderer as Warp kernels (:mod:`.warp_render`).
+"""

@@ -1,0 +1,345 @@
+"""Exact float64 reference renderer on Warp (the default of :func:`warpvol.reference.numpy_render.render_reference`).
+
+The same image as the NumPy reference (:mod:`warpvol.reference.numpy_render`, the oracle it is tested against),
+computed by its own float64 kernels (:mod:`warpvol.kernels.reference`):
+
+1. **Per-mesh data.** Points in camera coordinates (``(p - eye)`` projected on right, up, forward),
+   each tet's vertices in ascending global order with its orientation, the neighbour across each
+   face, the scalar at the eye per tet (perspective).
+2. **Boundary entries.** Every boundary face that can be an entry (orthographic: facing the
+   camera; perspective: the eye on its outer side) is tested against the pixel centres of its screen
+   box with the exact edge signs; a pixel keeps the faces its line enters through (perspective:
+   only in front of the eye; orthographic: along the whole line, segments are clipped at the eye
+   plane).
+3. **Walk.** One thread per pixel walks each chord of its line tet to tet through the adjacency, in
+   depth order: first, for a perspective eye inside the mesh, the chord through the eye (started in
+   the tet near the eye whose segment holds ``t = 0``), then every boundary entry. Rays leave and
+   re-enter non-convex meshes this way. Shared faces are decided by the same three edge signs from
+   both tets, so the walk neither skips nor repeats a tet; a tet without a single exit face ends the
+   walk and is counted (``n_failed``).
+4. **Integration and compositing** per segment as in the NumPy reference; a ray stops once what is
+   left can change no channel by more than 1e-17.
+
+The image is rendered in row blocks, launched concurrently from host threads on the CPU
+(:mod:`warpvol.parallel`); ``progress`` gets the fraction of rows done, and a progress bar with the
+time left is shown on a terminal or in a notebook (``show_progress``).
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from typing import Callable
+
+import numpy as np
+
+from warpvol.errors import ConfigError, check_choice
+from warpvol.parallel import blocks, cpu_threads, launch_blocks, preload
+from warpvol.scene.camera import Camera
+from warpvol.scene.mesh import TetMesh
+from warpvol.scene.transfer import EMISSION_MODELS, TransferFunction
+
+_TRI_EDGES = ((0, 1), (0, 2), (1, 2))
+_BOX_MARGIN = 1e-6  # pixels (relative): a face's box only has to contain every pixel it is hit at
+_CULL_TOL = 1e-9
+
+
+def _parity(perm: np.ndarray) -> np.ndarray:
+    inv = np.zeros(len(perm), dtype=np.int64)
+    for a in range(4):
+        for b in range(a + 1, 4):
+            inv += perm[:, a] > perm[:, b]
+    return np.where(inv % 2 == 0, 1.0, -1.0)
+
+
+class _View:
+    """Pixel rays of a camera in its own frame (x right, y up, z forward)."""
+
+    def __init__(self, camera: Camera):
+        self.persp = camera.projection == "perspective"
+        self.W, self.H = int(camera.width_px), int(camera.height_px)
+        self.eye = np.asarray(camera.eye, dtype=np.float64)
+        self.basis = np.stack([camera.right, camera.true_up, camera.forward]).astype(np.float64)
+        if self.persp:
+            th = np.tan(np.radians(camera.fov_y_deg) / 2.0)
+            self.sx, self.sy = th * camera.aspect, th
+        else:
+            self.sx = self.sy = camera.height / 2.0
+            self.sx = self.sx * camera.aspect
+        # direction slopes (perspective) or positions (orthographic) of the pixel centres
+        self.cx = (2.0 * (np.arange(self.W) + 0.5) / self.W - 1.0) * self.sx
+        self.cy = (1.0 - 2.0 * (np.arange(self.H) + 0.5) / self.H) * self.sy
+
+    def camera_coords(self, p: np.ndarray) -> np.ndarray:
+        d = p - self.eye
+        b = self.basis
+        return np.stack([d[:, 0] * b[k, 0] + d[:, 1] * b[k, 1] + d[:, 2] * b[k, 2] for k in range(3)], axis=1)
+
+    def boxes(self, x: np.ndarray, y: np.ndarray, z: np.ndarray):
+        """Inclusive pixel boxes ``(i0, i1, j0, j1)`` of triangles (rows of ``x, y, z``) and which
+        are on screen (perspective: the part in front of the eye)."""
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            if self.persp:
+                front = z > 0
+                zs = np.where(front, z, 1.0)
+                X, Y = x / zs, y / zs
+                xlo = np.where(front, X, np.inf).min(axis=1)
+                xhi = np.where(front, X, -np.inf).max(axis=1)
+                ylo = np.where(front, Y, np.inf).min(axis=1)
+                yhi = np.where(front, Y, -np.inf).max(axis=1)
+                r = np.arange(len(x))
+                for a, b in _TRI_EDGES:  # an edge through the eye plane: unbounded towards its crossing
+                    cr = front[:, a] != front[:, b]
+                    if not cr.any():
+                        continue
+                    p = np.where(front[:, a], a, b)
+                    q = np.where(front[:, a], b, a)
+                    zp, zq = z[r, p], z[r, q]
+                    lam = np.where(cr, zp / np.where(cr, zp - zq, 1.0), 0.0)
+                    px = x[r, p] + lam * (x[r, q] - x[r, p])
+                    py = y[r, p] + lam * (y[r, q] - y[r, p])
+                    at0 = cr & (px == 0) & (py == 0)
+                    xlo = np.where((cr & (px <= 0)) | at0, -np.inf, xlo)
+                    xhi = np.where((cr & (px >= 0)) | at0, np.inf, xhi)
+                    ylo = np.where((cr & (py <= 0)) | at0, -np.inf, ylo)
+                    yhi = np.where((cr & (py >= 0)) | at0, np.inf, yhi)
+                valid = front.any(axis=1)
+            else:
+                xlo, xhi, ylo, yhi = x.min(axis=1), x.max(axis=1), y.min(axis=1), y.max(axis=1)
+                valid = np.ones(len(x), dtype=bool)
+            big = 1e15
+            jlo = np.clip((xlo / self.sx + 1.0) * self.W / 2.0 - 0.5, -big, big)
+            jhi = np.clip((xhi / self.sx + 1.0) * self.W / 2.0 - 0.5, -big, big)
+            ilo = np.clip((1.0 - yhi / self.sy) * self.H / 2.0 - 0.5, -big, big)
+            ihi = np.clip((1.0 - ylo / self.sy) * self.H / 2.0 - 0.5, -big, big)
+        jlo = np.ceil(np.nan_to_num(jlo, nan=-big) - _BOX_MARGIN * (1.0 + np.abs(jlo)))
+        jhi = np.floor(np.nan_to_num(jhi, nan=big) + _BOX_MARGIN * (1.0 + np.abs(jhi)))
+        ilo = np.ceil(np.nan_to_num(ilo, nan=-big) - _BOX_MARGIN * (1.0 + np.abs(ilo)))
+        ihi = np.floor(np.nan_to_num(ihi, nan=big) + _BOX_MARGIN * (1.0 + np.abs(ihi)))
+        valid &= (jhi >= jlo) & (jhi >= 0) & (jlo <= self.W - 1) & (ihi >= ilo) & (ihi >= 0) & (ilo <= self.H - 1)
+        box = np.stack([np.clip(ilo, 0, self.H - 1), np.clip(ihi, 0, self.H - 1),
+                        np.clip(jlo, 0, self.W - 1), np.clip(jhi, 0, self.W - 1)], axis=1).astype(np.int32)
+        return box, valid
+
+
+def _mesh_data(mesh: TetMesh, view: _View) -> dict:
+    """Per-mesh arrays of the walk, in camera coordinates (NumPy)."""
+    Pc = view.camera_coords(np.asarray(mesh.points, dtype=np.float64))
+    perm = np.argsort(mesh.tets, axis=1, kind="stable")
+    T = np.take_along_axis(mesh.tets, perm, axis=1)
+    hand = 1.0 if np.linalg.det(view.basis) > 0 else -1.0
+    orient = _parity(perm) * hand
+    adj = np.take_along_axis(np.asarray(mesh.adjacency, dtype=np.int64), perm, axis=1)  # across face opposite T[:, f]
+    s_eye = (mesh.gradients @ view.eye + mesh.offsets) if view.persp else np.zeros(1)
+    near = np.zeros(0, dtype=np.int64)
+    if view.persp:  # tets whose (slightly grown) box holds the eye: candidates for the chord through it
+        tp = Pc[T]
+        lo, hi = tp.min(axis=1), tp.max(axis=1)
+        tol = 1e-9 * max(1.0, float(np.abs(Pc).max()))
+        near = np.flatnonzero(((lo <= tol) & (hi >= -tol)).all(axis=1))
+    return dict(Pc=Pc, T=T, orient=orient, adj=adj, s_eye=s_eye, near=near)
+
+
+def _entry_faces(md: dict, view: _View, first: int, last: int):
+    """Boundary faces that can be an entry: ``(tet, face)`` and their pixel boxes within rows
+    ``first..last``."""
+    bt, bf = np.nonzero(md["adj"] < 0)
+    loc = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])[bf]
+    tri = md["T"][bt[:, None], loc]
+    p = md["Pc"][tri]  # (B, 3, 3)
+    opp = md["Pc"][md["T"][bt, bf]]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    n = np.where((np.einsum("ij,ij->i", n, opp - p[:, 0]) > 0)[:, None], -n, n)  # outward
+    nn = np.linalg.norm(n, axis=1)
+    if view.persp:  # entered in front of the eye only if the eye is outside the face's plane
+        keep = -np.einsum("ij,ij->i", n, p[:, 0]) >= -_CULL_TOL * nn * np.linalg.norm(p[:, 0], axis=1)
+    else:  # entered only if facing the camera
+        keep = n[:, 2] <= _CULL_TOL * nn
+    box, valid = view.boxes(p[:, :, 0], p[:, :, 1], p[:, :, 2])
+    box[:, 0] = np.maximum(box[:, 0], first)
+    box[:, 1] = np.minimum(box[:, 1], last)
+    keep &= valid & (box[:, 0] <= box[:, 1])
+    return bt[keep].astype(np.int32), bf[keep].astype(np.int32), box[keep]
+
+
+def _progress_bar(show: bool | None, total: int):
+    if show is None:
+        show = (sys.stderr.isatty() or "ipykernel" in sys.modules) and total > 1
+    if not show:
+        return None
+    from rich.progress import (BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn,
+                               TimeRemainingColumn)
+
+    bar = Progress(TextColumn("exact reference"), BarColumn(), TaskProgressColumn(), TimeElapsedColumn(),
+                   TextColumn("left"), TimeRemainingColumn(), transient=True)
+    bar.start()
+    return bar
+
+
+def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *, device: str | None = None,
+                          progress: Callable[[float], None] | None = None, stats: dict | None = None,
+                          show_progress: bool | None = None, threads: int = 0,
+                          rows_per_block: int = 0, rows: tuple[int, int] | None = None) -> np.ndarray:
+    """Exact float64 reference image, Warp kernels (same contract as the NumPy
+    :func:`warpvol.reference.numpy_render.render_reference`).
+
+    Parameters
+    ----------
+    mesh, tf, camera
+        Mesh (need not be convex or connected), transfer function and camera; one ray per pixel
+        centre (Contract 2), perspective eye anywhere (also inside the mesh or on a vertex).
+    device : str, optional
+        Warp device (default: Warp's preferred device).
+    progress : callable, optional
+        ``progress(done_fraction)`` after each block of rows.
+    stats : dict, optional
+        Filled with ``n_pairs`` (tet / boundary-face and pixel pairs tested), ``n_segments``,
+        ``n_steps`` (tets visited), ``n_exact`` (edge predicates the
+        float filter could not decide, evaluated exactly), ``n_entries`` (boundary entries),
+        ``n_failed`` (walks that met a tet without one exit face; 0 for a valid mesh), ``warning``
+        when ``n_failed > 0``, and ``setup_s`` / ``render_s``.
+    show_progress : bool, optional
+        Progress bar with the time left (default: on a terminal or in a notebook, unless ``progress``
+        is given).
+    threads : int
+        Host threads launching row blocks on the CPU (0: all cores).
+    rows_per_block : int
+        Rows per launch (0: chosen from the image and the cores).
+    rows : (int, int), optional
+        First and last image row (inclusive) to render; each pixel is computed on its own, so a
+        band is bit-identical to the same rows of the whole image.
+
+    Returns
+    -------
+    (H, W, 4) float64
+        Premultiplied RGBA composited front to back over transparent black, row 0 = top; with
+        ``rows``, ``(last - first + 1, W, 4)``.
+    """
+    import warp as wp
+
+    from warpvol.kernels import reference as K
+
+    check_choice("tf.emission", tf.emission, EMISSION_MODELS)
+    if int(threads) < 0:
+        raise ConfigError(f"render_reference_warp: threads must be >= 0, got {threads}")
+    t0 = time.perf_counter()
+    wp.init()
+    device = str(device or wp.get_preferred_device())
+    on_cpu = device.startswith("cpu")
+    threads = int(threads) or cpu_threads()
+    view = _View(camera)
+    W, H = view.W, view.H
+    first, last = (0, H - 1) if rows is None else (int(rows[0]), int(rows[1]))
+    if not 0 <= first <= last < H:
+        raise ConfigError(f"rows: expected (first, last) with 0 <= first <= last < {H}, got {rows!r}")
+    nrows = last - first + 1
+    md = _mesh_data(mesh, view)
+    preload(device, K)
+
+    def arr(a, dtype):
+        return wp.array(np.ascontiguousarray(a), dtype=dtype, device=device)
+
+    f64 = wp.float64
+    P = arr(md["Pc"], wp.vec3d)
+    S = arr(np.asarray(mesh.scalars, dtype=np.float64), f64)
+    T = arr(md["T"].astype(np.int32), wp.int32)
+    adj = arr(md["adj"].astype(np.int32), wp.int32)
+    orient = arr(md["orient"], f64)
+    s_eye = arr(md["s_eye"], f64)
+    near = arr(md["near"].astype(np.int32), wp.int32)
+    cxs, cys = arr(view.cx, f64), arr(view.cy, f64)
+    persp = int(view.persp)
+
+    # -- boundary entries per pixel ------------------------------------------------------------------
+    ftet, floc, fbox = _entry_faces(md, view, first, last)
+    nf = len(ftet)
+    fblocks = blocks(nf, max(1, -(-nf // (4 * threads)))) if on_cpu else [(0, nf)]
+    d_ftet, d_floc = arr(ftet, wp.int32), arr(floc, wp.int32)
+    d_box = arr(fbox.reshape(-1, 4) if nf else np.zeros((0, 4), np.int32), wp.vec4i)
+    count = wp.zeros(max(nf, 1), dtype=wp.int64, device=device)
+    fexact = wp.zeros(max(nf, 1), dtype=wp.int64, device=device)
+    offset = wp.zeros(max(nf, 1), dtype=wp.int64, device=device)
+    out = [wp.zeros(1, dtype=wp.int64, device=device), wp.zeros(1, dtype=f64, device=device),
+           wp.zeros(1, dtype=wp.int32, device=device)]
+
+    def entries(write: int):
+        def launch(b: int) -> None:
+            f0, nb = fblocks[b]
+            if nb:
+                wp.launch(K.boundary_entries, dim=nb, device=device,
+                          inputs=[d_ftet, d_floc, d_box, offset, f0, P, S, T, orient, s_eye, cxs, cys, persp, W,
+                                  write, count, out[0], out[1], out[2], fexact])
+        launch_blocks(device, len(fblocks), launch, threads)
+
+    entries(0)
+    cnt = count.numpy()[:nf]
+    n_ent = int(cnt.sum())
+    if n_ent:
+        offset = arr(np.cumsum(cnt) - cnt, wp.int64)
+        out = [wp.zeros(n_ent, dtype=wp.int64, device=device), wp.zeros(n_ent, dtype=f64, device=device),
+               wp.zeros(n_ent, dtype=wp.int32, device=device)]
+        entries(1)
+        pix = out[0].numpy()
+        order = np.argsort(pix, kind="stable")
+        ent_t, ent_tet = arr(out[1].numpy()[order], f64), arr(out[2].numpy()[order], wp.int32)
+        start = np.concatenate([[0], np.cumsum(np.bincount(pix, minlength=W * H))])
+    else:
+        ent_t, ent_tet = wp.zeros(1, dtype=f64, device=device), wp.zeros(1, dtype=wp.int32, device=device)
+        start = np.zeros(W * H + 1, dtype=np.int64)
+    ent_start = arr(start.astype(np.int64), wp.int64)
+
+    # -- transfer function, quadrature, termination bound ---------------------------------------------
+    pts = np.asarray(tf.points, dtype=np.float64)
+    tf_s, tf_c = arr(pts[:, 0], f64), arr(pts[:, 1:5], wp.vec4d)
+    x10, w10 = np.polynomial.legendre.leggauss(10)
+    x5, w5 = np.polynomial.legendre.leggauss(5)
+    ed = int(tf.emission == "emission_density")
+    lo, hi = mesh.bounds
+    cmax = float(np.abs(pts[:, 1:4]).max())
+    c_bound = max(1.0, cmax * (float(np.linalg.norm(np.asarray(hi) - np.asarray(lo))) if ed else 1.0)) * 1.01
+    setup_s = time.perf_counter() - t0
+
+    # -- walk ------------------------------------------------------------------------------------------
+    img = wp.zeros(W * nrows, dtype=wp.vec4d, device=device)
+    counters = wp.zeros((W * nrows, 4), dtype=wp.int64, device=device)
+    rpb = int(rows_per_block) or (max(1, nrows // (8 * threads)) if on_cpu else max(1, nrows // 16))
+    rblocks = [(first + r0, nr) for r0, nr in blocks(nrows, rpb)]
+    common = [P, S, T, adj, orient, s_eye, near, ent_start, ent_t, ent_tet, cxs, cys, persp,
+              int(mesh.n_tets) + 1, f64(c_bound), tf_s, tf_c, arr(x10, f64), arr(w10, f64), arr(x5, f64),
+              arr(w5, f64), ed, img, counters]
+    # a caller's own progress callback (the command line's bar, bench, stress) replaces the default bar
+    bar = _progress_bar(show_progress if show_progress is not None or progress is None else False, len(rblocks))
+    task = bar.add_task("reference", total=nrows) if bar is not None else None
+    lock = threading.Lock()
+    done = [0]
+
+    def launch(b: int) -> None:
+        r0, nr = rblocks[b]
+        wp.launch(K.render_rows, dim=nr * W, device=device, inputs=[r0, first, W] + common)
+        if not on_cpu:
+            wp.synchronize_device(device)
+        with lock:
+            done[0] += nr
+            if bar is not None:
+                bar.update(task, completed=done[0])
+            if progress is not None:
+                progress(done[0] / nrows)
+
+    t1 = time.perf_counter()
+    try:
+        launch_blocks(device, len(rblocks), launch, threads)
+    finally:
+        if bar is not None:
+            bar.stop()
+    out_img = img.numpy().reshape(nrows, W, 4)
+    render_s = time.perf_counter() - t1
+    if stats is not None:
+        c = counters.numpy().sum(axis=0)
+        n_box = int(((fbox[:, 1] - fbox[:, 0] + 1).astype(np.int64) * (fbox[:, 3] - fbox[:, 2] + 1)).sum()) if nf else 0
+        stats.update(n_pairs=int(c[1]) + n_box + len(md["near"]) * W * nrows, n_segments=int(c[0]), n_steps=int(c[1]), n_exact=int(c[2] + fexact.numpy()[:nf].sum()),
+                     n_failed=int(c[3]), n_entries=n_ent, n_bands=len(rblocks), setup_s=setup_s, render_s=render_s)
+        if c[3]:
+            stats["warning"] = (f"exact reference: {int(c[3])} ray walk(s) met a tet without a single exit face; "
+                                "those pixels are incomplete")
+    return out_img

@@ -1,0 +1,1 @@
+"""Reproduction of the papers\x27 tables and figures as importable functions, one module per paper."""

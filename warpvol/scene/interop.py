@@ -1,0 +1,300 @@
+"""pyvista / VTK in and out: meshes and cameras.
+
+Data sets become plain arrays here (:func:`dataset_arrays`; scene files use the same code, so a data set
+renders identically from memory and from a file) and cameras plain settings: this module knows no warpvol
+class, and :class:`~warpvol.TetMesh`, :class:`~warpvol.Camera` and the loaders build theirs from it.
+Cameras map one to one:
+
+==========================  =====================================  ==============================
+warpvol :class:`Camera`      VTK ``vtkCamera`` / ``pyvista.Camera``   note
+==========================  =====================================  ==============================
+``eye``                      ``position``
+``target``                   ``focal_point``
+``up``                       ``up`` (``ViewUp``)                    VTK keeps it orthogonal
+``fov_y_deg``                ``view_angle``                         vertical unless
+                                                                    ``UseHorizontalViewAngle``
+``projection``               ``parallel_projection``
+``height``                   ``2 * parallel_scale``                 orthographic image height
+``width_px, height_px``      the plotter's ``window_size``          (times the renderer viewport)
+==========================  =====================================  ==============================
+
+VTK's window centre, view shear, off-axis projection, explicit projection matrix and model transform
+have no warpvol counterpart; a camera that uses them is refused with the setting named.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from warpvol.errors import ConfigError, MeshError
+from warpvol.scene.grids import structured_to_tets, structured_to_tets5, weld_coincident_points
+from warpvol.scene.split_cells import FLAT_TYPES, SPLIT_TYPES, split_cells
+
+_VTK_TETRA = 10
+_DATASET_TYPES = "pyvista.UnstructuredGrid, StructuredGrid, ImageData or RectilinearGrid"
+
+
+def as_pyvista_dataset(obj: Any, arg: str = "dataset"):
+    """``obj`` as a pyvista data set (raw VTK data sets are wrapped; a one-block MultiBlock is
+    unwrapped); anything else is an error naming ``arg``."""
+    import pyvista as pv
+
+    if isinstance(obj, pv.MultiBlock):
+        blocks = [b for b in obj if b is not None]
+        if len(blocks) != 1:
+            raise ConfigError(f"{arg}: a MultiBlock with {len(blocks)} blocks; pass a single data set "
+                              f"({_DATASET_TYPES}), e.g. multiblock.combine()")
+        obj = blocks[0]
+    if not isinstance(obj, pv.DataSet):
+        try:
+            from vtkmodules.vtkCommonDataModel import vtkDataSet
+        except ImportError:  # pragma: no cover - VTK ships with pyvista
+            vtkDataSet = ()
+        if not isinstance(obj, vtkDataSet):
+            raise ConfigError(f"{arg}: expected a {_DATASET_TYPES} (or a TetMesh), got {type(obj).__name__}")
+        obj = pv.wrap(obj)
+    if not isinstance(obj, (pv.UnstructuredGrid, pv.StructuredGrid, pv.ImageData, pv.RectilinearGrid)):
+        raise ConfigError(f"{arg}: expected a {_DATASET_TYPES}, got {type(obj).__name__}, which has no volume cells")
+    return obj
+
+
+#: how to turn cell data into the point data warpvol needs (said in every cell-data error)
+CELL_TO_POINT = ("convert it with pyvista's dataset.cell_data_to_point_data() "
+                 "(ParaView: the Cell Data to Point Data filter)")
+
+#: tets per hex cell of a structured grid -> splitter (6: Kuhn split, the default; 5: alternating)
+SPLITS = (6, 5)
+
+
+_CELL_TAG = "warpvol_source_cell"  # cell-data array naming each tet's source cell through the split
+
+
+
+def structured_arrays(dims, points, scalars, *, name: str, weld: bool, split: int = 6
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(tets, scalars, cell_start)`` of a structured grid of ``dims`` points (``split`` tets per hex
+    cell; ``weld`` joins bit-identical points), the tets of each hex consecutive."""
+    dims = tuple(int(d) for d in dims)
+    if min(dims) < 2:
+        raise MeshError(f"{name}: structured grid dims {list(dims)} have an axis with fewer than 2 points; "
+                        "a volume needs at least 2 points along each axis")
+    if split == 5:
+        tets = structured_to_tets5(dims)
+    else:
+        tets = structured_to_tets(dims)
+    if weld:
+        tets, scalars, _ = weld_coincident_points(points, tets, scalars)
+    # the hex cells' tets are consecutive: remember the grouping (the VSBUFFER draws hexes whole)
+    return tets, scalars, np.arange(0, len(tets) + 1, split, dtype=np.int64)
+
+
+def dataset_arrays(ds, scalars: str | None, *, name: str = "mesh",
+                      source: str | None = None, split: int | None = None, scalars_key: str = "scalars",
+                      dataset_key: str = "mesh", split_key: str = "split"
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """``(points, tets, scalars, cell_start)`` of an in-memory pyvista data set: tet-only grids as they
+    are, other cells split into tets (see :mod:`warpvol.scene.loaders`).
+
+    ``scalars`` names a point-data array (one component). ``split`` (structured grids only) is the
+    number of tets per hex cell: 6 (Kuhn split, the default) or 5 (alternating 5-tet split).
+    ``source`` names the data set in messages (default: its type); ``scalars_key`` and
+    ``dataset_key`` are the argument or key names errors start with.
+    """
+    import pyvista as pv
+
+    p = source or f"the {type(ds).__name__}"
+    if split is not None and split not in SPLITS:
+        raise ConfigError(f"{split_key}: expected 6 (Kuhn) or 5 (alternating) tets per hex cell, got {split!r}")
+    structured = isinstance(ds, (pv.StructuredGrid, pv.ImageData, pv.RectilinearGrid))
+    if split is not None and not structured:
+        raise ConfigError(f"{split_key}: only applies to structured grids (StructuredGrid, ImageData, RectilinearGrid); "
+                          f"{p} is a {type(ds).__name__}, whose non-tet cells are split conforming")
+
+    # scalars first: the error lists what the file has
+    pkeys = list(ds.point_data.keys())
+    ckeys = list(ds.cell_data.keys())
+    if scalars is None:
+        if not pkeys and ckeys:
+            raise ConfigError(f"{scalars_key}: {p} has cell data only ({', '.join(map(repr, ckeys))}); "
+                              f"warpvol needs a point-data array (values at the vertices); {CELL_TO_POINT}")
+        raise ConfigError(f"{scalars_key}: required{' with ' + repr('path') if source else ''} (name of a "
+                          f"point-data array); available point arrays in {p}: {pkeys}")
+    if not isinstance(scalars, str):
+        raise ConfigError(f"{scalars_key}: expected an array name, got {scalars!r}")
+    if scalars not in pkeys:
+        if not pkeys and ckeys:
+            raise ConfigError(f"{scalars_key}: {p} has cell data only ({', '.join(map(repr, ckeys))}); "
+                              f"warpvol needs {scalars!r} as a point-data array (values at the vertices); "
+                              f"{CELL_TO_POINT}")
+        hint = (f" ({scalars!r} is a cell-data array; warpvol needs point data: {CELL_TO_POINT})"
+                if scalars in ckeys else "")
+        raise ConfigError(f"{scalars_key}: point-data array {scalars!r} not found in {p}{hint}; "
+                          f"available point arrays: {pkeys}")
+    arr = np.asarray(ds.point_data[scalars])
+    if arr.ndim > 1 and arr.shape[1] != 1:
+        raise ConfigError(f"{scalars_key}: array {scalars!r} in {p} has {arr.shape[1]} components; "
+                          "expected a scalar (1 component)")
+
+    if structured:
+        points = np.asarray(ds.points, dtype=np.float64)
+        tets, values, cell_start = structured_arrays(ds.dimensions, points, arr.reshape(-1).astype(np.float64),
+                                                     name=name, weld=isinstance(ds, pv.StructuredGrid),
+                                                     split=split or 6)
+        return points, tets, values, cell_start
+    if not isinstance(ds, pv.UnstructuredGrid):
+        raise ConfigError(f"{dataset_key}: {p} is a {type(ds).__name__}, which has no volume cells; "
+                          "expected an unstructured, structured, image or rectilinear grid")
+
+    points = np.asarray(ds.points, dtype=np.float64)
+    values = arr.reshape(-1).astype(np.float64)
+    ctypes = np.asarray(ds.celltypes)
+    cell_start = None
+    if len(ctypes) == 0:
+        tets = np.empty((0, 4), dtype=np.int64)
+    elif (ctypes == _VTK_TETRA).all():
+        tets = np.asarray(ds.cells).reshape(-1, 5)[:, 1:]
+    else:
+        conn = np.asarray(ds.cell_connectivity)
+        if len(conn) and (conn.min() < 0 or conn.max() >= ds.n_points):
+            bad = int(conn[(conn < 0) | (conn >= ds.n_points)][0])
+            raise MeshError(f"{name}: cell point index out of range: {bad}, expected 0 <= index < {ds.n_points}")
+        kinds = set(np.unique(ctypes).tolist())
+        if kinds <= set(SPLIT_TYPES) | set(FLAT_TYPES):
+            volume = np.isin(ctypes, SPLIT_TYPES)
+            if not volume.any():
+                raise MeshError(f"{name}: no volume cells (cell types {sorted(kinds)}); "
+                                "only 2D/1D cells cannot be split into tets")
+            points, values, tets, cell_start = split_cells(points, values, ctypes, np.asarray(ds.cell_offsets),
+                                                           conn)
+            return points, tets, values, cell_start
+        from vtkmodules.vtkFiltersGeneral import vtkDataSetTriangleFilter
+
+        tagged = ds.copy(deep=False)  # shares the arrays; the tag below is the only new one
+        tagged.cell_data[_CELL_TAG] = np.arange(ds.n_cells, dtype=np.int64)
+        f = vtkDataSetTriangleFilter()
+        f.SetInputData(tagged)
+        f.TetrahedraOnlyOn()
+        f.Update()
+        out = pv.wrap(f.GetOutput())
+        if out.n_cells == 0:
+            raise MeshError(f"{name}: no volume cells (cell types {sorted(set(ctypes.tolist()))}); "
+                            "only 2D/1D cells cannot be split into tets")
+        points = np.asarray(out.points, dtype=np.float64)
+        values = np.asarray(out.point_data[scalars]).reshape(-1).astype(np.float64)
+        tets = np.asarray(out.cells).reshape(-1, 5)[:, 1:]
+        # the filter passes cell data to each cell's tets: group them by source cell (the VSBUFFER
+        # draws the cells whole) where they come out consecutive, as they do cell by cell
+        src = np.asarray(out.cell_data[_CELL_TAG]) if _CELL_TAG in out.cell_data else None
+        if src is not None and len(src) == len(tets) and (np.diff(src) >= 0).all():
+            cell_start = np.concatenate([[0], np.nonzero(np.diff(src))[0] + 1, [len(src)]])
+    return points, tets, values, cell_start
+
+
+def pyvista_arrays(dataset: Any, scalars: str | None = None, split: int | None = None, *,
+                   name: str | None = None, arg: str = "dataset"):
+    """``(points, tets, scalars, cell_start, name)`` of a pyvista (or VTK) data set, converted as scene
+    files are (see :meth:`warpvol.TetMesh.from_pyvista`)."""
+    ds = as_pyvista_dataset(dataset, arg)
+    if scalars is None:
+        scalars = ds.point_data.active_scalars_name
+        if scalars is None and len(ds.point_data.keys()) == 1:
+            scalars = ds.point_data.keys()[0]
+    name = name or f"pyvista {type(ds).__name__}"
+    return (*dataset_arrays(ds, scalars, split=split, name=name, scalars_key="scalars", dataset_key=arg), name)
+
+
+def mesh_to_pyvista(mesh, scalars_name: str = "scalars"):
+    """See :meth:`warpvol.TetMesh.to_pyvista`."""
+    import pyvista as pv
+
+    if not isinstance(scalars_name, str) or not scalars_name:
+        raise ConfigError(f"scalars_name: expected a non-empty string, got {scalars_name!r}")
+    grid = pv.UnstructuredGrid({pv.CellType.TETRA: np.array(mesh.tets, dtype=np.int64)},
+                               np.array(mesh.points, dtype=np.float64))
+    grid.point_data[scalars_name] = np.array(mesh.scalars, dtype=np.float64)
+    grid.point_data.active_scalars_name = scalars_name
+    return grid
+
+
+# -- cameras ---------------------------------------------------------------------------------------
+def _window_size(value: Any, arg: str = "window_size") -> tuple[int, int]:
+    try:
+        w, h = value
+        ok = all(not isinstance(v, bool) and float(v).is_integer() and v >= 1 for v in (w, h))
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ConfigError(f"{arg}: expected (width, height) in whole pixels >= 1, got {value!r}")
+    return int(w), int(h)
+
+
+def _check_plain_vtk_camera(cam, arg: str) -> None:
+    """Refuse VTK camera settings warpvol's camera model cannot express."""
+    checks = [
+        ("GetWindowCenter", (0.0, 0.0), "window centre"),
+        ("GetViewShear", (0.0, 0.0, 1.0), "view shear"),
+        ("GetUseOffAxisProjection", 0, "off-axis projection"),
+        ("GetUseExplicitProjectionTransformMatrix", 0, "explicit projection matrix"),
+        ("GetUseExplicitAspectRatio", 0, "explicit aspect ratio"),
+    ]
+    for getter, plain, what in checks:
+        if hasattr(cam, getter):
+            v = getattr(cam, getter)()
+            if not np.allclose(np.atleast_1d(np.asarray(v, dtype=float)), np.atleast_1d(plain), rtol=0, atol=0):
+                raise ConfigError(f"{arg}: the VTK camera uses a {what} ({getter[3:]} = {v}), which warpvol's "
+                                  "camera cannot express")
+    m = cam.GetModelTransformMatrix()
+    if not np.array_equal([[m.GetElement(i, j) for j in range(4)] for i in range(4)], np.eye(4)):
+        raise ConfigError(f"{arg}: the VTK camera has a model transform, which warpvol's camera cannot express")
+
+
+def camera_settings(source: Any, window_size: Any = None, *, arg: str = "plotter_or_camera") -> dict:
+    """The :class:`~warpvol.Camera` fields of a pyvista plotter or a pyvista/VTK camera (see
+    :meth:`warpvol.Camera.from_pyvista`)."""
+    from vtkmodules.vtkRenderingCore import vtkCamera
+
+
+    size = None
+    if hasattr(source, "renderer") and hasattr(source, "window_size"):  # a pyvista Plotter
+        cam = source.camera  # pyvista sets its default view here when none was set yet (as show() does)
+        vp = source.renderer.GetViewport()
+        ws = source.window_size
+        size = (max(1, round(ws[0] * (vp[2] - vp[0]))), max(1, round(ws[1] * (vp[3] - vp[1]))))
+    elif isinstance(source, vtkCamera):  # pyvista.Camera is a vtkCamera
+        cam = source
+    else:
+        raise ConfigError(f"{arg}: expected a pyvista Plotter or a pyvista/VTK camera, got {type(source).__name__}")
+    if window_size is not None:
+        size = _window_size(window_size)
+    if size is None:
+        raise ConfigError("window_size: required with a camera (a camera has no image size); give "
+                          "(width, height) in pixels, e.g. plotter.window_size")
+    _check_plain_vtk_camera(cam, arg)
+    w, h = size
+    fov = float(cam.GetViewAngle())
+    if cam.GetUseHorizontalViewAngle():
+        fov = float(np.degrees(2.0 * np.arctan(np.tan(np.radians(fov) / 2.0) * h / w)))
+    return dict(projection="orthographic" if cam.GetParallelProjection() else "perspective",
+                  eye=cam.GetPosition(), target=cam.GetFocalPoint(), up=cam.GetViewUp(), fov_y_deg=fov,
+                  height=2.0 * float(cam.GetParallelScale()), width_px=w, height_px=h, where=arg)
+
+
+def camera_to_pyvista(camera, plotter: Any = None):
+    """See :meth:`warpvol.Camera.to_pyvista`."""
+    import pyvista as pv
+
+    cam = pv.Camera()
+    cam.position = tuple(camera.eye)
+    cam.focal_point = tuple(camera.target)
+    cam.up = tuple(camera.true_up)
+    cam.view_angle = float(camera.fov_y_deg)
+    cam.parallel_projection = camera.projection == "orthographic"
+    cam.parallel_scale = float(camera.height) / 2.0
+    if plotter is not None:
+        if not (hasattr(plotter, "renderer") and hasattr(plotter, "window_size")):
+            raise ConfigError(f"plotter: expected a pyvista Plotter, got {type(plotter).__name__}")
+        plotter.window_size = [int(camera.width_px), int(camera.height_px)]
+        plotter.camera = cam
+    return cam

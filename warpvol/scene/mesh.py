@@ -1,0 +1,575 @@
+"""Tetrahedral meshes: validation and derived data (adjacency, planes, gradients, ...).
+
+Conventions
+-----------
+* ``tets[c]`` lists 4 point indices with positive signed volume
+  ``det(p1 - p0, p2 - p0, p3 - p0) > 0`` (inverted tets are reoriented on load).
+* Local face ``i`` of a tet is the face *opposite* vertex ``i`` (``FACE_VERTS[i]``);
+  ``adjacency[c, i]`` is the tet across it, ``-1`` on the boundary.
+* ``face_planes[c, i] = (n, o)`` with unit outward normal ``n``: ``n . x + o = 0`` on the face,
+  ``< 0`` inside the tet.
+* ``gradients[c] = g`` and ``offsets[c] = g0`` with ``s(x) = g . x + g0`` inside tet ``c``.
+"""
+
+from __future__ import annotations
+
+import warnings
+from functools import cached_property
+
+import numpy as np
+
+from warpvol.errors import MeshError, check_finite_array
+from warpvol.scene import interop
+
+# face i is opposite vertex i; the order gives an outward normal for positively oriented tets
+FACE_VERTS = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]], dtype=np.int64)
+EDGE_VERTS = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]], dtype=np.int64)
+
+
+def signed_volumes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """Six times the signed volume of each tet (float64)."""
+    p = points[tets]
+    a, b, c = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0], p[:, 3] - p[:, 0]
+    return np.einsum("ij,ij->i", a, np.cross(b, c))
+
+
+def _as_array(name: str, arg: str, value, dtype) -> np.ndarray:
+    """A fresh numpy copy of ``value``; ragged or non-numeric input is an error naming ``arg``."""
+    if isinstance(value, (str, bytes, dict, set)) or value is None:
+        raise MeshError(f"{name}: {arg} must be an array of numbers, got {type(value).__name__} {value!r:.60}")
+    try:
+        arr = np.array(value, dtype=dtype, copy=True)
+    except (TypeError, ValueError) as e:
+        raise MeshError(f"{name}: {arg} must be a rectangular array of numbers (ragged or non-numeric "
+                        f"input: {e})") from None
+    if arr.dtype == object or arr.dtype.kind in "USV":
+        raise MeshError(f"{name}: {arg} must be an array of numbers, got dtype {arr.dtype}")
+    return arr
+
+
+class TetMesh:
+    """A validated tetrahedral mesh with point scalars.
+
+    Parameters
+    ----------
+    points : (N, 3) array of float
+    tets : (M, 4) array of int, indices into ``points``
+    scalars : (N,) array of float
+    name : str
+        Used in messages (e.g. the file it came from).
+    strict : bool
+        Zero-volume tets are an error instead of being dropped with a warning.
+    zero_volume_rtol : float
+        A tet counts as zero-volume when ``|6 V| <= zero_volume_rtol * (longest edge)^3``.
+    cell_start : (C + 1,) array of int, optional
+        Consecutive tets grouped into the source cells they were split from (tets ``cell_start[c]
+        .. cell_start[c + 1]`` are cell ``c``; loaders set it when they split convex cells). Only the
+        VSBUFFER renderer uses it, to draw such cells whole (``vsb_setup cells = "native"``); dropped
+        zero-volume tets leave their cells, a cell left without tets is dropped.
+
+    Examples
+    --------
+    >>> m = TetMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], [[0, 1, 2, 3]], [0, 1, 2, 3])
+    >>> m.n_tets, m.adjacency.tolist(), m.is_convex
+    (1, [[-1, -1, -1, -1]], True)
+    """
+
+    def __init__(self, points, tets, scalars, *, name: str = "mesh", strict: bool = False,
+                 zero_volume_rtol: float = 1e-12, cell_start=None):
+        self.name = name
+        # copies: the caller's arrays stay writable and later edits to them cannot reach the mesh
+        points = _as_array(name, "points", points, np.float64)
+        tets = _as_array(name, "tets", tets, None)
+        scalars = _as_array(name, "scalars", scalars, np.float64)
+        if points.ndim != 2 or points.shape[1] != 3:
+            raise MeshError(f"{name}: points must have shape (N, 3), got {points.shape}")
+        if tets.ndim != 2 or tets.shape[1] != 4:
+            raise MeshError(f"{name}: tets must have shape (M, 4), got {tets.shape}")
+        if len(points) == 0 or len(tets) == 0:
+            raise MeshError(f"{name}: empty mesh ({len(points)} points, {len(tets)} tets)")
+        if not np.issubdtype(tets.dtype, np.integer):
+            raise MeshError(f"{name}: tets: indices must be integers, got dtype {tets.dtype}")
+        if scalars.shape != (len(points),):
+            raise MeshError(f"{name}: scalars must have one value per point ({len(points)}), got shape {scalars.shape}")
+        check_finite_array(f"{name}: points", points)
+        check_finite_array(f"{name}: scalars", scalars)
+        tets = tets.astype(np.int64)
+        bad = (tets < 0) | (tets >= len(points))
+        if bad.any():
+            c, k = np.argwhere(bad)[0]
+            raise MeshError(
+                f"{name}: tet index out of range: tets[{c}][{k}] = {tets[c, k]}, expected 0 <= index < {len(points)}"
+            )
+        self.n_input_tets = len(tets)
+        check_duplicate_tets(name, tets)
+        vol6 = signed_volumes(points, tets)
+        edges = points[tets[:, EDGE_VERTS[:, 1]]] - points[tets[:, EDGE_VERTS[:, 0]]]
+        longest = np.sqrt((edges ** 2).sum(-1).max(axis=1))
+        zero = np.abs(vol6) <= zero_volume_rtol * np.maximum(longest, 1e-300) ** 3
+        if zero.any():
+            msg = f"{name}: {int(zero.sum())} zero-volume tet(s) (first: tets[{int(np.argmax(zero))}])"
+            if strict:
+                raise MeshError(msg + "; strict mode forbids them")
+            warnings.warn(msg + " dropped", stacklevel=2)
+            self.dropped_tets = tets[zero]
+            tets, vol6 = tets[~zero], vol6[~zero]
+            if len(tets) == 0:
+                raise MeshError(f"{name}: empty mesh (every tet has zero volume)")
+        inverted = vol6 < 0
+        self.n_reoriented = int(inverted.sum())
+        if self.n_reoriented:
+            tets = tets.copy()
+            tets[inverted, 2], tets[inverted, 3] = tets[inverted, 3].copy(), tets[inverted, 2].copy()
+        self.n_dropped = int(zero.sum())
+        self.points, self.tets, self.scalars = points, tets, scalars
+        self.cell_start = None if cell_start is None else _cell_groups(name, cell_start, zero)
+        for a in (self.points, self.tets, self.scalars) + (() if self.cell_start is None else (self.cell_start,)):
+            a.setflags(write=False)
+        _ = self.adjacency  # eager: non-manifold faces are an input error, report it on load
+
+    # -- sizes ----------------------------------------------------------------------------------
+    @property
+    def n_points(self) -> int:
+        return len(self.points)
+
+    @property
+    def n_tets(self) -> int:
+        return len(self.tets)
+
+    @cached_property
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.points.min(axis=0), self.points.max(axis=0)
+
+    @cached_property
+    def scalar_range(self) -> tuple[float, float]:
+        return float(self.scalars.min()), float(self.scalars.max())
+
+    # -- topology ---------------------------------------------------------------------------------
+    @cached_property
+    def adjacency(self) -> np.ndarray:
+        """(M, 4) int32: tet across local face i, -1 on the boundary."""
+        m = self.n_tets
+        faces = np.sort(self.tets[:, FACE_VERTS].reshape(-1, 3), axis=1)  # (4M, 3)
+        n = np.int64(self.n_points)
+        key = (faces[:, 0] * n + faces[:, 1]) * n + faces[:, 2] if n < 2_000_000 else None
+        if key is None:
+            _, inv, counts = np.unique(faces, axis=0, return_inverse=True, return_counts=True)
+        else:
+            _, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
+        inv = inv.ravel()
+        if (counts > 2).any():
+            g = int(np.argmax(counts > 2))
+            who = np.nonzero(inv == g)[0] // 4
+            raise MeshError(
+                f"{self.name}: face {faces[np.nonzero(inv == g)[0][0]].tolist()} is shared by "
+                f"{int(counts[g])} tets ({who.tolist()[:6]}); a face may be shared by at most 2"
+            )
+        order = np.argsort(inv, kind="stable")
+        sorted_inv = inv[order]
+        adj = np.full(4 * m, -1, dtype=np.int64)
+        pair = np.nonzero(sorted_inv[1:] == sorted_inv[:-1])[0]
+        a, b = order[pair], order[pair + 1]
+        adj[a], adj[b] = b // 4, a // 4
+        return adj.reshape(m, 4).astype(np.int32)
+
+    @cached_property
+    def boundary_faces(self) -> np.ndarray:
+        """(B, 2) int64 rows ``(tet, local face)`` of faces without a neighbour."""
+        return np.argwhere(self.adjacency < 0).astype(np.int64)
+
+    def boundary_triangles(self) -> np.ndarray:
+        """(B, 3) point indices of boundary faces, ordered so the normal points outward."""
+        bf = self.boundary_faces
+        return self.tets[bf[:, 0][:, None], FACE_VERTS[bf[:, 1]]]
+
+    # -- geometry -------------------------------------------------------------------------------
+    @cached_property
+    def face_planes(self) -> np.ndarray:
+        """(M, 4, 4) float64: ``(nx, ny, nz, o)`` per local face, unit outward normal."""
+        p = self.points[self.tets]  # (M,4,3)
+        tri = p[:, FACE_VERTS]  # (M,4,3,3)
+        n = np.cross(tri[:, :, 1] - tri[:, :, 0], tri[:, :, 2] - tri[:, :, 0])
+        n /= np.linalg.norm(n, axis=-1, keepdims=True)
+        o = -np.einsum("mfk,mfk->mf", n, tri[:, :, 0])
+        # orient outward: the opposite vertex must be on the negative side
+        side = np.einsum("mfk,mfk->mf", n, p) + o
+        flip = side > 0
+        n[flip] *= -1
+        o[flip] *= -1
+        return np.concatenate([n, o[..., None]], axis=-1)
+
+    @cached_property
+    def _gradient_and_offset(self) -> tuple[np.ndarray, np.ndarray]:
+        p = self.points[self.tets]
+        s = self.scalars[self.tets]
+        a = p[:, 1:] - p[:, :1]  # (M,3,3)
+        b = s[:, 1:] - s[:, :1]
+        g = np.linalg.solve(a, b[..., None])[..., 0]
+        g0 = s[:, 0] - np.einsum("mk,mk->m", g, p[:, 0])
+        return g, g0
+
+    @property
+    def gradients(self) -> np.ndarray:
+        """(M, 3) scalar gradient per tet."""
+        return self._gradient_and_offset[0]
+
+    @property
+    def offsets(self) -> np.ndarray:
+        """(M,) offset g0 with ``s(x) = g . x + g0``."""
+        return self._gradient_and_offset[1]
+
+    @cached_property
+    def edge_lengths(self) -> np.ndarray:
+        """(M, 6) edge lengths per tet (``EDGE_VERTS`` order)."""
+        p = self.points[self.tets]
+        return np.linalg.norm(p[:, EDGE_VERTS[:, 1]] - p[:, EDGE_VERTS[:, 0]], axis=-1)
+
+    @property
+    def lmax(self) -> float:
+        """Longest edge of the mesh (world units)."""
+        return float(self.edge_lengths.max())
+
+    @property
+    def edge_ratio(self) -> float:
+        """Longest / shortest edge over the whole mesh."""
+        e = self.edge_lengths
+        return float(e.max() / e.min())
+
+    @cached_property
+    def is_convex(self) -> bool:
+        """Whether the boundary is one closed, locally convex surface (so every ray enters once).
+
+        False when the mesh has faces without a neighbour inside its hull (``crack_faces``,
+        ``nonconforming_faces``: a ray leaves the mesh there and re-enters at once). Otherwise checked
+        edge by edge: at every boundary edge the two incident boundary faces must not fold inward, and
+        the boundary must form a single connected component.
+        """
+        tris = self.boundary_triangles()
+        if len(tris) == 0 or len(self.crack_faces) or len(self.nonconforming_faces):
+            return False
+        p = self.points
+        # each directed edge (a->b) of an outward triangle; its twin (b->a) belongs to the neighbour
+        e = np.stack([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]], axis=1).reshape(-1, 2)
+        opp = np.stack([tris[:, 2], tris[:, 0], tris[:, 1]], axis=1).reshape(-1)
+        n = np.int64(self.n_points)
+        fwd = e[:, 0] * n + e[:, 1]
+        rev = e[:, 1] * n + e[:, 0]
+        order = np.argsort(fwd)
+        pos = np.searchsorted(fwd[order], rev)
+        pos = np.minimum(pos, len(fwd) - 1)
+        twin = order[pos]
+        if not (fwd[twin] == rev).all():
+            return False  # open or non-manifold boundary
+        fid = np.repeat(np.arange(len(tris)), 3)
+        # convex at the edge: the opposite vertex of the twin face lies on the inner side of this face
+        a, b, c = p[tris[:, 0]], p[tris[:, 1]], p[tris[:, 2]]
+        nrm = np.cross(b - a, c - a)
+        scale = np.linalg.norm(nrm, axis=1)
+        d = np.einsum("ij,ij->i", nrm[fid], p[opp[twin]] - a[fid]) / scale[fid]
+        tol = 1e-9 * float(np.linalg.norm(self.bounds[1] - self.bounds[0]))
+        if (d > tol).any():
+            return False
+        # single connected component of the boundary surface: min-label propagation over edges
+        lab = np.arange(len(tris))
+        f1, f2 = fid, fid[twin]
+        while True:
+            m = np.minimum(lab[f1], lab[f2])
+            new = lab.copy()
+            np.minimum.at(new, f1, m)
+            np.minimum.at(new, f2, m)
+            new = new[new]
+            if (new == lab).all():
+                break
+            lab = new
+        return bool((lab == lab[0]).all())
+
+    #: tets dropped on load as zero-volume (empty when none were)
+    dropped_tets = np.zeros((0, 4), dtype=np.int64)
+
+    @cached_property
+    def crack_faces(self) -> np.ndarray:
+        """(K, 2) rows ``(tet, local face)`` of boundary faces that lie inside the mesh: faces left by
+        dropped zero-volume tets, and faces whose three vertices coincide in position with another
+        boundary face's (cells that meet on duplicated points).
+
+        A dropped sliver between other tets leaves a crack: faces that were interior are now on the
+        boundary, so a ray leaves the mesh there and must re-enter on the other side (``peel``).
+        A tet collapsed onto repeated points leaves none (its two copies of a face pair up). Cells on
+        duplicated points (same positions, other indices) are not each other's neighbours either; a
+        ray re-enters at the coincident face.
+
+        Examples
+        --------
+        >>> import warnings
+        >>> pts = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 1e-14], [0.3, 0.3, 1], [0.3, 0.3, -1]]
+        >>> with warnings.catch_warnings():
+        ...     warnings.simplefilter("ignore")
+        ...     m = TetMesh(pts, [[0, 1, 2, 3], [1, 3, 2, 4], [0, 1, 2, 5]], [0, 1, 2, 3, 4, 5])
+        >>> len(m.crack_faces), m.is_convex
+        (2, False)
+        >>> pts = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, -1]]
+        >>> m = TetMesh(pts, [[0, 1, 2, 3], [4, 6, 5, 7]], np.arange(8.0))
+        >>> len(m.crack_faces), m.is_convex
+        (2, False)
+        """
+        bf = self.boundary_faces
+        if len(bf) == 0:
+            return np.zeros((0, 2), dtype=np.int64)
+        tris = self.boundary_triangles()
+        hit = np.zeros(len(bf), dtype=bool)
+        if len(self.dropped_tets):
+            dropped = np.sort(self.dropped_tets[:, FACE_VERTS].reshape(-1, 3), axis=1)
+            dropped = dropped[(dropped[:, 0] != dropped[:, 1]) & (dropped[:, 1] != dropped[:, 2])]
+            faces = np.sort(tris, axis=1)
+            if len(dropped):
+                hit |= np.isin(_row_keys(faces, self.n_points), _row_keys(dropped, self.n_points))
+        # coincident faces: the same three positions under other point indices
+        key = _row_keys(np.sort(self._position_ids[tris], axis=1), self.n_points)
+        _, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
+        hit |= counts[inv.ravel()] > 1
+        return bf[hit]
+
+    @cached_property
+    def _position_ids(self) -> np.ndarray:
+        """(N,) int64: one id per distinct position among the boundary faces' points (-1 elsewhere)."""
+        tris = self.boundary_triangles()
+        used = np.unique(tris)
+        ids = np.full(self.n_points, -1, dtype=np.int64)
+        _, inv = np.unique(self.points[used], axis=0, return_inverse=True)
+        ids[used] = inv.ravel()
+        return ids
+
+    @cached_property
+    def nonconforming_faces(self) -> np.ndarray:
+        """(K, 2) rows ``(tet, local face)`` of boundary faces that overlap a coplanar, oppositely
+        oriented boundary face of another triangulation (cells glued along a plane whose quad faces
+        are cut along different diagonals, hanging vertices). Faces counted in ``crack_faces`` are
+        not counted again.
+
+        Found with a grid over the boundary faces' boxes: candidate pairs share a grid cell and face
+        opposite ways; they count when each vertex lies within ``1e-9`` of the mesh size of the other's
+        plane and the triangles' interiors overlap in that plane (no separating edge line).
+
+        Examples
+        --------
+        >>> pts = [[0, 0, 0], [0, 1, 0], [0, 1, 1], [0, 0, 1], [-1, 0.5, 0.5], [1, 0.5, 0.5]]
+        >>> m = TetMesh(pts, [[0, 1, 2, 4], [0, 2, 3, 4], [1, 2, 3, 5], [1, 3, 0, 5]], np.zeros(6))
+        >>> len(m.nonconforming_faces), len(m.crack_faces), m.is_convex
+        (4, 0, False)
+        """
+        bf = self.boundary_faces
+        skip = np.zeros(len(bf), dtype=bool)
+        if len(self.crack_faces):
+            skip = np.isin(bf[:, 0] * 4 + bf[:, 1], self.crack_faces[:, 0] * 4 + self.crack_faces[:, 1])
+        hit = overlapping_opposite_faces(self.points, self.boundary_triangles(), skip)
+        return bf[hit]
+
+    def __repr__(self) -> str:
+        return f"TetMesh({self.name!r}, {self.n_points} points, {self.n_tets} tets)"
+
+    # -- pyvista in and out (conversion in warpvol.scene.interop) ----------------------------------
+    @classmethod
+    def from_pyvista(cls, dataset, scalars: str | None = None, split: int | None = None, *,
+                     strict: bool = False, name: str | None = None) -> "TetMesh":
+        """A tetrahedral mesh from a pyvista (or VTK) data set, converted as scene files are.
+
+        Parameters
+        ----------
+        dataset : pyvista.UnstructuredGrid, StructuredGrid, ImageData or RectilinearGrid
+            Tet-only unstructured grids are taken as they are; hexahedra, voxels, wedges and pyramids
+            are split into tets conforming (each quad face along the diagonal through its smallest
+            vertex, :mod:`warpvol.scene.split_cells`), other cells by ``vtkDataSetTriangleFilter``;
+            structured grids by ``split``.
+        scalars : str, optional
+            Name of a point-data array (one component); default: the active point scalars, or
+            the only point array. Cell data is refused with the hint to convert it with
+            ``dataset.cell_data_to_point_data()``.
+        split : {None, 6, 5}
+            Tets per hex cell of a structured grid: 6 (Kuhn split, the default) or 5 (alternating
+            5-tet split). Not allowed for unstructured grids.
+        strict : bool
+            Zero-volume tets are an error instead of being dropped with a warning.
+        name : str, optional
+            Used in messages.
+
+        Examples
+        --------
+        >>> import pyvista as pv
+        >>> grid = pv.ImageData(dimensions=(3, 3, 3))
+        >>> grid.point_data["x"] = grid.points[:, 0]
+        >>> TetMesh.from_pyvista(grid, scalars="x").n_tets, TetMesh.from_pyvista(grid, "x", split=5).n_tets
+        (48, 40)
+        """
+        points, tets, values, cell_start, name = interop.pyvista_arrays(dataset, scalars, split, name=name)
+        return cls(points, tets, values, name=name, strict=strict, cell_start=cell_start)
+
+    def to_pyvista(self, scalars_name: str = "scalars"):
+        """This mesh as a ``pyvista.UnstructuredGrid`` of tets with the scalars as active point data.
+
+        Examples
+        --------
+        >>> m = TetMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], [[0, 1, 2, 3]], [0, 1, 2, 3])
+        >>> g = m.to_pyvista()
+        >>> g.n_cells, g.point_data["scalars"].tolist()
+        (1, [0.0, 1.0, 2.0, 3.0])
+        """
+        return interop.mesh_to_pyvista(self, scalars_name)
+
+
+def _row_keys(rows: np.ndarray, top: int) -> np.ndarray:
+    """One comparable key per row of a (K, 3) int array with values in ``[0, top)`` (int64 when it
+    fits; keys made with the same ``top`` compare)."""
+    rows = np.ascontiguousarray(rows, dtype=np.int64)
+    if top < 2_000_000:
+        return (rows[:, 0] * top + rows[:, 1]) * top + rows[:, 2]
+    return rows.view([("", np.int64)] * 3).ravel()
+
+
+def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, side: np.ndarray, size: float, accept
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs ``(i, j)`` of boxes ``[lo, hi]`` sharing a cell of a uniform grid of spacing ``size``,
+    with ``side[i] & 1``, ``side[j] & 2`` and ``accept(i, j)`` true (each pair once)."""
+    k0 = np.floor(lo / size).astype(np.int64)
+    span = np.floor(hi / size).astype(np.int64) - k0 + 1
+    count = span.prod(axis=1)
+    face = np.repeat(np.arange(len(lo)), count)
+    local = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+    sx, sy = span[face, 0], span[face, 1]
+    cell = k0[face] + np.stack([local % sx, (local // sx) % sy, local // (sx * sy)], axis=1)
+    cell -= cell.min(axis=0)
+    dims = cell.max(axis=0) + 1
+    key = (cell[:, 0] * dims[1] + cell[:, 1]) * dims[2] + cell[:, 2]
+    in_a, in_b = (side[face] & 1) > 0, (side[face] & 2) > 0
+    ka, fa, kb, fb = key[in_a], face[in_a], key[in_b], face[in_b]
+    oa, ob = np.argsort(ka, kind="stable"), np.argsort(kb, kind="stable")
+    ka, fa, kb, fb = ka[oa], fa[oa], kb[ob], fb[ob]
+    # for each A entry, the run of B entries with the same grid cell
+    start = np.searchsorted(kb, ka, side="left")
+    stop = np.searchsorted(kb, ka, side="right")
+    n = stop - start
+    ia = np.repeat(fa, n)
+    jb = fb[np.repeat(start, n) + np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)]
+    keep = ia != jb
+    keep[keep] = accept(ia[keep], jb[keep])
+    if not keep.any():
+        return ia[:0], jb[:0]
+    pair = np.unique(ia[keep] * np.int64(len(lo)) + jb[keep])
+    return pair // len(lo), pair % len(lo)
+
+
+def overlapping_opposite_faces(points: np.ndarray, tris: np.ndarray, skip: np.ndarray | None = None,
+                               rtol: float = 1e-9) -> np.ndarray:
+    """(B,) bool: triangles ``tris`` (point indices, outward order) whose interior overlaps that of a
+    coplanar triangle facing the other way (each vertex within ``rtol`` times the points' bounding
+    box diagonal of the other's plane). Rows with ``skip`` set take no part.
+
+    Examples
+    --------
+    >>> p = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0.]])
+    >>> overlapping_opposite_faces(p, np.array([[0, 1, 2], [0, 2, 3], [1, 0, 3], [1, 3, 2]])).tolist()
+    [True, True, True, True]
+    >>> overlapping_opposite_faces(p, np.array([[0, 1, 2], [0, 2, 3], [2, 1, 0], [3, 2, 0]])).tolist()
+    [True, True, True, True]
+    >>> overlapping_opposite_faces(p, np.array([[0, 1, 2], [3, 2, 0]])).tolist()
+    [False, False]
+    """
+    nb = len(tris)
+    hit = np.zeros(nb, dtype=bool)
+    if nb < 2:
+        return hit
+    live = np.ones(nb, dtype=bool) if skip is None else ~np.asarray(skip, dtype=bool)
+    idx = np.flatnonzero(live)
+    if len(idx) < 2:
+        return hit
+    lo_b, hi_b = points.min(axis=0), points.max(axis=0)
+    scale = float(np.linalg.norm(hi_b - lo_b)) or 1.0
+    c = (points[tris[idx]] - 0.5 * (lo_b + hi_b)) / scale  # (K, 3, 3) in units of the mesh size
+    n = np.cross(c[:, 1] - c[:, 0], c[:, 2] - c[:, 0])
+    nn = np.linalg.norm(n, axis=1)
+    ok = nn > 0
+    n = n / np.where(ok, nn, 1.0)[:, None]
+    # the two facing classes: opposite normals fall in opposite classes (both near the divide)
+    v = np.array([0.5773, 0.5778, 0.5768])
+    dv = n @ v
+    side = (((dv > -0.1) & ok) * 1 + ((dv < 0.1) & ok) * 2).astype(np.int64)
+    lo, hi = c.min(axis=1), c.max(axis=1)
+    ext = (hi - lo).max(axis=1)
+    size = max(float(np.median(ext)), 1e-6)
+    span = np.floor(hi / size) - np.floor(lo / size) + 1
+    while span.prod(axis=1).sum() > 8 * len(idx) + 1000:  # a few huge faces: coarser cells
+        size *= 2.0
+        span = np.floor(hi / size) - np.floor(lo / size) + 1
+    tol = rtol
+    lo, hi = lo - tol, hi + tol
+    off = np.einsum("ij,ij->i", n, c[:, 0])
+
+    def facing(i, j):  # opposite normals, opposite plane offsets (the same plane)
+        return (np.einsum("ij,ij->i", n[i], n[j]) < -1.0 + 1e-6) & (np.abs(off[i] + off[j]) <= 4 * tol)
+
+    i, j = _candidate_pairs(lo, hi, side, size, facing)
+    if len(i) == 0:
+        return hit
+    # coplanar: every vertex of each on the other's plane
+    dist = np.abs(np.einsum("ik,ijk->ij", n[i], c[j] - c[i][:, :1, :])).max(axis=1)
+    dist2 = np.abs(np.einsum("ik,ijk->ij", n[j], c[i] - c[j][:, :1, :])).max(axis=1)
+    keep = (dist <= tol) & (dist2 <= tol)
+    i, j = i[keep], j[keep]
+    if len(i) == 0:
+        return hit
+    # overlap in the plane of i: project along its dominant axis, both triangles counter-clockwise
+    ax = np.abs(n[i]).argmax(axis=1)
+    u, w = (ax + 1) % 3, (ax + 2) % 3
+    r, k3 = np.arange(len(i))[:, None], np.arange(3)[None, :]
+    flip = n[i, ax] < 0  # i is clockwise in (u, w); j, facing the other way, is counter-clockwise
+    a = np.stack([c[i][r, k3, u[:, None]], c[i][r, k3, w[:, None]]], axis=-1)  # (P, 3, 2)
+    b = np.stack([c[j][r, k3, u[:, None]], c[j][r, k3, w[:, None]]], axis=-1)
+    a[flip] = a[flip][:, ::-1]
+    b[~flip] = b[~flip][:, ::-1]
+
+    def separated(p, q):
+        """Some edge line of counter-clockwise p has all of q on its outer side (or on it)."""
+        e = np.roll(p, -1, axis=1) - p  # (P, 3, 2)
+        el = np.linalg.norm(e, axis=2)
+        d = e[:, :, None, 0] * (q[:, None, :, 1] - p[:, :, None, 1]) - \
+            e[:, :, None, 1] * (q[:, None, :, 0] - p[:, :, None, 0])  # (P, edge, q vertex)
+        return (d <= tol * el[:, :, None]).all(axis=2).any(axis=1)
+
+    over = ~separated(a, b) & ~separated(b, a)
+    hit[idx[i[over]]] = True
+    hit[idx[j[over]]] = True
+    return hit
+
+
+def check_duplicate_tets(name: str, tets: np.ndarray) -> None:
+    """Raise :class:`MeshError` naming the first tets listed twice (same four points, any order).
+
+    Examples
+    --------
+    >>> check_duplicate_tets("m", np.array([[0, 1, 2, 3], [4, 5, 6, 7], [3, 2, 1, 0]]))
+    Traceback (most recent call last):
+    ...
+    warpvol.errors.MeshError: m: tets[0] and tets[2] are the same tet (points [0, 1, 2, 3]); 1 duplicated tet(s)
+    """
+    key = np.sort(np.asarray(tets), axis=1)
+    _, first, inv, counts = np.unique(key, axis=0, return_index=True, return_inverse=True, return_counts=True)
+    inv = inv.ravel()
+    dup = np.flatnonzero(counts[inv] > 1)
+    if len(dup):
+        i = int(dup[0])
+        j = int(dup[1]) if inv[dup[1]] == inv[i] else int(dup[np.argmax(inv[dup[1:]] == inv[i]) + 1])
+        n = int(len(dup) - (counts > 1).sum())
+        raise MeshError(f"{name}: tets[{i}] and tets[{j}] are the same tet (points {key[i].tolist()}); "
+                        f"{n} duplicated tet(s)")
+
+
+def _cell_groups(name: str, cell_start, dropped: np.ndarray) -> np.ndarray:
+    """``cell_start`` validated against the input tets, with the ``dropped`` tets taken out."""
+    cs = np.asarray(cell_start)
+    n = len(dropped)
+    if cs.ndim != 1 or len(cs) < 2 or not np.issubdtype(cs.dtype, np.integer) or cs[0] != 0 or cs[-1] != n \
+            or (np.diff(cs) < 1).any():
+        raise MeshError(f"{name}: cell_start: expected ascending offsets from 0 to {n} with >= 1 tet per cell")
+    kept = np.add.reduceat((~dropped).astype(np.int64), cs[:-1])
+    return np.concatenate([[0], np.cumsum(kept[kept > 0])]).astype(np.int64)
+
+

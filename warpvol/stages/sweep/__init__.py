@@ -1,1 +1,0 @@
-"""Sweep-plane stages (VSBUFFER, Westermann & Ertl 1997)."""

@@ -1,0 +1,11 @@
+"""Pre-integration table stages (Roettger & Ertl, Guthe, Kraus, Espinha & Celes tables), one module per stage.
+
+Importing this package registers every stage module in it.
+"""
+
+import importlib
+import pkgutil
+
+for _m in pkgutil.walk_packages(__path__, prefix=f"{__name__}."):
+    importlib.import_module(_m.name)
+del _m
