@@ -12,7 +12,7 @@ either side are classified by rounding (:func:`edge_on_faces`).
 
 :func:`unresolved_pixels` finds both in float64 on the host, from the scene alone, and returns the
 pixels they cover (their projected bounding boxes grown by one pixel); ``pt_integrate`` redoes those
-pixels with the float64 ray tracer (:func:`warpvol.raycasting.stages.raycast.redo_pixels_float64`)
+pixels with the float64 ray tracer (:func:`warpvol.reference.pixels.redo_pixels_float64`)
 and counts them.
 """
 
@@ -140,6 +140,22 @@ def thin_tets(mesh, tf, camera) -> np.ndarray:
     return cand[err > THIN_TAU]
 
 
+def _face_planes(mesh) -> dict:
+    """Every face of the mesh once (sorted vertex triples), its unnormalised normal ``n`` and offset
+    ``c = n . p0`` in float64 (cached on the mesh): the plane test of :func:`edge_on_faces` is then one
+    dot product per face and frame."""
+    cache = mesh.__dict__.setdefault("_pt_face_planes", {})
+    if "faces" in cache:
+        return cache
+    pts = np.asarray(mesh.points, dtype=np.float64)
+    tets = np.asarray(mesh.tets)
+    faces = np.unique(np.sort(tets[:, [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]]].reshape(-1, 3), axis=1), axis=0)
+    p0, p1, p2 = pts[faces[:, 0]], pts[faces[:, 1]], pts[faces[:, 2]]
+    n = np.cross(p1 - p0, p2 - p0)
+    cache.update(faces=faces, n=n, c=np.einsum("ij,ij->i", n, p0), nn=np.linalg.norm(n, axis=1))
+    return cache
+
+
 def edge_on_faces(mesh, camera) -> np.ndarray:
     """The faces ``(n, 3)`` vertex indices) whose plane passes within float32 resolution of a
     perspective eye: each projects to a segment and the tets on either side are classified by
@@ -151,16 +167,70 @@ def edge_on_faces(mesh, camera) -> np.ndarray:
     centre, radius = 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
     eye = np.asarray(camera.eye, dtype=np.float64)
     tol = EDGE_ON_ULPS * EPS32 * (float(np.linalg.norm(eye - centre)) + radius)
-    tets = np.asarray(mesh.tets)
-    hits = []
-    for f in ((1, 2, 3), (0, 2, 3), (0, 1, 3), (0, 1, 2)):  # every face of every tet (shared ones twice)
-        p = [pts[tets[:, k]] - eye for k in f]
-        n = np.cross(p[1] - p[0], p[2] - p[0])
-        nn = np.linalg.norm(n, axis=1)
-        dist = np.abs(np.einsum("ij,ij->i", n, p[0])) / np.maximum(nn, 1e-300)  # eye to the face's plane
-        hits.append(tets[(dist < tol) & (nn > 0)][:, list(f)])
-    faces = np.unique(np.sort(np.concatenate(hits), axis=1), axis=0)
-    return faces
+    fp = _face_planes(mesh)
+    dist = np.abs(fp["n"] @ eye - fp["c"]) / np.maximum(fp["nn"], 1e-300)  # eye to each face's plane
+    return fp["faces"][(dist < tol) & (fp["nn"] > 0)]
+
+
+def _boundary_edges(mesh, tf) -> dict:
+    """View-independent part of :func:`silhouette_edges` (cached on the mesh per transfer function):
+    each boundary edge with its two boundary triangles (outward normals) and the largest density of
+    the two cells they bound."""
+    key = np.asarray(tf.points).tobytes() + tf.emission.encode()
+    cache = mesh.__dict__.setdefault("_pt_boundary_edges", {})
+    if key in cache:
+        return cache[key]
+    pts = np.asarray(mesh.points, dtype=np.float64)
+    tris = np.asarray(mesh.boundary_triangles(), dtype=np.int64)
+    cells = np.asarray(mesh.boundary_faces)[:, 0]
+    out = {"a": np.zeros(0, np.int64), "b": np.zeros(0, np.int64), "f1": np.zeros(0, np.int64),
+           "f2": np.zeros(0, np.int64), "dens": np.zeros(0), "normals": np.zeros((0, 3)), "centres": np.zeros((0, 3))}
+    if len(tris):
+        e = np.stack([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]], axis=1).reshape(-1, 2)
+        fid = np.repeat(np.arange(len(tris)), 3)
+        key2 = np.sort(e, axis=1)
+        order = np.lexsort((key2[:, 1], key2[:, 0]))
+        k = key2[order]
+        same = (k[1:] == k[:-1]).all(axis=1)  # manifold boundary: each edge twice, in consecutive rows
+        i = np.flatnonzero(same)
+        f1, f2 = fid[order[i]], fid[order[i + 1]]
+        sc = np.asarray(mesh.scalars, dtype=np.float64)[np.asarray(mesh.tets)[cells]]
+        dcell = density_max(tf, sc.min(axis=1), sc.max(axis=1))
+        p = pts[tris]
+        out = {"a": k[i, 0], "b": k[i, 1], "f1": f1, "f2": f2, "dens": np.maximum(dcell[f1], dcell[f2]),
+               "normals": np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), "centres": p.mean(axis=1)}
+    cache.clear()
+    cache[key] = out
+    return out
+
+
+def silhouette_edges(mesh, tf, camera) -> np.ndarray:
+    """Boundary edges on the silhouette (one of their two boundary triangles faces the eye, the other
+    faces away) where a shift of the rasteriser's 1/256-pixel snapping changes the thickness of the
+    fragments beside the edge by more than :data:`THIN_TAU` of optical depth: density times the snap's
+    world size times the grazing factors ``1 / |cos|`` of the two faces to the view ray. Inside the mesh a
+    neighbour's fragment makes up what one cell's snapped edge loses; at the silhouette nothing does.
+    Returns ``(n, 2)`` vertex indices."""
+    g = _boundary_edges(mesh, tf)
+    if len(g["a"]) == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    eye = np.asarray(camera.eye, dtype=np.float64)
+    nrm = g["normals"] / np.maximum(np.linalg.norm(g["normals"], axis=1, keepdims=True), 1e-300)
+    if camera.projection == "perspective":
+        view = g["centres"] - eye
+        depth = view @ camera.forward
+        view /= np.maximum(np.linalg.norm(view, axis=1, keepdims=True), 1e-300)
+        px = 2.0 * np.abs(depth) * np.tan(np.radians(camera.fov_y_deg) / 2.0) / camera.height_px
+    else:
+        view = np.broadcast_to(camera.forward, nrm.shape)
+        px = np.full(len(nrm), camera.height / camera.height_px)
+    cos = np.einsum("ij,ij->i", nrm, view)
+    f1, f2 = g["f1"], g["f2"]
+    sil = (cos[f1] < 0) != (cos[f2] < 0)
+    grazing = 1.0 / np.maximum(np.abs(cos[f1]), 1e-6) + 1.0 / np.maximum(np.abs(cos[f2]), 1e-6)
+    err = g["dens"] * (0.5 * (px[f1] + px[f2]) / 256.0) * grazing
+    hit = sil & (err > THIN_TAU)
+    return np.column_stack([g["a"][hit], g["b"][hit]])
 
 
 def _mark_boxes(cover: np.ndarray, col: np.ndarray, row: np.ndarray) -> None:
@@ -196,20 +266,24 @@ def _segment_samples(col: np.ndarray, row: np.ndarray) -> tuple[np.ndarray, np.n
 
 
 def unresolved_pixels(mesh, tf, camera) -> dict:
-    """The thin tets (:func:`thin_tets`), the faces seen edge-on from the eye (:func:`edge_on_faces`)
-    and the pixels they may make wrong (``pixels``, flat indices): within one pixel of a thin tet's
-    projected bounding box or of an edge-on face's projected segment."""
+    """The thin tets (:func:`thin_tets`), the faces seen edge-on from the eye (:func:`edge_on_faces`),
+    the silhouette edges snapping makes visible (:func:`silhouette_edges`) and the pixels they may make
+    wrong (``pixels``, flat indices): within one pixel of a thin tet's projected bounding box or of an
+    edge-on face's or a silhouette edge's projected segment."""
     cover = np.zeros((camera.height_px, camera.width_px), dtype=bool)
     thin = thin_tets(mesh, tf, camera)
     if len(thin):
         col, row, _ = _window(mesh, camera, thin)
         _mark_boxes(cover, col, row)
     faces = edge_on_faces(mesh, camera)
-    if len(faces):
-        tmp = TetMeshFaces(mesh, faces)
-        col, row, _ = _window(tmp, camera, np.arange(len(faces)))
+    sil = silhouette_edges(mesh, tf, camera)
+    segs = np.concatenate([faces, np.column_stack([sil, sil[:, 1]])]) if len(sil) else faces
+    if len(segs):
+        tmp = TetMeshFaces(mesh, segs)
+        col, row, _ = _window(tmp, camera, np.arange(len(segs)))
         _mark_boxes(cover, *_segment_samples(col[:, :3], row[:, :3]))
-    return {"thin_tets": int(len(thin)), "edge_on_faces": int(len(faces)), "pixels": np.flatnonzero(cover.ravel())}
+    return {"thin_tets": int(len(thin)), "edge_on_faces": int(len(faces)), "silhouette_edges": int(len(sil)),
+            "pixels": np.flatnonzero(cover.ravel())}
 
 
 class TetMeshFaces:

@@ -293,11 +293,11 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
 
 def resolve_failed(ctx, state: HarcState) -> int:
     """Redo the rays marked failed in float64 on the host (whole ray, the reference's watertight
-    tracer: :func:`warpvol.raycasting.stages.raycast.redo_pixels_float64`); returns how many."""
+    tracer: :func:`warpvol.reference.pixels.redo_pixels_float64`); returns how many."""
     import warp as wp
 
     from warpvol.kernels import raycast as kr
-    from warpvol.raycasting.stages.raycast import redo_pixels_float64
+    from warpvol.reference.pixels import redo_pixels_float64
 
     status = state.status.numpy()
     failed = np.flatnonzero(status == int(kr.STATUS_FAILED))

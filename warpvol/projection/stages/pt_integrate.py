@@ -89,12 +89,13 @@ class PTIntegrate(Stage):
         import numpy as np
 
         from warpvol.projection.pt_thin import unresolved_pixels
-        from warpvol.raycasting.stages.raycast import redo_pixels_float64
+        from warpvol.reference.pixels import redo_pixels_float64
 
         sc = ctx.scene
         u = unresolved_pixels(sc.mesh, sc.transfer, sc.camera)
         px = u["pixels"]
-        st = {"thin_tets": u["thin_tets"], "edge_on_faces": u["edge_on_faces"], "float64_pixels": 0}
+        st = {"thin_tets": u["thin_tets"], "edge_on_faces": u["edge_on_faces"],
+              "silhouette_edges": u["silhouette_edges"], "float64_pixels": 0}
         if len(px) and self.config["format"] == "fp32":
             val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, px)
             img = ctx.image.reshape(-1, 4)
@@ -102,10 +103,13 @@ class PTIntegrate(Stage):
             ctx.image = img.reshape(ctx.image.shape)
             st["float64_pixels"] = int(len(px))
             ctx.count(float64_rays=int(len(px)))
-            ctx.progress(f"pt_integrate: {len(px)} pixels covered by {u['thin_tets']} thin tets and "
-                         f"{u['edge_on_faces']} faces seen edge-on were redone in float64")
+            ctx.progress(f"pt_integrate: {len(px)} pixels covered by {u['thin_tets']} thin tets, "
+                         f"{u['edge_on_faces']} faces seen edge-on and {u['silhouette_edges']} silhouette edges "
+                         "were redone in float64")
         elif len(px):
             st["warning"] = (f"{len(px)} pixels are covered by {u['thin_tets']} tets thinner than float32 resolves "
-                             f"with significant extinction or {u['edge_on_faces']} faces seen edge-on from "
-                             f"the eye; drawn in the {self.config['format']} buffer as computed (may be wrong)")
+                             f"with significant extinction, {u['edge_on_faces']} faces seen edge-on from "
+                             f"the eye or {u['silhouette_edges']} silhouette edges whose snapping changes the "
+                             f"thickness visibly; drawn in the {self.config['format']} buffer as computed (may be "
+                             "wrong)")
         ctx.stats["pt_integrate"] = st

@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from warpvol.parallel import blocks, cpu_threads, launch_blocks
+from warpvol.reference.pixels import redo_pixels_float64
 from warpvol.stage import Context, Param, Stage, register_stage
 
 
@@ -45,46 +46,6 @@ class MarchState:
         out = wp.zeros(self.n, dtype=wp.vec4, device=self.device)
         wp.launch(k.finish, dim=self.n, inputs=[self.rgb, self.trans, out], device=self.device)
         return out.numpy().reshape(height, width, 4)
-
-
-def redo_pixels_float64(mesh, tf, camera, pixels: np.ndarray, max_pairs: int = 1_000_000) -> np.ndarray:
-    """Exact float64 colours (n, 4) of the pixels ``pixels`` (flat indices), for rays the float32
-    walk could not resolve: the reference's watertight tracer (exact edge signs, simulation of
-    simplicity) on just the candidate (tet, pixel) pairs of those pixels, integrated and composited
-    in float64."""
-    from warpvol.reference import numpy_render as ref
-
-    pixels = np.asarray(pixels, dtype=np.int64)
-    out = np.zeros((len(pixels), 4))
-    if len(pixels) == 0:
-        return out
-    fr, pc, tsorted, orient, ids, i0, i1, j0, j1 = ref._plan(mesh, camera)
-    grad, offs = (mesh.gradients, mesh.offsets) if fr.persp else (None, None)
-    rows, cols = np.divmod(pixels, camera.width_px)
-    cand = [np.flatnonzero((i0 <= r) & (i1 >= r) & (j0 <= c) & (j1 >= c)) for r, c in zip(rows, cols)]
-    segs = []
-    start = 0
-    while start < len(pixels):
-        stop, n = start, 0
-        while stop < len(pixels) and (n == 0 or n + len(cand[stop]) <= max_pairs):
-            n += len(cand[stop])
-            stop += 1
-        k = np.concatenate(cand[start:stop])
-        who = np.repeat(np.arange(start, stop), [len(c) for c in cand[start:stop]])
-        if len(k):
-            ch = ref._trace_chunk(fr, pc, np.asarray(mesh.scalars, np.float64), tsorted, orient, ids[k],
-                                  rows[who], rows[who], cols[who], cols[who], grad, offs)
-            # the tracer reports flat pixel indices; map them back to positions in ``pixels``
-            lookup = dict(zip(pixels[start:stop].tolist(), range(start, stop)))
-            pos = np.array([lookup[p] for p in ch["pixel"].tolist()], dtype=np.int64)
-            segs.append((pos, ch))
-        start = stop
-    if not segs:
-        return out
-    pos = np.concatenate([p for p, _ in segs])
-    cat = {key: np.concatenate([c[key] for _, c in segs]) for key in ("t_in", "t_out", "s_in", "s_out")}
-    rgb, tau = ref.integrate_segments(cat["s_in"], cat["s_out"], cat["t_out"] - cat["t_in"], tf)
-    return ref.composite_front_to_back(pos, cat["t_in"], rgb, tau, len(pixels), cat["t_out"])
 
 
 def camera_launch_args(ctx: Context, rows_per_block: int = 16) -> tuple[int, list, list]:
