@@ -90,7 +90,7 @@ def vtk_renderer(scene, mapper_name: str = "raycast"):
         c.SetViewAngle(cam.fov_y_deg)
     else:
         c.ParallelProjectionOn()
-        c.SetParallelScale(cam.height / 2)
+        c.SetParallelScale(cam.ortho_height / 2)
     near, far = cam.depth_range(*mesh.bounds)
     c.SetClippingRange(near * 0.5, far * 2)
 

@@ -77,7 +77,7 @@ def test_tf_table_file(tmp_path):
 @pytest.mark.parametrize("projection", ["perspective", "orthographic"])
 def test_matrices_project_each_pixel_ray_to_its_pixel_centre(projection):
     cam = Camera(projection=projection, eye=[1.0, 2.0, 6.0], target=[0.2, -0.1, 0.3], up=[0.1, 1, 0],
-                 fov_y_deg=35, height=2.5, width_px=13, height_px=7)
+                 fov_y_deg=35, ortho_height=2.5, width_px=13, height_px=7)
     o, d = cam.rays()
     pts = o + 3.7 * d  # any point on each ray
     m = cam.viewport_matrix() @ cam.projection_matrix(0.5, 20.0) @ cam.view_matrix()

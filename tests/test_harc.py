@@ -59,7 +59,7 @@ def three_layers():
     tf = TransferFunction([[0, 1, 0.5, 0.2, rho], [2, 0.2, 0.5, 1, rho]])
     m = merge(box_mesh((-1, -1, -3), (1, 1, -2.5), (3, 3, 2)), box_mesh((-1, -1, -1), (1, 1, -0.5), (3, 3, 2)),
               box_mesh((-1, -1, 0.5), (1, 1, 1), (3, 3, 2)))
-    cam = Camera(projection="orthographic", eye=[0.1, 0.05, 6.0], target=[0.1, 0.05, 0], height=3.0, width_px=16,
+    cam = Camera(projection="orthographic", eye=[0.1, 0.05, 6.0], target=[0.1, 0.05, 0], ortho_height=3.0, width_px=16,
                  height_px=16)
     return scene(m, tf, cam), rho
 
@@ -101,7 +101,7 @@ def test_rays_through_vertices_and_edges(direction):
     # edges through vertices; diagonal views: the centre ray through vertices along diagonal edges)
     d = np.asarray(direction, float) / np.linalg.norm(direction)
     up = [0, 1, 0] if abs(d[1]) < 0.9 else [1, 0, 0]
-    cam = Camera(projection="orthographic", eye=5 * d, target=[0, 0, 0], up=up, height=4.5, width_px=9, height_px=9)
+    cam = Camera(projection="orthographic", eye=5 * d, target=[0, 0, 0], up=up, ortho_height=4.5, width_px=9, height_px=9)
     sc = scene(grid_mesh(), TF, cam)
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
     tol = TOLERANCES["raycast/fp32"]
@@ -215,7 +215,7 @@ def test_camera_looking_away_is_transparent(name, projection):
     # (was a 'near plane must be > 0' refusal from the rasterised ray start)
     sc = builtin_scene("box")
     eye = np.asarray(sc.camera.eye)
-    sc = sc.with_camera(projection=projection, target=2 * eye, height=2.0, width_px=8, height_px=8)
+    sc = sc.with_camera(projection=projection, target=2 * eye, ortho_height=2.0, width_px=8, height_px=8)
     assert (render_reference(sc.mesh, sc.transfer, sc.camera) == 0).all()
     res = pipe(name).render(sc, quiet=True)
     assert (res.image == 0).all()

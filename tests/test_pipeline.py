@@ -57,7 +57,7 @@ def test_presets_listed_and_loadable():
 
 def test_report_has_contract_fields_and_skips():
     tf = TransferFunction([[0, 1, 1, 1, 1.0], [2, 1, 1, 1, 1.0]])
-    cam = Camera(projection="orthographic", eye=[0, 0, 5], height=3, width_px=8, height_px=8)
+    cam = Camera(projection="orthographic", eye=[0, 0, 5], ortho_height=3, width_px=8, height_px=8)
     res = Pipeline.load("raycast").render(scene(box_mesh(), tf, cam), quiet=True, reference=None)
     r = res.report
     assert r["pipeline"] == "raycast"

@@ -46,7 +46,7 @@ def degenerate_views(size=20):
     for d in ([0, 0, 1], [1, 0, 0], [1, 1, 0], [1, 1, 1], [1, -1, 0]):
         d = np.asarray(d, float) / np.linalg.norm(d)
         up = [0, 1, 0] if abs(d[1]) < 0.9 else [1, 0, 0]
-        out.append(Camera(projection="orthographic", eye=4 * d, target=(0, 0, 0), up=up, height=2.9,
+        out.append(Camera(projection="orthographic", eye=4 * d, target=(0, 0, 0), up=up, ortho_height=2.9,
                           width_px=size, height_px=size))
         out.append(Camera(eye=3.5 * d, target=(0, 0, 0), up=up, fov_y_deg=50, width_px=size, height_px=size))
     return out
@@ -77,7 +77,7 @@ def test_one_fragment_per_tet_and_pixel_degenerate_views(walk):
             seen[k] += geo.classes[k]
     # 2e-5 thin layers seen edge-on snap to segments: flat projections
     sc = builtin_scene("stiff")
-    for cam in (Camera(projection="orthographic", eye=(4, 0.3, 0), target=(0, 0.3, 0), height=2.5, width_px=24,
+    for cam in (Camera(projection="orthographic", eye=(4, 0.3, 0), target=(0, 0.3, 0), ortho_height=2.5, width_px=24,
                        height_px=24), Camera(eye=(3, 0.2, 0.05), target=(0, 0, 0), fov_y_deg=50, width_px=24, height_px=24)):
         pt, ff, geo = coverage_pairs(sc.mesh, cam, walk=walk)
         assert len(ff) > 100 and np.array_equal(pt, ff)

@@ -140,7 +140,7 @@ def test_fast_walks_give_the_same_image(walk):
     for name, proj in (("concave", "perspective"), ("sphere", "perspective"), ("stiff", "orthographic")):
         sc = scene(name, 40)
         if proj == "orthographic":
-            sc = sc.with_camera(projection="orthographic", height=3.0)
+            sc = sc.with_camera(projection="orthographic", ortho_height=3.0)
         px = render(preset("pt_best", pt_integrate={"walk": "pixel"}), sc)
         fast = render(preset("pt_best", pt_integrate={"walk": walk}), sc)
         if walk == "triangle":

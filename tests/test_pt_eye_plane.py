@@ -45,7 +45,7 @@ LOOKING_AWAY = {
     "persp_behind": dict(eye=(0.2, 0.1, 4.0), target=(0.2, 0.1, 5.0)),
     "persp_beside": dict(eye=(0.2, 0.1, 4.0), target=(1.2, 0.1, 4.0), fov_y_deg=40.0),
     "ortho_behind": dict(projection="orthographic", eye=(0.2, 0.1, 4.0), target=(0.2, 0.1, 5.0)),
-    "ortho_beside": dict(projection="orthographic", eye=(5.0, 0.0, 0.0), target=(5.0, 0.0, -1.0), height=2.0),
+    "ortho_beside": dict(projection="orthographic", eye=(5.0, 0.0, 0.0), target=(5.0, 0.0, -1.0), ortho_height=2.0),
 }
 
 
@@ -74,7 +74,7 @@ CROSSING = {
     "eye_inside": dict(eye=(0.1, 0.2, 0.3), target=(1.0, 0.5, -2.0), fov_y_deg=90.0),
     "near_plane_cuts_cells": dict(eye=(0.1, 0.2, 1.0001), target=(0.0, 0.0, 0.0), fov_y_deg=120.0),
     "ortho_eye_plane_cuts": dict(projection="orthographic", eye=(0.1, 0.05, 0.3), target=(0.3, -0.05, -0.7),
-                                 height=1.5),
+                                 ortho_height=1.5),
     # every vertex in front, but the nearest 1e-7 of the depth range from the eye: no float32 window
     "vertex_at_eye": dict(eye=(-1.0 - 1e-7, 0.0, 0.0), target=(1.0, 0.3, 0.2), fov_y_deg=60.0),
 }

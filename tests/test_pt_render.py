@@ -42,7 +42,7 @@ def check(res, tol_key):
 
 
 BOX_VIEWS = {
-    "ortho": dict(projection="orthographic", eye=(3, -2, 1), target=(0, 0, 0), up=(0, 1, 0), height=3.6),
+    "ortho": dict(projection="orthographic", eye=(3, -2, 1), target=(0, 0, 0), up=(0, 1, 0), ortho_height=3.6),
     "perspective": dict(projection="perspective", eye=(2.5, 1.8, 3.1), target=(0.1, 0, 0), up=(0, 1, 0),
                         fov_y_deg=50.0),
 }

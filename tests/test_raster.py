@@ -425,7 +425,7 @@ def test_vertex_stage_matches_camera_rays(device):
     np.testing.assert_allclose(out.window[:, :2], [[0.5, 0.5], [17.5, 5.5], [31.5, 23.5]], atol=1e-3)
     np.testing.assert_allclose(-out.eye[:, 2], out.clip[:, 3], rtol=1e-6)  # clip w = eye distance along -z
     assert np.all((out.window[:, 2] > 0) & (out.window[:, 2] < 1))
-    ortho = Camera(projection="orthographic", eye=[0, 0, 5], target=[0, 0, 0], height=2.0, width_px=4, height_px=4)
+    ortho = Camera(projection="orthographic", eye=[0, 0, 5], target=[0, 0, 0], ortho_height=2.0, width_px=4, height_px=4)
     out2 = transform_vertices([[1.0, 1.0, 0.0]], ortho.view_matrix(), ortho.projection_matrix(1, 10),
                               viewport_matrix(4, 4), device=device)
     np.testing.assert_allclose(out2.window[0], [4.0, 0.0, (5 - 1) / 9, 1.0], atol=1e-5)

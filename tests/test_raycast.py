@@ -19,7 +19,7 @@ def render(sc, device="cpu", **raycast_params):
 
 
 def ortho(w=24, h=24, height=3.0, eye=(0.1, 0.05, 6.0)):
-    return Camera(projection="orthographic", eye=list(eye), target=[eye[0], eye[1], 0], height=height,
+    return Camera(projection="orthographic", eye=list(eye), target=[eye[0], eye[1], 0], ortho_height=height,
                   width_px=w, height_px=h)
 
 
@@ -145,7 +145,7 @@ def test_grazing_ray_does_not_enter_a_face_it_misses():
                     [-2, -2, 0], [2, -2, 0], [0, 2, 0], [0.3, 0.2, -2]], dtype=float)
     m = TetMesh(pts, [[0, 1, 2, 3], [4, 5, 6, 7]], np.ones(8))
     tf = TransferFunction([[0, 1, 1, 1, 0.8], [2, 1, 1, 1, 0.8]])
-    cam = Camera(projection="orthographic", eye=[0, 0, 5], target=[0, 0, 0], height=1.0, width_px=1, height_px=1)
+    cam = Camera(projection="orthographic", eye=[0, 0, 5], target=[0, 0, 0], ortho_height=1.0, width_px=1, height_px=1)
     sc = scene(m, tf, cam)
     ref = render_reference(m, tf, cam)
     img = render(sc).image

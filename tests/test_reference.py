@@ -147,7 +147,7 @@ def simpson_reference(tf, sf, sb, L, n_per_piece=400):
 def test_constant_box_orthographic_matches_slab_formula(emission, rho):
     c = np.array([0.9, 0.5, 0.1])
     m = grid_mesh(*[np.linspace(-1, 1, 4)] * 3)
-    cam = Camera(projection="orthographic", eye=[0.05, 0.03, 5], target=[0.05, 0.03, 0], height=3.0,
+    cam = Camera(projection="orthographic", eye=[0.05, 0.03, 5], target=[0.05, 0.03, 0], ortho_height=3.0,
                  width_px=24, height_px=20)
     img = render_reference(m, const_tf(rho, c, emission), cam)
     o, d = cam.rays()
@@ -205,7 +205,7 @@ def test_linear_field_matches_closed_form(emission, rho_top, rho_bottom):
     m = grid_mesh(np.linspace(-1, 1, 4), np.linspace(-1, 1, 3), zs, scalar=lambda p: p[:, 2])
     c_bot, c_top = np.array([0.1, 0.8, 0.3]), np.array([0.9, 0.2, 0.6])
     tf = TransferFunction([[-1, *c_bot, rho_bottom], [1, *c_top, rho_top]], emission)
-    cam = Camera(projection="orthographic", eye=[0, 0, 4], target=[0, 0, 0], height=1.6, width_px=12,
+    cam = Camera(projection="orthographic", eye=[0, 0, 4], target=[0, 0, 0], ortho_height=1.6, width_px=12,
                  height_px=10)
     img = render_reference(m, tf, cam)
     tau = 0.5 * 2.0 * (rho_top + rho_bottom)
@@ -292,7 +292,7 @@ def test_stiff_box_render_is_opaque_and_finite(emission):
     m = grid_mesh(*[np.linspace(-1, 1, 3)] * 3, scalar=lambda p: p[:, 2])
     c_bot, c_top = np.array([0.1, 0.8, 0.3]), np.array([0.9, 0.2, 0.6])
     tf = TransferFunction([[-1, *c_bot, rho], [1, *c_top, rho]], emission)
-    cam = Camera(projection="orthographic", eye=[0, 0, 4], target=[0, 0, 0], height=1.6, width_px=8, height_px=8)
+    cam = Camera(projection="orthographic", eye=[0, 0, 4], target=[0, 0, 0], ortho_height=1.6, width_px=8, height_px=8)
     img = render_reference(m, tf, cam)
     assert np.isfinite(img).all()
     np.testing.assert_allclose(img[..., 3], 1.0, rtol=0, atol=1e-12)
@@ -325,7 +325,7 @@ def test_disconnected_boxes_composite_in_depth_order(projection):
     c_near, c_far, r_near, r_far = np.array([0.9, 0.1, 0.1]), np.array([0.1, 0.2, 0.9]), 0.6, 1.7
     tf = TransferFunction([[0.2, *c_near, r_near], [0.8, *c_far, r_far]], "color_extinction")
     if projection == "orthographic":
-        cam = Camera(projection="orthographic", eye=[0, 0, 6], target=[0, 0, 0], height=3.1, width_px=15,
+        cam = Camera(projection="orthographic", eye=[0, 0, 6], target=[0, 0, 0], ortho_height=3.1, width_px=15,
                      height_px=15)
     else:
         cam = Camera(eye=[0.02, 0.01, 6], target=[0, 0, 0], fov_y_deg=60, width_px=25, height_px=25)
@@ -348,7 +348,7 @@ def test_non_convex_mesh_rays_exit_and_reenter():
     drop = [(1, j, 1) for j in range(2)]  # remove the middle-top cells: notch in x in [-.5, .5], z in [0, 1]
     m = grid_mesh(xs, np.linspace(-1, 1, 3), zs, drop_cells=drop)
     rho = 0.9
-    cam = Camera(projection="orthographic", eye=[-5, 0, 0], target=[0, 0, 0], up=[0, 0, 1], height=2.5,
+    cam = Camera(projection="orthographic", eye=[-5, 0, 0], target=[0, 0, 0], up=[0, 0, 1], ortho_height=2.5,
                  width_px=10, height_px=10)
     img = render_reference(m, const_tf(rho), cam)
     o, d = cam.rays()
@@ -384,7 +384,7 @@ def test_coverage_identity_rays_in_faces_and_along_edges():
     chord exactly -- no double counting, no gaps."""
     g = np.array([-1.0, -0.625, -0.125, 0.375, 1.0])  # pixel centres at odd multiples of 1/8
     m = grid_mesh(g, g, np.array([-1.0, -0.5, 0.25, 1.0]))
-    cam = Camera(projection="orthographic", eye=[0, 0, 5], target=[0, 0, 0], height=2.0, width_px=8, height_px=8)
+    cam = Camera(projection="orthographic", eye=[0, 0, 5], target=[0, 0, 0], ortho_height=2.0, width_px=8, height_px=8)
     o, _ = cam.rays()
     on_line = np.isin(o[..., 0], g) & np.isin(o[..., 1], g)
     assert on_line.sum() == 9  # the rays that run along vertical grid edges
@@ -424,7 +424,7 @@ def test_coverage_identity_near_degenerate_cameras(eye, target, projection):
     segments a tiling of the chord."""
     g = np.linspace(-1, 1, 5)
     m = grid_mesh(g, g, g, scalar=lambda p: p[:, 0] + 2 * p[:, 1])
-    cam = Camera(projection=projection, eye=eye, target=target, fov_y_deg=90, height=2.0, width_px=9, height_px=9)
+    cam = Camera(projection=projection, eye=eye, target=target, fov_y_deg=90, ortho_height=2.0, width_px=9, height_px=9)
     o, d = cam.rays()
     chord = box_chord(o, d, -np.ones(3), np.ones(3))
     seg = trace_segments(m, cam)
@@ -471,7 +471,7 @@ def test_orthographic_eye_plane_inside_mesh_clips_at_the_plane():
     rho = 0.9
     m = grid_mesh(*[np.linspace(-1, 1, 4)] * 3)
     cam = Camera(projection="orthographic", eye=[0.1, 0.2, 0.35], target=[0.6, 0.4, -2.0], up=[0, 1, 0.2],
-                 height=2.5, width_px=17, height_px=13)
+                 ortho_height=2.5, width_px=17, height_px=13)
     img = render_reference(m, const_tf(rho), cam)
     o, d = cam.rays()
     chord = box_chord(o, d, -np.ones(3), np.ones(3))

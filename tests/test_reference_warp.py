@@ -76,7 +76,7 @@ def test_sliver_delaunay_mesh():
 def test_vertices_on_pixel_centres_orthographic_along_axis():
     """Down -z: interior grid vertices on pixel centres, rays inside shared faces and along edges."""
     sc = build_case("vertex_on_pixel_centre", quick=False).scene  # 63 x 63 px: 16 px per cell
-    cam = sc.camera.replace(width_px=31, height_px=31, height=31 * 0.5 / 8)  # 8 px per cell
+    cam = sc.camera.replace(width_px=31, height_px=31, ortho_height=31 * 0.5 / 8)  # 8 px per cell
     st = check(sc.mesh, sc.transfer, cam)
     assert st["n_exact"] > 0  # exact zeros were met and broken by simulation of simplicity
 
@@ -110,7 +110,7 @@ def test_eye_inside_non_convex_mesh():
 def test_orthographic_eye_plane_through_mesh():
     """Orthographic rays start on the eye plane, here inside the mesh: the part behind is clipped."""
     m = grid_box()
-    cam = Camera(projection="orthographic", eye=[0.1, 0.0, 0.0], target=[0.1, 0.0, -1.0], height=2.6,
+    cam = Camera(projection="orthographic", eye=[0.1, 0.0, 0.0], target=[0.1, 0.0, -1.0], ortho_height=2.6,
                  width_px=26, height_px=26)
     check(m, TF_LIN, cam)
 

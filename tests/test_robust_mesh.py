@@ -51,7 +51,7 @@ def kite_with_crack():
 def test_crack_from_dropped_tet_makes_mesh_non_convex_and_peel_runs():
     m = kite_with_crack()
     assert m.n_dropped == 1 and len(m.crack_faces) == 4 and not m.is_convex
-    cam = Camera(projection="orthographic", eye=[0.05, 0.0, 3.0], target=[0.05, 0, 0], height=2.2,
+    cam = Camera(projection="orthographic", eye=[0.05, 0.0, 3.0], target=[0.05, 0, 0], ortho_height=2.2,
                  width_px=24, height_px=24)
     sc = scene(m, TF, cam)
     ref = render_reference(m, TF, cam)
@@ -89,7 +89,7 @@ def test_unresolved_rays_are_redone_in_float64_and_counted(projection):
     from warpvol.stage import Context
 
     m = box_mesh(dims=(4, 4, 4), scalar=lambda p: np.sin(2 * p[:, 0]) + p[:, 1])
-    cam = Camera(projection=projection, eye=[1.2, 1.5, 4.0], height=2.5, width_px=12, height_px=10)
+    cam = Camera(projection=projection, eye=[1.2, 1.5, 4.0], ortho_height=2.5, width_px=12, height_px=10)
     sc = scene(m, TF, cam)
     ref = render_reference(m, TF, cam)
     pipe = Pipeline.load("raycast")

@@ -71,7 +71,7 @@ def test_jittered_delaunay(jitter, seed, device):
     eye = ctr + 9.0 * rng.normal(size=3) / 1.0
     eye = ctr + 9.0 * (eye - ctr) / np.linalg.norm(eye - ctr)
     proj = "perspective" if seed == 0 else "orthographic"
-    cam = Camera(projection=proj, eye=eye, target=ctr, fov_y_deg=45, height=8.0, width_px=40, height_px=40)
+    cam = Camera(projection=proj, eye=eye, target=ctr, fov_y_deg=45, ortho_height=8.0, width_px=40, height_px=40)
     check(scene(m, TF, cam), device=device)
 
 
@@ -107,7 +107,7 @@ def test_flat_slivers(kind, eps, projection):
     m = cap_mesh(eps) if kind == "cap" else kite_mesh(eps)
     ctr = 0.5 * (m.bounds[0] + m.bounds[1])
     eye = ctr + np.array([0.9, 1.3, 3.1]) if kind == "cap" else ctr + np.array([0.4, -0.3, 3.0])
-    cam = Camera(projection=projection, eye=eye, target=ctr, fov_y_deg=40, height=2.4, width_px=32, height_px=32)
+    cam = Camera(projection=projection, eye=eye, target=ctr, fov_y_deg=40, ortho_height=2.4, width_px=32, height_px=32)
     check(scene(m, TF, cam))
 
 
@@ -123,7 +123,7 @@ def test_rays_through_vertices_and_along_edges(direction):
     m = grid_scene_mesh()
     d = np.asarray(direction, float) / np.linalg.norm(direction)
     up = [0, 1, 0] if abs(d[1]) < 0.9 else [1, 0, 0]
-    cam = Camera(projection="orthographic", eye=5 * d, target=[0, 0, 0], up=up, height=4.5, width_px=9, height_px=9)
+    cam = Camera(projection="orthographic", eye=5 * d, target=[0, 0, 0], up=up, ortho_height=4.5, width_px=9, height_px=9)
     check(scene(m, TF, cam))
 
 
@@ -147,7 +147,7 @@ def test_distant_eye(distance, projection, device):
     size = float(np.linalg.norm(m.bounds[1] - m.bounds[0]))
     eye = d * distance * size
     fov = float(np.degrees(2 * np.arctan(0.6 * size / (distance * size))))
-    cam = Camera(projection=projection, eye=eye, target=[0, 0, 0], fov_y_deg=fov, height=1.2 * size,
+    cam = Camera(projection=projection, eye=eye, target=[0, 0, 0], fov_y_deg=fov, ortho_height=1.2 * size,
                  width_px=32, height_px=32)
     check(scene(m, TF, cam), device=device)
 
@@ -158,7 +158,7 @@ def test_camera_looking_away_is_transparent(projection, where):
     m = grid_scene_mesh()
     eye = np.array([0.2, 0.1, 4.0])
     target = eye + (np.array([0, 0, 1.0]) if where == "behind" else np.array([1.0, 0, 0]))
-    cam = Camera(projection=projection, eye=eye, target=target, fov_y_deg=40, height=2.0, width_px=16, height_px=16)
+    cam = Camera(projection=projection, eye=eye, target=target, fov_y_deg=40, ortho_height=2.0, width_px=16, height_px=16)
     res, ref = check(scene(m, TF, cam), visible=False)
     assert (ref == 0).all() and (res.image == 0).all()
 
@@ -166,7 +166,7 @@ def test_camera_looking_away_is_transparent(projection, where):
 @pytest.mark.parametrize("eye", [[0.1, 0.05, 0.3], [0.0, 0.0, 0.0], [0.3, -0.2, 0.5]])
 def test_orthographic_eye_plane_inside_mesh(eye):
     m = grid_scene_mesh()
-    cam = Camera(projection="orthographic", eye=eye, target=np.add(eye, [0.2, -0.1, -1.0]), height=1.5,
+    cam = Camera(projection="orthographic", eye=eye, target=np.add(eye, [0.2, -0.1, -1.0]), ortho_height=1.5,
                  width_px=24, height_px=24)
     res, ref = check(scene(m, TF, cam))
     assert ref[12, 12, 3] > 0.0  # the centre ray starts inside the medium

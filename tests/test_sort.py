@@ -31,7 +31,7 @@ def random_camera(rng, size=24):
     d = rng.normal(size=3)
     d /= np.linalg.norm(d)
     if rng.random() < 0.5:
-        return Camera(projection="orthographic", eye=4 * d, target=(0, 0, 0), up=rng.normal(size=3), height=3.6,
+        return Camera(projection="orthographic", eye=4 * d, target=(0, 0, 0), up=rng.normal(size=3), ortho_height=3.6,
                       width_px=size, height_px=size)
     return Camera(eye=rng.uniform(2.2, 4.0) * d, target=rng.uniform(-0.2, 0.2, 3), up=rng.normal(size=3),
                   fov_y_deg=60.0, width_px=size, height_px=size)

@@ -39,7 +39,7 @@ def layer_scene(thick: float, depth: float, camera: Camera, z0: float = 0.15) ->
 
 VIEWS = {
     "ortho_down": Camera(projection="orthographic", eye=(0.11, -0.06, 4.0), target=(0.11, -0.06, 0.0), up=(0, 1, 0),
-                         height=2.6, width_px=24, height_px=24),
+                         ortho_height=2.6, width_px=24, height_px=24),
     "persp": Camera(eye=(1.7, -1.1, 3.9), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=35.0, width_px=24, height_px=24),
     "grazing": Camera(eye=(3.8, 0.7, 0.9), target=(0, 0, 0.15), up=(0, 0, 1), fov_y_deg=40.0, width_px=24,
                       height_px=24),

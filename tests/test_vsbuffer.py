@@ -114,7 +114,7 @@ def test_thin_cells_found_or_counted():
     pts = grid_points(x, x, z)
     mesh = TetMesh(pts, structured_to_tets((4, 4, 4)), np.where(np.abs(pts[:, 2]) < 0.001, 1.0, 0.0))
     tf = TransferFunction([[0.0, 0.2, 0.2, 0.2, 0.2], [1.0, 1.0, 0.2, 0.1, 4000.0]], "color_extinction")
-    cam = warpvol.Camera(projection="orthographic", eye=(0.1, 0.2, 5), target=(0.1, 0.2, 0), height=2.6,
+    cam = warpvol.Camera(projection="orthographic", eye=(0.1, 0.2, 5), target=(0.1, 0.2, 0), ortho_height=2.6,
                          width_px=16, height_px=16)
     ref = render_reference(mesh, tf, cam)
     cm = ConvexCellMesh.from_tetmesh(mesh)
@@ -165,7 +165,7 @@ def test_trapezoid_converges_to_exact_segments():
     # bounded for any extinction (opacity 1 - e^-tau per step)
     m = box_mesh(dims=(3, 3, 3), scalar=lambda p: 0.5 + 0.4 * p[:, 2] + 0.1 * p[:, 0])  # varies along the rays
     tf = TransferFunction([[0.0, 1.0, 0.4, 0.2, 0.5], [1.0, 0.2, 0.4, 1.0, 2.0]], "color_extinction")
-    cam = warpvol.Camera(projection="orthographic", eye=(0.05, 0.1, 4), target=(0.05, 0.1, 0), height=2.4,
+    cam = warpvol.Camera(projection="orthographic", eye=(0.05, 0.1, 4), target=(0.05, 0.1, 0), ortho_height=2.4,
                          width_px=12, height_px=12)
     cm = ConvexCellMesh.from_tetmesh(m)
     kw = dict(adjacency="recover", depth_res=48)

@@ -35,7 +35,7 @@ def _jittered_hexes(jitter, seed):
 
 TF_HEX = TransferFunction([[0.0, 1.0, 0.1, 0.0, 9.0], [0.4, 0.0, 1.0, 0.1, 0.5], [0.8, 0.1, 0.0, 1.0, 9.0]],
                           "color_extinction")
-CAM_HEX = warpvol.Camera(projection="orthographic", eye=(2.2, 1.7, 3.1), target=(0, 0, 0), height=2.8,
+CAM_HEX = warpvol.Camera(projection="orthographic", eye=(2.2, 1.7, 3.1), target=(0, 0, 0), ortho_height=2.8,
                          width_px=32, height_px=32)
 
 
@@ -68,7 +68,7 @@ def test_pixel_centres_on_boundary_faces():
     # lie exactly in the boundary planes x = +-1, y = +-1, seen edge-on
     mesh = box_mesh(dims=(4, 4, 4), scalar=lambda p: 0.6 + 0.25 * p[:, 0] - 0.15 * p[:, 1] * p[:, 2])
     tf = TransferFunction([[0.0, 0.9, 0.5, 0.1, 2.5], [1.0, 0.2, 0.4, 1.0, 5.0]], "color_extinction")
-    cam = warpvol.Camera(projection="orthographic", eye=(0, 0, 5), target=(0, 0, 0), height=2.25, width_px=9,
+    cam = warpvol.Camera(projection="orthographic", eye=(0, 0, 5), target=(0, 0, 0), ortho_height=2.25, width_px=9,
                          height_px=9)
     ref = render_reference(mesh, tf, cam)
     # the reference's rule: rays in x = -1 and y = -1 are inside, in x = +1 and y = +1 outside
@@ -88,7 +88,7 @@ def test_thin_layer_exact_or_warned(thickness):
     back = box_mesh(lo=(-1, -1, -1), hi=(1, 1, 0.1), dims=(3, 3, 3), scalar=lambda p: np.zeros(len(p)))
     mesh = merge(slab, back, name="thin")
     tf = TransferFunction([[0.0, 0.1, 0.4, 0.8, 0.4], [1.0, 0.9, 0.7, 0.1, 0.25 / thickness]], "color_extinction")
-    cam = warpvol.Camera(projection="orthographic", eye=(0.2, 0.4, 5), target=(0.1, -0.1, 0), height=2.4,
+    cam = warpvol.Camera(projection="orthographic", eye=(0.2, 0.4, 5), target=(0.1, -0.1, 0), ortho_height=2.4,
                          width_px=24, height_px=24)
     ref = render_reference(mesh, tf, cam)
     r = warpvol.render(mesh, tf, cam, pipeline="vsbuffer_best", reference=False, quiet=True)

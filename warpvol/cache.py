@@ -73,7 +73,7 @@ def scene_key(scene) -> str:
     _hash_arrays(h, tf.points)
     h.update(tf.emission.encode())
     h.update(repr((cam.projection, tuple(map(float, cam.eye)), tuple(map(float, cam.target)),
-                   tuple(map(float, cam.up)), float(cam.fov_y_deg), float(cam.height),
+                   tuple(map(float, cam.up)), float(cam.fov_y_deg), float(cam.ortho_height),
                    int(cam.width_px), int(cam.height_px))).encode())
     return h.hexdigest()
 

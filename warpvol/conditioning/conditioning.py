@@ -257,7 +257,7 @@ def conditioned_camera(cam: Camera, centre: np.ndarray, h: float) -> Camera:
     if np.array_equal(eye, target):  # target - eye below the rounding of the mapping: keep the direction
         target = eye + cam.forward
     return Camera(projection=cam.projection, eye=eye, target=target, up=cam.up, fov_y_deg=cam.fov_y_deg,
-                  height=cam.height / h, width_px=cam.width_px, height_px=cam.height_px, where=w)
+                  ortho_height=cam.ortho_height / h, width_px=cam.width_px, height_px=cam.height_px, where=w)
 
 
 # ------------------------------------------------------------------------------------------------

@@ -143,7 +143,7 @@ def eye_plane_check(mesh, camera) -> EyePlane:
         sides = (x - tx * d, -x - tx * d, y - ty * d, -y - ty * d)  # > 0: outside that plane through the eye
         crossing = ~behind & (dmin <= EYE_PLANE_REL * max(float(dmax.max(initial=0.0)), 0.0))
     else:
-        hy = camera.height / 2.0
+        hy = camera.ortho_height / 2.0
         hx = hy * camera.aspect
         sides = (x - hx, -x - hx, y - hy, -y - hy)
         crossing = ~behind & (dmin < 0)

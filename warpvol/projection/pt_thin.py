@@ -107,7 +107,7 @@ def _window(mesh, camera, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
         dd = np.maximum(d, 1e-300)
         xn, yn = x / (dd * th * camera.aspect), y / (dd * th)
     else:
-        hh = camera.height / 2.0
+        hh = camera.ortho_height / 2.0
         xn, yn = x / (hh * camera.aspect), y / hh
     return ((xn + 1.0) * 0.5 * w).reshape(-1, 4), ((1.0 - yn) * 0.5 * h).reshape(-1, 4), d.reshape(-1, 4)
 
@@ -133,7 +133,7 @@ def thin_tets(mesh, tf, camera) -> np.ndarray:
     if camera.projection == "perspective":
         px_size = 2.0 * np.abs(depth).mean(axis=1) * np.tan(np.radians(camera.fov_y_deg) / 2.0) / camera.height_px
     else:
-        px_size = np.full(len(cand), camera.height / camera.height_px)
+        px_size = np.full(len(cand), camera.ortho_height / camera.height_px)
     lmax = np.minimum(g["diam"], 3.0 * g["vol"] / np.maximum(area_px * px_size ** 2, 1e-300))
     snap = np.minimum(1.0, (1.0 / 256.0) / np.maximum(width_px, 1e-300))
     err = g["dens"] * (4.0 * EPS32 * g["radius"] + lmax * snap)
@@ -223,7 +223,7 @@ def silhouette_edges(mesh, tf, camera) -> np.ndarray:
         px = 2.0 * np.abs(depth) * np.tan(np.radians(camera.fov_y_deg) / 2.0) / camera.height_px
     else:
         view = np.broadcast_to(camera.forward, nrm.shape)
-        px = np.full(len(nrm), camera.height / camera.height_px)
+        px = np.full(len(nrm), camera.ortho_height / camera.height_px)
     cos = np.einsum("ij,ij->i", nrm, view)
     f1, f2 = g["f1"], g["f2"]
     sil = (cos[f1] < 0) != (cos[f2] < 0)

@@ -97,7 +97,7 @@ class _Frame:
             th = np.tan(np.radians(camera.fov_y_deg) / 2.0)
             self.sx, self.sy = th * camera.aspect, th
         else:
-            hh = camera.height / 2.0
+            hh = camera.ortho_height / 2.0
             self.sx, self.sy = hh * camera.aspect, hh
         # per column / row: image-plane coordinate (direction slope or orthographic offset)
         self.cx = (2.0 * (np.arange(self.W) + 0.5) / self.W - 1.0) * self.sx

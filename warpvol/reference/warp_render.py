@@ -65,7 +65,7 @@ class _View:
             th = np.tan(np.radians(camera.fov_y_deg) / 2.0)
             self.sx, self.sy = th * camera.aspect, th
         else:
-            self.sx = self.sy = camera.height / 2.0
+            self.sx = self.sy = camera.ortho_height / 2.0
             self.sx = self.sx * camera.aspect
         # direction slopes (perspective) or positions (orthographic) of the pixel centres
         self.cx = (2.0 * (np.arange(self.W) + 0.5) / self.W - 1.0) * self.sx

@@ -62,6 +62,6 @@ def dataset(name: str, size: int):
     c, diag = 0.5 * (lo + hi), float(np.linalg.norm(hi - lo))
     view = view / np.linalg.norm(view)
     up = (0.0, 1.0, 0.0) if abs(view[1]) < 0.9 else (0.0, 0.0, 1.0)
-    cam = Camera(projection="orthographic", eye=c + 2.0 * diag * view, target=c, up=up, height=diag,
+    cam = Camera(projection="orthographic", eye=c + 2.0 * diag * view, target=c, up=up, ortho_height=diag,
                  width_px=size, height_px=size)
     return Scene(mesh=mesh, transfer=tf, camera=cam, name=name)

@@ -171,7 +171,7 @@ def builtin_camera(name: str) -> Camera:
     w = f"builtin:{name}.camera"
     px = dict(width_px=128, height_px=128, where=w)
     if name in ("box", "linear_box"):
-        return Camera(projection="orthographic", eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), height=3.0, **px)
+        return Camera(projection="orthographic", eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0), ortho_height=3.0, **px)
     if name == "sphere":
         return Camera(eye=(3.0, 2.0, 4.0), target=(0, 0, 0), up=(0, 1, 0), fov_y_deg=28.0, **px)
     if name == "concave":

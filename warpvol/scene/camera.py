@@ -5,12 +5,14 @@ Pixel ``(row i, column j)`` is sampled by the ray through its centre::
     x_ndc = 2 (j + 0.5) / W - 1,     y_ndc = 1 - 2 (i + 0.5) / H
 
 perspective: origin ``eye``, direction ``f + x_ndc tan(fov/2) (W/H) r + y_ndc tan(fov/2) u``;
-orthographic: origin ``eye + x_ndc (height/2)(W/H) r + y_ndc (height/2) u``, direction ``f``,
-with ``f`` the unit view direction, ``r = normalise(f x up)`` and ``u = r x f``.
+orthographic: origin ``eye + x_ndc (h/2)(W/H) r + y_ndc (h/2) u``, direction ``f``, with ``h`` the
+world-space image height (:attr:`Camera.ortho_height`; the scene file's ``height`` key), ``f`` the
+unit view direction, ``r = normalise(f x up)`` and ``u = r x f``.
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -20,6 +22,7 @@ from warpvol.errors import ConfigError, check_choice, check_keys, check_number, 
 from warpvol.scene import interop
 
 PROJECTIONS = ("perspective", "orthographic")
+_NO_HEIGHT = object()
 
 
 def _frozen_vec3(name: str, value: Any) -> np.ndarray:
@@ -39,10 +42,14 @@ class Camera:
     eye, target     world-space points                                 distinct
     up              approximate up vector                              not parallel to view
     fov_y_deg       full vertical field of view (perspective)          (0, 180)
-    height          world-space image height (orthographic)            > 0
+    ortho_height    world-space image height (orthographic; the        > 0
+                    scene file's ``[camera] height``)
     width_px        image width in pixels                              >= 1
     height_px       image height in pixels                             >= 1
     ==============  ================================================  =================
+
+    ``height`` is no field: a world height is ``ortho_height``, a pixel count ``height_px``
+    (``Camera(height=...)`` is an error naming both). :meth:`fit` frames a mesh.
 
     Examples
     --------
@@ -57,7 +64,7 @@ class Camera:
     target: Any = (0.0, 0.0, 0.0)
     up: Any = (0.0, 1.0, 0.0)
     fov_y_deg: float = 30.0
-    height: float = 2.0
+    ortho_height: float = 2.0
     width_px: int = 512
     height_px: int = 512
     where: str = field(default="camera", repr=False)
@@ -69,7 +76,7 @@ class Camera:
         # leave the derived frame (forward, right, true_up) stale; use replace() for a changed camera
         self.eye, self.target, self.up = (_frozen_vec3(f"{w}.{k}", getattr(self, k)) for k in ("eye", "target", "up"))
         self.fov_y_deg = check_number(f"{w}.fov_y_deg", self.fov_y_deg, lo=0, hi=180, lo_open=True, hi_open=True)
-        self.height = check_number(f"{w}.height", self.height, lo=0, lo_open=True)
+        self.ortho_height = check_number(f"{w}.ortho_height", self.ortho_height, lo=0, lo_open=True)
         self.width_px = check_number(f"{w}.width_px", self.width_px, lo=1, integer=True)
         self.height_px = check_number(f"{w}.height_px", self.height_px, lo=1, integer=True)
         with np.errstate(over="ignore"):
@@ -94,9 +101,78 @@ class Camera:
     def from_config(cls, cfg: dict, where: str = "camera") -> "Camera":
         if not isinstance(cfg, dict):
             raise ConfigError(f"{where}: expected a table")
-        keys = ["projection", "eye", "target", "up", "fov_y_deg", "height", "width_px", "height_px"]
+        keys = ["projection", "eye", "target", "up", "fov_y_deg", "height", "ortho_height", "width_px", "height_px"]
         check_keys(where, cfg, keys)
+        cfg = dict(cfg)
+        if "height" in cfg:  # Contract 1's key: the world-space image height
+            if "ortho_height" in cfg:
+                raise ConfigError(f"{where}: give either 'height' (the scene file's key) or 'ortho_height', not both")
+            h = cfg.pop("height")
+            try:
+                check_number(f"{where}.height", h, lo=0, lo_open=True)
+            except ConfigError as e:
+                raise ConfigError(f"{e} (the world-space image height of an orthographic camera; pixels are "
+                                  "height_px)") from None
+            cfg["ortho_height"] = h
         return cls(**cfg, where=where)
+
+    @classmethod
+    def fit(cls, mesh: Any, *, width_px: int = 512, height_px: int = 512, direction: Any = (1.0, 1.0, 1.0),
+            up: Any = (0.0, 0.0, 1.0), projection: str = "perspective", fov_y_deg: float = 30.0,
+            margin: float = 1.0, where: str = "camera") -> "Camera":
+        """A camera that shows the whole of ``mesh``: pyvista's default view (looking at the centre of
+        the bounds from the ``(1, 1, 1)`` side, ``z`` up), at the distance where the bounding sphere
+        just fits the narrower of the two fields of view (pyvista's ``reset_camera``).
+
+        Parameters
+        ----------
+        mesh : TetMesh, pyvista data set or bounds
+            Anything with ``bounds`` (a TetMesh's ``(min, max)`` or pyvista's six numbers), or
+            the bounds themselves: ``(min, max)`` corners or ``(xmin, xmax, ymin, ymax, zmin, zmax)``.
+        width_px, height_px : int
+            Image size in pixels.
+        direction : 3 numbers
+            From the centre towards the eye (pyvista's isometric view is ``(1, 1, 1)``).
+        up : 3 numbers
+            Up vector; ``(0, 1, 0)`` is taken when it is parallel to ``direction``.
+        projection : str
+            ``"perspective"`` (eye at ``radius / sin(half field of view)``) or ``"orthographic"``
+            (``ortho_height`` the sphere's diameter, or more for a portrait image).
+        fov_y_deg : float
+            Vertical field of view of a perspective camera.
+        margin : float
+            Radius multiplier (> 0; 1.1 leaves a border of about 10 %).
+
+        Examples
+        --------
+        >>> cam = Camera.fit(([0, 0, 0], [2, 2, 2]), width_px=64, height_px=48)
+        >>> cam.target.tolist(), round(float(np.linalg.norm(cam.eye - cam.target)), 4)  # sqrt(3) / sin(15 deg)
+        ([1.0, 1.0, 1.0], 6.6921)
+        >>> Camera.fit(([0, 0, 0], [2, 2, 2]), projection="orthographic").ortho_height  # the sphere's diameter
+        3.4641016151377544
+        """
+        lo, hi = _bounds(mesh, where)
+        d = check_vec3(f"{where}.direction", direction)
+        if not np.linalg.norm(d) > 0:
+            raise ConfigError(f"{where}.direction: {d.tolist()} has no length")
+        d = d / np.linalg.norm(d)
+        u = check_vec3(f"{where}.up", up)
+        if np.linalg.norm(np.cross(d, u)) <= 1e-9 * np.linalg.norm(u):
+            u = np.array([0.0, 1.0, 0.0])
+        margin = check_number(f"{where}.margin", margin, lo=0, lo_open=True)
+        width_px = check_number(f"{where}.width_px", width_px, lo=1, integer=True)
+        height_px = check_number(f"{where}.height_px", height_px, lo=1, integer=True)
+        centre = 0.5 * lo + 0.5 * hi
+        radius = 0.5 * float(np.linalg.norm(hi - lo)) * margin
+        if not radius > 0:  # a single point: a unit sphere around it
+            radius = margin * max(1.0, float(np.abs(centre).max()) * 1e-6)
+        aspect = width_px / height_px
+        common = dict(projection=projection, target=centre, up=u, width_px=width_px, height_px=height_px, where=where)
+        if projection == "orthographic":
+            return cls(eye=centre + 2.0 * radius * d, ortho_height=2.0 * radius * max(1.0, 1.0 / aspect), **common)
+        fov = check_number(f"{where}.fov_y_deg", fov_y_deg, lo=0, hi=180, lo_open=True, hi_open=True)
+        half = min(np.radians(fov) / 2.0, np.arctan(np.tan(np.radians(fov) / 2.0) * aspect))
+        return cls(eye=centre + radius / np.sin(half) * d, fov_y_deg=fov, **common)
 
     @classmethod
     def from_pyvista(cls, plotter_or_camera, window_size=None) -> "Camera":
@@ -134,10 +210,15 @@ class Camera:
 
     def replace(self, **kw) -> "Camera":
         d = dict(projection=self.projection, eye=self.eye, target=self.target, up=self.up,
-                 fov_y_deg=self.fov_y_deg, height=self.height, width_px=self.width_px,
+                 fov_y_deg=self.fov_y_deg, ortho_height=self.ortho_height, width_px=self.width_px,
                  height_px=self.height_px, where=self.where)
         d.update(kw)
         return Camera(**d)
+
+    @property
+    def height(self):
+        raise AttributeError("Camera has no 'height': the world-space image height of an orthographic camera is "
+                             "'ortho_height', the image height in pixels 'height_px'")
 
     @property
     def aspect(self) -> float:
@@ -163,7 +244,7 @@ class Camera:
             d = f + (x * th * self.aspect)[..., None] * r + (y * th)[..., None] * u
             o = np.broadcast_to(self.eye, d.shape).copy()
         else:
-            hh = self.height / 2.0
+            hh = self.ortho_height / 2.0
             o = self.eye + (x * hh * self.aspect)[..., None] * r + (y * hh)[..., None] * u
             d = np.broadcast_to(f, o.shape).copy()
         if normalise:
@@ -193,7 +274,7 @@ class Camera:
             p[2, 3] = -2.0 * far * near / (far - near)
             p[3, 2] = -1.0
         else:
-            hh = self.height / 2.0
+            hh = self.ortho_height / 2.0
             p[0, 0], p[1, 1] = 1.0 / (hh * self.aspect), 1.0 / hh
             p[2, 2] = -2.0 / (far - near)
             p[2, 3] = -(far + near) / (far - near)
@@ -218,3 +299,41 @@ class Camera:
         far = float(dz.max()) * 1.01 + 1e-6 * float(np.linalg.norm(np.asarray(bounds_max) - np.asarray(bounds_min)))
         near = max(float(dz.min()) * 0.99, far * 1e-4)
         return near, far
+
+
+_dataclass_init = Camera.__init__
+
+
+@functools.wraps(_dataclass_init)
+def _init(self, *args, height: Any = _NO_HEIGHT, **kw):
+    if height is not _NO_HEIGHT:
+        w = kw.get("where", "camera")
+        raise ConfigError(f"{w}.height: Camera takes no 'height' (got {height!r}): give 'ortho_height' for the "
+                          "world-space image height of an orthographic camera or 'height_px' for the image height "
+                          "in pixels")
+    _dataclass_init(self, *args, **kw)
+
+
+Camera.__init__ = _init
+
+
+def _bounds(obj: Any, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(min, max)`` corners of a mesh (its ``bounds``) or of bounds given as two corners or six numbers."""
+    b = getattr(obj, "bounds", obj)
+    try:
+        if isinstance(b, tuple) and len(b) == 2:
+            lo, hi = (np.asarray(v, dtype=np.float64).reshape(3) for v in b)
+        else:
+            a = np.asarray(b, dtype=np.float64)
+            if a.shape == (2, 3):
+                lo, hi = a[0], a[1]
+            elif a.shape == (6,):  # pyvista / VTK: xmin, xmax, ymin, ymax, zmin, zmax
+                lo, hi = a[0::2], a[1::2]
+            else:
+                raise ValueError
+    except (TypeError, ValueError):
+        raise ConfigError(f"{where}: fit: expected a mesh, (min, max) corners or (xmin, xmax, ymin, ymax, zmin, "
+                          f"zmax); got {type(obj).__name__}") from None
+    if not (np.isfinite(lo).all() and np.isfinite(hi).all()) or (hi < lo).any():
+        raise ConfigError(f"{where}: fit: bounds {lo.tolist()} .. {hi.tolist()} are not finite corners min <= max")
+    return lo, hi

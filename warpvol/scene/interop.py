@@ -14,7 +14,7 @@ warpvol :class:`Camera`      VTK ``vtkCamera`` / ``pyvista.Camera``   note
 ``fov_y_deg``                ``view_angle``                         vertical unless
                                                                     ``UseHorizontalViewAngle``
 ``projection``               ``parallel_projection``
-``height``                   ``2 * parallel_scale``                 orthographic image height
+``ortho_height``             ``2 * parallel_scale``                 orthographic image height
 ``width_px, height_px``      the plotter's ``window_size``          (times the renderer viewport)
 ==========================  =====================================  ==============================
 
@@ -278,7 +278,7 @@ def camera_settings(source: Any, window_size: Any = None, *, arg: str = "plotter
         fov = float(np.degrees(2.0 * np.arctan(np.tan(np.radians(fov) / 2.0) * h / w)))
     return dict(projection="orthographic" if cam.GetParallelProjection() else "perspective",
                   eye=cam.GetPosition(), target=cam.GetFocalPoint(), up=cam.GetViewUp(), fov_y_deg=fov,
-                  height=2.0 * float(cam.GetParallelScale()), width_px=w, height_px=h, where=arg)
+                  ortho_height=2.0 * float(cam.GetParallelScale()), width_px=w, height_px=h, where=arg)
 
 
 def camera_to_pyvista(camera, plotter: Any = None):
@@ -291,7 +291,7 @@ def camera_to_pyvista(camera, plotter: Any = None):
     cam.up = tuple(camera.true_up)
     cam.view_angle = float(camera.fov_y_deg)
     cam.parallel_projection = camera.projection == "orthographic"
-    cam.parallel_scale = float(camera.height) / 2.0
+    cam.parallel_scale = float(camera.ortho_height) / 2.0
     if plotter is not None:
         if not (hasattr(plotter, "renderer") and hasattr(plotter, "window_size")):
             raise ConfigError(f"plotter: expected a pyvista Plotter, got {type(plotter).__name__}")

@@ -74,7 +74,7 @@ def scene_hash(scene: Any) -> str:
         h.update(a.tobytes())
     h.update(tf.emission.encode())
     h.update(repr((cam.projection, tuple(map(float, cam.eye)), tuple(map(float, cam.target)),
-                   tuple(map(float, cam.up)), float(cam.fov_y_deg), float(cam.height),
+                   tuple(map(float, cam.up)), float(cam.fov_y_deg), float(cam.ortho_height),
                    int(cam.width_px), int(cam.height_px))).encode())
     from warpvol import kernels
 

@@ -61,7 +61,7 @@ class Case:
 
 
 def _ortho(px: int = 32, height: float = 3.0, eye=(0, 0, 5), target=(0, 0, 0), up=(0, 1, 0)) -> Camera:
-    return Camera(projection="orthographic", eye=eye, target=target, up=up, height=height, width_px=px, height_px=px)
+    return Camera(projection="orthographic", eye=eye, target=target, up=up, ortho_height=height, width_px=px, height_px=px)
 
 
 def _persp(px: int = 32, eye=(3.0, 2.0, 4.0), target=(0, 0, 0), fov=30.0) -> Camera:
@@ -75,7 +75,7 @@ def _box_closed_form(cam: Camera, rho: float = 1.5, c=(0.8, 0.6, 0.4)) -> Callab
     """Builtin ``box`` seen down -z orthographically: thickness 2 inside |x|, |y| < 1, else nothing."""
     def ref() -> np.ndarray:
         h, w = cam.height_px, cam.width_px
-        pix = cam.height / h
+        pix = cam.ortho_height / h
         xs = (np.arange(w) + 0.5 - w / 2) * pix
         ys = (h / 2 - np.arange(h) - 0.5) * pix
         inside = (np.abs(ys)[:, None] < 1) & (np.abs(xs)[None, :] < 1)

@@ -56,7 +56,7 @@ def offset_scene(px: int = 32, *, scalar_offset: float = 0.0, scalar_span: float
     o = np.asarray(origin, dtype=np.float64)
     mesh = TetMesh(unit * scale + o, structured_to_tets((4, 4, 4)), _cond_field(unit) * k + scalar_offset, name=name)
     cam = Camera(projection=projection, eye=np.array([2.2, 1.6, 3.1]) * scale + o, target=o, fov_y_deg=40.0,
-                 height=3.2 * scale, width_px=px, height_px=px)
+                 ortho_height=3.2 * scale, width_px=px, height_px=px)
     return Scene(mesh=mesh, transfer=TransferFunction(tf, emission), camera=cam, name=name)
 
 
@@ -211,7 +211,7 @@ def sweep_cases(simple, with_ref, sc) -> None:
                "cells no longer convex (vsbuffer_best draws those as their tets)",
                lambda q, jit=jit: sc(_jittered_hexes(jit, 3), tf_hex,
                                      Camera(projection="orthographic", eye=(2.2, 1.7, 3.1), target=(0, 0, 0),
-                                            height=2.8, width_px=24 if q else 96, height_px=24 if q else 96),
+                                            ortho_height=2.8, width_px=24 if q else 96, height_px=24 if q else 96),
                                      f"hexahedra_nonplanar_{round(jit * 100)}pct"))
 
     def on_faces(q):
@@ -222,7 +222,7 @@ def sweep_cases(simple, with_ref, sc) -> None:
         mesh = TetMesh(pts, structured_to_tets((4, 4, 4)), 0.6 + 0.25 * pts[:, 0] - 0.15 * pts[:, 1] * pts[:, 2],
                        name="box_on_faces")
         tf = TransferFunction([[0.0, 0.9, 0.5, 0.1, 2.5], [1.0, 0.2, 0.4, 1.0, 5.0]])
-        cam = Camera(projection="orthographic", eye=(0, 0, 5), target=(0, 0, 0), height=2.0 * n / (n - 1),
+        cam = Camera(projection="orthographic", eye=(0, 0, 5), target=(0, 0, 0), ortho_height=2.0 * n / (n - 1),
                      width_px=n, height_px=n)
         return sc(mesh, tf, cam, "pixel_centres_on_boundary_faces")
 
@@ -238,7 +238,7 @@ def sweep_cases(simple, with_ref, sc) -> None:
         mesh = TetMesh(np.vstack([slab.points, back.points]), np.vstack([slab.tets, back.tets + 32]),
                        np.concatenate([slab.scalars, back.scalars]), name="thin_layer")
         tf = TransferFunction([[0.0, 0.1, 0.4, 0.8, 0.4], [1.0, 0.9, 0.7, 0.1, 0.25 / th]])
-        cam = Camera(projection="orthographic", eye=(0.2, 0.4, 5), target=(0.1, -0.1, 0), height=2.4,
+        cam = Camera(projection="orthographic", eye=(0.2, 0.4, 5), target=(0.1, -0.1, 0), ortho_height=2.4,
                      width_px=24 if q else 96, height_px=24 if q else 96)
         return sc(mesh, tf, cam, "thin_layer_1e-6_sweep")
 

@@ -231,7 +231,7 @@ def _scene(spec: str, sha: str = ""):
 
 def _view_scene(spec: str, view: tuple, sha: str = ""):
     scene = _scene(spec, sha)
-    return scene.with_camera(**dict(view[1])) if view[1] else scene
+    return scene.with_camera(**{("ortho_height" if k == "height" else k): v for k, v in view[1]}) if view[1] else scene
 
 
 def reference_task(spec: str, view: tuple, sha: str, cache_dir: str, kernel_cache_dir: str | None = None) -> str:

@@ -104,7 +104,7 @@ def plane_node_hits(tree: Octree, camera, rows: np.ndarray) -> np.ndarray:
     y, z = corners @ camera.true_up, corners @ camera.forward
     yn = 1.0 - 2.0 * (rows + 0.5) / camera.height_px
     if camera.projection == "orthographic":
-        dist = y[None] - (yn * camera.height / 2.0)[:, None, None]
+        dist = y[None] - (yn * camera.ortho_height / 2.0)[:, None, None]
     else:  # plane through the eye containing the row's rays: y = z * tan(fov/2) * y_ndc
         dist = y[None] - z[None] * (yn * np.tan(np.radians(camera.fov_y_deg) / 2.0))[:, None, None]
     return (dist.min(axis=2) <= 0.0) & (dist.max(axis=2) >= 0.0)

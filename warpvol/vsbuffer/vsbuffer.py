@@ -68,7 +68,7 @@ def ray_space(points: np.ndarray, camera) -> np.ndarray:
     Examples
     --------
     >>> from warpvol.scene.camera import Camera
-    >>> cam = Camera(projection="orthographic", eye=(0, 0, 5), target=(0, 0, 0), height=2.0, width_px=4, height_px=4)
+    >>> cam = Camera(projection="orthographic", eye=(0, 0, 5), target=(0, 0, 0), ortho_height=2.0, width_px=4, height_px=4)
     >>> ray_space(np.array([[0.0, 0.0, 0.0], [-1.0, 1.0, 1.0]]), cam).tolist()   # centre; top-left corner
     [[2.0, 2.0, 5.0], [0.0, 0.0, 4.0]]
     """
@@ -76,7 +76,7 @@ def ray_space(points: np.ndarray, camera) -> np.ndarray:
     x, y, z = q @ camera.right, q @ camera.true_up, q @ camera.forward
     w, h = camera.width_px, camera.height_px
     if camera.projection == "orthographic":
-        hh = camera.height / 2.0
+        hh = camera.ortho_height / 2.0
         return np.stack([(x / (hh * camera.aspect) + 1.0) * w / 2.0, (1.0 - y / hh) * h / 2.0, z], axis=1)
     th = np.tan(np.radians(camera.fov_y_deg) / 2.0)
     zmin = float(z.min()) if len(z) else 1.0

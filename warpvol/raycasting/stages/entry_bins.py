@@ -50,7 +50,7 @@ def window_xy(camera, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         zs = np.where(bad, 1.0, z)
         x, y = x / zs, y / zs
     else:
-        sx, sy = camera.height / 2.0 * camera.aspect, camera.height / 2.0
+        sx, sy = camera.ortho_height / 2.0 * camera.aspect, camera.ortho_height / 2.0
         bad = np.zeros(len(p), dtype=bool)
     wx = (x / sx + 1.0) * camera.width_px / 2.0
     wy = (1.0 - y / sy) * camera.height_px / 2.0

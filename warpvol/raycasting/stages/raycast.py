@@ -60,7 +60,7 @@ def camera_launch_args(ctx: Context, rows_per_block: int = 16) -> tuple[int, lis
     if cam.projection == "perspective":
         half_h = float(np.tan(np.radians(cam.fov_y_deg) / 2.0))
     else:
-        half_h = cam.height / 2.0
+        half_h = cam.ortho_height / 2.0
     eye = np.asarray(cam.eye, dtype=np.float64) - cells["origin"]
     on_cpu = str(ctx.device).startswith("cpu")
     rows = blocks(h, rows_per_block if on_cpu else h)
