@@ -173,3 +173,35 @@ def k_decode(f: NumFmt, c: wp.array(dtype=wp.int32), out: wp.array(dtype=wp.floa
 def k_quantize(f: NumFmt, x: wp.array(dtype=wp.float32), out: wp.array(dtype=wp.float32)):
     i = wp.tid()
     out[i] = fmt_quantize(f, x[i])
+
+
+# ------------------------------------------------------------------------------------------------
+# fixed-point fragment registers (register combiners, ATI fragment shader)
+# ------------------------------------------------------------------------------------------------
+
+
+@wp.func
+def reg_fixed(v: float, rng: float, unit: float) -> float:
+    """``v`` as a fixed-point fragment register holds it: clamped to ``[-rng, rng]`` (saturation,
+    what every fragment arithmetic unit of the time did on overflow) and rounded to the nearest
+    multiple of ``1 / unit`` (ties away from zero). ``unit <= 0``: no rounding (float register);
+    ``rng <= 0``: no clamp.
+
+    GeForce3/4 register combiners (NV_register_combiners): ``rng = 1``, ``unit = 255`` (signed
+    9-bit: sign and 8 bits, 8-bit texel 255 is exactly 1.0). Radeon 8500 fragment shader
+    (ATI_fragment_shader): ``rng = 8``; ``unit`` is the precision chosen in
+    :mod:`warpvol.kernels.combiners`."""
+    if wp.isnan(v):
+        return 0.0
+    x = v
+    if rng > 0.0:
+        x = wp.clamp(x, -rng, rng)
+    if unit > 0.0:
+        x = wp.round(wp.clamp(x * unit, -_CAST_LIMIT, _CAST_LIMIT)) / unit
+    return x
+
+
+@wp.kernel
+def k_reg_fixed(x: wp.array(dtype=wp.float32), rng: float, unit: float, out: wp.array(dtype=wp.float32)):
+    i = wp.tid()
+    out[i] = reg_fixed(x[i], rng, unit)

@@ -92,21 +92,29 @@ def figs(a, tf, N):
     ref = build_exact3d(tf, n_s=E, n_l=E, lmax=1.0, device=a.device)
     x = ref.axes[2].nodes
     L, B, F = np.meshgrid(ref.axes[0].nodes, x, x, indexing="ij")
-    print(f"\nFigs. 4/7: colour reconstruction error vs exact over an {E}^3 grid of (sf, sb, l) "
-          f"(textures {N}^2; 8-bit signed coefficients and 16-bit A/L alpha through the emulated texture unit; "
-          "and fp32 tables with float64 filtering to isolate the polynomial)")
-    print(f"  {'degree':>6} | {'RMS (8-bit)':>11} {'max':>8} | {'RMS (fp32)':>10} {'max':>8}")
+    print(f"\nFigs. 4/7 (Table 2 setups): colour reconstruction error vs exact over an {E}^3 grid of (sf, sb, l) "
+          f"(textures {N}^2; 8-bit signed coefficients and 16-bit A/L alpha through the emulated texture unit, shader "
+          "arithmetic in fp32 with free per-channel scales, and in the card's fixed-point registers with the scales "
+          "its scale ops offer; and fp32 tables with float64 filtering to isolate the polynomial)")
+    print(f"  {'degree':>6} {'card arithmetic':<15} | {'RMS fp32 shader':>15} {'max':>8} | {'RMS card':>9} {'max':>8} "
+          f"{'card/fp32':>9} | {'RMS (fp32 tab)':>14} {'max':>8} | scales (card)")
+    cards = {1: ("nv_combiner", "ati_fs"), 2: ("nv_combiner", "ati_fs"), 4: ("ati_fs",)}
     for deg in (1, 2, 4):
-        res = []
-        for fmt, afmt in (("snorm8", "al16"), ("fp32", "fp32")):
-            g = build_guthe2d(tf, n_s=N, degree=deg, lmax=1.0, format=fmt, alpha_format=afmt, device=a.device)
-            r = reconstruct(g, F, B, L, device=a.device, via="texture" if fmt == "snorm8" else "float")
-            d = np.abs(r - ref.data)
-            res += [np.sqrt((d ** 2).mean()), d.max()]
-            if fmt == "snorm8":
-                save(os.path.join(a.out, f"guthe2002_fig7_degree{deg}_error_x8_inverted.png"),
-                     1 - 8 * d[E // 2, ..., :3])
-        print(f"  {deg:>6} | {res[0]:>11.2e} {res[1]:>8.2e} | {res[2]:>10.2e} {res[3]:>8.2e}")
+        g = build_guthe2d(tf, n_s=N, degree=deg, lmax=1.0, format="fp32", alpha_format="fp32", device=a.device)
+        d = np.abs(reconstruct(g, F, B, L, device=a.device, via="float") - ref.data)
+        flt = (np.sqrt((d ** 2).mean()), d.max())
+        g = build_guthe2d(tf, n_s=N, degree=deg, lmax=1.0, device=a.device)
+        d = np.abs(reconstruct(g, F, B, L, device=a.device) - ref.data)
+        fp = (np.sqrt((d ** 2).mean()), d.max())
+        for arith in cards[deg]:
+            g = build_guthe2d(tf, n_s=N, degree=deg, lmax=1.0, scales=arith, device=a.device)
+            d = np.abs(reconstruct(g, F, B, L, device=a.device) - ref.data)
+            hw = (np.sqrt((d ** 2).mean()), d.max())
+            save(os.path.join(a.out, f"guthe2002_fig7_degree{deg}_{arith}_error_x8_inverted.png"),
+                 1 - 8 * d[E // 2, ..., :3])
+            sc = [float(v[0]) for v in g.meta["coef_scale"]]
+            print(f"  {deg:>6} {arith:<15} | {fp[0]:>15.2e} {fp[1]:>8.2e} | {hw[0]:>9.2e} {hw[1]:>8.2e} "
+                  f"{hw[0] / fp[0]:>9.2f} | {flt[0]:>14.2e} {flt[1]:>8.2e} | {sc} saturated {g.meta['coef_saturated']}")
     save(os.path.join(a.out, "guthe2002_fig7_exact_mid_l.png"), ref.data[E // 2, ..., :3])
 
 

@@ -9,8 +9,13 @@ Colour: normalised emission ``C_hat(l) = C(l) / alpha(l)`` approximated by a pol
 ``x = l / lmax``: ``C ~ alpha sum_i x^i C~_i``. The coefficients interpolate ``degree + 1`` equally
 spaced slices ``x_i = i / degree`` with ``C_hat(0) = C0_hat = int kappa rho / int rho`` (the l -> 0
 limit); degree 1 gives ``C~_0 = C0_hat``, ``C~_1 = dC1 = C_hat(lmax) - C0_hat`` (the paper's linear
-setup). Each coefficient texture is scaled into the signed texel range [-1, 1] by a per-channel
-constant (``meta["coef_scale"][i]``, the shader multiplies it back).
+setup). Each coefficient texture is scaled into the signed texel range [-1, 1] and the shader
+multiplies it back (``meta["coef_scale"][i]``, per channel). ``scales`` says which factors exist:
+``free`` (any per-channel float constant: a float shader), ``nv_combiner`` (the GeForce3/4 register
+combiners' output scale ops: one power of two per coefficient from {1/2, 1, 2, 4}) or ``ati_fs``
+(the Radeon 8500 fragment shader's destination modifiers: {1/8, ..., 8}). With a restricted set the
+scale is the smallest factor that holds the coefficient; a coefficient beyond the largest factor
+saturates at +-1 in its texel (counted in ``meta["coef_saturated"]``, texel channels).
 
 Only the colour-times-extinction model factors this way (the paper's model): with emission density
 ``C / alpha`` is unbounded where extinction vanishes, so such a TF is rejected.
@@ -30,13 +35,18 @@ from warpvol.tables.common import (check_choice, check_lmax, check_res, check_tf
                                    launch_bands, model_id, scalar_axis, table_key, tf_arrays, tf_pieces, timed)
 
 COEF_FORMATS = ("snorm8", "fp16", "fp32")
+#: coefficient scale factors the fragment arithmetic can apply (``None``: any float constant)
+SCALE_SETS = {"free": None, "nv_combiner": (0.5, 1.0, 2.0, 4.0),
+              "ati_fs": (0.125, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0)}
+SCALE_RTOL = 1e-5
 ALPHA_FORMATS = ("al16", "rgba8", "fp32")
 ALPHA_MIN = 1e-6
 
 
 def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_alpha: int = 1024,
                   format: str = "snorm8", alpha_format: str = "al16", slices: str = "exact", m: int = 128,
-                  gpu: str = "radeon8500", device: str = "cpu", emulate: bool = True) -> Table:
+                  gpu: str = "radeon8500", scales: str = "free", device: str = "cpu",
+                  emulate: bool = True) -> Table:
     """Guthe 2D tables.
 
     Parameters
@@ -65,6 +75,8 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
     gpu : str
         Ping-pong overflow rule: ``radeon8500`` (bit masking) or ``geforce4`` (saturation, which
         loses the low bits: the paper's reason only the Radeon builds these tables).
+    scales : str
+        Coefficient scale factors: ``free``, ``nv_combiner`` or ``ati_fs`` (:data:`SCALE_SETS`).
     device : str
     emulate : bool
         ``slices="pingpong"`` only: False counts the ping-pong work without running it (throughput model).
@@ -89,6 +101,7 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
     check_choice("slices", slices, ("exact", "pingpong"))
     m = check_res("m", m, 1, 1 << 16)
     check_choice("gpu", gpu, ("radeon8500", "geforce4"))
+    check_choice("scales", scales, tuple(SCALE_SETS))
     import warp as wp
 
     k = kernels()
@@ -97,6 +110,7 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
     key = table_key("guthe2d", tf.hash, n_s=n_s, degree=degree, lmax=lmax, n_alpha=n_alpha,
                     alpha_format=alpha_format, slices=slices, m=m if slices == "pingpong" else 0, format=format,
                     gpu=gpu if slices == "pingpong" else "")
+    key = key if scales == "free" else key + (("scales", scales),)
     key = key if emulate else key + (("emulate", False),)
     meta = {"builder": "guthe2d", "emission": tf.emission, "lmax": lmax, "degree": degree, "alpha_format": alpha_format}
     x = farr(ax_f.nodes, device)
@@ -132,11 +146,12 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
         xs = np.arange(degree + 1) / degree
         V = np.vander(xs, degree + 1, increasing=True)
         coef = np.einsum("ij,j...->i...", np.linalg.inv(V), c_hat)  # (degree+1, N, N, 3)
-        scale = np.abs(coef).reshape(degree + 1, -1, 3).max(axis=1)
-        scale = np.where(scale > 0, scale, 1.0)
+        scale = hardware_scales(coef, scales)
         rho_max = float(rho_hat.max()) if rho_hat.max() > 0 else 1.0
         data = np.zeros((degree + 1, n_s, n_s, 4), dtype=np.float32)
-        data[..., :3] = coef / scale[:, None, None, :]
+        scaled = coef / scale[:, None, None, :]
+        meta["coef_saturated"] = int(np.count_nonzero(np.abs(scaled) > 1.0 + SCALE_RTOL))
+        data[..., :3] = np.clip(scaled, -1.0, 1.0)
         data[0, ..., 3] = rho_hat / rho_max
         # alpha1D at x_n = k / (n_alpha - 1) (the dependent lookup applies Kraus' texel-centre scale and
         # bias, so x_n = 0 hits alpha = 0 exactly); x_n = 1 <-> optical depth lmax * rho_max
@@ -147,12 +162,39 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
     data_q = np.concatenate([dec, rho_dec[..., None]], axis=-1)
     data_q[1:, ..., 3] = 0.0
     a_dec, a_raw = quantise(alpha1d, alpha_format)
-    meta.update(coef_scale=scale.tolist(), rho_max=rho_max, alpha_depth=lmax * rho_max, alpha_format=alpha_format)
+    meta.update(coef_scale=scale.tolist(), coef_scales=scales, rho_max=rho_max, alpha_depth=lmax * rho_max, alpha_format=alpha_format)
     t = finish("guthe2d", data_q, (Axis("coef", degree + 1), ax_b, ax_f), ("r", "g", "b", "rho"), "fp32", key, meta,
                extra={"alpha1d": a_dec, "alpha1d_raw": a_raw, "c_hat": c_hat.astype(np.float32),
                       "coef": coef.astype(np.float32), "coef_raw": raw})
     t.format = format
     return t
+
+
+def hardware_scales(coef: np.ndarray, scales: str = "free") -> np.ndarray:
+    """``(degree + 1, 3)`` scale factors of coefficients ``coef[i, ..., rgb]`` (:data:`SCALE_SETS`):
+    ``free``: each channel's largest magnitude (1 where it is 0); otherwise per coefficient the
+    smallest factor of the set that is >= the largest magnitude over all channels (within relative
+    ``SCALE_RTOL``: an excess of float rounding is clipped, not a saturation; the largest
+    factor where none is), the same for r, g, b (one scale op per combiner stage / instruction).
+
+    Examples
+    --------
+    >>> c = np.array([[[0.3, 0.9, 0.0]], [[0.2, -3.0, 0.1]], [[0.01, 0.0, 0.02]]])
+    >>> hardware_scales(c, "nv_combiner")[:, 0].tolist()
+    [1.0, 4.0, 0.5]
+    >>> hardware_scales(c, "ati_fs")[:, 0].tolist()
+    [1.0, 4.0, 0.125]
+    """
+    check_choice("scales", scales, tuple(SCALE_SETS))
+    n = coef.shape[0]
+    mag = np.abs(coef).reshape(n, -1, 3).max(axis=1)
+    if SCALE_SETS[scales] is None:
+        return np.where(mag > 0, mag, 1.0)
+    opts = np.asarray(SCALE_SETS[scales])
+    m = mag.max(axis=1)
+    # a magnitude above a factor by float rounding only (relative 1e-5) takes that factor
+    idx = np.minimum(np.searchsorted(opts, m / (1.0 + SCALE_RTOL), side="left"), len(opts) - 1)
+    return np.repeat(opts[idx][:, None], 3, axis=1)
 
 
 def _bilinear2d(tex: np.ndarray, fx: np.ndarray, fy: np.ndarray) -> np.ndarray:
@@ -170,6 +212,27 @@ def _bilinear2d(tex: np.ndarray, fx: np.ndarray, fy: np.ndarray) -> np.ndarray:
 
 
 RECONSTRUCT_VIA = ("texture", "float")
+#: fragment arithmetic: ``(register range, 1 / register step)`` (0: none) and the coefficient scale set
+#: it offers. ``nv_combiner``: NV_register_combiners, signed 9-bit [-1, 1] (8-bit texel 255 = 1.0);
+#: ``ati_fs``: ATI_fragment_shader, range [-8, 8], 12 fraction bits (the range is the extension's;
+#: its text gives no precision: 12 bits is this emulation's choice, s3.12 in 16 bits)
+ARITH = {"fp32": (0.0, 0.0), "nv_combiner": (1.0, 255.0), "ati_fs": (8.0, 4096.0)}
+ARITH_SCALES = {"fp32": "free", "nv_combiner": "nv_combiner", "ati_fs": "ati_fs"}
+
+
+def arith_constants(table: Table, arith: str) -> tuple[np.ndarray, float, float, float]:
+    """``(w, s_acc, rng, unit)`` of :mod:`warpvol.kernels.combiners` for ``table`` run in ``arith``:
+    per-coefficient scale modifiers ``w_i = s_i / s_acc`` and the accumulator scale ``s_acc``
+    (``max s_i`` on the combiners, 1 on the Radeon). The table's scales must be ``arith``'s set."""
+    check_choice("arith", arith, tuple(ARITH))
+    have = table.meta.get("coef_scales", "free")
+    if arith == "fp32" or have != ARITH_SCALES[arith]:
+        raise ConfigError(f"arith: {arith!r} runs tables built with scales={ARITH_SCALES[arith]!r} "
+                          f"(table_guthe.scales); this table has scales={have!r}")
+    s = np.asarray(table.meta["coef_scale"], dtype=np.float64)[:, 0]
+    s_acc = float(max(1.0, s.max())) if arith == "nv_combiner" else 1.0
+    rng, unit = ARITH[arith]
+    return (s / s_acc).astype(np.float32), s_acc, rng, unit
 _COEF_TEXEL = {"snorm8": "rgba8s", "fp16": "rgba16f", "fp32": "rgba32f"}
 _RHO_TEXEL = {"snorm8": "l8", "fp16": "r16f", "fp32": "r32f"}
 _ALPHA_TEXEL = {"al16": "la8", "rgba8": "l8", "fp32": "r32f"}
@@ -196,7 +259,7 @@ def textures(table: Table, device: str = "cpu", weight_bits: int | None = 8) -> 
 
 
 def reconstruct(table: Table, sf, sb, l, device: str = "cpu", via: str = "texture",
-                weight_bits: int | None = 8) -> np.ndarray:
+                weight_bits: int | None = 8, arith: str = "auto") -> np.ndarray:
     """``(C rgb, alpha)`` at normalised ``(sf, sb, l)`` from the stored (quantised) textures.
 
     The fragment program of Guthe's Table 1/2 setup: coefficient and ``rho_hat`` lookups, the
@@ -206,9 +269,11 @@ def reconstruct(table: Table, sf, sb, l, device: str = "cpu", via: str = "textur
     via : str
         ``"texture"`` (default): every lookup through the emulated texture unit (texel formats of the
         stored tables, linear filtering with ``weight_bits`` filter fractions; the A/L alpha pair
-        filtered per channel and combined as ``256 A/257 + L/257``), shader arithmetic in float32 —
-        what the 2002 hardware computed. ``"float"``: float64 bilinear filtering of the decoded
+        filtered per channel and combined as ``256 A/257 + L/257``), shader arithmetic as ``arith``. ``"float"``: float64 bilinear filtering of the decoded
         textures, the approximation error alone (``weight_bits`` unused).
+    arith : str
+        ``via="texture"`` only: the shader arithmetic after the fetches, :data:`ARITH` (``fp32``,
+        ``nv_combiner``, ``ati_fs``); ``auto``: the one the table's ``scales`` were chosen for.
     """
     from warpvol.errors import check_choice
 
@@ -231,11 +296,33 @@ def reconstruct(table: Table, sf, sb, l, device: str = "cpu", via: str = "textur
 
     cnt.count(dependent_fetches=uv.shape[0])  # the alpha1D fetch's coordinate came from the rho fetch
     alpha = Pair16.value(a[:, 3], a[:, 0]) if tx["alpha_format"] == "al16" else a[:, 0]
+    if arith == "auto":
+        arith = {v: k for k, v in ARITH_SCALES.items()}[table.meta.get("coef_scales", "free")]
+    if arith != "fp32":
+        return _reconstruct_fixed(table, tx, uv, lc, alpha, arith, device).reshape(shape + (4,))
     c = np.zeros((uv.shape[0], 3), np.float32)
     for i, t in enumerate(tx["coef"]):
         c += (lc ** np.float32(i))[:, None] * t.sample(uv)[:, :3] * scale[i]
     out = np.concatenate([c * alpha[:, None], alpha[:, None]], axis=-1)
     return out.reshape(shape + (4,))
+
+
+def _reconstruct_fixed(table, tx, uv, lc, alpha, arith, device) -> np.ndarray:
+    """The fetched texels through :func:`warpvol.kernels.combiners.k_guthe_fixed`."""
+    import warp as wp
+
+    from warpvol.kernels import combiners as kc
+
+    w, s_acc, rng, unit = arith_constants(table, arith)
+    taps = np.stack([t.sample(uv)[:, :3] for t in tx["coef"]], axis=1).astype(np.float32)
+    n = uv.shape[0]
+    out = wp.zeros(n, dtype=wp.vec4, device=device)
+    wp.launch(kc.k_guthe_fixed, dim=n, inputs=[wp.array(taps, dtype=wp.vec3, device=device),
+                                               wp.array(lc, dtype=wp.float32, device=device),
+                                               wp.array(np.asarray(alpha, np.float32), dtype=wp.float32, device=device),
+                                               wp.array(w, dtype=wp.float32, device=device), s_acc, rng, unit, out],
+              device=device)
+    return out.numpy()
 
 
 def _reconstruct_float(table: Table, sf, sb, l) -> np.ndarray:

@@ -8,6 +8,12 @@ stored), colour ``C = alpha sum_i (l / lmax)^i C~_i`` (linear: ``C~_0 = C0_hat``
 coefficients scaled back by per-channel constants (:func:`warpvol.projection.pt.guthe_program`). ``gpu``
 checks the setup fits the card's texture units: ``degree + 1`` coefficient textures plus the
 dependent alpha texture (GeForce4: 4 units, degree <= 2; Radeon 8500: 6, degree <= 4).
+``arith`` is the arithmetic after the fetches: ``fp32``, or the card's fixed-point registers
+(:mod:`warpvol.kernels.combiners`): ``nv_combiner`` (GeForce3/4 register combiners, signed 9-bit
+[-1, 1], coefficient scales from the output scale ops {1/2, 1, 2, 4}) or ``ati_fs`` (Radeon 8500
+fragment shader, [-8, 8], scales {1/8, ..., 8}); ``auto`` takes the one the table's ``scales`` were
+chosen for. The fixed-point programs report their register format and the table's saturated
+coefficient texels in ``stats["pt_guthe"]`` (a warning when any saturated).
 With ``pt_perspective`` before it the attributes are perspective-correct. Writes ``ctx.image``.
 """
 
@@ -30,6 +36,8 @@ class PTGuthe(Stage):
     ===========  =====  =========  ======================================  ==========================
     table        str    guthe      ``ctx.buffers`` key                     Guthe tables
     gpu          str    any        ``geforce4`` ``radeon8500`` ``any``     texture-unit budget
+    arith        str    auto       ``auto`` ``fp32`` ``nv_combiner``       shader arithmetic
+                                   ``ati_fs``
     weight_bits  int    8          [0, 16]; 0 = fp32 filter weights        filter-weight bits
     format       str    unorm8     ``unorm8`` ... ``fp32``                 frame-buffer format
     dither       bool   false                                              alpha dithering
@@ -52,6 +60,8 @@ class PTGuthe(Stage):
     params = (
         Param("table", str, "guthe", "ctx.buffers key of the Guthe tables"),
         Param("gpu", str, "any", "texture-unit budget", choices=tuple(TEXTURE_UNITS)),
+        Param("arith", str, "auto", "shader arithmetic after the fetches",
+              choices=("auto", "fp32", "nv_combiner", "ati_fs")),
         Param("weight_bits", int, 8, "filter-weight fraction bits (0: fp32 weights)", lo=0, hi=16),
         fb_param(), DITHER, BATCH,
     )
@@ -68,9 +78,19 @@ class PTGuthe(Stage):
         if deg + 2 > units:
             raise ConfigError(f"{self.where}.gpu: degree {deg} needs {deg + 2} texture units ({deg + 1} coefficient "
                               f"textures + alpha1D); the {self.config['gpu']} has {units}")
+        arith = self.config["arith"]
+        if arith == "auto":
+            arith = {"free": "fp32", "nv_combiner": "nv_combiner", "ati_fs": "ati_fs"}[
+                table.meta.get("coef_scales", "free")]
+        card = {"nv_combiner": "geforce4", "ati_fs": "radeon8500"}.get(arith)
+        if card is not None and self.config["gpu"] not in (card, "any"):
+            raise ConfigError(f"{self.where}.arith: {arith!r} is the {card}'s arithmetic, gpu is {self.config['gpu']!r}")
         attrs, mode, ortho, z_off = fragment_inputs(ctx)
-        program = guthe_program(table, mode=mode, ortho=ortho, weight_bits=self.config["weight_bits"] or None,
-                                device=ctx.device, z_off=z_off)
+        wb = self.config["weight_bits"] or None
+        if arith == "fp32":
+            program = guthe_program(table, mode=mode, ortho=ortho, weight_bits=wb, device=ctx.device, z_off=z_off)
+        else:
+            program = fixed_program(self, ctx, table, arith, mode=mode, ortho=ortho, weight_bits=wb, z_off=z_off)
         ctx.stats["pt"]["texture_units"] = deg + 2
         info = composite(self, ctx, attrs, program)
         # per fragment: deg + 1 signed 8-bit coefficient lookups (2D) and one dependent alpha lookup (1D,
@@ -79,3 +99,48 @@ class PTGuthe(Stage):
         a_fmt = "la8" if table.meta.get("alpha_format", "al16") == "al16" else "a8"
         ctx.count(texture_lookups=(deg + 2) * n, dependent_lookups=n, dependent_fetches=n, combiner_ops=(deg + 2) * n,
                   **{"tex_2d_rgba8s_linear": (deg + 1) * n, f"tex_1d_{a_fmt}_linear": n})
+
+
+def fixed_program(stage: Stage, ctx: Context, table, arith: str, *, mode: str, ortho: bool,
+                  weight_bits: int | None, z_off: float):
+    """:func:`warpvol.projection.pt.guthe_program` with the arithmetic after the fetches in the card's
+    fixed-point registers (:func:`warpvol.kernels.combiners.k_frag_guthe_fixed`); records the register
+    format, the scales and the saturated coefficient texels in ``stats["pt_guthe"]``."""
+    import numpy as np
+    import warp as wp
+
+    from warpvol.gpu.texture import Texture1D, TextureAtlas
+    from warpvol.kernels import combiners as kc
+    from warpvol.projection.pt import PERSPECTIVE_MODES, _scalar_consts
+    from warpvol.tables.guthe2d import arith_constants
+
+    try:
+        w, s_acc, rng, unit = arith_constants(table, arith)
+    except Exception as e:  # noqa: BLE001 - re-raised naming the stage
+        from warpvol.errors import ConfigError
+
+        raise ConfigError(f"{stage.where}.{e}") from None
+    device = ctx.device
+    deg = table.data.shape[0] - 1
+    atlas = TextureAtlas(table.data, fmt="rgba32f", filter="linear", device=device, weight_bits=weight_bits)
+    a1 = np.asarray(table.extra["alpha1d"], dtype=np.float32).reshape(-1)
+    alpha = Texture1D(a1, fmt="r32f", filter="linear", device=device, weight_bits=weight_bits)
+    na = a1.shape[0]
+    consts = [*_scalar_consts(table.axes[2]), 1.0 / float(table.meta["lmax"]), 1.0 - 1.0 / na, 0.5 / na, deg]
+    w_dev = wp.array(w, dtype=wp.float32, device=device)
+    sat = int(table.meta.get("coef_saturated", 0))
+    st = ctx.stats.setdefault(stage.name, {})
+    st.update(arith=arith, register_range=rng, register_step=1.0 / unit, coef_scales=[float(v) for v in w * s_acc],
+              accumulator_scale=s_acc, coef_saturated=sat)
+    if sat:
+        st["warning"] = (f"{sat} coefficient texel channels lie beyond the largest scale factor of {arith} and "
+                         "saturate at +-1 (the hardware's loss)")
+
+    def run(frags, tris):
+        out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
+        wp.launch(kc.k_frag_guthe_fixed, dim=frags.count,
+                  inputs=[frags.attrs, PERSPECTIVE_MODES[mode], int(ortho), float(z_off), atlas.struct, alpha.struct,
+                          *consts, w_dev, s_acc, rng, unit, out], device=device)
+        return out
+
+    return run

@@ -22,6 +22,8 @@ class TableGuthe(TableStage):
     slices        str    exact      colour slices: ``exact`` (software) | ``pingpong`` (emulated)
     m             int    128        ping-pong integration steps per slice
     gpu           str    radeon8500 ping-pong overflow: ``radeon8500`` (wrap) | ``geforce4`` (saturate)
+    scales        str    free       coefficient scale factors: ``free`` (float constants) |
+                                    ``nv_combiner`` (1/2..4) | ``ati_fs`` (1/8..8)
     output        str    guthe      ``ctx.buffers`` key
     ============  =====  =========  ========================================================
     """
@@ -42,6 +44,8 @@ class TableGuthe(TableStage):
         Param("m", int, 128, "ping-pong integration steps per slice", lo=1, hi=65536),
         Param("gpu", str, "radeon8500", "ping-pong overflow (Radeon wrap / GeForce saturate)",
               choices=("radeon8500", "geforce4")),
+        Param("scales", str, "free", "coefficient scale factors the shader can apply",
+              choices=("free", "nv_combiner", "ati_fs")),
         output_param("guthe"),
     )
 

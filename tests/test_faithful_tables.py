@@ -1,0 +1,129 @@
+"""Faithful hardware arithmetic of the table presets (Guthe's fragment registers, Roettger's
+combiner constant, Kraus' fp16 buffer read back as a texture): each test shows what the paper's
+hardware did and that it differs from the float arithmetic where it should."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import warp as wp
+
+from warpvol.scene.transfer import TransferFunction
+
+
+def _reg_fixed(x, rng, unit):
+    from warpvol.kernels import formats as kf
+
+    x = np.asarray(x, np.float32)
+    out = wp.zeros(x.shape[0], dtype=wp.float32, device="cpu")
+    wp.launch(kf.k_reg_fixed, dim=x.shape[0], inputs=[wp.array(x, dtype=wp.float32, device="cpu"), rng, unit, out],
+              device="cpu")
+    return out.numpy()
+
+
+def _wiggly_tf():
+    """Colour and extinction alternating between neighbouring entries: the colour slices C_hat(l)
+    swing, so the degree-4 coefficients exceed 4 at lmax = 1."""
+    k = (np.arange(16) % 2).astype(float)
+    return TransferFunction.from_table(np.column_stack([k, np.zeros(16), np.full(16, 0.5), 40 * k + 0.1]),
+                                       (0.0, 1.0), "color_extinction")
+
+
+# ---------------------------------------------------------------- item 3: Guthe's fragment arithmetic
+
+
+def test_combiner_register_saturates_and_rounds_to_9_bits():
+    from warpvol.tables.guthe2d import ARITH
+
+    rng, unit = ARITH["nv_combiner"]
+    v = _reg_fixed([1.7, -3.0, 0.5, 0.3, 100.0 / 255 + 0.4 / 255, -0.001], rng, unit)
+    assert v[0] == 1.0 and v[1] == -1.0  # saturation, not wrap
+    np.testing.assert_allclose(v[2:], [128 / 255, 77 / 255, 100 / 255, 0.0], atol=1e-7)
+    rng, unit = ARITH["ati_fs"]
+    v = _reg_fixed([9.5, -20.0, 7.9, 1.0 / 8192 * 0.9], rng, unit)
+    np.testing.assert_allclose(v, [8.0, -8.0, round(7.9 * 4096) / 4096, 0.0], atol=1e-7)
+
+
+def test_coefficient_scales_are_the_hardware_ops_and_beyond_them_saturate():
+    from warpvol.tables.guthe2d import build_guthe2d
+
+    tf = _wiggly_tf()
+    free = build_guthe2d(tf, n_s=32, degree=4, lmax=1.0)
+    nv = build_guthe2d(tf, n_s=32, degree=4, lmax=1.0, scales="nv_combiner")
+    ati = build_guthe2d(tf, n_s=32, degree=4, lmax=1.0, scales="ati_fs")
+    mag = np.abs(nv.extra["coef"]).reshape(5, -1, 3).max(axis=1).max(axis=1)
+    assert mag.max() > 4.0  # this TF needs more than the combiners' x4
+    s_nv = np.asarray(nv.meta["coef_scale"])[:, 0]
+    s_ati = np.asarray(ati.meta["coef_scale"])[:, 0]
+    assert set(s_nv) <= {0.5, 1.0, 2.0, 4.0} and set(s_ati) <= {0.125, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0}
+    np.testing.assert_array_equal(s_nv, np.minimum(4.0, [min(v for v in (0.5, 1, 2, 4) if v >= m) if m <= 4 else 4
+                                                          for m in mag]))
+    # the combiners saturate the coefficient texels beyond x4, the Radeon's x8 holds them
+    over = np.abs(nv.extra["coef"]) > 4.0
+    assert nv.meta["coef_saturated"] == int(over.sum()) > 0 and ati.meta["coef_saturated"] == 0
+    i = np.argwhere(over)[0]
+    assert abs(nv.data[i[0], i[1], i[2], i[3]]) == 1.0  # stored at full scale (snorm8 +-1)
+    # free scales are the per-channel maxima (the float shader)
+    m = np.abs(free.extra["coef"]).reshape(5, -1, 3).max(axis=1)
+    np.testing.assert_allclose(np.asarray(free.meta["coef_scale"]), np.where(m > 0, m, 1.0), rtol=1e-6)
+
+
+def test_register_arithmetic_matches_closed_form_and_differs_from_fp32():
+    """reconstruct() through the emulated combiners equals a numpy transcription of the combiner
+    program (every result clamped to [-1, 1] and rounded to 1/255); the output colours are register
+    values (multiples of 1/255) and differ from the fp32 shader's."""
+    from warpvol.reproduce.guthe2002 import guthe_tf
+    from warpvol.tables.guthe2d import build_guthe2d, reconstruct, textures
+
+    tf = guthe_tf(64)
+    g = build_guthe2d(tf, n_s=32, degree=2, lmax=1.0, scales="nv_combiner")
+    rs = np.random.default_rng(3)
+    sf, sb, l = rs.random(300), rs.random(300), rs.random(300)
+    hw = reconstruct(g, sf, sb, l)
+    fp = reconstruct(g, sf, sb, l, arith="fp32")
+    # closed form of the register program on the same texels
+    tx = textures(g)
+    uv = np.stack([g.axes[2].coord(sf), g.axes[1].coord(sb)], -1).astype(np.float32)
+    taps = [t.sample(uv)[:, :3].astype(np.float64) for t in tx["coef"]]
+
+    def reg(v):
+        return np.round(np.clip(v, -1, 1) * 255) / 255
+
+    s = np.asarray(g.meta["coef_scale"])[:, 0]
+    s_acc = max(1.0, s.max())
+    x = reg(np.clip(l, 0, 1))[:, None]
+    acc = reg(taps[0] * s[0] / s_acc)
+    xi = np.ones_like(x)
+    for i in (1, 2):
+        xi = reg(xi * x)
+        acc = reg(acc + reg(taps[i] * xi * (s[i] / s_acc)))
+    a = reg(hw[:, 3])
+    np.testing.assert_allclose(hw[:, 3], a, atol=1e-7)
+    np.testing.assert_allclose(hw[:, :3], np.clip(reg(acc * a[:, None] * s_acc), 0, 1), atol=2e-6)
+    assert np.abs(hw[:, :3] * 255 - np.round(hw[:, :3] * 255)).max() < 1e-3
+    assert np.abs(fp[:, :3] * 255 - np.round(fp[:, :3] * 255)).max() > 0.1
+    assert np.abs(hw - fp).max() > 1.0 / 255
+
+
+def test_guthe_presets_run_their_cards_arithmetic():
+    from warpvol.errors import ConfigError
+    from warpvol.pipeline import Pipeline
+    from warpvol.scene.builtin import builtin_scene
+
+    sc = builtin_scene("box").with_camera(width_px=16, height_px=16)
+    want = {"guthe2002_linear": "nv_combiner", "guthe2002_quadratic_gf4": "nv_combiner",
+            "guthe2002_quartic_radeon": "ati_fs"}
+    for name, arith in want.items():
+        r = Pipeline.load(name).render(sc, quiet=True)
+        st = r.report["stats"]["pt_guthe"]
+        assert st["arith"] == arith and st["coef_saturated"] == 0
+        assert np.asarray(r.image).max() > 0
+    # a combiner program on a Radeon, or on a table with float scales, is refused naming the field
+    stages = [{"stage": "vertex"}, {"stage": "sort", "method": "centroid"},
+              {"stage": "table_guthe", "n_s": 16, "degree": 2, "scales": "nv_combiner"}, {"stage": "pt_project"},
+              {"stage": "pt_guthe", "gpu": "radeon8500", "arith": "nv_combiner"}]
+    with pytest.raises(ConfigError, match="arith"):
+        Pipeline.from_config({"name": "t", "stages": stages}).render(sc, quiet=True)
+    stages[2]["scales"], stages[4]["gpu"] = "free", "geforce4"
+    with pytest.raises(ConfigError, match="scales"):
+        Pipeline.from_config({"name": "t", "stages": stages}).render(sc, quiet=True)
