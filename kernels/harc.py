@@ -14,8 +14,14 @@ Two walks, one kernel:
   :func:`~warpvol.kernels.raycast.next_face`; no second copy): watertight on rays through vertices
   and edges.
 
-The ray origin and direction come from :func:`warpvol.kernels.raycast.pixel_ray` (float64 set-up,
-origin moved to the mesh). Ray start: the front-facing boundary faces were rasterised on the host
+Ray set-up (``SETUP_*``): ``SETUP_ROBUST`` takes the ray from :func:`warpvol.kernels.raycast.pixel_ray`
+(float64 set-up, origin moved to the mesh; the textures are relative to the cells' origin) and marks
+rays it cannot resolve failed, for the float64 redo on the host. ``SETUP_PAPER`` is the paper's
+fragment program: the ray starts at the eye, its direction computed in fp32 (:func:`paper_ray`), the
+textures hold planes and gradients computed in fp32 in the mesh's own frame, ``lambda'`` is taken as
+computed (no clamping to the entry's ``lambda``), and a ray the walk cannot resolve is lost: what it
+composited so far goes to the frame buffer and its status is :data:`STATUS_LOST` (counted; no
+redo). Ray start: the front-facing boundary faces were rasterised on the host
 side (:mod:`warpvol.raycasting.harc`) into per-pixel fragment lists sorted by depth; pass ``k`` takes the
 first fragment beyond the ray's last exit -- the depth-peeling test "depth greater than the last
 layer's" -- so pass 0 is the plain boundary rasterisation and passes >= 1 are peel layers.
@@ -33,7 +39,9 @@ included), 2 cells visited, 3 failed rays, 4 rays stopped by the step bound, 5 i
 iso table missed (checked against the TF's control points; diagnostic), 6 texture fetches, 7 entries
 whose rasterised face the consistent edge test rejected (searched among the face's neighbours), 8 failed
 rays of the consistent walk with exact segments that crossed a layer too thin for float32 segment
-lengths (:func:`warpvol.kernels.raycast.thin_unresolved`; redone in float64 like every failed ray).
+lengths (:func:`warpvol.kernels.raycast.thin_unresolved`; redone in float64 like every failed ray),
+9 rays of the paper's set-up that took a step with ``lambda' < lambda`` (an exit chosen by rounding:
+the ray is suspect, its pixel possibly wrong; counted, not changed).
 """
 
 import warp as wp
@@ -57,6 +65,11 @@ INTEG_PARTIAL = wp.constant(2)
 #: ``sf`` (edge-anchored iso table, see :func:`warpvol.tables.isocross.build_isocross`)
 ISO_PAPER = wp.constant(0)
 ISO_BEHIND = wp.constant(1)
+SETUP_ROBUST = wp.constant(0)
+SETUP_PAPER = wp.constant(1)
+#: a ray the paper's set-up could not resolve (no exit face, no progress, the step bound): its
+#: partial result is in the frame buffer, later peel passes skip it
+STATUS_LOST = wp.constant(3)
 
 
 @wp.struct
@@ -138,6 +151,29 @@ def plane_exit(mt: MeshTex, c: int, o: wp.vec3, d: wp.vec3):
                 best = lam
                 f = i
     return best, f
+
+
+@wp.func
+def paper_ray(px: int, py: int, width: int, height: int, eye: wp.vec3, fwd: wp.vec3d, right: wp.vec3d,
+              up: wp.vec3d, ortho: int, half_h: wp.float64, aspect: wp.float64):
+    """The paper's ray through the centre of pixel (row py, column px), all in fp32: origin the eye
+    ``eye`` (orthographic: the eye plane's point), unit direction from the camera frame (cast to
+    fp32); returns ``(o, d)`` in the textures' frame."""
+    f = wp.vec3(float(fwd[0]), float(fwd[1]), float(fwd[2]))
+    rt = wp.vec3(float(right[0]), float(right[1]), float(right[2]))
+    u = wp.vec3(float(up[0]), float(up[1]), float(up[2]))
+    hh = float(half_h)
+    qx = 2.0 * (float(px) + 0.5) / float(width) - 1.0
+    qy = 1.0 - 2.0 * (float(py) + 0.5) / float(height)
+    sx = qx * hh * float(aspect)
+    sy = qy * hh
+    o = eye
+    d = f
+    if ortho == 1:
+        o = eye + rt * sx + u * sy
+    else:
+        d = wp.normalize(f + rt * sx + u * sy)
+    return o, d
 
 
 @wp.func
@@ -295,6 +331,8 @@ def harc_march(
     half_h: wp.float64,
     aspect: wp.float64,
     radius: wp.float64,
+    setup: int,
+    eye_w: wp.vec3,
     walk: int,
     mt: MeshTex,
     verts: wp.array(dtype=wp.vec4),
@@ -325,11 +363,15 @@ def harc_march(
     py = idx // width
     px = idx - py * width
     r, t_clip, t_end = pixel_ray(px, py, width, height, eye, fwd, right, up, ortho, half_h, aspect, radius)
-    if t_end < t_clip:
-        status[idx] = STATUS_DONE
-        return
     o = r.o
     d = r.d
+    if setup == SETUP_PAPER:
+        # the paper's fragment program: the ray from the eye in fp32, nothing clipped or culled
+        o, d = paper_ray(px, py, width, height, eye_w, fwd, right, up, ortho, half_h, aspect)
+        t_clip = 0.0
+    elif t_end < t_clip:
+        status[idx] = STATUS_DONE
+        return
     t_start = tcur[idx]
     prev = last[idx]
 
@@ -349,6 +391,9 @@ def harc_march(
         if walk == WALK_PLANES:
             p = plane_of(mt, c, f)
             lam = plane_lambda(p, o, d)
+            if setup == SETUP_PAPER and not wp.isfinite(lam):
+                entry_failed = 1  # the entry face's plane gives no ray parameter: the ray is lost
+                break
             if lam > t_start - t_tol:
                 cell = c
                 face_in = f
@@ -383,6 +428,10 @@ def harc_march(
             else:
                 entry_failed = 1  # no face around crosses either: resolved in float64 on the host
                 break
+    if entry_failed == 1 and setup == SETUP_PAPER:
+        status[idx] = STATUS_LOST
+        wp.atomic_add(counters, chunk, 3, 1)
+        return
     if entry_failed == 1 or t_clip > 0.0:
         status[idx] = STATUS_FAILED
         wp.atomic_add(counters, chunk, 3, 1)
@@ -400,6 +449,7 @@ def harc_march(
     failed = int(0)
     exited = int(0)
     fetches = int(0)
+    backward = int(0)
     k_in = int(-1)
     v_in = wp.vec4(0.0, 0.0, 0.0, 0.0)
     # thin-layer check of the consistent walk with exact segments (as raycast's march)
@@ -426,7 +476,16 @@ def harc_march(
             a = cell_texel(mt, mt.adj, cell)
             fetches += 2
             t_out = lam
-            t_out, stall = monotone_exit(t_in, t_out, stall)
+            if setup == SETUP_PAPER:
+                # Fig. 6: lambda' as computed; a step that does not advance only counts towards
+                # the stall bound (the hardware's loop would run on to its instruction limit)
+                stall = stall + 1
+                if lam > t_in:
+                    stall = int(0)
+                elif lam < t_in:
+                    backward = 1  # rounding chose an exit behind the entry: the walk is suspect
+            else:
+                t_out, stall = monotone_exit(t_in, t_out, stall)
             s_in = grad_scalar(g, o + d * t_in)  # Fig. 6 line 10: sf from this cell's gradient
             s_out = grad_scalar(g, o + d * t_out)
             nb = int(wp.clamp(a[f_out], -1.0, 1.0e8))
@@ -449,10 +508,13 @@ def harc_march(
             k_out = tf_upper(s_out, ig.tf_s)
             v_out = tf_eval_upper(s_out, k_out, ig.tf_s, ig.tf_v)
             seg = wp.vec4(0.0, 0.0, 0.0, 0.0)
+            seg_l = t_out - t_in
+            if setup == SETUP_PAPER and seg_l < 0.0:
+                seg_l = 0.0  # lambda' before lambda: nothing to integrate
             if k_in == k_out:
-                seg = integrate_piece(t_out - t_in, v_in, v_out, ig.model)
+                seg = integrate_piece(seg_l, v_in, v_out, ig.model)
             else:
-                seg = integrate_segment_tf(s_in, s_out, v_in, v_out, t_out - t_in, ig.tf_s, ig.tf_v, ig.model)
+                seg = integrate_segment_tf(s_in, s_out, v_in, v_out, seg_l, ig.tf_s, ig.tf_v, ig.model)
             if check_thin:
                 ln = t_out - t_in
                 u = t_unit(t_out, scale)
@@ -503,6 +565,15 @@ def harc_march(
     wp.atomic_add(counters, chunk, 1, steps)
     wp.atomic_add(counters, chunk, 2, cells_visited)
     wp.atomic_add(counters, chunk, 6, fetches)
+    if backward == 1:
+        wp.atomic_add(counters, chunk, 9, 1)
+    if failed == 1 and setup == SETUP_PAPER:
+        # lost: the fragment program ends, its partial result goes to the frame buffer
+        rgba[idx] = wp.vec4(fmt_quantize(fb, acc[0]), fmt_quantize(fb, acc[1]), fmt_quantize(fb, acc[2]),
+                            fmt_quantize(fb, acc[3]))
+        status[idx] = STATUS_LOST
+        wp.atomic_add(counters, chunk, 3, 1)
+        return
     if failed == 1:
         status[idx] = STATUS_FAILED
         wp.atomic_add(counters, chunk, 3, 1)
@@ -518,6 +589,8 @@ def harc_march(
         status[idx] = STATUS_DONE
         if 1.0 - acc[3] >= t_stop:
             wp.atomic_add(counters, chunk, 4, 1)
+            if setup == SETUP_PAPER:
+                status[idx] = STATUS_LOST  # the step bound ended it inside the mesh
 
 
 @wp.kernel

@@ -11,8 +11,9 @@ Plain functions the ``harc*`` stages are thin over (tests call them directly):
   the kernel takes the first fragment beyond the ray's last exit (depth peeling);
 * :func:`integ_setup` -- the kernel's integration set-up (exact, full table, or partial with psi and
   iso tables);
-* :func:`march_pass`, :func:`resolve_failed` -- one propagation pass over all active rays, and the
-  float64 redo of rays the float32 walk could not resolve.
+* :func:`march_pass`, :func:`resolve_failed`, :func:`lost_rays` -- one propagation pass over all
+  active rays, the float64 redo of rays the float32 walk could not resolve (robust set-up), and the
+  count of rays lost under the paper's set-up.
 """
 
 from __future__ import annotations
@@ -25,6 +26,8 @@ TEX_ROW = 4096  # texels per row of the mesh textures (GeForce 6800: 4096 x 4096
 WALKS = {"planes": 0, "plucker": 1}
 INTEGRATIONS = {"exact": 0, "full": 1, "partial": 2}
 ISO_RULES = {"paper": 0, "behind": 1}
+SETUPS = {"robust": 0, "paper": 1}
+ARITHMETIC = ("float64", "fp32")
 
 
 def layout_bytes(mesh) -> dict:
@@ -33,9 +36,47 @@ def layout_bytes(mesh) -> dict:
     return {"paper96": 96.0, "compact": (32.0 * m + 16.0 * v) / max(m, 1)}
 
 
-def mesh_textures(mesh, origin: np.ndarray, device: str = "cpu"):
-    """Table 1 of the paper as six rgba32f textures ``(n0, n1, n2, n3, grad, adj)``, positions relative
-    to ``origin`` (float64 shift before the float32 cast, as the cells' points).
+def planes_fp32(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Face planes ``(M, 4, 4)`` and gradients ``(M, 4)`` (``g, g0``) computed in float32 from the
+    float32 points and scalars in the mesh's own frame, as a host program filling the paper's float32
+    textures computes them: ``n = (b - a) x (c - a)`` normalised, ``o = -n . a``, oriented so the
+    opposite vertex lies on the negative side; ``g`` by Cramer's rule on the edge vectors from vertex
+    0, ``g0 = s_0 - g . p_0``. Every operation rounds to float32 (returned as float32)."""
+    from warpvol.scene.mesh import FACE_VERTS
+
+    with np.errstate(all="ignore"):  # a degenerate tet gives Inf / NaN, as in the paper's C float code
+        f = np.float32
+        p = mesh.points.astype(f)[mesh.tets]  # (M, 4, 3)
+        s = np.asarray(mesh.scalars).astype(f)[mesh.tets]  # (M, 4)
+        tri = p[:, FACE_VERTS]  # (M, 4, 3, 3)
+        n = np.cross(tri[:, :, 1] - tri[:, :, 0], tri[:, :, 2] - tri[:, :, 0]).astype(f)
+        nl = np.sqrt((n * n).sum(axis=-1, dtype=f)).astype(f)
+        n = (n / nl[..., None]).astype(f)
+        o = -(n * tri[:, :, 0]).sum(axis=-1, dtype=f)
+        side = (n * p).sum(axis=-1, dtype=f) + o
+        flip = side > 0
+        n[flip] *= -1
+        o[flip] *= -1
+        planes = np.concatenate([n, o[..., None]], axis=-1).astype(f)
+        a = p[:, 1:] - p[:, :1]  # (M, 3, 3) edge vectors, rows
+        b = s[:, 1:] - s[:, :1]  # (M, 3)
+        c12, c20, c01 = (np.cross(a[:, i], a[:, j]).astype(f) for i, j in ((1, 2), (2, 0), (0, 1)))
+        det = (a[:, 0] * c12).sum(axis=-1, dtype=f)
+        g = ((b[:, 0, None] * c12 + b[:, 1, None] * c20 + b[:, 2, None] * c01) / det[:, None]).astype(f)
+        g0 = (s[:, 0] - (g * p[:, 0]).sum(axis=-1, dtype=f)).astype(f)
+    return planes, np.c_[g, g0].astype(f)
+
+
+def mesh_textures(mesh, origin: np.ndarray, device: str = "cpu", arithmetic: str = "float64",
+                  info: dict | None = None):
+    """Table 1 of the paper as six rgba32f textures ``(n0, n1, n2, n3, grad, adj)``.
+
+    ``arithmetic = "float64"``: planes and gradients derived in float64, positions relative to
+    ``origin`` (float64 shift before the float32 cast, as the cells' points); ``"fp32"``: computed in
+    float32 in the mesh's own frame (:func:`planes_fp32`; ``origin`` unused), the paper's textures.
+    A tet degenerate in float32 (a zero normal or determinant: non-finite plane or gradient) gets
+    zero texels there: a face with ``n = 0`` never has ``d . n > 0``, so a ray reaching it is lost,
+    as with the NaN the division left in the paper's texture; ``info["degenerate_tets"]`` counts them.
 
     Returns ``(struct, textures)``: the kernel's :class:`warpvol.kernels.harc.MeshTex` and the
     :class:`~warpvol.gpu.texture.Texture2D` objects (they own the device arrays).
@@ -52,13 +93,23 @@ def mesh_textures(mesh, origin: np.ndarray, device: str = "cpu"):
     from warpvol.kernels import harc as kh
     from warpvol.raycasting.stages.cell_setup import neighbour_faces
 
+    if arithmetic not in ARITHMETIC:
+        raise ConfigError(f"arithmetic: {arithmetic!r} not allowed; allowed: {', '.join(ARITHMETIC)}")
     m = mesh.n_tets
     width = max(1, min(m, TEX_ROW))
     rows = -(-m // width)
-    origin = np.asarray(origin, np.float64)
-    planes = mesh.face_planes.copy()  # (M, 4, 4) unit outward normals
-    planes[..., 3] += planes[..., :3] @ origin
-    grad = np.c_[mesh.gradients, mesh.offsets + mesh.gradients @ origin]
+    bad = 0
+    if arithmetic == "fp32":
+        planes, grad = planes_fp32(mesh)
+        ok = np.isfinite(planes).all(axis=(1, 2)) & np.isfinite(grad).all(axis=1)
+        bad = int((~ok).sum())
+        planes[~np.isfinite(planes).all(axis=2)] = 0.0
+        grad[~np.isfinite(grad).all(axis=1)] = 0.0
+    else:
+        origin = np.asarray(origin, np.float64)
+        planes = mesh.face_planes.copy()  # (M, 4, 4) unit outward normals
+        planes[..., 3] += planes[..., :3] @ origin
+        grad = np.c_[mesh.gradients, mesh.offsets + mesh.gradients @ origin]
     adj = neighbour_faces(mesh.adjacency).astype(np.float64)
     if 4 * m >= 2 ** 24:
         raise ConfigError(f"mesh: {m} tets do not fit the float32 adjacency texture (4 M < 2^24)")
@@ -68,6 +119,8 @@ def mesh_textures(mesh, origin: np.ndarray, device: str = "cpu"):
         buf[:m] = a
         return Texture2D(buf.reshape(rows, width, 4), fmt="rgba32f", filter="nearest", device=device)
 
+    if info is not None:
+        info["degenerate_tets"] = bad
     texs = [tex(planes[:, i]) for i in range(4)] + [tex(grad), tex(adj)]
     st = kh.MeshTex()
     st.n0, st.n1, st.n2, st.n3, st.grad, st.adj = (t.struct for t in texs)
@@ -260,14 +313,16 @@ class HarcState:
         return self.rgba.numpy().reshape(height, width, 4).astype(np.float32)
 
 
-N_COUNTERS = 9
+N_COUNTERS = 10
 COUNTER_NAMES = ("entries", "steps", "cells", "failed", "step_bound", "iso_missed", "texture_fetches",
-                 "entry_searches", "thin_layer_rays")
+                 "entry_searches", "thin_layer_rays", "backward_rays")
 
 
 def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, fb_format: str, t_stop: float,
-               max_steps: int, threads: int, rows_per_block: int = 16) -> dict:
-    """One propagation pass over all active rays; returns the summed counters by name."""
+               max_steps: int, threads: int, rows_per_block: int = 16, setup: str = "robust") -> dict:
+    """One propagation pass over all active rays; returns the summed counters by name. ``setup``:
+    ``robust`` (float64 ray set-up from the mesh, :func:`warpvol.kernels.raycast.pixel_ray`) or
+    ``paper`` (the ray from the eye in fp32, in the frame of ``fp32`` mesh textures)."""
     import warp as wp
 
     from warpvol.gpu.formats import get_format
@@ -278,7 +333,8 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     cells = ctx.buffers["cells"]
     w, rows, cam_args = camera_launch_args(ctx, rows_per_block)
     counters = wp.zeros((len(rows), N_COUNTERS), dtype=wp.int32, device=ctx.device)
-    common = cam_args + [WALKS[walk], mesh_tex, cells["verts"], cells["tets"], cells["nbr"], entry["frag_start"],
+    eye_w = wp.vec3(*np.asarray(ctx.scene.camera.eye, np.float64).astype(np.float32))
+    common = cam_args + [SETUPS[setup], eye_w, WALKS[walk], mesh_tex, cells["verts"], cells["tets"], cells["nbr"], entry["frag_start"],
                          entry["frag_bf"], entry["bf_tet"], entry["bf_face"], entry["bf_nbr"], ig,
                          get_format(fb_format).kernel_params(), float(t_stop), int(max_steps), 1e-6 * cells["radius"]]
 
@@ -311,3 +367,24 @@ def resolve_failed(ctx, state: HarcState) -> int:
     state.rgba = wp.array(rgba, dtype=wp.vec4, device=state.device)
     state.status = wp.array(status, dtype=wp.int32, device=state.device)
     return int(len(failed))
+
+
+def lost_rays(state: HarcState) -> int:
+    """How many rays the paper's set-up lost (status :data:`warpvol.kernels.harc.STATUS_LOST`)."""
+    from warpvol.kernels import harc as kh
+
+    return int((state.status.numpy() == int(kh.STATUS_LOST)).sum())
+
+
+def lost_warning(lost: int, n: int, backward: int = 0) -> str:
+    """Report text for ``lost`` of ``n`` rays lost under the paper's set-up, and ``backward`` rays
+    whose walk took a step with ``lambda' < lambda`` (suspect)."""
+    parts = []
+    if lost:
+        parts.append(f"{lost:,} of {n:,} rays lost: the paper's fp32 walk (ray from the eye, float32 face planes) "
+                     "found no entry or exit face, made no progress or reached the step bound; those pixels show "
+                     "what the ray had composited until then")
+    if backward:
+        parts.append(f"{backward:,} rays took a step backwards (lambda' < lambda: float32 rounding chose the exit "
+                     "face), their pixels may be wrong")
+    return "; ".join(parts) + " (harc_best resolves them)"

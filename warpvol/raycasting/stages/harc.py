@@ -5,8 +5,13 @@ cell per fragment-program step (:mod:`warpvol.kernels.harc`): the paper's plane 
 96 bytes/tet textures (``walk = "planes"``) or the consistent Plücker walk shared with ``raycast``
 (``walk = "plucker"``). Segments are integrated exactly, with a 3D pre-integration table (``full``)
 or by partial pre-integration with iso splits (``partial``), composited front to back and written to
-the frame buffer in ``format``. Rays the float32 walk cannot resolve are redone in float64 on the
-host and counted (``unresolved_rays``).
+the frame buffer in ``format``.
+
+``ray_setup = "robust"``: each ray set up in float64 from an origin moved to the mesh; rays the float32
+walk cannot resolve are redone in float64 on the host and counted (``unresolved_rays``).
+``ray_setup = "paper"`` (the paper's fragment program; ``walk = "planes"`` on ``harc_mesh arithmetic =
+"fp32"`` textures): the ray starts at the eye in fp32, and a ray the walk cannot resolve is lost --
+counted (``lost_rays``), warned in the report, and its pixel shows what it had composited.
 """
 
 from __future__ import annotations
@@ -59,6 +64,8 @@ class Harc(Stage):
     psi                str    psi        ``ctx.buffers`` key of the psi table (``partial``)
     iso                str    iso        ``ctx.buffers`` key of the iso table (``partial``)
     iso_rule           str    paper      ``paper`` (``sf == s_iso``) | ``behind`` (edge-anchored table)
+    ray_setup          str    robust     ``robust`` (float64 ray from the mesh, float64 redo) |
+                                         ``paper`` (fp32 ray from the eye, lost rays stay lost)
     weight_bits        int    8          texture filter-weight bits (0: fp32 weights)
     format             str    fp32       frame-buffer format of each pass's result
     early_termination  float  0          1 - A below this stops the ray (0: off)
@@ -79,6 +86,7 @@ class Harc(Stage):
         Param("psi", str, "psi", "ctx.buffers key of the psi table (partial)"),
         Param("iso", str, "iso", "ctx.buffers key of the iso-crossing table (partial)"),
         Param("iso_rule", str, "paper", "next_s_iso rule", choices=("paper", "behind")),
+        Param("ray_setup", str, "robust", "ray set-up and unresolved rays", choices=("robust", "paper")),
         Param("weight_bits", int, 8, "texture filter-weight fraction bits (0: fp32)", lo=0, hi=16),
         Param("format", str, "fp32", "frame-buffer format", choices=("unorm8", "unorm12", "unorm16", "fp16", "fp32")),
     ) + HARC_PARAMS
@@ -90,11 +98,18 @@ class Harc(Stage):
         return caps
 
     def run(self, ctx: Context) -> None:
-        from warpvol.raycasting.harc import HarcState, integ_setup, march_pass, resolve_failed
+        from warpvol.raycasting.harc import HarcState, integ_setup, lost_rays, lost_warning, march_pass, resolve_failed
 
         mt = ctx.buffers["harc_mesh"]
         if self.walk == "planes" and mt["struct"] is None:
             raise ConfigError(f"{self.where}.walk: 'planes' needs harc_mesh layout = 'paper96'")
+        paper = self.ray_setup == "paper"
+        if paper and self.walk != "planes":
+            raise ConfigError(f"{self.where}.ray_setup: 'paper' needs walk = 'planes' (the paper's Fig. 6 arithmetic)")
+        if self.walk == "planes" and mt.get("arithmetic") != ("fp32" if paper else "float64"):
+            raise ConfigError(f"{self.where}.ray_setup: {self.ray_setup!r} reads harc_mesh textures with arithmetic = "
+                              f"{'fp32' if paper else 'float64'!r} (the ray's frame), not "
+                              f"{mt.get('arithmetic')!r}")
         st = mt["struct"]
         keep_st = None
         if st is None:  # the plucker walk reads the compact layout (the cells' arrays)
@@ -119,7 +134,8 @@ class Harc(Stage):
 
         def run_pass(max_steps=self.max_steps):
             return march_pass(ctx, state, walk=self.walk, mesh_tex=st, entry=entry, ig=ig, fb_format=self.format,
-                              t_stop=self.early_termination, max_steps=max_steps, threads=threads)
+                              t_stop=self.early_termination, max_steps=max_steps, threads=threads,
+                              setup=self.ray_setup)
 
         import time
 
@@ -129,14 +145,21 @@ class Harc(Stage):
         ctx.buffers["harc_state"] = {"state": state, "run_pass": run_pass, "keep": (keep, keep_st),
                                      "count": lambda c: count_pass(ctx, c, keep, self.walk, self.integration,
                                                                    self.format),
-                                     "resolve": lambda: resolve_failed(ctx, state)}
-        # failed rays are redone whole in float64 now (and then done: later peel passes skip them)
+                                     "resolve": lambda: resolve_failed(ctx, state),
+                                     "lost": (lambda: lost_rays(state)) if paper else None}
+        # robust: failed rays are redone whole in float64 now (and then done: later peel passes skip
+        # them); paper: none are marked failed, lost rays keep their partial result
         redone = resolve_failed(ctx, state)
         t2 = time.perf_counter()
         count_pass(ctx, c, keep, self.walk, self.integration, self.format)
         ctx.count(rays=state.n)
-        ctx.stats["harc"] = {"walk": self.walk, "integration": self.integration, **c, "unresolved_rays": redone,
-                             "pass_s": t1 - t0, "float64_s": t2 - t1}
+        ctx.stats["harc"] = {"walk": self.walk, "integration": self.integration, "ray_setup": self.ray_setup, **c,
+                             "unresolved_rays": redone, "pass_s": t1 - t0, "float64_s": t2 - t1}
+        if paper:
+            lost = lost_rays(state)
+            ctx.stats["harc"]["lost_rays"] = lost
+            if lost or c["backward_rays"]:
+                ctx.stats["harc"]["warning"] = lost_warning(lost, state.n, c["backward_rays"])
         if redone:
             ctx.progress(f"harc: {redone} rays the float32 walk could not resolve were redone in float64")
         ctx.image = state.image(cam.height_px, cam.width_px)

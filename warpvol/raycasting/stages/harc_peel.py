@@ -50,6 +50,15 @@ class HarcPeel(Stage):
         ctx.stats["harc_peel"] = {"passes": passes, "reentries": entries, "unresolved_rays": redone, **total,
                                   "exhausted": passes == self.max_passes, "crack_faces": len(mesh.crack_faces),
                                   "nonconforming_faces": len(mesh.nonconforming_faces)}
+        if hs.get("lost") is not None:  # the paper's set-up: rays lost in the peel passes too
+            from warpvol.raycasting.harc import lost_warning
+
+            lost = hs["lost"]()
+            before = ctx.stats.get("harc", {}).get("lost_rays", 0)
+            ctx.stats["harc_peel"]["lost_rays"] = lost - before
+            back = total.get("backward_rays", 0)
+            if lost > before or back:
+                ctx.stats["harc_peel"]["warning"] = "peel passes: " + lost_warning(lost - before, hs["state"].n, back)
         st = hs["state"]
         cam = ctx.scene.camera
         ctx.image = st.image(cam.height_px, cam.width_px)
