@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from warpvol.scene.tf_ranges import density_max
+
 #: a tet whose smallest height is below this many float32 units (2^-23) of the mesh radius is thin
 THIN_ULPS = 1024.0
 #: ... and matters when its largest density times its thickness error exceeds this optical depth
@@ -28,40 +30,6 @@ THIN_TAU = 2e-3  # half of pt_best's max_abs tolerance (tests/tolerances.py)
 #: radius) of the perspective eye is seen edge-on
 EDGE_ON_ULPS = 64.0
 EPS32 = float(np.finfo(np.float32).eps)
-
-
-def _density_points(tf) -> tuple[np.ndarray, np.ndarray]:
-    """Control-point scalars and densities (extinction, plus the largest colour channel for the
-    emission-density model, which multiplies a segment's length as the extinction does)."""
-    p = np.asarray(tf.points, dtype=np.float64)
-    dens = p[:, 4] + (p[:, 1:4].max(axis=1) if tf.emission == "emission_density" else 0.0)
-    return p[:, 0], dens
-
-
-def density_max(tf, smin: np.ndarray, smax: np.ndarray) -> np.ndarray:
-    """Largest density of ``tf`` over each scalar range ``[smin, smax]`` (piecewise linear: the ends
-    and the control points between), float64."""
-    s, dens = _density_points(tf)
-    out = np.maximum(np.interp(smin, s, dens), np.interp(smax, s, dens))
-    lo = np.searchsorted(s, smin, side="right")  # control points strictly inside: lo .. hi-1
-    hi = np.searchsorted(s, smax, side="left")
-    has = hi > lo
-    if not has.any():
-        return out
-    # range maximum over control points by a sparse table (log K levels)
-    levels = [dens]
-    while 2 ** len(levels) <= len(dens):
-        prev, w = levels[-1], 2 ** (len(levels) - 1)
-        levels.append(np.maximum(prev[:-w], prev[w:]))
-    a, b = lo[has], hi[has]
-    k = np.floor(np.log2(b - a)).astype(np.int64)
-    m = np.empty(len(a))
-    for lv in np.unique(k):
-        sel = k == lv
-        tab = levels[lv]
-        m[sel] = np.maximum(tab[a[sel]], tab[b[sel] - 2 ** lv])
-    out[has] = np.maximum(out[has], m)
-    return out
 
 
 def _geometry(mesh, tf) -> dict:
@@ -112,13 +80,13 @@ def _window(mesh, camera, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
     return ((xn + 1.0) * 0.5 * w).reshape(-1, 4), ((1.0 - yn) * 0.5 * h).reshape(-1, 4), d.reshape(-1, 4)
 
 
-def thin_tets(mesh, tf, camera) -> np.ndarray:
+def thin_tets(mesh, tf, camera, tau: float = THIN_TAU) -> np.ndarray:
     """Indices of the tets thinner than float32 resolves (smallest height below :data:`THIN_ULPS`
     float32 units of the mesh radius) whose fragments may be visibly wrong: largest density over the
     tet's scalar range times the thickness error -- float32 depth resolution (4 units of the radius)
     plus, for a tet whose projection is narrower than the rasteriser's 1/256-pixel snapping, its
     largest thickness along the view (3 V / projected area) scaled by how much the snapping moves it
-    -- above :data:`THIN_TAU`."""
+    -- above ``tau`` (:data:`THIN_TAU` by default)."""
     g = _geometry(mesh, tf)
     cand = g["cand"]
     if len(cand) == 0:
@@ -137,7 +105,7 @@ def thin_tets(mesh, tf, camera) -> np.ndarray:
     lmax = np.minimum(g["diam"], 3.0 * g["vol"] / np.maximum(area_px * px_size ** 2, 1e-300))
     snap = np.minimum(1.0, (1.0 / 256.0) / np.maximum(width_px, 1e-300))
     err = g["dens"] * (4.0 * EPS32 * g["radius"] + lmax * snap)
-    return cand[err > THIN_TAU]
+    return cand[err > tau]
 
 
 def _face_planes(mesh) -> dict:
@@ -265,18 +233,19 @@ def _segment_samples(col: np.ndarray, row: np.ndarray) -> tuple[np.ndarray, np.n
     return np.concatenate(cs)[:, None], np.concatenate(rs)[:, None]
 
 
-def unresolved_pixels(mesh, tf, camera) -> dict:
+def unresolved_pixels(mesh, tf, camera, tau: float = THIN_TAU, silhouettes: bool = True,
+                      edge_on: bool = True) -> dict:
     """The thin tets (:func:`thin_tets`), the faces seen edge-on from the eye (:func:`edge_on_faces`),
     the silhouette edges snapping makes visible (:func:`silhouette_edges`) and the pixels they may make
     wrong (``pixels``, flat indices): within one pixel of a thin tet's projected bounding box or of an
     edge-on face's or a silhouette edge's projected segment."""
     cover = np.zeros((camera.height_px, camera.width_px), dtype=bool)
-    thin = thin_tets(mesh, tf, camera)
+    thin = thin_tets(mesh, tf, camera, tau)
     if len(thin):
         col, row, _ = _window(mesh, camera, thin)
         _mark_boxes(cover, col, row)
-    faces = edge_on_faces(mesh, camera)
-    sil = silhouette_edges(mesh, tf, camera)
+    faces = edge_on_faces(mesh, camera) if edge_on else np.zeros((0, 3), dtype=np.int64)
+    sil = silhouette_edges(mesh, tf, camera) if silhouettes else np.zeros((0, 2), dtype=np.int64)
     segs = np.concatenate([faces, np.column_stack([sil, sil[:, 1]])]) if len(sil) else faces
     if len(segs):
         tmp = TetMeshFaces(mesh, segs)

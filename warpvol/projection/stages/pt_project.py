@@ -10,14 +10,25 @@ a point), ``class_culled``), ``triangles`` (non-degenerate triangles emitted) an
 
 from __future__ import annotations
 
-from warpvol.stage import Context, Stage, register_stage
+from warpvol.stage import Context, Param, Stage, register_stage
+
+#: optical-depth error bound of a thin cell above which a preset without a float64 redo reports its pixels
+#: as possibly wrong: 0.1, far above a frame buffer's rounding (the bound is conservative: on the Blunt Fin
+#: the thin cells it flags at 2e-3 are wrong by at most 1.4e-3 in pt_best's fp32 buffer)
+WARN_TAU = 0.1
 
 
 @register_stage
 class PTProject(Stage):
     """Classify each projected tet (3/4 triangles, degenerate, flat, culled) and split it.
 
-    (no parameters)
+    ==============  =====  =========  ==============================================================
+    parameter       type   default    meaning
+    ==============  =====  =========  ==============================================================
+    check_float32   bool   true       find the cells float32 cannot draw right (thin cells that carry
+                                      the image) and report their pixels as a warning; off where a
+                                      later stage redoes them (``pt_integrate`` in fp32)
+    ==============  =====  =========  ==============================================================
 
     Example
     -------
@@ -35,6 +46,8 @@ class PTProject(Stage):
     summary = "projected tetrahedra: Shirley-Tuchman classification and decomposition (thick vertex: sf, sb, l)"
     needs = ("vertices", "order")
     provides = ("pt_geometry",)
+    params = (Param("check_float32", bool, True, "report pixels of cells float32 cannot draw right "
+                    "(thin cells) as a warning"),)
 
     def run(self, ctx: Context) -> None:
         from warpvol.projection.pt import decompose
@@ -43,3 +56,20 @@ class PTProject(Stage):
         ctx.buffers["pt_geometry"] = geo
         ctx.count(tets_projected=geo.n_tets, triangles=geo.live_triangles(), thick_vertex_moved=geo.moved,
                   **{f"class_{k}": v for k, v in geo.classes.items()})
+        if self.config["check_float32"]:
+            self.check_float32(ctx)
+
+    def check_float32(self, ctx: Context) -> None:
+        """A faithful preset draws what its arithmetic gives; where that may be visibly wrong (a thin
+        cell's thickness error worth more than :data:`WARN_TAU` of optical depth) the report says how
+        many pixels."""
+        from warpvol.projection.pt_thin import unresolved_pixels
+
+        sc = ctx.scene
+        u = unresolved_pixels(sc.mesh, sc.transfer, sc.camera, tau=WARN_TAU, silhouettes=False, edge_on=False)
+        st = {"thin_tets": u["thin_tets"], "pixels": int(len(u["pixels"]))}
+        if len(u["pixels"]):
+            st["warning"] = (f"{len(u['pixels'])} pixels are covered by {u['thin_tets']} cells thinner than float32 "
+                             "resolves at their extinction: drawn as the emulated hardware computes them (may be "
+                             "visibly wrong; pt_best redoes such pixels in float64)")
+        ctx.stats["pt_project"] = st

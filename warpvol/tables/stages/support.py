@@ -66,3 +66,46 @@ class TableStage(Stage):
         ctx.stats.setdefault("tables", {})[self.config["output"]] = {
             "builder": self.builder, "shape": list(table.data.shape), "format": table.format,
             "built": len(cache.builds) > n_before, "build_s": table.meta.get("build_s")}
+        note = thickness_axis_note(ctx.scene, table, tf)
+        if note is not None:
+            ctx.stats[self.name] = note
+
+
+#: optical depth below which cells thinner than the first thickness step are not reported: five 8-bit steps
+THICKNESS_TAU = 5.0 / 255.0
+
+
+def thickness_axis_note(scene, table, tf) -> dict | None:
+    """A uniform thickness axis spans ``[0, lmax]`` with ``lmax`` the mesh's longest edge, so the cells of
+    a small object beside a large one are thinner than its first step and read a table interpolated
+    between l = 0 and the first texel centre: the paper's arithmetic, reported (``warning``) when such
+    cells carry more than :data:`THICKNESS_TAU` of optical depth in one step. ``None`` for tables
+    without a uniform ``l`` axis."""
+    import numpy as np
+
+    from warpvol.scene.tf_ranges import density_max
+
+    ax = next((a for a in table.axes if a.name == "l"), None)
+    mesh = getattr(scene, "mesh", None)
+    if ax is None or ax.kind not in ("centred", "endpoint") or tf is None \
+            or not all(hasattr(mesh, k) for k in ("points", "tets", "scalars")):
+        return None
+    step = float(ax.scale) / (ax.n if ax.kind == "centred" else ax.n - 1)
+    cache = mesh.__dict__.setdefault("_tet_longest_edge", {})
+    if "l" not in cache:
+        p = np.asarray(mesh.points, dtype=np.float64)[np.asarray(mesh.tets)]
+        cache["l"] = np.max([np.linalg.norm(p[:, a] - p[:, b], axis=1)
+                             for a, b in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))], axis=0)
+    thin = np.flatnonzero(cache["l"] < step)
+    if len(thin) == 0:
+        return None
+    sc = np.asarray(mesh.scalars, dtype=np.float64)[np.asarray(mesh.tets)[thin]]
+    dens = density_max(tf, sc.min(axis=1), sc.max(axis=1))
+    n = int((dens * step > THICKNESS_TAU).sum())
+    if n == 0:
+        return None
+    return {"thin_cells": n, "step": step, "warning": (
+        f"uniform thickness axis of {ax.n} texels over lmax = {ax.scale:.3g} (the mesh's longest edge): {n:,} cells "
+        f"carrying extinction are shorter than one step ({step:.3g}) and read the table between l = 0 and the "
+        "first texel (the paper's arithmetic: their segments are integrated as if thicker or thinner, most where "
+        "small cells sit beside large ones)")}
