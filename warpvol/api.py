@@ -1,8 +1,11 @@
 """One-call notebook API: :func:`render`, :func:`compare`, :func:`presets`.
 
-Inputs follow pyvista's habits: a mesh may be a :class:`~warpvol.TetMesh` or a pyvista data set
-(with ``scalars=`` naming the point array), a camera may be a pyvista plotter, a transfer function
-may be a ParaView preset or a VTK function pair. Every argument is validated and an error names it.
+Inputs follow pyvista's habits: a mesh may be a :class:`~warpvol.TetMesh`, a pyvista data set
+(with ``scalars=`` naming the point array) or a mesh file, a camera may be a pyvista plotter, a
+transfer function may be a colour-map name, a ParaView preset or a VTK function pair. Left out, the
+transfer function is a colour map over the point scalars' range with ParaView's opacity ramp and the
+camera frames the whole mesh (:mod:`warpvol.scene.defaults`). Every argument is validated and an
+error names it.
 """
 
 from __future__ import annotations
@@ -22,25 +25,30 @@ from warpvol import cache
 from warpvol.errors import ConfigError
 from warpvol.pipeline import DEFAULT_PIPELINE, Pipeline, RenderResult, check_device, list_presets, quiet_warp
 from warpvol.scene.camera import Camera
+from warpvol.scene.defaults import colormap_transfer, default_extinction, default_transfer, pixel_size, scalar_window
+from warpvol.scene.defaults import scene_from_spec
 from warpvol.scene.loaders import mesh_from_pyvista
 from warpvol.scene.mesh import TetMesh
 from warpvol.scene.scene import Scene
-from warpvol.scene.scene_file import load_scene, scene_from_config
+from warpvol.scene.scene_file import scene_from_config
 from warpvol.scene.transfer import TransferFunction
 from warpvol.timing import time_summary
 
 IMAGE_EXTENSIONS = (".exr", ".png")
 
 
-def gpu_profile(gpu: Any) -> None:
-    """The one place the ``gpu=`` argument is handled.
-
-    GPU timing models (``--gpu`` profiles) are not part of this build, so only ``None`` is
-    accepted; anything else is a :class:`~warpvol.ConfigError` saying so.
-    """
+def gpu_profile(gpu: Any) -> str | None:
+    """The ``gpu=`` argument checked: ``None`` or the name of a GPU profile (``warpvol gpus``,
+    :func:`warpvol.model.list_profiles`), as ``--gpu`` on the command line."""
     if gpu is None:
         return None
-    raise ConfigError(f"gpu: GPU profiles are not available in this build (got {gpu!r}); use gpu=None")
+    from warpvol import model
+
+    try:
+        model.load_profile(gpu)
+    except ConfigError as e:
+        raise ConfigError(str(e).replace("--gpu:", "gpu:", 1)) from None
+    return gpu
 
 
 # -- argument coercion ----------------------------------------------------------------------------
@@ -53,14 +61,21 @@ def as_mesh(mesh: Any, scalars: str | None = None, split: int | None = None) -> 
     return mesh_from_pyvista(mesh, scalars, split, arg="mesh")
 
 
-def as_transfer(transfer: Any) -> TransferFunction:
-    """``transfer`` as a :class:`TransferFunction`: one already, a ParaView preset (``.json`` file or
-    parsed dict), a scene file's ``[transfer]`` table as a dict, a
+def as_transfer(transfer: Any, mesh: TetMesh | None = None) -> TransferFunction:
+    """``transfer`` as a :class:`TransferFunction`: one already; ``None`` (with ``mesh``) the default
+    (:func:`~warpvol.scene.defaults.default_transfer`); a colour-map name (matplotlib's or a
+    ParaView preset's, with ``mesh``: over its scalar range with the default opacity ramp); a
+    ParaView preset (``.json`` file or parsed dict), a scene file's ``[transfer]`` table as a dict, a
     ``(vtkColorTransferFunction, vtkPiecewiseFunction)`` pair (opacity per unit
     length), a ``vtkVolumeProperty`` (pyvista's ``add_volume(...).prop``: its scalar-opacity unit
     distance is used), or ``[s, r, g, b, extinction]`` rows."""
     if isinstance(transfer, TransferFunction):
         return transfer
+    if transfer is None and mesh is not None:
+        return default_transfer(mesh, where="transfer")
+    if isinstance(transfer, str) and mesh is not None and not transfer.lower().endswith(".json") \
+            and not Path(transfer).is_file():
+        return colormap_transfer(transfer, scalar_window(mesh), default_extinction(mesh), where="transfer")
     if isinstance(transfer, dict) and any(k in transfer for k in ("points", "table", "paraview")):
         return TransferFunction.from_config(transfer, where="transfer")  # a scene file's [transfer] table
     if isinstance(transfer, (str, Path, dict)):
@@ -73,13 +88,26 @@ def as_transfer(transfer: Any) -> TransferFunction:
                                          unit_distance=transfer.GetScalarOpacityUnitDistance(0), where="transfer")
     if isinstance(transfer, (list, tuple, np.ndarray)):
         return TransferFunction(transfer, where="transfer")
-    raise ConfigError("transfer: expected a TransferFunction, a ParaView preset (.json file or dict), a "
+    raise ConfigError("transfer: expected a TransferFunction, a colour-map name, a ParaView preset (.json file or dict), a "
                       f"(vtkColorTransferFunction, vtkPiecewiseFunction) pair or [s, r, g, b, extinction] rows; "
                       f"got {type(transfer).__name__}")
 
 
-def as_camera(camera: Any) -> Camera:
-    """``camera`` as a :class:`Camera`: one already, a pyvista plotter, or a dict of Camera fields."""
+def as_camera(camera: Any, mesh: TetMesh | None = None, size: Any = None) -> Camera:
+    """``camera`` as a :class:`Camera`: one already, a pyvista plotter, or a dict of Camera fields;
+    ``None`` (with ``mesh``) :meth:`Camera.fit` of the mesh. ``size`` (pixels, or ``(width_px,
+    height_px)``) replaces the image size."""
+    if camera is None and mesh is not None:
+        w, h = pixel_size(size)
+        return Camera.fit(mesh, width_px=w, height_px=h)
+    cam = _as_camera(camera)
+    if size is not None:
+        w, h = pixel_size(size)
+        cam = cam.replace(width_px=w, height_px=h)
+    return cam
+
+
+def _as_camera(camera: Any) -> Camera:
     if isinstance(camera, Camera):
         return camera
     if isinstance(camera, dict):
@@ -94,33 +122,44 @@ def as_camera(camera: Any) -> Camera:
 
 
 def as_scene(mesh: Any, transfer: Any = None, camera: Any = None, *, scalars: str | None = None,
-             split: int | None = None) -> Scene:
-    """A :class:`Scene` from parts; ``mesh`` may also be a whole Scene (``transfer`` and ``camera``,
-    when given, replace its own)."""
+             split: int | None = None, size: Any = None) -> Scene:
+    """A :class:`Scene` from parts. ``mesh`` may also be a whole Scene, ``"builtin:NAME"``, a scene
+    ``.toml`` file or a mesh file pyvista reads (:func:`~warpvol.scene.defaults.scene_from_spec`);
+    ``transfer`` and ``camera``, when given, replace the scene's own. Left out for a bare mesh, the
+    transfer function is the default colour map over its scalars and the camera frames it
+    (:mod:`warpvol.scene.defaults`). ``size`` replaces the image size in pixels."""
+    if isinstance(mesh, (str, Path)):
+        mesh = scene_from_spec(mesh, scalars=scalars, split=split, where="mesh")
+    elif isinstance(mesh, Scene) and (scalars is not None or split is not None):
+        raise ConfigError("scalars/split: only used when mesh is a pyvista data set or a mesh file, not a Scene")
     if isinstance(mesh, Scene):
-        if scalars is not None or split is not None:
-            raise ConfigError("scalars/split: only used when mesh is a pyvista data set, not a Scene")
-        return Scene(mesh=mesh.mesh, transfer=mesh.transfer if transfer is None else as_transfer(transfer),
-                     camera=mesh.camera if camera is None else as_camera(camera), name=mesh.name, source=mesh.source)
+        cam = mesh.camera if camera is None else as_camera(camera, mesh.mesh)
+        if size is not None:
+            w, h = pixel_size(size)
+            cam = cam.replace(width_px=w, height_px=h)
+        return Scene(mesh=mesh.mesh, transfer=mesh.transfer if transfer is None else as_transfer(transfer, mesh.mesh),
+                     camera=cam, name=mesh.name, source=mesh.source)
     m = as_mesh(mesh, scalars, split)
-    if transfer is None:
-        raise ConfigError("transfer: required (a TransferFunction, ParaView preset or VTK function pair)")
-    if camera is None:
-        raise ConfigError("camera: required (a Camera, a pyvista Plotter or a dict of Camera fields)")
-    return Scene(mesh=m, transfer=as_transfer(transfer), camera=as_camera(camera), name=m.name)
+    return Scene(mesh=m, transfer=as_transfer(transfer, m), camera=as_camera(camera, m, size), name=m.name)
 
 
 def _scene_of(scene_or_parts: Any, scalars: str | None) -> Scene:
-    if isinstance(scene_or_parts, Scene):
-        return as_scene(scene_or_parts)
-    if isinstance(scene_or_parts, (str, Path)):
-        return load_scene(scene_or_parts)
     if isinstance(scene_or_parts, dict):
         return scene_from_config(scene_or_parts, where="scene_or_parts")
     if isinstance(scene_or_parts, (tuple, list)) and len(scene_or_parts) == 3:
         return as_scene(*scene_or_parts, scalars=scalars)
-    raise ConfigError("scene_or_parts: expected a Scene, a scene file, 'builtin:NAME', a scene dict or a "
-                      f"(mesh, transfer, camera) tuple; got {type(scene_or_parts).__name__}")
+    if isinstance(scene_or_parts, (tuple, list)):
+        raise ConfigError("scene_or_parts: expected a Scene, a scene file, 'builtin:NAME', a mesh file, a mesh, a "
+                          f"scene dict or a (mesh, transfer, camera) tuple; got a {type(scene_or_parts).__name__} "
+                          f"of {len(scene_or_parts)}")
+    try:
+        return as_scene(scene_or_parts, scalars=scalars)
+    except ConfigError as e:
+        if str(e).startswith("mesh: expected"):
+            raise ConfigError("scene_or_parts: expected a Scene, a scene file, 'builtin:NAME', a mesh file, a mesh, "
+                              "a scene dict or a (mesh, transfer, camera) tuple; got "
+                              f"{type(scene_or_parts).__name__}") from None
+        raise
 
 
 def _pipeline(pipeline: Any, device: str, arg: str = "pipeline") -> tuple[Pipeline, Any]:
@@ -153,11 +192,13 @@ def _interned(scene: Scene) -> Scene:
                                                   name=scene.name, source=scene.source)
 
 
-def _quiet(quiet: Any) -> None:
+def _quiet(quiet: Any, device: Any) -> None:
+    """Before anything touches Warp: with ``quiet``, Warp initialised without its banner and
+    module-load lines (nothing of it on stdout from the first call on)."""
     if not isinstance(quiet, bool):
         raise ConfigError(f"quiet: expected True or False, got {quiet!r}")
     if quiet:
-        quiet_warp()
+        quiet_warp(cuda=isinstance(device, str) and device.startswith("cuda"))
 
 
 def _device(device: Any) -> str:
@@ -209,18 +250,20 @@ def _rgb(image: np.ndarray, background=(0.0, 0.0, 0.0)) -> np.ndarray:
     return np.clip(composite_over(np.asarray(image, np.float64), background), 0.0, 1.0)
 
 
-def _draw(ax_img, ax_err, res: "Rendering", title: str) -> None:
-    """One panel pair: the image (title: time and RMSE) and its error map against the reference."""
+def _draw(ax_img, ax_err, res: "Rendering", title: str, norm=None) -> None:
+    """One panel pair: the image (title: time and RMSE) and its error map against the reference on
+    the logarithmic colour scale ``norm`` (:func:`warpvol.metrics.error_norm`; one per figure)."""
+    from warpvol.metrics import draw_error, error_norm
+
     ax_img.imshow(_rgb(res.image), interpolation="nearest")
     t = res.report.get("median_s", res.report.get("render_s", res.report["total_s"]))
     err = res.error
     ax_img.set_title(f"{title}\n{t:.3f} s" + (f", RMSE {err['rmse']:.2e}" if err else ""), fontsize=9)
     ax_img.set_axis_off()
     if ax_err is not None:
-        im = ax_err.imshow(res.error_image, cmap="magma", interpolation="nearest", vmin=0.0)
-        ax_err.set_title(f"|error| (max {err['max_abs']:.2e})", fontsize=9)
-        ax_err.set_axis_off()
-        ax_err.figure.colorbar(im, ax=ax_err, fraction=0.046, pad=0.04)
+        emap = res.error_image
+        draw_error(ax_err, emap, error_norm(emap) if norm is None else norm)
+        ax_err.set_title(f"|error|, log scale (max {err['max_abs']:.2e})", fontsize=9)
 
 
 @dataclass
@@ -264,7 +307,7 @@ class Rendering(RenderResult):
 
     def plot(self):
         """A matplotlib figure of the image (over black; title: pipeline, time, RMSE) and, when there
-        is a reference, its error map."""
+        is a reference, its error map on a logarithmic colour scale with a colour bar."""
         from matplotlib.figure import Figure
 
         return self._fill(Figure(figsize=self._figsize(), layout="constrained"))
@@ -303,22 +346,30 @@ class Rendering(RenderResult):
 
 def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = DEFAULT_PIPELINE,
            reference: Any = False, device: str = "cpu", gpu: Any = None, *, scalars: str | None = None,
-           split: int | None = None, quiet: bool = True) -> Rendering:
+           split: int | None = None, size: Any = None, quiet: bool = True) -> Rendering:
     """Render a mesh in one call.
 
     Parameters
     ----------
-    mesh : TetMesh, pyvista data set or Scene
+    mesh : TetMesh, pyvista data set, Scene or str / path
         A pyvista ``UnstructuredGrid``, ``StructuredGrid``, ``ImageData`` or ``RectilinearGrid`` is
-        converted as a scene file would be (:meth:`TetMesh.from_pyvista`); a :class:`Scene` brings
-        its own transfer function and camera (the arguments, when given, replace them).
-    transfer : TransferFunction, ParaView preset, VTK functions or vtkVolumeProperty
-        A preset is a ``.json`` file or its dict (:meth:`TransferFunction.from_paraview`); a
-        ``(vtkColorTransferFunction, vtkPiecewiseFunction)`` pair is read with unit distance 1
-        and a volume property (``plotter.add_volume(...).prop``) with its own
-        (:meth:`TransferFunction.from_vtk` states the conversion).
-    camera : Camera, pyvista.Plotter or dict
-        A plotter gives its current view and window size (:meth:`Camera.from_pyvista`).
+        converted as a scene file would be (:meth:`TetMesh.from_pyvista`); a :class:`Scene`,
+        ``"builtin:NAME"`` or a scene ``.toml`` file brings its own transfer function and camera (the
+        arguments, when given, replace them); any other file name is a mesh file pyvista reads
+        (``.vtu``, ``.vtk``, ...).
+    transfer : None, colour-map name, TransferFunction, ParaView preset, VTK functions or vtkVolumeProperty
+        ``None``: the ``"viridis"`` colour map over the point scalars' range with ParaView's opacity
+        ramp (extinction rising linearly, scaled so an average ray gathers an optical depth of about
+        2); a name: any matplotlib
+        colour map or ParaView preset name the same way (:mod:`warpvol.scene.defaults`; an unknown
+        name is an error listing the closest). A preset is a ``.json`` file or its dict
+        (:meth:`TransferFunction.from_paraview`); a ``(vtkColorTransferFunction,
+        vtkPiecewiseFunction)`` pair is read with unit distance 1 and a volume property
+        (``plotter.add_volume(...).prop``) with its own (:meth:`TransferFunction.from_vtk` states
+        the conversion).
+    camera : None, Camera, pyvista.Plotter or dict
+        ``None``: :meth:`Camera.fit`, pyvista's default view of the whole mesh. A plotter gives its
+        current view and window size (:meth:`Camera.from_pyvista`).
     pipeline : str, path or Pipeline
         A preset name (see :func:`presets`), a pipeline ``.toml`` file or a built pipeline.
     reference : bool, array or path
@@ -326,15 +377,19 @@ def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = 
         ``(H, W, 4)`` array or an EXR file is used as the reference.
     device : str
         Warp device: ``"cpu"`` or ``"cuda:0"``, ...
-    gpu : None
-        GPU timing profile; not available in this build (anything but ``None`` is an error).
+    gpu : str, optional
+        A GPU profile (``warpvol gpus``), as ``--gpu`` on the command line: every stage's
+        capabilities are checked against the card and the report gains ``gpu`` and ``modelled_s``.
     scalars : str, optional
-        Point-data array of a pyvista ``mesh`` (default: its active scalars).
+        Point-data array of a pyvista ``mesh`` or mesh file (default: its active scalars).
     split : {None, 6, 5}, optional
         Tets per hex cell of a structured pyvista ``mesh``.
+    size : int or (int, int), optional
+        Image size in pixels, ``(width_px, height_px)``; replaces the camera's (default 512 x 512
+        for a fitted camera).
     quiet : bool
-        Keep per-stage progress lines and Warp's start-up and module-load messages off the output
-        (the latter through ``warp.config``, as the command line does).
+        Keep per-stage progress lines and Warp's start-up and module-load messages off the output:
+        Warp is initialised quietly before anything else, so nothing reaches stdout.
 
     Returns
     -------
@@ -350,14 +405,16 @@ def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = 
     ((16, 16, 4), True)
     >>> round(float(r.image[8, 8, 3]), 5)  # alpha through thickness 2 at extinction 1.5: 1 - exp(-3)
     0.95021
+    >>> warpvol.render(scene.mesh, size=16).image.shape  # default transfer function and camera
+    (16, 16, 4)
     """
-    gpu_profile(gpu)
+    _quiet(quiet, device)
     device = _device(device)
-    _quiet(quiet)
-    scene = _interned(as_scene(mesh, transfer, camera, scalars=scalars, split=split))
+    gpu = gpu_profile(gpu)
+    scene = _interned(as_scene(mesh, transfer, camera, scalars=scalars, split=split, size=size))
     pipe, key = _pipeline(pipeline, device)  # unknown pipelines fail before the reference spends time
     ref, ref_s = _reference(reference, scene)
-    res = pipe.render(scene, reference=ref, quiet=quiet, device=device)
+    res = pipe.render(scene, reference=ref, quiet=quiet, device=device, gpu=gpu)
     if key is not None:
         cache.pipeline_used(key)
     if ref_s is not None:
@@ -420,13 +477,14 @@ class Comparison:
         return f"{img}<table><tr>{head}</tr>{body}</table>"
 
 
-def _timed_renders(pipe: Pipeline, scene: Scene, ref, repeats: int, quiet: bool, device: str) -> tuple[Any, float, float]:
+def _timed_renders(pipe: Pipeline, scene: Scene, ref, repeats: int, quiet: bool, device: str,
+                   gpu: str | None = None) -> tuple[Any, float, float]:
     """``(last result, cold seconds, median warm seconds)``: one render that may compile kernels and
     build the set-up, then ``repeats`` warm ones."""
     import statistics
 
-    first = pipe.render(scene, reference=ref, quiet=quiet, device=device)
-    warm = [pipe.render(scene, reference=ref, quiet=quiet, device=device) for _ in range(repeats)]
+    first = pipe.render(scene, reference=ref, quiet=quiet, device=device, gpu=gpu)
+    warm = [pipe.render(scene, reference=ref, quiet=quiet, device=device, gpu=gpu) for _ in range(repeats)]
     last = warm[-1] if warm else first
     times = [r.report["total_s"] for r in warm] or [first.report["total_s"]]
     return last, float(first.report["total_s"]), float(statistics.median(times))
@@ -444,9 +502,10 @@ def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, refere
 
     Parameters
     ----------
-    scene_or_parts : Scene, str, path, dict or (mesh, transfer, camera)
-        A scene, a scene file or ``"builtin:NAME"``, a scene table, or the parts :func:`render`
-        takes.
+    scene_or_parts : Scene, str, path, mesh, dict or (mesh, transfer, camera)
+        A scene, a scene file, ``"builtin:NAME"`` or a mesh file, a mesh (TetMesh or pyvista data
+        set, with the default transfer function and camera), a scene table, or the parts
+        :func:`render` takes (``None`` for a default).
     pipelines : str or sequence
         Preset names (any of :func:`presets`), pipeline ``.toml`` files or :class:`Pipeline` objects;
         all are loaded (and checked) before anything is rendered.
@@ -461,7 +520,8 @@ def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, refere
     Returns
     -------
     Comparison
-        ``figure`` (titles give each pipeline's warm time and RMSE), ``table`` (rows of
+        ``figure`` (titles give each pipeline's warm time and RMSE; the error maps share one
+        logarithmic colour scale), ``table`` (rows of
         :data:`TABLE_COLUMNS`), ``results``; ``fig, table = compare(...)``.
 
     Examples
@@ -476,9 +536,9 @@ def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, refere
 
     from warpvol.errors import WarpvolError
 
-    gpu_profile(gpu)
+    _quiet(quiet, device)
     device = _device(device)
-    _quiet(quiet)
+    gpu = gpu_profile(gpu)
     if reference is False or reference is None:
         raise ConfigError("reference: compare needs a reference (True to compute it, or an image)")
     if not isinstance(repeats, (int, np.integer)) or isinstance(repeats, bool) or repeats < 0:
@@ -499,7 +559,7 @@ def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, refere
         row: dict[str, Any] = dict.fromkeys(TABLE_COLUMNS)
         row["pipeline"] = key
         try:
-            r, cold, warm = _timed_renders(pipe, scene, ref, int(repeats), quiet, device)
+            r, cold, warm = _timed_renders(pipe, scene, ref, int(repeats), quiet, device, gpu)
         except WarpvolError as e:  # the pipeline declines this scene, in words
             table.append({**row, "status": "declined", "reason": str(e)})
             continue
@@ -516,10 +576,13 @@ def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, refere
                       "max_abs": err["max_abs"], "psnr": err["psnr"], "reason": ""})
     fig = None
     if results:
+        from warpvol.metrics import error_norm
+
+        norm = error_norm(*(r.error_image for r in results.values()))  # one colour scale for every panel
         fig = Figure(figsize=(8.4, 4.0 * len(results)), layout="constrained")
         axes = fig.subplots(len(results), 2, squeeze=False)
         for row_axes, (k, r) in zip(axes, results.items()):
-            _draw(row_axes[0], row_axes[1], r, k)
+            _draw(row_axes[0], row_axes[1], r, k, norm)
         if ref_s is not None:
             fig.suptitle(f"{scene.name}: exact reference {ref_s:.2f} s", fontsize=10)
     return Comparison(fig, table, results, ref, ref_s)

@@ -39,18 +39,89 @@ def error_image(image: np.ndarray, reference: np.ndarray) -> np.ndarray:
     return np.abs(np.asarray(image, np.float64) - np.asarray(reference, np.float64)).max(axis=-1)
 
 
+#: lowest error an error map's logarithmic colour scale shows (smaller errors, exact zeros included, take
+#: its colour): about a tenth of float32's resolution at 1
+ERROR_FLOOR = 1e-8
+#: colour map of the error maps
+ERROR_CMAP = "magma"
+#: what an error map shows (its colour bar's label)
+ERROR_LABEL = "max |image - reference| over RGBA (log scale)"
+
+
+def error_norm(*maps: np.ndarray, floor: float = ERROR_FLOOR):
+    """One logarithmic colour scale (matplotlib ``LogNorm``) for all of ``maps``: from ``floor`` to
+    their largest value (at least ten times ``floor``), so maps drawn with it compare by colour.
+
+    Examples
+    --------
+    >>> n = error_norm(np.array([[0.0, 1e-3]]), np.array([[2e-2]]))
+    >>> n.vmin, n.vmax, type(n).__name__
+    (1e-08, 0.02, 'LogNorm')
+    """
+    from matplotlib.colors import LogNorm
+
+    top = max([float(np.max(m)) for m in maps if np.size(m)] + [0.0])
+    return LogNorm(vmin=floor, vmax=max(top, 10.0 * floor), clip=True)
+
+
+def draw_error(ax, err: np.ndarray, norm, *, colorbar: bool = True):
+    """Draw error map ``err`` on matplotlib axes ``ax`` with ``norm`` (:func:`error_norm`); values below
+    the floor take its colour. With ``colorbar``, a colour bar labelled :data:`ERROR_LABEL`. Returns
+    the image."""
+    im = ax.imshow(np.maximum(np.asarray(err, np.float64), norm.vmin), cmap=ERROR_CMAP, norm=norm,
+                   interpolation="nearest")
+    ax.set_axis_off()
+    if colorbar:
+        cb = ax.figure.colorbar(im, ax=ax, fraction=0.046, pad=0.04)
+        cb.set_label(ERROR_LABEL, fontsize=8)
+        cb.ax.tick_params(labelsize=7)
+    return im
+
+
+def error_png_bytes(err: np.ndarray, *, title: str | None = None, norm=None) -> bytes:
+    """A PNG of error map ``err`` (H, W) on a logarithmic colour scale with its colour bar (the scale
+    written beside it), the map drawn at least 256 pixels high (each error pixel a block of pixels)."""
+    import io
+
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    err = np.asarray(err, np.float64)
+    norm = error_norm(err) if norm is None else norm
+    h, w = err.shape
+    s = max(1, int(np.ceil(256 / max(h, 1))))
+    W, H, left, bottom, top = w * s + 190, h * s + 56, 10, 16, 40  # figure and margins in pixels
+    dpi = 100
+    fig = Figure(figsize=(W / dpi, H / dpi), dpi=dpi)
+    FigureCanvasAgg(fig)
+    ax = fig.add_axes((left / W, bottom / H, w * s / W, h * s / H))
+    draw_error(ax, err, norm, colorbar=False)
+    cax = fig.add_axes(((left + w * s + 14) / W, bottom / H, 12 / W, h * s / H))
+    cb = fig.colorbar(ax.images[0], cax=cax)
+    cb.set_label(ERROR_LABEL, fontsize=7)
+    cb.ax.tick_params(labelsize=7)
+    text = title if title is not None else (f"max |error| {float(err.max()):.2e}; log scale {norm.vmin:.0e} .. "
+                                            f"{norm.vmax:.1e}\n(errors below {norm.vmin:.0e}, exact pixels too, "
+                                            "take the lowest colour)")
+    fig.text(left / W, 1 - 4 / H, text, fontsize=7, va="top")
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return buf.getvalue()
+
+
 def write_error_png(path, image: np.ndarray, reference: np.ndarray, outputs=None) -> float:
-    """PNG of :func:`error_image` scaled so its maximum is white; returns that maximum.
+    """PNG of :func:`error_image` on a logarithmic colour scale (:data:`ERROR_FLOOR` to the maximum)
+    with a colour bar and the scale written on it; returns the maximum.
 
     With ``outputs`` (a :class:`warpvol.io.Outputs`) the file is staged there instead of written now.
     """
     from warpvol.io import Outputs
 
     err = error_image(image, reference)
-    scale = float(err.max())
+    data = error_png_bytes(err)
     if outputs is None:
         with Outputs() as out:
-            out.png(path, err / max(scale, 1e-30))
+            out.bytes(path, data)
     else:
-        outputs.png(path, err / max(scale, 1e-30))
-    return scale
+        outputs.bytes(path, data)
+    return float(err.max())

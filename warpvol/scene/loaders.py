@@ -113,10 +113,11 @@ def _read_quietly(p: Path):
 
 
 def read_mesh_file(path: Path | str, scalars: str | None, *, strict: bool = False,
-                   where: str = "mesh", split: int | None = None) -> TetMesh:
+                   where: str = "mesh", split: int | None = None, active_scalars: bool = False) -> TetMesh:
     """Read any data set pyvista can read and turn it into a :class:`TetMesh`.
 
-    ``scalars`` names a point-data array (one component). Structured grids use the 6-tet split,
+    ``scalars`` names a point-data array (one component); with ``active_scalars``, ``None`` takes
+    the file's active point scalars or its only point array, as pyvista does. Structured grids use the 6-tet split,
     tet-only unstructured grids are taken as they are, other cells are split conforming (see the
     module docstring).
     """
@@ -135,6 +136,9 @@ def read_mesh_file(path: Path | str, scalars: str | None, *, strict: bool = Fals
         if len(blocks) != 1:
             raise ConfigError(f"{where}.path: {p} holds {len(blocks)} blocks; warpvol needs a single data set")
         ds = blocks[0]
+    if scalars is None and active_scalars:
+        keys = list(ds.point_data.keys())
+        scalars = ds.point_data.active_scalars_name or (keys[0] if len(keys) == 1 else None)
     return mesh_from_dataset(ds, scalars, strict=strict, name=str(p), source=str(p), split=split,
                              scalars_key=f"{where}.scalars", dataset_key=f"{where}.path", split_key=f"{where}.split")
 
