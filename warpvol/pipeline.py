@@ -200,11 +200,13 @@ class Pipeline:
             raise ConfigError(f"pipeline {name!r}: no stages")
         check_stage_order(stages, f"pipeline {name!r}")
         self.stages, self.name, self.description = stages, name, description
+        #: a faithful preset's known losses (its ``known_losses`` key): in every report as a warning
+        self.known_losses = ""
         self.persistent: dict[str, Any] = {}
 
     @classmethod
     def from_config(cls, cfg: dict, device: str = "cpu", where: str = "pipeline") -> "Pipeline":
-        check_keys(where, cfg, ["name", "description", "stages"])
+        check_keys(where, cfg, ["name", "description", "known_losses", "stages"])
         device = check_device(device, "--device" if where.startswith("preset") else f"{where}: device")
         stages_cfg = cfg.get("stages")
         if not isinstance(stages_cfg, list) or not stages_cfg:
@@ -217,7 +219,9 @@ class Pipeline:
             sc = dict(sc)
             scls = get_stage_class(sc.pop("stage"), where=f"{w}.stage")
             stages.append(scls(device=device, where=f"{w} ({scls.name})", **sc))
-        return cls(stages, name=str(cfg.get("name", where)), description=str(cfg.get("description", "")))
+        pipe = cls(stages, name=str(cfg.get("name", where)), description=str(cfg.get("description", "")))
+        pipe.known_losses = str(cfg.get("known_losses", "")).strip()
+        return pipe
 
     @classmethod
     def load(cls, name_or_path: str | Path, device: str = "cpu") -> "Pipeline":
@@ -299,6 +303,8 @@ class Pipeline:
 
             if (precision := precision_warnings(scene)) is not None:
                 ctx.stats["precision"] = precision
+        if self.known_losses:  # what the emulated hardware loses by design, stated in every report
+            ctx.stats["known_losses"] = {"warning": self.known_losses}
         report: dict[str, Any] = {"pipeline": self.name, "device": device, "scene": getattr(scene, "name", None),
                                   "image": [scene.camera.height_px, scene.camera.width_px],
                                   "stages": {}, "skipped": []}

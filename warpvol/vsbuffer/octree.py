@@ -26,23 +26,25 @@ class Octree:
         return len(self.parent)
 
 
-def build_octree(cell_lo: np.ndarray, cell_hi: np.ndarray, depth: int, insert: str = "centroid") -> Octree:
+def build_octree(cell_lo: np.ndarray, cell_hi: np.ndarray, depth: int, insert: str = "containing") -> Octree:
     """Regular octree of ``depth`` levels below the root over the cells' bounding boxes.
 
+    ``insert="containing"`` (the paper's rule, the default): every cell at the deepest node whose
+    region fully contains the cell's box, node boxes the regions (cells straddling a split stay high
+    and are drawn for many planes: 11.9 M drawn tets on the Blunt Fin at 450 scanlines against the
+    paper's 2.10 M).
     ``insert="centroid"``: every cell in the leaf holding its box centre; a node's box is the union of
-    the boxes of the cells below it (the bounding box of its primitives, as the paper describes the
-    tree of [22]), so a plane draws the cells of leaves whose boxes it cuts.
-    ``insert="containing"``: every cell at the deepest node whose region contains the cell's box,
-    node boxes the regions (cells straddling a split stay high and are drawn for many planes).
+    the boxes of the cells below it, so a plane draws the cells of leaves whose boxes it cuts (2.29 M
+    drawn tets on the Blunt Fin: close to the paper's count, not the paper's rule).
     Only non-empty nodes and their ancestors are kept.
 
     Examples
     --------
     >>> lo = np.array([[0, 0, 0], [0.6, 0.6, 0.6], [0.4, 0, 0]]); hi = lo + 0.3
-    >>> t = build_octree(lo, hi, 2, "containing")
+    >>> t = build_octree(lo, hi, 2)
     >>> t.n_nodes, [int(n) for n in np.diff(t.cell_start)]        # root holds the straddling cell
     (3, [1, 1, 1])
-    >>> t = build_octree(lo, hi, 2)
+    >>> t = build_octree(lo, hi, 2, "centroid")
     >>> [int(n) for n in np.diff(t.cell_start)], t.hi[0].round(6).tolist()  # cells in leaves; tight root box
     ([0, 0, 0, 0, 1, 1, 1], [0.9, 0.9, 0.9])
     """

@@ -76,5 +76,10 @@ class SortCells(Stage):
         if self.config["method"] == "auto":
             info["planner"] = ("convex boundary: MPVO" if mesh.is_convex
                                else "non-convex boundary: MPVONC")
+        if r.cycles_broken:
+            info["cycles_broken"] = int(r.cycles_broken)
+            info["warning"] = (f"visibility order approximate: {r.method} broke {int(r.cycles_broken):,} cycle(s) of the "
+                               "cells' in-front-of relation; cells in a cycle are drawn in an order that is wrong for "
+                               "some pixels")
         ctx.stats["sort"] = info
         ctx.count(cells_sorted=len(r.order), graph_edges=r.edges, cycles_broken=r.cycles_broken, **r.extra)

@@ -25,8 +25,9 @@ class VsbSweep(Stage):
     ================  =====  ==========  ==============================================================
     depth_res         int    0           VSBUFFER rows along the view (0: the image height, the paper's)
     tree_depth        int    5           octree levels below the root (the paper: 5), [0, 10]
-    tree_insert       str    centroid    ``centroid`` (leaf of the box centre, tight node boxes) |
-                                         ``containing`` (deepest node containing the box)
+    tree_insert       str    containing  ``containing`` (the paper's: deepest node fully containing
+                                         the cell's box) | ``centroid`` (leaf of the box centre,
+                                         tight node boxes: fewer drawn cells, same image)
     integration       str    trapezoid   ``trapezoid`` (the paper's, with attenuation) | ``exact`` |
                                          ``table`` (3D pre-integration lookup of (sf, sb, l))
     table             str    table3d     ``ctx.buffers`` key of the 3D table (``table``; then needed)
@@ -54,7 +55,7 @@ class VsbSweep(Stage):
     params = (
         Param("depth_res", int, 0, "VSBUFFER rows along the view (0: image height)", lo=0, hi=65536),
         Param("tree_depth", int, 5, "octree levels below the root", lo=0, hi=10),
-        Param("tree_insert", str, "centroid", "cell placement in the octree", choices=("centroid", "containing")),
+        Param("tree_insert", str, "containing", "cell placement in the octree", choices=("containing", "centroid")),
         Param("integration", str, "trapezoid", "integration rule", choices=INTEGRATIONS),
         Param("table", str, "table3d", "ctx.buffers key of the 3D table (integration = table)"),
         Param("weight_bits", int, 8, "table texture's filter-weight fraction bits (0: fp32 weights)", lo=0, hi=16),
@@ -104,6 +105,8 @@ class VsbSweep(Stage):
         ctx.stats["vsbuffer"]["walk"] = c  # every count of the sweep; the hardware work is in ``counters``
         ctx.stats["vsbuffer"].update(lost_segments=c["lost_segments"], missed_cells=c["missed_cells"])
         ctx.stats["vsbuffer"]["rays_rewalked"] = c["rays_rewalked"]
+        # the paper's Table 1 column "drawn tetra": cells drawn over all sweep planes, by the insert rule
+        ctx.stats["vsbuffer"].update(tree_insert=self.tree_insert, drawn_cells=c["drawn_cells"])
         if (c["lost_segments"] or c["missed_cells"]) and not self.rewalk:
             ctx.stats["vsbuffer"]["warning"] = (
                 f"{c['missed_cells']} ray/cell crossings missed by the VSBUFFER "
