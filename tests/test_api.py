@@ -154,21 +154,3 @@ def test_compare_accepts_scene_files_builtin_names_and_parts():
     assert by_name.results["raycast"].image.shape == (128, 128, 4)
     for c in (by_parts, by_name):
         matplotlib.pyplot.close(c.figure)
-
-
-def test_readme_python_example_runs_as_written(tmp_path, monkeypatch):
-    import re
-    from pathlib import Path
-
-    text = (Path(__file__).parent.parent / "README.md").read_text()
-    section = text.split("\n## Python\n", 1)[1].split("\n## ", 1)[0]
-    code = re.findall(r"```python\n(.*?)```", section, flags=re.S)
-    assert len(code) == 1
-    monkeypatch.chdir(tmp_path)
-    ns = {}
-    exec(compile(code[0], "README.md (Python)", "exec"), ns)
-    for f in ("sphere.png", "shell.json", "compare.png"):
-        assert (tmp_path / f).stat().st_size > 0
-    assert ns["r"].error["rmse"] <= TOL["rmse"] and ns["shell"].error["rmse"] <= TOL["rmse"]
-    assert ns["shell"].image[..., 3].max() > 0.3 and [row["pipeline"] for row in ns["table"]] == list(warpvol.presets())
-    matplotlib.pyplot.close("all")
