@@ -127,3 +127,25 @@ def test_guthe_presets_run_their_cards_arithmetic():
     stages[2]["scales"], stages[4]["gpu"] = "free", "geforce4"
     with pytest.raises(ConfigError, match="scales"):
         Pipeline.from_config({"name": "t", "stages": stages}).render(sc, quiet=True)
+
+
+# ---------------------------------------------------------------- item 5: GeForce3 combiner constant l/n
+
+
+def test_geforce3_combiner_holds_l_over_n_as_an_8_bit_register():
+    from warpvol.reproduce.roettger2002 import fig4_tf
+    from warpvol.tables.roettger_hw import build_roettger_hw, ln_register
+
+    tf = fig4_tf(0.15)
+    kw = dict(n_s=8, n_l=4, lmax=1.0, steps=16, bits=8, passes="one", variant="geforce3")
+    hw = build_roettger_hw(tf, **kw)
+    ex = build_roettger_hw(tf, ln_format="fp32", **kw)
+    ls = hw.axes[0].physical
+    codes = hw.meta["ln_codes"]
+    assert hw.meta["ln_format"] == "unorm8" and codes == [int(np.floor(255 * v / 16 + 0.5)) for v in ls]
+    assert all(ln_register(v / 16)[0] == np.float32(c / 255) for v, c in zip(ls, codes))
+    assert np.abs(hw.data[..., :3] - ex.data[..., :3]).max() > 0  # the register value changes the colours
+    np.testing.assert_array_equal(hw.data[..., 3], ex.data[..., 3])  # opacity does not use l/n in the combiner
+    # a slice whose l/n is below half a code: the register holds 0 and the slice emits nothing
+    tiny = build_roettger_hw(tf, n_s=8, n_l=1, lmax=0.05, steps=64, bits=8, passes="one", variant="geforce3")
+    assert tiny.meta["ln_codes"] == [0] and tiny.data[..., :3].max() == 0.0

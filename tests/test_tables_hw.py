@@ -65,12 +65,15 @@ def test_geforce3_combiners_beat_plain_8bit_blending():
     gf3 = build_roettger_hw(tf, n_s=12, n_l=3, steps=steps, bits=8, variant="geforce3", n_tex=256)
     texel = build_roettger_hw(tf, n_s=12, n_l=3, steps=steps, bits=8, variant="geforce3", n_tex=256,
                               ln_in_combiner=False)
+    exact_ln = build_roettger_hw(tf, n_s=12, n_l=3, steps=steps, bits=8, variant="geforce3", n_tex=256,
+                                 ln_format="fp32")
     fl4 = float_same_steps(tf, 12, 3, steps // 4)
     e = {"plain": rms(plain), "plain_n/4_vs_own_fp32": float(np.sqrt(((quarter.data - fl4.data) ** 2).mean())),
-         "geforce3": rms(gf3), "geforce3_texel": rms(texel)}
+         "geforce3": rms(gf3), "geforce3_texel": rms(texel), "geforce3_fp32_ln": rms(exact_ln)}
     report("geforce3 vs plain 8-bit (RMS vs same-step fp32)", **e)
     assert e["geforce3"] < 0.7 * e["plain"] and e["geforce3"] < e["geforce3_texel"]
-    assert e["geforce3"] < 2.0 * e["plain_n/4_vs_own_fp32"]
+    # the factor-4 equivalence needs l/n exact; the 8-bit constant register the card had loses part of it
+    assert e["geforce3_fp32_ln"] < 2.0 * e["plain_n/4_vs_own_fp32"] < e["geforce3"]
     assert gf3.meta["blends"] * 4 == plain.meta["blends"]
 
 

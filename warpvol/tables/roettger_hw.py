@@ -17,7 +17,9 @@ frame buffer of 8 or 12 bits per channel (every blend rounds: that is the method
 
 ``variant="geforce3"``: 4 texture units per pass, 3 general register-combiner steps at 12-bit internal
 precision, the final combiner's output stored into an 8-bit buffer (4 steps per blend); with an
-emission-density TF the texture holds kappa and the combiners apply ``l/n`` at 12 bits (``ln_in_combiner``).
+emission-density TF the texture holds kappa and the combiners apply ``l/n`` at 12 bits (``ln_in_combiner``),
+``l/n`` itself a combiner constant register (``CONSTANT_COLOR0``: 8-bit unsigned, ``ln_format="unorm8"``;
+``"fp32"`` keeps the exact constant, which the hardware could not hold).
 ``gl_dither``: OpenGL's default GL_DITHER (ordered 4x4 dither of every blend result).
 
 The texture has ``n_tex`` texels (default: the TF's number of control points, ``m``); texel k holds the
@@ -58,6 +60,27 @@ def tf_texture_values(tf, n_tex: int, l: float, n: int, kappa_only: bool = False
     return np.clip(np.column_stack([e, a]), 0.0, 1.0)
 
 
+def ln_register(ln: float, ln_format: str = "unorm8") -> tuple[float, int | None]:
+    """``(value, code)`` of the constant ``l/n`` in the combiner register: ``unorm8`` -> the 8-bit
+    code (:mod:`warpvol.gpu.formats`, round to nearest, saturating) and its value; ``fp32`` ->
+    ``(ln, None)``.
+
+    Examples
+    --------
+    >>> ln_register(1.0 / 64)  # 3.98 -> code 4
+    (0.01568627543747425, 4)
+    >>> ln_register(0.001)[1]  # below half a code: the register holds 0, the slice emits nothing
+    0
+    """
+    if ln_format == "fp32":
+        return float(ln), None
+    from warpvol.gpu.formats import get_format
+
+    f = get_format("unorm8")
+    code = f.encode(np.asarray([ln], dtype=np.float32))
+    return float(f.decode(code)[0]), int(code[0])
+
+
 def count_slice_draws(jobs, nblend: int, draw: int, group: int, n_s: int) -> None:
     """Counters of one wave of slice draws (each job: one pass of ``nblend`` full-slice rectangles,
     ``group`` texture fetches per fragment, GeForce3: ``group`` combiner steps, read back at the end)."""
@@ -89,7 +112,7 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
                       bits: int = 12, passes: str = "two", variant: str = "blend", n_tex: int | None = None,
                       l_axis: str = "centred", draw: int | None = None, format: str = "fp32", device: str = "cpu",
                       threads: int = 0, emulate: bool = True, ln_in_combiner: bool | None = None,
-                      gl_dither: bool = False):
+                      gl_dither: bool = False, ln_format: str = "unorm8"):
     """Hardware-emulated per-slice pre-integration.
 
     Parameters
@@ -121,6 +144,10 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
         gain equivalent to reducing the number of integration steps by a factor of 4" (64x64x32,
         Fig. 4-like TF: RMS at n steps 1.24 % vs plain 8-bit blending at n/4 steps 1.29 % for n = 32;
         with the scaled texel the gain over plain blending at n steps is only ~10 %).
+    ln_format : str
+        ``ln_in_combiner`` only: the constant ``l/n`` as the combiner register holds it, ``unorm8``
+        (code ``round(255 l/n)``, what the GeForce3's constant colour stored; ``meta["ln_codes"]``
+        lists the codes per slice) or ``fp32`` (exact).
     gl_dither : bool
         OpenGL's default ``GL_DITHER``: every blend result rounded with a 4x4 ordered dither instead
         of to nearest.
@@ -152,6 +179,7 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
         ln_in_combiner = variant == "geforce3" and tf.emission == "emission_density"
     if ln_in_combiner and (variant != "geforce3" or tf.emission != "emission_density"):
         raise ValueError("ln_in_combiner: needs variant='geforce3' and an 'emission_density' TF")
+    check_choice("ln_format", ln_format, ("unorm8", "fp32"))
     n_tex = len(tf.points) if n_tex is None else check_res("n_tex", n_tex, 2, 1 << 16)
     check_choice("l_axis", l_axis, AXIS_KINDS[:2])
     check_choice("format", format, TABLE_FORMATS)
@@ -165,6 +193,8 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
     key = table_key("roettger_hw", tf.hash, n_s=n_s, n_l=n_l, lmax=lmax, steps=steps, bits=bits, passes=passes,
                     variant=variant, n_tex=n_tex, l_axis=l_axis, draw=draw, ln_in_combiner=bool(ln_in_combiner),
                     gl_dither=bool(gl_dither), format=format)
+    if ln_in_combiner and ln_format != "unorm8":
+        key = key + (("ln_format", ln_format),)
     key = key if emulate else key + (("emulate", False),)  # counting-only tables never pass for real ones
     meta = {"builder": "roettger_hw", "emission": tf.emission, "lmax": lmax, "steps": steps, "bits": bits,
             "passes": passes, "variant": variant, "fragments": 0, "blends": 0}
@@ -181,6 +211,9 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
         draws = [((0, 0, 0, 1), BlendUnit("constant_color", "one_minus_src_alpha", constant=(1, 1, 1, 0)),
                   wp.vec4(1.0, 1.0, 1.0, 1.0))]
     data = np.zeros((n_l, n_s, n_s, 4), dtype=np.float32)
+    if ln_in_combiner:
+        meta["ln_format"] = ln_format
+        meta["ln_codes"] = []
     nblend = -(-draw // group)
     wave = max(1, min(n_l, FB_BUDGET // (len(draws) * n_s * n_s * 20)))  # slices per wave
     with timed(meta, device=device):
@@ -190,10 +223,14 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
             for li in lis:
                 l_li = float(ax_l.physical[li])
                 tex = make_tf_texture(tf_texture_values(tf, n_tex, l_li, steps, ln_in_combiner), bits, device)
+                e_scale = 1.0
+                if ln_in_combiner:
+                    e_scale, code = ln_register(l_li / steps, ln_format)
+                    meta["ln_codes"].append(code)
                 for clear, unit, mod in draws:
                     fb = FrameBuffer(n_s, n_s, fb_fmt, device)
                     fb.clear(clear)
-                    jobs.append((tex, fb, unit.state(fb), mod, l_li / steps if ln_in_combiner else 1.0))
+                    jobs.append((tex, fb, unit.state(fb), mod, e_scale))
             # rows of a slice are independent too (no dithering here, so a pixel's blends do not
             # depend on its row): split them when there are fewer slices than cores
             rows = row_blocks(n_s, len(jobs), threads, device)
