@@ -51,7 +51,7 @@ def test_render_reference_and_report(scene_file, tmp_path, capsys):
 def test_pipelines_lists_presets(capsys):
     assert main(["pipelines", "--stages"]) == 0
     out = capsys.readouterr().out
-    assert out.startswith("raycast") or "\nraycast" in out
+    assert out.startswith("exact and fast\n  raycast ")
     assert "max_steps" in out and "entry_bins" in out
     assert "needs: cells, entry_bins; provides: march, image" in out
 

@@ -2,9 +2,9 @@
 
 ::
 
-    warpvol render SCENE.toml --pipeline PRESET_OR_FILE -o OUT.exr [--reference REF.exr] [--report OUT.json]
-    warpvol reference SCENE.toml -o REF.exr          # exact float64 ray integral
-    warpvol pipelines                                 # list presets with one line each
+    warpvol render SCENE [--pipeline PRESET_OR_FILE] -o OUT.exr|OUT.png [--reference REF.exr] [--report OUT.json]
+    warpvol reference SCENE -o REF.exr                # exact float64 ray integral
+    warpvol pipelines [--long]                        # the presets by family, one line each
     warpvol gpus                                      # GPU profiles for render --gpu NAME (modelled time)
     warpvol demo                                      # built-in scene, default pipeline, image + report
     warpvol bench SCENE [--pipelines all|NAME...] [--gpu NAME] -o OUTDIR   # table, plots, HTML
@@ -12,7 +12,9 @@
     warpvol stress [--quick]                          # stiff and extreme cases x every preset
     warpvol sweep CONFIG.toml [--scheduler tcp://HOST:PORT] -o OUTDIR   # Dask, resumable
 
-``SCENE`` is a scene file or ``builtin:NAME``. Bad input ends with ``warpvol: error: ...`` naming the
+``SCENE`` is a scene file, ``builtin:NAME`` or a mesh file pyvista reads (``.vtu``, ``.vtk``, ...;
+its point scalars under a default colour map and opacity ramp, the camera fitted to it: see
+:mod:`warpvol.scene.defaults`; ``--scalars`` and ``--colormap`` choose). Bad input ends with ``warpvol: error: ...`` naming the
 file / key / value, exit status 2, and no output file.
 """
 
@@ -34,16 +36,15 @@ from warpvol.timing import time_summary
 
 
 def _load_scene(spec: str, args) -> "object":
-    from warpvol.scene.builtin import builtin_scene
-    from warpvol.scene.scene_file import load_scene
+    from warpvol.scene.defaults import scene_from_spec
 
-    if spec.startswith("builtin:"):
-        try:
-            scene = builtin_scene(spec.split(":", 1)[1])
-        except MemoryError:
-            raise ConfigError(f"{spec}: the built-in mesh does not fit in the memory available") from None
-    else:
-        scene = load_scene(spec, strict=getattr(args, "strict", False))
+    try:
+        scene = scene_from_spec(spec, scalars=getattr(args, "scalars", None), colormap=getattr(args, "colormap", None),
+                                strict=getattr(args, "strict", False), where="scene")
+    except MemoryError:
+        if not spec.startswith("builtin:"):
+            raise
+        raise ConfigError(f"{spec}: the built-in mesh does not fit in the memory available") from None
     over = {}
     if getattr(args, "width", None) is not None:
         over["width_px"] = args.width
@@ -66,9 +67,10 @@ def _check_sizes(args) -> None:
 OUTPUT_EXTENSIONS = {"-o": (".exr",), "--report": (".json",), "--png": (".png",), "--error-image": (".png",)}
 
 
-def check_outputs(outputs: dict[str, str | None]) -> dict[str, Path]:
-    """Check every output path before any work is done: extension supported, not a folder, folder
-    exists and is writable, no two outputs on the same file. Returns flag -> path for those given."""
+def check_outputs(outputs: dict[str, str | None], extensions: dict[str, tuple] | None = None) -> dict[str, Path]:
+    """Check every output path before any work is done: extension supported (:data:`OUTPUT_EXTENSIONS`,
+    or ``extensions`` for a flag), not a folder, folder exists and is writable, no two outputs on the
+    same file. Returns flag -> path for those given."""
     given = {flag: g for flag, g in outputs.items() if g is not None}  # messages show them as typed
     seen: dict[str, str] = {}
     for flag, g in given.items():
@@ -77,7 +79,7 @@ def check_outputs(outputs: dict[str, str | None]) -> dict[str, Path]:
             raise ConfigError(f"{flag}: {g} is also the {seen[key]} output; give each output its own file")
         seen[key] = flag
     for flag, g in given.items():
-        p, exts = Path(g), OUTPUT_EXTENSIONS[flag]
+        p, exts = Path(g), (extensions or {}).get(flag, OUTPUT_EXTENSIONS[flag])
         if p.suffix.lower() not in exts:
             raise ConfigError(f"{flag}: {g}: unsupported file extension {p.suffix or '(none)'!r}; "
                               f"expected {' or '.join(exts)}")
@@ -193,7 +195,7 @@ def cmd_render(args) -> int:
 
     # everything a user can get wrong is checked before any costly work
     outs = check_outputs({"-o": args.output, "--report": args.report, "--png": args.png,
-                          "--error-image": args.error_image})
+                          "--error-image": args.error_image}, IMAGE_OUTPUT)
     if args.error_image and not (args.reference or args.compute_reference):
         raise ConfigError("--error-image: needs --reference or --compute-reference")
     if args.reference and args.compute_reference:
@@ -225,7 +227,7 @@ def cmd_render(args) -> int:
         res.report["reference_s"] = ref_s
     # all outputs or none: each is written beside its target, then all are renamed together
     with Outputs() as out:
-        out.exr(outs["-o"], res.image)
+        _write_image(out, outs["-o"], res.image, args.background)
         if args.png:
             out.png(outs["--png"], res.image, background=args.background)
         if args.error_image:
@@ -234,6 +236,19 @@ def cmd_render(args) -> int:
             out.text(outs["--report"], report_json(res.report))
     _summary(res.report)
     return 0
+
+
+#: ``-o`` of render and reference: an OpenEXR image, or the 8-bit PNG preview as the image
+IMAGE_OUTPUT = {"-o": (".exr", ".png")}
+
+
+def _write_image(out, path: Path, image, background=(0.0, 0.0, 0.0)) -> None:
+    """Stage ``image`` as ``path``: float32 OpenEXR for ``.exr``, the 8-bit PNG preview (composited
+    over ``background``) for ``.png``."""
+    if path.suffix.lower() == ".png":
+        out.png(path, image, background=background)
+    else:
+        out.exr(path, np.asarray(image, np.float32))
 
 
 def _summary(report: dict) -> None:
@@ -257,9 +272,9 @@ def cmd_gpus(args) -> int:
 
 
 def cmd_reference(args) -> int:
-    from warpvol.io import write_exr
+    from warpvol.io import Outputs
 
-    out = check_outputs({"-o": args.output})["-o"]
+    out = check_outputs({"-o": args.output}, IMAGE_OUTPUT)["-o"]
     check_inputs(scene_inputs(args.scene), {"-o": out})
     _check_sizes(args)
     _check_bands(args)
@@ -269,17 +284,90 @@ def cmd_reference(args) -> int:
         img, dt = compute_reference(scene, args.quiet, args.scheduler, args.bands, args.workers or 2)
     except MemoryError:
         raise out_of_memory(scene, ["reference"], "computing the reference") from None
-    write_exr(out, img.astype(np.float32))
+    with Outputs() as staged:
+        _write_image(staged, out, img)
     print(f"reference: {dt:.2f} s, {scene.camera.width_px}x{scene.camera.height_px}, {scene.mesh.n_tets} tets -> {out}")
     return 0
 
 
+#: ``warpvol pipelines``: the presets by purpose, each with a short line (the full description with --long)
+PRESET_FAMILIES: tuple[tuple[str, dict[str, str]], ...] = (
+    ("exact and fast", {
+        "raycast": "default; float32 ray casting through the cells, exact segment integrals",
+        "harc_best": "hardware ray casting (rasterised start, peeling), raycast's exact walk",
+        "pt_best": "cell projection with exact visibility and an exact per-fragment integral",
+        "vsbuffer_best": "VSBUFFER sweep made exact, hexahedra drawn whole; slow (plane by plane)",
+    }),
+    ("cell projection as VTK does it", {
+        "pt_vertex_color": "projected tetrahedra, averaged per-vertex colour, 8-bit blending",
+    }),
+    ("Westermann & Ertl 1997", {
+        "westermann1997": "VSBUFFER as published: ID buffers per scanline, trapezoidal rule",
+    }),
+    ("Roettger, Kraus & Ertl 2000; Roettger & Ertl 2002", {
+        "roettger2000_3d": "pre-integrated PT, software 64^3 table in an RGBA8 3D texture",
+        "roettger2002_hw": "pre-integrated PT, table built by emulated 12-bit Octane MXI hardware",
+        "roettger2002_cylindrical": "pre-integrated PT, the 3D table as cylindrical 2D alpha-planes",
+    }),
+    ("Guthe et al. 2002", {
+        "guthe2002_linear": "2D multi-texturing, separated opacity, colour linear in thickness",
+        "guthe2002_quadratic_gf4": "as guthe2002_linear, colour of degree 2 (GeForce4, 4 texture units)",
+        "guthe2002_quartic_radeon": "as guthe2002_linear, colour of degree 4 (Radeon 8500, 6 units)",
+    }),
+    ("Weiler et al. 2003", {
+        "weiler2003_vicp": "view-independent cell projection, 128^3 8-bit pre-integration table",
+    }),
+    ("Kraus, Qiao & Ebert 2004", {
+        "kraus2004_basic": "pre-integrated PT, 8-bit 256x256x16 table, screen-space attributes",
+        "kraus2004_full": "perspective-correct attributes, HILO16 log-thickness table, fp16 buffer",
+    }),
+    ("Espinha & Celes 2005", {
+        "espinha2005_full": "hardware ray casting with a full 128^3 RGBA8 pre-integration table",
+        "espinha2005_partial": "hardware ray casting with partial pre-integration (iso-crossing, psi)",
+    }),
+)
+#: columns of ``warpvol pipelines`` lines
+PIPELINES_WIDTH = 100
+
+
+def preset_groups() -> list[tuple[str, list[tuple[str, str, str]]]]:
+    """``(family, [(preset, short line, full description)])`` of every shipped preset: the families of
+    :data:`PRESET_FAMILIES`, then "other" for presets they do not name (short line: the description cut)."""
+    from warpvol.pipeline import list_presets
+
+    full = dict(list_presets())
+    groups, named = [], set()
+    for family, items in PRESET_FAMILIES:
+        rows = [(n, short, full[n]) for n, short in items.items() if n in full]
+        named.update(items)
+        if rows:
+            groups.append((family, rows))
+    other = [(n, d, d) for n, d in full.items() if n not in named]
+    if other:
+        groups.append(("other", other))
+    return groups
+
+
+def _fit(text: str, width: int) -> str:
+    return text if len(text) <= width else text[:width - 3].rstrip() + "..."
+
+
 def cmd_pipelines(args) -> int:
-    from warpvol.pipeline import _load_builtin_stages, list_presets
+    import textwrap
+
+    from warpvol.pipeline import _load_builtin_stages
     from warpvol.stage import STAGES
 
-    for name, desc in list_presets():
-        print(f"{name:<24} {desc}")
+    for k, (family, rows) in enumerate(preset_groups()):
+        print(("\n" if k else "") + family)
+        for name, short, desc in rows:
+            if args.long:
+                print(f"  {name}")
+                print(textwrap.fill(desc, PIPELINES_WIDTH, initial_indent="    ", subsequent_indent="    "))
+            else:
+                print(_fit(f"  {name:<26}{short}", PIPELINES_WIDTH))
+    if not args.long:
+        print("\n`warpvol pipelines --long` describes each preset in full; `--stages` lists every stage.")
     if args.stages:
         _load_builtin_stages()
         print()
@@ -289,7 +377,9 @@ def cmd_pipelines(args) -> int:
 
 
 #: the files ``demo -o`` writes
-DEMO_FILES = ("image.exr", "reference.exr", "image.png", "error.png", "report.json")
+DEMO_FILES = ("image.exr", "reference.exr", "image.png", "reference.png", "error.png", "report.json", "index.html")
+#: background of the demo's PNG images
+DEMO_BACKGROUND = (0.1, 0.1, 0.1)
 
 
 def cmd_demo(args) -> int:
@@ -324,12 +414,53 @@ def cmd_demo(args) -> int:
     with Outputs() as out:
         out.exr(outdir / "image.exr", res.image)
         out.exr(outdir / "reference.exr", ref.astype(np.float32))
-        out.png(outdir / "image.png", res.image, background=(0.1, 0.1, 0.1))
+        out.png(outdir / "image.png", res.image, background=DEMO_BACKGROUND)
+        out.png(outdir / "reference.png", ref, background=DEMO_BACKGROUND)
         err_max = write_error_png(outdir / "error.png", res.image, ref, out)
         out.text(outdir / "report.json", report_json(res.report))
+        out.text(outdir / "index.html", demo_page(scene, res.report, err_max))
     _summary(res.report)
-    print(f"wrote {outdir}/image.exr, image.png, reference.exr, error.png (scaled to max {err_max:.2e}), report.json")
+    print(f"wrote {outdir}/index.html (image, reference and error side by side), image.exr, image.png, reference.exr, "
+          f"reference.png, error.png (log scale, max {err_max:.2e}), report.json")
     return 0
+
+
+def demo_page(scene, report: dict, err_max: float) -> str:
+    """The demo's ``index.html`` (Jinja2 template ``warpvol/templates/demo.html``): image, reference and
+    error map side by side, a line on what each is, and the error numbers explained."""
+    import jinja2
+
+    from warpvol.metrics import ERROR_FLOOR
+
+    env = jinja2.Environment(loader=jinja2.PackageLoader("warpvol", "templates"), autoescape=True,
+                             undefined=jinja2.StrictUndefined)
+    cam, e = scene.camera, report["error"]
+    bg = ", ".join(f"{v:g}" for v in DEMO_BACKGROUND)
+    figures = [
+        dict(file="image.png", title="image",
+             text=f"what the {report['pipeline']} pipeline rendered: premultiplied RGBA composited over grey ({bg}), "
+                  "8 bits per channel (full precision in image.exr)."),
+        dict(file="reference.png", title="reference",
+             text="the exact float64 ray integral of the same scene (warpvol reference), composited the same way "
+                  "(reference.exr)."),
+        dict(file="error.png", title="error",
+             text=f"per pixel, the largest |image - reference| over R, G, B and A, on a logarithmic colour scale "
+                  f"from {ERROR_FLOOR:.0e} to the maximum ({err_max:.2e}); one step of an 8-bit channel is 3.9e-3."),
+    ]
+    psnr = "exact (unbounded)" if e["psnr"] is None else f"{e['psnr']:.1f} dB"
+    measures = [
+        dict(name="RMSE", value=f"{e['rmse']:.3e}", text="root mean square of image - reference over every pixel "
+             "and channel, background included"),
+        dict(name="max abs", value=f"{e['max_abs']:.3e}", text="the largest |image - reference| of any pixel and "
+             "channel (below 3.9e-3 it is invisible in an 8-bit PNG)"),
+        dict(name="PSNR", value=psnr, text="20 log10(1 / RMSE), peak 1"),
+        dict(name="frame", value=f"{report['render_s']:.3f} s", text="the warm render (kernels compiled, set-up "
+             "kept)"),
+    ]
+    return env.get_template("demo.html").render(
+        scene=scene.name, pipeline=report["pipeline"], n_tets=f"{scene.mesh.n_tets:,}", width=cam.width_px,
+        height=cam.height_px, figures=figures, measures=measures,
+        files=["image.exr", "reference.exr", "report.json"])
 
 
 def _folder_outputs(outdir: Path, rels: list[str]) -> dict[str, Path]:
@@ -528,36 +659,47 @@ def build_parser() -> argparse.ArgumentParser:
         sp.add_argument("--bands", type=int, help="row bands with --scheduler (default: 4 per worker)")
         sp.add_argument("--workers", type=int, help="worker processes of --scheduler local (default: 2)")
 
+    def mesh_args(sp):
+        sp.add_argument("--scalars", help="point-data array of a mesh file given as SCENE (default: its active "
+                        "scalars)")
+        sp.add_argument("--colormap", help="transfer function: this matplotlib colour map or ParaView preset over the "
+                        "scalars' range with ParaView's opacity ramp (the default for a mesh file: viridis)")
+
     r = sub.add_parser("render", help="render a scene with a pipeline")
-    r.add_argument("scene", help="scene TOML file or builtin:NAME")
-    r.add_argument("--pipeline", required=True, help="preset name or pipeline TOML file")
-    r.add_argument("-o", "--output", required=True, help="output OpenEXR file")
+    r.add_argument("scene", help="scene TOML file, builtin:NAME or a mesh file (.vtu, .vtk, ...)")
+    r.add_argument("--pipeline", default="raycast", help="preset name or pipeline TOML file (default: raycast)")
+    r.add_argument("-o", "--output", required=True, help="output image: OpenEXR (.exr, float32 RGBA) or the 8-bit "
+                   "PNG preview (.png)")
     r.add_argument("--reference", help="reference EXR: adds the error to the report")
     r.add_argument("--compute-reference", action="store_true",
                    help="compute the exact reference in this run (instead of --reference) for the report's error")
     r.add_argument("--report", help="write the JSON report here")
     r.add_argument("--png", help="also write an 8-bit PNG preview")
-    r.add_argument("--error-image", help="with --reference: PNG of the per-pixel max |error|, scaled to its maximum")
+    r.add_argument("--error-image", help="with --reference: PNG of the per-pixel max |error| on a logarithmic colour "
+                   "scale (1e-8 to its maximum) with a colour bar")
     r.add_argument("--background", type=float, nargs=3, default=(0.0, 0.0, 0.0), help="PNG background RGB")
     r.add_argument("--width", type=int, help="override camera.width_px")
     r.add_argument("--height", type=int, help="override camera.height_px")
     r.add_argument("--strict", action="store_true", help="zero-volume tets are an error")
     r.add_argument("--gpu", help="GPU profile (warpvol gpus): check capabilities, add modelled_s to the report")
+    mesh_args(r)
     band_args(r, "the reference of --compute-reference")
     common(r)
     r.set_defaults(func=cmd_render)
 
     f = sub.add_parser("reference", help="exact float64 reference image")
-    f.add_argument("scene")
-    f.add_argument("-o", "--output", required=True)
+    f.add_argument("scene", help="scene TOML file, builtin:NAME or a mesh file (.vtu, .vtk, ...)")
+    f.add_argument("-o", "--output", required=True, help="output image: .exr (float32 RGBA) or .png (8-bit preview)")
     f.add_argument("--width", type=int)
     f.add_argument("--height", type=int)
     f.add_argument("--strict", action="store_true")
+    mesh_args(f)
     band_args(f, "the reference")
     common(f, device=False)
     f.set_defaults(func=cmd_reference)
 
     ls = sub.add_parser("pipelines", help="list presets")
+    ls.add_argument("--long", action="store_true", help="each preset's full description")
     ls.add_argument("--stages", action="store_true", help="also list every stage with its parameter table")
     ls.set_defaults(func=cmd_pipelines)
 
@@ -572,7 +714,9 @@ def build_parser() -> argparse.ArgumentParser:
     d.set_defaults(func=cmd_demo)
 
     def scene_args(sp, many=False):
-        sp.add_argument("scene", nargs="+" if many else None, help="scene TOML file or builtin:NAME" + ("(s)" if many else ""))
+        sp.add_argument("scene", nargs="+" if many else None, help="scene TOML file, builtin:NAME or mesh file"
+                        + ("(s)" if many else ""))
+        mesh_args(sp)
         sp.add_argument("--width", type=int, help="override camera.width_px")
         sp.add_argument("--height", type=int, help="override camera.height_px")
         sp.add_argument("--strict", action="store_true", help="zero-volume tets are an error")

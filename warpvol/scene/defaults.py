@@ -199,7 +199,8 @@ def default_scene(mesh: TetMesh, colormap: str | None = None, size: Any = None, 
                   source=None) -> Scene:
     """``mesh`` with :func:`default_transfer` and :meth:`Camera.fit` at ``size`` (default 512 x 512)."""
     w, h = pixel_size(size)
-    return Scene(mesh=mesh, transfer=default_transfer(mesh, colormap), camera=Camera.fit(mesh, width_px=w, height_px=h),
+    return Scene(mesh=mesh, transfer=default_transfer(mesh, colormap, where="colormap"),
+                 camera=Camera.fit(mesh, width_px=w, height_px=h),
                  name=name or _short_name(mesh.name), source=source)
 
 

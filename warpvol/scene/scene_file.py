@@ -184,11 +184,14 @@ def _input_files(cfg: dict, base_dir: Path) -> list[tuple[Path, str]]:
 def scene_files(path: Path | str) -> list[tuple[Path, str]]:
     """``(file, what)`` for a scene file and every file it names (mesh, transfer function), e.g.
     ``(Path("scene.toml"), "scene file")``, ``(Path("fin.vtu"), "mesh.path in scene.toml")``;
-    ``[]`` for ``builtin:NAME``. Read before the scene is loaded, so that outputs can be checked
+    ``[]`` for ``builtin:NAME``; ``[(path, "mesh file")]`` for a file that is no ``.toml`` (a mesh
+    file given as the scene). Read before the scene is loaded, so that outputs can be checked
     against the inputs first."""
     if isinstance(path, str) and path.startswith("builtin:"):
         return []
     p = Path(path)
+    if p.suffix.lower() != ".toml":
+        return [(p, "mesh file")]
     cfg = _read_toml(p)
     return [(p, "scene file")] + [(f, f"{k} in {p.name}") for f, k in _input_files(cfg, p.parent)]
 
