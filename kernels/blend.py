@@ -21,6 +21,9 @@ Arithmetic (``blend(bs, src, dst, x, y, prim)``):
 * **fp16**: S, D, K are rounded to binary16 (fragment colours are not clamped, as with float buffers);
   ``S Fs`` and ``D Fd`` are exact in fp32 (11-bit x 11-bit significands); their fp32 sum is rounded
   to binary16 (round to nearest even).
+* **fp16, program compositing** (``BlendState.arith = ARITH_PROGRAM``): the colour buffer read as a
+  texture and composited in an fp32 fragment program (Kraus et al. 2004's Quadro FX 3000): S, K and
+  the factors stay fp32, the fp32 result is rounded to binary16 when written.
 * **fp32**: plain fp32 ``S Fs + D Fd`` (``fuse_fp=False``: no FMA contraction).
 
 Alpha dithering (Kraus, Qiao & Ebert 2004, Sec. 4.2), fixed-point only: with ``v = 255 a`` (N a in
@@ -52,6 +55,7 @@ ONE_MINUS_CONSTANT_ALPHA = wp.constant(13)
 
 ARITH_EXACT = wp.constant(0)
 ARITH_LLVMPIPE = wp.constant(1)
+ARITH_PROGRAM = wp.constant(2)
 
 
 @wp.struct
@@ -275,7 +279,8 @@ def blend_float(bs: BlendState, src: wp.vec4, dst: wp.vec4) -> wp.vec4:
         return wp.vec4(src[0] + dst[0] * f, src[1] + dst[1] * f, src[2] + dst[2] * f, src[3] + dst[3] * f)
     s = src
     k = bs.constant
-    if half:
+    prog = bs.arith == ARITH_PROGRAM  # composited in an fp32 fragment program: only the write rounds
+    if half and not prog:
         s = wp.vec4(fp16_round(src[0]), fp16_round(src[1]), fp16_round(src[2]), fp16_round(src[3]))
         k = wp.vec4(fp16_round(k[0]), fp16_round(k[1]), fp16_round(k[2]), fp16_round(k[3]))
     out = wp.vec4()
@@ -287,7 +292,7 @@ def blend_float(bs: BlendState, src: wp.vec4, dst: wp.vec4) -> wp.vec4:
             md = bs.dst_a
         fs = factor_f(ms, s[c], s[3], dst[c], dst[3], k[c], k[3])
         fd = factor_f(md, s[c], s[3], dst[c], dst[3], k[c], k[3])
-        if half:
+        if half and not prog:
             fs = fp16_round(fs)
             fd = fp16_round(fd)
         a = s[c] * fs

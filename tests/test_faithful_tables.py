@@ -149,3 +149,62 @@ def test_geforce3_combiner_holds_l_over_n_as_an_8_bit_register():
     # a slice whose l/n is below half a code: the register holds 0 and the slice emits nothing
     tiny = build_roettger_hw(tf, n_s=8, n_l=1, lmax=0.05, steps=64, bits=8, passes="one", variant="geforce3")
     assert tiny.meta["ln_codes"] == [0] and tiny.data[..., :3].max() == 0.0
+
+
+# ---------------------------------------------------------------- item 7: Kraus' fp16 buffer without fp16 blending
+
+
+def test_fp16_program_compositing_rounds_only_the_write():
+    """The Quadro FX 3000 path: fp16(C + (1 - a) D) in fp32 (C, a unrounded); NV40 blending rounds
+    C, a and the factor to binary16 first."""
+    from warpvol.gpu.blend import BlendUnit, FrameBuffer
+
+    rs = np.random.default_rng(7)
+    layers = rs.random((6, 4, 8, 4)).astype(np.float32) * np.float32(0.37)
+    out = {}
+    for arith in ("program", "exact"):
+        fb = FrameBuffer(8, 4, "fp16")
+        fb.clear((0, 0, 0, 0))
+        BlendUnit.over(arithmetic=arith).blend_layers(fb, layers)
+        out[arith] = fb.readback()
+    d = np.zeros((4, 8, 4), np.float32)
+    n = np.zeros((4, 8, 4), np.float32)
+    h = lambda v: np.asarray(v, np.float32).astype(np.float16).astype(np.float32)  # noqa: E731
+    for s in layers:
+        d = h(s + d * (np.float32(1) - s[..., 3:4]))
+        sh = h(s)
+        n = h(sh + n * h(np.float32(1) - sh[..., 3:4]))
+    np.testing.assert_array_equal(out["program"], d)
+    np.testing.assert_array_equal(out["exact"], n)
+    assert np.abs(out["program"] - out["exact"]).max() > 0
+    with pytest.raises(Exception, match="program"):
+        BlendUnit.over(arithmetic="program").state(FrameBuffer(2, 2, "unorm8"))
+
+
+def test_kraus_full_reads_the_fp16_buffer_back_per_fan_and_keeps_nv40_blending_by_name():
+    from warpvol.errors import ConfigError
+    from warpvol.pipeline import Pipeline
+    from warpvol.scene.builtin import builtin_scene
+
+    sc = builtin_scene("box").with_camera(width_px=24, height_px=24)
+    cfg = {"name": "k", "stages": [{"stage": "vertex"}, {"stage": "sort", "method": "mpvo"},
+                                   {"stage": "table_incremental", "n_s": 32, "n_l": 8, "format": "hilo16"},
+                                   {"stage": "pt_project"}, {"stage": "pt_perspective", "thickness": "exact"},
+                                   {"stage": "pt_table3d", "texel_format": "rgba16", "format": "fp16",
+                                    "blend": "readback"}]}
+    rb = Pipeline.from_config(cfg).render(sc, quiet=True)
+    c = rb.report["counters"]["pt_table3d"]
+    drawn = rb.report["stats"]["pt_table3d"]["fb_texture_rebinds"]
+    assert c["fb_texture_rebinds"] == drawn > 0
+    assert c["tex_2d_rgba16f_nearest"] == c["fragments"] > 0  # one buffer-texel fetch per fragment
+    assert c.get("writes_fp16", 0) == c["fragments"] and not c.get("blends_fp16")
+    cfg["stages"][-1]["blend"] = "unit"  # NV40: fp16 blending in the blending unit
+    nv = Pipeline.from_config(cfg).render(sc, quiet=True)
+    assert nv.report["counters"]["pt_table3d"]["blends_fp16"] == c["fragments"]
+    assert "fb_texture_rebinds" not in nv.report["counters"]["pt_table3d"]
+    d = np.abs(np.asarray(rb.image) - np.asarray(nv.image))
+    assert 0 < d.max() < 2e-3  # rounding of the fragment before the blend, nothing else
+    cfg["stages"][-1].update(blend="readback", format="unorm8")
+    with pytest.raises(ConfigError, match="blend"):
+        Pipeline.from_config(cfg).render(sc, quiet=True)
+    assert Pipeline.load("kraus2004_full").stages[-1].config["blend"] == "readback"

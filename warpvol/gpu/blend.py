@@ -28,6 +28,14 @@ NVIDIA (GeForce3/4) and ATI (Radeon 8500) blenders did internally is not documen
 implementation we can observe, llvmpipe, takes a cheaper per-product shortcut, available by name and
 checked code for code by ``scripts/gl_conformance.py``. Float buffers blend in float either way.
 
+``"program"`` (float buffers only): no blending unit at all. The colour buffer is bound as a texture
+and the fragment program composites ``S Fs + D Fd`` in fp32, writing the result (rounded to the
+buffer format) with blending off: Kraus, Qiao & Ebert 2004 §4.1's fp16 buffer on the Quadro FX 3000,
+which could not blend fp16 (NV40-style fp16 blending is ``"exact"`` on an fp16 buffer: S and the
+factors rounded to binary16 first). The texture read must see the previous triangle fan's writes:
+the paper rebinds the buffer texture and sends a fence after each fan; :meth:`BlendUnit.count`
+counts the fragments as buffer-texture fetches and plain writes.
+
 Compositing with premultiplied colours: back to front "over" = ``(one, one_minus_src_alpha)``
 (:meth:`BlendUnit.over`); front to back "under" = ``(one_minus_dst_alpha, one)``
 (:meth:`BlendUnit.under`). Roettger & Ertl's one-pass hardware pre-integration:
@@ -65,7 +73,7 @@ FACTORS = {
     "dst_color": 6, "one_minus_dst_color": 7, "dst_alpha": 8, "one_minus_dst_alpha": 9,
     "constant_color": 10, "one_minus_constant_color": 11, "constant_alpha": 12, "one_minus_constant_alpha": 13,
 }
-ARITHMETICS = {"exact": 0, "llvmpipe": 1}
+ARITHMETICS = {"exact": 0, "llvmpipe": 1, "program": 2}
 
 
 def factor_code(name: str, arg: str) -> int:
@@ -242,7 +250,9 @@ class BlendUnit:
     dst_alpha     default: same as ``src``/``dst``
     table_size    dither table entries                                          power of two <= 2^24
     arithmetic    fixed-point rounding: once per channel (``exact``, the GL     ``exact`` | ``llvmpipe``
-                  spec's) or per product (``llvmpipe``; module docstring)
+                  spec's) or per product (``llvmpipe``; module docstring);     | ``program``
+                  float buffers: ``program`` composites in the fragment
+                  program (buffer read as a texture, module docstring)
     ============  ============================================================  =========================
 
     Examples
@@ -308,6 +318,8 @@ class BlendUnit:
             raise ConfigError(f"fb: frame buffer format {fb.fmt.name} differs from the blend unit's fmt {self.fmt.name}")
         if self.dither and fb.fmt.is_float:
             raise ConfigError(f"fb: alpha dithering needs a fixed-point frame buffer, got {fb.fmt.name}")
+        if self.arithmetic == "program" and not fb.fmt.is_float:
+            raise ConfigError(f"arithmetic: 'program' composites into a float buffer (fp16/fp32), got {fb.fmt.name}")
         s = kblend.BlendState()
         s.fmt = fb.fmt.kernel_params()
         s.src_rgb, s.dst_rgb = self.src_code, self.dst_code
@@ -369,6 +381,9 @@ class BlendUnit:
         c = _cnt.active(counters)
         if c is not None:
             off = (self.src_code, self.dst_code, self.src_alpha_code, self.dst_alpha_code) == (1, 0, 1, 0)
+            if self.arithmetic == "program":  # the buffer texel fetched, composited in the program, written
+                off = True
+                c.add(**{f"tex_2d_rgba{16 if fb.fmt.name == 'fp16' else 32}f_nearest": n, "combiner_ops": n})
             c.blend(fb.fmt, n, blending=not off)
 
     def __repr__(self) -> str:

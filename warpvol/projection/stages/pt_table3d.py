@@ -7,6 +7,11 @@ emulated 3D texture unit (trilinear with 8-bit filter-weight fractions by defaul
 composites back to front. With stage ``pt_perspective`` before it, the fragments' (sf, sb, l)
 come from Kraus et al.'s per-fragment perspective division instead. Any 3D table from the table stages (``table_exact``,
 ``table_roettger_sw``, ``table_roettger_hw``, ``table_incremental``) via ``ctx.buffers[table]``.
+``blend``: how fragments reach the buffer: ``unit`` (the blending unit; on an fp16 buffer this is
+NV40-style fp16 blending) or ``readback`` (float buffers: the colour buffer bound as a texture and
+composited in the fp32 fragment program, written with blending off, the buffer texture rebound and a
+fence sent after each triangle fan: Kraus et al. 2004 §4.1 on the Quadro FX 3000, which had no fp16
+blending; counted as ``fb_texture_rebinds``, one per drawn tet, and one buffer-texel fetch per fragment).
 Writes ``ctx.image``; counts ``texture_lookups``, the fetches by texel format (``rgba16``: two
 ``hilo16`` fetches, as on the NV3x) and ``combiner_ops`` (Kraus et al. 2004 §5's instruction counts);
 the rasteriser and blending unit count fragments and blends.
@@ -36,6 +41,7 @@ class PTTable3D(Stage):
     format        str    unorm8    ``unorm8`` ``unorm12`` ``unorm16`` ``fp16``     frame-buffer format
                                    ``fp32``
     dither        bool   false                                                      alpha dithering
+    blend         str    unit      ``unit`` | ``readback`` (float buffers)            compositing path
     batch_tets    int    65536     [1, 2^26]                                        tets per batch
     ============  =====  ========  ===============================================  ====================
 
@@ -58,6 +64,8 @@ class PTTable3D(Stage):
         Param("filter", str, "linear", "texture filter", choices=("linear", "nearest")),
         Param("weight_bits", int, 8, "filter-weight fraction bits (0: fp32 weights)", lo=0, hi=16),
         fb_param(), DITHER, BATCH,
+        Param("blend", str, "unit", "compositing: blending unit, or buffer read as a texture in the program",
+              choices=("unit", "readback")),
     )
     needs = ("pt_geometry",)
     provides = ("image",)
@@ -71,7 +79,24 @@ class PTTable3D(Stage):
                                          self.config["weight_bits"] or None, device=ctx.device, mode=mode, ortho=ortho,
                                          z_off=z_off)
         ctx.stats["pt"]["texel_format"] = texel
-        info = composite(self, ctx, attrs, program)
+        unit = None
+        if self.config["blend"] == "readback":
+            from warpvol.errors import ConfigError
+            from warpvol.gpu.blend import BlendUnit
+
+            if self.config["format"] not in ("fp16", "fp32"):
+                raise ConfigError(f"{self.where}.blend: 'readback' composites into a float buffer; format is "
+                                  f"{self.config['format']!r} (use blend = 'unit')")
+            unit = BlendUnit.over(arithmetic="program")
+        info = composite(self, ctx, attrs, program, blend_unit=unit)
+        if unit is not None:
+            geo = ctx.buffers["pt_geometry"]
+            fans = sum(v for k, v in geo.classes.items() if k not in ("flat", "culled"))
+            ctx.count(fb_texture_rebinds=fans)
+            ctx.stats.setdefault("pt_table3d", {}).update(
+                blend="readback", fb_texture_rebinds=fans,
+                note="fp16 buffer read as a texture and composited in the fp32 fragment program, one buffer-texture "
+                     "rebind and fence per triangle fan (Quadro FX 3000: no fp16 blending)")
         n = info["fragments"]
         flt = self.config["filter"]
         # a 16-bit RGBA table is two HILO16 textures (two fetches); fragment-program instructions: lookup

@@ -26,7 +26,8 @@ BATCH = Param("batch_tets", int, 65536, "tets rasterised per fragment batch (mem
 DITHER = Param("dither", bool, False, "alpha dithering (Kraus et al. 2004; fixed-point buffers only)")
 
 
-def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1, walk: str = "pixel") -> dict:
+def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1, walk: str = "pixel",
+              blend_unit=None) -> dict:
     """Draw ``pt_geometry`` with per-vertex ``attrs`` and ``program`` into a cleared buffer of the
     stage's format (in ``bands`` concurrent row bands, :func:`warpvol.projection.pt.draw`); set ``ctx.image``
     and count (shared by the ``pt_*`` fragment stages)."""
@@ -40,7 +41,8 @@ def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1, walk: 
         raise ConfigError(f"{stage.where}.dither: alpha dithering needs a fixed-point format, format is {fmt}")
     fb = FrameBuffer(cam.width_px, cam.height_px, fmt, device=ctx.device)
     fb.clear((0, 0, 0, 0))
-    info = draw(ctx.buffers["pt_geometry"], attrs, program, fb, BlendUnit.over(dither=stage.config["dither"]),
+    unit = BlendUnit.over(dither=stage.config["dither"]) if blend_unit is None else blend_unit
+    info = draw(ctx.buffers["pt_geometry"], attrs, program, fb, unit,
                 batch_tets=stage.config["batch_tets"], device=ctx.device, bands=bands, walk=walk)
     ctx.image = fb.readback()
     # fragments and blends are counted by the rasteriser and blending unit themselves; the draw sends each
