@@ -201,13 +201,17 @@ def face_cross(qa: wp.vec3, qb: wp.vec3, qc: wp.vec3, sa: float, sb: float, sc: 
     origin) given its directed edge values ``wab``, ``wbc``, ``wca``: crossed when all are >= 0 with a
     positive sum. Returns ``(crossed, t, s)``: ray parameter and scalar at the crossing from the
     barycentric weights ``(wbc, wca, wab) / sum`` -- a convex combination of the face's vertices and
-    scalars, so bounded, and the same from both cells sharing the face."""
+    scalars (the scalar taken relative to the face's smallest, so a constant face gives its value
+    exactly), bounded, and the same from both cells sharing the face."""
     ssum = wab + wbc + wca
     if wab < 0.0 or wbc < 0.0 or wca < 0.0 or not (ssum > 0.0):
         return False, 0.0, 0.0
     inv = 1.0 / ssum
     x = (qa * wbc + qb * wca + qc * wab) * inv
-    s = (sa * wbc + sb * wca + sc * wab) * inv
+    # the scalar relative to the face's smallest: exact on a face of constant scalar, where a transfer
+    # function steep at that value would turn the rounding of a plain barycentric sum into a visible error
+    s0 = wp.min(sa, wp.min(sb, sc))
+    s = s0 + ((sa - s0) * wbc + (sb - s0) * wca + (sc - s0) * wab) * inv
     return True, wp.dot(x, d), s
 
 

@@ -133,3 +133,18 @@ def test_pt_best_redoes_silhouette_pixels_at_high_extinction():
     assert res.report["error"]["rmse"] <= tol["rmse"] and res.report["error"]["max_abs"] <= tol["max_abs"]
     # at extinction 0.5 the same view has no silhouette edge to redo
     assert len(silhouette_edges(sc.mesh, _tf(0.5), cam)) == 0
+
+
+@pytest.mark.parametrize("preset", ["raycast", "harc_best"])
+def test_steep_transfer_function_on_cells_of_constant_scalar(preset):
+    """Cells whose four scalars are equal sit at a TF point where the extinction climbs by 3e5 per unit of
+    scalar: the scalar at each face crossing must be that value exactly (a barycentric sum's rounding of
+    1e-7 would change the extinction by ~10 %)."""
+    mesh = _box(4, scalar=lambda p: np.where(p[:, 2] > 0.5, 1.0, 0.0))
+    tf = TransferFunction([[0.0, 0.1, 0.4, 0.8, 0.6], [1.0, 0.9, 0.7, 0.1, 3e5]])
+    cam = Camera(eye=(1.3, 0.9, -4.0), target=(0.0, 0.0, -0.3), fov_y_deg=30.0, width_px=20, height_px=20)
+    sc = Scene(mesh=mesh, transfer=tf, camera=cam, name="steep_tf")
+    ref = render_reference(sc.mesh, sc.transfer, cam)
+    res = Pipeline.load(preset).render(sc, reference=ref, quiet=True)
+    tol = TOLERANCES[ROWS[preset]]
+    assert res.report["error"]["rmse"] <= tol["rmse"] and res.report["error"]["max_abs"] <= tol["max_abs"]
