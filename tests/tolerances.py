@@ -78,8 +78,9 @@ espinha2005_partial     1e-2         0.25         paper's Fig. 6 plane walk, 256
 espinha2005_full        2.5e-2       0.15         128^3 RGBA8 exact table, trilinear with 8-bit weights, RGBA8
                                                     buffer; seen 48^2 <= 1.6e-2 / 0.10 (stiff: thin cells read
                                                     the first l texel), others <= 2.0e-3 / 2.3e-2
-weiler2003_vicp         2.5e-2       0.15         PT with MPVO/MPVONC, 128^3 RGBA8 table, 8-bit blending;
-                                                    seen 48^2 <= 1.7e-2 / 0.11 (stiff)
+weiler2003_vicp         2.5e-2       0.15         VICP: per-fragment ray exit, MPVO/MPVONC, 128^3 RGBA8 table,
+                                                    8-bit blending; seen 48^2 <= 1.7e-2 / 0.11 (stiff), others
+                                                    <= 3.0e-3 / 3.1e-2
 harc/partial_segment    --           5e-6         one cell segment: iso splits (edge-anchored 256^2 table,
                                                     'behind' rule) + psi (512^2 endpoint fp32, fp32 weights)
                                                     vs the exact integral, 255-segment TF; seen 1.4e-6
