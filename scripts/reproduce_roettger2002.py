@@ -99,6 +99,16 @@ def fig8(size: int, repeat: int, device: str) -> None:
           "a 2002 card's fill rate.")
 
 
+def combiner_factor(rms: float, plain: dict) -> float:
+    """Steps ratio ``64 / n_eq`` where plain 8-bit blending at ``n_eq`` steps has RMS ``rms``
+    (log-log interpolation of ``plain[steps]``; clipped to the steps measured)."""
+    ks = sorted(plain)
+    x, y = np.log(ks), np.log([plain[k] for k in ks])
+    order = np.argsort(y)
+    n_eq = float(np.exp(np.interp(np.log(rms), y[order], x[order])))
+    return 64.0 / n_eq
+
+
 F8_PROFILES = {"GeForce3": "geforce3", "Radeon 8500": "radeon8500", "Octane MXI": "octane_mxi"}
 
 
@@ -207,11 +217,16 @@ def main(argv=None):
         rp = PAPER_T1[8][s8][0] / PAPER_T1[12][16 * s8][0]
         ro = ours[8, s8] / ours[12, 16 * s8]
         print(f"  RMS 8-bit at {s8} steps / 12-bit at {16 * s8} steps (1 if error ~ steps x LSB): {rp:.3f} | {ro:.3f}")
-    gq = errors(tf, sw, steps=64, bits=8, passes="one", variant="geforce3")[0]
-    pq = errors(tf, sw, steps=16, bits=8, passes="one")[0]
-    pn = errors(tf, sw, steps=64, bits=8, passes="one")[0]
-    print(f"  GeForce3 combiners, 64 steps: RMS {gq:.4f} % vs plain 8-bit at 64 steps {pn:.4f} % and at 16 steps "
-          f"{pq:.4f} % (paper: 'equivalent to reducing the number of integration steps by a factor of 4')")
+    plain = {k: errors(tf, sw, steps=k, bits=8, passes="one")[0] for k in (8, 16, 32, 64)}
+    for ln_format, what in (("fp32", "l/n an exact fp32 constant (not what the card held)"),
+                            ("unorm8", "l/n in the 8-bit constant register, as the GeForce3 held it")):
+        gq = errors(tf, sw, steps=64, bits=8, passes="one", variant="geforce3", ln_format=ln_format)[0]
+        print(f"  GeForce3 combiners, 64 steps, {what}: RMS {gq:.4f} % vs plain 8-bit at 64 steps {plain[64]:.4f} % "
+              f"and at 16 steps {plain[16]:.4f} %; factor {combiner_factor(gq, plain):.2f} "
+              "(paper: 'equivalent to reducing the number of integration steps by a factor of 4')")
+    codes = build_roettger_hw(tf, n_s=4, n_l=nl, steps=64, bits=8, passes="one", variant="geforce3",
+                              device=a.device).meta["ln_codes"]
+    print(f"  (l/n register codes per slice, l = lmax ({nl} slices) / 64 steps: {codes})")
 
     # Figs. 4 and 5: slice at l = lmax (last slice)
     tf = fig4_tf()  # Figs. 4/5 and Table 2 with the unscaled TF (timings do not depend on it)
