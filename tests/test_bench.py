@@ -38,6 +38,8 @@ def test_bench_report_has_every_preset_and_field(bench_dir):
         for k in ("total_s", "first_s", "stages_s", "rmse", "max_abs", "psnr", "table_bytes", "counters", "pareto"):
             assert k in r, k
         assert r["repeats"] == 2 and r["total_s"] > 0 and r["rmse"] >= 0 and r["max_abs"] >= r["rmse"]
+        assert 0 < r["min_s"] <= r["total_s"] <= r["max_s"]  # the median of the repeats and their spread
+        assert r["planner"] == []  # no planner audit without --audit
         assert set(r["stages_s"]) | {s["stage"] for s in r["skipped"]} == set(Pipeline.load(r["pipeline"]).stage_keys())
         assert all(isinstance(v, int) for c in r["counters"].values() for v in c.values())
     ray = next(r for r in doc["rows"] if r["pipeline"] == "raycast")
@@ -49,6 +51,11 @@ def test_bench_report_has_every_preset_and_field(bench_dir):
     md = (bench_dir / "table.md").read_text()
     assert all(f"| {r['pipeline']} |" in md for r in doc["rows"])
     assert (bench_dir / "pareto.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    meta = doc["meta"]
+    for k in ("date", "commit", "warpvol", "Warp", "VTK", "CPU", "cores", "load average at the start",
+              "load average at the end", "timer resolution [s]"):
+        assert meta.get(k), k
+    assert meta["warpvol"] == __import__("importlib.metadata").metadata.version("warpvol")
 
 
 def test_bench_pareto_front_is_right_for_its_numbers(bench_dir):
@@ -58,6 +65,8 @@ def test_bench_pareto_front_is_right_for_its_numbers(bench_dir):
         assert r["pareto"] == (not any(_dominated(p, q) for q in pts if q is not p))
     svg = (bench_dir / "pareto.svg").read_text()
     assert svg.count("<title>") == len(rows) and svg.count("(Pareto front)") == sum(r["pareto"] for r in rows)
+    assert "RMSE against emulated run time" in svg and "modelled" not in svg
+    assert not (bench_dir / "pareto_modelled.svg").exists()  # no --gpu: one clock
 
 
 def test_pareto_front():
@@ -107,7 +116,12 @@ def test_gpu_profiles_give_modelled_times_or_say_why_not(tmp_path, capsys):
         assert r["status"] == "ok" and (r["modelled_s"] is not None or r["gpu_note"].startswith("not modelled"))
     front = [r for r in rows.values() if r.get("pareto_modelled")]
     assert front and all(r["modelled_s"] is not None for r in front)
-    assert (tmp_path / "pareto_modelled.svg").read_text().count("(Pareto front)") == len(front)
+    svg = (tmp_path / "pareto_modelled.svg").read_text()
+    assert svg.count("(Pareto front)") == len(front) and "RMSE against modelled GPU time (geforce6800gt)" in svg
+    page = (tmp_path / "index.html").read_text()
+    for r in rows.values():  # a preset without a model is listed under the modelled plot with the reason
+        if r["modelled_s"] is None:
+            assert f"<li><b>{r['pipeline']}</b>: not modelled" in page, r["pipeline"]
 
 
 @pytest.mark.parametrize("scene_name", list(BUILTIN_SCENES))
@@ -165,13 +179,16 @@ def test_bench_page_opens_in_a_headless_browser(bench_dir, tmp_path):
         page.on("requestfailed", lambda r: errors.append(f"request failed: {r.url}"))
         page.goto((bench_dir / "index.html").as_uri())
         widths = page.evaluate("Array.from(document.images).map(i => i.complete ? i.naturalWidth : -1)")
-        titles = page.evaluate("document.querySelectorAll('svg circle title').length")
+        titles = page.evaluate("document.querySelectorAll('svg g[id^=\"pareto-emulated-\"] > title').length")
+        svgs = page.evaluate("document.querySelectorAll('div.plot svg').length")
+        text = page.evaluate("document.body.innerText")
         shot = page.screenshot(full_page=True)
         browser.close()
     assert errors == []
     n = len(list_presets())
-    assert len(widths) == 2 + 2 * n and all(w > 0 for w in widths)  # plot, reference, image + error per preset
-    assert titles == n
+    assert len(widths) == 1 + 2 * n and all(w > 0 for w in widths)  # reference, image + error per preset
+    assert titles == n and svgs == 1  # one plot (no --gpu: one clock), a hover title per preset
+    assert all(k in text for k in ("commit", "Warp", "VTK", "CPU", "load average", "min [s]", "max [s]"))
     (tmp_path / "shot.png").write_bytes(shot)
     from warpvol.io import read_exr
 
@@ -212,7 +229,9 @@ def test_modelled_times_have_their_own_pareto_front(tmp_path):
     mark_pareto(rows)
     assert [r["pareto"] for r in rows] == [True, False] and [r["pareto_modelled"] for r in rows] == [True, True]
     write_bench(BenchResult(describe_scene(scene), rows, ref, 0.0, False, {}, "somegpu"), tmp_path)
-    assert (tmp_path / "pareto_modelled.svg").read_text().count("(Pareto front)") == 2
+    svg = (tmp_path / "pareto_modelled.svg").read_text()
+    assert svg.count("(Pareto front)") == 2 and "RMSE against modelled GPU time (somegpu)" in svg
+    assert "RMSE against emulated run time" not in svg and svg.count("<title>") == 2
     assert "modelled_s.raycast" in (tmp_path / "table.csv").read_text()
 
 
@@ -240,22 +259,94 @@ def test_bench_saves_each_pipeline_and_resumes(tmp_path):
     assert main(bad) == 2
 
 
-def test_plot_labels_do_not_overlap():
-    """label_offsets on a crowded cluster (17 labels within a few points of each other, as the table
-    presets sit on the Blunt Fin plot): no two label boxes overlap, none leaves the plot area, none
-    covers a marker."""
-    import itertools
+def test_plot_axes_span_whole_decades():
+    """Two exact presets whose RMSE differ in rounding only (5.750e-8, 5.762e-8; on the GeForce 6800 GT the
+    only presets with a model): the axis spans whole decades, not their 0.2 % difference."""
+    from warpvol.tools.report_html import pareto_figure
 
-    from warpvol.tools.report_html import label_offsets
+    rows = [{"pipeline": "a", "status": "ok", "rmse": 5.750e-8, "total_s": 0.2, "modelled_s": 8.7e-4, "pareto": True,
+             "pareto_modelled": True},
+            {"pipeline": "b", "status": "ok", "rmse": 5.762e-8, "total_s": 0.3, "modelled_s": 1.09e-3, "pareto": False,
+             "pareto_modelled": False},
+            {"pipeline": "c", "status": "ok", "rmse": 1e-3, "total_s": 0.1, "modelled_s": None, "pareto": True,
+             "gpu_note": "not modelled: sort: cells_sorted"}]
+    fig, tips = pareto_figure(rows, "modelled_s", gpu="geforce6800gt")
+    ax = fig.axes[0]
+    assert ax.get_ylim() == pytest.approx((1e-8, 1e-7)) and ax.get_xlim() == pytest.approx((1e-4, 1e-2))
+    assert ax.get_title() == "RMSE against modelled GPU time (geforce6800gt)" and len(tips) == 2
+    fig, tips = pareto_figure(rows, "total_s")
+    assert fig.axes[0].get_title() == "RMSE against emulated run time" and len(tips) == 3
 
-    rng = np.random.default_rng(3)
-    pts = [(300 + rng.uniform(-15, 15), 200 + rng.uniform(-10, 10), 60 + 5 * k % 40, 12.0) for k in range(17)]
-    area = (0.0, 0.0, 640.0, 420.0)
-    offs = label_offsets(pts, area, step=12.0, gap=7.0, marker=6.0)
-    boxes = [(x + dx, y + dy, x + dx + w, y + dy + h) for (x, y, w, h), (dx, dy) in zip(pts, offs)]
-    for a, b in itertools.combinations(boxes, 2):
-        assert not (a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]), (a, b)
-    for b in boxes:
-        assert area[0] <= b[0] and b[2] <= area[2] and area[1] <= b[1] and b[3] <= area[3]
-        for x, y, _, _ in pts:
-            assert not (b[0] < x + 6 and x - 6 < b[2] and b[1] < y + 6 and y - 6 < b[3])
+
+def test_audit_runs_only_with_audit_and_noise_is_shown_as_such(tmp_path, capsys):
+    """--audit renders each stage a preset leaves out forced on (raycast on the convex box: peel); without it
+    (the default, or --no-audit) nothing is forced. A render difference within the spread of the repeats is
+    shown in words, never as a signed number."""
+    import re
+
+    from warpvol.tools.machine import timer_resolution
+
+    base = ["bench", "builtin:box", "--width", "12", "--height", "10", "--repeats", "3", "--pipelines", "raycast"]
+    for extra, audited in (([], False), (["--no-audit"], False), (["--audit"], True)):
+        out = tmp_path / ("x" + "".join(extra))
+        assert main(base + extra + ["-o", str(out)]) == 0
+        row = json.loads((out / "table.json").read_text())["rows"][0]
+        assert [s["stage"] for s in row["skipped"]] == ["peel"]
+        assert bool(row["planner"]) == audited, extra
+    a = row["planner"][0]
+    assert a["stage"] == "peel" and a["forced_min_s"] <= a["forced_total_s"] <= a["forced_max_s"]
+    page = (out / "index.html").read_text()
+    cell = re.search(r"<td>peel</td><td>[^<]*</td><td>[^<]*</td><td>[^<]*</td><td>[^<]*</td><td>([^<]*)</td>", page)
+    noise = max(row["max_s"] - row["min_s"], a["forced_max_s"] - a["forced_min_s"])
+    if abs(a["total_diff_s"]) < timer_resolution():
+        assert cell.group(1) == "&lt; timer resolution"
+    elif abs(a["total_diff_s"]) <= noise:
+        assert cell.group(1).startswith("within the repeats"), cell.group(1)
+    else:
+        assert float(cell.group(1)) == pytest.approx(a["total_diff_s"], rel=1e-3)
+    assert "not measured (run with --audit)" in (tmp_path / "x" / "index.html").read_text()
+
+
+def test_progress_stays_off_stdout(tmp_path, capsys):
+    """Not on a terminal (pytest's captured streams): no progress at all, stdout holds the table only; with
+    --progress, plain lines on stderr (none longer than the terminal's default 80 columns is padded), still
+    nothing on stdout."""
+    args = ["bench", "builtin:box", "--width", "8", "--height", "8", "--repeats", "1", "--pipelines", "raycast"]
+    assert main(args + ["-o", str(tmp_path / "a")]) == 0
+    out, err = capsys.readouterr()
+    assert err == "" and out.splitlines()[0].startswith("| pipeline |") and "[warpvol]" not in out
+    assert main(args + ["--progress", "-o", str(tmp_path / "b")]) == 0
+    out, err = capsys.readouterr()
+    lines = err.splitlines()
+    assert lines and all(ln.startswith("[warpvol] bench box") and ln == ln.rstrip() for ln in lines), lines
+    assert "left" in lines[-1] and "(100 %)" in lines[-1]
+    assert "[warpvol]" not in out and out.splitlines()[0].startswith("| pipeline |")
+
+
+def test_progress_bar_on_a_terminal_fits_its_width(monkeypatch):
+    """On a terminal the rich bar is as wide as the terminal (here 60 columns), never padded past it, with
+    the time left; work inside a step (detail) shows as its own line and disappears with the step."""
+    import io
+    import re
+
+    from warpvol import progress
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    monkeypatch.setenv("COLUMNS", "60")
+    tty = Tty()
+    with progress.ProgressBar("bench concave", 4, stream=tty) as bar:
+        bar.advance(1, "raycast: run 1/3 of a long name that does not fit in sixty columns at all")
+        assert progress.detail("vsb_sweep", 0.5, "plane 8 of 16")
+        with progress.ProgressBar("reference", stream=tty) as inner:  # nested: a detail line of the bar
+            assert inner.mode == "child"
+            inner.fraction(0.25)
+        bar._rich.refresh()
+        bar.advance(3, "done")
+    assert not progress.detail("x", 0.5)  # no bar open: nothing happens
+    text = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", tty.getvalue())
+    lines = [ln for ln in re.split(r"[\r\n]+", text) if ln.strip()]
+    assert lines and max(len(ln) for ln in lines) <= 60, max(lines, key=len)
+    assert any("left" in ln for ln in lines) and any("vsb_sweep" in ln or "reference" in ln for ln in lines)

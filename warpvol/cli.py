@@ -512,14 +512,14 @@ def cmd_bench(args) -> int:
     owned.record(rels)
     # each pipeline's row and image are saved as it finishes: an interrupted bench loses nothing
     saved, save = row_store(outdir, scene, repeats=args.repeats, gpu=args.gpu, quick=args.quick,
-                            audit=not args.no_audit, owned=owned, note=_note(args.quiet),
+                            audit=args.audit, owned=owned, note=_note(args.quiet),
                             digests={k: pipeline_digest(n) for k, n in zip(keys, names)})
     if saved and not args.quiet:
         print(f"warpvol: bench: resuming, {len(saved)} pipeline(s) read from {outdir / ROW_DIR}", file=sys.stderr)
     try:
         res = run_bench(scene, names, repeats=args.repeats, gpu=args.gpu, device=args.device, quiet=args.quiet,
-                        cache_dir=args.cache_dir or outdir / "reference-cache", audit=not args.no_audit,
-                        quick=args.quick, done=saved, on_row=save)
+                        progress=args.progress, cache_dir=args.cache_dir or outdir / "reference-cache",
+                        audit=args.audit, quick=args.quick, done=saved, on_row=save)
     except KeyboardInterrupt:
         print(f"warpvol: bench: the finished pipelines are saved in {outdir / ROW_DIR}; run the same command with "
               "--resume to go on", file=sys.stderr)
@@ -595,7 +595,7 @@ def cmd_stress(args) -> int:
             print(f"warpvol: stress: resuming, {len(saved)} case(s) read from {outdir / CASE_DIR}", file=sys.stderr)
     try:
         rows = run_stress(quick=args.quick, cases=names, pipelines=pipe_names, device=args.device,
-                          quiet=args.quiet, done=saved, on_case=save)
+                          quiet=args.quiet, done=saved, on_case=save, progress=args.progress)
     except KeyboardInterrupt:
         if outdir is not None:
             print(f"warpvol: stress: the finished cases are saved in {outdir / CASE_DIR}; run the same command "
@@ -632,7 +632,8 @@ def cmd_sweep(args) -> int:
     check_inputs(inputs, _folder_outputs(Path(args.output), rels))
     outdir = _outdir(args.output)
     OwnedFiles(outdir, "sweep").claim(rels)  # only files sweep wrote are replaced
-    res = run_sweep(cfg, outdir, scheduler=args.scheduler, workers=args.workers, serial=args.serial, quiet=args.quiet)
+    res = run_sweep(cfg, outdir, scheduler=args.scheduler, workers=args.workers, serial=args.serial, quiet=args.quiet,
+                    progress=args.progress)
     write_sweep(res, outdir)
     failed = [r for r in res.rows if r["status"] == "failed"]
     print(table_markdown([{**r, "pipeline": f"{r['scene']} {r['view']} {r['pipeline']} [{r['options']}]"}
@@ -728,7 +729,11 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("-o", "--output", required=True, help="output folder")
     b.add_argument("--repeats", type=int, default=3, help="timed renders per pipeline after a warm-up (median)")
     b.add_argument("--cache-dir", help="reference cache folder (default OUTDIR/reference-cache)")
-    b.add_argument("--no-audit", action="store_true", help="skip the planner audit (forced-stage renders)")
+    b.add_argument("--audit", action="store_true", help="also the planner audit: each stage a preset leaves out "
+                   "forced back on and timed (more renders per such preset)")
+    b.add_argument("--no-audit", dest="audit", action="store_false", help="no planner audit (the default)")
+    b.add_argument("--progress", action="store_true", help="progress on stderr also when it is not a terminal "
+                   "(lines for a log; --quiet wins)")
     b.add_argument("--quick", action="store_true", help="cap pre-integration table resolutions (as stress --quick)")
     b.add_argument("--resume", action="store_true", help="reuse the pipelines already saved in -o's pipelines/ (an "
                    "interrupted bench of the same scene and settings) and run the rest")
@@ -748,6 +753,8 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--pipelines", nargs="+", default=["all"], help="'all' (every preset) or names/files")
     st.add_argument("-o", "--output", help="folder for stress.json / .csv / .md / .html (and cases/: each case's rows "
                     "saved as it finishes)")
+    st.add_argument("--progress", action="store_true", help="progress on stderr also when it is not a "
+                    "terminal (lines for a log; --quiet wins)")
     st.add_argument("--resume", action="store_true", help="reuse the cases already saved in -o's cases/ (an "
                     "interrupted run; same --quick and pipelines) and run the rest")
     common(st)
@@ -760,6 +767,8 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--workers", type=int, default=2, help="worker processes of the local cluster")
     sw.add_argument("--serial", action="store_true", help="run the tasks one after another in this process")
     sw.add_argument("--quiet", action="store_true", help="no progress output on stderr")
+    sw.add_argument("--progress", action="store_true", help="progress on stderr also when it is not a "
+                    "terminal (lines for a log; --quiet wins)")
     sw.set_defaults(func=cmd_sweep, device="cpu")
     return p
 

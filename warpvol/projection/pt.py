@@ -36,6 +36,7 @@ import numpy as np
 import warp as wp
 
 from warpvol.errors import ConfigError
+from warpvol.progress import detail
 
 #: fragment generation of :func:`draw`: the rasteriser's walks (a fragment list, then the program and
 #: the blending unit), or ``fused`` (walk, program and blending in one kernel per bin; exact_program only)
@@ -255,6 +256,7 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
     clamped = wp.zeros(1, dtype=wp.int32, device=device)
     for k0 in range(0, m, batch_tets):
         k1 = min(m, k0 + batch_tets)
+        detail("pt draw", k0 / m, f"tets {k0:,} of {m:,}")  # an open progress bar shows it
         tris = geo.tris[4 * k0:4 * k1]
         frags = rast.fragments(geo.positions, tris, vertex_attrs, interpolation="linear", walk=walk)
         n_batch += 1
@@ -301,6 +303,7 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
     m = geo.n_tets
     for k0 in range(0, m, batch_tets):
         k1 = min(m, k0 + batch_tets)
+        detail("pt draw", k0 / m, f"tets {k0:,} of {m:,}")  # an open progress bar shows it
         tr = rast.setup(geo.positions, geo.tris[4 * k0:4 * k1], threads=threads if cpu else 1)
         n_batch += 1
         counts = wp.zeros(tr.n_tiles, dtype=wp.vec2i, device=device)

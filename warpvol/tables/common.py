@@ -9,6 +9,7 @@ from contextlib import contextmanager
 import numpy as np
 
 from warpvol.errors import ConfigError, check_choice, check_number
+from warpvol.progress import detail
 from warpvol.scene.transfer import TransferFunction
 from warpvol.tables.base import Axis, Table, model_id, quantise, table_key
 
@@ -102,10 +103,12 @@ def launch_bands(kernel, n_l: int | None, n_rows: int, n_cols: int, device: str,
         l0, j0, nj = slabs[b]
         dim = (nj, n_cols) if n_l is None else (1, nj, n_cols)
         wp.launch(kernel, dim=dim, device=device, inputs=inputs(l0, 1, j0, nj))
+        with lock:
+            state["done"] += 1
+            detail(what, state["done"] / len(slabs))  # the build's share done, where a progress bar is open
         if report is None:
             return
         with lock:
-            state["done"] += 1
             now = time.perf_counter()
             if now - state["last"] >= PROGRESS_EVERY and state["done"] < len(slabs):
                 state["last"] = now

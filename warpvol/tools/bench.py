@@ -3,10 +3,11 @@
 For each pipeline: one warm-up render (kernel compilation, the mesh's derived data), then
 ``repeats`` timed renders whose median total and per-stage times are reported; the error against the
 exact float64 reference (computed once and cached on disk by scene content, :func:`cached_reference`);
-the tables' memory; the counters; and, with a GPU profile, the modelled time. The *planner audit*
-renders once more per stage the planner left out, with that stage forced on
+the tables' memory; the counters; and, with a GPU profile, the modelled time. With ``audit`` (``--audit``)
+the *planner audit* renders once more per stage the planner left out, with that stage forced on
 (``Pipeline.render(force=...)``), and reports the time the omission saves and how far the two images
-differ. :func:`pareto_front` marks the pipelines no other one beats in both time and error.
+differ (it doubles the run of a preset that leaves stages out, so it is off by default).
+:func:`pareto_front` marks the pipelines no other one beats in both time and error.
 
 Presets are discovered through :func:`warpvol.pipeline.list_presets`, so a new preset file shows up
 here without code.
@@ -16,12 +17,12 @@ Examples
 >>> import tempfile, warpvol
 >>> from warpvol.tools.bench import run_bench
 >>> scene = warpvol.builtin_scene("box").with_camera(width_px=8, height_px=8)
->>> res = run_bench(scene, ["raycast"], repeats=1, cache_dir=tempfile.mkdtemp(), quiet=True)
+>>> res = run_bench(scene, ["raycast"], repeats=2, cache_dir=tempfile.mkdtemp(), quiet=True, audit=True)
 >>> row = res.rows[0]
 >>> row["pipeline"], row["status"], row["pareto"], row["rmse"] < 1e-5
 ('raycast', 'ok', True, True)
->>> [a["stage"] for a in row["planner"]]
-['peel']
+>>> row["min_s"] <= row["total_s"] <= row["max_s"], [a["stage"] for a in row["planner"]]
+(True, ['peel'])
 """
 
 from __future__ import annotations
@@ -40,11 +41,12 @@ import numpy as np
 
 from warpvol.bands import compute_reference
 from warpvol.errors import ConfigError, WarpvolError
-from warpvol.progress import Progress
+from warpvol.progress import ProgressBar
 from warpvol.tools.report_html import FRONTS
 
 #: row fields every bench / sweep table has (stage times, counters and options come on top)
-ROW_FIELDS = ("pipeline", "status", "message", "total_s", "first_s", "render_s", "setup_s", "compile_s", "repeats",
+ROW_FIELDS = ("pipeline", "status", "message", "total_s", "min_s", "max_s", "first_s", "render_s", "setup_s",
+              "compile_s", "repeats",
               "stages_s", "modelled_s",
               "modelled_stages_s", "gpu_note", "rmse", "max_abs", "psnr", "table_bytes", "counters",
               "skipped", "planner", "pareto", "pareto_modelled")
@@ -218,8 +220,11 @@ def _median_times(reports: list[dict]) -> tuple[float, dict]:
 # one pipeline
 # ------------------------------------------------------------------------------------------------
 def bench_pipeline(pipe: Any, scene: Any, ref: np.ndarray | None, *, repeats: int = 3, gpu: str | None = None,
-                   audit: bool = True, device: str | None = None, on_step: Callable[[str], None] | None = None) -> dict:
-    """Warm-up + ``repeats`` timed renders of one pipeline (and its planner audit): one table row.
+                   audit: bool = True, device: str | None = None, on_step: Callable[[str], None] | None = None,
+                   on_audit: Callable[[int], None] | None = None) -> dict:
+    """Warm-up + ``repeats`` timed renders of one pipeline (and, with ``audit``, its planner audit): one
+    table row; ``total_s`` is the median of the repeats, ``min_s`` / ``max_s`` their spread. ``on_step(what)``
+    follows each render; ``on_audit(n)`` is told the audit's renders before they start.
 
     Returns the row (see :data:`ROW_FIELDS`) and, under ``"_image"``, the last image. Exceptions
     propagate (the caller decides whether a failure ends the run).
@@ -231,6 +236,7 @@ def bench_pipeline(pipe: Any, scene: Any, ref: np.ndarray | None, *, repeats: in
     gpu_note = gpu_support(gpu, pipe) if gpu is not None else None
     if gpu is not None and gpu_note is None:
         kw["gpu"] = gpu
+    step("warm-up")
     t0 = time.perf_counter()
     try:
         first = pipe.render(scene, **kw)
@@ -241,17 +247,17 @@ def bench_pipeline(pipe: Any, scene: Any, ref: np.ndarray | None, *, repeats: in
         kw.pop("gpu")
         first = pipe.render(scene, **kw)
     first_s = time.perf_counter() - t0
-    step("warm-up")
     runs = []
     for k in range(repeats):
-        runs.append(pipe.render(scene, **kw))
         step(f"run {k + 1}/{repeats}")
+        runs.append(pipe.render(scene, **kw))
     last = runs[-1] if runs else first
     reports = [r.report for r in runs] or [first.report]
     total, stages = _median_times(reports)
     img = last.image
     # total_s: the median warm render; the first render's kernel compilation and set-up apart
     row: dict[str, Any] = {"pipeline": pipe.name, "status": "ok", "message": "", "total_s": total,
+                           "min_s": min(r["total_s"] for r in reports), "max_s": max(r["total_s"] for r in reports),
                            "first_s": first_s, "render_s": statistics.median(r.get("render_s", r["total_s"]) for r in reports),
                            "setup_s": first.report.get("setup_s"), "compile_s": first.report.get("compile_s"),
                            "repeats": len(runs), "stages_s": stages,
@@ -268,13 +274,15 @@ def bench_pipeline(pipe: Any, scene: Any, ref: np.ndarray | None, *, repeats: in
     row.update(rmse=err["rmse"], max_abs=err["max_abs"], psnr=err["psnr"])
     row["planner"] = []
     if audit:
+        if on_audit is not None and row["skipped"]:
+            on_audit(len(row["skipped"]) * (1 + max(repeats, 1)))
         for sk in row["skipped"]:
+            step(f"audit {sk['stage']}")
             entry = audit_skip(pipe, scene, sk, img, total, ref, repeats=max(repeats, 1), kw=kw)
             # a stage skipped only on re-renders (e.g. a table found in the pipeline's cache) ran in
             # the warm-up: its time there is the work the skip avoids on every later render
             entry["warmup_stage_s"] = first.report["stages"].get(sk["stage"])
             row["planner"].append(entry)
-            step(f"audit {sk['stage']}")
     row["_image"] = img
     return row
 
@@ -293,6 +301,7 @@ def audit_skip(pipe: Any, scene: Any, skipped: dict, image: np.ndarray, total_s:
         entry.update(forced_total_s=None, saved_s=None, note=f"cannot run when forced: {type(e).__name__}: {e}")
         return entry
     forced = statistics.median(r.report["total_s"] for r in runs)
+    entry.update(forced_min_s=min(r.report["total_s"] for r in runs), forced_max_s=max(r.report["total_s"] for r in runs))
     d = image_error(runs[-1].image, image)
     # what leaving the stage out saves is its own time when it runs (median); the difference of the
     # whole renders' medians says the same plus the other stages' timing noise, so it is kept apart
@@ -318,10 +327,12 @@ class BenchResult:
     images: dict[str, np.ndarray] = field(default_factory=dict)
     gpu: str | None = None
     notes: list[str] = field(default_factory=list)
+    #: where and when it ran: commit, versions, CPU, load, date (:func:`warpvol.tools.machine.run_metadata`)
+    meta: dict = field(default_factory=dict)
 
     def as_json(self) -> dict:
         return {"scene": self.scene, "gpu": self.gpu, "notes": self.notes, "reference_s": self.reference_s,
-                "reference_cached": self.reference_cached, "rows": self.rows}
+                "reference_cached": self.reference_cached, "meta": self.meta, "rows": self.rows}
 
 
 def describe_scene(scene: Any) -> dict:
@@ -346,49 +357,69 @@ def mark_pareto(rows: list[dict]) -> None:
             r[flag] = bool(f)
 
 
-#: time column -> the row flag of its Pareto front
 def run_bench(scene: Any, pipelines: Any = "all", *, repeats: int = 3, gpu: str | None = None,
-              cache_dir: str | Path | None = None, audit: bool = True, device: str = "cpu",
-              quiet: bool = False, quick: bool = False, done: dict | None = None,
-              on_row: Callable[[str, dict, np.ndarray | None], None] | None = None) -> BenchResult:
+              cache_dir: str | Path | None = None, audit: bool = False, device: str = "cpu",
+              quiet: bool = False, progress: bool = False, quick: bool = False, done: dict | None = None,
+              on_row: Callable[[str, dict, np.ndarray | None], None] | None = None,
+              command: str | None = None) -> BenchResult:
     """Bench ``scene`` with each pipeline (see the module docstring); failures become rows.
-    ``quick``: table resolutions capped (:func:`quick_pipeline`), noted in the result. ``done``:
-    ``{key: (row, image)}`` of pipelines already benched (a resumed run: not run again);
-    ``on_row(key, row, image)`` is called after each pipeline that runs (e.g. to save it at once)."""
+    ``audit``: the planner audit (forced-stage renders) too. ``quick``: table resolutions capped
+    (:func:`quick_pipeline`), noted in the result. ``done``: ``{key: (row, image)}`` of pipelines
+    already benched (a resumed run: not run again); ``on_row(key, row, image)`` is called after each
+    pipeline that runs (e.g. to save it at once). Progress goes to stderr on a terminal
+    (:class:`warpvol.progress.ProgressBar`; ``progress``: also elsewhere, as lines; ``quiet``: never).
+    ``command``: the command line, kept in the metadata."""
+    from warpvol.tools.machine import load_average, run_metadata
+
     pipes = load_pipelines(pipelines, device, quick=quick)  # unknown names fail before any work
     check_gpu(gpu)
     notes = [] if gpu is None else ([gpu_support(gpu)] if gpu_support(gpu) else [])
     if quick:
         notes.append(f"--quick: pre-integration table resolutions capped at {QUICK_TABLE_CAPS} (not the presets as shipped)")
-    prog = Progress(1 + len(pipes) * (2 + repeats), f"bench {scene.name}", enabled=not quiet)
-    ref, ref_s, hit = cached_reference(scene, cache_dir, quiet=True)
-    prog.step("reference (cached)" if hit else f"reference {ref_s:.2f} s")
+    meta = run_metadata(device, command)
     rows, images = [], {}
     done = done or {}
-    for pipe, key in zip(pipes, pipeline_keys(pipes)):
-        if key in done:
-            row, img = done[key]
-            rows.append(dict(row))
-            if img is not None:
-                images[key] = img
-            prog.step(f"{key}: saved row reused", 2 + repeats)
-            continue
-        try:
-            row = bench_pipeline(pipe, scene, ref, repeats=repeats, gpu=gpu, audit=audit, device=device,
-                                 on_step=lambda m, k=key: prog.step(f"{k}: {m}", 0))
-            images[key] = row.pop("_image")
-        except KeyboardInterrupt:
-            raise
-        except Exception as e:  # noqa: BLE001 - one failing pipeline is a row, the others go on
-            row = {"pipeline": key, "status": "failed", "message": f"{type(e).__name__}: {e}"}
-        row["pipeline"] = key
-        rows.append(row)
-        if on_row is not None:
-            on_row(key, row, images.get(key))
-        prog.step(f"{key}: {row['status']}", 2 + repeats)
-    prog.close()
+    # units: the reference, then per pipeline its warm-up and timed renders (audit renders added when known)
+    per = 1 + repeats
+    with ProgressBar(f"bench {scene.name}", 1 + len(pipes) * per, enabled=not quiet, force=progress) as prog:
+        prog.describe("exact reference")
+        ref, ref_s, hit = cached_reference(scene, cache_dir, quiet=quiet)
+        prog.advance(1, "reference read from the cache" if hit else f"reference {ref_s:.2f} s")
+        for pipe, key in zip(pipes, pipeline_keys(pipes)):
+            start, extra = prog.done, [0]
+            if key in done:
+                row, img = done[key]
+                rows.append(dict(row))
+                if img is not None:
+                    images[key] = img
+                prog.set(start + per, f"{key}: saved row reused")
+                continue
+            calls = [0]
+
+            def step(what: str, k: str = key) -> None:  # called before each render: what runs next
+                prog.advance(1 if calls[0] else 0, f"{k}: {what}")
+                calls[0] += 1
+
+            def more(n: int) -> None:
+                extra[0] += n
+                prog.add_total(n)
+
+            try:
+                row = bench_pipeline(pipe, scene, ref, repeats=repeats, gpu=gpu, audit=audit, device=device,
+                                     on_step=step, on_audit=more)
+                images[key] = row.pop("_image")
+            except KeyboardInterrupt:
+                raise
+            except Exception as e:  # noqa: BLE001 - one failing pipeline is a row, the others go on
+                row = {"pipeline": key, "status": "failed", "message": f"{type(e).__name__}: {e}"}
+            row["pipeline"] = key
+            rows.append(row)
+            if on_row is not None:
+                on_row(key, row, images.get(key))
+            prog.set(start + per + extra[0], f"{key}: {row['status']}")
+    meta["load average at the end"] = load_average()
     mark_pareto(rows)
-    return BenchResult(describe_scene(scene), rows, ref, ref_s, hit, images, gpu, notes)
+    return BenchResult(describe_scene(scene), rows, ref, ref_s, hit, images, gpu, notes, meta)
 
 
 def pipeline_keys(pipes: list[Any]) -> list[str]:
@@ -475,8 +506,10 @@ def row_store(outdir: str | Path, scene: Any, *, repeats: int, gpu: str | None, 
 
 
 def write_bench(result: BenchResult, outdir: str | Path, *, plan: dict | None = None) -> list[Path]:
-    """Write table.csv / table.json / table.md, pareto.png / pareto.svg and index.html into ``outdir``,
-    all or none (:class:`warpvol.io.Outputs`). Returns the paths."""
+    """Write table.csv / table.json / table.md, the Pareto plot of the emulated times (pareto.svg with
+    hover titles, pareto.png the same plot), with a GPU profile the one of the modelled times
+    (pareto_modelled.svg / .png) and index.html into ``outdir``, all or none
+    (:class:`warpvol.io.Outputs`). Returns the paths."""
     from warpvol.io import Outputs
     from warpvol.pipeline import report_json
     from warpvol.tools import report_html as rh
@@ -492,8 +525,8 @@ def write_bench(result: BenchResult, outdir: str | Path, *, plan: dict | None = 
         out.bytes(out_dir / "pareto.png", rh.pareto_png(result.rows))
         paths.append(out_dir / "pareto.png")
         if any(r.get("modelled_s") for r in result.rows):
-            out.bytes(out_dir / "pareto_modelled.png", rh.pareto_png(result.rows, tk="modelled_s"))
-            out.text(out_dir / "pareto_modelled.svg", rh.pareto_svg(result.rows, tk="modelled_s"))
+            out.bytes(out_dir / "pareto_modelled.png", rh.pareto_png(result.rows, tk="modelled_s", gpu=result.gpu))
+            out.text(out_dir / "pareto_modelled.svg", rh.pareto_svg(result.rows, tk="modelled_s", gpu=result.gpu))
             paths += [out_dir / "pareto_modelled.png", out_dir / "pareto_modelled.svg"]
         out.text(out_dir / "index.html", rh.bench_page(result, plan=plan))
         paths.append(out_dir / "index.html")

@@ -217,6 +217,7 @@ def run_case(case: Case, pipes: list[Any], device: str = "cpu",
     ``on_step(what)`` is told what starts next (the reference, each pipeline): progress."""
     step = on_step or (lambda _what: None)
     from warpvol.metrics import image_error
+    from warpvol.progress import detail
     from warpvol.reference.numpy_render import render_reference
 
     rows = []
@@ -228,7 +229,9 @@ def run_case(case: Case, pipes: list[Any], device: str = "cpu",
             ref, kind = case.analytic(), "closed form"
         else:
             sc = case.scene
-            ref, kind = render_reference(sc.mesh, sc.transfer, sc.camera), "exact float64"
+            # its share done goes to the open progress bar (none: nothing shown)
+            ref = render_reference(sc.mesh, sc.transfer, sc.camera, progress=lambda f: detail("reference", f))
+            kind = "exact float64"
         finite = bool(np.isfinite(ref).all())
         rows.append({"case": case.name, "pipeline": f"reference ({kind})", "status": "ok" if finite else "failed",
                      "finite": finite, "time_s": time.perf_counter() - t0, "rmse": None, "max_abs": None,
@@ -269,39 +272,48 @@ def run_case(case: Case, pipes: list[Any], device: str = "cpu",
 
 def run_stress(quick: bool = False, cases: list[str] | None = None, pipelines: Any = "all", device: str = "cpu",
                quiet: bool = True, done: dict[str, list[dict]] | None = None,
-               on_case: Callable[[str, list[dict]], None] | None = None) -> list[dict]:
+               on_case: Callable[[str, list[dict]], None] | None = None, progress: bool = False) -> list[dict]:
     """Every case x every pipeline; a case that cannot even be built is a failed row. ``quick``: the
     reduced sizes of each case and :func:`warpvol.tools.bench.quick_pipeline`. ``done``: rows of cases
     already run (a resumed suite: they are not run again); ``on_case(name, rows)`` is called after
-    each case that runs (e.g. to save it at once)."""
-    from warpvol.progress import Progress
+    each case that runs (e.g. to save it at once). Progress (a unit per reference and per render, with the
+    time left) goes to stderr on a terminal (``progress``: also elsewhere, as lines; ``quiet``: never)."""
+    from warpvol.progress import ProgressBar
     from warpvol.tools.bench import load_pipelines
 
     names = check_case_names(cases)
     pipes = load_pipelines(pipelines, device, quick=quick)
-    prog = Progress(len(names), "stress" + (" --quick" if quick else ""), enabled=not quiet)
+    per = 1 + len(pipes)  # units of a case: its reference and one render per pipeline
     rows: list[dict] = []
     done = done or {}
-    for n in names:
-        if n in done:
-            rows += done[n]
-            prog.step(f"{n}: saved rows reused")
-            continue
-        start = len(rows)
-        try:
-            case = build_case(n, quick)
-        except KeyboardInterrupt:
-            raise
-        except Exception as e:  # noqa: BLE001
-            rows.append({"case": n, "pipeline": "(scene)", "status": "failed", "finite": None, "time_s": None,
-                         "rmse": None, "max_abs": None, "message": f"building the case: {type(e).__name__}: {e}"})
-            prog.step(f"{n}: failed")
-            continue
-        rows += run_case(case, pipes, device, on_step=lambda what, n=n: prog.step(f"{n}: {what}", 0))
-        if on_case is not None:
-            on_case(n, rows[start:])
-        prog.step(n)
-    prog.close()
+    with ProgressBar("stress" + (" --quick" if quick else ""), len(names) * per, enabled=not quiet,
+                     force=progress) as prog:
+        for k, n in enumerate(names):
+            if n in done:
+                rows += done[n]
+                prog.set((k + 1) * per, f"{n}: saved rows reused")
+                continue
+            start = len(rows)
+            prog.describe(f"{n}: building the case")
+            try:
+                case = build_case(n, quick)
+            except KeyboardInterrupt:
+                raise
+            except Exception as e:  # noqa: BLE001
+                rows.append({"case": n, "pipeline": "(scene)", "status": "failed", "finite": None, "time_s": None,
+                             "rmse": None, "max_abs": None, "message": f"building the case: {type(e).__name__}: {e}"})
+                prog.set((k + 1) * per, f"{n}: failed")
+                continue
+            steps = [0]
+
+            def step(what: str, n: str = n) -> None:  # called before each item: what runs next
+                prog.advance(1 if steps[0] else 0, f"{n}: {what}")
+                steps[0] += 1
+
+            rows += run_case(case, pipes, device, on_step=step)
+            if on_case is not None:
+                on_case(n, rows[start:])
+            prog.set((k + 1) * per, f"{n}: done")
     return rows
 
 

@@ -289,11 +289,12 @@ def _done_row(outdir: Path, t: Task) -> dict | None:
 
 
 def run_sweep(cfg: SweepConfig, outdir: str | Path, *, scheduler: str | None = None, workers: int = 2,
-              serial: bool = False, quiet: bool = True,
+              serial: bool = False, quiet: bool = True, progress: bool = False,
               on_result: Callable[[dict, Any], None] | None = None) -> SweepResult:
     """Run every task not yet done (see the module docstring); ``on_result(row, client)`` is called
-    as each task finishes (``client`` is ``None`` when serial)."""
-    from warpvol.progress import Progress
+    as each task finishes (``client`` is ``None`` when serial). Progress (tasks done, the time left) goes
+    to stderr on a terminal (``progress``: also elsewhere, as lines; ``quiet``: never)."""
+    from warpvol.progress import ProgressBar
 
     out = Path(outdir)
     (out / "tasks").mkdir(parents=True, exist_ok=True)
@@ -308,51 +309,51 @@ def run_sweep(cfg: SweepConfig, outdir: str | Path, *, scheduler: str | None = N
         else:
             todo.append(t)
     skipped = len(tasks) - len(todo)
-    prog = Progress(len(todo), f"sweep {cfg.name}", enabled=not quiet)
+    prog = ProgressBar(f"sweep {cfg.name}", max(len(todo), 1), enabled=not quiet, force=progress)
     views = sorted({(t.scene, t.view, t.scene_sha) for t in todo})
     kdir = cfg.kernel_cache_dir
 
     def finish(row: dict, client: Any) -> None:
         rows.append(row)
-        prog.step(f"{row['task']}: {row['status']}")
+        prog.advance(1, f"{row['task']}: {row['status']}")
         if on_result is not None:
             on_result(row, client)
 
-    if serial:
-        refs = {}
-        for sv in views:
-            try:
-                refs[sv] = reference_task(*sv, refs_dir, kdir)
-            except Exception as e:  # noqa: BLE001
-                refs[sv] = e
-        for t in todo:
-            r = refs[(t.scene, t.view, t.scene_sha)]
-            finish(run_task(t, r, str(out), kdir) if isinstance(r, str) else
-                   {**_ids(t), "status": "failed", "message": f"reference: {type(r).__name__}: {r}"}, None)
-    elif todo:
-        from dask.distributed import Client, LocalCluster, as_completed
-
-        cluster = None
-        if scheduler is None:
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                   dashboard_address=None, silence_logs=40)
-        client = Client(cluster if cluster is not None else scheduler)
-        try:
-            ref_f = {sv: client.submit(reference_task, *sv, refs_dir, kdir, pure=False) for sv in views}
-            futs = {client.submit(run_task, t, ref_f[(t.scene, t.view, t.scene_sha)], str(out), kdir, key=f"render-{t.key}",
-                                  pure=False): t for t in todo}
-            for f in as_completed(futs):
-                t = futs[f]
+    with prog:  # a task's row arrives as it finishes: serial, or from the Dask workers
+        if serial:
+            refs = {}
+            for sv in views:
                 try:
-                    row = f.result()
-                except Exception as e:  # noqa: BLE001 - reference failed, or workers kept dying on it
-                    row = {**_ids(t), "status": "failed", "message": f"{type(e).__name__}: {e}"}
-                finish(row, client)
-        finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
-    prog.close()
+                    refs[sv] = reference_task(*sv, refs_dir, kdir)
+                except Exception as e:  # noqa: BLE001
+                    refs[sv] = e
+            for t in todo:
+                r = refs[(t.scene, t.view, t.scene_sha)]
+                finish(run_task(t, r, str(out), kdir) if isinstance(r, str) else
+                       {**_ids(t), "status": "failed", "message": f"reference: {type(r).__name__}: {r}"}, None)
+        elif todo:
+            from dask.distributed import Client, LocalCluster, as_completed
+
+            cluster = None
+            if scheduler is None:
+                cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                       dashboard_address=None, silence_logs=40)
+            client = Client(cluster if cluster is not None else scheduler)
+            try:
+                ref_f = {sv: client.submit(reference_task, *sv, refs_dir, kdir, pure=False) for sv in views}
+                futs = {client.submit(run_task, t, ref_f[(t.scene, t.view, t.scene_sha)], str(out), kdir, key=f"render-{t.key}",
+                                      pure=False): t for t in todo}
+                for f in as_completed(futs):
+                    t = futs[f]
+                    try:
+                        row = f.result()
+                    except Exception as e:  # noqa: BLE001 - reference failed, or workers kept dying on it
+                        row = {**_ids(t), "status": "failed", "message": f"{type(e).__name__}: {e}"}
+                    finish(row, client)
+            finally:
+                client.close()
+                if cluster is not None:
+                    cluster.close()
     order = {t.key: k for k, t in enumerate(tasks)}
     rows.sort(key=lambda r: (r["status"] == "n/a", order.get(r.get("task"), 1 << 30), r.get("task", "")))
     return SweepResult(cfg, rows, skipped, time.perf_counter() - t0)

@@ -97,8 +97,12 @@ class VsbSweep(Stage):
                 f"max_sweep_pixels = {limit:.3g} (the emulated sweep grows as the cube of the image size; hours "
                 "on a CPU); lower the image size or depth_res, or raise max_sweep_pixels")
         table = ctx.buffers[key] if self.integration == "table" else None
+        from warpvol.progress import detail
+
+        h = cam.height_px  # the sweep's planes, one per image row: its share done goes to an open progress bar
         img, st = render_vsbuffer(ctx.buffers["vsb_cells"], sc.transfer, sc.camera, device=ctx.device,
-                                  count=ctx.count, table=table,
+                                  count=ctx.count, table=table, on_batch=lambda j0, n: detail(self.name, j0 / h,
+                                                                                                  f"plane {j0} of {h}"),
                                   texture_cache=ctx.persistent.setdefault("vsb_textures", {}), **cfg)
         ctx.stats["vsbuffer"] = {k: v for k, v in st.items() if k not in ("counters", "lists", "missed_per_ray")}
         c = st["counters"]
