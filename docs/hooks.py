@@ -124,9 +124,11 @@ def bench_table(arg: str) -> str:
     rows = data.get("rows") or []
     present = [(k, h) for k, h in BENCH_COLUMNS if any(k in r for r in rows)]
     # spread over the timed renders, where the bench records it
+    at = 3  # after the median time, in the order min, max
     for k, h in (("min_s", "min [s]"), ("max_s", "max [s]"), ("total_min_s", "min [s]"), ("total_max_s", "max [s]")):
         if any(k in r for r in rows) and h not in [x[1] for x in present]:
-            present.insert(3, (k, h))
+            present.insert(at, (k, h))
+            at += 1
     table_rows = []
     for r in rows:
         row = [r.get(k) for k, _ in present]
