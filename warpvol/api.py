@@ -207,17 +207,22 @@ def _device(device: Any) -> str:
     return check_device(device, "device")
 
 
-def _reference(reference: Any, scene: Scene, fn: str = "render") -> tuple[np.ndarray | None, float | None]:
+def _reference(reference: Any, scene: Scene, fn: str = "render",
+               quiet: bool = True) -> tuple[np.ndarray | None, float | None]:
     """``(image, seconds)``: False -> none; True -> the exact reference, computed or from the session's
-    cache (seconds ``0.0``: see :mod:`warpvol.cache`); an array or an EXR file name -> it. Errors name
-    ``fn(reference)`` and what is accepted."""
+    cache (seconds ``0.0``: see :mod:`warpvol.cache`; unless ``quiet``, a progress bar on stderr when
+    it is a terminal); an array or an EXR file name -> it. Errors name ``fn(reference)`` and what is
+    accepted."""
     if reference is False or reference is None:
         return None, None
     if reference is True:
+        from warpvol.progress import ProgressBar
         from warpvol.reference.numpy_render import render_reference
 
         t0 = time.perf_counter()
-        img, hit = cache.reference(scene, lambda: render_reference(scene.mesh, scene.transfer, scene.camera))
+        with ProgressBar("exact reference", enabled=not quiet) as bar:  # stderr only; none with quiet
+            img, hit = cache.reference(scene, lambda: render_reference(scene.mesh, scene.transfer, scene.camera,
+                                                                       progress=bar.fraction))
         return img, (0.0 if hit else time.perf_counter() - t0)
     arg = f"{fn}(reference)"
     accepted = ("expected True (compute the exact reference), False or None (no reference), the name of an "
@@ -413,7 +418,7 @@ def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = 
     gpu = gpu_profile(gpu)
     scene = _interned(as_scene(mesh, transfer, camera, scalars=scalars, split=split, size=size))
     pipe, key = _pipeline(pipeline, device)  # unknown pipelines fail before the reference spends time
-    ref, ref_s = _reference(reference, scene)
+    ref, ref_s = _reference(reference, scene, quiet=quiet)
     res = pipe.render(scene, reference=ref, quiet=quiet, device=device, gpu=gpu)
     if key is not None:
         cache.pipeline_used(key)
@@ -549,7 +554,7 @@ def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, refere
         raise ConfigError(f"pipelines: expected one or more preset names, files or Pipelines; got {pipelines!r}")
     pipes = [_pipeline(p, device, arg=f"pipelines[{k}]") for k, p in enumerate(names)]
     scene = _interned(_scene_of(scene_or_parts, scalars))
-    ref, ref_s = _reference(reference, scene, "compare")
+    ref, ref_s = _reference(reference, scene, "compare", quiet)
     results: dict[str, Rendering] = {}
     table: list[dict] = []
     for pipe, pkey in pipes:
