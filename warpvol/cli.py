@@ -290,71 +290,10 @@ def cmd_reference(args) -> int:
     return 0
 
 
-#: ``warpvol pipelines``: the presets by purpose, each with a short line (the full description with --long)
-PRESET_FAMILIES: tuple[tuple[str, dict[str, str]], ...] = (
-    ("exact and fast", {
-        "raycast": "default; float32 ray casting through the cells, exact segment integrals",
-        "harc_best": "hardware ray casting (rasterised start, peeling), raycast's exact walk",
-        "pt_best": "cell projection with exact visibility and an exact per-fragment integral",
-        "vsbuffer_best": "VSBUFFER sweep made exact, hexahedra drawn whole; slow (plane by plane)",
-    }),
-    ("cell projection as VTK does it", {
-        "pt_vertex_color": "projected tetrahedra, averaged per-vertex colour, 8-bit blending",
-    }),
-    ("Westermann & Ertl 1997", {
-        "westermann1997": "VSBUFFER as published: ID buffers per scanline, trapezoidal rule",
-    }),
-    ("Roettger, Kraus & Ertl 2000; Roettger & Ertl 2002", {
-        "roettger2000_3d": "pre-integrated PT, software 64^3 table in an RGBA8 3D texture",
-        "roettger2002_hw": "pre-integrated PT, table built by emulated 12-bit Octane MXI hardware",
-        "roettger2002_cylindrical": "pre-integrated PT, the 3D table as cylindrical 2D alpha-planes",
-    }),
-    ("Guthe et al. 2002", {
-        "guthe2002_linear": "2D multi-texturing, separated opacity, colour linear in thickness",
-        "guthe2002_quadratic_gf4": "as guthe2002_linear, colour of degree 2 (GeForce4, 4 texture units)",
-        "guthe2002_quartic_radeon": "as guthe2002_linear, colour of degree 4 (Radeon 8500, 6 units)",
-    }),
-    ("Weiler et al. 2003", {
-        "weiler2003_vicp": "view-independent cell projection, 128^3 8-bit pre-integration table",
-    }),
-    ("Kraus, Qiao & Ebert 2004", {
-        "kraus2004_basic": "pre-integrated PT, 8-bit 256x256x16 table, screen-space attributes",
-        "kraus2004_full": "perspective-correct attributes, HILO16 log-thickness table, fp16 buffer",
-    }),
-    ("Espinha & Celes 2005", {
-        "espinha2005_full": "hardware ray casting with a full 128^3 RGBA8 pre-integration table",
-        "espinha2005_partial": "hardware ray casting with partial pre-integration (iso-crossing, psi)",
-    }),
-)
-#: columns of ``warpvol pipelines`` lines
-PIPELINES_WIDTH = 100
-
-
-def preset_groups() -> list[tuple[str, list[tuple[str, str, str]]]]:
-    """``(family, [(preset, short line, full description)])`` of every shipped preset: the families of
-    :data:`PRESET_FAMILIES`, then "other" for presets they do not name (short line: the description cut)."""
-    from warpvol.pipeline import list_presets
-
-    full = dict(list_presets())
-    groups, named = [], set()
-    for family, items in PRESET_FAMILIES:
-        rows = [(n, short, full[n]) for n, short in items.items() if n in full]
-        named.update(items)
-        if rows:
-            groups.append((family, rows))
-    other = [(n, d, d) for n, d in full.items() if n not in named]
-    if other:
-        groups.append(("other", other))
-    return groups
-
-
-def _fit(text: str, width: int) -> str:
-    return text if len(text) <= width else text[:width - 3].rstrip() + "..."
-
-
 def cmd_pipelines(args) -> int:
     import textwrap
 
+    from warpvol.families import PIPELINES_WIDTH, fit_line, preset_groups
     from warpvol.pipeline import _load_builtin_stages
     from warpvol.stage import STAGES
 
@@ -365,7 +304,7 @@ def cmd_pipelines(args) -> int:
                 print(f"  {name}")
                 print(textwrap.fill(desc, PIPELINES_WIDTH, initial_indent="    ", subsequent_indent="    "))
             else:
-                print(_fit(f"  {name:<26}{short}", PIPELINES_WIDTH))
+                print(fit_line(f"  {name:<26}{short}", PIPELINES_WIDTH))
     if not args.long:
         print("\n`warpvol pipelines --long` describes each preset in full; `--stages` lists every stage.")
     if args.stages:
@@ -376,13 +315,8 @@ def cmd_pipelines(args) -> int:
     return 0
 
 
-#: the files ``demo -o`` writes
-DEMO_FILES = ("image.exr", "reference.exr", "image.png", "reference.png", "error.png", "report.json", "index.html")
-#: background of the demo's PNG images
-DEMO_BACKGROUND = (0.1, 0.1, 0.1)
-
-
 def cmd_demo(args) -> int:
+    from warpvol.demo import DEMO_BACKGROUND, DEMO_FILES, demo_page
     from warpvol.io import Outputs, OwnedFiles
     from warpvol.metrics import write_error_png
     from warpvol.pipeline import DEFAULT_PIPELINE, Pipeline, report_json
@@ -423,44 +357,6 @@ def cmd_demo(args) -> int:
     print(f"wrote {outdir}/index.html (image, reference and error side by side), image.exr, image.png, reference.exr, "
           f"reference.png, error.png (log scale, max {err_max:.2e}), report.json")
     return 0
-
-
-def demo_page(scene, report: dict, err_max: float) -> str:
-    """The demo's ``index.html`` (Jinja2 template ``warpvol/templates/demo.html``): image, reference and
-    error map side by side, a line on what each is, and the error numbers explained."""
-    import jinja2
-
-    from warpvol.metrics import ERROR_FLOOR
-
-    env = jinja2.Environment(loader=jinja2.PackageLoader("warpvol", "templates"), autoescape=True,
-                             undefined=jinja2.StrictUndefined)
-    cam, e = scene.camera, report["error"]
-    bg = ", ".join(f"{v:g}" for v in DEMO_BACKGROUND)
-    figures = [
-        dict(file="image.png", title="image",
-             text=f"what the {report['pipeline']} pipeline rendered: premultiplied RGBA composited over grey ({bg}), "
-                  "8 bits per channel (full precision in image.exr)."),
-        dict(file="reference.png", title="reference",
-             text="the exact float64 ray integral of the same scene (warpvol reference), composited the same way "
-                  "(reference.exr)."),
-        dict(file="error.png", title="error",
-             text=f"per pixel, the largest |image - reference| over R, G, B and A, on a logarithmic colour scale "
-                  f"from {ERROR_FLOOR:.0e} to the maximum ({err_max:.2e}); one step of an 8-bit channel is 3.9e-3."),
-    ]
-    psnr = "exact (unbounded)" if e["psnr"] is None else f"{e['psnr']:.1f} dB"
-    measures = [
-        dict(name="RMSE", value=f"{e['rmse']:.3e}", text="root mean square of image - reference over every pixel "
-             "and channel, background included"),
-        dict(name="max abs", value=f"{e['max_abs']:.3e}", text="the largest |image - reference| of any pixel and "
-             "channel (below 3.9e-3 it is invisible in an 8-bit PNG)"),
-        dict(name="PSNR", value=psnr, text="20 log10(1 / RMSE), peak 1"),
-        dict(name="frame", value=f"{report['render_s']:.3f} s", text="the warm render (kernels compiled, set-up "
-             "kept)"),
-    ]
-    return env.get_template("demo.html").render(
-        scene=scene.name, pipeline=report["pipeline"], n_tets=f"{scene.mesh.n_tets:,}", width=cam.width_px,
-        height=cam.height_px, figures=figures, measures=measures,
-        files=["image.exr", "reference.exr", "report.json"])
 
 
 def _folder_outputs(outdir: Path, rels: list[str]) -> dict[str, Path]:

@@ -1,0 +1,73 @@
+"""The shipped presets grouped by purpose, as ``warpvol pipelines`` lists them: exact and fast, cell
+projection as VTK does it, then each paper's faithful reproduction, every preset with a short line.
+
+Examples
+--------
+>>> groups = preset_groups()
+>>> groups[0][0], [name for name, _, _ in groups[0][1]][:2]
+('exact and fast', ['raycast', 'harc_best'])
+"""
+
+from __future__ import annotations
+
+#: ``warpvol pipelines``: the presets by purpose, each with a short line (the full description with --long)
+PRESET_FAMILIES: tuple[tuple[str, dict[str, str]], ...] = (
+    ("exact and fast", {
+        "raycast": "default; float32 ray casting through the cells, exact segment integrals",
+        "harc_best": "hardware ray casting (rasterised start, peeling), raycast's exact walk",
+        "pt_best": "cell projection with exact visibility and an exact per-fragment integral",
+        "vsbuffer_best": "VSBUFFER sweep made exact, hexahedra drawn whole; slow (plane by plane)",
+    }),
+    ("cell projection as VTK does it", {
+        "pt_vertex_color": "projected tetrahedra, averaged per-vertex colour, 8-bit blending",
+    }),
+    ("Westermann & Ertl 1997", {
+        "westermann1997": "VSBUFFER as published: ID buffers per scanline, trapezoidal rule",
+    }),
+    ("Roettger, Kraus & Ertl 2000; Roettger & Ertl 2002", {
+        "roettger2000_3d": "pre-integrated PT, software 64^3 table in an RGBA8 3D texture",
+        "roettger2002_hw": "pre-integrated PT, table built by emulated 12-bit Octane MXI hardware",
+        "roettger2002_cylindrical": "pre-integrated PT, the 3D table as cylindrical 2D alpha-planes",
+    }),
+    ("Guthe et al. 2002", {
+        "guthe2002_linear": "2D multi-texturing, separated opacity, colour linear in thickness",
+        "guthe2002_quadratic_gf4": "as guthe2002_linear, colour of degree 2 (GeForce4, 4 texture units)",
+        "guthe2002_quartic_radeon": "as guthe2002_linear, colour of degree 4 (Radeon 8500, 6 units)",
+    }),
+    ("Weiler et al. 2003", {
+        "weiler2003_vicp": "view-independent cell projection, 128^3 8-bit pre-integration table",
+    }),
+    ("Kraus, Qiao & Ebert 2004", {
+        "kraus2004_basic": "pre-integrated PT, 8-bit 256x256x16 table, screen-space attributes",
+        "kraus2004_full": "perspective-correct attributes, HILO16 log-thickness table, fp16 buffer",
+    }),
+    ("Espinha & Celes 2005", {
+        "espinha2005_full": "hardware ray casting with a full 128^3 RGBA8 pre-integration table",
+        "espinha2005_partial": "hardware ray casting with partial pre-integration (iso-crossing, psi)",
+    }),
+)
+#: columns of ``warpvol pipelines`` lines
+PIPELINES_WIDTH = 100
+
+
+def preset_groups() -> list[tuple[str, list[tuple[str, str, str]]]]:
+    """``(family, [(preset, short line, full description)])`` of every shipped preset: the families of
+    :data:`PRESET_FAMILIES`, then "other" for presets they do not name (short line: the description cut)."""
+    from warpvol.pipeline import list_presets
+
+    full = dict(list_presets())
+    groups, named = [], set()
+    for family, items in PRESET_FAMILIES:
+        rows = [(n, short, full[n]) for n, short in items.items() if n in full]
+        named.update(items)
+        if rows:
+            groups.append((family, rows))
+    other = [(n, d, d) for n, d in full.items() if n not in named]
+    if other:
+        groups.append(("other", other))
+    return groups
+
+
+def fit_line(text: str, width: int = PIPELINES_WIDTH) -> str:
+    """``text`` cut to ``width`` columns (ending in ``...`` when cut)."""
+    return text if len(text) <= width else text[:width - 3].rstrip() + "..."
