@@ -168,11 +168,14 @@ def _progress_bar(show: bool | None, total: int):
         show = (sys.stderr.isatty() or "ipykernel" in sys.modules) and total > 1
     if not show:
         return None
+    from rich.console import Console
     from rich.progress import (BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn,
                                TimeRemainingColumn)
 
+    # stderr: stdout stays the caller's (a notebook cell's output, a command's summary)
     bar = Progress(TextColumn("exact reference"), BarColumn(), TaskProgressColumn(), TimeElapsedColumn(),
-                   TextColumn("left"), TimeRemainingColumn(), transient=True)
+                   TextColumn("left"), TimeRemainingColumn(), transient=True, redirect_stdout=False,
+                   console=Console(file=sys.stderr))
     bar.start()
     return bar
 
