@@ -303,34 +303,50 @@ def cylindrical_lookup(planes: wp.array3d(dtype=wp.vec4), sf: wp.array(dtype=flo
     out[k] = v0 * (1.0 - w) + v1 * w
 
 
+from .formats import unorm_quantize  # noqa: E402
 from .texture import Atlas, atlas_sample  # noqa: E402
+
+
+@wp.func
+def cyl_planes_sample(atlas: Atlas, a: float, u: float, v: float, weight_bits: int, nearest: int) -> wp.vec4:
+    """Colour of the α-planes at ``α = a`` and in-tile ``(u, v)``: the planes sit at ``p / (P - 1)``.
+
+    ``nearest = 0``: the two nearest planes (two texture units), blended linearly in ``α`` with the
+    weight ``w`` held as an unsigned ``weight_bits``-bit value (the 8-bit colour the combiner
+    interpolates with: ``t0 (1 - w) + t1 w``, ``1 - w`` by the combiner's input inversion, exact for
+    the code); ``weight_bits = 0``: ``w`` in fp32. ``nearest = 1``: one texture, the nearest plane
+    (ties round up), no blend (the SGI path of Roettger & Ertl 2002 Fig. 8).
+    """
+    np_ = atlas.ntiles
+    pa = wp.clamp(a, 0.0, 1.0) * float(np_ - 1)
+    if nearest != 0:
+        return atlas_sample(atlas, wp.clamp(int(wp.floor(pa + 0.5)), 0, np_ - 1), u, v)
+    p0 = wp.min(int(wp.floor(pa)), wp.max(np_ - 2, 0))
+    p1 = wp.min(p0 + 1, np_ - 1)
+    w = pa - float(p0)
+    if weight_bits > 0:
+        w = unorm_quantize(w, weight_bits, 0, 0)
+    return atlas_sample(atlas, p0, u, v) * (1.0 - w) + atlas_sample(atlas, p1, u, v) * w
 
 
 @wp.kernel
 def cylindrical_lookup_tex(atlas: Atlas, sf: wp.array(dtype=float), sb: wp.array(dtype=float),
                            l: wp.array(dtype=float), ua: float, ub: float, va: float, vb: float,
-                           out: wp.array(dtype=wp.vec4)):
-    """Reconstruction as the 2002 hardware computed it: inverse mapping (eq. 10, one division), the two
-    nearest planes each sampled by the texture unit (atlas tile = plane, bilinear with the unit's
-    filter-weight quantisation and texel-centre convention), blended linearly in ``alpha``.
+                           weight_bits: int, nearest: int, out: wp.array(dtype=wp.vec4)):
+    """Reconstruction as the 2002 hardware computed it: inverse mapping (eq. 10, one division), then
+    :func:`cyl_planes_sample` (each plane sampled by the texture unit: atlas tile = plane, its filter,
+    filter-weight quantisation and texel-centre convention).
 
     ``(ua, ub)``, ``(va, vb)`` map normalised ``s``, ``t`` to in-tile texture coordinates
     (``u = ua * clamp(s, 0, 1) + ub``: the planes' axis kind, ``centred`` 1, 0; ``endpoint``
     ``(n - 1)/n``, ``0.5/n``), so texel centres coincide with the planes' nodes as in
-    :func:`cylindrical_lookup`. The inter-plane weight stays fp32 (the second pass's blend).
+    :func:`cylindrical_lookup`.
     """
     k = wp.tid()
     c = table_to_cyl(sf[k], sb[k], l[k])
-    np_ = atlas.ntiles
-    pa = wp.clamp(c[0], 0.0, 1.0) * float(np_ - 1)
-    p0 = wp.min(int(wp.floor(pa)), wp.max(np_ - 2, 0))
-    p1 = wp.min(p0 + 1, np_ - 1)
-    w = pa - float(p0)
     u = ua * wp.clamp(c[1], 0.0, 1.0) + ub
     v = va * wp.clamp(c[2], 0.0, 1.0) + vb
-    v0 = atlas_sample(atlas, p0, u, v)
-    v1 = atlas_sample(atlas, p1, u, v)
-    out[k] = v0 * (1.0 - w) + v1 * w
+    out[k] = cyl_planes_sample(atlas, c[0], u, v, weight_bits, nearest)
 
 
 # ------------------------------------------------------------------------------------------------

@@ -32,7 +32,8 @@ Fragment programs (one thread per fragment of :meth:`warpvol.gpu.raster.Rasteriz
 * ``k_frag_cylindrical``: Roettger & Ertl 2002 §4 — per vertex ``(α, s, t)`` (eq. 10, one division,
   ``k_cyl_vertices``); ``α`` is constant over each triangle (all its points lie on one plane through
   the front diagonal) and taken from the triangle's thick vertex, ``(s, t)`` interpolated linearly;
-  the two nearest α-planes are sampled from the atlas by the 2D texture unit and blended;
+  the two nearest α-planes are sampled from the atlas by the 2D texture unit and blended with an 8-bit
+  weight (or the nearest plane alone: the SGI path), :func:`warpvol.kernels.preint.cyl_planes_sample`;
 * ``k_frag_guthe``: Guthe et al. 2002 — ρ̂ and the colour coefficients from 2D textures (atlas tiles),
   α by a dependent 1D lookup of ``l ρ̂``, colour a polynomial in ``l``;
 * ``k_frag_exact``: no table — the fragment's segment integrated exactly (``pt_best``).
@@ -45,7 +46,7 @@ or (Kraus, Qiao & Ebert 2004) from ``a/w`` and ``1/w`` of the front and back poi
 import warp as wp
 
 from .integrate import exp_neg, integrate_segment
-from .preint import table_to_cyl
+from .preint import cyl_planes_sample, table_to_cyl
 from .raster import edge, snap
 from .texture import Atlas, Tex1D, Tex3D, atlas_sample, tex1d, tex3d
 from .tf import tf_eval
@@ -531,19 +532,16 @@ def k_cyl_vertices(attr: wp.array(dtype=wp.vec3), s_off: float, s_inv: float, l_
 @wp.kernel
 def k_frag_cylindrical(attrs: wp.array2d(dtype=wp.float32), prim: wp.array(dtype=wp.int32),
                        tris: wp.array(dtype=wp.vec3i), vattrs: wp.array2d(dtype=wp.float32), atlas: Atlas,
-                       ua: float, ub: float, va: float, vb: float, out: wp.array(dtype=wp.vec4)):
-    """Two-plane reconstruction: ``α`` of the triangle's thick vertex (its first vertex), ``(s, t)``
-    interpolated, in-tile coordinates ``u = ua s + ub``, ``v = va t + vb``, planes blended in fp32."""
+                       ua: float, ub: float, va: float, vb: float, weight_bits: int, nearest: int,
+                       out: wp.array(dtype=wp.vec4)):
+    """Plane reconstruction: ``α`` of the triangle's thick vertex (its first vertex), ``(s, t)``
+    interpolated, in-tile coordinates ``u = ua s + ub``, ``v = va t + vb``; the two nearest planes
+    blended with a ``weight_bits``-bit weight (0: fp32), or the nearest plane alone (``nearest``)."""
     f = wp.tid()
     a = vattrs[tris[prim[f]][0], 0]
-    np_ = atlas.ntiles
-    pa = wp.clamp(a, 0.0, 1.0) * float(np_ - 1)
-    p0 = wp.min(int(wp.floor(pa)), wp.max(np_ - 2, 0))
-    p1 = wp.min(p0 + 1, np_ - 1)
-    w = pa - float(p0)
     u = ua * wp.clamp(attrs[f, 1], 0.0, 1.0) + ub
     v = va * wp.clamp(attrs[f, 2], 0.0, 1.0) + vb
-    out[f] = atlas_sample(atlas, p0, u, v) * (1.0 - w) + atlas_sample(atlas, p1, u, v) * w
+    out[f] = cyl_planes_sample(atlas, a, u, v, weight_bits, nearest)
 
 
 @wp.kernel

@@ -549,12 +549,16 @@ def table3d_program(table, texel_format: str = "auto", filter: str = "linear", w
 
 
 def cylindrical_program(planes, tf, geo: PTGeometry, weight_bits: int | None = 8,
-                        device: str = "cpu") -> tuple[np.ndarray, Callable]:
-    """Per-vertex ``(α, s, t)`` attributes of ``geo`` and the two-plane fragment program for the
-    cylindrical ``planes`` (:func:`warpvol.tables.cylindrical.build_cylindrical`, built for ``tf``)."""
+                        device: str = "cpu", plane_weight: str = "unorm8",
+                        path: str = "multitexture") -> tuple[np.ndarray, Callable]:
+    """Per-vertex ``(α, s, t)`` attributes of ``geo`` and the plane fragment program for the
+    cylindrical ``planes`` (:func:`warpvol.tables.cylindrical.build_cylindrical`, built for ``tf``):
+    ``path = "multitexture"``, the two nearest planes (bilinear) blended with a ``plane_weight``
+    weight (``unorm8``: the combiner's 8-bit colour; ``fp32``); ``"sgi"``, one texture, the nearest
+    plane with nearest-texel filtering."""
     from warpvol.kernels import pt as kpt
     from warpvol.tables.common import linear_index_map
-    from warpvol.tables.cylindrical import plane_texture
+    from warpvol.tables.cylindrical import PLANE_PATHS, PLANE_WEIGHTS, plane_texture
 
     if getattr(planes, "name", None) != "cylindrical":
         raise ConfigError(f"planes: expected cylindrical planes (stage table_cylindrical), got {planes!r}")
@@ -564,7 +568,11 @@ def cylindrical_program(planes, tf, geo: PTGeometry, weight_bits: int | None = 8
     vattrs = wp.zeros((n, 3), dtype=wp.float32, device=device)
     wp.launch(kpt.k_cyl_vertices, dim=n, inputs=[wp.array(geo.attrs, dtype=wp.vec3, device=device), float(lo),
                                                  1.0 / (hi - lo), 1.0 / lmax, vattrs], device=device)
-    tex = plane_texture(planes, device, weight_bits)
+    if plane_weight not in PLANE_WEIGHTS or path not in PLANE_PATHS:
+        raise ConfigError(f"plane_weight / path: expected one of {tuple(PLANE_WEIGHTS)} / {PLANE_PATHS}, got "
+                          f"{plane_weight!r} / {path!r}")
+    sgi = int(path == "sgi")
+    tex = plane_texture(planes, device, weight_bits, "nearest" if sgi else "linear")
     sa, sb = linear_index_map(planes.axes[2])
     ta, tb = linear_index_map(planes.axes[1])
     ns, nt = planes.axes[2].n, planes.axes[1].n
@@ -574,7 +582,8 @@ def cylindrical_program(planes, tf, geo: PTGeometry, weight_bits: int | None = 8
     def run(frags, tris):
         out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
         wp.launch(kpt.k_frag_cylindrical, dim=frags.count,
-                  inputs=[frags.attrs, frags.prim, tris, vattrs, tex.struct, *consts, out], device=device)
+                  inputs=[frags.attrs, frags.prim, tris, vattrs, tex.struct, *consts, PLANE_WEIGHTS[plane_weight], sgi,
+                          out], device=device)
         return out
 
     return vattrs.numpy(), run

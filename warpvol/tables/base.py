@@ -215,6 +215,8 @@ def table_key(name: str, tf_hash: str | None, **params: Any) -> tuple:
     """Hashable cache key: builder name, TF hash (``None`` for TF-free tables), sorted parameters."""
 
     def freeze(v):
+        if isinstance(v, Table):  # a source table (e.g. the one cylindrical planes resample): its own key
+            return ("table",) + tuple(v.key)
         if isinstance(v, float):
             return float(np.float64(v))  # normalise -0.0 etc.
         if isinstance(v, (list, tuple)):

@@ -18,23 +18,30 @@ Points of a plane outside the unit cube (e.g. ``sf = t + s > 1``) are never look
 tetrahedron and take the clamped (edge) value. The inverse (eq. 10, per vertex, one division) is
 :func:`to_cylinder`; the front diagonal ``d = l = 0`` maps to ``(0, 0, sb)`` (the silhouette rule)
 instead of dividing 0 by 0. Reconstruction blends the two nearest planes linearly in ``alpha``
-(two-pass multi-texturing), each plane sampled bilinearly. ``P = 4N`` reconstructs the 3D table to
+(two-pass multi-texturing), each plane sampled bilinearly, with the weight held as the 8-bit colour
+value the combiner interpolates with (``PLANE_WEIGHTS``); the SGI path of the paper's Fig. 8 draws one
+texture instead, the nearest plane with nearest-texel filtering (``PLANE_PATHS``).
+
+The planes resample a given 3D table (``table=``: the software or hardware table a 3D preset uses,
+so both paths draw from the same numbers; trilinear in fp32 on the host, then stored in the planes'
+format) or, without one, an exact fp32 table built here (an analysis set-up). ``P = 4N`` reconstructs the 3D table to
 within interpolation error; ``2N`` and ``N`` trade accuracy for memory. The planes are also tiled
 into one atlas texture (``extra["atlas"]``, tile ``p`` at row ``p // cols``, column ``p % cols``,
 row 0 = GL bottom, so ``alpha = 0`` is the bottom-left tile as in the paper's Fig. 10).
 
 The same tiling is uploaded to the emulated texture unit on first use: :func:`plane_texture` returns
-a :class:`warpvol.gpu.texture.TextureAtlas` (linear filtering, 8-bit filter weights, texel format of
-the stored table, :data:`TEXEL_FORMAT`), kept in ``extra["texture"]`` (uploaded lazily: a large
-plane set is not held twice unless it is sampled), or a fresh one for another device / weight
-precision / format. :func:`reconstruct` has two paths:
+a :class:`warpvol.gpu.texture.TextureAtlas` (linear or nearest filtering, 8-bit filter weights, texel
+format of the stored table, :data:`TEXEL_FORMAT`), kept in ``extra["texture"]`` (uploaded lazily: a
+large plane set is not held twice unless it is sampled), or a fresh one for another device / filter /
+weight precision / format. :func:`reconstruct` has two paths:
 
 * ``via="texture"`` (default): what the 2002 hardware computed; each plane is sampled by the
   texture unit (its filter-weight quantisation, texel-centre and clamp conventions).
 * ``via="float"``: fp32 bilinear filtering of the decoded planes, i.e. the interpolation error of
   the mapping alone (an analysis path, no texture unit).
 
-Both share the inverse mapping, the plane choice and the fp32 blend of the two planes.
+Both share the inverse mapping and the plane choice; the float path blends the two planes in fp32,
+the texture path with the weight ``plane_weight`` (fp32 by default; ``unorm8`` as the renderer).
 """
 
 from __future__ import annotations
@@ -56,6 +63,12 @@ PLANE_FACTORS = {"4x": 4, "2x": 2, "1x": 1}
 TEXEL_FORMAT = {"rgba8": "rgba8", "hilo16": "rgba16", "fp16": "rgba16f", "fp32": "rgba32f",
                 "snorm8": "rgba8s", "al16": "rgba32f"}
 RECONSTRUCT_VIA = ("texture", "float")
+# the weight between the two planes: the combiner's 8-bit colour value (primary colour alpha, set per
+# tetrahedron with its vertices) or an fp32 analysis weight
+PLANE_WEIGHTS = {"unorm8": 8, "fp32": 0}
+# "multitexture": two planes in two texture units, bilinear, blended (PC cards of Fig. 8);
+# "sgi": one 2D texture, the nearest plane, nearest-texel filtering (SGI platforms of Fig. 8)
+PLANE_PATHS = ("multitexture", "sgi")
 
 
 def to_cylinder(sf, sb, l) -> np.ndarray:
@@ -102,10 +115,12 @@ def build_cylindrical(tf, *, n_s: int = 64, n_l: int | None = None, lmax: float 
     planes : str
         ``"4x"``, ``"2x"`` or ``"1x"``: number of planes relative to ``n_s``.
     source : str
-        ``"table"``: trilinear resampling of the (exact) 3D table, as the paper does;
-        ``"exact"``: exact integrals at the mapped points (no resampling error).
+        ``"table"``: trilinear resampling of a 3D table, as the paper does (``table``, else an exact
+        fp32 table built here); ``"exact"``: exact integrals at the mapped points (no resampling error).
     table : Table, optional
-        A 3D table to resample (linear axes); built with :func:`build_exact3d` when omitted.
+        The 3D table to resample (linear axes): the one the 3D path draws from (software
+        ``build_roettger_sw`` or hardware ``build_roettger_hw``, decoded from its stored format);
+        ``n_s``, ``n_l`` and ``lmax`` are then the table's. Built with :func:`build_exact3d` when omitted.
     format, device : str
     """
     check_tf(tf)
@@ -113,6 +128,8 @@ def build_cylindrical(tf, *, n_s: int = 64, n_l: int | None = None, lmax: float 
     check_choice("source", source, ("table", "exact"))
     check_choice("format", format, TABLE_FORMATS)
     if table is not None:
+        if source != "table":
+            raise ValueError(f"source: a given table is resampled (source = 'table'), got {source!r}")
         if table.data.ndim != 4 or table.axes[0].kind == "log2":
             raise ValueError("table: expected a 3D table with linear axes (centred or endpoint)")
         n_l, n_s, lmax = table.data.shape[0], table.data.shape[2], float(table.axes[0].scale)
@@ -140,6 +157,8 @@ def build_cylindrical(tf, *, n_s: int = 64, n_l: int | None = None, lmax: float 
         if table is None:
             table = build_exact3d(tf, n_s=n_s, n_l=n_l, lmax=lmax, device=device)
         meta["source_build_s"] = table.meta.get("build_s")
+        meta["source_table"] = table.name
+        meta["source_key"] = table.key
         src = table.to_warp(device)
         fa, fb = linear_index_map(table.axes[2])
         ba, bb = linear_index_map(table.axes[1])
@@ -159,28 +178,30 @@ def build_cylindrical(tf, *, n_s: int = 64, n_l: int | None = None, lmax: float 
     return t
 
 
-def _make_texture(planes: Table, device: str, weight_bits: int | None):
+def _make_texture(planes: Table, device: str, weight_bits: int | None, filter: str = "linear"):
     from warpvol.gpu.texture import TextureAtlas
 
-    return TextureAtlas(planes.data, fmt=TEXEL_FORMAT[planes.format], filter="linear", device=device,
+    return TextureAtlas(planes.data, fmt=TEXEL_FORMAT[planes.format], filter=filter, device=device,
                         weight_bits=weight_bits)
 
 
-def plane_texture(planes: Table, device: str = "cpu", weight_bits: int | None = 8):
+def plane_texture(planes: Table, device: str = "cpu", weight_bits: int | None = 8, filter: str = "linear"):
     """The planes as an emulated :class:`~warpvol.gpu.texture.TextureAtlas` (tile ``p`` = plane ``p``).
 
     Returns ``planes.extra["texture"]`` when it matches (device, texel format of ``planes.format``,
-    linear filtering, ``weight_bits``), else uploads a new atlas; the first one uploaded is kept
-    there. ``weight_bits=None`` gives fp32 filter weights (the texture unit's analysis mode).
+    ``filter``, ``weight_bits``), else uploads a new atlas; the first one uploaded is kept there.
+    ``weight_bits=None`` gives fp32 filter weights (the texture unit's analysis mode); ``filter`` is
+    ``"linear"`` (bilinear) or ``"nearest"`` (the SGI path).
     """
     if planes.name != "cylindrical" or planes.data.ndim != 4:
         raise ValueError("planes: expected a table from build_cylindrical")
+    check_choice("filter", filter, ("linear", "nearest"))
     tex = planes.extra.get("texture")
     fmt = TEXEL_FORMAT[planes.format]
-    if (tex is not None and tex.device == device and tex.texture.fmt == fmt and tex.texture.filter == "linear"
+    if (tex is not None and tex.device == device and tex.texture.fmt == fmt and tex.texture.filter == filter
             and tex.texture.weight_bits == weight_bits and tex.ntiles == planes.data.shape[0]):
         return tex
-    tex = _make_texture(planes, device, weight_bits)
+    tex = _make_texture(planes, device, weight_bits, filter)
     planes.extra.setdefault("texture", tex)
     return tex
 
@@ -198,19 +219,29 @@ def atlas(planes: np.ndarray) -> np.ndarray:
 
 
 def reconstruct(planes: Table, sf, sb, l, device: str = "cpu", via: str = "texture",
-                weight_bits: int | None = 8) -> np.ndarray:
+                weight_bits: int | None = 8, plane_weight: str = "fp32", path: str = "multitexture") -> np.ndarray:
     """Colour and opacity at normalised ``(sf, sb, l)`` from the planes: inverse mapping (eq. 10),
     bilinear in each of the two nearest planes, linear between them. Returns float32 (..., 4).
 
     via : str
         ``"texture"`` (default): the planes are sampled by the emulated texture unit
         (:func:`plane_texture`, 8-bit filter weights unless ``weight_bits`` says otherwise), i.e. what
-        the 2002 hardware computed. ``"float"``: fp32 bilinear filtering of the decoded planes, the
-        interpolation error of the mapping alone (``weight_bits`` unused).
+        the 2002 hardware computed. ``"float"``: fp32 bilinear filtering of the decoded planes and an
+        fp32 plane weight, the interpolation error of the mapping alone (``weight_bits``,
+        ``plane_weight`` and ``path`` unused).
+    plane_weight : str
+        Texture path: the weight between the planes, ``"fp32"`` (default here, so that this path
+        differs from the float path by the texture unit alone) or ``"unorm8"`` (the combiner's 8-bit
+        colour value, what stage ``pt_cylindrical`` draws with by default).
+    path : str
+        Texture path: ``"multitexture"`` (two planes, bilinear) or ``"sgi"`` (one texture: the
+        nearest plane, nearest texel).
     """
     import warp as wp
 
     via = check_choice("via", via, RECONSTRUCT_VIA)
+    check_choice("plane_weight", plane_weight, tuple(PLANE_WEIGHTS))
+    check_choice("path", path, PLANE_PATHS)
     k = kernels()
     sf, sb, l = np.broadcast_arrays(*(np.asarray(v, dtype=np.float32) for v in (sf, sb, l)))
     shape = sf.shape
@@ -225,10 +256,12 @@ def reconstruct(planes: Table, sf, sb, l, device: str = "cpu", via: str = "textu
         wp.launch(k.cylindrical_lookup, dim=n, device=device,
                   inputs=[planes.to_warp(device), *coords, sa, sb_, ta, tb, out])
     else:
-        tex = plane_texture(planes, device, weight_bits)
+        sgi = path == "sgi"
+        tex = plane_texture(planes, device, weight_bits, "nearest" if sgi else "linear")
         ns, nt = planes.axes[2].n, planes.axes[1].n
         # continuous texel index a x + b  ->  in-tile texture coordinate (a x + b + 0.5) / n
         wp.launch(k.cylindrical_lookup_tex, dim=n, device=device,
-                  inputs=[tex.struct, *coords, sa / ns, (sb_ + 0.5) / ns, ta / nt, (tb + 0.5) / nt, out])
-        tex.texture.count(2 * n)  # two planes per lookup (two-pass multi-texturing)
+                  inputs=[tex.struct, *coords, sa / ns, (sb_ + 0.5) / ns, ta / nt, (tb + 0.5) / nt,
+                          PLANE_WEIGHTS[plane_weight], int(sgi), out])
+        tex.texture.count(n if sgi else 2 * n)  # one plane (SGI) or two (two-pass multi-texturing)
     return out.numpy().reshape(shape + (4,))
