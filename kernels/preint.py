@@ -126,8 +126,9 @@ def roettger_sw_table3d(xf: wp.array(dtype=float), xb: wp.array(dtype=float), le
     """Roettger & Ertl 2002 eqs. 5-7: n >= o m |sf - sb| samples walking from the back.
 
     ``C_{i+1} = C_i exp(-(l/n) rho(w_i)) + E(w_i)``, ``theta_{i+1} = theta_i exp(-(l/n) rho(w_i))``
-    with ``w_i = sb + i/(n-1) (sf - sb)``; E = ``(l/n) kappa`` (emission density, eq. 6) or
-    ``kappa (1 - exp(-(l/n) rho))`` (colour times extinction: the slab's associated colour).
+    with ``w_i = sb + i/(n-1) (sf - sb)``; E is Stein et al.'s constant-chromaticity step (the paper's
+    text): ``kappa (1 - exp(-(l/n) rho)) / rho`` for emission density (eq. 6 printed to first order,
+    ``(l/n) kappa``) or ``kappa (1 - exp(-(l/n) rho))`` for colour times extinction.
     """
     k, j, i = wp.tid()
     xfi = xf[i]
@@ -150,7 +151,14 @@ def roettger_sw_table3d(xf: wp.array(dtype=float), xb: wp.array(dtype=float), le
         e = wp.exp(-h * v[3])
         kap = wp.vec3(v[0], v[1], v[2])
         if model == 1:
-            c = c * e + h * kap
+            # Stein et al.'s constant-chromaticity step, which the paper's text says each step uses:
+            # kappa (1 - exp(-h rho)) / rho, bounded by kappa / rho (eq. 6 as printed, h kappa, is its first
+            # order and unbounded for thick cells where n = 1 near the diagonal)
+            x = h * v[3]
+            f = h
+            if x > 1.0e-6:
+                f = one_minus_exp(x) / v[3]
+            c = c * e + f * kap
         else:
             c = c * e + kap * one_minus_exp(h * v[3])
         theta = theta * e

@@ -208,3 +208,22 @@ def test_kraus_full_reads_the_fp16_buffer_back_per_fan_and_keeps_nv40_blending_b
     with pytest.raises(ConfigError, match="blend"):
         Pipeline.from_config(cfg).render(sc, quiet=True)
     assert Pipeline.load("kraus2004_full").stages[-1].config["blend"] == "readback"
+
+
+def test_roettger_software_table_uses_steins_step_on_the_diagonal():
+    """Emission density, a TF constant over the scalar range: on the diagonal the paper's sample count gives
+    n = 1, and Stein et al.'s constant-chromaticity step is then exact, kappa (1 - exp(-l rho)) / rho,
+    bounded by kappa / rho (eq. 6 as printed, l kappa, grows without bound with l)."""
+    import numpy as np
+
+    from warpvol.scene.transfer import TransferFunction
+    from warpvol.tables.roettger_sw import build_roettger_sw
+
+    kappa, rho = np.array([0.6, 0.3, 0.9]), 4.0
+    tf = TransferFunction([[0.0, *kappa, rho], [1.0, *kappa, rho]], emission="emission_density")
+    t = build_roettger_sw(tf, n_s=8, n_l=4, lmax=3.0, m=2)
+    ls = t.axes[0].physical
+    for k, l in enumerate(ls):
+        diag = t.data[k, 3, 3]
+        assert np.allclose(diag[:3], kappa * (1 - np.exp(-l * rho)) / rho, rtol=1e-5)
+        assert np.all(diag[:3] <= kappa / rho + 1e-6)

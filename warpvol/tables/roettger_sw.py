@@ -3,15 +3,15 @@
 Per voxel ``n = max(n_min, ceil(o m |sf - sb|))`` samples (``m`` TF entries, oversampling ``o = 2``),
 walking from the back: ``w_i = sb + i/(n-1) (sf - sb)``,
 ``C_{i+1} = C_i exp(-(l/n) rho(w_i)) + E_i``, ``theta_{i+1} = theta_i exp(-(l/n) rho(w_i))``,
-``alpha = 1 - theta_n``. ``E_i = (l/n) kappa(w_i)`` for emission density (eq. 6, Stein's constant-
-chromaticity step); for colour-times-extinction the slab's associated colour
-``kappa (1 - exp(-(l/n) rho))``.
+``alpha = 1 - theta_n``. Each step is Stein et al.'s constant-chromaticity approximation, which the
+paper's text says its integration uses: ``E_i = kappa(w_i) (1 - exp(-(l/n) rho(w_i))) / rho(w_i)`` for
+emission density (eq. 6 is printed to first order, ``(l/n) kappa``: unbounded for a thick cell integrated
+in one step), ``kappa (1 - exp(-(l/n) rho))`` for colour times extinction (the slab's associated colour).
 
-Documented behaviour: the sample count follows the paper, so near the diagonal (``sf ~ sb``) a thick
-segment is integrated with one or two Riemann steps. Its error against the exact table is large
-there when ``l rho`` is large (e.g. ``n = 1`` gives ``C = l kappa`` instead of
-``kappa (1 - e^{-l rho}) / rho``); that is the paper's method, and the error is measured and
-reported (``tests/test_tables_software.py``), not hidden. ``n_min`` raises the floor.
+Documented behaviour: the sample count follows the paper (``n >= o m |sf - sb|``), so near the diagonal
+(``sf ~ sb``) a thick segment is integrated with one or two steps of the TF's value at ``sb``: exact for
+a TF constant over ``[sb, sf]``, otherwise the chromaticity error Stein's approximation makes (the paper's
+reason for oversampling). ``n_min`` raises the floor.
 """
 
 from __future__ import annotations
