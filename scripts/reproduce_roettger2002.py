@@ -6,15 +6,18 @@ Table 2: software vs hardware-emulated build time and their ratio, 64x64x32 .. 2
 Writes Fig. 4 (frame buffer after 16, 48, 80, 112 of 128 steps) and Fig. 5 (128 vs 1024 steps at
 12 bits) style slice images into ``--out``.
 Fig. 8: 3D texturing vs two-pass 2D multi-texturing (cylindrical planes) of projected tetrahedra on
-the 2,560-tet spherical distance volume (built-in ``sphere`` mesh) with a Fig. 9-like TF (four
-interleaved orange and blue regions, constant opacity), 64^3 table and 64 planes of 64^2 (Fig. 10):
-each image's error against the exact reference, emulated render time and counted work, beside the
-paper's frame rates, and modelled frame rates per card (``warpvol.model``: the counted vertex,
-raster, texture, combiner and blending work of the vertex, decomposition and fragment stages on
-the card's profile; host sorting left out, the paper's rates being rasterisation rates) where a
-profile exists (GeForce3, Radeon 8500, Octane MXI).
+the 2,560-tet spherical distance volume (built-in ``sphere`` mesh) at the paper's 512x384 window with a
+Fig. 9-like TF (four interleaved orange and blue regions, constant opacity): ``roettger2000_3d`` and
+``roettger2002_cylindrical`` (the same 64^3 software table; 64 planes of 64^2 as Fig. 10, 4x planes,
+and the SGI path: one texture, nearest plane and texel), each image's error against the exact
+reference, emulated render time and counted work, beside the paper's frame rates, and modelled frame
+rates per card (``warpvol.model``: the counted vertex, raster, texture, combiner and blending work of
+the vertex, decomposition and fragment stages on the card's profile; host sorting left out, the
+paper's rates being rasterisation rates) where a profile exists (GeForce3, Radeon 8500, Octane MXI),
+with the per-unit times that decide the modelled 2D/3D speed-up.
 
     ./run.sh python scripts/reproduce_roettger2002.py [--out out/] [--sizes 64,128,256] [--device cpu]
+        [--fig8-size 512x384] [--fig8-only]
 """
 
 from __future__ import annotations
@@ -40,63 +43,104 @@ PAPER_F8 = {"Voodoo3 2000": (None, 8.9, "-"), "GeForce2 MX": (None, 33.8, "-"), 
 
 
 
-def fig8(size: int, repeat: int, device: str) -> None:
-    """3D texture vs 2D cylindrical planes on the spherical distance volume (module docstring)."""
+def _preset(name: str, device: str, **overrides):
+    """A shipped preset with some stages' parameters replaced (``stage_name={...}``)."""
+    import tomllib
+
+    from warpvol.pipeline import Pipeline, _read_pipeline_text
+
+    cfg = tomllib.loads(_read_pipeline_text(name)[0])
+    for st in cfg["stages"]:
+        st.update(overrides.get(st["stage"], {}))
+    return Pipeline.from_config(cfg, device=device)
+
+
+# Fig. 8 variants: (preset, overrides, fragment stage); all draw from roettger2000_3d's software table
+F8_VARIANTS = {
+    "3D texture (roettger2000_3d)": ("roettger2000_3d", {}, "pt_table3d"),
+    "2D 1x, two planes (PC)": ("roettger2002_cylindrical", {}, "pt_cylindrical"),
+    "2D 4x, two planes": ("roettger2002_cylindrical", {"table_cylindrical": {"planes": "4x"}}, "pt_cylindrical"),
+    "2D 1x, one texture (SGI)": ("roettger2002_cylindrical", {"pt_cylindrical": {"path": "sgi"}}, "pt_cylindrical"),
+}
+F8_PROFILES = {"GeForce3": "geforce3", "Radeon 8500": "radeon8500", "Octane MXI": "octane_mxi"}
+F8_2D = {"geforce3": "2D 1x, two planes (PC)", "radeon8500": "2D 1x, two planes (PC)",
+         "octane_mxi": "2D 1x, one texture (SGI)"}  # the 2D path each platform ran (Fig. 8 caption)
+
+
+def fig8(width: int, height: int, repeat: int, device: str) -> dict:
+    """3D texture vs 2D cylindrical planes on the spherical distance volume (module docstring);
+    returns ``{variant: report}``."""
     import statistics
 
-    from warpvol.pipeline import Pipeline
     from warpvol.reference.numpy_render import render_reference
     from warpvol.scene.builtin import builtin_scene
 
     sc = builtin_scene("sphere")
-    sc = type(sc)(mesh=sc.mesh, transfer=fig9_tf(), camera=sc.camera.replace(width_px=size, height_px=size),
+    sc = type(sc)(mesh=sc.mesh, transfer=fig9_tf(), camera=sc.camera.replace(width_px=width, height_px=height),
                   name="sphere_fig9")
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
-    table = {"stage": "table_exact", "n_s": 64, "n_l": 64, "format": "rgba8"}
-    fetches = {"pt_table3d": 8, "pt_cylindrical": 4}  # texels per trilinear / bilinear lookup
-    variants = {
-        "3D texture (64^3, RGBA8)": [table, {"stage": "pt_table3d", "texel_format": "rgba8"}],
-        "2D planes 1x (64 x 64^2)": [{"stage": "table_cylindrical", "n_s": 64, "planes": "1x", "format": "rgba8"},
-                                     {"stage": "pt_cylindrical"}],
-        "2D planes 4x (256 x 64^2)": [{"stage": "table_cylindrical", "n_s": 64, "planes": "4x", "format": "rgba8"},
-                                      {"stage": "pt_cylindrical"}],
-    }
-    print(f"\nFig. 8: projected tetrahedra, {sc.mesh.n_tets} tets (spherical distance volume), {size}x{size}, "
-          f"8-bit frame buffer, error vs the exact reference")
-    print(f"{'variant':<27} | {'rmse':>9} {'max':>7} | {'render [s]':>10} | {'fragments':>9} {'texel fetches':>13}")
-    times, reports = {}, {}
-    for name, (tab, frag) in variants.items():
-        stages = [{"stage": "vertex"}, {"stage": "sort", "method": "mpvo"}, tab, {"stage": "pt_project"}, frag]
-        p = Pipeline.from_config({"name": name, "stages": stages}, device=device)
+    print(f"\nFig. 8: projected tetrahedra, {sc.mesh.n_tets} tets (spherical distance volume), {width}x{height} "
+          f"(the paper's window), 8-bit frame buffer, error vs the exact reference; every variant draws from "
+          f"roettger2000_3d's software table (64^3, RGBA8)")
+    print(f"{'variant':<29} | {'rmse':>9} {'max':>7} | {'render [s]':>10} | {'fragments':>9} {'2D/3D fetches':>13} "
+          f"{'combiner ops':>12}")
+    reports = {}
+    for name, (pre, ov, frag) in F8_VARIANTS.items():
+        p = _preset(pre, device, **ov)
         p.render(sc, quiet=True)  # table build and kernel compilation
         ts, res = [], None
         for _ in range(repeat):
             t0 = time.perf_counter()
             res = p.render(sc, reference=ref, quiet=True)
             ts.append(time.perf_counter() - t0)
-        c = res.report["counters"][frag["stage"]]
+        c = res.report["counters"][frag]
         reports[name] = res.report
-        times[name] = statistics.median(ts)
         e = res.report["error"]
-        print(f"{name:<27} | {e['rmse']:>9.2e} {e['max_abs']:>7.3f} | {times[name]:>10.3f} | {c['fragments']:>9,d} "
-              f"{fetches[frag['stage']] * c['texture_lookups']:>13,d}")
+        fetches = sum(v for k, v in c.items() if k.startswith("tex_"))
+        print(f"{name:<29} | {e['rmse']:>9.2e} {e['max_abs']:>7.3f} | {statistics.median(ts):>10.3f} | "
+              f"{c['fragments']:>9,d} {fetches:>13,d} {c.get('combiner_ops', 0):>12,d}")
     print(f"\n{'card':<13} | paper: {'3D fps':>6} {'2D fps':>6} {'2D/3D':>6} {'printed':>8} | modelled: "
-          f"{'3D fps':>6} {'2D 1x':>6} {'2D/3D':>6} | ratio to paper: 3D, 2D")
+          f"{'3D fps':>6} {'2D fps':>6} {'2D/3D':>6} | ratio to paper: 3D, 2D")
     for card, (f3, f2, printed) in PAPER_F8.items():
         ratio = f"{f2 / f3:>5.2f}x" if f3 else f"{'-':>6}"
         prof = F8_PROFILES.get(card)
         m3 = m2 = None
         if prof:
-            m3 = gpu_seconds(reports["3D texture (64^3, RGBA8)"], prof)
-            m2 = gpu_seconds(reports["2D planes 1x (64 x 64^2)"], prof)
+            m3 = gpu_seconds(reports["3D texture (roettger2000_3d)"], prof)
+            m2 = gpu_seconds(reports[F8_2D[prof]], prof)
         mf3, mf2 = (None if m is None else 1.0 / m for m in (m3, m2))
         cols = "" if not prof else (f" {'n/a' if mf3 is None else f'{mf3:.1f}':>6} {'n/a' if mf2 is None else f'{mf2:.1f}':>6} "
                                     f"{'' if None in (mf3, mf2) else f'{mf2 / mf3:>5.2f}x':>6} | "
                                     f"{'-' if None in (mf3, f3) else f'{mf3 / f3:.2f}'}, "
                                     f"{'-' if mf2 is None else f'{mf2 / f2:.2f}'}")
         print(f"{card:<13} |        {f3 if f3 else '-':>6} {f2:>6} {ratio} {printed:>8} |{cols}")
-    print("Emulated times are CPU emulation cost (trilinear = 8 texel fetches, two bilinear planes = 8), not "
-          "a 2002 card's fill rate.")
+    print("Modelled: the fragment stage's counted work on the card's profile (warpvol.model as it is; the 2D path "
+          "each platform ran: two planes on the PCs, one texture on the SGI); Octane MXI 3D: pt_table3d counts "
+          "two fragment-program set-up ops per fragment, for which the Octane (no combiners) has no rate.")
+    fig8_units(reports)
+    print("Emulated times are CPU emulation cost, not a 2002 card's fill rate.")
+    return reports
+
+
+def fig8_units(reports: dict) -> None:
+    """Per-unit modelled milliseconds of the fragment stages on the GeForce3 and the Radeon 8500: the
+    slowest unit is the stage's time, so it shows what drives the modelled 2D/3D speed-up."""
+    from warpvol import model
+
+    units = ("raster", "texture", "shader", "rop", "memory")
+    print(f"\nWhy the modelled speed-up differs per card: fragment stage, ms per unit (bound unit *), "
+          f"+ serial (pass set-up, transfers)")
+    print(f"{'card':<11} {'path':<8} | " + " ".join(f"{u:>8}" for u in units) + f" | {'serial':>7} {'total':>7}")
+    for prof in ("geforce3", "radeon8500"):
+        p = model.load_profile(prof)
+        for path, name, frag in (("3D", "3D texture (roettger2000_3d)", "pt_table3d"),
+                                 ("2D", F8_2D[prof], "pt_cylindrical")):
+            r = model.model_counters(reports[name]["counters"][frag], p)
+            u = r["units"]
+            top = max(units, key=lambda k: u.get(k, 0.0))
+            cells = " ".join(f"{u.get(k, 0.0) * 1e3:>7.3f}{'*' if k == top else ' '}" for k in units)
+            serial = r["gpu_s"] - u.get(top, 0.0)
+            print(f"{prof:<11} {path:<8} | {cells} | {serial * 1e3:>7.3f} {r['s'] * 1e3:>7.3f}")
 
 
 def combiner_factor(rms: float, plain: dict) -> float:
@@ -107,9 +151,6 @@ def combiner_factor(rms: float, plain: dict) -> float:
     order = np.argsort(y)
     n_eq = float(np.exp(np.interp(np.log(rms), y[order], x[order])))
     return 64.0 / n_eq
-
-
-F8_PROFILES = {"GeForce3": "geforce3", "Radeon 8500": "radeon8500", "Octane MXI": "octane_mxi"}
 
 
 def gpu_seconds(report, profile):
@@ -152,12 +193,17 @@ def main(argv=None):
     ap.add_argument("--sizes", default="64,128", help="Table 2 sizes N (N x N x N/2); the paper: 64,128,256")
     ap.add_argument("--res", type=int, default=64, help="Table 1 slice resolution (slices: res/2)")
     ap.add_argument("--device", default="cpu")
-    ap.add_argument("--fig8-size", type=int, default=512, help="Fig. 8 image size (0: skip Fig. 8)")
+    ap.add_argument("--fig8-size", default="512x384", help="Fig. 8 window WxH, the paper's 512x384 (0: skip Fig. 8)")
+    ap.add_argument("--fig8-only", action="store_true", help="only Fig. 8")
     a = ap.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
     from warpvol.pipeline import quiet_warp
 
     quiet_warp()
+    if a.fig8_only:
+        w, _, h = a.fig8_size.partition("x")
+        fig8(int(w), int(h or w), 3, a.device)
+        return
     from warpvol.tables.exact import build_exact3d
     from warpvol.tables.roettger_hw import build_roettger_hw
     from warpvol.tables.roettger_sw import build_roettger_sw
@@ -264,8 +310,9 @@ def main(argv=None):
     print("\nNotes: the emulated hardware runs every blend as integer arithmetic on the CPU, so its time measures "
           "emulation cost; the modelled column turns the same counted blends into the Octane's time "
           "(scripts/validate_model.py lists every row with its role).")
-    if a.fig8_size:
-        fig8(a.fig8_size, 3, a.device)
+    if a.fig8_size != "0":
+        w, _, h = a.fig8_size.partition("x")
+        fig8(int(w), int(h or w), 3, a.device)
 
 
 if __name__ == "__main__":
