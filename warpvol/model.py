@@ -34,9 +34,20 @@ memory       frame-buffer bytes: (2 blends + writes + clears) x       ``memory_b
              bytes per pixel of the format                            where a profile has no figure)
 ===========  =======================================================  =======================================
 
+Programmable fragment pipes whose texture fetches take an issue slot of the program (profile cap
+``fragment_issue = "shared"``: the NV3x) add the texture unit's time to the shader's instead of
+overlapping them. A group that runs a fragment-program loop (``cell_steps`` with ``combiner_ops``: the
+HARC walks, whose instructions per iteration come from :mod:`warpvol.gpu.programs`) prices every
+instruction and fetch of the loop as one issue slot at ``loop_issue_rate``; ``cell_steps`` alone (the
+exact walks) use ``cell_step_rate``. ``fb_texture_rebinds`` (colour buffer rebound as a texture with a
+fence, Kraus' fp16 read-back path) cost ``fb_rebind_s`` each, serially.
+
 Host counters: ``sw_samples`` (``sw_sample_rate``), ``host_texels`` (``host_texel_rate``),
-``cells_sorted`` (``cell_sort_rate``), ``host_cell_steps`` (``host_cell_rate``: cells intersected and
-integrated by a host ray walk, the VSBUFFER's); ``cell_steps`` of GPU ray walks use ``[rates] cell_step_rate``.
+``cells_sorted`` (``cell_sort_rate`` for the graph sorts MPVO / MPVONC / XMPVO, ``numeric_sort_rate``
+when the sort built no graph: the numeric centroid sort), XMPVO's ``ray_constraints``
+(``graph_edge_rate``) and ``boundary_fragments`` (sorted per pixel: ``numeric_sort_rate``),
+``host_cell_steps`` (``host_cell_rate``: cells intersected and integrated by a host ray walk, the
+VSBUFFER's).
 Counters that carry no time of their own (``fragments_passed``, ``primitives``, ``texels``,
 ``readbacks`` ...) are listed in :data:`INFORMATIONAL`. Work for which the profile has no rate makes
 the stage *unmodelled* (``modelled_s`` None, the counters named), never a silent zero.
@@ -75,7 +86,7 @@ INFORMATIONAL = frozenset({"fragments_passed", "primitives", "primitives_culled"
                            "class_three_triangle", "class_flat", "class_culled", "class_vertex_on_edge",
                            "class_vertex_on_vertex", "batches", "attrs_clamped", "texture_lookups",
                            "dependent_lookups", "segment_integrals", "graph_edges", "cycles_broken",
-                           "boundary_fragments", "ray_constraints",
+                           
                            # VSBUFFER: the paper's "drawn tetra" (the work is counted as vertices)
                            "drawn_cells"})
 HOST_RATES = {"sw_samples": "sw_sample_rate", "host_texels": "host_texel_rate", "cells_sorted": "cell_sort_rate",
@@ -182,9 +193,16 @@ def model_counters(counters: dict[str, int], profile: Profile) -> dict[str, Any]
             else:
                 units[unit] += work / r
 
+        loop = bool(c.get("cell_steps")) and bool(c.get("combiner_ops"))  # a fragment-program loop (HARC)
         for k, v in c.items():
             if not v or k in INFORMATIONAL:
                 continue
+            if loop and (k == "combiner_ops" or _TEX.match(k)):
+                # every instruction and fetch of the loop body takes an issue slot of the looping fragment
+                use("shader", v, "loop_issue_rate", key=k)
+                continue
+            if loop and k == "cell_steps":
+                continue  # priced by the body's instructions
             if k == "vertices":
                 use("vertex", v, "vertex_rate", key=k)
             elif k == "fragments":
@@ -216,6 +234,30 @@ def model_counters(counters: dict[str, int], profile: Profile) -> dict[str, Any]
                     unmodelled.append("cell_steps (no rate 'cell_step_rate')")
                 else:
                     units["shader"] += v / r
+            elif k == "fb_texture_rebinds":
+                r = profile.rate("fb_rebind_s")
+                if r is None:
+                    unmodelled.append("fb_texture_rebinds (no rate 'fb_rebind_s')")
+                else:
+                    serial += v * r
+            elif k == "cells_sorted" and not c.get("graph_edges"):  # numeric (centroid) sort: no cell graph
+                e = profile.host.get("numeric_sort_rate")
+                if e is None:
+                    unmodelled.append("cells_sorted (numeric sort: no host rate 'numeric_sort_rate')")
+                else:
+                    host += v / float(e["value"])
+            elif k == "ray_constraints":  # XMPVO: extra graph edges from the rasterised boundary
+                e = profile.host.get("graph_edge_rate")
+                if e is None:
+                    unmodelled.append("ray_constraints (no host rate 'graph_edge_rate')")
+                else:
+                    host += v / float(e["value"])
+            elif k == "boundary_fragments":  # XMPVO: boundary fragments read back and sorted per pixel
+                e = profile.host.get("numeric_sort_rate")
+                if e is None:
+                    unmodelled.append("boundary_fragments (no host rate 'numeric_sort_rate')")
+                else:
+                    host += v / float(e["value"])
             elif k in HOST_RATES:
                 e = profile.host.get(HOST_RATES[k])
                 if e is None:
@@ -231,6 +273,9 @@ def model_counters(counters: dict[str, int], profile: Profile) -> dict[str, Any]
                 unmodelled.append("passes (no 'pass_overhead_s')")
             else:
                 serial += passes * o
+        if profile.cap("fragment_issue") == "shared":  # TEX and ALU instructions share the fragment pipe's issue
+            units["shader"] += units["texture"]
+            units["texture"] = 0.0
         top = max(units, key=units.get)
         for u, t in units.items():
             units_all[u] = units_all.get(u, 0.0) + t

@@ -99,11 +99,12 @@ class PTTable3D(Stage):
                      "rebind and fence per triangle fan (Quadro FX 3000: no fp16 blending)")
         n = info["fragments"]
         flt = self.config["filter"]
-        # a 16-bit RGBA table is two HILO16 textures (two fetches); fragment-program instructions: lookup
-        # set-up 2 (estimate), perspective division 11 and logarithmic lookup 7 (Kraus et al. 2004 §5),
-        # alpha dithering 10 and two 2D fetches in the random tables (ibid.)
+        # a 16-bit RGBA table is two HILO16 textures (two fetches); fragment-program instructions:
+        # perspective division 11 and logarithmic lookup 7 (Kraus et al. 2004 §5), alpha dithering 10 and
+        # two 2D fetches in the random tables (ibid.). Without them the lookup is fixed-function: the
+        # normalisation over the table's axes is affine in the interpolated attributes (texture matrix)
         fetch = {f"tex_3d_hilo16_{flt}": 2 * n} if texel == "rgba16" else {f"tex_3d_{texel}_{flt}": n}
-        ops = 2 + (11 if mode != "off" else 0) + (7 if table.axes[0].kind == "log2" else 0)
+        ops = (11 if mode != "off" else 0) + (7 if table.axes[0].kind == "log2" else 0)
         if self.config["dither"]:
             ops += 10
             fetch["tex_2d_rgba8_nearest"] = 2 * n

@@ -37,6 +37,13 @@ def count_pass(ctx: Context, c: dict, textures: list, walk: str, integration: st
         cnt.add(**{"tex_2d_rgba32f_nearest": c["texture_fetches"], "texels": c["texture_fetches"]})
     for t in tex:  # full: the 3D table; partial: psi, then iso
         t.count(c["steps"])
+    if walk == "planes" and integration in ("full", "partial"):  # the fragment program's instructions
+        from warpvol.gpu import programs
+
+        sub = programs.FULL if integration == "full" else programs.PARTIAL_SUB
+        cnt.add(combiner_ops=c["cells"] * programs.n_alu(programs.WALK) + c["steps"] * programs.n_alu(sub))
+        if integration == "partial":  # the TF at both ends of each sub-segment (1D texture)
+            cnt.add(tex_1d_rgba8_linear=2 * c["steps"], texels=4 * c["steps"])
     if c["entries"]:
         cnt.blend(fmt, c["entries"], blending=False)
 
