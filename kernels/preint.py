@@ -122,13 +122,13 @@ def exact_table3d(xf: wp.array(dtype=float), xb: wp.array(dtype=float), lengths:
 @wp.kernel
 def roettger_sw_table3d(xf: wp.array(dtype=float), xb: wp.array(dtype=float), lengths: wp.array(dtype=float),
                         smin: float, srange: float, tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp.vec4),
-                        model: int, m: float, o: float, n_min: int, out: wp.array3d(dtype=wp.vec4)):
+                        model: int, m: float, o: float, n_min: int, stein: int, out: wp.array3d(dtype=wp.vec4)):
     """Roettger & Ertl 2002 eqs. 5-7: n >= o m |sf - sb| samples walking from the back.
 
     ``C_{i+1} = C_i exp(-(l/n) rho(w_i)) + E(w_i)``, ``theta_{i+1} = theta_i exp(-(l/n) rho(w_i))``
-    with ``w_i = sb + i/(n-1) (sf - sb)``; E is Stein et al.'s constant-chromaticity step (the paper's
-    text): ``kappa (1 - exp(-(l/n) rho)) / rho`` for emission density (eq. 6 printed to first order,
-    ``(l/n) kappa``) or ``kappa (1 - exp(-(l/n) rho))`` for colour times extinction.
+    with ``w_i = sb + i/(n-1) (sf - sb)``; E = ``(l/n) kappa`` for emission density (eq. 6 as printed;
+    ``stein``: Stein et al.'s step ``kappa (1 - exp(-(l/n) rho)) / rho``) or ``kappa (1 - exp(-(l/n) rho))``
+    for colour times extinction (the slab's associated colour).
     """
     k, j, i = wp.tid()
     xfi = xf[i]
@@ -151,12 +151,11 @@ def roettger_sw_table3d(xf: wp.array(dtype=float), xb: wp.array(dtype=float), le
         e = wp.exp(-h * v[3])
         kap = wp.vec3(v[0], v[1], v[2])
         if model == 1:
-            # Stein et al.'s constant-chromaticity step, which the paper's text says each step uses:
-            # kappa (1 - exp(-h rho)) / rho, bounded by kappa / rho (eq. 6 as printed, h kappa, is its first
-            # order and unbounded for thick cells where n = 1 near the diagonal)
+            # eq. 6 as printed: h kappa (first order; unbounded for a thick cell integrated in one step);
+            # ``stein``: Stein et al.'s constant-chromaticity step kappa (1 - exp(-h rho)) / rho
             x = h * v[3]
             f = h
-            if x > 1.0e-6:
+            if stein != 0 and x > 1.0e-6:
                 f = one_minus_exp(x) / v[3]
             c = c * e + f * kap
         else:

@@ -107,5 +107,5 @@ def test_known_losses_are_a_report_warning():
 
 
 def test_roettger_software_table_states_the_diagonal():
-    # eqs. 5-7 with n = max(1, ceil(2 m |sf - sb|)): one step on the diagonal, Stein's approximation
-    assert "Stein's constant-chromaticity" in Pipeline.load("roettger2000_3d").known_losses
+    # eqs. 5-7 with n = max(1, ceil(2 m |sf - sb|)): one step of eq. 6 on the diagonal, C = l kappa
+    assert "C = l kappa" in Pipeline.load("roettger2000_3d").known_losses

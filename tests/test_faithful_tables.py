@@ -210,10 +210,10 @@ def test_kraus_full_reads_the_fp16_buffer_back_per_fan_and_keeps_nv40_blending_b
     assert Pipeline.load("kraus2004_full").stages[-1].config["blend"] == "readback"
 
 
-def test_roettger_software_table_uses_steins_step_on_the_diagonal():
+def test_roettger_software_table_diagonal_eq6_as_printed_or_steins_step():
     """Emission density, a TF constant over the scalar range: on the diagonal the paper's sample count gives
-    n = 1, and Stein et al.'s constant-chromaticity step is then exact, kappa (1 - exp(-l rho)) / rho,
-    bounded by kappa / rho (eq. 6 as printed, l kappa, grows without bound with l)."""
+    n = 1. Eq. 6 as printed (the paper's build, the default) then gives C = l kappa, growing without bound
+    with l; Stein et al.'s step (``step="stein"``) is exact, kappa (1 - exp(-l rho)) / rho <= kappa / rho."""
     import numpy as np
 
     from warpvol.scene.transfer import TransferFunction
@@ -221,9 +221,9 @@ def test_roettger_software_table_uses_steins_step_on_the_diagonal():
 
     kappa, rho = np.array([0.6, 0.3, 0.9]), 4.0
     tf = TransferFunction([[0.0, *kappa, rho], [1.0, *kappa, rho]], emission="emission_density")
-    t = build_roettger_sw(tf, n_s=8, n_l=4, lmax=3.0, m=2)
-    ls = t.axes[0].physical
-    for k, l in enumerate(ls):
-        diag = t.data[k, 3, 3]
-        assert np.allclose(diag[:3], kappa * (1 - np.exp(-l * rho)) / rho, rtol=1e-5)
-        assert np.all(diag[:3] <= kappa / rho + 1e-6)
+    eq6 = build_roettger_sw(tf, n_s=8, n_l=4, lmax=3.0, m=2)
+    stein = build_roettger_sw(tf, n_s=8, n_l=4, lmax=3.0, m=2, step="stein")
+    for k, l in enumerate(eq6.axes[0].physical):
+        assert np.allclose(eq6.data[k, 3, 3, :3], l * kappa, rtol=1e-5)
+        assert np.allclose(stein.data[k, 3, 3, :3], kappa * (1 - np.exp(-l * rho)) / rho, rtol=1e-5)
+        assert np.all(stein.data[k, 3, 3, :3] <= kappa / rho + 1e-6)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from warpvol.stage import Param, register_stage
 from warpvol.tables.base import TABLE_FORMATS
+from warpvol.tables.roettger_sw import SW_STEPS
 from warpvol.tables.stages.support import LMAX, TableStage, output_param
 
 
@@ -20,6 +21,7 @@ class TableRoettgerSw(TableStage):
     m             int    0          TF resolution; 0 = the TF's number of points
     oversampling  float  2          o (paper: 2)
     n_min         int    1          lower bound on samples per voxel
+    step          str    eq6        ``eq6`` (eq. 6 as printed: the paper's build) | ``stein`` (bounded)
     format        str    fp32       ``fp32`` | ``fp16`` | ``rgba8`` | ``hilo16``
     output        str    table3d    ``ctx.buffers`` key
     ============  =====  =========  ===================================================
@@ -37,6 +39,8 @@ class TableRoettgerSw(TableStage):
         Param("m", int, 0, "TF resolution; 0 = number of TF points", lo=0, hi=65536),
         Param("oversampling", float, 2.0, "o of n >= o m |sf - sb|", lo=0.0, hi=64.0, lo_open=True),
         Param("n_min", int, 1, "lower bound on samples per voxel", lo=1, hi=65536),
+        Param("step", str, "eq6", "eq. 6 as printed (the paper's build) or Stein et al.'s bounded step",
+              choices=SW_STEPS),
         Param("format", str, "fp32", "stored format", choices=TABLE_FORMATS[:4]),
         output_param("table3d"),
     )
