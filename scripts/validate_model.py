@@ -59,13 +59,16 @@ DATA = {"bluntfin": "Blunt Fin", "loxpost": "LOX Post", "bucky": "Bucky Ball"}
 class Model:
     """Modelled seconds of cached configurations (``None`` with the reason when not modelled)."""
 
-    def __init__(self, device: str, refresh: bool):
-        self.device, self.refresh = device, refresh
+    def __init__(self, device: str, refresh: bool, cached_only: bool = False):
+        self.device, self.refresh, self.cached_only = device, refresh, cached_only
         self.skipped: dict[str, str] = {}
 
     def counters(self, key: str) -> dict | None:
-        from warpvol.reproduce.model_rows import counters
+        from warpvol.reproduce.model_rows import CACHE, counters
 
+        if self.cached_only and not (CACHE / (key.replace("/", "__") + ".json")).is_file():
+            self.skipped[key] = "not in the counter cache (--cached-only)"
+            return None
         try:
             return counters(key, self.device, self.refresh)
         except Exception as e:  # noqa: BLE001 - data absent or a stage failed: the rows are skipped
@@ -291,12 +294,13 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--refresh", action="store_true", help="re-render every configuration (minutes)")
+    ap.add_argument("--cached-only", action="store_true", help="skip configurations not yet counted (no renders)")
     ap.add_argument("--json", metavar="PATH", help="write both tables as JSON (docs/hooks.py renders it)")
     a = ap.parse_args(argv)
     from warpvol.pipeline import quiet_warp
 
     quiet_warp()
-    m = Model(a.device, a.refresh)
+    m = Model(a.device, a.refresh, a.cached_only)
     absolute = absolute_rows(m)
     relative = relative_rows(m, absolute)
     print_tables(absolute, relative)
