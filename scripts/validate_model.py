@@ -116,7 +116,8 @@ def absolute_rows(m: Model) -> list[dict]:
     # Roettger & Ertl 2002 Fig. 8 (rendering, host sort left out: the paper's are rasterisation rates)
     for prof, (p3, p2) in ROETTGER_F8.items():
         for kind, pv in (("3d", p3), ("2d", p2)):
-            s, why = m.seconds(m.counters(f"roettger/sphere/{kind}"), prof, skip=("sort",))
+            cfg = "2d_sgi" if (kind, prof) == ("2d", "octane_mxi") else kind  # single texture, nearest
+            s, why = m.seconds(m.counters(f"roettger/sphere/{cfg}"), prof, skip=("sort",))
             row("Roettger 2002", f"Fig. 8 {CARD[prof]} {'3D texture' if kind == '3d' else '2D planes'} [fps]", pv,
                 None if s is None else 1.0 / s, "prediction" if s else "-", why or "our view of the sphere, 512x384")
     # Guthe et al. 2002 §4, Table 4 (builds, counting mode), Table 5 (rendering)

@@ -102,7 +102,10 @@ def roettger_scene():
 ROETTGER_F8 = {"3d": [{"stage": "table_exact", "n_s": 64, "n_l": 64, "format": "rgba8"},
                       {"stage": "pt_table3d", "texel_format": "rgba8"}],
                "2d": [{"stage": "table_cylindrical", "n_s": 64, "planes": "1x", "format": "rgba8"},
-                      {"stage": "pt_cylindrical"}]}
+                      {"stage": "pt_cylindrical"}],
+               # SGI platforms: one 2D texture, nearest (the Fig. 8 caption): pt_cylindrical path = "sgi"
+               "2d_sgi": [{"stage": "table_cylindrical", "n_s": 64, "planes": "1x", "format": "rgba8"},
+                          {"stage": "pt_cylindrical", "path": "sgi"}]}
 
 
 def _westermann(name: str):
