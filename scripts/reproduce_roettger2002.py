@@ -17,17 +17,22 @@ paper's rates being rasterisation rates) where a profile exists (GeForce3, Radeo
 with the per-unit times that decide the modelled 2D/3D speed-up.
 
     ./run.sh python scripts/reproduce_roettger2002.py [--out out/] [--sizes 64,128,256] [--device cpu]
-        [--fig8-size 512x384] [--fig8-only]
+        [--fig8-size 512x384] [--fig8-only] [--json docs/data/roettger2002.json]
+
+``--json PATH`` also writes the printed tables as data (``table1``, ``table1_checks``, ``table2``,
+``fig8``, ``fig8_variants``, ``fig8_units``), the layout the docs read.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import sys
 import time
 
 import numpy as np
 
+from warpvol.reproduce.common import add_json_option, table, write_tables_json
 from warpvol.reproduce.roettger2002 import fig4_tf, fig9_tf, roettger_t2_model
 
 PAPER_T1 = {12: {32: (0.1348, 13.9828), 64: (0.1515, 13.9661), 128: (0.2445, 13.8732), 256: (0.4565, 14.4455),
@@ -67,9 +72,9 @@ F8_2D = {"geforce3": "2D 1x, two planes (PC)", "radeon8500": "2D 1x, two planes 
          "octane_mxi": "2D 1x, one texture (SGI)"}  # the 2D path each platform ran (Fig. 8 caption)
 
 
-def fig8(width: int, height: int, repeat: int, device: str) -> dict:
+def fig8(width: int, height: int, repeat: int, device: str, tables: dict | None = None) -> dict:
     """3D texture vs 2D cylindrical planes on the spherical distance volume (module docstring);
-    returns ``{variant: report}``."""
+    returns ``{variant: report}``; the printed tables are added to ``tables`` when given."""
     import statistics
 
     from warpvol.reference.numpy_render import render_reference
@@ -84,7 +89,7 @@ def fig8(width: int, height: int, repeat: int, device: str) -> dict:
           f"roettger2000_3d's software table (64^3, RGBA8)")
     print(f"{'variant':<29} | {'rmse':>9} {'max':>7} | {'render [s]':>10} | {'fragments':>9} {'2D/3D fetches':>13} "
           f"{'combiner ops':>12}")
-    reports = {}
+    reports, vrows, crows = {}, [], []
     for name, (pre, ov, frag) in F8_VARIANTS.items():
         p = _preset(pre, device, **ov)
         p.render(sc, quiet=True)  # table build and kernel compilation
@@ -97,6 +102,8 @@ def fig8(width: int, height: int, repeat: int, device: str) -> dict:
         reports[name] = res.report
         e = res.report["error"]
         fetches = sum(v for k, v in c.items() if k.startswith("tex_"))
+        vrows.append([name, float(e["rmse"]), float(e["max_abs"]), statistics.median(ts), int(c["fragments"]),
+                      int(fetches), int(c.get("combiner_ops", 0))])
         print(f"{name:<29} | {e['rmse']:>9.2e} {e['max_abs']:>7.3f} | {statistics.median(ts):>10.3f} | "
               f"{c['fragments']:>9,d} {fetches:>13,d} {c.get('combiner_ops', 0):>12,d}")
     print(f"\n{'card':<13} | paper: {'3D fps':>6} {'2D fps':>6} {'2D/3D':>6} {'printed':>8} | modelled: "
@@ -114,15 +121,41 @@ def fig8(width: int, height: int, repeat: int, device: str) -> dict:
                                     f"{'-' if None in (mf3, f3) else f'{mf3 / f3:.2f}'}, "
                                     f"{'-' if mf2 is None else f'{mf2 / f2:.2f}'}")
         print(f"{card:<13} |        {f3 if f3 else '-':>6} {f2:>6} {ratio} {printed:>8} |{cols}")
+        crows.append([card, f3, f2, f2 / f3 if f3 else None, printed, mf3, mf2,
+                      None if None in (mf3, mf2) else mf2 / mf3, None if None in (mf3, f3) else mf3 / f3,
+                      None if mf2 is None else mf2 / f2])
     print("Modelled: the fragment stage's counted work on the card's profile (warpvol.model as it is; the 2D path "
           "each platform ran: two planes on the PCs, one texture on the SGI); Octane MXI 3D: pt_table3d counts "
           "two fragment-program set-up ops per fragment, for which the Octane (no combiners) has no rate.")
-    fig8_units(reports)
+    urows = fig8_units(reports)
     print("Emulated times are CPU emulation cost, not a 2002 card's fill rate.")
+    if tables is not None:
+        from warpvol.reproduce.common import calibrations
+
+        what = (f"{sc.mesh.n_tets:,} tets (spherical distance volume), {width}x{height}, 8-bit frame buffer, "
+                "every variant from roettger2000_3d's software table (64^3, RGBA8)")
+        tables["fig8"] = table(
+            f"Fig. 8: frame rates of 3D texturing and 2D multi-texturing, paper and modelled ({what})",
+            ["card", "paper 3D fps", "paper 2D fps", "paper 2D / 3D", "paper speed-up as printed", "modelled 3D fps",
+             "modelled 2D fps", "modelled 2D / 3D", "modelled / paper (3D)", "modelled / paper (2D)"], crows,
+            "Modelled: the counted vertex, raster, texture, combiner and blending work (host sorting left out) on the "
+            "card's profile, the 2D path each platform ran (two planes on the PCs, one texture on the SGI); cards "
+            "without a profile are the paper's only. Octane MXI 3D: pt_table3d counts two fragment-program set-up "
+            "ops per fragment, for which the Octane (no combiners) has no rate. "
+            + calibrations(*F8_PROFILES.values()))
+        tables["fig8_variants"] = table(
+            f"Fig. 8 variants: error against the exact reference and counted work ({what})",
+            ["variant", "RMSE", "max abs", "emulated render [s]", "fragments", "2D/3D fetches", "combiner ops"], vrows,
+            f"Emulated render time: median of {repeat} renders on this machine's CPU (emulation cost, not a 2002 "
+            "card's fill rate).")
+        tables["fig8_units"] = table(
+            "Fig. 8: modelled fragment-stage milliseconds per unit (the slowest unit, marked *, is the stage's time)",
+            ["card", "path", "raster [ms]", "texture [ms]", "shader [ms]", "rop [ms]", "memory [ms]", "bound",
+             "serial [ms]", "total [ms]"], urows, "serial: pass set-up and transfers.")
     return reports
 
 
-def fig8_units(reports: dict) -> None:
+def fig8_units(reports: dict) -> list:
     """Per-unit modelled milliseconds of the fragment stages on the GeForce3 and the Radeon 8500: the
     slowest unit is the stage's time, so it shows what drives the modelled 2D/3D speed-up."""
     from warpvol import model
@@ -131,6 +164,7 @@ def fig8_units(reports: dict) -> None:
     print(f"\nWhy the modelled speed-up differs per card: fragment stage, ms per unit (bound unit *), "
           f"+ serial (pass set-up, transfers)")
     print(f"{'card':<11} {'path':<8} | " + " ".join(f"{u:>8}" for u in units) + f" | {'serial':>7} {'total':>7}")
+    rows = []
     for prof in ("geforce3", "radeon8500"):
         p = model.load_profile(prof)
         for path, name, frag in (("3D", "3D texture (roettger2000_3d)", "pt_table3d"),
@@ -141,6 +175,8 @@ def fig8_units(reports: dict) -> None:
             cells = " ".join(f"{u.get(k, 0.0) * 1e3:>7.3f}{'*' if k == top else ' '}" for k in units)
             serial = r["gpu_s"] - u.get(top, 0.0)
             print(f"{prof:<11} {path:<8} | {cells} | {serial * 1e3:>7.3f} {r['s'] * 1e3:>7.3f}")
+            rows.append([prof, path, *(u.get(k, 0.0) * 1e3 for k in units), top, serial * 1e3, r["s"] * 1e3])
+    return rows
 
 
 def combiner_factor(rms: float, plain: dict) -> float:
@@ -195,14 +231,23 @@ def main(argv=None):
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--fig8-size", default="512x384", help="Fig. 8 window WxH, the paper's 512x384 (0: skip Fig. 8)")
     ap.add_argument("--fig8-only", action="store_true", help="only Fig. 8")
+    add_json_option(ap)
     a = ap.parse_args(argv)
+    tables = {}
+
+    def write_json():
+        if a.json:
+            cmd = " ".join(["python scripts/reproduce_roettger2002.py", *(argv if argv is not None else sys.argv[1:])])
+            write_tables_json(a.json, cmd, tables)
+
     os.makedirs(a.out, exist_ok=True)
     from warpvol.pipeline import quiet_warp
 
     quiet_warp()
     if a.fig8_only:
         w, _, h = a.fig8_size.partition("x")
-        fig8(int(w), int(h or w), 3, a.device)
+        fig8(int(w), int(h or w), 3, a.device, tables)
+        write_json()
         return
     from warpvol.tables.exact import build_exact3d
     from warpvol.tables.roettger_hw import build_roettger_hw
@@ -242,7 +287,7 @@ def main(argv=None):
           f"{target:.2f} %), {n}x{n}x{nl}, errors in % of full scale; RMS columns are predictions")
     print(f"{'bits':>4} {'steps':>5} | {'paper RMS':>9} {'max':>8} | {'ours RMS':>8} {'max':>8} {'RMS/paper':>9} | "
           f"{'GL_DITHER RMS':>13} {'/paper':>6} | {'GeForce3 comb RMS':>17} {'max':>8} {'/paper':>6} | {'vs exact RMS':>12}")
-    rows, ours = [], {}
+    rows, ours, t1_rows, checks = [], {}, [], []
     for bits, steps_list in ((12, (32, 64, 128, 256, 512, 1024)), (8, (32, 64, 128, 256))):
         for steps in steps_list:
             rms, mx = errors(tf, sw, steps=steps, bits=bits)
@@ -256,6 +301,9 @@ def main(argv=None):
                 float("nan"), float("nan"))
             rows.append((bits, steps, rms, mx, drms, dmx, grms, gmx, erms))
             gs = (f"{grms:>16.4f}% {gmx:>7.3f}% {grms / p[0]:>6.2f}" if bits == 8 else f"{'-':>17} {'-':>8} {'-':>6}")
+            g8 = bits == 8
+            t1_rows.append([bits, steps, p[0], p[1], rms, mx, rms / p[0], drms, drms / p[0], grms if g8 else None,
+                            gmx if g8 else None, grms / p[0] if g8 else None, erms])
             print(f"{bits:>4} {steps:>5} | {p[0]:>8.4f}% {p[1]:>7.3f}% | {rms:>7.4f}% {mx:>7.3f}% {rms / p[0]:>9.2f} | "
                   f"{drms:>12.4f}% {drms / p[0]:>6.2f} | {gs} | {erms:>11.4f}%")
     np.savetxt(os.path.join(a.out, "roettger2002_table1.csv"), np.array(rows), delimiter=",",
@@ -266,10 +314,12 @@ def main(argv=None):
         sp = np.log(PAPER_T1[bits][s1][0] / PAPER_T1[bits][s0][0]) / np.log(s1 / s0)
         so = np.log(ours[bits, s1] / ours[bits, s0]) / np.log(s1 / s0)
         print(f"  log-log slope of RMS vs steps, {bits}-bit {s0}..{s1}: {sp:.3f} | {so:.3f}")
+        checks.append([f"log-log slope of RMS vs steps, {bits}-bit {s0}..{s1}", sp, so])
     for s8 in (32, 64):
         rp = PAPER_T1[8][s8][0] / PAPER_T1[12][16 * s8][0]
         ro = ours[8, s8] / ours[12, 16 * s8]
         print(f"  RMS 8-bit at {s8} steps / 12-bit at {16 * s8} steps (1 if error ~ steps x LSB): {rp:.3f} | {ro:.3f}")
+        checks.append([f"RMS 8-bit at {s8} steps / 12-bit at {16 * s8} steps (1 if error ~ steps x LSB)", rp, ro])
     plain = {k: errors(tf, sw, steps=k, bits=8, passes="one")[0] for k in (8, 16, 32, 64)}
     for ln_format, what in (("fp32", "l/n an exact fp32 constant (not what the card held)"),
                             ("unorm8", "l/n in the 8-bit constant register, as the GeForce3 held it")):
@@ -277,9 +327,25 @@ def main(argv=None):
         print(f"  GeForce3 combiners, 64 steps, {what}: RMS {gq:.4f} % vs plain 8-bit at 64 steps {plain[64]:.4f} % "
               f"and at 16 steps {plain[16]:.4f} %; factor {combiner_factor(gq, plain):.2f} "
               "(paper: 'equivalent to reducing the number of integration steps by a factor of 4')")
+        checks.append([f"GeForce3 combiners at 64 steps, {what}: equivalent steps factor against plain 8-bit "
+                       f"blending (RMS {gq:.4f} %)", 4.0, combiner_factor(gq, plain)])
     codes = build_roettger_hw(tf, n_s=4, n_l=nl, steps=64, bits=8, passes="one", variant="geforce3",
                               device=a.device).meta["ln_codes"]
     print(f"  (l/n register codes per slice, l = lmax ({nl} slices) / 64 steps: {codes})")
+    tables["table1"] = table(
+        f"Table 1: hardware (emulated) vs software pre-integration, {n}x{n}x{nl}, errors in % of full scale",
+        ["bits", "steps", "paper RMS [%]", "paper max [%]", "ours RMS [%]", "ours max [%]", "RMS / paper",
+         "GL_DITHER RMS [%]", "GL_DITHER RMS / paper", "GeForce3 combiners RMS [%]", "GeForce3 combiners max [%]",
+         "GeForce3 combiners RMS / paper", "ours vs exact RMS [%]"], t1_rows,
+        f"TF of 64 entries like Fig. 4 (not given in the paper) with its extinction scaled by {sigma:.4f}: the one "
+        f"constant calibrated on this table, on the 12-bit max error at 64 steps (paper {target:.2f} %, ours "
+        f"{got:.2f} %), so the max column of that row is a calibration and every RMS column a prediction. The "
+        "GeForce3 column is the paper's 8-bit method (register combiners, one pass, l/n in the 8-bit constant "
+        "register). No timing model.")
+    tables["table1_checks"] = table(
+        "Table 1: checks that do not depend on the transfer function", ["check", "paper", "ours"], checks,
+        "The paper's factor of 4 is from its text ('equivalent to reducing the number of integration steps by a "
+        f"factor of 4'). l/n register codes per slice: {list(map(int, codes))}.")
 
     # Figs. 4 and 5: slice at l = lmax (last slice)
     tf = fig4_tf()  # Figs. 4/5 and Table 2 with the unscaled TF (timings do not depend on it)
@@ -301,6 +367,7 @@ def main(argv=None):
           f"{'model sw':>9} {'model hw':>8} {'hw/paper':>8} | {'paper sw / model hw':>19} | {'emulated blends':>15}")
 
     build_roettger_hw(tf, n_s=8, n_l=1, steps=4, device=a.device)  # warm-up (kernel load)
+    t2_rows = []
     for N in (int(v) for v in a.sizes.split(",")):
         m = N // 2
         t0 = time.perf_counter()
@@ -314,12 +381,28 @@ def main(argv=None):
         print(f"{N:>4}x{N}x{N // 2:<4} | {p[0]:>8.3f}s {p[1]:>6.3f}s {p[2]:>6.2f} | {tsw:>7.3f}s {thw:>7.3f}s "
               f"{tsw / thw:>6.2f} | {mod['sw']:>8.3f}s {mod['hw']:>7.3f}s {mod['hw'] / p[1]:>8.2f} | "
               f"{p[0] / mod['hw']:>19.2f} | {hw.meta['blends']:>15,d}")
+        known = N in PAPER_T2
+        t2_rows.append([f"{N}x{N}x{N // 2}", *(p if known else (None,) * 3), tsw, thw, tsw / thw, mod["sw"], mod["hw"],
+                        mod["hw"] / p[1] if known else None, p[0] / mod["hw"] if known else None,
+                        int(hw.meta["blends"]), "calibration" if N == 64 else ("prediction" if known else "-")])
+    from warpvol.reproduce.common import calibrations
+
+    tables["table2"] = table(
+        "Table 2: software vs hardware pre-integration of an N x N x N/2 table, seconds",
+        ["size", "paper software [s]", "paper hardware [s]", "paper ratio", "emulated software [s]",
+         "emulated hardware [s]", "emulated ratio", "modelled software [s]", "modelled hardware [s]",
+         "modelled hardware / paper", "paper software / modelled hardware", "emulated blends", "role"], t2_rows,
+        "Software build: o = 2, m = N/2; hardware build: N/2 steps per voxel, 12 bits (what the paper compared). "
+        "Emulated: this CPU, both builders on all cores, warm kernels (the emulated hardware runs every blend as "
+        "integer arithmetic, so its time measures emulation cost). Modelled: the counted work on the octane_mxi "
+        "profile; the 64 row is where its rates were calibrated. " + calibrations("octane_mxi"))
     print("\nNotes: the emulated hardware runs every blend as integer arithmetic on the CPU, so its time measures "
           "emulation cost; the modelled column turns the same counted blends into the Octane's time "
           "(scripts/validate_model.py lists every row with its role).")
     if a.fig8_size != "0":
         w, _, h = a.fig8_size.partition("x")
-        fig8(int(w), int(h or w), 3, a.device)
+        fig8(int(w), int(h or w), 3, a.device, tables)
+    write_json()
 
 
 if __name__ == "__main__":
