@@ -177,6 +177,7 @@ def _run_script(name, args):
 @pytest.mark.parametrize("name, args, tables", [
     ("reproduce_espinha2005", ["--skip-tables", "--fig8-size", "12"], {"fig8"}),
     ("reproduce_guthe2002", ["--skip", "table4,table5", "--res", "16", "--eval", "6"], {"fig6", "fig7"}),
+    ("reproduce_roettger2002", ["--fig8-only", "--fig8-size", "32x24"], {"fig8", "fig8_variants", "fig8_units"}),
 ])
 def test_script_json_option(tmp_path, monkeypatch, name, args, tables):
     out = tmp_path / "data.json"
@@ -186,6 +187,10 @@ def test_script_json_option(tmp_path, monkeypatch, name, args, tables):
     for t in data["tables"].values():
         assert set(t) >= {"title", "columns", "rows", "notes"}
         assert all(len(r) == len(t["columns"]) for r in t["rows"])
+    if name == "reproduce_roettger2002":  # the paper's Fig. 8 rates beside the modelled ones
+        f8 = {r[0]: r for r in data["tables"]["fig8"]["rows"]}
+        assert f8["GeForce3"][1:3] == [47.6, 79.0] and f8["GeForce3"][5] > 0
+        assert f8["Voodoo3 2000"][1] is None and f8["Voodoo3 2000"][5] is None  # no 3D textures, no profile
     hooks = load_hooks()
     monkeypatch.setattr(hooks, "DATA", tmp_path)
     for tname in tables:
