@@ -21,7 +21,7 @@ in camera coordinates (``x`` right, ``y`` up, ``z`` forward from the eye).
   interval after ``MAX_DEPTH`` (bounded work for stiff extinction).
 * :func:`boundary_entries` -- per boundary face, the pixels of its screen box whose line enters
   the mesh through it (count pass, then write pass).
-* :func:`render_rows` -- one thread per pixel: the chord that contains the eye (perspective eye
+* :func:`render_rows` -- one thread per pixel (of whole rows, or of a list of pixels): the chord that contains the eye (perspective eye
   inside the mesh: the start tet among the tets near the eye), then every boundary entry in depth
   order, each walked tet to tet through the adjacency, segments clipped at the ray origin,
   integrated and composited front to back. A walk that meets a tet without a single exit face is
@@ -579,7 +579,8 @@ def boundary_entries(face_tet: wp.array(dtype=wp.int32), face_loc: wp.array(dtyp
 
 
 @wp.kernel(enable_backward=False)
-def render_rows(row0: int, first: int, W: int, P: wp.array(dtype=wp.vec3d), S: wp.array(dtype=wp.float64),
+def render_rows(row0: int, first: int, W: int, pix_list: wp.array(dtype=wp.int32),
+                P: wp.array(dtype=wp.vec3d), S: wp.array(dtype=wp.float64),
                 T: wp.array2d(dtype=wp.int32), adj: wp.array2d(dtype=wp.int32), orient: wp.array(dtype=wp.float64),
                 s_eye: wp.array(dtype=wp.float64), near: wp.array(dtype=wp.int32),
                 ent_start: wp.array(dtype=wp.int64), ent_t: wp.array(dtype=wp.float64),
@@ -589,12 +590,20 @@ def render_rows(row0: int, first: int, W: int, P: wp.array(dtype=wp.vec3d), S: w
                 gx5: wp.array(dtype=wp.float64), gw5: wp.array(dtype=wp.float64), ed: int,
                 img: wp.array(dtype=wp.vec4d), counters: wp.array2d(dtype=wp.int64)):
     """One pixel per thread of rows ``row0 ..``: walk every chord of its line, integrate, composite
-    into ``img`` (rows from ``first`` on).
+    into ``img`` (rows from ``first`` on). With a non-empty ``pix_list`` (flat pixel indices) thread
+    ``tid`` renders pixel ``pix_list[row0 + tid]`` into ``img[row0 + tid]`` instead (a few scattered
+    pixels: the rays a float32 renderer redoes).
 
     ``counters[pixel] = (segments, tet steps, exact evaluations, failed walks)``."""
     tid = wp.tid()
     i = row0 + tid // W
     j = tid - (tid // W) * W
+    o = (row0 - first) * W + tid
+    if pix_list.shape[0] > 0:
+        q = int(pix_list[row0 + tid])
+        i = q // W
+        j = q - i * W
+        o = row0 + tid
     pix = i * W + j
     zero = wp.float64(0.0)
     dx = cxs[j]
@@ -697,7 +706,6 @@ def render_rows(row0: int, first: int, W: int, P: wp.array(dtype=wp.vec3d), S: w
                 break
             prev = c
             c = int(adj[c, sg.kout])
-    o = pix - first * W
     img[o] = wp.vec4d(col[0], col[1], col[2], wp.float64(1.0) - trans)
     counters[o, 0] = wp.int64(n_seg)
     counters[o, 1] = wp.int64(n_steps)

@@ -10,15 +10,33 @@ import numpy as np
 from warpvol.reference import numpy_render as ref
 
 
-def redo_pixels_float64(mesh, tf, camera, pixels: np.ndarray, max_pairs: int = 1_000_000) -> np.ndarray:
+def redo_pixels_float64(mesh, tf, camera, pixels: np.ndarray, max_pairs: int = 1_000_000,
+                        method: str = "warp") -> np.ndarray:
     """Exact float64 colours (n, 4) of the pixels ``pixels`` (flat indices), for rays the float32
-    walk could not resolve: the reference's watertight tracer (exact edge signs, simulation of
-    simplicity) on just the candidate (tet, pixel) pairs of those pixels, integrated and composited
-    in float64."""
+    walk could not resolve.
+
+    ``method = "warp"`` (default): the Warp reference's float64 walk through the adjacency on the CPU
+    (:func:`warpvol.reference.warp_render.render_reference_warp` with ``pixels``; cost ~ the cells
+    those rays cross plus one set-up per call), pixels whose walk fails (a mesh without a consistent
+    adjacency) taken as by ``"numpy"``: the reference's watertight tracer (exact edge signs, simulation
+    of simplicity) on just the candidate (tet, pixel) pairs of those pixels (cost ~ the cells whose
+    screen boxes hold them), integrated and composited in float64."""
     pixels = np.asarray(pixels, dtype=np.int64)
     out = np.zeros((len(pixels), 4))
     if len(pixels) == 0:
         return out
+    if method == "warp":
+        from warpvol.reference.warp_render import render_reference_warp
+
+        st: dict = {}
+        out = np.asarray(render_reference_warp(mesh, tf, camera, device="cpu", pixels=pixels, stats=st,
+                                               show_progress=False), dtype=np.float64)
+        bad = st.get("failed_at", np.zeros(0, dtype=np.int64))
+        if len(bad):
+            out[bad] = redo_pixels_float64(mesh, tf, camera, pixels[bad], max_pairs, method="numpy")
+        return out
+    if method != "numpy":
+        raise ValueError(f"method: {method!r} not allowed; allowed: warp, numpy")
     fr, pc, tsorted, orient, ids, i0, i1, j0, j1 = ref._plan(mesh, camera)
     grad, offs = (mesh.gradients, mesh.offsets) if fr.persp else (None, None)
     rows, cols = np.divmod(pixels, camera.width_px)

@@ -183,7 +183,8 @@ def _progress_bar(show: bool | None, total: int):
 def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *, device: str | None = None,
                           progress: Callable[[float], None] | None = None, stats: dict | None = None,
                           show_progress: bool | None = None, threads: int = 0,
-                          rows_per_block: int = 0, rows: tuple[int, int] | None = None) -> np.ndarray:
+                          rows_per_block: int = 0, rows: tuple[int, int] | None = None,
+                          pixels: np.ndarray | None = None) -> np.ndarray:
     """Exact float64 reference image, Warp kernels (same contract as the NumPy
     :func:`warpvol.reference.numpy_render.render_reference`).
 
@@ -201,7 +202,8 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
         ``n_steps`` (tets visited), ``n_exact`` (edge predicates the
         float filter could not decide, evaluated exactly), ``n_entries`` (boundary entries),
         ``n_failed`` (walks that met a tet without one exit face; 0 for a valid mesh), ``warning``
-        when ``n_failed > 0``, and ``setup_s`` / ``render_s``.
+        and ``failed_at`` (their flat positions in the output) when ``n_failed > 0``, and ``setup_s`` /
+        ``render_s``.
     show_progress : bool, optional
         Progress bar with the time left (default: on a terminal or in a notebook, unless ``progress``
         is given).
@@ -212,12 +214,15 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     rows : (int, int), optional
         First and last image row (inclusive) to render; each pixel is computed on its own, so a
         band is bit-identical to the same rows of the whole image.
+    pixels : array of int, optional
+        Flat pixel indices (row * width + column) to render instead of whole rows (the rays a float32
+        renderer could not resolve); each the same value as in the whole image. Overrides ``rows``.
 
     Returns
     -------
     (H, W, 4) float64
         Premultiplied RGBA composited front to back over transparent black, row 0 = top; with
-        ``rows``, ``(last - first + 1, W, 4)``.
+        ``rows``, ``(last - first + 1, W, 4)``; with ``pixels``, ``(len(pixels), 4)``.
     """
     import warp as wp
 
@@ -233,6 +238,14 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     threads = int(threads) or cpu_threads()
     view = _View(camera)
     W, H = view.W, view.H
+    plist = None
+    if pixels is not None:
+        plist = np.asarray(pixels, dtype=np.int64).ravel()
+        if len(plist) and (plist.min() < 0 or plist.max() >= W * H):
+            raise ConfigError(f"pixels: flat indices must lie in [0, {W * H}), got {plist.min()} .. {plist.max()}")
+        if len(plist) == 0:
+            return np.zeros((0, 4))
+        rows = (int(plist.min() // W), int(plist.max() // W))
     first, last = (0, H - 1) if rows is None else (int(rows[0]), int(rows[1]))
     if not 0 <= first <= last < H:
         raise ConfigError(f"rows: expected (first, last) with 0 <= first <= last < {H}, got {rows!r}")
@@ -304,10 +317,16 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     setup_s = time.perf_counter() - t0
 
     # -- walk ------------------------------------------------------------------------------------------
-    img = wp.zeros(W * nrows, dtype=wp.vec4d, device=device)
-    counters = wp.zeros((W * nrows, 4), dtype=wp.int64, device=device)
+    n_out = W * nrows if plist is None else len(plist)
+    img = wp.zeros(n_out, dtype=wp.vec4d, device=device)
+    counters = wp.zeros((n_out, 4), dtype=wp.int64, device=device)
     rpb = int(rows_per_block) or (max(1, nrows // (8 * threads)) if on_cpu else max(1, nrows // 16))
     rblocks = [(first + r0, nr) for r0, nr in blocks(nrows, rpb)]
+    pix_arr = wp.zeros(0, dtype=wp.int32, device=device)
+    if plist is not None:  # blocks of the list: (offset, count), one thread per listed pixel
+        pix_arr = arr(plist.astype(np.int32), wp.int32)
+        rblocks = blocks(len(plist), max(1, -(-len(plist) // (8 * threads))) if on_cpu else len(plist))
+        show_progress = False
     common = [P, S, T, adj, orient, s_eye, near, ent_start, ent_t, ent_tet, cxs, cys, persp,
               int(mesh.n_tets) + 1, f64(c_bound), tf_s, tf_c, arr(x10, f64), arr(w10, f64), arr(x5, f64),
               arr(w5, f64), ed, img, counters]
@@ -319,7 +338,8 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
 
     def launch(b: int) -> None:
         r0, nr = rblocks[b]
-        wp.launch(K.render_rows, dim=nr * W, device=device, inputs=[r0, first, W] + common)
+        wp.launch(K.render_rows, dim=nr * W if plist is None else nr, device=device,
+                  inputs=[r0, first, W, pix_arr] + common)
         if not on_cpu:
             wp.synchronize_device(device)
         with lock:
@@ -327,7 +347,7 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
             if bar is not None:
                 bar.update(task, completed=done[0])
             if progress is not None:
-                progress(done[0] / nrows)
+                progress(done[0] / (nrows if plist is None else len(plist)))
 
     t1 = time.perf_counter()
     try:
@@ -335,13 +355,15 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     finally:
         if bar is not None:
             bar.stop()
-    out_img = img.numpy().reshape(nrows, W, 4)
+    out_img = img.numpy().reshape(nrows, W, 4) if plist is None else img.numpy()
     render_s = time.perf_counter() - t1
     if stats is not None:
         c = counters.numpy().sum(axis=0)
         n_box = int(((fbox[:, 1] - fbox[:, 0] + 1).astype(np.int64) * (fbox[:, 3] - fbox[:, 2] + 1)).sum()) if nf else 0
         stats.update(n_pairs=int(c[1]) + n_box + len(md["near"]) * W * nrows, n_segments=int(c[0]), n_steps=int(c[1]), n_exact=int(c[2] + fexact.numpy()[:nf].sum()),
                      n_failed=int(c[3]), n_entries=n_ent, n_bands=len(rblocks), setup_s=setup_s, render_s=render_s)
+        if c[3]:  # flat positions in the output (pixel list: positions in the list)
+            stats["failed_at"] = np.flatnonzero(counters.numpy()[:, 3] > 0)
         if c[3]:
             stats["warning"] = (f"exact reference: {int(c[3])} ray walk(s) met a tet without a single exit face; "
                                 "those pixels are incomplete")
