@@ -13,9 +13,13 @@ error ratio. Then a TF edit: colours changed with the control points kept, and c
 for each preset it reports which stages ran again (tables rebuilt or reused, per-mesh data reused)
 and the time of the first render after the edit.
 
+``--fill`` runs only the views where the data fills the image (``scenes/bluntfin_close.toml``,
+``scenes/spx_fill.toml``): ``harc_best`` against VTK's projected-tetrahedra mapper, printing ``VTK PT time /
+harc_best time`` (``bench_raycast.fill_vs_vtk_pt``).
+
 Usage::
 
-    ./run.sh python scripts/bench_harc.py [--scenes scenes/bluntfin.toml scenes/loxpost.toml] [--size 512] [--repeat 3]
+    ./run.sh python scripts/bench_harc.py [--scenes scenes/bluntfin.toml scenes/loxpost.toml] [--size 512] [--repeat 3] [--fill]
 """
 
 from __future__ import annotations
@@ -82,7 +86,15 @@ def main(argv=None) -> int:
     ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--out", default=str(ROOT / "out" / "bench_harc"))
+    ap.add_argument("--fill", action="store_true",
+                    help="only the views filling the image (scenes/bluntfin_close.toml, scenes/spx_fill.toml): "
+                         "VTK PT time / harc_best time, medians over interleaved rounds (--repeat, at least 5), errors, load")
     args = ap.parse_args(argv)
+    if args.fill:
+        from bench_raycast import fill_vs_vtk_pt
+
+        fill_vs_vtk_pt(["harc_best"], size=args.size, repeat=max(args.repeat, 5))
+        return 0
 
     from warpvol.metrics import image_error
 

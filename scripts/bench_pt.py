@@ -13,10 +13,14 @@ points, colour and extinction (scalar opacity unit distance 1), as in ``scripts/
 same interleaved rounds, e.g. ``pt_best:pt_integrate.walk=pixel`` (pt_best on the emulated per-pixel
 fragment walk) for an A/B against ``pt_best`` (its fused draw, ``walk = "fused"``).
 
+``--fill`` runs only the views where the data fills the image (``scenes/bluntfin_close.toml``,
+``scenes/spx_fill.toml``): ``pt_best`` against VTK's projected-tetrahedra mapper, printing ``VTK PT time /
+pt_best time`` (``bench_raycast.fill_vs_vtk_pt``).
+
 Usage::
 
     ./run.sh python scripts/bench_pt.py [--scene scenes/bluntfin.toml] [--size 512] [--repeat 1]
-        [--presets pt_best] [--variant pt_best:pt_integrate.walk=pixel]
+        [--presets pt_best] [--variant pt_best:pt_integrate.walk=pixel] [--fill]
 """
 
 from __future__ import annotations
@@ -47,7 +51,15 @@ def main(argv=None) -> int:
     ap.add_argument("--variant", action="append", default=[],
                     help="PRESET:STAGE.PARAM=VALUE, a preset with one stage parameter replaced (TOML value or a bare word)")
     ap.add_argument("--out", default=str(ROOT / "out" / "bench_pt"))
+    ap.add_argument("--fill", action="store_true",
+                    help="only the views filling the image (scenes/bluntfin_close.toml, scenes/spx_fill.toml): "
+                         "VTK PT time / pt_best time, medians over interleaved rounds (--repeat, at least 5), errors, load")
     args = ap.parse_args(argv)
+    if args.fill:
+        from bench_raycast import fill_vs_vtk_pt
+
+        fill_vs_vtk_pt(["pt_best"], size=args.size, repeat=max(args.repeat, 5))
+        return 0
 
     from warpvol.io import write_png
     from warpvol.metrics import image_error

@@ -17,9 +17,13 @@ structures built); each round renders once with every renderer in turn, so load 
 processes on a shared machine hits all of them alike. VTK's mappers keep their image in 8-bit RGBA, so their errors include 8-bit quantisation:
 that is what they produce.
 
+``--fill`` runs only the views where the data fills the image (``scenes/bluntfin_close.toml``,
+``scenes/spx_fill.toml``) against VTK's projected-tetrahedra mapper and prints ``VTK PT time / raycast
+time`` (:func:`fill_vs_vtk_pt`, shared with ``bench_pt.py --fill`` and ``bench_harc.py --fill``).
+
 Usage::
 
-    ./run.sh python scripts/bench_raycast.py [--scene scenes/bluntfin.toml] [--size 512] [--repeat 5]
+    ./run.sh python scripts/bench_raycast.py [--scene scenes/bluntfin.toml] [--size 512] [--repeat 5] [--fill]
 """
 
 from __future__ import annotations
@@ -158,6 +162,88 @@ def scene_and_reference(scene_path: str, size: int, out: Path):
     return scene, ref
 
 
+FILL_SCENES = (str(ROOT / "scenes" / "bluntfin_close.toml"), str(ROOT / "scenes" / "spx_fill.toml"))
+TOLERANCE_KEYS = {"raycast": "raycast/fp32", "harc_best": "harc_best", "pt_best": "pt_best"}
+
+
+def load_average() -> str:
+    """The machine's 1/5/15-minute load averages, for the line printed with every time."""
+    import os
+
+    return "load average " + " ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
+def tolerance_row(preset: str):
+    """``tests/tolerances.py``'s row for ``preset`` (None where it has none or the file is absent)."""
+    import importlib.util
+
+    path = ROOT / "tests" / "tolerances.py"
+    if not path.exists():
+        return None
+    spec = importlib.util.spec_from_file_location("_bench_tolerances", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod.TOLERANCES.get(TOLERANCE_KEYS.get(preset, preset))
+
+
+def fill_vs_vtk_pt(presets, scenes=FILL_SCENES, size: int = 512, repeat: int = 5, device: str = "cpu",
+                   out: Path | None = None) -> dict:
+    """VTK's projected-tetrahedra time / preset time on views where the data fills the image.
+
+    For each scene, every preset and ``vtkProjectedTetrahedraMapper`` render interleaved (one render of
+    each per round, ``repeat`` rounds after a warm-up round: kernels compiled, per-mesh data built); prints
+    per renderer the median and minimum time, the ratio ``VTK PT median / preset median`` (> 1: the
+    preset is faster), the error against the exact reference and the preset's tolerance row
+    (``tests/tolerances.py``), with the machine's load average. Returns the rows (also written to
+    ``out/fill_result.json``)."""
+    from warpvol.metrics import image_error
+
+    out = Path(out) if out is not None else ROOT / "out" / "bench_fill"
+    result = {}
+    for path in scenes:
+        scene, ref = scene_and_reference(path, size, out)
+        renderers = [("VTK PT", *vtk_renderer(scene, "projected_tetrahedra"))]
+        results = {}
+        for name in presets:
+            render, image, res = warpvol_renderer(scene, device, preset=name)
+            renderers.append((name, render, image))
+            results[name] = res
+        load0 = load_average()
+        times = interleaved_times(renderers, repeat)
+        load1 = load_average()
+        vtk_t = statistics.median(times["VTK PT"][1:])
+        print(f"\n{scene.name}: {scene.mesh.n_tets} tets, {size}x{size}, {repeat} interleaved rounds after a "
+              f"warm-up; {load0} (start), {load1} (end)")
+        print(f"{'renderer':<12}{'median [s]':>11}{'min [s]':>9}{'VTK PT / this':>15}{'rmse':>11}{'max_abs':>11}"
+              f"{'tolerance (rmse, max_abs)':>28}  cell steps / fragments")
+        rows = {}
+        for name, _, image in renderers:
+            img = image()
+            e = image_error(img, ref)
+            t = statistics.median(times[name][1:])
+            row = {"median_s": t, "min_s": min(times[name][1:]), "times_s": times[name], "error": e,
+                   "vtk_pt_over_this": vtk_t / t, "load": [load0, load1]}
+            tol, work = "", ""
+            if name in results:
+                rep = results[name]().report
+                row["stages"], row["counters"] = rep["stages"], rep.get("counters")
+                tr = tolerance_row(name)
+                if tr is not None:
+                    ok = e["rmse"] <= tr["rmse"] and e["max_abs"] <= tr["max_abs"]
+                    row["tolerance"], row["within_tolerance"] = tr, ok
+                    tol = f"{tr['rmse']:.0e}, {tr['max_abs']:.0e} {'ok' if ok else 'EXCEEDED'}"
+                steps = sum(c.get("cell_steps", 0) for c in (rep.get("counters") or {}).values() if isinstance(c, dict))
+                frags = sum(c.get("fragments", 0) for c in (rep.get("counters") or {}).values() if isinstance(c, dict))
+                work = f"{steps / 1e6:.2f} M" if steps else (f"{frags / 1e6:.2f} M frags" if frags else "")
+            rows[name] = row
+            print(f"{name:<12}{t:>11.3f}{row['min_s']:>9.3f}{vtk_t / t:>15.2f}{e['rmse']:>11.3e}{e['max_abs']:>11.3e}"
+                  f"{tol:>28}  {work}")
+        result[scene.name] = {"tets": scene.mesh.n_tets, "size": size, "rows": rows}
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "fill_result.json").write_text(json.dumps(result, indent=2, default=float))
+    return result
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scene", default=str(ROOT / "scenes" / "bluntfin.toml"))
@@ -165,7 +251,13 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--out", default=str(ROOT / "out" / "bench_raycast"))
+    ap.add_argument("--fill", action="store_true",
+                    help="only the views filling the image (scenes/bluntfin_close.toml, scenes/spx_fill.toml): "
+                         "VTK PT time / raycast time, medians over interleaved rounds, errors, load average")
     args = ap.parse_args(argv)
+    if args.fill:
+        fill_vs_vtk_pt(["raycast"], size=args.size, repeat=args.repeat, device=args.device)
+        return 0
 
     from warpvol.io import write_png
     from warpvol.metrics import image_error

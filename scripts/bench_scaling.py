@@ -1,0 +1,319 @@
+"""Cost laws: time, peak memory and bytes per tet against mesh size and image size.
+
+Renderers: warpvol's ``raycast``, ``harc_best`` and ``pt_best`` presets (warm: kernels compiled, per-mesh
+data built), the exact float64 reference (:func:`warpvol.reference.numpy_render.render_reference`, Warp
+kernels; kernels compiled by a 16x16 warm-up, per-mesh set-up included in its time: it keeps none) and
+VTK's ``vtkProjectedTetrahedraMapper`` (offscreen, set up as in ``scripts/bench_raycast.py``; warm).
+
+Meshes: the cube [-1, 1]^3 as a refined structured grid (Kuhn split, 6 tets per cube) and as an
+unstructured Delaunay mesh of uniform random points (scipy; its slivers dropped as zero-volume tets), of
+about ``--tets`` tets each, with a smooth scalar field and a 4-point TF; the camera frames the cube
+(:meth:`warpvol.scene.camera.Camera.fit`). Two sweeps:
+
+* mesh size (``--tets``, default 1e4 1e5 1e6) at ``--mesh-size-px`` (default 256^2), both mesh kinds;
+* image size (``--sizes``, default 128 256 512 1024) on the structured mesh of ``--image-tets`` (1e5).
+
+Every (renderer, mesh, image) point runs in its own child process, one at a time: time is the median
+of ``--repeat`` renders after a warm-up render; peak memory is the child's peak resident set
+(``ru_maxrss``) minus its resident set once the mesh is built and the renderer's modules are imported
+(so it counts what the renderer allocates: per-mesh data, buffers, images), and bytes per tet is that
+over the tets. The fitted exponents are least-squares slopes in log-log: time ~ tets^a (per mesh
+kind), time ~ pixels^b, memory ~ tets^c. The machine's load average is recorded with every point.
+Writes ``docs/data/scaling.json`` (tables for the documentation's ``<!-- table: scaling/NAME -->``
+markers) and ``docs/img/scaling.png`` (log-log plot), unless ``--no-docs``; meshes are cached in
+``--cache``.
+
+Usage::
+
+    ./run.sh python scripts/bench_scaling.py [--tets 1e4 1e5 1e6] [--sizes 128 256 512 1024] [--repeat 2]
+        [--renderers raycast,harc_best,pt_best,reference,vtk_pt] [--timeout 300] [--no-docs]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+RENDERERS = ("raycast", "harc_best", "pt_best", "reference", "vtk_pt")
+TF_POINTS = [[0.0, 0.1, 0.2, 0.8, 0.0], [0.35, 0.2, 0.7, 0.9, 0.4], [0.6, 1.0, 0.8, 0.2, 1.5],
+             [1.0, 1.0, 0.2, 0.1, 0.6]]
+
+
+# -- meshes ----------------------------------------------------------------------------------------
+def make_mesh(kind: str, n_tets: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(points, tets, scalars)`` of about ``n_tets`` tets filling [-1, 1]^3: ``structured`` (a grid of
+    n^3 cubes, 6 tets each) or ``delaunay`` (uniform random points plus the cube's corners)."""
+    from warpvol.scene.grids import grid_points, structured_to_tets
+
+    if kind == "structured":
+        n = max(1, int(round((n_tets / 6.0) ** (1.0 / 3.0))))
+        xs = np.linspace(-1.0, 1.0, n + 1)
+        pts = grid_points(xs, xs, xs)
+        tets = structured_to_tets((n + 1, n + 1, n + 1))
+    elif kind == "delaunay":
+        from scipy.spatial import Delaunay
+
+        rng = np.random.default_rng(seed)
+        n_pts = max(8, int(n_tets / 6.3))
+        corners = np.array([[x, y, z] for x in (-1.0, 1.0) for y in (-1.0, 1.0) for z in (-1.0, 1.0)])
+        pts = np.concatenate([corners, rng.uniform(-1.0, 1.0, (n_pts, 3))])
+        tets = Delaunay(pts).simplices
+    else:
+        raise ValueError(f"kind: {kind!r}; allowed: structured, delaunay")
+    x, y, z = pts.T
+    s = 0.5 + 0.25 * np.sin(2.5 * x + 0.5) * np.cos(2.0 * y) + 0.25 * np.cos(3.0 * z - 0.3 * x)
+    return pts, np.ascontiguousarray(tets, dtype=np.int64), np.clip(s, 0.0, 1.0)
+
+
+def mesh_file(cache: Path, kind: str, n_tets: float) -> Path:
+    """The mesh's ``.npz`` in ``cache`` (built on first use)."""
+    path = cache / f"{kind}_{int(n_tets)}.npz"
+    if not path.exists():
+        cache.mkdir(parents=True, exist_ok=True)
+        t0 = time.perf_counter()
+        pts, tets, s = make_mesh(kind, n_tets)
+        np.savez(path, points=pts, tets=tets, scalars=s)
+        print(f"  built {kind} mesh, {len(tets):,} tets, in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    return path
+
+
+# -- one point, in a child process -----------------------------------------------------------------
+def rss_bytes() -> int:
+    """This process's resident set now."""
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
+def child(spec: dict) -> dict:
+    """Render one point (``spec``: renderer, mesh file, size, repeat) and measure it."""
+    import resource
+    import statistics
+    import warnings
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from warpvol.pipeline import quiet_warp
+
+    quiet_warp()
+    from warpvol.scene.camera import Camera
+    from warpvol.scene.mesh import TetMesh
+    from warpvol.scene.scene import Scene
+    from warpvol.scene.transfer import TransferFunction
+
+    data = np.load(spec["mesh"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # Delaunay slivers dropped as zero-volume tets
+        mesh = TetMesh(data["points"], data["tets"], data["scalars"], name=Path(spec["mesh"]).stem)
+    size = int(spec["size"])
+    cam = Camera.fit(mesh, width_px=size, height_px=size)
+    scene = Scene(mesh=mesh, transfer=TransferFunction(np.array(TF_POINTS)), camera=cam, name=mesh.name)
+    name = spec["renderer"]
+    if name == "vtk_pt":
+        from bench_raycast import vtk_renderer
+
+        render, _ = vtk_renderer(scene, "projected_tetrahedra")
+        warm = render
+    elif name == "reference":
+        from warpvol.reference.numpy_render import render_reference
+
+        def render():
+            render_reference(scene.mesh, scene.transfer, scene.camera)
+
+        def warm():  # compiles the kernels; the reference keeps no per-mesh data
+            render_reference(scene.mesh, scene.transfer, cam.replace(width_px=16, height_px=16))
+    else:
+        from warpvol.pipeline import Pipeline
+
+        pipe = Pipeline.load(name)
+
+        def render():
+            pipe.render(scene, quiet=True)
+
+        warm = render
+    base = rss_bytes()
+    t0 = time.perf_counter()
+    warm()
+    first = time.perf_counter() - t0
+    times = []
+    for _ in range(max(1, int(spec["repeat"]))):
+        t0 = time.perf_counter()
+        render()
+        times.append(time.perf_counter() - t0)
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    return {"renderer": name, "mesh": mesh.name, "tets": int(mesh.n_tets), "points": int(mesh.n_points),
+            "size": size, "pixels": size * size, "time_s": statistics.median(times), "times_s": times,
+            "first_s": first, "peak_bytes": max(0, peak - base), "bytes_per_tet": max(0, peak - base) / mesh.n_tets,
+            "load": list(os.getloadavg())}
+
+
+def run_point(spec: dict, timeout: float) -> dict:
+    """:func:`child` in a fresh interpreter (its own peak memory); ``{"error": ...}`` when it fails."""
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--child", json.dumps(spec)]
+    try:
+        p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, cwd=str(ROOT))
+    except subprocess.TimeoutExpired:
+        return {**spec, "error": f"over the {timeout:.0f} s timeout"}
+    lines = [ln for ln in p.stdout.splitlines() if ln.startswith("{")]
+    if p.returncode != 0 or not lines:
+        return {**spec, "error": (p.stderr.strip().splitlines() or ["no output"])[-1][:300]}
+    return json.loads(lines[-1])
+
+
+# -- fits, tables, plot ----------------------------------------------------------------------------
+def slope(x, y) -> float | None:
+    """Least-squares slope of log y against log x (None with fewer than two points)."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    ok = (x > 0) & (y > 0)
+    if ok.sum() < 2:
+        return None
+    return float(np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0])
+
+
+def fits(points: list[dict], renderers, image_mesh: str) -> list[dict]:
+    rows = []
+    for r in renderers:
+        row = {"renderer": r}
+        for kind in ("structured", "delaunay"):
+            pts = [p for p in points if p.get("sweep") == "mesh" and p["renderer"] == r and p["kind"] == kind
+                   and "error" not in p]
+            row[f"time ~ tets^a ({kind})"] = slope([p["tets"] for p in pts], [p["time_s"] for p in pts])
+            row[f"memory ~ tets^c ({kind})"] = slope([p["tets"] for p in pts], [p["peak_bytes"] for p in pts])
+            big = max(pts, key=lambda p: p["tets"], default=None)
+            row[f"bytes/tet at {big['tets']:.1e} tets ({kind})" if big else f"bytes/tet ({kind})"] = \
+                round(big["bytes_per_tet"], 1) if big else None
+        pts = [p for p in points if p.get("sweep") == "image" and p["renderer"] == r and "error" not in p]
+        row["time ~ pixels^b"] = slope([p["pixels"] for p in pts], [p["time_s"] for p in pts])
+        rows.append(row)
+    return rows
+
+
+def plot(points: list[dict], renderers, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    colours = dict(zip(RENDERERS, ("C0", "C1", "C2", "C3", "C4")))
+    for r in renderers:
+        for kind, ls in (("structured", "-"), ("delaunay", "--")):
+            pts = sorted((p for p in points if p.get("sweep") == "mesh" and p["renderer"] == r and p["kind"] == kind
+                          and "error" not in p), key=lambda p: p["tets"])
+            if pts:
+                x = [p["tets"] for p in pts]
+                axes[0].loglog(x, [p["time_s"] for p in pts], ls, marker="o", color=colours[r], label=f"{r} ({kind})")
+                axes[2].loglog(x, [max(p["peak_bytes"], 1) / 2**20 for p in pts], ls, marker="o", color=colours[r],
+                               label=f"{r} ({kind})")
+        pts = sorted((p for p in points if p.get("sweep") == "image" and p["renderer"] == r and "error" not in p),
+                     key=lambda p: p["pixels"])
+        if pts:
+            axes[1].loglog([p["pixels"] for p in pts], [p["time_s"] for p in pts], "-", marker="o", color=colours[r],
+                           label=r)
+    axes[0].set(xlabel="tets", ylabel="time per frame [s]", title="time vs mesh size (solid: grid, dashed: Delaunay)")
+    axes[1].set(xlabel="pixels", ylabel="time per frame [s]", title="time vs image size")
+    axes[2].set(xlabel="tets", ylabel="peak memory [MiB]", title="peak memory vs mesh size")
+    for ax in axes:
+        ax.grid(True, which="both", alpha=0.3)
+    axes[1].legend(fontsize=8)
+    axes[0].legend(fontsize=6, ncol=2)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--child", help=argparse.SUPPRESS)
+    ap.add_argument("--tets", nargs="+", type=float, default=[1e4, 1e5, 1e6])
+    ap.add_argument("--kinds", default="structured,delaunay")
+    ap.add_argument("--mesh-size-px", type=int, default=256)
+    ap.add_argument("--sizes", nargs="+", type=int, default=[128, 256, 512, 1024])
+    ap.add_argument("--image-tets", type=float, default=1e5)
+    ap.add_argument("--repeat", type=int, default=2)
+    ap.add_argument("--renderers", default=",".join(RENDERERS))
+    ap.add_argument("--timeout", type=float, default=300.0, help="seconds per point (child process)")
+    ap.add_argument("--cache", default=str(ROOT / "out" / "bench_scaling"))
+    ap.add_argument("--no-docs", action="store_true", help="do not write docs/data/scaling.json, docs/img/scaling.png")
+    args = ap.parse_args(argv)
+    if args.child:
+        print(json.dumps(child(json.loads(args.child))))
+        return 0
+
+    renderers = [r for r in args.renderers.split(",") if r]
+    bad = [r for r in renderers if r not in RENDERERS]
+    if bad:
+        raise SystemExit(f"--renderers: unknown {bad}; allowed: {', '.join(RENDERERS)}")
+    cache = Path(args.cache)
+    specs = []
+    for kind in args.kinds.split(","):
+        for n in args.tets:
+            specs += [{"sweep": "mesh", "kind": kind, "mesh": str(mesh_file(cache, kind, n)), "size": args.mesh_size_px,
+                       "renderer": r, "repeat": args.repeat} for r in renderers]
+    img_mesh = str(mesh_file(cache, "structured", args.image_tets))
+    for size in args.sizes:
+        specs += [{"sweep": "image", "kind": "structured", "mesh": img_mesh, "size": size, "renderer": r,
+                   "repeat": args.repeat} for r in renderers]
+    t_start = time.perf_counter()
+    points = []
+    print(f"{'sweep':<6}{'mesh':<20}{'tets':>10}{'size':>6}  {'renderer':<10}{'time [s]':>10}{'first [s]':>10}"
+          f"{'peak [MiB]':>11}{'B/tet':>8}  load")
+    for spec in specs:
+        res = run_point({k: spec[k] for k in ("renderer", "mesh", "size", "repeat")}, args.timeout)
+        res.update(sweep=spec["sweep"], kind=spec["kind"])
+        points.append(res)
+        mesh = Path(spec["mesh"]).stem
+        if "error" in res:
+            print(f"{spec['sweep']:<6}{mesh:<20}{'':>10}{spec['size']:>6}  {spec['renderer']:<10} failed: {res['error']}")
+        else:
+            print(f"{res['sweep']:<6}{mesh:<20}{res['tets']:>10,}{res['size']:>6}  {res['renderer']:<10}"
+                  f"{res['time_s']:>10.3f}{res['first_s']:>10.3f}{res['peak_bytes'] / 2**20:>11.1f}"
+                  f"{res['bytes_per_tet']:>8.0f}  {res['load'][0]:.2f}", flush=True)
+    fit_rows = fits(points, renderers, img_mesh)
+    print("\nfitted exponents (least squares in log-log)")
+    for row in fit_rows:
+        print("  " + ", ".join(f"{k}: {v:.2f}" if isinstance(v, float) else f"{k}: {v}" for k, v in row.items()))
+    total = time.perf_counter() - t_start
+    print(f"total {total:.0f} s; load average now {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    if args.no_docs:
+        return 0
+    cols = ["sweep", "mesh", "tets", "pixels", "renderer", "time [s]", "peak [MiB]", "bytes/tet", "load (1 min)"]
+    rows = [[p["sweep"], Path(p["mesh"]).stem, p.get("tets"), p.get("pixels", p["size"] ** 2), p["renderer"],
+             None if "error" in p else round(p["time_s"], 4),
+             None if "error" in p else round(p["peak_bytes"] / 2**20, 1),
+             None if "error" in p else round(p["bytes_per_tet"], 1),
+             None if "error" in p else round(p["load"][0], 2)] for p in points]
+    fit_cols = list(fit_rows[0].keys()) if fit_rows else []
+    doc = {"source": "python scripts/bench_scaling.py " + " ".join(argv if argv is not None else sys.argv[1:]),
+           "tables": {
+               "exponents": {"title": "Fitted exponents and bytes per tet",
+                             "columns": fit_cols,
+                             "rows": [[None if v is None else (round(v, 2) if isinstance(v, float) else v)
+                                       for v in r.values()] for r in fit_rows],
+                             "notes": (f"time ~ tets^a at {args.mesh_size_px}^2, time ~ pixels^b on the structured "
+                                       f"{args.image_tets:.0e}-tet mesh, memory ~ tets^c; bytes/tet = peak resident "
+                                       "memory the renderer adds over the tets, at the largest mesh. "
+                                       f"Run of {total:.0f} s on {os.cpu_count()} cores, shared machine (load in "
+                                       "the points table).")},
+               "points": {"title": "Every point (median of the warm renders)", "columns": cols, "rows": rows,
+                          "notes": "Failed or timed-out points show '-'."}}}
+    data = ROOT / "docs" / "data" / "scaling.json"
+    data.parent.mkdir(parents=True, exist_ok=True)
+    data.write_text(json.dumps(doc, indent=1))
+    plot(points, renderers, ROOT / "docs" / "img" / "scaling.png")
+    print(f"wrote {data} and {ROOT / 'docs' / 'img' / 'scaling.png'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
