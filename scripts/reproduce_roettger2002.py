@@ -140,9 +140,10 @@ def fig8(width: int, height: int, repeat: int, device: str, tables: dict | None 
              "modelled 2D fps", "modelled 2D / 3D", "modelled / paper (3D)", "modelled / paper (2D)"], crows,
             "Modelled: the counted vertex, raster, texture, combiner and blending work (host sorting left out) on the "
             "card's profile, the 2D path each platform ran (two planes on the PCs, one texture on the SGI); cards "
-            "without a profile are the paper's only. Octane MXI 3D: pt_table3d counts two fragment-program set-up "
-            "ops per fragment, for which the Octane (no combiners) has no rate. "
-            + calibrations(*F8_PROFILES.values()))
+            "without a profile are the paper's only"
+            + "".join(f"; {r[0]} {path}: not modelled (a capability or rate the counted work needs is missing)"
+                      for r in crows if r[0] in F8_PROFILES for path, v in (("3D", r[5]), ("2D", r[6])) if v is None)
+            + ". " + calibrations(*F8_PROFILES.values()))
         tables["fig8_variants"] = table(
             f"Fig. 8 variants: error against the exact reference and counted work ({what})",
             ["variant", "RMSE", "max abs", "emulated render [s]", "fragments", "2D/3D fetches", "combiner ops"], vrows,
