@@ -135,8 +135,8 @@ def fig7(tf=None, N: int = 512, E: int = 64, *, device="cpu", out=None) -> dict:
     _save(out, "guthe2002_fig7_exact_mid_l.png", ref.data[E // 2, ..., :3])
     return table(f"Figs. 4/7: colour reconstruction error against the exact integral over an {E}^3 grid of "
                  f"(sf, sb, l), textures {N}^2", F7_COLUMNS, rows,
-                 "8-bit signed coefficients and 16-bit A/L alpha through the emulated texture unit; shader arithmetic in "
-                 "fp32 with free per-channel scales ('fp32 shader'), in the card's fixed-point registers with the "
+                 "8-bit signed coefficients and 16-bit A/L alpha through the emulated texture unit; shader "
+                 "arithmetic in fp32 with free per-channel scales ('fp32 shader'), in the card's fixed-point registers with the "
                  "scales its scale ops offer ('card'), and fp32 tables with float64 filtering ('fp32 tables') to "
                  "isolate the polynomial. No timing and no model.")
 
