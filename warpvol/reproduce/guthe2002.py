@@ -136,9 +136,9 @@ def fig7(tf=None, N: int = 512, E: int = 64, *, device="cpu", out=None) -> dict:
     return table(f"Figs. 4/7: colour reconstruction error against the exact integral over an {E}^3 grid of "
                  f"(sf, sb, l), textures {N}^2", F7_COLUMNS, rows,
                  "8-bit signed coefficients and 16-bit A/L alpha through the emulated texture unit; shader "
-                 "arithmetic in fp32 with free per-channel scales ('fp32 shader'), in the card's fixed-point registers with the "
-                 "scales its scale ops offer ('card'), and fp32 tables with float64 filtering ('fp32 tables') to "
-                 "isolate the polynomial. No timing and no model.")
+                 "arithmetic in fp32 with free per-channel scales ('fp32 shader'), in the card's fixed-point "
+                 "registers with the scales its scale ops offer ('card'), and fp32 tables with float64 filtering "
+                 "('fp32 tables') to isolate the polynomial. No timing and no model.")
 
 
 def table4(tf=None, N: int = 512, m: int = 128, *, device="cpu", model_device=None) -> dict:
