@@ -28,10 +28,6 @@ GL_X3 = wp.constant(0.9305681557970263)
 GL_W0 = wp.constant(0.1739274225687269)
 GL_W1 = wp.constant(0.3260725774312731)
 T_CUTOFF = wp.constant(1.0e-10)
-#: with increasing extinction (b > 0) a piece of optical depth at most this takes one 4-point sub-step:
-#: its step width 2 / (a + sqrt(a^2 + 2 b)) is then >= 1 / 0.99 in exact arithmetic, so >= 1 in float32
-#: too (the loop's own test, taken without its square root and division)
-ONE_STEP_DEPTH = wp.constant(0.99)
 # 3-point Gauss-Legendre on [0, 1] for optically thin pieces
 GL3_X0 = wp.constant(0.1127016653792583)
 GL3_X2 = wp.constant(0.8872983346207417)
@@ -82,15 +78,6 @@ def integrate_piece(h: float, front: wp.vec4, back: wp.vec4, model: int) -> wp.v
         s3 = s3 * h
         return wp.vec4(s3[0], s3[1], s3[2], tau_total)
     acc = wp.vec3(0.0, 0.0, 0.0)
-    if (b > 0.0 and tau_total <= ONE_STEP_DEPTH) or (b <= 0.0 and not (a > 1.0)):
-        # the loop below would take one sub-step over the whole piece (dx = 1): the same four terms and
-        # sum, without the step-width square root and division or the cut-off's exp
-        s = _piece_term(GL_X0, 0.0, a, b, r0, dr, c0, dc, model) * GL_W0
-        s += _piece_term(GL_X1, 0.0, a, b, r0, dr, c0, dc, model) * GL_W1
-        s += _piece_term(GL_X2, 0.0, a, b, r0, dr, c0, dc, model) * GL_W1
-        s += _piece_term(GL_X3, 0.0, a, b, r0, dr, c0, dc, model) * GL_W0
-        acc += s * (1.0 * h)
-        return wp.vec4(acc[0], acc[1], acc[2], tau_total)
     x = float(0.0)
     while x < 1.0:
         # step width with optical depth <= 1 over [x, x + dx]: rate(x) dx + b dx^2 / 2 = 1
