@@ -169,4 +169,9 @@ class Harc(Stage):
                 ctx.stats["harc"]["warning"] = lost_warning(lost, state.n, c["backward_rays"])
         if redone:
             ctx.progress(f"harc: {redone} rays the float32 walk could not resolve were redone in float64")
+        if not paper and redone > 0.25 * state.n:  # correct, but at the float64 tracer's speed: say why
+            ctx.stats["harc"]["note"] = (
+                f"{redone} of {state.n} rays were redone in float64 on the host: the eye lies inside the mesh's "
+                "bounding sphere, where a rasterised ray start cannot tell rays that begin inside a cell; "
+                "raycast renders such views in float32")
         ctx.image = state.image(cam.height_px, cam.width_px)
