@@ -428,6 +428,28 @@ def harc_march(
             else:
                 entry_failed = 1  # no face around crosses either: resolved in float64 on the host
                 break
+    if cell < 0 and entry_failed == 0 and walk != WALK_PLANES:
+        # no face of this pixel's list is crossed beyond the last exit: where the snapped coverage of a layer
+        # leaves a hole at the pixel centre (an inner silhouette within 1/256 pixel) the crossed face is
+        # listed at a neighbouring pixel; the exact (consistent) face test over the 8 neighbours' lists finds it
+        for nb in range(9):
+            qx = px + (nb % 3) - 1
+            qy = py + (nb // 3) - 1
+            if nb != 4 and qx >= 0 and qy >= 0 and qx < width and qy < height:
+                q = qy * width + qx
+                for it2 in range(frag_start[q], frag_start[q + 1]):
+                    b = int(frag_bf[it2])
+                    c = int(bf_tet[b])
+                    f = int(bf_face[b])
+                    if c != prev:
+                        cand = boundary_face(tets[c], f, verts, r)
+                        ok, t, s = face_hit(cand, r)
+                        if ok and t > t_start - t_tol and (cell < 0 or t < t_in):
+                            cell = c
+                            face_in = f
+                            t_in = wp.max(t, t_start)
+                            s_in = s
+                            fc = cand
     if entry_failed == 1 and setup == SETUP_PAPER:
         status[idx] = STATUS_LOST
         wp.atomic_add(counters, chunk, 3, 1)
