@@ -49,8 +49,8 @@ import warp as wp
 from .formats import NumFmt, fmt_quantize
 from .integrate import exp_neg, integrate_piece, integrate_segment, integrate_segment_tf
 from .pt import axis_coord
-from .raycast import (STALL_STEPS, STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, THIN_ULPS, Face, Ray, boundary_face,
-                      density, density_max, face_hit, monotone_exit, next_face, pixel_ray, t_unit, thin_unresolved)
+from .raycast import (STALL_STEPS, STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, Face, Ray, boundary_face, density,
+                      face_hit, monotone_exit, next_face, pixel_ray, t_unit, thin_step, thin_unresolved)
 from .texture import Tex2D, Tex3D, tex2d, tex2d_texel, tex3d
 from .tf import tf_eval, tf_eval_upper, tf_first_break, tf_next_break, tf_upper
 
@@ -543,17 +543,11 @@ def harc_march(
                 d_mean = 0.5 * (density(v_in, ig.model) + density(v_out, ig.model))
                 if k_in != k_out and ln > 0.0:
                     d_mean = seg[3] / ln + (d_mean - 0.5 * (v_in[3] + v_out[3]))
-                sh = int(0)
-                dmax = float(0.0)
                 tr = 1.0 - acc[3]
-                if ln < THIN_ULPS * u:
-                    sh = 1
-                    dmax = density_max(v_in, v_out, k_in, k_out, ig.tf_v, ig.model)
-                    if thin_unresolved(tr, dmax, d_prev, u):
-                        thin = 1
-                if sh_prev == 1:
-                    if thin_unresolved(tr_prev, dmax_prev, d_mean, u_prev):
-                        thin = 1
+                th, sh, dmax = thin_step(ln, u, tr, v_in, v_out, k_in, k_out, ig.tf_v, ig.model, d_prev, d_mean,
+                                         sh_prev, dmax_prev, tr_prev, u_prev)
+                if th == 1:
+                    thin = 1
                 if thin == 1:
                     failed = 1
                     break

@@ -394,6 +394,29 @@ def thin_unresolved(tr: float, dmax: float, d_other: float, u: float) -> bool:
 
 
 @wp.func
+def thin_step(ln: float, u: float, tr: float, v_in: wp.vec4, v_out: wp.vec4, k_in: int, k_out: int,
+              tf_v: wp.array(dtype=wp.vec4), model: int, d_prev: float, d_mean: float, sh_prev: int,
+              dmax_prev: float, tr_prev: float, u_prev: float):
+    """The thin-layer check of one integrated segment of length ``ln`` (shared by the raycast and HARC
+    walks): ``(thin, short, dmax)`` -- ``thin`` when this segment is shorter than float32 resolves and
+    :func:`thin_unresolved` beside the previous segment's mean density ``d_prev``, or when the previous
+    segment was (``sh_prev``, ``dmax_prev``, ``tr_prev``, ``u_prev``) and is unresolved beside this one's
+    ``d_mean``; ``short`` and ``dmax`` are this segment's, for the next step."""
+    sh = int(0)
+    dmax = float(0.0)
+    thin = int(0)
+    if ln < THIN_ULPS * u:
+        sh = 1
+        dmax = density_max(v_in, v_out, k_in, k_out, tf_v, model)
+        if thin_unresolved(tr, dmax, d_prev, u):
+            thin = 1
+    if sh_prev == 1:
+        if thin_unresolved(tr_prev, dmax_prev, d_mean, u_prev):
+            thin = 1
+    return thin, sh, dmax
+
+
+@wp.func
 def clipped_segment(t_in: float, t_out: float, s_in: float, s_out: float, t_clip: float):
     """The part ``t >= t_clip`` of segment ``[t_in, t_out]`` with linear scalar; ``(t0, s0)``."""
     if t_in >= t_clip:
@@ -548,16 +571,10 @@ def march(
             d_mean = 0.5 * (density(v_in, model) + density(v_out, model))
             if k_in != k_out and ln > 0.0:
                 d_mean = seg[3] / ln + (d_mean - 0.5 * (v_in[3] + v_out[3]))
-            sh = int(0)
-            dmax = float(0.0)
-            if ln < THIN_ULPS * u:
-                sh = 1
-                dmax = density_max(v_in, v_out, k_in, k_out, tf_v, model)
-                if thin_unresolved(tr, dmax, d_prev, u):
-                    thin = 1
-            if sh_prev == 1:
-                if thin_unresolved(tr_prev, dmax_prev, d_mean, u_prev):
-                    thin = 1
+            th, sh, dmax = thin_step(ln, u, tr, v_in, v_out, k_in, k_out, tf_v, model, d_prev, d_mean, sh_prev,
+                                     dmax_prev, tr_prev, u_prev)
+            if th == 1:
+                thin = 1
             if thin == 1:
                 failed = 1
                 break
