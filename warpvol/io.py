@@ -317,6 +317,19 @@ def read_record(path: str | Path) -> dict | None:
     return rec if isinstance(rec, dict) else None
 
 
+def saved_records(outdir: str | Path, subdir: str, owned=None) -> list[tuple[Path, dict | None]]:
+    """``(path, record or None)`` of the finished units a long run saved under ``outdir/subdir``: the
+    ``.json`` files it recorded as its own (``owned``, a manifest with ``owned_in(subdir)``) or, without
+    a manifest, every ``.json`` there; hidden files (a writer's temporaries) and non-files are passed
+    over; a record that cannot be read comes as ``None`` (the caller runs its unit again)."""
+    d = Path(outdir) / subdir
+    if owned is not None:
+        files = sorted(Path(outdir) / r for r in owned.owned_in(subdir) if r.endswith(".json"))
+    else:
+        files = sorted(d.glob("*.json")) if d.is_dir() else []
+    return [(f, read_record(f)) for f in files if not f.name.startswith(".") and f.is_file()]
+
+
 def _write_oiio(tmp: str, pixels: np.ndarray, fmt, shown: Path) -> None:
     import OpenImageIO as oiio
 

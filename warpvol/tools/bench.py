@@ -463,21 +463,14 @@ def row_store(outdir: str | Path, scene: Any, *, repeats: int, gpu: str | None, 
     again. ``owned`` (:class:`warpvol.io.OwnedFiles`): only the records warpvol wrote there are read.
     Temporary files (dot names) are never read; a record or image that cannot be read (cut short,
     edited) is benched again; ``note(text)`` is told about each saved row not reused."""
-    from warpvol.io import read_record, save_result
+    from warpvol.io import save_result, saved_records
     from warpvol.pipeline import report_json
 
     note = note or (lambda _text: None)
     d = Path(outdir) / ROW_DIR
     key = {"scene": scene_hash(scene), "repeats": int(repeats), "gpu": gpu, "quick": bool(quick), "audit": bool(audit)}
     saved: dict[str, tuple[dict, np.ndarray | None]] = {}
-    if owned is not None:
-        files = sorted(Path(outdir) / r for r in owned.owned_in(ROW_DIR) if r.endswith(".json"))
-    else:
-        files = sorted(d.glob("*.json")) if d.is_dir() else []
-    for f in files:
-        if f.name.startswith(".") or not f.is_file():
-            continue
-        rec = read_record(f)
+    for f, rec in saved_records(outdir, ROW_DIR, owned):
         if rec is None or not isinstance(rec.get("key"), str) or not isinstance(rec.get("row"), dict):
             note(f"{f} cannot be read (cut short or edited): its pipeline is benched again")
             continue

@@ -346,21 +346,14 @@ def case_store(outdir, quick: bool, pipelines: list[str], *, digests: dict[str, 
     from pathlib import Path
 
     from warpvol.errors import ConfigError
-    from warpvol.io import read_record, save_result
+    from warpvol.io import save_result, saved_records
     from warpvol.pipeline import report_json
 
     note = note or (lambda _text: None)
     d = Path(outdir) / CASE_DIR
     key = {"quick": bool(quick), "pipelines": sorted(pipelines)}
     saved: dict[str, list[dict]] = {}
-    if owned is not None:
-        files = sorted(Path(outdir) / r for r in owned.owned_in(CASE_DIR) if r.endswith(".json"))
-    else:
-        files = sorted(d.glob("*.json")) if d.is_dir() else []
-    for f in files:
-        if f.name.startswith(".") or not f.is_file():
-            continue
-        rec = read_record(f)
+    for f, rec in saved_records(outdir, CASE_DIR, owned):
         if rec is None or not isinstance(rec.get("case"), str) or not isinstance(rec.get("rows"), list):
             note(f"{f} cannot be read (cut short or edited): its case runs again")
             continue
