@@ -49,8 +49,8 @@ import warp as wp
 from .formats import NumFmt, fmt_quantize
 from .integrate import exp_neg, integrate_piece, integrate_segment, integrate_segment_tf
 from .pt import axis_coord
-from .raycast import (STALL_STEPS, STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, Face, Ray, boundary_face, density,
-                      face_hit, monotone_exit, next_face, pixel_ray, t_unit, thin_step, thin_unresolved)
+from .raycast import (STALL_STEPS, STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, Face, Ray, boundary_face, face_hit,
+                      monotone_exit, next_face, pixel_ray, thin_at_exit, thin_start, thin_step)
 from .texture import Tex2D, Tex3D, tex2d, tex2d_texel, tex3d
 from .tf import tf_eval, tf_eval_upper, tf_first_break, tf_next_break, tf_upper
 
@@ -478,11 +478,7 @@ def harc_march(
     check_thin = walk == WALK_PLUCKER and ig.mode == INTEG_EXACT
     thin = int(0)
     scale = float(radius)
-    d_prev = float(0.0)
-    sh_prev = int(0)
-    dmax_prev = float(0.0)
-    tr_prev = float(1.0)
-    u_prev = float(0.0)
+    thin_mem = thin_start()  # the thin-layer check's memory of the previous segment
     while cells_visited < max_steps:
         cells_visited += 1
         t_out = float(0.0)
@@ -538,24 +534,11 @@ def harc_march(
             else:
                 seg = integrate_segment_tf(s_in, s_out, v_in, v_out, seg_l, ig.tf_s, ig.tf_v, ig.model)
             if check_thin:
-                ln = t_out - t_in
-                u = t_unit(t_out, scale)
-                d_mean = 0.5 * (density(v_in, ig.model) + density(v_out, ig.model))
-                if k_in != k_out and ln > 0.0:
-                    d_mean = seg[3] / ln + (d_mean - 0.5 * (v_in[3] + v_out[3]))
-                tr = 1.0 - acc[3]
-                th, sh, dmax = thin_step(ln, u, tr, v_in, v_out, k_in, k_out, ig.tf_v, ig.model, d_prev, d_mean,
-                                         sh_prev, dmax_prev, tr_prev, u_prev)
-                if th == 1:
-                    thin = 1
+                thin, thin_mem = thin_step(thin_mem, t_out - t_in, seg[3], t_out, scale, 1.0 - acc[3], v_in, v_out,
+                                           k_in, k_out, ig.tf_v, ig.model)
                 if thin == 1:
                     failed = 1
                     break
-                sh_prev = sh
-                dmax_prev = dmax
-                tr_prev = tr
-                u_prev = u
-                d_prev = d_mean
             acc = composite(acc, wp.vec4(seg[0], seg[1], seg[2], 1.0 - exp_neg(seg[3])))
             steps += 1
             k_in = k_out
@@ -571,10 +554,9 @@ def harc_march(
             break
         if nb < 0:
             exited = 1
-            if sh_prev == 1:
-                if thin_unresolved(tr_prev, dmax_prev, 0.0, u_prev):
-                    failed = 1
-                    thin = 1
+            if thin_at_exit(thin_mem):
+                failed = 1
+                thin = 1
             break
         cell = nb >> 2
         face_in = nb & 3

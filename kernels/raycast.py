@@ -393,27 +393,65 @@ def thin_unresolved(tr: float, dmax: float, d_other: float, u: float) -> bool:
     return tr * wp.abs(dmax - d_other) * (T_ULPS * u) > THIN_ERR
 
 
+@wp.struct
+class ThinPrev:
+    """What the thin-layer check keeps of the previous integrated segment: its mean density ``d`` (0:
+    outside the mesh), whether it was short (``is_short``) and then its largest density ``dmax``, the
+    transmittance ``tr`` in front of it and its ray-parameter resolution ``u``."""
+
+    d: float
+    is_short: int
+    dmax: float
+    tr: float
+    u: float
+
+
 @wp.func
-def thin_step(ln: float, u: float, tr: float, v_in: wp.vec4, v_out: wp.vec4, k_in: int, k_out: int,
-              tf_v: wp.array(dtype=wp.vec4), model: int, d_prev: float, d_mean: float, sh_prev: int,
-              dmax_prev: float, tr_prev: float, u_prev: float):
-    """The thin-layer check of one integrated segment of length ``ln`` (shared by the raycast and HARC
-    walks): ``(thin, short, dmax)`` -- ``thin`` when this segment is shorter than float32 resolves and
-    :func:`thin_unresolved` beside the previous segment's mean density ``d_prev``, or when the previous
-    segment was (``sh_prev``, ``dmax_prev``, ``tr_prev``, ``u_prev``) and is unresolved beside this one's
-    ``d_mean``; ``short`` and ``dmax`` are this segment's, for the next step."""
-    sh = int(0)
-    dmax = float(0.0)
+def thin_start() -> ThinPrev:
+    """:class:`ThinPrev` at the ray's entry: nothing before it (density 0, full transmittance)."""
+    p = ThinPrev()
+    p.d = 0.0
+    p.is_short = 0
+    p.dmax = 0.0
+    p.tr = 1.0
+    p.u = 0.0
+    return p
+
+
+@wp.func
+def thin_step(prev: ThinPrev, ln: float, tau: float, t_out: float, scale: float, tr: float, v_in: wp.vec4,
+              v_out: wp.vec4, k_in: int, k_out: int, tf_v: wp.array(dtype=wp.vec4), model: int):
+    """The thin-layer check of one integrated segment (length ``ln``, optical depth ``tau``, exit
+    ``t_out``, transmittance ``tr`` in front of it), shared by the raycast and HARC walks: ``(thin,
+    next)`` -- ``thin`` when this segment is shorter than float32 resolves and :func:`thin_unresolved`
+    beside the previous segment's mean density, or when the previous segment was short and is unresolved
+    beside this one's; ``next`` is what the check keeps of this segment."""
+    u = t_unit(t_out, scale)
+    d_mean = 0.5 * (density(v_in, model) + density(v_out, model))
+    if k_in != k_out and ln > 0.0:
+        d_mean = tau / ln + (d_mean - 0.5 * (v_in[3] + v_out[3]))
+    nxt = ThinPrev()
+    nxt.d = d_mean
+    nxt.is_short = 0
+    nxt.dmax = 0.0
+    nxt.tr = tr
+    nxt.u = u
     thin = int(0)
     if ln < THIN_ULPS * u:
-        sh = 1
-        dmax = density_max(v_in, v_out, k_in, k_out, tf_v, model)
-        if thin_unresolved(tr, dmax, d_prev, u):
+        nxt.is_short = 1
+        nxt.dmax = density_max(v_in, v_out, k_in, k_out, tf_v, model)
+        if thin_unresolved(tr, nxt.dmax, prev.d, u):
             thin = 1
-    if sh_prev == 1:
-        if thin_unresolved(tr_prev, dmax_prev, d_mean, u_prev):
+    if prev.is_short == 1:
+        if thin_unresolved(prev.tr, prev.dmax, d_mean, prev.u):
             thin = 1
-    return thin, sh, dmax
+    return thin, nxt
+
+
+@wp.func
+def thin_at_exit(prev: ThinPrev) -> bool:
+    """The ray leaves the mesh after a short segment: unresolved beside the outside's zero density."""
+    return prev.is_short == 1 and thin_unresolved(prev.tr, prev.dmax, 0.0, prev.u)
 
 
 @wp.func
@@ -532,13 +570,7 @@ def march(
     failed = int(0)
     thin = int(0)
     scale = float(radius)
-    # thin-layer check: the previous integrated segment's mean density (0: outside the mesh), and
-    # whether it was short (then its max density, transmittance in front and t resolution)
-    d_prev = float(0.0)
-    sh_prev = int(0)
-    dmax_prev = float(0.0)
-    tr_prev = float(1.0)
-    u_prev = float(0.0)
+    thin_mem = thin_start()  # the thin-layer check's memory of the previous segment
     gn = tets[cell][face_in]
     while steps < max_steps:
         steps += 1
@@ -567,22 +599,10 @@ def march(
                 seg = integrate_segment_tf(sa, s_out, tf_eval(sa, tf_s, tf_v), v_out, ln, tf_s, tf_v,
                                            model)
             # a segment too short for its float32 length next to a density contrast: unresolved
-            u = t_unit(t_out, scale)
-            d_mean = 0.5 * (density(v_in, model) + density(v_out, model))
-            if k_in != k_out and ln > 0.0:
-                d_mean = seg[3] / ln + (d_mean - 0.5 * (v_in[3] + v_out[3]))
-            th, sh, dmax = thin_step(ln, u, tr, v_in, v_out, k_in, k_out, tf_v, model, d_prev, d_mean, sh_prev,
-                                     dmax_prev, tr_prev, u_prev)
-            if th == 1:
-                thin = 1
+            thin, thin_mem = thin_step(thin_mem, ln, seg[3], t_out, scale, tr, v_in, v_out, k_in, k_out, tf_v, model)
             if thin == 1:
                 failed = 1
                 break
-            sh_prev = sh
-            dmax_prev = dmax
-            tr_prev = tr
-            u_prev = u
-            d_prev = d_mean
             acc += tr * wp.vec3(seg[0], seg[1], seg[2])
             tr = tr * exp_neg(seg[3])
         nb = nrow[f_out]
@@ -594,10 +614,9 @@ def march(
             break
         if nb < 0:
             exited = 1
-            if sh_prev == 1:
-                if thin_unresolved(tr_prev, dmax_prev, 0.0, u_prev):
-                    failed = 1
-                    thin = 1
+            if thin_at_exit(thin_mem):
+                failed = 1
+                thin = 1
             break
         gn = vrow[f_out]
         cell = nb >> 2
