@@ -20,7 +20,8 @@ the rasteriser and blending unit count fragments and blends.
 from __future__ import annotations
 
 from warpvol.projection.stages.pt_perspective import fragment_inputs
-from warpvol.projection.stages.pt_vertex_color import BATCH, DITHER, composite, fb_param, table_from
+from warpvol.projection.stages.pt_vertex_color import (BATCH, DITHER, FILTER, TABLE3D, WEIGHT_BITS, composite,
+                                                       fb_param, table_from, texel_param)
 from warpvol.stage import Context, Param, Stage, register_stage
 
 TEXELS = ("auto", "rgba8", "rgba12", "rgba16", "rgba16f", "rgba32f")
@@ -58,12 +59,7 @@ class PTTable3D(Stage):
     name = "pt_table3d"
     summary = "PT fragment program: 3D pre-integration table lookup of (sf, sb, l) through the texture unit"
     params = (
-        Param("table", str, "table3d", "ctx.buffers key of the 3D table"),
-        Param("texel_format", str, "auto", "3D texture texel format (auto: holds the table's stored values)",
-              choices=TEXELS),
-        Param("filter", str, "linear", "texture filter", choices=("linear", "nearest")),
-        Param("weight_bits", int, 8, "filter-weight fraction bits (0: fp32 weights)", lo=0, hi=16),
-        fb_param(), DITHER, BATCH,
+        TABLE3D, texel_param(TEXELS), FILTER, WEIGHT_BITS, fb_param(), DITHER, BATCH,
         Param("blend", str, "unit", "compositing: blending unit, or buffer read as a texture in the program",
               choices=("unit", "readback")),
     )

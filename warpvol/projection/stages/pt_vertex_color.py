@@ -24,6 +24,15 @@ def fb_param(default: str = "unorm8") -> Param:
 
 BATCH = Param("batch_tets", int, 65536, "tets rasterised per fragment batch (memory bound)", lo=1, hi=1 << 26)
 DITHER = Param("dither", bool, False, "alpha dithering (Kraus et al. 2004; fixed-point buffers only)")
+# the 3D table lookup's parameters (pt_table3d, vicp)
+TABLE3D = Param("table", str, "table3d", "ctx.buffers key of the 3D table")
+FILTER = Param("filter", str, "linear", "texture filter", choices=("linear", "nearest"))
+WEIGHT_BITS = Param("weight_bits", int, 8, "filter-weight fraction bits (0: fp32 weights)", lo=0, hi=16)
+
+
+def texel_param(choices: tuple) -> Param:
+    return Param("texel_format", str, "auto", "3D texture texel format (auto: holds the table's stored values)",
+                 choices=choices)
 
 
 def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1, walk: str = "pixel",

@@ -34,7 +34,8 @@ import weakref
 
 import numpy as np
 
-from warpvol.projection.stages.pt_vertex_color import BATCH, fb_param, table_from
+from warpvol.projection.stages.pt_vertex_color import (BATCH, FILTER, TABLE3D, WEIGHT_BITS, fb_param, table_from,
+                                                       texel_param)
 from warpvol.stage import Context, Param, Stage, register_stage
 
 #: fp32 values sent per vertex with ``geometry = "upload"``: position (3), four face planes (16),
@@ -120,12 +121,7 @@ class VICP(Stage):
     summary = ("view-independent cell projection: front faces rasterised, exit from the cell's face planes in "
                "the fragment program, 3D table lookup, back-to-front blending")
     params = (
-        Param("table", str, "table3d", "ctx.buffers key of the 3D table"),
-        Param("texel_format", str, "auto", "3D texture texel format (auto: holds the table's stored values)",
-              choices=("auto", "rgba8", "rgba16f", "rgba32f")),
-        Param("filter", str, "linear", "texture filter", choices=("linear", "nearest")),
-        Param("weight_bits", int, 8, "filter-weight fraction bits (0: fp32 weights)", lo=0, hi=16),
-        fb_param(),
+        TABLE3D, texel_param(("auto", "rgba8", "rgba16f", "rgba32f")), FILTER, WEIGHT_BITS, fb_param(),
         Param("geometry", str, "upload", "cell data sent over the bus each frame (VICP) or resident (VICP-GPU)",
               choices=("upload", "resident")),
         Param("walk", str, "pixel", "rasteriser fragment generation (same fragments)", choices=("pixel", "triangle")),
