@@ -206,7 +206,10 @@ def test_ctrl_c_stops_a_banded_build(monkeypatch):
     monkeypatch.setattr("warpvol.tables.exact.launch_bands", interrupting)
     with pytest.raises(KeyboardInterrupt):
         build_exact3d(builtin_scene("concave").transfer, n_s=32, n_l=8)
-    assert len(calls) < 8 * 32  # the blocks not started were dropped
+    # the blocks not started were dropped: the failing one and at most one in flight per other thread
+    from warpvol.parallel import cpu_threads
+
+    assert len(calls) <= 3 + cpu_threads()
 
 
 # ------------------------------------------------------------------------------------------------

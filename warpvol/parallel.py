@@ -9,6 +9,7 @@ On CUDA one launch already fills the device, so blocks run in order on the calli
 from __future__ import annotations
 
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import Callable
 
@@ -34,12 +35,24 @@ def launch_blocks(device: str, n_blocks: int, launch: Callable[[int], None], thr
     one block's time."""
     threads = threads or cpu_threads()
     if str(device).startswith("cpu") and threads > 1 and n_blocks > 1:
+        failed = threading.Event()  # set by the first block that raises: queued blocks then do nothing
+
+        def guarded(b: int) -> None:
+            if failed.is_set():
+                return
+            try:
+                launch(b)
+            except BaseException:
+                failed.set()
+                raise
+
         pool = ThreadPoolExecutor(max_workers=min(threads, n_blocks))
         try:
-            for f in [pool.submit(launch, b) for b in range(n_blocks)]:
+            for f in [pool.submit(guarded, b) for b in range(n_blocks)]:
                 f.result()
         except BaseException:
             # Ctrl-C (or a failed block): drop the queued blocks; only launches in flight finish
+            failed.set()
             pool.shutdown(wait=True, cancel_futures=True)
             raise
         pool.shutdown(wait=True)
