@@ -47,7 +47,8 @@ Host counters: ``sw_samples`` (``sw_sample_rate``), ``host_texels`` (``host_texe
 when the sort built no graph: the numeric centroid sort), XMPVO's ``ray_constraints``
 (``graph_edge_rate``) and ``boundary_fragments`` (sorted per pixel: ``numeric_sort_rate``),
 ``host_cell_steps`` (``host_cell_rate``: cells intersected and integrated by a host ray walk, the
-VSBUFFER's).
+VSBUFFER's). Where a profile's host has ``upload_rate``, ``bytes_up`` also cost the host ``bytes_up /
+upload_rate`` (the CPU gathering the per-vertex data and issuing it to the driver), on top of the bus.
 Counters that carry no time of their own (``fragments_passed``, ``primitives``, ``texels``,
 ``readbacks`` ...) are listed in :data:`INFORMATIONAL`. Work for which the profile has no rate makes
 the stage *unmodelled* (``modelled_s`` None, the counters named), never a silent zero.
@@ -228,6 +229,8 @@ def model_counters(counters: dict[str, int], profile: Profile) -> dict[str, Any]
                     unmodelled.append(f"{k} (no rate 'bus_{k[6:]}')")
                 else:
                     serial += v / r
+                if k == "bytes_up" and "upload_rate" in profile.host:  # the CPU issuing the data to the driver
+                    host += v / float(profile.host["upload_rate"]["value"])
             elif k == "cell_steps":
                 r = profile.rate("cell_step_rate")
                 if r is None:
