@@ -134,10 +134,11 @@ def absolute_rows(m: Model) -> list[dict]:
                 sc = m.counters(f"guthe/{data}/sort_{method}")
                 c = None if base is None or sc is None else {**base, "sort": sc["sort"]}
                 s, why = m.seconds(c, GUTHE_PROFILE[card])
-                cal = card == "geforce4" and data == "bluntfin" and method == "mpvo"
+                cal = card == "geforce4" and data == "bluntfin" and method in ("mpvo", "centroid")
+                rate = "cell_sort_rate (MPVO)" if method == "mpvo" else "numeric_sort_rate"
                 row("Guthe 2002", f"T5 {CARD[card]} {DATA[data]} {label} [fps]", pv, None if s is None else 1.0 / s,
                     "calibration on this row" if cal else ("prediction" if s else "-"),
-                    why or ("host cell_sort_rate (MPVO): 'half of the time is spent by sorting'" if cal else ""))
+                    why or (f"host {rate}: 'half of the time is spent by sorting'" if cal else ""))
     # Kraus et al. 2004 Table 1
     for k, pv in KRAUS.items():
         s, why = m.seconds(m.counters(f"kraus/bluntfin/{k}"), "quadro_fx3000")

@@ -202,7 +202,7 @@ def test_numeric_sort_is_cheaper_than_the_mpvo_graph_and_xmpvo_adds_constraints(
     mpvo = model_counters({"cells_sorted": cells, "graph_edges": 367_917}, p)["host_s"]
     xmpvo = model_counters({"cells_sorted": cells, "graph_edges": 367_980, "ray_constraints": 63,
                             "boundary_fragments": 476_094}, p)["host_s"]
-    assert numeric == pytest.approx(cells / 5.0e6) and mpvo == pytest.approx(cells / 1.0e6)
+    assert numeric == pytest.approx(cells / 1.191e6) and mpvo == pytest.approx(cells / 1.0e6)
     assert numeric < mpvo < xmpvo
 
 

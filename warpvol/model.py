@@ -31,7 +31,8 @@ shader       ``combiner_ops``                                         ``combiner
 rop          ``blends_<fmt>``, ``writes_<fmt>``, ``clear_pixels``     ``blend_<fmt>`` (default ``pixel_fill``),
                                                                       ``pixel_fill``, ``clear_rate``
 memory       frame-buffer bytes: (2 blends + writes + clears) x       ``memory_bandwidth`` (unit left out
-             bytes per pixel of the format                            where a profile has no figure)
+             bytes per pixel of the format; ``tex_miss_bytes``        where a profile has no figure)
+             (texture-cache misses, where counted)
 ===========  =======================================================  =======================================
 
 Programmable fragment pipes whose texture fetches take an issue slot of the program (profile cap
@@ -45,7 +46,7 @@ fence, Kraus' fp16 read-back path) cost ``fb_rebind_s`` each, serially.
 Host counters: ``sw_samples`` (``sw_sample_rate``), ``host_texels`` (``host_texel_rate``),
 ``cells_sorted`` (``cell_sort_rate`` for the graph sorts MPVO / MPVONC / XMPVO, ``numeric_sort_rate``
 when the sort built no graph: the numeric centroid sort), XMPVO's ``ray_constraints``
-(``graph_edge_rate``) and ``boundary_fragments`` (sorted per pixel: ``numeric_sort_rate``),
+(``graph_edge_rate``) and ``boundary_fragments`` (sorted per pixel: ``fragment_sort_rate``),
 ``host_cell_steps`` (``host_cell_rate``: cells intersected and integrated by a host ray walk, the
 VSBUFFER's). Where a profile's host has ``upload_rate``, ``bytes_up`` also cost the host ``bytes_up /
 upload_rate`` (the CPU gathering the per-vertex data and issuing it to the driver), on top of the bus.
@@ -210,6 +211,8 @@ def model_counters(counters: dict[str, int], profile: Profile) -> dict[str, Any]
                 use("raster", v, "pixel_fill", key=k)
             elif k == "combiner_ops":
                 use("shader", v, "combiner_rate", key=k)
+            elif k == "tex_miss_bytes":  # table texels the texture cache did not hold, read from memory
+                use("memory", v, "memory_bandwidth", key=k)
             elif k == "clear_pixels":
                 use("rop", v, "clear_rate", "pixel_fill", key=k)
                 use("memory", v * 4, "memory_bandwidth", key=k)
@@ -256,9 +259,9 @@ def model_counters(counters: dict[str, int], profile: Profile) -> dict[str, Any]
                 else:
                     host += v / float(e["value"])
             elif k == "boundary_fragments":  # XMPVO: boundary fragments read back and sorted per pixel
-                e = profile.host.get("numeric_sort_rate")
+                e = profile.host.get("fragment_sort_rate")
                 if e is None:
-                    unmodelled.append("boundary_fragments (no host rate 'numeric_sort_rate')")
+                    unmodelled.append("boundary_fragments (no host rate 'fragment_sort_rate')")
                 else:
                     host += v / float(e["value"])
             elif k in HOST_RATES:
