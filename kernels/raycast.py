@@ -330,31 +330,30 @@ def next_face_from(tv: wp.vec4i, gn: int, fc: Face, verts: wp.array(dtype=wp.vec
     na = oriented_side(gn, fc.g[0], pn, qn, mn, fc.pa, fc.qa, fc.ma, r)
     nb = oriented_side(gn, fc.g[1], pn, qn, mn, fc.pb, fc.qb, fc.mb, r)
     nc = oriented_side(gn, fc.g[2], pn, qn, mn, fc.pc, fc.qc, fc.mc, r)
-    # candidates (N, A, B), (N, B, C), (N, C, A): the face record rotated (A, B, C) -> (B, C, A)
-    out = Face()
-    opp = int(-1)
-    t = float(0.0)
-    s = float(0.0)
-    cur = fc
-    nv = wp.vec3(na, nb, nc)
-    for k in range(3):
-        ok, tk, sk = face_cross(qn, cur.qa, cur.qb, vn[3], cur.s[0], cur.s[1], nv[0], cur.w[0], -nv[1], r.d)
-        if ok:
-            opp = cur.g[2]
-            t = tk
-            s = sk
-            out = fan_face(wp.vec3i(gn, cur.g[0], cur.g[1]), pn, qn, mn, cur.pa, cur.qa, cur.ma, cur.pb, cur.qb,
-                           cur.mb, wp.vec3(vn[3], cur.s[0], cur.s[1]), wp.vec3(nv[0], cur.w[0], -nv[1]))
-            break
-        cur = fan_face(wp.vec3i(cur.g[1], cur.g[2], cur.g[0]), cur.pb, cur.qb, cur.mb, cur.pc, cur.qc, cur.mc,
-                       cur.pa, cur.qa, cur.ma, wp.vec3(cur.s[1], cur.s[2], cur.s[0]),
-                       wp.vec3(cur.w[1], cur.w[2], cur.w[0]))
-        nv = wp.vec3(nv[1], nv[2], nv[0])
+    # candidates (N, A, B), (N, B, C), (N, C, A), each from the face record's vertices in place (no copies)
+    ok, t, s = face_cross(qn, fc.qa, fc.qb, vn[3], fc.s[0], fc.s[1], na, fc.w[0], -nb, r.d)
+    if ok:
+        return fan_face(wp.vec3i(gn, fc.g[0], fc.g[1]), pn, qn, mn, fc.pa, fc.qa, fc.ma, fc.pb, fc.qb, fc.mb,
+                        wp.vec3(vn[3], fc.s[0], fc.s[1]), wp.vec3(na, fc.w[0], -nb)), local_index(tv, fc.g[2]), t, s
+    ok, t, s = face_cross(qn, fc.qb, fc.qc, vn[3], fc.s[1], fc.s[2], nb, fc.w[1], -nc, r.d)
+    if ok:
+        return fan_face(wp.vec3i(gn, fc.g[1], fc.g[2]), pn, qn, mn, fc.pb, fc.qb, fc.mb, fc.pc, fc.qc, fc.mc,
+                        wp.vec3(vn[3], fc.s[1], fc.s[2]), wp.vec3(nb, fc.w[1], -nc)), local_index(tv, fc.g[0]), t, s
+    ok, t, s = face_cross(qn, fc.qc, fc.qa, vn[3], fc.s[2], fc.s[0], nc, fc.w[2], -na, r.d)
+    if ok:
+        return fan_face(wp.vec3i(gn, fc.g[2], fc.g[0]), pn, qn, mn, fc.pc, fc.qc, fc.mc, fc.pa, fc.qa, fc.ma,
+                        wp.vec3(vn[3], fc.s[2], fc.s[0]), wp.vec3(nc, fc.w[2], -na)), local_index(tv, fc.g[1]), t, s
+    return Face(), int(-1), float(0.0), float(0.0)
+
+
+@wp.func
+def local_index(tv: wp.vec4i, g: int) -> int:
+    """Local index (0..3) of global vertex ``g`` in tet ``tv`` (the face opposite it); -1: not a vertex."""
     local = int(-1)
     for k in range(4):
-        if tv[k] == opp:
+        if tv[k] == g:
             local = k
-    return out, local, t, s
+    return local
 
 
 @wp.func
