@@ -49,7 +49,9 @@ when the sort built no graph: the numeric centroid sort), XMPVO's ``ray_constrai
 (``graph_edge_rate``) and ``boundary_fragments`` (sorted per pixel: ``fragment_sort_rate``),
 ``host_cell_steps`` (``host_cell_rate``: cells intersected and integrated by a host ray walk, the
 VSBUFFER's). Where a profile's host has ``upload_rate``, ``bytes_up`` also cost the host ``bytes_up /
-upload_rate`` (the CPU gathering the per-vertex data and issuing it to the driver), on top of the bus.
+upload_rate`` (the CPU gathering the per-vertex data and issuing it to the driver), on top of the bus;
+the other profiles price uploads on the bus alone (``quadro_fx3000``: the one measurement, Kraus et al.
+2004 §5.1, is of the rows that card is compared with; the SGI hosts: no figure).
 Counters that carry no time of their own (``fragments_passed``, ``primitives``, ``texels``,
 ``readbacks`` ...) are listed in :data:`INFORMATIONAL`. Work for which the profile has no rate makes
 the stage *unmodelled* (``modelled_s`` None, the counters named), never a silent zero.
