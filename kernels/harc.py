@@ -343,6 +343,7 @@ def harc_march(
     bf_tet: wp.array(dtype=wp.int32),
     bf_face: wp.array(dtype=wp.int32),
     bf_nbr: wp.array(dtype=wp.vec3i),
+    far: wp.array(dtype=float),
     ig: Integ,
     fb: NumFmt,
     t_stop: float,
@@ -374,6 +375,13 @@ def harc_march(
         return
     t_start = tcur[idx]
     prev = last[idx]
+    if prev >= 0 and walk == WALK_PLUCKER and setup != SETUP_PAPER:
+        # a re-entry pass: every face the search below can reach (this pixel's list, its neighbours'
+        # lists, their surface rings) lies within `far` of the eye (host bound with a rounding margin);
+        # an exit beyond it cannot re-enter, so the ray is done without the search
+        if t_start + wp.dot(r.back, r.d) > far[idx]:
+            status[idx] = STATUS_DONE
+            return
 
     # ---- ray start: the first rasterised front boundary face beyond the last exit (peel test) ----
     cell = int(-1)

@@ -238,3 +238,54 @@ def test_harc_best_reenters_where_the_rasterised_layer_has_a_hole():
     harc = warpvol.Pipeline.load("harc_best").render(sc, quiet=True).image
     assert np.abs(harc[194, 361] - ray[194, 361]).max() < 1e-4
     assert np.abs(harc - ray).max() < 2e-4  # both within 1e-4 of the reference
+
+
+@pytest.mark.parametrize("case", ["three_layers", "concave"])
+def test_reentry_bound_prunes_no_reentry(case, monkeypatch):
+    """The peel passes of ``harc_best`` skip a ray whose last exit lies beyond every face its entry search can
+    reach (:func:`warpvol.raycasting.harc.reentry_bound`); with the bound switched off (+inf) the passes search
+    every exited ray: the images agree (up to the float64 redo of rays the unpruned search gives up on)."""
+    import warpvol.raycasting.harc as H
+
+    if case == "three_layers":
+        sc, _ = three_layers()
+    else:
+        sc = builtin_scene("concave").with_camera(width_px=40, height_px=40)
+    assert not sc.mesh.is_convex
+    pruned = pipe("harc_best").render(sc, quiet=True)
+    monkeypatch.setattr(H, "reentry_bound", lambda mesh, camera, *a: np.full(camera.width_px * camera.height_px,
+                                                                              np.inf, np.float32))
+    full = pipe("harc_best").render(sc, quiet=True)
+    assert np.abs(pruned.image - full.image).max() <= 1e-6
+    assert pruned.report["stats"]["harc_peel"]["reentries"] == full.report["stats"]["harc_peel"]["reentries"] > 0
+
+
+def test_reentry_bound_holds_every_listed_face():
+    """The bound at a pixel is at least the eye distance of every vertex of the front faces listed at that
+    pixel and its neighbours (perspective), and -inf where no face is listed around it."""
+    from warpvol.raycasting.harc import entry_fragments
+
+    sc = builtin_scene("concave").with_camera(width_px=24, height_px=24)
+    e = entry_fragments(sc.mesh, sc.camera)
+    far = e["far"].numpy().reshape(24, 24)
+    start, fbf = e["frag_start"].numpy(), e["frag_bf"].numpy()
+    from warpvol.raycasting.stages.entry_bins import entry_face_mask
+
+    tris = sc.mesh.boundary_triangles()[entry_face_mask(sc.mesh, sc.camera)]
+    g = np.linalg.norm(sc.mesh.points - np.asarray(sc.camera.eye), axis=1)
+    assert np.isfinite(far).any()
+    for p in range(24 * 24):
+        y, x = divmod(p, 24)
+        faces = fbf[start[p]:start[p + 1]]
+        if len(faces):
+            need = g[tris[faces]].max()
+            for dy in (-1, 0, 1):
+                for dx in (-1, 0, 1):
+                    if 0 <= y + dy < 24 and 0 <= x + dx < 24:
+                        assert far[y + dy, x + dx] >= need
+    listed = np.diff(start).reshape(24, 24) > 0
+    grown = np.zeros_like(listed)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            grown |= np.roll(np.roll(np.pad(listed, 1), dy, 0), dx, 1)[1:-1, 1:-1]
+    assert np.all(np.isneginf(far[~grown]))

@@ -215,9 +215,45 @@ def entry_fragments(mesh, camera, device: str = "cpu") -> dict:
             a = np.zeros((1,) + a.shape[1:], np.int32)
         return wp.array(a, dtype=dtype, device=device)
 
+    nbr = surface_neighbours(tris).reshape(-1, 3)
+    far = reentry_bound(mesh, camera, tris, nbr, start, frag_bf)
     return {"frag_start": arr(start), "frag_bf": arr(frag_bf), "bf_tet": arr(bf[:, 0]), "bf_face": arr(bf[:, 1]),
-            "bf_nbr": arr(surface_neighbours(tris).reshape(-1, 3), wp.vec3i), "fragments": int(count),
-            "faces": int(len(bf)), "max_layers": layers}
+            "bf_nbr": arr(nbr, wp.vec3i), "far": wp.array(far, dtype=wp.float32, device=device),
+            "fragments": int(count), "faces": int(len(bf)), "max_layers": layers}
+
+
+def reentry_bound(mesh, camera, tris: np.ndarray, nbr: np.ndarray, start: np.ndarray, frag_bf: np.ndarray) -> np.ndarray:
+    """Per pixel (H*W, float32), a bound past which a ray leaving the mesh cannot re-enter it: the largest
+    depth ``g`` (distance from the eye, perspective; depth along the view direction, orthographic) of any
+    vertex of a front face the HARC entry search of that pixel can reach -- the faces listed at the pixel
+    and its 8 neighbours and, through :func:`ring_search <warpvol.kernels.harc.ring_search>`, the two
+    rings of surface neighbours around each -- plus a rounding margin of 1e-4 of the scene's extent.
+    ``g`` is largest at a vertex (a distance is convex, a depth linear), so a crossing of any of those
+    faces has ``t + t0 <= bound`` (``t0`` the ray origin's shift); ``-inf`` where no face is listed
+    around the pixel."""
+    w, h = camera.width_px, camera.height_px
+    out = np.full(h * w, -np.inf)
+    if len(frag_bf) and len(tris):
+        rel = np.asarray(mesh.points, np.float64) - np.asarray(camera.eye, np.float64)
+        if camera.projection == "perspective":
+            g = np.linalg.norm(rel, axis=1)
+        else:
+            g = rel @ np.asarray(camera.forward, np.float64)
+        k = g[tris].max(axis=1)
+        for _ in range(2):  # the two rings ring_search visits
+            kn = np.where(nbr >= 0, k[np.maximum(nbr, 0)], -np.inf)
+            k = np.maximum(k, kn.max(axis=1))
+        counts = np.diff(start)
+        listed = np.flatnonzero(counts > 0)
+        out[listed] = np.maximum.reduceat(k[frag_bf], start[:-1][listed])
+        img = np.pad(out.reshape(h, w), 1, constant_values=-np.inf)
+        near = img[1:-1, 1:-1].copy()
+        for dy in (0, 1, 2):
+            for dx in (0, 1, 2):
+                np.maximum(near, img[dy:dy + h, dx:dx + w], out=near)
+        ext = float(np.abs(rel).max()) + float(np.ptp(mesh.points, axis=0).max())
+        out = near.reshape(-1) + 1e-4 * ext
+    return out.astype(np.float32)
 
 
 def integ_setup(mode: str, tf, device: str, *, table=None, psi=None, iso=None, iso_rule: str = "paper",
@@ -335,7 +371,7 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     counters = wp.zeros((len(rows), N_COUNTERS), dtype=wp.int32, device=ctx.device)
     eye_w = wp.vec3(*np.asarray(ctx.scene.camera.eye, np.float64).astype(np.float32))
     common = cam_args + [SETUPS[setup], eye_w, WALKS[walk], mesh_tex, cells["verts"], cells["tets"], cells["nbr"], entry["frag_start"],
-                         entry["frag_bf"], entry["bf_tet"], entry["bf_face"], entry["bf_nbr"], ig,
+                         entry["frag_bf"], entry["bf_tet"], entry["bf_face"], entry["bf_nbr"], entry["far"], ig,
                          get_format(fb_format).kernel_params(), float(t_stop), int(max_steps), 1e-6 * cells["radius"]]
 
     def launch(b: int) -> None:

@@ -94,10 +94,3 @@ def _sign_det2(p: np.ndarray, q: np.ndarray, r: np.ndarray, t: np.ndarray) -> np
     return _certify(pq - rt, _FILTER * (np.abs(pq) + np.abs(rt)), exact)
 
 
-def _parity(perm: np.ndarray) -> np.ndarray:
-    """+1 / -1: parity of each row permutation of ``perm`` (M, 4)."""
-    inv = np.zeros(len(perm), dtype=np.int64)
-    for i in range(4):
-        for j in range(i + 1, 4):
-            inv += perm[:, i] > perm[:, j]
-    return np.where(inv % 2 == 0, 1, -1)

@@ -48,7 +48,7 @@ from typing import Callable
 import numpy as np
 
 from warpvol.errors import ConfigError, check_choice
-from warpvol.reference.exact import _FILTER, _STATS, _certify, _exact_sum_of_products, _parity, _sign_det2  # noqa: F401
+from warpvol.reference.exact import _FILTER, _STATS, _certify, _exact_sum_of_products, _sign_det2  # noqa: F401
 from warpvol.scene.camera import Camera
 from warpvol.scene.mesh import TetMesh
 from warpvol.reference.integrate import (GL_NODES, MAX_DEPTH, SUB_DEPTH, composite_front_to_back,  # noqa: F401
@@ -338,12 +338,11 @@ def _trace_chunk(fr: _Frame, Pc: np.ndarray, scal: np.ndarray, tsorted: np.ndarr
 def _plan(mesh: TetMesh, camera: Camera):
     fr = _Frame(camera)
     Pc = fr.to_camera(mesh.points)
-    perm = np.argsort(mesh.tets, axis=1, kind="stable")
-    tsorted = np.take_along_axis(mesh.tets, perm, axis=1)
     # mesh tets are positively oriented in world space; the sort permutes them, the camera frame
     # (right, up, forward) may be left-handed
+    tsorted, parity, _ = mesh.sorted_tets
     hand = 1 if np.linalg.det(fr.basis) > 0 else -1
-    orient = (_parity(perm) * hand).astype(np.int8)
+    orient = (parity * hand).astype(np.int8)
     i0, i1, j0, j1, valid = fr.pixel_ranges(Pc, tsorted)
     ids = np.flatnonzero(valid)
     return fr, Pc, tsorted, orient, ids, i0[ids], i1[ids], j0[ids], j1[ids]

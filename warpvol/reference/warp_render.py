@@ -45,14 +45,6 @@ _BOX_MARGIN = 1e-6  # pixels (relative): a face's box only has to contain every 
 _CULL_TOL = 1e-9
 
 
-def _parity(perm: np.ndarray) -> np.ndarray:
-    inv = np.zeros(len(perm), dtype=np.int64)
-    for a in range(4):
-        for b in range(a + 1, 4):
-            inv += perm[:, a] > perm[:, b]
-    return np.where(inv % 2 == 0, 1.0, -1.0)
-
-
 class _View:
     """Pixel rays of a camera in its own frame (x right, y up, z forward)."""
 
@@ -126,17 +118,18 @@ class _View:
 def _mesh_data(mesh: TetMesh, view: _View) -> dict:
     """Per-mesh arrays of the walk, in camera coordinates (NumPy)."""
     Pc = view.camera_coords(np.asarray(mesh.points, dtype=np.float64))
-    perm = np.argsort(mesh.tets, axis=1, kind="stable")
-    T = np.take_along_axis(mesh.tets, perm, axis=1)
+    T, parity, perm = mesh.sorted_tets  # per mesh, kept by it
     hand = 1.0 if np.linalg.det(view.basis) > 0 else -1.0
-    orient = _parity(perm) * hand
+    orient = parity * hand
     adj = np.take_along_axis(np.asarray(mesh.adjacency, dtype=np.int64), perm, axis=1)  # across face opposite T[:, f]
     s_eye = (mesh.gradients @ view.eye + mesh.offsets) if view.persp else np.zeros(1)
     near = np.zeros(0, dtype=np.int64)
-    if view.persp:  # tets whose (slightly grown) box holds the eye: candidates for the chord through it
+    tol = 1e-9 * max(1.0, float(np.abs(Pc).max())) if len(Pc) else 0.0
+    # tets whose (slightly grown) box holds the eye (the camera-frame origin): candidates for the chord
+    # through it; none unless the mesh's own grown box holds the eye (each tet's box lies within it)
+    if view.persp and len(Pc) and ((Pc.min(axis=0) <= tol) & (Pc.max(axis=0) >= -tol)).all():
         tp = Pc[T]
         lo, hi = tp.min(axis=1), tp.max(axis=1)
-        tol = 1e-9 * max(1.0, float(np.abs(Pc).max()))
         near = np.flatnonzero(((lo <= tol) & (hi >= -tol)).all(axis=1))
     return dict(Pc=Pc, T=T, orient=orient, adj=adj, s_eye=s_eye, near=near)
 

@@ -146,6 +146,20 @@ class TetMesh:
 
     # -- topology ---------------------------------------------------------------------------------
     @cached_property
+    def sorted_tets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(tets, parity, perm)``: each tet's vertex indices in ascending order (M, 4), the parity of
+        that reordering (M,) int8 (+1 even, -1 odd: the sorted tet's orientation relative to the
+        stored, positively oriented one) and the permutation itself (M, 4) -- the canonical vertex order
+        the exact walkers take their edge and face predicates in."""
+        perm = np.argsort(self.tets, axis=1, kind="stable")
+        inv = np.zeros(len(perm), dtype=np.int64)
+        for i in range(4):
+            for j in range(i + 1, 4):
+                inv += perm[:, i] > perm[:, j]
+        parity = np.where(inv % 2 == 0, 1, -1).astype(np.int8)
+        return np.take_along_axis(self.tets, perm, axis=1), parity, perm
+
+    @cached_property
     def adjacency(self) -> np.ndarray:
         """(M, 4) int32: tet across local face i, -1 on the boundary."""
         m = self.n_tets
