@@ -175,6 +175,29 @@ def run_point(spec: dict, timeout: float) -> dict:
 
 
 # -- fits, tables, plot ----------------------------------------------------------------------------
+def point_key(p: dict) -> tuple:
+    """What identifies a measured point: sweep, mesh (file stem), pixels, renderer."""
+    return p.get("sweep"), Path(p["mesh"]).stem, int(p.get("pixels", p["size"] ** 2)), p["renderer"]
+
+
+def points_of_table(table: dict) -> list[dict]:
+    """The point dicts of a written ``points`` table (the inverse of the table rows ``main`` writes)."""
+    out = []
+    for row in table["rows"]:
+        r = dict(zip(table["columns"], row))
+        p = {"sweep": r["sweep"], "mesh": r["mesh"], "kind": str(r["mesh"]).split("_")[0], "tets": r["tets"],
+             "pixels": r["pixels"], "size": int(round(float(r["pixels"]) ** 0.5)), "renderer": r["renderer"]}
+        if r["time [s]"] is None:
+            p["error"] = "failed or timed out (earlier run)"
+        else:
+            p.update(time_s=r["time [s]"], first_s=r["first [s]"], peak_bytes=r["peak [MiB]"] * 2**20,
+                     bytes_per_tet=r["peak bytes/tet"], load=[r["load (1 min)"]])
+            if r.get("kept bytes/tet") is not None:
+                p["kept_bytes_per_tet"] = r["kept bytes/tet"]
+        out.append(p)
+    return out
+
+
 def slope(x, y) -> float | None:
     """Least-squares slope of log y against log x (None with fewer than two points)."""
     x, y = np.asarray(x, float), np.asarray(y, float)
@@ -253,6 +276,9 @@ def main(argv=None) -> int:
     ap.add_argument("--timeout", type=float, default=300.0, help="seconds per point (child process)")
     ap.add_argument("--cache", default=str(ROOT / "out" / "bench_scaling"))
     ap.add_argument("--no-docs", action="store_true", help="do not write docs/data/scaling.json, docs/img/scaling.png")
+    ap.add_argument("--merge", action="store_true",
+                    help="keep the points of docs/data/scaling.json that this run does not measure again (a run of "
+                         "extra points, e.g. --sizes 2048 or --tets 1e7, adds them to the tables, fits and plot)")
     args = ap.parse_args(argv)
     if args.child:
         print(json.dumps(child(json.loads(args.child))))
@@ -264,7 +290,7 @@ def main(argv=None) -> int:
         raise SystemExit(f"--renderers: unknown {bad}; allowed: {', '.join(RENDERERS)}")
     cache = Path(args.cache)
     specs = []
-    for kind in args.kinds.split(","):
+    for kind in [k for k in args.kinds.split(",") if k]:  # --kinds "": no mesh sweep
         for n in args.tets:
             specs += [{"sweep": "mesh", "kind": kind, "mesh": str(mesh_file(cache, kind, n)), "size": args.mesh_size_px,
                        "renderer": r, "repeat": args.repeat} for r in renderers]
@@ -288,6 +314,15 @@ def main(argv=None) -> int:
                   f"{res['time_s']:>10.3f}{res['first_s']:>10.3f}{res['peak_bytes'] / 2**20:>11.1f}"
                   f"{res['bytes_per_tet']:>8.0f}{res.get('kept_bytes_per_tet', float('nan')):>8.0f}  {res['load'][0]:.2f}",
                   flush=True)
+    data = ROOT / "docs" / "data" / "scaling.json"
+    sources = ["python scripts/bench_scaling.py " + " ".join(argv if argv is not None else sys.argv[1:])]
+    if args.merge and data.exists():
+        old = json.loads(data.read_text())
+        kept = [p for p in points_of_table(old["tables"]["points"]) if point_key(p) not in {point_key(q) for q in points}]
+        print(f"kept {len(kept)} points of {data.name} not measured again")
+        points = kept + points
+        renderers = [r for r in RENDERERS if any(p["renderer"] == r for p in points)]
+        sources = old.get("sources", [old.get("source", "")]) + sources
     fit_rows = fits(points, renderers, img_mesh)
     print("\nfitted exponents (least squares in log-log)")
     for row in fit_rows:
@@ -306,7 +341,7 @@ def main(argv=None) -> int:
              None if "error" in p else round(p.get("kept_bytes_per_tet", float("nan")), 1),
              None if "error" in p else round(p["load"][0], 2)] for p in points]
     fit_cols = list(fit_rows[0].keys()) if fit_rows else []
-    doc = {"source": "python scripts/bench_scaling.py " + " ".join(argv if argv is not None else sys.argv[1:]),
+    doc = {"source": " + ".join(sources), "sources": sources,
            "tables": {
                "exponents": {"title": "Fitted exponents and bytes per tet",
                              "columns": fit_cols,
@@ -319,11 +354,10 @@ def main(argv=None) -> int:
                                        "renderer adds (first render: per-mesh data built, with its temporaries) over "
                                        "the tets, kept bytes/tet = what stays resident between frames, at the largest "
                                        "mesh. "
-                                       f"Run of {total:.0f} s on {os.cpu_count()} cores, shared machine (load in "
-                                       "the points table).")},
+                                       f"Runs on {os.cpu_count()} cores, shared machine (load in the points table): "
+                                       + "; ".join(sources) + ".")},
                "points": {"title": "Every point (median of the warm renders)", "columns": cols, "rows": rows,
-                          "notes": "Failed or timed-out points show '-'."}}}
-    data = ROOT / "docs" / "data" / "scaling.json"
+                          "notes": "Failed or timed-out points show '-'; the runs are listed under the exponents table."}}}
     data.parent.mkdir(parents=True, exist_ok=True)
     data.write_text(json.dumps(doc, indent=1))
     plot(points, renderers, ROOT / "docs" / "img" / "scaling.png")
