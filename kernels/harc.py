@@ -7,14 +7,14 @@ Two walks, one kernel:
   texture unit, nearest rgba32f texel fetches): exit face = smallest ``lambda = -(e.n + o)/(d.n)``
   among the faces with ``d.n > 0``, scalars ``s = g.x + g0`` from the cell's gradient, next cell from
   the adjacency texture. Rays it cannot resolve (no face with ``d.n > 0``, no progress in ``lambda``
-  for :data:`warpvol.kernels.raycast.STALL_STEPS` steps, the step bound) are marked failed, counted
+  for :data:`warpvol.kernels.walk.STALL_STEPS` steps, the step bound) are marked failed, counted
   and redone in float64 on the host -- never silently wrong pixels from those cases.
-* ``WALK_PLUCKER`` -- the consistent walk of :mod:`warpvol.kernels.raycast` (its ``@wp.func`` s
-  :func:`~warpvol.kernels.raycast.boundary_face`, :func:`~warpvol.kernels.raycast.face_hit`,
-  :func:`~warpvol.kernels.raycast.next_face`; no second copy): watertight on rays through vertices
+* ``WALK_PLUCKER`` -- the consistent walk of :mod:`warpvol.kernels.walk` (its ``@wp.func`` s
+  :func:`~warpvol.kernels.walk.boundary_face`, :func:`~warpvol.kernels.walk.face_hit`,
+  :func:`~warpvol.kernels.walk.next_face`; no second copy): watertight on rays through vertices
   and edges.
 
-Ray set-up (``SETUP_*``): ``SETUP_ROBUST`` takes the ray from :func:`warpvol.kernels.raycast.pixel_ray`
+Ray set-up (``SETUP_*``): ``SETUP_ROBUST`` takes the ray from :func:`warpvol.kernels.walk.pixel_ray`
 (float64 set-up, origin moved to the mesh; the textures are relative to the cells' origin) and marks
 rays it cannot resolve failed, for the float64 redo on the host. ``SETUP_PAPER`` is the paper's
 fragment program: the ray starts at the eye, its direction computed in fp32 (:func:`paper_ray`), the
@@ -39,7 +39,7 @@ included), 2 cells visited, 3 failed rays, 4 rays stopped by the step bound, 5 i
 iso table missed (checked against the TF's control points; diagnostic), 6 texture fetches, 7 entries
 whose rasterised face the consistent edge test rejected (searched among the face's neighbours), 8 failed
 rays of the consistent walk with exact segments that crossed a layer too thin for float32 segment
-lengths (:func:`warpvol.kernels.raycast.thin_unresolved`; redone in float64 like every failed ray),
+lengths (:func:`warpvol.kernels.walk.thin_unresolved`; redone in float64 like every failed ray),
 9 rays of the paper's set-up that took a step with ``lambda' < lambda`` (an exit chosen by rounding:
 the ray is suspect, its pixel possibly wrong; counted, not changed).
 """
@@ -49,8 +49,9 @@ import warp as wp
 from .formats import NumFmt, fmt_quantize
 from .integrate import exp_neg, integrate_piece, integrate_segment, integrate_segment_tf
 from .pt import axis_coord
-from .raycast import (STALL_STEPS, STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, Face, Ray, boundary_face, face_hit,
-                      monotone_exit, next_face, pixel_ray, thin_at_exit, thin_start, thin_step)
+from .raycast import STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED
+from .walk import (STALL_STEPS, Face, Ray, boundary_face, face_hit, monotone_exit, next_face, pixel_ray, thin_at_exit,
+                   thin_start, thin_step)
 from .texture import Tex2D, Tex3D, tex2d, tex2d_texel, tex3d
 from .tf import tf_eval, tf_eval_upper, tf_first_break, tf_next_break, tf_upper
 

@@ -357,7 +357,7 @@ COUNTER_NAMES = ("entries", "steps", "cells", "failed", "step_bound", "iso_misse
 def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, fb_format: str, t_stop: float,
                max_steps: int, threads: int, rows_per_block: int = 16, setup: str = "robust") -> dict:
     """One propagation pass over all active rays; returns the summed counters by name. ``setup``:
-    ``robust`` (float64 ray set-up from the mesh, :func:`warpvol.kernels.raycast.pixel_ray`) or
+    ``robust`` (float64 ray set-up from the mesh, :func:`warpvol.kernels.walk.pixel_ray`) or
     ``paper`` (the ray from the eye in fp32, in the frame of ``fp32`` mesh textures)."""
     import warp as wp
 
