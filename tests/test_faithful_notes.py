@@ -50,10 +50,17 @@ def test_westermann1997_reports_drawn_cells_of_the_containing_rule():
     st = res.report["stats"]["vsbuffer"]
     assert st["tree_insert"] == "containing"
     assert st["drawn_cells"] == res.report["counters"]["vsb_sweep"]["drawn_cells"] > sc.mesh.n_tets
-    # the centroid rule (kept as an option, and in vsbuffer_best) draws fewer cells, same image
+    # with the per-cell box test (the preset's) the insert rule changes which boxes are tested, not
+    # which cells are drawn: the centroid rule (kept as an option, and in vsbuffer_best) draws the same
+    assert st["cell_test"] is True
     alt = _vsb("westermann1997", sc, tree_insert="centroid")
-    assert alt.report["stats"]["vsbuffer"]["drawn_cells"] < st["drawn_cells"]
+    assert alt.report["stats"]["vsbuffer"]["drawn_cells"] == st["drawn_cells"]
     np.testing.assert_array_equal(alt.image, res.image)
+    # every cell of a cut node drawn: the containing rule draws more than the centroid rule, whose tight
+    # leaf boxes (one cell each here) draw no more than the per-cell test
+    node = [_vsb("westermann1997", sc, cell_test=False, tree_insert=r).report["stats"]["vsbuffer"]["drawn_cells"]
+            for r in ("containing", "centroid")]
+    assert node[0] > node[1] >= st["drawn_cells"]
     best = Pipeline.load("vsbuffer_best")
     assert [s.config["tree_insert"] for s in best.stages if s.name == "vsb_sweep"] == ["centroid"]
 

@@ -321,3 +321,46 @@ def test_sweep_work_limit_and_tall_plane_batches():
         preset("westermann1997", vsb_sweep={"max_sweep_pixels": 1_000_000, "depth_res": 5000}).render(s, quiet=True)
     r = preset("westermann1997", vsb_sweep={"depth_res": 5000}).render(s, quiet=True)
     assert np.isfinite(r.image).all() and r.image[..., 3].max() > 0
+
+
+def test_per_cell_selection_draws_only_cut_boxes():
+    """``cell_test``: of the cells stored at the octree nodes a sweep plane cuts, every cell whose own
+    bounding box the plane cuts is drawn, and besides only cells whose vertices lie within the slack of
+    the plane; fewer than the node rule (every cell of a cut node). A cell the plane does not cut
+    enters one clipped pass at most, never the VSBUFFER, but there it can win the depth test against a
+    cut cell within float32 depth resolution: the node rule's VSBUFFER equals the per-cell one wherever
+    it holds a cell, and differs only where it has such a gap (one here); the images are identical."""
+    from warpvol.vsbuffer.octree import box_corners_yz, plane_box_cut
+    from warpvol.vsbuffer.vsbuffer import AUDIT_SLACK, CUT_SLACK, ray_space
+
+    s = warpvol.builtin_scene("sphere").with_camera(width_px=48, height_px=40)
+    cam, cm = s.camera, ConvexCellMesh.from_tetmesh(s.mesh).drawable
+    kw = dict(tree_insert="containing", keep_buffers=True)
+    a, sa = render_vsbuffer(cm, s.transfer, cam, cell_test=False, **kw)
+    b, sb = render_vsbuffer(cm, s.transfer, cam, cell_test=True, **kw)
+    n, rows = cm.n_cells, np.arange(cam.height_px)
+    y, z = box_corners_yz(*cm.cell_bounds, cam)
+    cut = np.stack([plane_box_cut(y, z, cam, np.full(n, r)) for r in rows])  # (planes, cells), all pairs
+    drawn, node_drawn = sb["drawn"], sa["drawn"]
+    assert len(drawn) == sb["counters"]["drawn_cells"] < sa["counters"]["drawn_cells"] == len(node_drawn)
+    assert len(np.unique(drawn[:, 0] * n + drawn[:, 1])) == len(drawn)  # each pair once
+    dm = np.zeros_like(cut)
+    dm[drawn[:, 0], drawn[:, 1]] = True
+    assert not (cut & ~dm).any()  # every cell whose box a plane cuts is drawn for that plane
+    pb = ray_space(cm.points, cam)[cm.pieces.tets][..., 1]
+    lo = np.minimum.reduceat(pb.min(axis=1), cm.cell_start[:-1])
+    hi = np.maximum.reduceat(pb.max(axis=1), cm.cell_start[:-1])
+    eps, bj = max(CUT_SLACK * sb["range"], AUDIT_SLACK), rows[:, None] + 0.5
+    near = (lo[None] - eps <= bj) & (bj <= hi[None] + eps)
+    assert not (dm & ~cut & ~near).any()  # the others: vertices within the slack of the plane
+    assert (~cut[node_drawn[:, 0], node_drawn[:, 1]]).sum() > len(drawn)  # the node rule draws many uncut
+    va, vb = sa["vsbuffers"], sb["vsbuffers"]
+    for v in (va, vb):  # only cells a plane cuts (within the slack) enter its VSBUFFER
+        j, _, _ = np.nonzero(v >= 0)
+        assert near[j, v[v >= 0]].all()
+    diff = va != vb
+    assert diff.sum() == 1 and (va[diff] == -1).all() and (vb[diff] >= 0).all()
+    assert np.array_equal(a, b)
+    with pytest.raises(ConfigError, match="cell_test"):
+        warpvol.pipeline.Pipeline.from_config({"name": "x", "stages": [
+            {"stage": "vsb_setup"}, {"stage": "vsb_sweep", "cell_test": "yes"}]})

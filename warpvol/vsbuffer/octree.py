@@ -30,12 +30,13 @@ def build_octree(cell_lo: np.ndarray, cell_hi: np.ndarray, depth: int, insert: s
     """Regular octree of ``depth`` levels below the root over the cells' bounding boxes.
 
     ``insert="containing"`` (the paper's rule, the default): every cell at the deepest node whose
-    region fully contains the cell's box, node boxes the regions (cells straddling a split stay high
-    and are drawn for many planes: 11.9 M drawn tets on the Blunt Fin at 450 scanlines against the
-    paper's 2.10 M).
+    region fully contains the cell's box, node boxes the regions (cells straddling a split stay high,
+    so a plane visits them for many scanlines: with every cell of a cut node drawn, 11.92 M drawn tets
+    on the Blunt Fin at 450 scanlines; with each visited cell's own box tested, as the sweep does by
+    default, 1.37 M, against the paper's 2.10 M).
     ``insert="centroid"``: every cell in the leaf holding its box centre; a node's box is the union of
-    the boxes of the cells below it, so a plane draws the cells of leaves whose boxes it cuts (2.29 M
-    drawn tets on the Blunt Fin: close to the paper's count, not the paper's rule).
+    the boxes of the cells below it (with every cell of a cut node drawn, 2.29 M drawn tets on the
+    Blunt Fin; with the per-cell test the same 1.37 M, from fewer box tests).
     Only non-empty nodes and their ancestors are kept.
 
     Examples
@@ -99,17 +100,50 @@ def build_octree(cell_lo: np.ndarray, cell_hi: np.ndarray, depth: int, insert: s
     return Octree(nlo, nhi, parent, start, cells, depth)
 
 
-def plane_node_hits(tree: Octree, camera, rows: np.ndarray) -> np.ndarray:
-    """(P, N) bool: sweep plane of image row ``rows[p]`` cuts node ``n``'s box (world-space test)."""
-    corners = np.stack([np.where(np.array([(m >> k) & 1 for k in range(3)], bool), tree.hi, tree.lo)
+def box_corners_yz(lo: np.ndarray, hi: np.ndarray, camera) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 8) eye-space ``y`` (along the camera's true up) and ``z`` (along its forward axis) of the 8
+    corners of each world box ``lo[i] .. hi[i]``."""
+    corners = np.stack([np.where(np.array([(m >> k) & 1 for k in range(3)], bool), hi, lo)
                         for m in range(8)], axis=1) - camera.eye  # (N, 8, 3)
-    y, z = corners @ camera.true_up, corners @ camera.forward
-    yn = 1.0 - 2.0 * (rows + 0.5) / camera.height_px
+    return corners @ camera.true_up, corners @ camera.forward
+
+
+def _plane_terms(camera, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per row ``(offset, slope)``: a point's signed distance from the row's sweep plane (world units
+    along ``y``) is ``y - offset - slope * z``."""
+    yn = 1.0 - 2.0 * (np.asarray(rows, np.float64) + 0.5) / camera.height_px
     if camera.projection == "orthographic":
-        dist = y[None] - (yn * camera.ortho_height / 2.0)[:, None, None]
-    else:  # plane through the eye containing the row's rays: y = z * tan(fov/2) * y_ndc
-        dist = y[None] - z[None] * (yn * np.tan(np.radians(camera.fov_y_deg) / 2.0))[:, None, None]
+        return yn * camera.ortho_height / 2.0, np.zeros_like(yn)
+    # plane through the eye containing the row's rays: y = z * tan(fov/2) * y_ndc
+    return np.zeros_like(yn), yn * np.tan(np.radians(camera.fov_y_deg) / 2.0)
+
+
+def plane_node_hits(tree: Octree, camera, rows: np.ndarray) -> np.ndarray:
+    """(P, N) bool: sweep plane of image row ``rows[p]`` cuts node ``n``'s box (world-space test: the
+    box's 8 corners do not all lie strictly on one side of the plane)."""
+    y, z = box_corners_yz(tree.lo, tree.hi, camera)
+    off, slope = _plane_terms(camera, rows)
+    dist = y[None] - off[:, None, None] - slope[:, None, None] * z[None]
     return (dist.min(axis=2) <= 0.0) & (dist.max(axis=2) >= 0.0)
+
+
+def plane_box_cut(y: np.ndarray, z: np.ndarray, camera, rows: np.ndarray) -> np.ndarray:
+    """(K,) bool: sweep plane of image row ``rows[k]`` cuts box ``k``, given its corners' ``y, z``
+    (:func:`box_corners_yz`, rows ``k``): the test of :func:`plane_node_hits`, one (plane, box) pair
+    per entry (a sweep plane's per-cell selection).
+
+    Examples
+    --------
+    >>> from warpvol.scene.camera import Camera
+    >>> cam = Camera(projection="orthographic", eye=(0, 0, 5), target=(0, 0, 0), ortho_height=2.0,
+    ...              width_px=4, height_px=4)   # row j's plane: y = 1 - (j + 0.5) / 2
+    >>> y, z = box_corners_yz(np.array([[0.0, 0.1, 0.0]] * 2), np.array([[1.0, 0.3, 1.0]] * 2), cam)
+    >>> plane_box_cut(y, z, cam, np.array([1, 2])).tolist()   # y = 0.25 cuts [0.1, 0.3]; y = -0.25 does not
+    [True, False]
+    """
+    off, slope = _plane_terms(camera, rows)
+    dist = y - off[:, None] - slope[:, None] * z
+    return (dist.min(axis=1) <= 0.0) & (dist.max(axis=1) >= 0.0)
 
 
 def _expand(starts: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -16,9 +16,13 @@ cell: the **VSBUFFER** (:func:`warpvol.kernels.vsbuffer.vsb_compare`); its colum
 back (:func:`warpvol.kernels.vsbuffer.column_walk`).
 
 Culling: a regular octree over the mesh's bounding box holds every cell at the deepest node whose box
-contains the cell's box; a plane draws the cells of every node its plane cuts (the paper's "drawn
-tetra" counts them, including cells of a cut node that miss the plane). Faces are classified
-front/back once per frame (all planes share the direction ``+b`` in ray space).
+contains the cell's box; a plane visits the nodes whose boxes it cuts and, of the cells stored there,
+draws those whose own bounding box it cuts (``cell_test``, the paper's "the cells at each node that
+have an intersection with the scanline are drawn"; without it, every cell of a cut node). The
+paper's "drawn tetra" counts the drawn cells (``drawn_cells``). A cell the plane does not cut survives
+the near/far clipping in one pass at most, so it never enters the VSBUFFER; the selection saves work
+and the depth-precision gaps such cells leave where they win a pass's depth test against a cut cell.
+Faces are classified front/back once per frame (all planes share the direction ``+b`` in ray space).
 
 Emulation detail: several planes are drawn in one rasteriser call, stacked along y with a gap (every
 drawn triangle lies within its plane's ``depth_res`` rows, so planes cannot touch each other and the
@@ -42,7 +46,8 @@ import numpy as np
 from warpvol.errors import ConfigError
 from warpvol.parallel import blocks, cpu_threads, launch_blocks
 from warpvol.vsbuffer.cells import ConvexCellMesh
-from warpvol.vsbuffer.octree import Octree, _expand, build_octree, plane_node_hits  # noqa: F401 (re-exported)
+from warpvol.vsbuffer.octree import (Octree, _expand, box_corners_yz, build_octree,  # noqa: F401 (re-exported)
+                                     plane_box_cut, plane_node_hits)
 
 __all__ = ["ConvexCellMesh", "Octree", "build_octree", "ray_space", "render_vsbuffer", "walk_column",
            "INTEGRATIONS", "ADJACENCY_MODES"]
@@ -55,6 +60,11 @@ ID_LIMIT = 2 ** 24  # cell IDs are drawn as RGB8 colours
 BATCH_PIXELS = 1 << 18
 #: pixels by which the audit widens a cell's ray-space range (rays in its boundary faces stay checked)
 AUDIT_SLACK = 1e-3
+#: the per-cell selection also draws a cell whose vertices lie within this fraction of the clipping
+#: range (the largest cell extent along the sweep direction), or within AUDIT_SLACK pixels, of its
+#: plane though its box misses it: float32 window depths can round such a cell into both clipped
+#: passes, and the audit checks it
+CUT_SLACK = 2.0 ** -16
 
 
 # ------------------------------------------------------------------------------------------------
@@ -172,7 +182,7 @@ def _zero_counts(planes: int) -> dict:
     from warpvol.kernels import vsbuffer as kv
 
     cnt = {k: 0 for k in kv.COUNTERS}
-    cnt.update(planes=planes, drawn_cells=0, tree_nodes_tested=0, id_triangles_back=0, id_triangles_front=0,
+    cnt.update(planes=planes, drawn_cells=0, tree_nodes_tested=0, cell_boxes_tested=0, id_triangles_back=0, id_triangles_front=0,
                id_pixels_read=0, vsb_pixels_compared=0, audit_pairs=0, missed_cells=0, rays_rewalked=0,
                rewalk_candidates=0, passes=0, readbacks=0, bytes_down=0, clears=0, clear_pixels=0, vertices=0)
     return cnt
@@ -264,8 +274,9 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
                     tree_depth: int = 5, integration: str = "trapezoid", steps: int = 1,
                     neighbour_check: bool = True, adjacency: str = "count", t_min: float = 0.0,
                     max_list: int = 1024, planes_per_batch: int = 16, threads: int = 0,
-                    tile_size: int = 4, tree_insert: str = "centroid", raster_rules: dict | None = None, count=None,
-                    keep_lists: bool = False, audit: bool = True, rewalk: bool = False, table=None,
+                    tile_size: int = 4, tree_insert: str = "centroid", cell_test: bool = True,
+                    raster_rules: dict | None = None, count=None, keep_lists: bool = False,
+                    keep_buffers: bool = False, audit: bool = True, rewalk: bool = False, table=None,
                     weight_bits: int = 8, texture_cache: dict | None = None,
                     on_batch=None) -> tuple[np.ndarray, dict]:
     """Render ``cells`` with the VSBUFFER algorithm; returns ``(image (H, W, 4) premultiplied, stats)``.
@@ -281,6 +292,16 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         Octree levels below the root (the paper: 5 for the Blunt Fin).
     tree_insert : {"centroid", "containing"}
         Where a cell is stored in the octree (:func:`build_octree`).
+    cell_test : bool
+        Of the cells stored at the nodes a plane cuts, draw only those whose own bounding box the
+        plane cuts (the same world-space 8-corner test as the nodes', :func:`plane_box_cut`; cells
+        whose vertices lie within :data:`CUT_SLACK` of it are drawn too); false: every cell of a cut
+        node. A cell the plane does not cut never enters the VSBUFFER (it survives the near/far
+        clipping in one pass at most), but drawn it can win that pass's depth test where its face
+        meets a cut cell's face within float32 depth resolution and leave a gap there: the VSBUFFER
+        with ``cell_test`` equals the one without wherever that one holds a cell, and may hold a cell
+        where that one has such a gap. ``drawn_cells``, triangles, vertices and fragments differ
+        (``cell_boxes_tested`` counts the tests).
     integration : {"trapezoid", "exact", "table"}
         The paper's trapezoidal rule with attenuation (``steps`` equal sub-steps per piece), the
         exact segment integral (:func:`warpvol.kernels.integrate.integrate_segment`), or a lookup of
@@ -319,6 +340,10 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     keep_lists : bool
         Return every ray's list of integrated cells, in order (``stats["lists"]``, (H, W, max_list),
         -1 padded; for inspection of small images).
+    keep_buffers : bool
+        Return every plane's VSBUFFER (``stats["vsbuffers"]``, (H, depth_res, W) cell IDs, -1 empty)
+        and the drawn (plane, cell) pairs (``stats["drawn"]``, (drawn_cells, 2)); for inspection of
+        small images.
     count : callable, optional
         ``count(name=int, ...)`` receives the hardware work (:func:`work_counters`; a stage passes
         ``ctx.count``).
@@ -357,7 +382,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         # the whole mesh behind the eye: no plane cuts anything in view, the image is transparent
         return np.zeros((H, W, 4), np.float32), {
             "counters": _zero_counts(0), "id_s": 0.0, "walk_s": 0.0, "setup_s": 0.0, "depth_res": R, "range": 0.0,
-            "lists": None, "missed_length": 0.0, "missed_per_ray": np.zeros((H, W), np.int32) if audit else None,
+            "lists": None, "vsbuffers": None, "drawn": None, "missed_length": 0.0, "missed_per_ray": np.zeros((H, W), np.int32) if audit else None,
             "octree_nodes": 0, "cells": cells.n_cells, "tets": cells.n_tets, "nonconvex_cells": nonconvex,
             "note": "mesh behind the eye"}
     stride = R + 2
@@ -369,6 +394,8 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     cb_lo = np.minimum.reduceat(pb.min(axis=1), cells.cell_start[:-1])
     cb_hi = np.maximum.reduceat(pb.max(axis=1), cells.cell_start[:-1])
     brange = float((cb_hi - cb_lo).max()) * (1.0 + 1e-6) + 1e-9
+    if cell_test:  # the cells' world bounding boxes: corners' eye-space y, z for the per-plane test
+        cell_y, cell_z = box_corners_yz(*cells.cell_bounds, camera)
     pa = abc[cells.pieces.tets][..., 0]
     ca_lo = np.minimum.reduceat(pa.min(axis=1), cells.cell_start[:-1])
     ca_hi = np.maximum.reduceat(pa.max(axis=1), cells.cell_start[:-1])
@@ -400,6 +427,8 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     done = wp.full((P * W, max(1, int(max_list))), -1, dtype=wp.int32, device=device)
     counters = wp.zeros((P * W, kv.NCOUNT), dtype=wp.int32, device=device)
     lists = np.full((H, W, max(1, int(max_list))), -1, np.int32) if keep_lists else None
+    vsbs = np.full((H, R, W), -1, np.int32) if keep_buffers else None
+    drawn = []
     for j0 in range(0, H, P):
         if on_batch is not None:
             on_batch(j0, min(P, H - j0))
@@ -414,6 +443,14 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         pl, nd = np.nonzero(hits)
         own, item = _expand(tree.cell_start[nd], node_cnt[nd])
         pc_plane, pc_cell = pl[own], tree.cells[item]
+        if cell_test:
+            # the cells whose box the plane cuts; and those within float32 depth of the plane (vertices'
+            # ray-space range): the clipped passes could keep them, as they do with the node drawn whole
+            bj, eps = rows[pc_plane] + 0.5, max(CUT_SLACK * brange, AUDIT_SLACK)
+            sel = (plane_box_cut(cell_y[pc_cell], cell_z[pc_cell], camera, rows[pc_plane])
+                   | ((cb_lo[pc_cell] - eps <= bj) & (bj <= cb_hi[pc_cell] + eps)))
+            cnt["cell_boxes_tested"] += len(pc_cell)
+            pc_plane, pc_cell = pc_plane[sel], pc_cell[sel]
         cnt["drawn_cells"] += len(pc_cell)
         jobs = []
         for name, func, zoff in (("back", "less", 0.0), ("front", "greater", 1.0)):
@@ -458,6 +495,9 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         vsb = wp.empty((np_ * stride, W), dtype=wp.int32, device=device)
         wp.launch(kv.vsb_compare, dim=(np_ * stride, W), inputs=[bufs[0], bufs[1], vsb], device=device)
         cnt["vsb_pixels_compared"] += np_ * R * W
+        if keep_buffers:
+            vsbs[j0:j0 + np_] = vsb.numpy().reshape(np_, stride, W)[:, :R]
+            drawn.append(np.column_stack([rows[pc_plane], pc_cell]))
         t2 = time.perf_counter()
         w.j0 = int(j0)
         counters.zero_()
@@ -525,6 +565,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     img = out.numpy().reshape(H, W, 4)
     thin = int(cells.thin_pieces(transfer).sum())
     return img, {"thin_pieces": thin, "counters": cnt, "id_s": id_s, "walk_s": walk_s, "setup_s": t_setup, "depth_res": R,
-                 "range": brange, "lists": lists, "missed_length": missed_length,
+                 "range": brange, "lists": lists, "missed_length": missed_length, "vsbuffers": vsbs,
+                 "drawn": np.concatenate(drawn) if keep_buffers and drawn else None,
                  "missed_per_ray": ray_missed.numpy().reshape(H, W) if audit else None, "octree_nodes": tree.n_nodes, "cells": cells.n_cells, "tets": cells.n_tets,
                  "nonconvex_cells": nonconvex}
