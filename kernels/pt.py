@@ -45,11 +45,11 @@ or (Kraus, Qiao & Ebert 2004) from ``a/w`` and ``1/w`` of the front and back poi
 
 import warp as wp
 
-from .integrate import exp_neg, integrate_segment
+from .integrate import exp_neg, integrate_piece, integrate_pieces
 from .preint import cyl_planes_sample, table_to_cyl
 from .raster import edge, snap
 from .texture import Atlas, Tex1D, Tex3D, atlas_sample, tex1d, tex3d
-from .tf import tf_eval
+from .tf import tf_eval, tf_eval_upper, tf_first_break_upper, tf_upper
 
 wp.set_module_options({"enable_backward": False})
 
@@ -440,8 +440,22 @@ def clamp_attr(x: float, v0: float, v1: float, v2: float, moved: int):
 @wp.func
 def exact_color(a: wp.vec3, tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp.vec4), model: int) -> wp.vec4:
     """pt_best's fragment colour: the segment ``a = (sf, sb, l)`` integrated exactly (premultiplied
-    RGB, alpha ``1 - exp(-tau)``)."""
-    r = integrate_segment(a[0], a[1], wp.max(a[2], 0.0), tf_s, tf_v, model)
+    RGB, alpha ``1 - exp(-tau)``); the values of
+    :func:`~warpvol.kernels.integrate.integrate_segment`. Both ends in the same TF interval (one
+    search each; most fragments of a cell are) means no control point between them: the segment is
+    one piece, integrated without the walk over crossed control points."""
+    length = wp.max(a[2], 0.0)
+    r = wp.vec4(0.0, 0.0, 0.0, 0.0)
+    if length > 0.0:
+        kf = tf_upper(a[0], tf_s)
+        kb = tf_upper(a[1], tf_s)
+        vf = tf_eval_upper(a[0], kf, tf_s, tf_v)
+        vb = tf_eval_upper(a[1], kb, tf_s, tf_v)
+        if kf == kb:
+            r = integrate_piece(length, vf, vb, model)
+        else:
+            r = integrate_pieces(a[0], a[1], vf, vb, tf_first_break_upper(kf, a[0], a[1], tf_s), length, tf_s,
+                                 tf_v, model)
     return wp.vec4(r[0], r[1], r[2], 1.0 - exp_neg(r[3]))
 
 
