@@ -21,15 +21,15 @@ file / key / value, exit status 2, and no output file.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
 
 from warpvol.bands import compute_reference
+from warpvol.cli_checks import (BYTES_PER_PIXEL, IMAGE_OUTPUT, MAX_PIXELS, OUTPUT_EXTENSIONS,  # noqa: F401
+                                check_bands, check_image_memory, check_outputs, check_sizes, check_writable,
+                                folder_outputs, out_of_memory, output_folder, pipeline_inputs, scene_inputs)
 from warpvol.errors import ConfigError, WarpvolError, check_number
 from warpvol.io import check_inputs
 from warpvol.timing import time_summary
@@ -55,137 +55,12 @@ def _load_scene(spec: str, args) -> "object":
     return scene
 
 
-def _check_sizes(args) -> None:
-    """``--width`` / ``--height`` / ``--size`` are pixel counts >= 1 (0 is an error, not "unset")."""
-    for flag in ("width", "height", "size"):
-        v = getattr(args, flag, None)
-        if v is not None:
-            check_number(f"--{flag}", v, lo=1, integer=True)
-
-
-#: output flag -> allowed file extensions
-OUTPUT_EXTENSIONS = {"-o": (".exr",), "--report": (".json",), "--png": (".png",), "--error-image": (".png",)}
-
-
-def check_outputs(outputs: dict[str, str | None], extensions: dict[str, tuple] | None = None) -> dict[str, Path]:
-    """Check every output path before any work is done: extension supported (:data:`OUTPUT_EXTENSIONS`,
-    or ``extensions`` for a flag), not a folder, folder exists and is writable, no two outputs on the
-    same file. Returns flag -> path for those given."""
-    given = {flag: g for flag, g in outputs.items() if g is not None}  # messages show them as typed
-    seen: dict[str, str] = {}
-    for flag, g in given.items():
-        key = os.path.realpath(g)
-        if key in seen:
-            raise ConfigError(f"{flag}: {g} is also the {seen[key]} output; give each output its own file")
-        seen[key] = flag
-    for flag, g in given.items():
-        p, exts = Path(g), (extensions or {}).get(flag, OUTPUT_EXTENSIONS[flag])
-        if p.suffix.lower() not in exts:
-            raise ConfigError(f"{flag}: {g}: unsupported file extension {p.suffix or '(none)'!r}; "
-                              f"expected {' or '.join(exts)}")
-        if p.is_dir():
-            raise ConfigError(f"{flag}: {g} is a folder; expected a file name")
-        if not p.parent.is_dir():
-            raise ConfigError(f"{flag}: output folder does not exist: {p.parent}")
-        _check_writable(flag, p.parent)
-    return {flag: Path(g) for flag, g in given.items()}
-
-
-def _check_writable(flag: str, folder: Path) -> None:
-    # creating a file is the only reliable test (permissions, ACLs, read-only mounts, root)
-    try:
-        fd, probe = tempfile.mkstemp(prefix=".warpvol-probe.", dir=folder)
-    except OSError as e:
-        raise ConfigError(f"{flag}: cannot write into folder {folder}: {e.strerror or e}") from None
-    os.close(fd)
-    os.unlink(probe)
-
-
-def scene_inputs(spec: str) -> list[tuple[Path, str]]:
-    """The files a scene reads (:func:`warpvol.scene.scene_file.scene_files`); ``[]`` for a built-in, and for a
-    scene file that cannot be read (loading it then says why)."""
-    from warpvol.scene.scene_file import scene_files
-
-    if spec.startswith("builtin:"):
-        return []
-    try:
-        return scene_files(spec)
-    except ConfigError:
-        return []
-
-
-def pipeline_inputs(names) -> list[tuple[Path, str]]:
-    """The pipeline files among preset names and files."""
-    from warpvol.pipeline import _preset_files
-
-    presets = _preset_files()
-    names = [names] if isinstance(names, (str, Path)) else list(names or [])
-    return [(Path(n), "pipeline file") for n in map(str, names) if n not in presets and Path(n).is_file()]
-
-
-#: conservative bytes per pixel of one render's buffers (measured on `raycast`, 4096^2: ray state and
-#: image 44 B/px, + PNG preview 77 B/px; error metrics hold ~4 float64 RGBA images at their peak)
-BYTES_PER_PIXEL = {"render": 64, "png": 128, "reference": 192, "error_image": 160}
-#: Warp launches index pixels with int32
-MAX_PIXELS = 2**31 - 1
-
-
 def _available_memory() -> int | None:
-    """Bytes of memory available to this process now (:func:`warpvol.io.available_memory`)."""
+    """Bytes of memory available to this process now (:func:`warpvol.io.available_memory`), for the memory
+    checks of :mod:`warpvol.cli_checks`."""
     from warpvol.io import available_memory
 
     return available_memory()
-
-
-def check_image_memory(camera, parts: list[str], flag: str = "--width/--height") -> None:
-    """Refuse an image too large to index or to hold in memory, before any work on it."""
-    w, h = camera.width_px, camera.height_px
-    n = w * h
-    if n > MAX_PIXELS:
-        raise ConfigError(f"{flag}: {w}x{h} = {n} pixels; at most {MAX_PIXELS} (int32 pixel indices)")
-    need = n * sum(BYTES_PER_PIXEL[p] for p in parts)
-    have = _available_memory()
-    if have is not None and need > have:
-        raise ConfigError(f"{flag}: a {w}x{h} image needs about {_size(need)} for this run "
-                          f"({need // n} bytes per pixel), more than the {_size(have)} of memory "
-                          "available; render a smaller image")
-
-
-def out_of_memory(scene, parts: list[str], what: str) -> ConfigError:
-    """The error for a ``MemoryError`` raised by ``what`` (e.g. "rendering with raycast") on ``scene``:
-    names the image when its buffers are a large share of the memory there is, else the mesh."""
-    cam, m = scene.camera, scene.mesh
-    w, h = cam.width_px, cam.height_px
-    need = w * h * sum(BYTES_PER_PIXEL[p] for p in parts)
-    have = _available_memory()
-    image = f"a {w}x{h} image (about {_size(need)})"
-    mesh = f"the mesh of {scene.name} ({m.n_tets:,} tets, {m.n_points:,} points)"
-    if have is not None and need > have // 4:
-        return ConfigError(f"out of memory {what}: {image} with {mesh} does not fit in the {_size(have)} available; "
-                           "render a smaller image (--width/--height)")
-    return ConfigError(f"out of memory {what}: {mesh} and the buffers built from it do not fit in the memory "
-                       f"available{'' if have is None else f' ({_size(have)})'}; {image} is not the problem: "
-                       "use a smaller or subsampled mesh")
-
-
-def _size(nbytes: int) -> str:
-    return f"{nbytes / 2**30:.1f} GiB" if nbytes >= 2**30 else f"{nbytes / 2**20:.0f} MiB"
-
-
-def _check_bands(args) -> None:
-    """``--scheduler`` / ``--bands`` / ``--workers``, checked before any work."""
-    if args.scheduler is None:
-        for flag, v in (("--bands", args.bands), ("--workers", args.workers)):
-            if v is not None:
-                raise ConfigError(f"{flag}: only used with --scheduler")
-        return
-    if args.scheduler != "local" and "://" not in args.scheduler:
-        raise ConfigError(f"--scheduler: expected 'local' or a Dask scheduler address such as tcp://HOST:8786, "
-                          f"got {args.scheduler!r}")
-    if args.bands is not None and args.bands < 1:
-        raise ConfigError(f"--bands: expected an integer >= 1, got {args.bands}")
-    if args.workers is not None and args.workers < 1:
-        raise ConfigError(f"--workers: expected an integer >= 1, got {args.workers}")
 
 
 def cmd_render(args) -> int:
@@ -203,16 +78,16 @@ def cmd_render(args) -> int:
     if args.scheduler is not None and not args.compute_reference:
         raise ConfigError("--scheduler: spreads the reference of --compute-reference over a Dask cluster; "
                           "give --compute-reference too")
-    _check_bands(args)
+    check_bands(args)
     check_inputs(scene_inputs(args.scene) + pipeline_inputs([args.pipeline])
                  + ([(Path(args.reference), "--reference image")] if args.reference else []), outs)
-    _check_sizes(args)
+    check_sizes(args)
     pipe = Pipeline.load(args.pipeline, device=args.device)
     ref = read_exr(args.reference) if args.reference else None
     scene = _load_scene(args.scene, args)
     check_image_memory(scene.camera, ["render"] + (["png"] if args.png else [])
                        + (["reference"] if ref is not None or args.compute_reference else [])
-                       + (["error_image"] if args.error_image else []))
+                       + (["error_image"] if args.error_image else []), _available_memory())
     if ref is not None:
         want = (scene.camera.height_px, scene.camera.width_px, 4)
         if ref.shape != want:
@@ -222,7 +97,7 @@ def cmd_render(args) -> int:
     try:
         res = pipe.render(scene, reference=ref, quiet=args.quiet, gpu=args.gpu)
     except MemoryError:
-        raise out_of_memory(scene, ["render"], f"rendering with {pipe.name}") from None
+        raise out_of_memory(scene, ["render"], f"rendering with {pipe.name}", _available_memory()) from None
     if args.compute_reference:
         res.report["reference_s"] = ref_s
     # all outputs or none: each is written beside its target, then all are renamed together
@@ -236,10 +111,6 @@ def cmd_render(args) -> int:
             out.text(outs["--report"], report_json(res.report))
     _summary(res.report)
     return 0
-
-
-#: ``-o`` of render and reference: an OpenEXR image, or the 8-bit PNG preview as the image
-IMAGE_OUTPUT = {"-o": (".exr", ".png")}
 
 
 def _write_image(out, path: Path, image, background=(0.0, 0.0, 0.0)) -> None:
@@ -276,14 +147,14 @@ def cmd_reference(args) -> int:
 
     out = check_outputs({"-o": args.output}, IMAGE_OUTPUT)["-o"]
     check_inputs(scene_inputs(args.scene), {"-o": out})
-    _check_sizes(args)
-    _check_bands(args)
+    check_sizes(args)
+    check_bands(args)
     scene = _load_scene(args.scene, args)
-    check_image_memory(scene.camera, ["reference"])
+    check_image_memory(scene.camera, ["reference"], _available_memory())
     try:
         img, dt = compute_reference(scene, args.quiet, args.scheduler, args.bands, args.workers or 2)
     except MemoryError:
-        raise out_of_memory(scene, ["reference"], "computing the reference") from None
+        raise out_of_memory(scene, ["reference"], "computing the reference", _available_memory()) from None
     with Outputs() as staged:
         _write_image(staged, out, img)
     print(f"reference: {dt:.2f} s, {scene.camera.width_px}x{scene.camera.height_px}, {scene.mesh.n_tets} tets -> {out}")
@@ -324,16 +195,16 @@ def cmd_demo(args) -> int:
 
     if args.scene not in BUILTIN_SCENES:
         raise ConfigError(f"--scene: unknown built-in scene {args.scene!r}; allowed: {', '.join(BUILTIN_SCENES)}")
-    _check_sizes(args)
+    check_sizes(args)
     outdir = Path(args.output)
     if outdir.exists() and not outdir.is_dir():
         raise ConfigError(f"-o: {outdir} exists and is not a folder")
     pipe = Pipeline.load(args.pipeline or DEFAULT_PIPELINE, device=args.device)
     scene = builtin_scene(args.scene)
     scene.camera = scene.camera.replace(width_px=args.size, height_px=args.size)
-    check_image_memory(scene.camera, ["render", "png", "reference", "error_image"], "--size")
+    check_image_memory(scene.camera, ["render", "png", "reference", "error_image"], _available_memory(), "--size")
     outdir.mkdir(parents=True, exist_ok=True)
-    _check_writable("-o", outdir)
+    check_writable("-o", outdir)
     OwnedFiles(outdir, "demo").claim(DEMO_FILES)  # a user's own file of one of these names is left alone
     print(f"demo: scene {args.scene!r} ({scene.mesh.n_tets} tets, {args.size}x{args.size}), "
           f"pipeline {pipe.name!r}", file=sys.stderr)
@@ -359,29 +230,15 @@ def cmd_demo(args) -> int:
     return 0
 
 
-def _folder_outputs(outdir: Path, rels: list[str]) -> dict[str, Path]:
-    return {f"-o ({r})": outdir / r for r in rels}
-
-
 def _note(quiet: bool):
     return lambda text: None if quiet else print(f"warpvol: {text}", file=sys.stderr)
-
-
-def _outdir(path: str) -> Path:
-    """An output folder: created if missing, refused if a file, checked writable."""
-    p = Path(path)
-    if p.exists() and not p.is_dir():
-        raise ConfigError(f"-o: {p} exists and is not a folder")
-    p.mkdir(parents=True, exist_ok=True)
-    _check_writable("-o", p)
-    return p
 
 
 def cmd_bench(args) -> int:
     from warpvol.tools.bench import check_gpu, gpu_support, load_pipelines, resolve_pipelines, run_bench, write_bench
     from warpvol.tools.report_html import table_markdown
 
-    _check_sizes(args)
+    check_sizes(args)
     check_number("--repeats", args.repeats, lo=1, integer=True)
     names = resolve_pipelines(args.pipelines)
     pipes = load_pipelines(names, args.device, quick=args.quick)  # bad names fail first
@@ -394,10 +251,10 @@ def cmd_bench(args) -> int:
     keys = pipeline_keys(pipes)
     rels = [f"{ROW_DIR}/{row_stem(k)}{ext}" for k in keys for ext in (".json", ".npy")] + list(BENCH_FILES) \
         + (list(BENCH_MODELLED_FILES) if args.gpu else [])
-    check_inputs(scene_inputs(args.scene) + pipeline_inputs(names), _folder_outputs(Path(args.output), rels))
+    check_inputs(scene_inputs(args.scene) + pipeline_inputs(names), folder_outputs(Path(args.output), rels))
     scene = _load_scene(args.scene, args)
-    check_image_memory(scene.camera, ["render", "png", "reference", "error_image"])
-    outdir = _outdir(args.output)
+    check_image_memory(scene.camera, ["render", "png", "reference", "error_image"], _available_memory())
+    outdir = output_folder(args.output)
     if args.gpu and gpu_support(args.gpu):
         print(f"warpvol: {gpu_support(args.gpu)}", file=sys.stderr)
     # only files bench wrote (recorded in -o's manifest) are replaced or deleted, nothing before all is checked
@@ -429,12 +286,12 @@ def cmd_bench(args) -> int:
 def cmd_plan(args) -> int:
     from warpvol.tools.bench import bench_pipeline, load_pipelines
 
-    _check_sizes(args)
+    check_sizes(args)
     check_number("--repeats", args.repeats, lo=1, integer=True)
     pipes = load_pipelines(args.pipeline, args.device, flag="--pipeline")
     scenes = [_load_scene(s, args) for s in args.scene]
     for scene in scenes:
-        check_image_memory(scene.camera, ["render"])
+        check_image_memory(scene.camera, ["render"], _available_memory())
     for scene, pipe in ((sc, p) for sc in scenes for p in pipes):
         print(f"{pipe.name} on {scene.name}:")
         for s in pipe.plan(scene):
@@ -475,8 +332,8 @@ def cmd_stress(args) -> int:
     saved, save = {}, None
     if args.output:  # each case's rows are saved as it finishes: an interrupted suite loses nothing
         rels = [f"{CASE_DIR}/{n}.json" for n in names] + list(STRESS_FILES)
-        check_inputs(pipeline_inputs(pipe_names), _folder_outputs(Path(args.output), rels))
-        outdir = _outdir(args.output)
+        check_inputs(pipeline_inputs(pipe_names), folder_outputs(Path(args.output), rels))
+        outdir = output_folder(args.output)
         # only files stress wrote (recorded in -o's manifest) are replaced or deleted
         owned = OwnedFiles(outdir, "stress")
         owned.check(rels)
@@ -525,8 +382,8 @@ def cmd_sweep(args) -> int:
     rels = [f"tasks/{t.key}{ext}" for t in plan_tasks(cfg)[0] for ext in (".json", ".npy")] + list(SWEEP_FILES)
     inputs = [(Path(args.config), "sweep config")] + [f for sc in cfg.scenes for f in scene_inputs(sc)] \
         + pipeline_inputs(cfg.presets)
-    check_inputs(inputs, _folder_outputs(Path(args.output), rels))
-    outdir = _outdir(args.output)
+    check_inputs(inputs, folder_outputs(Path(args.output), rels))
+    outdir = output_folder(args.output)
     OwnedFiles(outdir, "sweep").claim(rels)  # only files sweep wrote are replaced
     res = run_sweep(cfg, outdir, scheduler=args.scheduler, workers=args.workers, serial=args.serial, quiet=args.quiet,
                     progress=args.progress)
