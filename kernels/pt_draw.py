@@ -38,15 +38,16 @@ wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 @wp.func
 def clamp8(x: vec8f, lo: vec8f, hi: vec8f, tol: vec8f):
     """Each attribute clamped into its triangle's vertex range, and 1 if that moved one by more than
-    rounding, else 0 (the values and the test of :func:`~warpvol.kernels.pt.clamp_attr`)."""
-    y = vec8f()
+    rounding, else 0 (the values and the test of :func:`~warpvol.kernels.pt.clamp_attr`). The clamp is
+    ``wp.clamp``'s ``fmin(fmax(lo, x), hi)`` on all eight at once; the per-attribute test runs only
+    when one moved (a move of more than ``CLAMP_ABS`` leaves a nonzero square)."""
+    y = wp.min(wp.max(lo, x), hi)
     m = int(0)
-    for k in range(8):  # constant trip count: unrolled, register indexing
-        v = wp.clamp(x[k], lo[k], hi[k])
-        if v != x[k]:  # rare: only then the distance test
-            if wp.abs(v - x[k]) > tol[k] + CLAMP_ABS:
-                m = 1
-        y[k] = v
+    if not (wp.length_sq(y - x) == 0.0):  # rare: only then the distance test
+        for k in range(8):
+            if y[k] != x[k]:
+                if wp.abs(y[k] - x[k]) > tol[k] + CLAMP_ABS:
+                    m = 1
     return y, m
 
 
@@ -130,9 +131,10 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
         si = edge_step_i(s, t)
         for i in range(i0, i1 + 1):
             ee = row
+            ry = gy * (float(i) + 0.5 - pa[1])  # the row's term, as the sum below adds it last
             for j in range(j0, j1 + 1):
                 if inside(ee):
-                    x = a0 + gx * (float(j) + 0.5 - pa[0]) + gy * (float(i) + 0.5 - pa[1])
+                    x = a0 + gx * (float(j) + 0.5 - pa[0]) + ry
                     a, moved = clamp8(x, lo, hi, tol)
                     nfrag += 1
                     nclamp += moved

@@ -1,6 +1,7 @@
 """pt_best's fragment colour (kernels/pt.py exact_color, one-piece shortcut) against the shared
 integrator it stands for: the same bits as integrate_segment on segments within one TF interval,
-crossing control points, ending on them, outside the TF's range, of zero or negative length."""
+crossing control points, ending on them, outside the TF's range, of zero or negative length; the
+fused draw's eight-wide attribute clamp (kernels/pt_draw.py clamp8) against clamp_attr."""
 
 import numpy as np
 import pytest
@@ -8,6 +9,7 @@ import warp as wp
 
 from warpvol.kernels import integrate as ki
 from warpvol.kernels import pt as kpt
+from warpvol.kernels import pt_draw as kpd
 from warpvol.scene.transfer import TransferFunction
 
 
@@ -61,3 +63,52 @@ def test_exact_color_bit_identical_to_integrate_segment(emission):
     assert (ku[0] == ku[1]).sum() > n // 10 and (np.abs(ku[0] - ku[1]) >= 2).sum() > n // 10
     assert (w[:, 3] > 0.5).sum() > n // 20  # optically thick segments too
     assert np.array_equal(g, w)
+
+
+@wp.kernel
+def k_clamps(x: wp.array2d(dtype=float), v: wp.array3d(dtype=float), got: wp.array2d(dtype=float),
+             got_m: wp.array(dtype=int), want: wp.array2d(dtype=float), want_m: wp.array(dtype=int)):
+    i = wp.tid()
+    xv = kpt.vec8f()
+    a0 = kpt.vec8f()
+    a1 = kpt.vec8f()
+    a2 = kpt.vec8f()
+    m = int(0)
+    for k in range(8):
+        xv[k] = x[i, k]
+        a0[k] = v[i, 0, k]
+        a1[k] = v[i, 1, k]
+        a2[k] = v[i, 2, k]
+        y, m = kpt.clamp_attr(x[i, k], v[i, 0, k], v[i, 1, k], v[i, 2, k], m)
+        want[i, k] = y
+    want_m[i] = m
+    lo = wp.min(a0, wp.min(a1, a2))
+    hi = wp.max(a0, wp.max(a1, a2))
+    c, moved = kpd.clamp8(xv, lo, hi, kpt.CLAMP_REL * (hi - lo))
+    for k in range(8):
+        got[i, k] = c[k]
+    got_m[i] = moved
+
+
+def test_clamp8_matches_clamp_attr():
+    rng = np.random.default_rng(3)
+    n = 20_000
+    v = rng.normal(0.0, 1.0, (n, 3, 8)).astype(np.float32)
+    v[rng.random((n, 3, 8)) < 0.05] = 0.0
+    lo, hi = v.min(axis=1), v.max(axis=1)
+    # inside, a rounding beyond the range, well beyond, on the ends, signed zeros, infinities, NaN
+    x = lo + (hi - lo) * rng.uniform(-0.02, 1.02, (n, 8)).astype(np.float32)
+    r = rng.random((n, 8))
+    x[r < 0.1] = np.nextafter(hi[r < 0.1], np.float32(np.inf))
+    x[(r >= 0.1) & (r < 0.15)] = lo[(r >= 0.1) & (r < 0.15)]
+    x[(r >= 0.15) & (r < 0.17)] = -0.0
+    x[(r >= 0.17) & (r < 0.18)] = np.inf
+    x[(r >= 0.18) & (r < 0.19)] = np.nan
+    x = x.astype(np.float32)
+    got, want = wp.zeros((n, 8), dtype=float), wp.zeros((n, 8), dtype=float)
+    got_m, want_m = wp.zeros(n, dtype=int), wp.zeros(n, dtype=int)
+    wp.launch(k_clamps, dim=n, inputs=[wp.array(x), wp.array(v), got, got_m, want, want_m], device="cpu")
+    g, w = got.numpy(), want.numpy()
+    assert np.array_equal(g.view(np.int32), w.view(np.int32))  # bits, signed zeros included
+    assert np.array_equal(got_m.numpy(), want_m.numpy())
+    assert 0 < want_m.numpy().sum() < n  # some fragments moved, not all
