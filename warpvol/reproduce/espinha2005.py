@@ -216,8 +216,11 @@ def table3(runs: dict, size: int = 512) -> dict:
     return table(f"Table 3 at {size}x{size}: HARC with full and partial pre-integration, min-max over viewpoints",
                  T3_COLUMNS, rows,
                  "rel = speed / HARC-Full. Emulated: the CPU emulation's wall time on this machine. Modelled: "
-                 f"the {PROFILE} profile, one rate per fragment-program step whatever it computes, so modelled "
-                 "partial/full ratios follow the step counts only. " + calibrations(PROFILE))
+                 f"the {PROFILE} profile: each pass's fragment-program loop priced per issue slot from its "
+                 "instruction listing (warpvol.gpu.programs: the shared plane walk, + one 3D lookup and 4 "
+                 "instructions for the full table, + the TF, psi and iso lookups and 37 instructions per partial "
+                 "sub-step), so modelled partial/full ratios follow the instructions and fetches issued. "
+                 + calibrations(PROFILE))
 
 
 def fig8(size: int = 256, *, out=None, device="cpu") -> dict:
