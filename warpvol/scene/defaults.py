@@ -44,8 +44,11 @@ DEFAULT_DEPTH = 2.0
 #: control points of a colour-map transfer function (colours sampled uniformly over the range)
 COLORMAP_POINTS = 33
 
-#: ParaView presets known by name (values as in ParaView's ColorMaps.json, scalar range 0..1 or as
-#: there; rescaled to the data range). ParaView's "(matplotlib)" maps and "Turbo" are matplotlib's.
+#: ParaView presets known by name (values as in ParaView's Remoting/Views/ColorMaps.json, scalar range
+#: 0..1 or as there; rescaled to the data range), each compared entry by entry with that file: equal.
+#: "Red to Blue Rainbow" is the pre-5.9 entry (ParaView 5.9 dropped it for the reverse of "Blue to Red
+#: Rainbow", the same map). ParaView's "(matplotlib)" maps (newer ParaView: plain "Viridis" ...) and
+#: "Turbo" are matplotlib's.
 PARAVIEW_PRESETS: dict[str, dict] = {
     "Cool to Warm": {"ColorSpace": "Diverging", "RGBPoints": [
         0.0, 0.23137254902, 0.298039215686, 0.752941176471, 0.5, 0.865, 0.865, 0.865,
