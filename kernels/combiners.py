@@ -21,8 +21,8 @@ sums), ``max s_i`` on the combiners (their [-1, 1] range does not: the sum is ke
 import warp as wp
 
 from .formats import reg_fixed
-from .pt import axis_coord, fragment_sfsbl
-from .texture import Atlas, Tex1D, atlas_sample, tex1d
+from .pt import guthe_fetch
+from .texture import Atlas, Tex1D, atlas_sample
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -55,14 +55,10 @@ def k_frag_guthe_fixed(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: in
                        rng: float, unit: float, out: wp.array(dtype=wp.vec4)):
     """Guthe et al. 2002 fragment program in fixed-point register arithmetic (module docstring);
     the texture fetches and the dependent alpha1D coordinate ``x rho_hat`` are those of
-    ``k_frag_guthe`` (texture-address unit, fp32)."""
+    ``k_frag_guthe`` (:func:`~warpvol.kernels.pt.guthe_fetch`)."""
     f = wp.tid()
-    a = fragment_sfsbl(attrs, f, mode, ortho, z_off)
-    u = axis_coord((a[0] - s_off) * s_inv, s_a, s_b, 0)
-    v = axis_coord((a[1] - s_off) * s_inv, s_a, s_b, 0)
-    x = wp.clamp(a[2] * l_inv, 0.0, 1.0)
-    t0 = atlas_sample(coef, 0, u, v)
-    alpha = tex1d(alpha1d, (x * t0[3]) * a_a + a_b)[0]
+    u, v, x, t0, alpha = guthe_fetch(attrs, f, mode, ortho, z_off, coef, alpha1d, s_off, s_inv, s_a, s_b, l_inv,
+                                     a_a, a_b)
     xq = reg_fixed(x, rng, unit)
     acc = reg3(wp.vec3(t0[0], t0[1], t0[2]) * w[0], rng, unit)
     xi = float(1.0)

@@ -476,21 +476,34 @@ def k_frag_table3d(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: int, z
     out[f] = tex3d(tex, u, v, r)
 
 
-@wp.kernel
-def k_frag_guthe(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: int, z_off: float, coef: Atlas,
-                 alpha1d: Tex1D, s_off: float, s_inv: float, s_a: float, s_b: float, l_inv: float, a_a: float, a_b: float,
-                 degree: int, scale: wp.array(dtype=wp.vec3), out: wp.array(dtype=wp.vec4)):
-    """Guthe et al. 2002: tile 0 of ``coef`` holds ``(C~_0, rho_hat / rho_max)``, tile i ``C~_i``
-    (i = 1..degree), each a bilinear 2D lookup at (sf, sb); ``alpha = alpha1D(x rho_hat)`` by a
-    dependent 1D lookup (``x = l / lmax`` clamped to [0, 1], texel-centre map ``a_a x + a_b``);
-    ``C = alpha sum_i x^i C~_i scale_i``; the output register clamps to [0, 1]."""
-    f = wp.tid()
+@wp.func
+def guthe_fetch(attrs: wp.array2d(dtype=wp.float32), f: int, mode: int, ortho: int, z_off: float, coef: Atlas,
+                alpha1d: Tex1D, s_off: float, s_inv: float, s_a: float, s_b: float, l_inv: float, a_a: float,
+                a_b: float):
+    """The texture work of Guthe et al.'s fragment program for fragment ``f`` (texture-address unit,
+    fp32), shared by the fp32 and the fixed-point register programs: ``(u, v, x, t0, alpha)`` -- the
+    (sf, sb) coordinates of the coefficient tiles, ``x = l / lmax`` clamped to [0, 1], tile 0's texel
+    ``(C~_0, rho_hat / rho_max)`` and ``alpha = alpha1D(x rho_hat)`` (texel-centre map ``a_a x + a_b``)."""
     a = fragment_sfsbl(attrs, f, mode, ortho, z_off)
     u = axis_coord((a[0] - s_off) * s_inv, s_a, s_b, 0)
     v = axis_coord((a[1] - s_off) * s_inv, s_a, s_b, 0)
     x = wp.clamp(a[2] * l_inv, 0.0, 1.0)
     t0 = atlas_sample(coef, 0, u, v)
     alpha = tex1d(alpha1d, (x * t0[3]) * a_a + a_b)[0]
+    return u, v, x, t0, alpha
+
+
+@wp.kernel
+def k_frag_guthe(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: int, z_off: float, coef: Atlas,
+                 alpha1d: Tex1D, s_off: float, s_inv: float, s_a: float, s_b: float, l_inv: float, a_a: float, a_b: float,
+                 degree: int, scale: wp.array(dtype=wp.vec3), out: wp.array(dtype=wp.vec4)):
+    """Guthe et al. 2002: tile 0 of ``coef`` holds ``(C~_0, rho_hat / rho_max)``, tile i ``C~_i``
+    (i = 1..degree), each a bilinear 2D lookup at (sf, sb); ``alpha = alpha1D(x rho_hat)`` by a
+    dependent 1D lookup (:func:`guthe_fetch`); ``C = alpha sum_i x^i C~_i scale_i``; the output
+    register clamps to [0, 1]."""
+    f = wp.tid()
+    u, v, x, t0, alpha = guthe_fetch(attrs, f, mode, ortho, z_off, coef, alpha1d, s_off, s_inv, s_a, s_b, l_inv,
+                                     a_a, a_b)
     s0 = scale[0]
     c = wp.vec3(t0[0] * s0[0], t0[1] * s0[1], t0[2] * s0[2])
     xi = float(1.0)
