@@ -4,11 +4,12 @@ batches. vsbuffer_best stays within its tolerance row or says in its report what
 
 import numpy as np
 import pytest
-import pyvista as pv
 
 import warpvol
+from warpvol.metrics import image_error
 from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.transfer import TransferFunction
+from warpvol.tools.stress_real import jittered_hex_grid
 from warpvol.vsbuffer.vsbuffer import BATCH_PIXELS, ConvexCellMesh, render_vsbuffer
 
 from helpers import box_mesh, merge
@@ -18,19 +19,8 @@ TOL = TOLERANCES["vsbuffer/vsbuffer_best"]
 
 
 def _err(img, ref):
-    return float(np.sqrt(((img - ref) ** 2).mean())), float(np.abs(img - ref).max())
-
-
-def _jittered_hexes(jitter, seed):
-    """An unstructured grid of 5x4x4 hexahedra, every point moved by up to ``jitter`` of the spacing."""
-    x, y, z = np.linspace(-1, 1, 6), np.linspace(-0.9, 0.9, 5), np.linspace(-0.8, 0.8, 5)
-    X, Y, Z = np.meshgrid(x, y, z, indexing="ij")
-    sp = np.array([x[1] - x[0], y[1] - y[0], z[1] - z[0]])
-    P = np.stack([X, Y, Z], -1) + np.random.default_rng(seed).uniform(-jitter, jitter, X.shape + (3,)) * sp
-    g = pv.StructuredGrid(P[..., 0], P[..., 1], P[..., 2]).cast_to_unstructured_grid()
-    p = np.asarray(g.points)
-    g.point_data["s"] = 0.4 + 0.3 * p[:, 0] - 0.2 * p[:, 1] * p[:, 2]
-    return g
+    e = image_error(img, ref)
+    return e["rmse"], e["max_abs"]
 
 
 TF_HEX = TransferFunction([[0.0, 1.0, 0.1, 0.0, 9.0], [0.4, 0.0, 1.0, 0.1, 0.5], [0.8, 0.1, 0.0, 1.0, 9.0]],
@@ -40,7 +30,7 @@ CAM_HEX = warpvol.Camera(projection="orthographic", eye=(2.2, 1.7, 3.1), target=
 
 
 def test_nonplanar_hexahedra_drawn_as_tets():
-    g = _jittered_hexes(0.2, 3)
+    g = jittered_hex_grid(0.2, 3)
     mesh = warpvol.TetMesh.from_pyvista(g, "s")
     ref = render_reference(mesh, TF_HEX, CAM_HEX)
     r = warpvol.render(g, TF_HEX, CAM_HEX, scalars="s", pipeline="vsbuffer_best", reference=False, quiet=True)
@@ -56,7 +46,7 @@ def test_nonplanar_hexahedra_drawn_as_tets():
 
 
 def test_planar_hexahedra_stay_whole():
-    g = _jittered_hexes(0.0, 0)
+    g = jittered_hex_grid(0.0, 0)
     r = warpvol.render(g, TF_HEX, CAM_HEX.replace(width_px=8, height_px=8), scalars="s", pipeline="vsbuffer_best",
                        reference=False, quiet=True)
     st = r.report["stats"]["vsb_setup"]

@@ -176,13 +176,11 @@ def thin_layer_cases(simple, with_ref, sc) -> None:
                         "huge_zoom"))
 
 
-def _jittered_hexes(jitter: float, seed: int):
-    """A 6x5x5-point grid of hexahedra (unstructured, split by the loader with the cells recorded), every
+def jittered_hex_grid(jitter: float, seed: int):
+    """A pyvista unstructured grid of 5x4x4 hexahedra (6x5x5 points) with point scalars ``"s"``, every
     point moved by up to ``jitter`` of the spacing: faces non-planar, many cells no longer convex."""
     import numpy as np
     import pyvista as pv
-
-    from warpvol.scene.mesh import TetMesh
 
     x, y, z = np.linspace(-1, 1, 6), np.linspace(-0.9, 0.9, 5), np.linspace(-0.8, 0.8, 5)
     X, Y, Z = np.meshgrid(x, y, z, indexing="ij")
@@ -191,7 +189,14 @@ def _jittered_hexes(jitter: float, seed: int):
     g = pv.StructuredGrid(P[..., 0], P[..., 1], P[..., 2]).cast_to_unstructured_grid()
     p = np.asarray(g.points)
     g.point_data["s"] = 0.4 + 0.3 * p[:, 0] - 0.2 * p[:, 1] * p[:, 2]
-    return TetMesh.from_pyvista(g, "s")
+    return g
+
+
+def _jittered_hexes(jitter: float, seed: int):
+    """:func:`jittered_hex_grid` as a mesh (split by the loader into tets, the cells recorded)."""
+    from warpvol.scene.mesh import TetMesh
+
+    return TetMesh.from_pyvista(jittered_hex_grid(jitter, seed), "s")
 
 
 def sweep_cases(simple, with_ref, sc) -> None:
