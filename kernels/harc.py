@@ -357,6 +357,7 @@ def harc_march(
     last: wp.array(dtype=wp.int32),
     counters: wp.array2d(dtype=wp.int32),
     chunk: int,
+    px_work: wp.array(dtype=wp.vec2i),
 ):
     tid = wp.tid()
     idx = row0 * width + tid
@@ -572,6 +573,7 @@ def harc_march(
     wp.atomic_add(counters, chunk, 1, steps)
     wp.atomic_add(counters, chunk, 2, cells_visited)
     wp.atomic_add(counters, chunk, 6, fetches)
+    px_work[idx] = wp.vec2i(cells_visited, steps)  # this pixel's loop work in this pass (one thread per pixel)
     if backward == 1:
         wp.atomic_add(counters, chunk, 9, 1)
     if failed == 1 and setup == SETUP_PAPER:

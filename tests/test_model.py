@@ -182,8 +182,14 @@ def test_loop_groups_price_issue_slots_and_fp16_readback_rebinds():
     n = 1000
     c_full = {"cell_steps": n, "combiner_ops": n * 34, "tex_2d_rgba32f_nearest": 6 * n, "tex_3d_rgba8_linear": n}
     r = model_counters(c_full, p)
-    assert r["s"] == pytest.approx(41 * n / 1.575e9, rel=1e-12) and r["bound"] == "shader"
-    # the exact walk without a program: cell_step_rate = loop_issue_rate / 41 slots
+    assert r["s"] == pytest.approx(41 * n / 1.920e9, rel=1e-12) and r["bound"] == "shader"
+    # lock-step batches: the loop runs as long as each batch's longest ray (slots as batched / as run)
+    r2 = model_counters({**c_full, "loop_slots": 41 * n, "loop_slots_batch1024": 50 * n}, p)
+    assert r2["s"] == pytest.approx(50 * n / 1.920e9, rel=1e-12)
+    # ... only on a card whose fragment processor runs such batches (its cap names the batch size)
+    p.caps.pop("fragment_batch_pixels")
+    assert model_counters({**c_full, "loop_slots": 41 * n, "loop_slots_batch1024": 50 * n}, p)["s"] == r["s"]
+    # the exact walk without a program: cell_step_rate = loop_issue_rate / 41 slots / the calibration's 1.219
     assert model_counters({"cell_steps": n}, p)["s"] == pytest.approx(n / 38.41e6, rel=1e-12)
     q = load_profile("quadro_fx3000")
     base = {"fragments": 1000, "tex_3d_rgba8_linear": 1000, "combiner_ops": 18_000}

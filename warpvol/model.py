@@ -39,7 +39,9 @@ Programmable fragment pipes whose texture fetches take an issue slot of the prog
 ``fragment_issue = "shared"``: the NV3x) add the texture unit's time to the shader's instead of
 overlapping them. A group that runs a fragment-program loop (``cell_steps`` with ``combiner_ops``: the
 HARC walks, whose instructions per iteration come from :mod:`warpvol.gpu.programs`) prices every
-instruction and fetch of the loop as one issue slot at ``loop_issue_rate``; ``cell_steps`` alone (the
+instruction and fetch of the loop as one issue slot at ``loop_issue_rate``, times the loop's lock-step
+factor on a card whose fragment processor runs pixel batches in lock-step (cap ``fragment_batch_pixels``:
+each batch runs until its longest ray is done; :func:`loop_lockstep`); ``cell_steps`` alone (the
 exact walks) use ``cell_step_rate``. ``fb_texture_rebinds`` (colour buffer rebound as a texture with a
 fence, Kraus' fp16 read-back path) cost ``fb_rebind_s`` each, serially.
 
@@ -92,7 +94,10 @@ INFORMATIONAL = frozenset({"fragments_passed", "primitives", "primitives_culled"
                            "dependent_lookups", "segment_integrals", "graph_edges", "cycles_broken",
                            
                            # VSBUFFER: the paper's "drawn tetra" (the work is counted as vertices)
-                           "drawn_cells"})
+                           "drawn_cells",
+                           # a HARC loop's issue slots per pixel, as run and in lock-step batches (they scale
+                           # the loop's instructions and fetches: loop_lockstep)
+                           "loop_slots", "loop_slots_batch1024"})
 HOST_RATES = {"sw_samples": "sw_sample_rate", "host_texels": "host_texel_rate", "cells_sorted": "cell_sort_rate",
               "host_cell_steps": "host_cell_rate"}
 _TEX = re.compile(r"^tex_(\d)d_([a-z0-9]+)_(nearest|linear)$")
@@ -176,6 +181,16 @@ def _group(counters: dict[str, int]) -> dict[str, dict[str, int]]:
     return groups
 
 
+def loop_lockstep(c: dict[str, int], profile: Profile) -> float:
+    """How much longer a fragment-program loop runs on a card whose fragment processor runs batches of
+    pixels in lock-step (profile cap ``fragment_batch_pixels``) than its rays' own work: the counted
+    ``loop_slots_batch<N>`` (each batch as long as its longest ray) over ``loop_slots``; 1 where the
+    card or the counters give no batch."""
+    n = profile.cap("fragment_batch_pixels")
+    run, batched = c.get("loop_slots"), c.get(f"loop_slots_batch{n}") if n else None
+    return batched / run if run and batched else 1.0
+
+
 def model_counters(counters: dict[str, int], profile: Profile) -> dict[str, Any]:
     """Modelled seconds of one stage's counters: ``{"s", "gpu_s", "host_s", "bound", "units", "unmodelled"}``.
 
@@ -198,12 +213,14 @@ def model_counters(counters: dict[str, int], profile: Profile) -> dict[str, Any]
                 units[unit] += work / r
 
         loop = bool(c.get("cell_steps")) and bool(c.get("combiner_ops"))  # a fragment-program loop (HARC)
+        lockstep = loop_lockstep(c, profile) if loop else 1.0
         for k, v in c.items():
             if not v or k in INFORMATIONAL:
                 continue
             if loop and (k == "combiner_ops" or _TEX.match(k)):
-                # every instruction and fetch of the loop body takes an issue slot of the looping fragment
-                use("shader", v, "loop_issue_rate", key=k)
+                # every instruction and fetch of the loop body takes an issue slot of the looping fragment,
+                # for as long as the longest ray of its lock-step batch runs
+                use("shader", v * lockstep, "loop_issue_rate", key=k)
                 continue
             if loop and k == "cell_steps":
                 continue  # priced by the body's instructions

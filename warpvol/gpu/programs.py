@@ -16,6 +16,10 @@ arithmetic per sub-step -- rather than the exact count a 2005 compiler emitted.
 (30, 6)
 >>> n_alu(FULL), n_tex(FULL), n_alu(PARTIAL_SUB), n_tex(PARTIAL_SUB)
 (4, 1, 37, 4)
+
+A fragment processor of the NV4x generation runs a program on batches of about a thousand pixels
+in lock-step: a loop runs until the batch's longest ray is done, and the pixels that finished
+earlier idle (:func:`batched_slots`).
 """
 
 from __future__ import annotations
@@ -127,3 +131,33 @@ def n_tex(listing: str) -> int:
 def n_alu(listing: str) -> int:
     """Arithmetic and flow-control instructions (every line that is not a ``TEX``) of a listing."""
     return sum(1 for ln in _lines(listing) if not ln.startswith("TEX"))
+
+
+#: pixels per lock-step batch of an NV4x fragment processor, taken as 32 x 32 screen tiles ("NV4x ~1K pixels":
+#: AnandTech, "NVIDIA's GeForce 8800 (G80)", 2006, branch-granularity table; the tile shape is an estimate)
+BATCH_TILE = 32
+
+
+def batched_slots(slots, ran, tile: int = BATCH_TILE) -> tuple[int, int]:
+    """Issue slots of a fragment-program loop run per pixel (``slots``, ``(H, W)``; ``ran``: the pixels
+    whose program ran) when ``tile x tile`` screen tiles run in lock-step: ``(sum of slots, sum over
+    tiles of (pixels that ran) x (the tile's largest slots))``. The second is what the processor
+    spends; their ratio is the loop's divergence.
+
+    >>> import numpy as np
+    >>> s = np.array([[1, 3], [2, 0]]); batched_slots(s, s > 0, tile=2)
+    (6, 9)
+    """
+    import numpy as np
+
+    s = np.asarray(slots, dtype=np.int64)
+    r = np.asarray(ran, dtype=bool)
+    h, w = s.shape
+    hp, wp_ = -(-h // tile) * tile, -(-w // tile) * tile
+    sp = np.zeros((hp, wp_), np.int64)
+    rp = np.zeros((hp, wp_), bool)
+    sp[:h, :w] = np.where(r, s, 0)
+    rp[:h, :w] = r
+    tiles_s = sp.reshape(hp // tile, tile, wp_ // tile, tile).swapaxes(1, 2).reshape(-1, tile * tile)
+    tiles_r = rp.reshape(hp // tile, tile, wp_ // tile, tile).swapaxes(1, 2).reshape(-1, tile * tile)
+    return int(sp.sum()), int((tiles_s.max(axis=1) * tiles_r.sum(axis=1)).sum())

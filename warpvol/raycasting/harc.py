@@ -274,7 +274,9 @@ def integ_setup(mode: str, tf, device: str, *, table=None, psi=None, iso=None, i
     ig = kh.Integ()
     ig.mode = INTEGRATIONS[mode]
     ig.model = 0 if tf.emission == "color_extinction" else 1
-    ig.tf_s, ig.tf_v = tf.to_warp(device)
+    # partial pre-integration splits at every control point (the iso table's, unmerged); the other
+    # integrations read the TF with collinear runs merged (the same function, fewer pieces)
+    ig.tf_s, ig.tf_v = tf.to_warp(device, merge=mode != "partial")
     lo, hi = tf.srange
     ig.s_off, ig.s_inv = float(lo), 1.0 / float(hi - lo)
     keep = []
@@ -343,6 +345,8 @@ class HarcState:
         self.tcur = wp.zeros(n, dtype=wp.float32, device=device)
         self.status = wp.zeros(n, dtype=wp.int32, device=device)
         self.last = wp.zeros(n, dtype=wp.int32, device=device)
+        #: per pixel, the last pass's loop work: (cells visited, fragment-program steps)
+        self.px_work = wp.zeros(n, dtype=wp.vec2i, device=device)
         wp.launch(kh.init_state, dim=n, inputs=[self.rgba, self.tcur, self.status, self.last], device=device)
 
     def image(self, height: int, width: int) -> np.ndarray:
@@ -369,6 +373,7 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     cells = ctx.buffers["cells"]
     w, rows, cam_args = camera_launch_args(ctx, rows_per_block)
     counters = wp.zeros((len(rows), N_COUNTERS), dtype=wp.int32, device=ctx.device)
+    state.px_work.zero_()
     eye_w = wp.vec3(*np.asarray(ctx.scene.camera.eye, np.float64).astype(np.float32))
     common = cam_args + [SETUPS[setup], eye_w, WALKS[walk], mesh_tex, cells["verts"], cells["tets"], cells["nbr"], entry["frag_start"],
                          entry["frag_bf"], entry["bf_tet"], entry["bf_face"], entry["bf_nbr"], entry["far"], ig,
@@ -377,7 +382,7 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     def launch(b: int) -> None:
         r0, nr = rows[b]
         wp.launch(kh.harc_march, dim=nr * w, device=ctx.device,
-                  inputs=common + [r0, state.rgba, state.tcur, state.status, state.last, counters, b])
+                  inputs=common + [r0, state.rgba, state.tcur, state.status, state.last, counters, b, state.px_work])
 
     launch_blocks(ctx.device, len(rows), launch, threads)
     return dict(zip(COUNTER_NAMES, (int(x) for x in counters.numpy().sum(axis=0))))

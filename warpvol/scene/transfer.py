@@ -401,15 +401,17 @@ class TransferFunction:
         lo, hi = self.srange
         return np.clip((np.asarray(s, dtype=np.float64) - lo) / (hi - lo), 0.0, 1.0)
 
-    def to_warp(self, device: str):
+    def to_warp(self, device: str, merge: bool = True):
         """Device arrays ``(s: float32[K], values: vec4[K])`` for :func:`warpvol.kernels.tf.tf_eval`:
         the control points with collinear runs merged to within float32 rounding
-        (:func:`warpvol.kernels.tf.device_points`), so a densely sampled TF costs what its shape needs."""
+        (:func:`warpvol.kernels.tf.device_points`), so a densely sampled TF costs what its shape needs;
+        ``merge=False``: every control point as given (a pipeline whose work depends on the points, such as
+        partial pre-integration's iso-surface splits)."""
         import warp as wp
 
         from warpvol.kernels.tf import device_points
 
-        p = device_points(self.points)
+        p = device_points(self.points) if merge else np.asarray(self.points, dtype=np.float64)
         s = wp.array(p[:, 0].astype(np.float32), dtype=wp.float32, device=device)
         v = wp.array(p[:, 1:5].astype(np.float32), dtype=wp.vec4, device=device)
         return s, v

@@ -35,13 +35,13 @@ LIMITS = {"segment": 1, "direction": 0}
 
 
 def iso_values(tf) -> np.ndarray:
-    """The TF's control points normalised to [0, 1] over its range (float32, ascending), as the kernels
-    see them: collinear runs merged (:func:`warpvol.kernels.tf.device_points`; a densely sampled TF has
-    the iso values of the pieces it samples)."""
-    from warpvol.kernels.tf import device_points
-
+    """The TF's control points normalised to [0, 1] over its range (float32, ascending): every point
+    as given, collinear runs included. The paper decomposes the TF into linear segments and splits a
+    ray at every segment boundary, so a TF of 255 segments costs 255 iso-surfaces even where
+    neighbouring segments are collinear (the partial pre-integration walk reads the same unmerged points:
+    :func:`warpvol.raycasting.harc.integ_setup`)."""
     lo, hi = tf.srange
-    return ((device_points(tf.points)[:, 0] - lo) / (hi - lo)).astype(np.float32)
+    return ((np.asarray(tf.points, dtype=np.float64)[:, 0] - lo) / (hi - lo)).astype(np.float32)
 
 
 def iso_hash(tf) -> str:

@@ -20,12 +20,16 @@ from warpvol.errors import ConfigError
 from warpvol.parallel import cpu_threads
 from warpvol.stage import Context, Param, Stage, register_stage
 
-def count_pass(ctx: Context, c: dict, textures: list, walk: str, integration: str, fmt: str) -> None:
+def count_pass(ctx: Context, c: dict, textures: list, walk: str, integration: str, fmt: str,
+               work=None) -> None:
     """Count one propagation pass for the throughput model: the pass, its fragment-program steps
     (``cell_steps``: one per cell, plus the iso sub-steps of partial pre-integration), the texture
     fetches by texture (mesh textures: 6 nearest rgba32f fetches per cell of the plane walk; the 3D
     table one per step; psi and iso one each per sub-step) and one frame-buffer write per ray that
-    entered. Diagnostics (unresolved rays, iso misses, entry searches) go to ``stats``."""
+    entered. With ``work`` (a callable giving per pixel the cells and steps of this pass, ``(H, W, 2)``) the loop's issue
+    slots per pixel are summed as run (``loop_slots``) and as 32 x 32-pixel lock-step batches run
+    them (``loop_slots_batch1024``, :func:`warpvol.gpu.programs.batched_slots`). Diagnostics
+    (unresolved rays, iso misses, entry searches) go to ``stats``."""
     from warpvol.gpu.counters import active
 
     ctx.count(passes=1, entries=c["entries"], cell_steps=c["steps"])
@@ -44,8 +48,20 @@ def count_pass(ctx: Context, c: dict, textures: list, walk: str, integration: st
         cnt.add(combiner_ops=c["cells"] * programs.n_alu(programs.WALK) + c["steps"] * programs.n_alu(sub))
         if integration == "partial":  # the TF at both ends of each sub-segment (1D texture)
             cnt.add(tex_1d_rgba8_linear=2 * c["steps"], texels=4 * c["steps"])
+        if work is not None:
+            px = work()
+            per_cell = programs.n_alu(programs.WALK) + programs.n_tex(programs.WALK)
+            per_step = programs.n_alu(sub) + programs.n_tex(sub)
+            slots = px[..., 0] * per_cell + px[..., 1] * per_step
+            run, batched = programs.batched_slots(slots, px[..., 0] > 0)
+            cnt.add(loop_slots=run, loop_slots_batch1024=batched)
     if c["entries"]:
         cnt.blend(fmt, c["entries"], blending=False)
+
+
+def px_work(state, cam):
+    """The last pass's per-pixel loop work ``(H, W, 2)``: cells visited, fragment-program steps."""
+    return state.px_work.numpy().reshape(cam.height_px, cam.width_px, 2)
 
 
 HARC_PARAMS = (
@@ -151,14 +167,14 @@ class Harc(Stage):
         t1 = time.perf_counter()
         ctx.buffers["harc_state"] = {"state": state, "run_pass": run_pass, "keep": (keep, keep_st),
                                      "count": lambda c: count_pass(ctx, c, keep, self.walk, self.integration,
-                                                                   self.format),
+                                                                   self.format, lambda: px_work(state, cam)),
                                      "resolve": lambda: resolve_failed(ctx, state),
                                      "lost": (lambda: lost_rays(state)) if paper else None}
         # robust: failed rays are redone whole in float64 now (and then done: later peel passes skip
         # them); paper: none are marked failed, lost rays keep their partial result
         redone = resolve_failed(ctx, state)
         t2 = time.perf_counter()
-        count_pass(ctx, c, keep, self.walk, self.integration, self.format)
+        count_pass(ctx, c, keep, self.walk, self.integration, self.format, lambda: px_work(state, cam))
         ctx.count(rays=state.n)
         ctx.stats["harc"] = {"walk": self.walk, "integration": self.integration, "ray_setup": self.ray_setup, **c,
                              "unresolved_rays": redone, "pass_s": t1 - t0, "float64_s": t2 - t1}
