@@ -21,7 +21,7 @@ import warp as wp
 
 from .integrate import exp_neg, integrate_piece, integrate_segment_tf
 from .tf import tf_eval, tf_eval_upper, tf_upper, tf_upper_from
-from .walk import (STALL_STEPS, Face, boundary_face, face_hit, monotone_exit, next_face_from, pixel_ray,
+from .walk import (STALL_STEPS, Face, Ray, boundary_face, face_hit, monotone_exit, next_face_from, pixel_ray,
                    thin_at_exit, thin_start, thin_step)
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
@@ -42,6 +42,46 @@ def clipped_segment(t_in: float, t_out: float, s_in: float, s_out: float, t_clip
     if t_out <= t_clip:
         return t_out, s_out
     return t_clip, s_in + (s_out - s_in) * ((t_clip - t_in) / (t_out - t_in))
+
+
+@wp.func
+def tile_entry(px: int, py: int, t_start: float, prev: int, r: Ray, t_tol: float, verts: wp.array(dtype=wp.vec4),
+               tets: wp.array(dtype=wp.vec4i), bface_tet: wp.array(dtype=wp.int32),
+               bface_local: wp.array(dtype=wp.int32), bface_box: wp.array(dtype=wp.int32),
+               tile_start: wp.array(dtype=wp.int32), tile_items: wp.array(dtype=wp.int32), tile: int, tiles_x: int):
+    """The ray's next entry: the nearest boundary face of pixel (px, py)'s screen tile that the ray crosses
+    (entering) beyond ``t_start``. A face up to ``t_tol`` before ``t_start`` counts (a crack left by a
+    dropped sliver, touching pieces: the exit and the re-entry are at the same depth up to rounding),
+    except faces of the cell ``prev`` just left (a tet is convex: a ray never re-enters it).
+
+    Returns ``(cell, local face, entry Face, t, scalar, far_t)``; ``cell = -1``: none. ``far_t`` is the
+    farthest crossing of any face tested (no re-entry once past it). A function of its own rather than
+    inline in :func:`march`: the compiled walk loop is faster without the search beside it."""
+    best_t = float(1.0e30)
+    best_s = float(0.0)
+    far_t = float(-1.0e30)
+    cell = int(-1)
+    face_in = int(-1)
+    fc = Face()
+    tile_id = (py // tile) * tiles_x + (px // tile)
+    for it in range(tile_start[tile_id], tile_start[tile_id + 1]):
+        bf = tile_items[it]
+        if px < bface_box[4 * bf] or py < bface_box[4 * bf + 1] or px > bface_box[4 * bf + 2] \
+                or py > bface_box[4 * bf + 3]:
+            continue  # the pixel lies outside the face's grown projected box (as tiles are binned)
+        c = int(bface_tet[bf])
+        f = int(bface_local[bf])
+        cand = boundary_face(tets[c], f, verts, r)
+        ok, t, s = face_hit(cand, r)
+        if ok and t > far_t:
+            far_t = t
+        if ok and t > t_start - t_tol and t < best_t and c != prev:
+            best_t = t
+            best_s = s
+            cell = c
+            face_in = f
+            fc = cand
+    return cell, face_in, fc, best_t, best_s, far_t
 
 
 @wp.kernel
@@ -96,34 +136,9 @@ def march(
     t_start = tcur[idx]
 
     # ---- next entry: nearest boundary face crossed (entering) beyond t_start in this tile ----
-    # A face up to t_tol before t_start counts (a crack left by a dropped sliver, touching pieces:
-    # the exit and the re-entry are at the same depth up to rounding), except faces of the cell
-    # just left (a tet is convex: a ray never re-enters it).
-    prev = last[idx]
-    best_t = float(1.0e30)
-    best_s = float(0.0)
-    far_t = float(-1.0e30)  # farthest crossing of any face here: no re-entry once past it
-    cell = int(-1)
-    face_in = int(-1)
-    fc = Face()
-    tile_id = (py // tile) * tiles_x + (px // tile)
-    for it in range(tile_start[tile_id], tile_start[tile_id + 1]):
-        bf = tile_items[it]
-        if px < bface_box[4 * bf] or py < bface_box[4 * bf + 1] or px > bface_box[4 * bf + 2] \
-                or py > bface_box[4 * bf + 3]:
-            continue  # the pixel lies outside the face's grown projected box (as tiles are binned)
-        c = int(bface_tet[bf])
-        f = int(bface_local[bf])
-        cand = boundary_face(tets[c], f, verts, r)
-        ok, t, s = face_hit(cand, r)
-        if ok and t > far_t:
-            far_t = t
-        if ok and t > t_start - t_tol and t < best_t and c != prev:
-            best_t = t
-            best_s = s
-            cell = c
-            face_in = f
-            fc = cand
+    cell, face_in, fc, best_t, best_s, far_t = tile_entry(px, py, t_start, last[idx], r, t_tol, verts, tets, bface_tet,
+                                                          bface_local, bface_box, tile_start, tile_items, tile,
+                                                          tiles_x)
     flat = st >> 2
     if cell >= 0 and best_t <= t_start:
         flat += 1
