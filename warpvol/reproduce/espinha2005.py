@@ -219,7 +219,9 @@ def table3(runs: dict, size: int = 512) -> dict:
                  f"the {PROFILE} profile: each pass's fragment-program loop priced per issue slot from its "
                  "instruction listing (warpvol.gpu.programs: the shared plane walk, + one 3D lookup and 4 "
                  "instructions for the full table, + the TF, psi and iso lookups and 37 instructions per partial "
-                 "sub-step), so modelled partial/full ratios follow the instructions and fetches issued. "
+                 "sub-step; a TF of N segments splits rays at all its N - 1 inner control points), each 32 x 32 "
+                 "pixel batch running in lock-step until its longest ray is done, so modelled partial/full ratios "
+                 "follow the instructions and fetches issued. "
                  + calibrations(PROFILE))
 
 
