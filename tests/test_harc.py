@@ -289,3 +289,22 @@ def test_reentry_bound_holds_every_listed_face():
         for dx in (-1, 0, 1):
             grown |= np.roll(np.roll(np.pad(listed, 1), dy, 0), dx, 1)[1:-1, 1:-1]
     assert np.all(np.isneginf(far[~grown]))
+
+
+@pytest.mark.parametrize("preset", ["espinha2005_full", "espinha2005_partial"])
+def test_per_pixel_loop_work_adds_up_to_the_counted_program_and_batches_cost_more(preset):
+    """The lock-step batches of the throughput model rest on each pixel's (cells, steps) of a pass: summed
+    over the pixels, their issue slots equal the pass's counted instructions and loop fetches exactly (first
+    pass and peel passes of the concave mesh), and a 32 x 32 batch never runs shorter than its rays."""
+    from warpvol.gpu import programs
+
+    r = Pipeline.load(preset).render(builtin_scene("concave").with_camera(width_px=48, height_px=40), quiet=True)
+    c = r.report["counters"]
+    for g in ("harc", "harc_peel"):
+        h = c[g]
+        tex = sum(v for k, v in h.items() if k.startswith("tex_"))
+        assert h["loop_slots"] == h["combiner_ops"] + tex > 0
+        assert h["loop_slots"] < h["loop_slots_batch1024"] <= 48 * 40 * h["loop_slots"]
+    s = np.array([[5, 1, 0], [2, 2, 7]])
+    run, batched = programs.batched_slots(s, s > 0, tile=2)
+    assert (run, batched) == (17, 5 * 4 + 7 * 1)  # tiles [[5,1],[2,2]] (4 ran, max 5) and [[0],[7]] (1 ran)
