@@ -1,7 +1,8 @@
 """Hardware ray casting (HARC, Weiler et al. 2003) with full and partial pre-integration (Espinha &
 Celes 2005), one thread per pixel = one fragment of the ray-casting fragment program.
 
-Two walks, one kernel:
+Two walks; the kernel is generated per configuration (walk, ray set-up, integration: :func:`make_march`,
+:func:`march_kernel`), so each holds only its own paths:
 
 * ``WALK_PLANES`` -- the paper's Fig. 6 arithmetic on its 96 bytes/tet mesh textures (read through the
   texture unit, nearest rgba32f texel fetches): exit face = smallest ``lambda = -(e.n + o)/(d.n)``
@@ -12,7 +13,8 @@ Two walks, one kernel:
 * ``WALK_PLUCKER`` -- the consistent walk of :mod:`warpvol.kernels.walk` (its ``@wp.func`` s
   :func:`~warpvol.kernels.walk.boundary_face`, :func:`~warpvol.kernels.walk.face_hit`,
   :func:`~warpvol.kernels.walk.next_face`; no second copy): watertight on rays through vertices
-  and edges.
+  and edges. With the robust set-up and exact segments (``harc_best``) the loop is
+  :func:`warpvol.kernels.harc_walk.exact_walk`.
 
 Ray set-up (``SETUP_*``): ``SETUP_ROBUST`` takes the ray from :func:`warpvol.kernels.walk.pixel_ray`
 (float64 set-up, origin moved to the mesh; the textures are relative to the cells' origin) and marks
@@ -26,8 +28,8 @@ side (:mod:`warpvol.raycasting.harc`) into per-pixel fragment lists sorted by de
 first fragment beyond the ray's last exit -- the depth-peeling test "depth greater than the last
 layer's" -- so pass 0 is the plain boundary rasterisation and passes >= 1 are peel layers.
 
-Integration of a segment ``(sf, sb, l)`` (``INTEG_*``): the exact piecewise-linear integral
-(:func:`warpvol.kernels.integrate.integrate_segment`, the ceiling), full pre-integration (3D table
+Integration of a segment ``(sf, sb, l)`` (``INTEG_*``, :mod:`warpvol.kernels.harc_integ`): the exact
+piecewise-linear integral (:func:`warpvol.kernels.integrate.integrate_segment`, the ceiling), full pre-integration (3D table
 through the 3D texture unit, premultiplied ``(C, alpha)``), or partial pre-integration (Moreland &
 Angel: ``psi`` table through the 2D texture unit) with the iso-crossing splits of Fig. 6 (iso table,
 nearest lookups, the ``next_s_iso`` rule). Front-to-back compositing
@@ -44,28 +46,24 @@ lengths (:func:`warpvol.kernels.walk.thin_unresolved`; redone in float64 like ev
 the ray is suspect, its pixel possibly wrong; counted, not changed).
 """
 
+import threading
+
 import warp as wp
 
 from .formats import NumFmt, fmt_quantize
-from .integrate import exp_neg, integrate_piece, integrate_segment, integrate_segment_tf
-from .pt import axis_coord
+from .harc_integ import INTEG_EXACT, Integ, integrate_sub, segment, segments_kernel  # noqa: F401 (re-exported)
+from .harc_walk import composite, exact_walk, ring_search  # noqa: F401 (composite: re-exported)
+from .integrate import exp_neg, integrate_piece, integrate_segment_tf
 from .raycast import STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED
-from .walk import (STALL_STEPS, Face, Ray, boundary_face, face_hit, monotone_exit, next_face, pixel_ray, thin_at_exit,
+from .texture import Tex2D, tex2d_texel
+from .tf import tf_eval_upper, tf_upper
+from .walk import (STALL_STEPS, Face, boundary_face, face_hit, monotone_exit, next_face, pixel_ray, thin_at_exit,
                    thin_start, thin_step)
-from .texture import Tex2D, Tex3D, tex2d, tex2d_texel, tex3d
-from .tf import tf_eval, tf_eval_upper, tf_first_break, tf_next_break, tf_upper
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
 WALK_PLANES = wp.constant(0)
 WALK_PLUCKER = wp.constant(1)
-INTEG_EXACT = wp.constant(0)
-INTEG_FULL = wp.constant(1)
-INTEG_PARTIAL = wp.constant(2)
-#: iso rule: 0 = the paper's (``sf == s_iso`` -> ``next_s_iso``); 1 = also when ``s_iso`` lies behind
-#: ``sf`` (edge-anchored iso table, see :func:`warpvol.tables.isocross.build_isocross`)
-ISO_PAPER = wp.constant(0)
-ISO_BEHIND = wp.constant(1)
 SETUP_ROBUST = wp.constant(0)
 SETUP_PAPER = wp.constant(1)
 #: a ray the paper's set-up could not resolve (no exit face, no progress, the step bound): its
@@ -86,30 +84,6 @@ class MeshTex:
     grad: Tex2D
     adj: Tex2D
     width: int
-
-
-@wp.struct
-class Integ:
-    """Integration set-up: mode, TF (arrays), tables (textures) and their coordinate maps."""
-
-    mode: int
-    model: int
-    tf_s: wp.array(dtype=float)
-    tf_v: wp.array(dtype=wp.vec4)
-    s_off: float
-    s_inv: float
-    table: Tex3D
-    t_sa: float
-    t_sb: float
-    l_inv: float
-    t_la: float
-    t_lb: float
-    t_llog: int
-    psi: Tex2D
-    p_a: float
-    p_b: float
-    iso: Tex2D
-    iso_rule: int
 
 
 @wp.func
@@ -178,428 +152,337 @@ def paper_ray(px: int, py: int, width: int, height: int, eye: wp.vec3, fwd: wp.v
 
 
 @wp.func
-def ring_search(b: int, bf_tet: wp.array(dtype=wp.int32), bf_face: wp.array(dtype=wp.int32),
-                bf_nbr: wp.array(dtype=wp.vec3i), tets: wp.array(dtype=wp.vec4i), verts: wp.array(dtype=wp.vec4),
-                r: Ray):
-    """First front boundary face among the edge neighbours of face ``b`` and their edge neighbours
-    that the ray crosses (consistent edge test): ``(face, crossed, t, s)``."""
-    nb = bf_nbr[b]
-    for k in range(3):
-        n1 = nb[k]
-        if n1 >= 0:
-            ok, t, s = face_hit(boundary_face(tets[bf_tet[n1]], bf_face[n1], verts, r), r)
-            if ok:
-                return n1, True, t, s
-    for k in range(3):
-        n1 = nb[k]
-        if n1 >= 0:
-            nb2 = bf_nbr[n1]
-            for j in range(3):
-                n2 = nb2[j]
-                if n2 >= 0 and n2 != b:
-                    ok, t, s = face_hit(boundary_face(tets[bf_tet[n2]], bf_face[n2], verts, r), r)
-                    if ok:
-                        return n2, True, t, s
-    return int(-1), False, float(0.0), float(0.0)
-
-
-@wp.func
 def grad_scalar(g: wp.vec4, x: wp.vec3) -> float:
     return wp.dot(wp.vec3(g[0], g[1], g[2]), x) + g[3]
 
 
-@wp.func
-def integrate_sub(ig: Integ, sf: float, sb: float, l: float) -> wp.vec4:
-    """Premultiplied ``(r, g, b, alpha)`` of one sub-segment (front ``sf``, back ``sb``, length ``l``)."""
-    if not (l > 0.0):
-        return wp.vec4(0.0, 0.0, 0.0, 0.0)
-    if ig.mode == INTEG_EXACT:
-        seg = integrate_segment(sf, sb, l, ig.tf_s, ig.tf_v, ig.model)
-        return wp.vec4(seg[0], seg[1], seg[2], 1.0 - wp.exp(-seg[3]))
-    if ig.mode == INTEG_FULL:
-        u = axis_coord((sf - ig.s_off) * ig.s_inv, ig.t_sa, ig.t_sb, 0)
-        v = axis_coord((sb - ig.s_off) * ig.s_inv, ig.t_sa, ig.t_sb, 0)
-        r = axis_coord(l * ig.l_inv, ig.t_la, ig.t_lb, ig.t_llog)
-        return tex3d(ig.table, u, v, r)
-    # partial pre-integration (Moreland & Angel 2004)
-    vf = tf_eval(sf, ig.tf_s, ig.tf_v)
-    vb = tf_eval(sb, ig.tf_s, ig.tf_v)
-    xf = vf[3] * l
-    xb = vb[3] * l
-    gf = xf / (xf + 1.0)
-    gb = xb / (xb + 1.0)
-    p = tex2d(ig.psi, gf * ig.p_a + ig.p_b, gb * ig.p_a + ig.p_b)
-    psi = p[0]
-    zeta = wp.exp(-0.5 * (xf + xb))
-    cf = wp.vec3(vf[0], vf[1], vf[2])
-    cb = wp.vec3(vb[0], vb[1], vb[2])
-    c = wp.vec3(0.0, 0.0, 0.0)
-    if ig.model == 0:
-        c = cb * wp.max(psi - zeta, 0.0) + cf * (1.0 - psi)
-    else:
-        c = (cf * (psi - p[1]) + cb * p[1]) * l
-    return wp.vec4(c[0], c[1], c[2], 1.0 - zeta)
+#: the kernels' module options (``fuse_fp`` off: no contraction into fused multiply-adds, the arithmetic as written)
+MARCH_OPTIONS = {"enable_backward": False, "fuse_fp": False}
 
 
-@wp.func
-def iso_end(ig: Integ, nf: float, nb: float) -> float:
-    """Fig. 6 lines 13-21 on normalised scalars: the end of the next sub-segment from ``nf`` towards
-    ``nb`` (``nb`` itself when no iso-surface lies between) from the iso table (nearest lookup) and
-    the ``next_s_iso`` rule. An ``s_iso`` behind ``nf`` (nearest sampling of the centre-anchored
-    table) is ignored under the paper's rule -- a step backwards could loop -- and replaced by
-    ``next_s_iso`` under ``ISO_BEHIND`` (edge-anchored table: exact splits)."""
-    e = tex2d(ig.iso, nf, nb)
-    s_iso = e[0]
-    if s_iso != -1.0:
-        if nf == s_iso:
-            s_iso = e[1]
-        elif (s_iso - nf) * (nb - nf) <= 0.0:
-            if ig.iso_rule == ISO_BEHIND:
-                s_iso = e[1]
-            else:
-                s_iso = -1.0
-        if s_iso != -1.0 and wp.abs(nb - nf) > wp.abs(s_iso - nf):
-            return s_iso
-    return nb
+def make_march(walk: int, setup: int, mode: int):
+    """The march kernel of one configuration: ``walk`` (:data:`WALK_PLANES` | :data:`WALK_PLUCKER`),
+    ``setup`` (:data:`SETUP_ROBUST` | :data:`SETUP_PAPER`) and integration ``mode`` (``INTEG_*``, the mode
+    of the :class:`Integ` it is launched with) are fixed when the kernel is generated (``wp.static``
+    conditions), so the code of the other walks, set-ups and integrations is not in it. The exact robust
+    Plücker case walks in :func:`warpvol.kernels.harc_walk.exact_walk`. Each configuration is a module of
+    its own (compiled on its first launch); use :func:`march_kernel`.
 
+    One thread per pixel of rows ``row0 ..``: ray set-up, the ray start (entry search), the walk, the
+    pass's result to the frame buffer in its number format, the counters (see the module docstring) and
+    ``px_work`` (the pixel's cells visited and fragment-program steps in this pass)."""
+    planes = walk == WALK_PLANES
+    paper = setup == SETUP_PAPER
+    exact = mode == INTEG_EXACT
+    fused = (not planes) and (not paper) and exact  # the whole walk in exact_walk
+    check_thin = (not planes) and exact  # thin-layer check of the consistent walk with exact segments
 
-@wp.func
-def skipped_break(ig: Integ, s0: float, s1: float, n0: float, n1: float) -> bool:
-    """Whether a TF control point lies inside the sub-segment ``s0 .. s1`` (normalised ``n0 .. n1``)
-    by more than 1e-6 of the TF range from both ends (the ends are control points converted from
-    normalised values, so they may sit a rounding step off them)."""
-    k = tf_first_break(s0, s1, ig.tf_s)
-    while k >= 0:
-        nk = (ig.tf_s[k] - ig.s_off) * ig.s_inv
-        if wp.abs(nk - n0) > 1.0e-6 and wp.abs(nk - n1) > 1.0e-6:
-            return True
-        k = tf_next_break(k, s0, s1, ig.tf_s)
-    return False
-
-
-@wp.func
-def segment(ig: Integ, sf: float, sb: float, l: float, acc: wp.vec4, t_stop: float, counters: wp.array2d(dtype=wp.int32),
-            chunk: int):
-    """Integrate one cell's segment (iso-split for partial pre-integration) and composite it front
-    to back into ``acc``; returns ``(acc, sub-steps)``. Stops splitting once ``1 - A < t_stop``.
-    The split runs on normalised scalars (the tables' coordinates) so the ``sf == s_iso`` test of
-    the paper compares table values with themselves."""
-    if ig.mode != INTEG_PARTIAL:
-        return composite(acc, integrate_sub(ig, sf, sb, l)), 1
-    steps = int(0)
-    n0 = (sf - ig.s_off) * ig.s_inv
-    nb = (sb - ig.s_off) * ig.s_inv
-    s0 = sf
-    l_left = l
-    while steps < 100000:
-        steps += 1
-        n1 = iso_end(ig, n0, nb)
-        if n1 != nb:
-            s1 = n1 / ig.s_inv + ig.s_off
-            # the sub-segment the table chose must not skip a control point (diagnostic count)
-            if skipped_break(ig, s0, s1, n0, n1):
-                wp.atomic_add(counters, chunk, 5, 1)
-            h = l_left * (n1 - n0) / (nb - n0)
-            acc = composite(acc, integrate_sub(ig, s0, s1, h))
-            l_left = l_left - h
-            s0 = s1
-            n0 = n1
-            if 1.0 - acc[3] < t_stop:
-                break
-        else:
-            if skipped_break(ig, s0, sb, n0, nb):
-                wp.atomic_add(counters, chunk, 5, 1)
-            acc = composite(acc, integrate_sub(ig, s0, sb, l_left))
-            break
-    return acc, steps
-
-
-@wp.func
-def composite(acc: wp.vec4, c: wp.vec4) -> wp.vec4:
-    """Front-to-back "under": ``(R, G, B, A) + (1 - A) (r, g, b, a)`` (Fig. 6 line 24)."""
-    return acc + (1.0 - acc[3]) * c
-
-
-@wp.kernel
-def harc_march(
-    width: int,
-    height: int,
-    eye: wp.vec3d,
-    fwd: wp.vec3d,
-    right: wp.vec3d,
-    up: wp.vec3d,
-    ortho: int,
-    half_h: wp.float64,
-    aspect: wp.float64,
-    radius: wp.float64,
-    setup: int,
-    eye_w: wp.vec3,
-    walk: int,
-    mt: MeshTex,
-    verts: wp.array(dtype=wp.vec4),
-    tets: wp.array(dtype=wp.vec4i),
-    nbr: wp.array(dtype=wp.vec4i),
-    frag_start: wp.array(dtype=wp.int32),
-    frag_bf: wp.array(dtype=wp.int32),
-    bf_tet: wp.array(dtype=wp.int32),
-    bf_face: wp.array(dtype=wp.int32),
-    bf_nbr: wp.array(dtype=wp.vec3i),
-    far: wp.array(dtype=float),
-    ig: Integ,
-    fb: NumFmt,
-    t_stop: float,
-    max_steps: int,
-    t_tol: float,
-    row0: int,
-    rgba: wp.array(dtype=wp.vec4),
-    tcur: wp.array(dtype=float),
-    status: wp.array(dtype=wp.int32),
-    last: wp.array(dtype=wp.int32),
-    counters: wp.array2d(dtype=wp.int32),
-    chunk: int,
-    px_work: wp.array(dtype=wp.vec2i),
-):
-    tid = wp.tid()
-    idx = row0 * width + tid
-    if status[idx] != STATUS_ACTIVE:
-        return
-    py = idx // width
-    px = idx - py * width
-    r, t_clip, t_end = pixel_ray(px, py, width, height, eye, fwd, right, up, ortho, half_h, aspect, radius)
-    o = r.o
-    d = r.d
-    if setup == SETUP_PAPER:
-        # the paper's fragment program: the ray from the eye in fp32, nothing clipped or culled
-        o, d = paper_ray(px, py, width, height, eye_w, fwd, right, up, ortho, half_h, aspect)
-        t_clip = 0.0
-    elif t_end < t_clip:
-        status[idx] = STATUS_DONE
-        return
-    t_start = tcur[idx]
-    prev = last[idx]
-    if prev >= 0 and walk == WALK_PLUCKER and setup != SETUP_PAPER:
-        # a re-entry pass: every face the search below can reach (this pixel's list, its neighbours'
-        # lists, their surface rings) lies within `far` of the eye (host bound with a rounding margin);
-        # an exit beyond it cannot re-enter, so the ray is done without the search
-        if t_start + wp.dot(r.back, r.d) > far[idx]:
-            status[idx] = STATUS_DONE
+    @wp.kernel(module="unique", module_options=MARCH_OPTIONS)
+    def harc_march(
+        width: int,
+        height: int,
+        eye: wp.vec3d,
+        fwd: wp.vec3d,
+        right: wp.vec3d,
+        up: wp.vec3d,
+        ortho: int,
+        half_h: wp.float64,
+        aspect: wp.float64,
+        radius: wp.float64,
+        eye_w: wp.vec3,
+        mt: MeshTex,
+        verts: wp.array(dtype=wp.vec4),
+        tets: wp.array(dtype=wp.vec4i),
+        nbr: wp.array(dtype=wp.vec4i),
+        nbr_vertex: wp.array(dtype=wp.vec4i),
+        frag_start: wp.array(dtype=wp.int32),
+        frag_bf: wp.array(dtype=wp.int32),
+        bf_tet: wp.array(dtype=wp.int32),
+        bf_face: wp.array(dtype=wp.int32),
+        bf_nbr: wp.array(dtype=wp.vec3i),
+        far: wp.array(dtype=float),
+        ig: Integ,
+        fb: NumFmt,
+        t_stop: float,
+        max_steps: int,
+        t_tol: float,
+        row0: int,
+        rgba: wp.array(dtype=wp.vec4),
+        tcur: wp.array(dtype=float),
+        status: wp.array(dtype=wp.int32),
+        last: wp.array(dtype=wp.int32),
+        counters: wp.array2d(dtype=wp.int32),
+        chunk: int,
+        px_work: wp.array(dtype=wp.vec2i),
+    ):
+        tid = wp.tid()
+        idx = row0 * width + tid
+        if status[idx] != STATUS_ACTIVE:
             return
-
-    # ---- ray start: the first rasterised front boundary face beyond the last exit (peel test) ----
-    cell = int(-1)
-    face_in = int(-1)
-    t_in = float(0.0)
-    s_in = float(0.0)
-    fc = Face()
-    entry_failed = int(0)
-    for it in range(frag_start[idx], frag_start[idx + 1]):
-        b = int(frag_bf[it])
-        c = int(bf_tet[b])
-        f = int(bf_face[b])
-        if c == prev:
-            continue
-        if walk == WALK_PLANES:
-            p = plane_of(mt, c, f)
-            lam = plane_lambda(p, o, d)
-            if setup == SETUP_PAPER and not wp.isfinite(lam):
-                entry_failed = 1  # the entry face's plane gives no ray parameter: the ray is lost
-                break
-            if lam > t_start - t_tol:
-                cell = c
-                face_in = f
-                t_in = wp.max(lam, t_start)
-                s_in = grad_scalar(cell_texel(mt, mt.grad, c), o + d * t_in)
-                break
+        py = idx // width
+        px = idx - py * width
+        r, t_clip, t_end = pixel_ray(px, py, width, height, eye, fwd, right, up, ortho, half_h, aspect, radius)
+        o = r.o
+        d = r.d
+        if wp.static(paper):
+            # the paper's fragment program: the ray from the eye in fp32, nothing clipped or culled
+            o, d = paper_ray(px, py, width, height, eye_w, fwd, right, up, ortho, half_h, aspect)
+            t_clip = 0.0
         else:
-            cand = boundary_face(tets[c], f, verts, r)
-            ok, t, s = face_hit(cand, r)
-            if not ok:
-                # the rasteriser's snapped coverage and the edge test disagree (pixel centre within
-                # 1/256 pixel of a projected edge): the ray crosses a face around this one, found
-                # among its edge neighbours and theirs on the front boundary
-                wp.atomic_add(counters, chunk, 7, 1)
-                b2, ok, t, s = ring_search(b, bf_tet, bf_face, bf_nbr, tets, verts, r)
-                if ok and prev >= 0:
-                    # a re-entry (peel pass): at a crack the faces around belong to other cells,
-                    # whose surface neighbours do not reach the crossed face; redone in float64
-                    ok = False
-                if ok:
-                    c = int(bf_tet[b2])
-                    f = int(bf_face[b2])
-                    cand = boundary_face(tets[c], f, verts, r)
-            if ok:
-                if t > t_start - t_tol and c != prev:
+            if t_end < t_clip:
+                status[idx] = STATUS_DONE
+                return
+        t_start = tcur[idx]
+        prev = last[idx]
+        if wp.static((not planes) and (not paper)):
+            # a re-entry pass: every face the search below can reach (this pixel's list, its neighbours'
+            # lists, their surface rings) lies within `far` of the eye (host bound with a rounding margin);
+            # an exit beyond it cannot re-enter, so the ray is done without the search
+            if prev >= 0:
+                if t_start + wp.dot(r.back, r.d) > far[idx]:
+                    status[idx] = STATUS_DONE
+                    return
+
+        # ---- ray start: the first rasterised front boundary face beyond the last exit (peel test) ----
+        cell = int(-1)
+        face_in = int(-1)
+        t_in = float(0.0)
+        s_in = float(0.0)
+        fc = Face()
+        entry_failed = int(0)
+        for it in range(frag_start[idx], frag_start[idx + 1]):
+            b = int(frag_bf[it])
+            c = int(bf_tet[b])
+            f = int(bf_face[b])
+            if c == prev:
+                continue
+            if wp.static(planes):
+                p = plane_of(mt, c, f)
+                lam = plane_lambda(p, o, d)
+                if wp.static(paper):
+                    if not wp.isfinite(lam):
+                        entry_failed = 1  # the entry face's plane gives no ray parameter: the ray is lost
+                        break
+                if lam > t_start - t_tol:
                     cell = c
                     face_in = f
-                    t_in = wp.max(t, t_start)
-                    s_in = s
-                    fc = cand
+                    t_in = wp.max(lam, t_start)
+                    s_in = grad_scalar(cell_texel(mt, mt.grad, c), o + d * t_in)
                     break
             else:
-                entry_failed = 1  # no face around crosses either: resolved in float64 on the host
-                break
-    if cell < 0 and entry_failed == 0 and walk != WALK_PLANES:
-        # no face of this pixel's list is crossed beyond the last exit: where the snapped coverage of a layer
-        # leaves a hole at the pixel centre (an inner silhouette within 1/256 pixel) the crossed face is
-        # listed at a neighbouring pixel; the exact (consistent) face test over the 8 neighbours' lists finds it
-        for nb in range(9):
-            qx = px + (nb % 3) - 1
-            qy = py + (nb // 3) - 1
-            if nb != 4 and qx >= 0 and qy >= 0 and qx < width and qy < height:
-                q = qy * width + qx
-                for it2 in range(frag_start[q], frag_start[q + 1]):
-                    b = int(frag_bf[it2])
-                    c = int(bf_tet[b])
-                    f = int(bf_face[b])
-                    if c != prev:
+                cand = boundary_face(tets[c], f, verts, r)
+                ok, t, s = face_hit(cand, r)
+                if not ok:
+                    # the rasteriser's snapped coverage and the edge test disagree (pixel centre within
+                    # 1/256 pixel of a projected edge): the ray crosses a face around this one, found
+                    # among its edge neighbours and theirs on the front boundary
+                    wp.atomic_add(counters, chunk, 7, 1)
+                    b2, ok, t, s = ring_search(b, bf_tet, bf_face, bf_nbr, tets, verts, r)
+                    if ok and prev >= 0:
+                        # a re-entry (peel pass): at a crack the faces around belong to other cells,
+                        # whose surface neighbours do not reach the crossed face; redone in float64
+                        ok = False
+                    if ok:
+                        c = int(bf_tet[b2])
+                        f = int(bf_face[b2])
                         cand = boundary_face(tets[c], f, verts, r)
-                        ok, t, s = face_hit(cand, r)
-                        if ok and t > t_start - t_tol and (cell < 0 or t < t_in):
-                            cell = c
-                            face_in = f
-                            t_in = wp.max(t, t_start)
-                            s_in = s
-                            fc = cand
-    if entry_failed == 1 and setup == SETUP_PAPER:
-        status[idx] = STATUS_LOST
-        wp.atomic_add(counters, chunk, 3, 1)
-        return
-    if entry_failed == 1 or t_clip > 0.0:
-        status[idx] = STATUS_FAILED
-        wp.atomic_add(counters, chunk, 3, 1)
-        return
-    if cell < 0:
-        status[idx] = STATUS_DONE
-        return
-    wp.atomic_add(counters, chunk, 0, 1)
+                if ok:
+                    if t > t_start - t_tol and c != prev:
+                        cell = c
+                        face_in = f
+                        t_in = wp.max(t, t_start)
+                        s_in = s
+                        fc = cand
+                        break
+                else:
+                    entry_failed = 1  # no face around crosses either: resolved in float64 on the host
+                    break
+        if wp.static(not planes):
+            if cell < 0 and entry_failed == 0:
+                # no face of this pixel's list is crossed beyond the last exit: where the snapped coverage of a
+                # layer leaves a hole at the pixel centre (an inner silhouette within 1/256 pixel) the crossed
+                # face is listed at a neighbouring pixel; the exact (consistent) face test over the 8
+                # neighbours' lists finds it
+                for nb in range(9):
+                    qx = px + (nb % 3) - 1
+                    qy = py + (nb // 3) - 1
+                    if nb != 4 and qx >= 0 and qy >= 0 and qx < width and qy < height:
+                        q = qy * width + qx
+                        for it2 in range(frag_start[q], frag_start[q + 1]):
+                            b = int(frag_bf[it2])
+                            c = int(bf_tet[b])
+                            f = int(bf_face[b])
+                            if c != prev:
+                                cand = boundary_face(tets[c], f, verts, r)
+                                ok, t, s = face_hit(cand, r)
+                                if ok and t > t_start - t_tol and (cell < 0 or t < t_in):
+                                    cell = c
+                                    face_in = f
+                                    t_in = wp.max(t, t_start)
+                                    s_in = s
+                                    fc = cand
+        if wp.static(paper):
+            if entry_failed == 1:
+                status[idx] = STATUS_LOST
+                wp.atomic_add(counters, chunk, 3, 1)
+                return
+        if entry_failed == 1 or t_clip > 0.0:
+            status[idx] = STATUS_FAILED
+            wp.atomic_add(counters, chunk, 3, 1)
+            return
+        if cell < 0:
+            status[idx] = STATUS_DONE
+            return
+        wp.atomic_add(counters, chunk, 0, 1)
 
-    # ---- propagation: one cell per fragment-program step (Fig. 6) ----
-    acc = rgba[idx]
-    steps = int(0)
-    cells_visited = int(0)
-    stall = int(0)
-    failed = int(0)
-    exited = int(0)
-    fetches = int(0)
-    backward = int(0)
-    k_in = int(-1)
-    v_in = wp.vec4(0.0, 0.0, 0.0, 0.0)
-    # thin-layer check of the consistent walk with exact segments (as raycast's march)
-    check_thin = walk == WALK_PLUCKER and ig.mode == INTEG_EXACT
-    thin = int(0)
-    scale = float(radius)
-    thin_mem = thin_start()  # the thin-layer check's memory of the previous segment
-    while cells_visited < max_steps:
-        cells_visited += 1
-        t_out = float(0.0)
-        s_out = float(0.0)
-        nb = int(-1)
-        if walk == WALK_PLANES:
-            lam, f_out = plane_exit(mt, cell, o, d)
-            fetches += 4
-            if f_out < 0:
-                failed = 1
-                break
-            g = cell_texel(mt, mt.grad, cell)
-            a = cell_texel(mt, mt.adj, cell)
-            fetches += 2
-            t_out = lam
-            if setup == SETUP_PAPER:
-                # Fig. 6: lambda' as computed; a step that does not advance only counts towards
-                # the stall bound (the hardware's loop would run on to its instruction limit)
-                stall = stall + 1
-                if lam > t_in:
-                    stall = int(0)
-                elif lam < t_in:
-                    backward = 1  # rounding chose an exit behind the entry: the walk is suspect
-            else:
-                t_out, stall = monotone_exit(t_in, t_out, stall)
-            s_in = grad_scalar(g, o + d * t_in)  # Fig. 6 line 10: sf from this cell's gradient
-            s_out = grad_scalar(g, o + d * t_out)
-            nb = int(wp.clamp(a[f_out], -1.0, 1.0e8))
+        # ---- propagation: one cell per fragment-program step (Fig. 6) ----
+        backward = int(0)
+        if wp.static(fused):
+            acc, t_in, cell, steps, cells_visited, failed, exited, thin = exact_walk(
+                cell, face_in, fc, t_in, s_in, rgba[idx], r, verts, tets, nbr, nbr_vertex, ig.tf_s, ig.tf_v,
+                ig.model, t_stop, max_steps, float(radius))
         else:
-            fc, f_out, t_out, s_out = next_face(tets[cell], face_in, fc, verts, r)
-            if f_out < 0:
-                failed = 1
-                break
-            t_out, stall = monotone_exit(t_in, t_out, stall)
-            nb = nbr[cell][f_out]
-        if stall > STALL_STEPS:
-            failed = 1
-            break
-        if ig.mode == INTEG_EXACT:
-            # the exact integral with the TF value carried from face to face (as raycast's march):
-            # one TF evaluation per face, one linear piece unless a control point is crossed
-            if k_in < 0:
-                k_in = tf_upper(s_in, ig.tf_s)
-                v_in = tf_eval_upper(s_in, k_in, ig.tf_s, ig.tf_v)
-            k_out = tf_upper(s_out, ig.tf_s)
-            v_out = tf_eval_upper(s_out, k_out, ig.tf_s, ig.tf_v)
-            seg = wp.vec4(0.0, 0.0, 0.0, 0.0)
-            seg_l = t_out - t_in
-            if setup == SETUP_PAPER and seg_l < 0.0:
-                seg_l = 0.0  # lambda' before lambda: nothing to integrate
-            if k_in == k_out:
-                seg = integrate_piece(seg_l, v_in, v_out, ig.model)
-            else:
-                seg = integrate_segment_tf(s_in, s_out, v_in, v_out, seg_l, ig.tf_s, ig.tf_v, ig.model)
-            if check_thin:
-                thin, thin_mem = thin_step(thin_mem, t_out - t_in, seg[3], t_out, scale, 1.0 - acc[3], v_in, v_out,
-                                           k_in, k_out, ig.tf_v, ig.model)
-                if thin == 1:
+            acc = rgba[idx]
+            steps = int(0)
+            cells_visited = int(0)
+            stall = int(0)
+            failed = int(0)
+            exited = int(0)
+            fetches = int(0)
+            k_in = int(-1)
+            v_in = wp.vec4(0.0, 0.0, 0.0, 0.0)
+            thin = int(0)
+            scale = float(radius)
+            thin_mem = thin_start()  # the thin-layer check's memory of the previous segment
+            while cells_visited < max_steps:
+                cells_visited += 1
+                t_out = float(0.0)
+                s_out = float(0.0)
+                nb = int(-1)
+                if wp.static(planes):
+                    lam, f_out = plane_exit(mt, cell, o, d)
+                    fetches += 4
+                    if f_out < 0:
+                        failed = 1
+                        break
+                    g = cell_texel(mt, mt.grad, cell)
+                    a = cell_texel(mt, mt.adj, cell)
+                    fetches += 2
+                    t_out = lam
+                    if wp.static(paper):
+                        # Fig. 6: lambda' as computed; a step that does not advance only counts towards
+                        # the stall bound (the hardware's loop would run on to its instruction limit)
+                        stall = stall + 1
+                        if lam > t_in:
+                            stall = int(0)
+                        elif lam < t_in:
+                            backward = 1  # rounding chose an exit behind the entry: the walk is suspect
+                    else:
+                        t_out, stall = monotone_exit(t_in, t_out, stall)
+                    s_in = grad_scalar(g, o + d * t_in)  # Fig. 6 line 10: sf from this cell's gradient
+                    s_out = grad_scalar(g, o + d * t_out)
+                    nb = int(wp.clamp(a[f_out], -1.0, 1.0e8))
+                else:
+                    fc, f_out, t_out, s_out = next_face(tets[cell], face_in, fc, verts, r)
+                    if f_out < 0:
+                        failed = 1
+                        break
+                    t_out, stall = monotone_exit(t_in, t_out, stall)
+                    nb = nbr[cell][f_out]
+                if stall > STALL_STEPS:
                     failed = 1
                     break
-            acc = composite(acc, wp.vec4(seg[0], seg[1], seg[2], 1.0 - exp_neg(seg[3])))
-            steps += 1
-            k_in = k_out
-            v_in = v_out
-            if walk == WALK_PLANES:
-                k_in = -1  # the next cell recomputes sf from its own gradient (Fig. 6 line 10)
-        else:
-            acc, n_sub = segment(ig, s_in, s_out, t_out - t_in, acc, t_stop, counters, chunk)
-            steps += n_sub
-        t_in = t_out
-        s_in = s_out
-        if 1.0 - acc[3] < t_stop:
-            break
-        if nb < 0:
-            exited = 1
-            if thin_at_exit(thin_mem):
-                failed = 1
-                thin = 1
-            break
-        cell = nb >> 2
-        face_in = nb & 3
-    wp.atomic_add(counters, chunk, 1, steps)
-    wp.atomic_add(counters, chunk, 2, cells_visited)
-    wp.atomic_add(counters, chunk, 6, fetches)
-    px_work[idx] = wp.vec2i(cells_visited, steps)  # this pixel's loop work in this pass (one thread per pixel)
-    if backward == 1:
-        wp.atomic_add(counters, chunk, 9, 1)
-    if failed == 1 and setup == SETUP_PAPER:
-        # lost: the fragment program ends, its partial result goes to the frame buffer
+                if wp.static(exact):
+                    # the exact integral with the TF value carried from face to face (as raycast's march):
+                    # one TF evaluation per face, one linear piece unless a control point is crossed
+                    if k_in < 0:
+                        k_in = tf_upper(s_in, ig.tf_s)
+                        v_in = tf_eval_upper(s_in, k_in, ig.tf_s, ig.tf_v)
+                    k_out = tf_upper(s_out, ig.tf_s)
+                    v_out = tf_eval_upper(s_out, k_out, ig.tf_s, ig.tf_v)
+                    seg = wp.vec4(0.0, 0.0, 0.0, 0.0)
+                    seg_l = t_out - t_in
+                    if wp.static(paper):
+                        if seg_l < 0.0:
+                            seg_l = 0.0  # lambda' before lambda: nothing to integrate
+                    if k_in == k_out:
+                        seg = integrate_piece(seg_l, v_in, v_out, ig.model)
+                    else:
+                        seg = integrate_segment_tf(s_in, s_out, v_in, v_out, seg_l, ig.tf_s, ig.tf_v, ig.model)
+                    if wp.static(check_thin):
+                        thin, thin_mem = thin_step(thin_mem, t_out - t_in, seg[3], t_out, scale, 1.0 - acc[3], v_in,
+                                                   v_out, k_in, k_out, ig.tf_v, ig.model)
+                        if thin == 1:
+                            failed = 1
+                            break
+                    acc = composite(acc, wp.vec4(seg[0], seg[1], seg[2], 1.0 - exp_neg(seg[3])))
+                    steps += 1
+                    k_in = k_out
+                    v_in = v_out
+                    if wp.static(planes):
+                        k_in = -1  # the next cell recomputes sf from its own gradient (Fig. 6 line 10)
+                else:
+                    acc, n_sub = segment(ig, s_in, s_out, t_out - t_in, acc, t_stop, counters, chunk)
+                    steps += n_sub
+                t_in = t_out
+                s_in = s_out
+                if 1.0 - acc[3] < t_stop:
+                    break
+                if nb < 0:
+                    exited = 1
+                    if wp.static(check_thin):
+                        if thin_at_exit(thin_mem):
+                            failed = 1
+                            thin = 1
+                    break
+                cell = nb >> 2
+                face_in = nb & 3
+            wp.atomic_add(counters, chunk, 6, fetches)
+        wp.atomic_add(counters, chunk, 1, steps)
+        wp.atomic_add(counters, chunk, 2, cells_visited)
+        px_work[idx] = wp.vec2i(cells_visited, steps)  # this pixel's loop work in this pass (one thread per pixel)
+        if wp.static(paper):
+            if backward == 1:
+                wp.atomic_add(counters, chunk, 9, 1)
+            if failed == 1:
+                # lost: the fragment program ends, its partial result goes to the frame buffer
+                rgba[idx] = wp.vec4(fmt_quantize(fb, acc[0]), fmt_quantize(fb, acc[1]), fmt_quantize(fb, acc[2]),
+                                    fmt_quantize(fb, acc[3]))
+                status[idx] = STATUS_LOST
+                wp.atomic_add(counters, chunk, 3, 1)
+                return
+        if failed == 1:
+            status[idx] = STATUS_FAILED
+            wp.atomic_add(counters, chunk, 3, 1)
+            if thin == 1:
+                wp.atomic_add(counters, chunk, 8, 1)
+            return
+        # the pass's result goes to the frame buffer in its number format
         rgba[idx] = wp.vec4(fmt_quantize(fb, acc[0]), fmt_quantize(fb, acc[1]), fmt_quantize(fb, acc[2]),
                             fmt_quantize(fb, acc[3]))
-        status[idx] = STATUS_LOST
-        wp.atomic_add(counters, chunk, 3, 1)
-        return
-    if failed == 1:
-        status[idx] = STATUS_FAILED
-        wp.atomic_add(counters, chunk, 3, 1)
-        if thin == 1:
-            wp.atomic_add(counters, chunk, 8, 1)
-        return
-    # the pass's result goes to the frame buffer in its number format
-    rgba[idx] = wp.vec4(fmt_quantize(fb, acc[0]), fmt_quantize(fb, acc[1]), fmt_quantize(fb, acc[2]),
-                        fmt_quantize(fb, acc[3]))
-    tcur[idx] = t_in
-    last[idx] = cell
-    if exited == 0:
-        status[idx] = STATUS_DONE
-        if 1.0 - acc[3] >= t_stop:
-            wp.atomic_add(counters, chunk, 4, 1)
-            if setup == SETUP_PAPER:
-                status[idx] = STATUS_LOST  # the step bound ended it inside the mesh
+        tcur[idx] = t_in
+        last[idx] = cell
+        if exited == 0:
+            status[idx] = STATUS_DONE
+            if 1.0 - acc[3] >= t_stop:
+                wp.atomic_add(counters, chunk, 4, 1)
+                if wp.static(paper):
+                    status[idx] = STATUS_LOST  # the step bound ended it inside the mesh
+
+    return harc_march
+
+
+_MARCH: dict = {}
+_MARCH_LOCK = threading.Lock()
+
+
+def march_kernel(walk: int, setup: int, mode: int):
+    """The :func:`make_march` kernel of ``(walk, setup, mode)``, made once per configuration."""
+    key = (int(walk), int(setup), int(mode))
+    with _MARCH_LOCK:
+        if key not in _MARCH:
+            _MARCH[key] = make_march(*key)
+        return _MARCH[key]
 
 
 @wp.kernel
@@ -610,14 +493,3 @@ def init_state(rgba: wp.array(dtype=wp.vec4), tcur: wp.array(dtype=float), statu
     tcur[i] = 0.0
     status[i] = STATUS_ACTIVE
     last[i] = -1
-
-
-@wp.kernel
-def segments_kernel(ig: Integ, sf: wp.array(dtype=float), sb: wp.array(dtype=float), l: wp.array(dtype=float),
-                    counters: wp.array2d(dtype=wp.int32), out: wp.array(dtype=wp.vec4),
-                    steps: wp.array(dtype=wp.int32)):
-    """One segment per thread through :func:`segment` (tests: iso splits vs the exact integral)."""
-    i = wp.tid()
-    acc, n = segment(ig, sf[i], sb[i], l[i], wp.vec4(0.0, 0.0, 0.0, 0.0), 0.0, counters, 0)
-    out[i] = acc
-    steps[i] = n

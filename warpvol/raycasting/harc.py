@@ -226,7 +226,7 @@ def reentry_bound(mesh, camera, tris: np.ndarray, nbr: np.ndarray, start: np.nda
     """Per pixel (H*W, float32), a bound past which a ray leaving the mesh cannot re-enter it: the largest
     depth ``g`` (distance from the eye, perspective; depth along the view direction, orthographic) of any
     vertex of a front face the HARC entry search of that pixel can reach -- the faces listed at the pixel
-    and its 8 neighbours and, through :func:`ring_search <warpvol.kernels.harc.ring_search>`, the two
+    and its 8 neighbours and, through :func:`ring_search <warpvol.kernels.harc_walk.ring_search>`, the two
     rings of surface neighbours around each -- plus a rounding margin of 1e-4 of the scene's extent.
     ``g`` is largest at a vertex (a distance is convex, a depth linear), so a crossing of any of those
     faces has ``t + t0 <= bound`` (``t0`` the ray origin's shift); ``-inf`` where no face is listed
@@ -360,7 +360,8 @@ COUNTER_NAMES = ("entries", "steps", "cells", "failed", "step_bound", "iso_misse
 
 def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, fb_format: str, t_stop: float,
                max_steps: int, threads: int, rows_per_block: int = 16, setup: str = "robust") -> dict:
-    """One propagation pass over all active rays; returns the summed counters by name. ``setup``:
+    """One propagation pass over all active rays (the kernel of this walk, set-up and integration:
+    :func:`warpvol.kernels.harc.march_kernel`); returns the summed counters by name. ``setup``:
     ``robust`` (float64 ray set-up from the mesh, :func:`warpvol.kernels.walk.pixel_ray`) or
     ``paper`` (the ray from the eye in fp32, in the frame of ``fp32`` mesh textures)."""
     import warp as wp
@@ -375,13 +376,15 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     counters = wp.zeros((len(rows), N_COUNTERS), dtype=wp.int32, device=ctx.device)
     state.px_work.zero_()
     eye_w = wp.vec3(*np.asarray(ctx.scene.camera.eye, np.float64).astype(np.float32))
-    common = cam_args + [SETUPS[setup], eye_w, WALKS[walk], mesh_tex, cells["verts"], cells["tets"], cells["nbr"], entry["frag_start"],
-                         entry["frag_bf"], entry["bf_tet"], entry["bf_face"], entry["bf_nbr"], entry["far"], ig,
-                         get_format(fb_format).kernel_params(), float(t_stop), int(max_steps), 1e-6 * cells["radius"]]
+    common = cam_args + [eye_w, mesh_tex, cells["verts"], cells["tets"], cells["nbr"], cells["nbr_vertex"],
+                         entry["frag_start"], entry["frag_bf"], entry["bf_tet"], entry["bf_face"], entry["bf_nbr"],
+                         entry["far"], ig, get_format(fb_format).kernel_params(), float(t_stop), int(max_steps),
+                         1e-6 * cells["radius"]]
+    kernel = kh.march_kernel(WALKS[walk], SETUPS[setup], ig.mode)  # this configuration's kernel
 
     def launch(b: int) -> None:
         r0, nr = rows[b]
-        wp.launch(kh.harc_march, dim=nr * w, device=ctx.device,
+        wp.launch(kernel, dim=nr * w, device=ctx.device,
                   inputs=common + [r0, state.rgba, state.tcur, state.status, state.last, counters, b, state.px_work])
 
     launch_blocks(ctx.device, len(rows), launch, threads)
