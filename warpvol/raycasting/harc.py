@@ -381,6 +381,7 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
                          entry["far"], ig, get_format(fb_format).kernel_params(), float(t_stop), int(max_steps),
                          1e-6 * cells["radius"]]
     kernel = kh.march_kernel(WALKS[walk], SETUPS[setup], ig.mode)  # this configuration's kernel
+    wp.load_module(kernel.module, device=ctx.device)  # compiled / loaded here, not by the row-block threads at once
 
     def launch(b: int) -> None:
         r0, nr = rows[b]
