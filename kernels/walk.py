@@ -1,5 +1,5 @@
 """The consistent float32 cell walk shared by the ray casters (``raycast``'s :func:`~warpvol.kernels.raycast.march`,
-HARC's :func:`~warpvol.kernels.harc.harc_march`): ray set-up, Plücker edge tests, face crossings, one step
+HARC's :func:`~warpvol.kernels.harc_walk.exact_walk`): ray set-up, Plücker edge tests, face crossings, one step
 through a tet, and the thin-layer check of integrated segments (``@wp.func`` only).
 
 * :func:`ray_setup` -- the pixel's ray in **float64**: unit direction, origin moved along the ray to
