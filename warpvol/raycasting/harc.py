@@ -172,7 +172,7 @@ def entry_fragments(mesh, camera, device: str = "cpu") -> dict:
     """
     import warp as wp
 
-    from warpvol.gpu.raster import GUARD_PX, Rasterizer, guard_band_overflow
+    from warpvol.gpu.raster import GUARD_PX, Rasterizer, depth_order, guard_band_overflow
     from warpvol.gpu.vertex import VertexStage
     from warpvol.raycasting.stages.entry_bins import entry_face_mask
 
@@ -200,7 +200,7 @@ def entry_fragments(mesh, camera, device: str = "cpu") -> dict:
         pix = fr.pixel_index()
         prim = fr.prim.numpy()[:count]
         depth = fr.depth.numpy()[:count]
-        order = np.lexsort((depth, pix))
+        order = depth_order(pix, depth)
         start = fr.offsets.numpy().astype(np.int32)
         frag_bf = prim[order]
         layers = int(np.diff(start).max())
