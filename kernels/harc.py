@@ -168,7 +168,8 @@ def make_march(walk: int, setup: int, mode: int):
     Plücker case walks in :func:`warpvol.kernels.harc_walk.exact_walk`. Each configuration is a module of
     its own (compiled on its first launch); use :func:`march_kernel`.
 
-    One thread per pixel of rows ``row0 ..``: ray set-up, the ray start (entry search), the walk, the
+    One thread per active ray (pixels ``first ..``, or ``ids[first ..]`` when a list of the active rays'
+    pixels is given: a re-entry pass): ray set-up, the ray start (entry search), the walk, the
     pass's result to the frame buffer in its number format, the counters (see the module docstring) and
     ``px_work`` (the pixel's cells visited and fragment-program steps in this pass)."""
     planes = walk == WALK_PLANES
@@ -206,7 +207,8 @@ def make_march(walk: int, setup: int, mode: int):
         t_stop: float,
         max_steps: int,
         t_tol: float,
-        row0: int,
+        first: int,
+        ids: wp.array(dtype=wp.int32),
         rgba: wp.array(dtype=wp.vec4),
         tcur: wp.array(dtype=float),
         status: wp.array(dtype=wp.int32),
@@ -216,7 +218,9 @@ def make_march(walk: int, setup: int, mode: int):
         px_work: wp.array(dtype=wp.vec2i),
     ):
         tid = wp.tid()
-        idx = row0 * width + tid
+        idx = first + tid  # the pixels first .. (all rays of the image active)
+        if ids.shape[0] > 0:
+            idx = ids[first + tid]  # the active rays' pixels ids[first ..] (a re-entry pass)
         if status[idx] != STATUS_ACTIVE:
             return
         py = idx // width
@@ -234,14 +238,6 @@ def make_march(walk: int, setup: int, mode: int):
                 return
         t_start = tcur[idx]
         prev = last[idx]
-        if wp.static((not planes) and (not paper)):
-            # a re-entry pass: every face the search below can reach (this pixel's list, its neighbours'
-            # lists, their surface rings) lies within `far` of the eye (host bound with a rounding margin);
-            # an exit beyond it cannot re-enter, so the ray is done without the search
-            if prev >= 0:
-                if t_start + wp.dot(r.back, r.d) > far[idx]:
-                    status[idx] = STATUS_DONE
-                    return
 
         # ---- ray start: the first rasterised front boundary face beyond the last exit (peel test) ----
         cell = int(-1)
@@ -462,6 +458,12 @@ def make_march(walk: int, setup: int, mode: int):
                             fmt_quantize(fb, acc[3]))
         tcur[idx] = t_in
         last[idx] = cell
+        if wp.static((not planes) and (not paper)):
+            # every face a re-entry search can reach (this pixel's list, its neighbours' lists, their surface
+            # rings) lies within `far` of the eye (host bound with a rounding margin): a ray leaving the mesh
+            # beyond it cannot re-enter, so it is done now and no further pass launches it
+            if exited == 1 and t_in + wp.dot(r.back, r.d) > far[idx]:
+                status[idx] = STATUS_DONE
         if exited == 0:
             status[idx] = STATUS_DONE
             if 1.0 - acc[3] >= t_stop:

@@ -13,8 +13,10 @@ contrast that makes the difference visible (a thin layer carrying the image, :fu
 is marked ``STATUS_FAILED`` and redone on the host in float64; it is counted, never silently wrong.
 
 Per-pixel state (radiance, transmittance, ray parameter, status) lives in device arrays so passes
-can be separate launches; ``counters[chunk]`` (entries, steps, unfinished, failed, left active, failed on a
-thin layer) has one row per concurrently launched row block.
+can be separate launches; a pass launches one thread per active ray: pixels ``first ..`` while every
+ray is active, else the pixels ``ids[first ..]`` of the rays still active (a list made by the host).
+``counters[chunk]`` (entries, steps, unfinished, failed, left active, failed on a thin layer) has one
+row per concurrently launched block.
 """
 
 import warp as wp
@@ -115,7 +117,8 @@ def march(
     max_steps: int,
     t_min: float,
     t_tol: float,
-    row0: int,
+    first: int,
+    ids: wp.array(dtype=wp.int32),
     rgb: wp.array(dtype=wp.vec3),
     trans: wp.array(dtype=float),
     tcur: wp.array(dtype=float),
@@ -125,7 +128,9 @@ def march(
     chunk: int,
 ):
     tid = wp.tid()
-    idx = row0 * width + tid
+    idx = first + tid  # the pixels first .. (all rays of the image active)
+    if ids.shape[0] > 0:
+        idx = ids[first + tid]  # the active rays' pixels ids[first ..] (a re-entry pass)
     st = status[idx]
     if (st & 3) != STATUS_ACTIVE:
         return

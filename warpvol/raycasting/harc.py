@@ -361,7 +361,9 @@ COUNTER_NAMES = ("entries", "steps", "cells", "failed", "step_bound", "iso_misse
 def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, fb_format: str, t_stop: float,
                max_steps: int, threads: int, rows_per_block: int = 16, setup: str = "robust") -> dict:
     """One propagation pass over all active rays (the kernel of this walk, set-up and integration:
-    :func:`warpvol.kernels.harc.march_kernel`); returns the summed counters by name. ``setup``:
+    :func:`warpvol.kernels.harc.march_kernel`, one thread per active ray:
+    :func:`warpvol.raycasting.stages.raycast.ray_blocks`); returns the summed counters by name (all zero,
+    nothing launched, when no ray is active). ``setup``:
     ``robust`` (float64 ray set-up from the mesh, :func:`warpvol.kernels.walk.pixel_ray`) or
     ``paper`` (the ray from the eye in fp32, in the frame of ``fp32`` mesh textures)."""
     import warp as wp
@@ -369,12 +371,16 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     from warpvol.gpu.formats import get_format
     from warpvol.kernels import harc as kh
     from warpvol.parallel import launch_blocks
-    from warpvol.raycasting.stages.raycast import camera_launch_args
+    from warpvol.kernels import raycast as kr
+    from warpvol.raycasting.stages.raycast import camera_launch_args, ray_blocks
 
     cells = ctx.buffers["cells"]
-    w, rows, cam_args = camera_launch_args(ctx, rows_per_block)
-    counters = wp.zeros((len(rows), N_COUNTERS), dtype=wp.int32, device=ctx.device)
+    _, _, cam_args = camera_launch_args(ctx, rows_per_block)
     state.px_work.zero_()
+    ids, parts = ray_blocks(ctx, state.status.numpy() == int(kr.STATUS_ACTIVE), threads, rows_per_block)
+    if not parts:
+        return dict.fromkeys(COUNTER_NAMES, 0)
+    counters = wp.zeros((len(parts), N_COUNTERS), dtype=wp.int32, device=ctx.device)
     eye_w = wp.vec3(*np.asarray(ctx.scene.camera.eye, np.float64).astype(np.float32))
     common = cam_args + [eye_w, mesh_tex, cells["verts"], cells["tets"], cells["nbr"], cells["nbr_vertex"],
                          entry["frag_start"], entry["frag_bf"], entry["bf_tet"], entry["bf_face"], entry["bf_nbr"],
@@ -384,11 +390,12 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     wp.load_module(kernel.module, device=ctx.device)  # compiled / loaded here, not by the row-block threads at once
 
     def launch(b: int) -> None:
-        r0, nr = rows[b]
-        wp.launch(kernel, dim=nr * w, device=ctx.device,
-                  inputs=common + [r0, state.rgba, state.tcur, state.status, state.last, counters, b, state.px_work])
+        first, count = parts[b]
+        wp.launch(kernel, dim=count, device=ctx.device,
+                  inputs=common + [first, ids, state.rgba, state.tcur, state.status, state.last, counters, b,
+                                   state.px_work])
 
-    launch_blocks(ctx.device, len(rows), launch, threads)
+    launch_blocks(ctx.device, len(parts), launch, threads)
     return dict(zip(COUNTER_NAMES, (int(x) for x in counters.numpy().sum(axis=0))))
 
 
