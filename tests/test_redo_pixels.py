@@ -10,14 +10,16 @@ from warpvol.scene.builtin import builtin_scene
 
 
 @pytest.mark.parametrize("name", ["sphere", "concave"])
-def test_pixel_list_matches_whole_image(name):
+@pytest.mark.parametrize("n", [37, 3])
+def test_pixel_list_matches_whole_image(name, n):
+    """Also with few pixels, where only the entry faces whose box holds a listed pixel are searched."""
     sc = builtin_scene(name).with_camera(width_px=24, height_px=20)
     full = render_reference_warp(sc.mesh, sc.transfer, sc.camera, device="cpu", show_progress=False)
-    px = np.random.default_rng(1).choice(24 * 20, 37, replace=False)
+    px = np.random.default_rng(1).choice(24 * 20, n, replace=False)
     part = render_reference_warp(sc.mesh, sc.transfer, sc.camera, device="cpu", pixels=px, show_progress=False)
-    assert part.shape == (37, 4)
+    assert part.shape == (n, 4)
     np.testing.assert_array_equal(part, full.reshape(-1, 4)[px])  # each pixel computed on its own
-    assert np.abs(full).max() > 0.01  # the view shows something
+    assert np.abs(full).max() > 0.01 and np.abs(part).max() > 0  # the view, and the listed pixels, show something
 
 
 def test_redo_warp_matches_numpy_tracer():

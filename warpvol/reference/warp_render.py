@@ -262,6 +262,16 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
 
     # -- boundary entries per pixel ------------------------------------------------------------------
     ftet, floc, fbox = _entry_faces(md, view, first, last)
+    if plist is not None and len(ftet):
+        # a pixel list: the walk reads only the listed pixels' entries, so only faces whose box holds one
+        # (counted on a summed-area table of the listed pixels over the rows) are searched
+        sat = np.zeros((nrows + 1, W + 1), np.int64)
+        np.add.at(sat, (plist // W - first + 1, plist % W + 1), 1)
+        sat = sat.cumsum(axis=0).cumsum(axis=1)
+        i0, i1 = fbox[:, 0].astype(np.int64) - first, fbox[:, 1].astype(np.int64) - first + 1
+        j0, j1 = fbox[:, 2].astype(np.int64), fbox[:, 3].astype(np.int64) + 1
+        keep = sat[i1, j1] - sat[i0, j1] - sat[i1, j0] + sat[i0, j0] > 0
+        ftet, floc, fbox = ftet[keep], floc[keep], fbox[keep]
     nf = len(ftet)
     fblocks = blocks(nf, max(1, -(-nf // (4 * threads)))) if on_cpu else [(0, nf)]
     d_ftet, d_floc = arr(ftet, wp.int32), arr(floc, wp.int32)
