@@ -307,17 +307,24 @@ def to_json(absolute: list[dict], relative: list[dict], skipped: dict) -> dict:
                  "agrees: the paper's sign and ratio within [0.5, 2].")
     if skipped:
         notes_abs += " Skipped: " + "; ".join(f"{k} ({v})" for k, v in skipped.items())
-    return {"source": "python scripts/validate_model.py --json docs/data/validate_model.json",
-            "tables": {
-                "rows": {"title": "Throughput model: absolute rows", "columns": ["paper", "row", "paper value",
-                                                                                "modelled", "ratio", "role", "note"],
+    def tables(absolute, relative, what=""):
+        return {"rows": {"title": f"Throughput model: absolute rows{what}",
+                         "columns": ["paper", "row", "paper value", "modelled", "ratio", "role", "note"],
                          "rows": [[r["paper"], r["row"], r["paper_value"], r["modelled"], r["ratio"], r["role"],
                                    r["note"]] for r in absolute], "notes": notes_abs},
-                "relative": {"title": "Throughput model: relative rows (method A over method B)",
+                "relative": {"title": f"Throughput model: relative rows (method A over method B){what}",
                              "columns": ["paper", "row", "card", "data", "paper", "modelled", "ratio", "agrees",
                                          "note"],
                              "rows": [[r["paper"], r["row"], r["card"], r["data"], r["paper_rel"], r["modelled_rel"],
-                                       r["ratio"], r["agrees"], r["note"]] for r in relative], "notes": notes_rel}}}
+                                       r["ratio"], r["agrees"], r["note"]] for r in relative], "notes": notes_rel}}
+
+    out = tables(absolute, relative)
+    for paper in dict.fromkeys(r["paper"] for r in absolute):  # each paper's page shows its own rows
+        slug = paper.split()[0].lower() + paper.split()[-1]
+        per = tables([r for r in absolute if r["paper"] == paper], [r for r in relative if r["paper"] == paper],
+                     f", {paper}")
+        out[f"rows_{slug}"], out[f"relative_{slug}"] = per["rows"], per["relative"]
+    return {"source": "python scripts/validate_model.py --json docs/data/validate_model.json", "tables": out}
 
 
 def main(argv=None) -> int:
