@@ -57,8 +57,7 @@ from .integrate import exp_neg, integrate_piece, integrate_segment_tf
 from .raycast import STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED
 from .texture import Tex2D, tex2d_texel
 from .tf import tf_eval_upper, tf_upper
-from .walk import (STALL_STEPS, Face, boundary_face, face_hit, monotone_exit, next_face, pixel_ray, thin_at_exit,
-                   thin_start, thin_step)
+from .walk import STALL_STEPS, Face, boundary_face, face_hit, monotone_exit, next_face, pixel_ray
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -175,8 +174,11 @@ def make_march(walk: int, setup: int, mode: int):
     planes = walk == WALK_PLANES
     paper = setup == SETUP_PAPER
     exact = mode == INTEG_EXACT
-    fused = (not planes) and (not paper) and exact  # the whole walk in exact_walk
-    check_thin = (not planes) and exact  # thin-layer check of the consistent walk with exact segments
+    if paper and not planes:
+        raise ValueError("make_march: the paper's set-up walks the face planes (walk = WALK_PLANES)")
+    # the consistent walk with exact segments (and its thin-layer check) is exact_walk; the loop below walks the
+    # planes (any integration) or the consistent walk with a table integration
+    fused = (not planes) and exact
 
     @wp.kernel(module="unique", module_options=MARCH_OPTIONS)
     def harc_march(
@@ -345,11 +347,7 @@ def make_march(walk: int, setup: int, mode: int):
             failed = int(0)
             exited = int(0)
             fetches = int(0)
-            k_in = int(-1)
-            v_in = wp.vec4(0.0, 0.0, 0.0, 0.0)
             thin = int(0)
-            scale = float(radius)
-            thin_mem = thin_start()  # the thin-layer check's memory of the previous segment
             while cells_visited < max_steps:
                 cells_visited += 1
                 t_out = float(0.0)
@@ -389,11 +387,10 @@ def make_march(walk: int, setup: int, mode: int):
                     failed = 1
                     break
                 if wp.static(exact):
-                    # the exact integral with the TF value carried from face to face (as raycast's march):
-                    # one TF evaluation per face, one linear piece unless a control point is crossed
-                    if k_in < 0:
-                        k_in = tf_upper(s_in, ig.tf_s)
-                        v_in = tf_eval_upper(s_in, k_in, ig.tf_s, ig.tf_v)
+                    # the exact integral of the cell's segment (the plane walk: sf from the cell's own gradient,
+                    # so both ends are looked up per cell), one linear piece unless a control point is crossed
+                    k_in = tf_upper(s_in, ig.tf_s)
+                    v_in = tf_eval_upper(s_in, k_in, ig.tf_s, ig.tf_v)
                     k_out = tf_upper(s_out, ig.tf_s)
                     v_out = tf_eval_upper(s_out, k_out, ig.tf_s, ig.tf_v)
                     seg = wp.vec4(0.0, 0.0, 0.0, 0.0)
@@ -405,18 +402,8 @@ def make_march(walk: int, setup: int, mode: int):
                         seg = integrate_piece(seg_l, v_in, v_out, ig.model)
                     else:
                         seg = integrate_segment_tf(s_in, s_out, v_in, v_out, seg_l, ig.tf_s, ig.tf_v, ig.model)
-                    if wp.static(check_thin):
-                        thin, thin_mem = thin_step(thin_mem, t_out - t_in, seg[3], t_out, scale, 1.0 - acc[3], v_in,
-                                                   v_out, k_in, k_out, ig.tf_v, ig.model)
-                        if thin == 1:
-                            failed = 1
-                            break
                     acc = composite(acc, wp.vec4(seg[0], seg[1], seg[2], 1.0 - exp_neg(seg[3])))
                     steps += 1
-                    k_in = k_out
-                    v_in = v_out
-                    if wp.static(planes):
-                        k_in = -1  # the next cell recomputes sf from its own gradient (Fig. 6 line 10)
                 else:
                     acc, n_sub = segment(ig, s_in, s_out, t_out - t_in, acc, t_stop, counters, chunk)
                     steps += n_sub
@@ -426,10 +413,6 @@ def make_march(walk: int, setup: int, mode: int):
                     break
                 if nb < 0:
                     exited = 1
-                    if wp.static(check_thin):
-                        if thin_at_exit(thin_mem):
-                            failed = 1
-                            thin = 1
                     break
                 cell = nb >> 2
                 face_in = nb & 3
