@@ -371,13 +371,12 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     from warpvol.gpu.formats import get_format
     from warpvol.kernels import harc as kh
     from warpvol.parallel import launch_blocks
-    from warpvol.kernels import raycast as kr
     from warpvol.raycasting.stages.raycast import camera_launch_args, ray_blocks
 
     cells = ctx.buffers["cells"]
-    _, _, cam_args = camera_launch_args(ctx, rows_per_block)
+    cam_args = camera_launch_args(ctx)
     state.px_work.zero_()
-    ids, parts = ray_blocks(ctx, state.status.numpy() == int(kr.STATUS_ACTIVE), threads, rows_per_block)
+    ids, parts = ray_blocks(ctx, state.status.numpy() == int(kh.STATUS_ACTIVE), threads, rows_per_block)
     if not parts:
         return dict.fromkeys(COUNTER_NAMES, 0)
     counters = wp.zeros((len(parts), N_COUNTERS), dtype=wp.int32, device=ctx.device)

@@ -48,26 +48,23 @@ class MarchState:
         return out.numpy().reshape(height, width, 4)
 
 
-def camera_launch_args(ctx: Context, rows_per_block: int = 16) -> tuple[int, list, list]:
-    """``(width, row blocks, camera arguments)`` of a per-pixel ray kernel (``march`` and the HARC
-    walker): image size, float64 eye relative to the cells' origin (the kernel moves each ray's
-    origin to the mesh) and camera frame, projection, half height, aspect, mesh radius."""
+def camera_launch_args(ctx: Context) -> list:
+    """The camera arguments of a per-pixel ray kernel (``march`` and the HARC walker): image size, float64
+    eye relative to the cells' origin (the kernel moves each ray's origin to the mesh) and camera frame,
+    projection, half height, aspect, mesh radius. The launch blocks come from :func:`ray_blocks`."""
     import warp as wp
 
     cam = ctx.scene.camera
     cells = ctx.buffers["cells"]
-    w, h = cam.width_px, cam.height_px
     if cam.projection == "perspective":
         half_h = float(np.tan(np.radians(cam.fov_y_deg) / 2.0))
     else:
         half_h = cam.ortho_height / 2.0
     eye = np.asarray(cam.eye, dtype=np.float64) - cells["origin"]
-    on_cpu = str(ctx.device).startswith("cpu")
-    rows = blocks(h, rows_per_block if on_cpu else h)
     v3 = wp.vec3d
-    return w, rows, [w, h, v3(*eye), v3(*cam.forward), v3(*cam.right), v3(*cam.true_up),
-                     int(cam.projection == "orthographic"), wp.float64(half_h), wp.float64(cam.aspect),
-                     wp.float64(max(cells["radius"], 1e-30))]
+    return [cam.width_px, cam.height_px, v3(*eye), v3(*cam.forward), v3(*cam.right), v3(*cam.true_up),
+            int(cam.projection == "orthographic"), wp.float64(half_h), wp.float64(cam.aspect),
+            wp.float64(max(cells["radius"], 1e-30))]
 
 
 def ray_blocks(ctx: Context, active: np.ndarray, threads: int, rows_per_block: int = 16) -> tuple:
@@ -105,7 +102,7 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
     from warpvol.kernels import raycast as k
 
     cells, bins = ctx.buffers["cells"], ctx.buffers["entry_bins"]
-    _, _, cam_args = camera_launch_args(ctx, rows_per_block)
+    cam_args = camera_launch_args(ctx)
     ids, parts = ray_blocks(ctx, (state.status.numpy() & 3) == int(k.STATUS_ACTIVE), threads, rows_per_block)
     if not parts:
         state.active = 0
