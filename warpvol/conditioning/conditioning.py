@@ -41,6 +41,7 @@ from functools import cached_property
 
 import numpy as np
 
+from warpvol.conditioning.reorder import needs_reorder, reordered_mesh
 from warpvol.errors import ConfigError
 from warpvol.scene.camera import Camera
 from warpvol.scene.mesh import TetMesh
@@ -182,11 +183,13 @@ def check_float32_ranges(scene) -> None:
                               "'raycast', 'harc_best', 'pt_best', 'vsbuffer_best' condition it first)")
 
 
-def condition_scene(scene, cache: dict | None = None) -> tuple[object, dict]:
+def condition_scene(scene, cache: dict | None = None, reorder: str = "none") -> tuple[object, dict]:
     """``(conditioned scene, info)``: the scene mapped as in the module docstring, in float64.
 
     ``info`` holds ``origin`` (the world point that becomes 0), ``scale`` (the world length that
-    becomes 1), ``scalar_offset`` and ``scalar_scale`` (``s' = (s - offset) / scale``) and ``cached``.
+    becomes 1), ``scalar_offset`` and ``scalar_scale`` (``s' = (s - offset) / scale``), ``reordered``
+    (cells and points renumbered along a space-filling curve: ``reorder`` is ``"morton"``, or ``"auto"``
+    and the mesh's order is incoherent, :func:`warpvol.conditioning.reorder.needs_reorder`) and ``cached``.
     The scene object is copied (any object with ``mesh``, ``transfer`` and ``camera``), the input
     untouched. With ``cache`` (a dict kept across calls) the conditioned mesh is reused while the
     mesh object and the scalar mapping stay the same, so per-mesh caches downstream keep hitting.
@@ -206,21 +209,23 @@ def condition_scene(scene, cache: dict | None = None) -> tuple[object, dict]:
     centre, h = mesh_frame(mesh)
     data_range = mesh.scalar_range
     s_mid, s_half = scalar_frame(tf, data_range)
-    hit = None if cache is None else cache.get("mesh")  # (weakref to the source, scalar mapping, result)
-    if hit is not None and hit[0]() is source and hit[1] == (s_mid, s_half):
-        cmesh, cached = hit[2], True
+    hit = None if cache is None else cache.get("mesh")  # (weakref to the source, mapping, renumbering, result)
+    if hit is not None and hit[0]() is source and hit[1] == (s_mid, s_half) and hit[2] == reorder:
+        cmesh, cached = hit[3], True
     else:
         cmesh, cached = _conditioned_mesh(mesh, centre, h, s_mid, s_half), False
         if mesh is not source:
             cmesh = type(source)(cmesh, source.cell_start, name=source.name)
+        elif needs_reorder(cmesh, reorder):
+            cmesh = reordered_mesh(cmesh)
         if cache is not None:
-            cache["mesh"] = (weakref.ref(source), (s_mid, s_half), cmesh)
+            cache["mesh"] = (weakref.ref(source), (s_mid, s_half), reorder, cmesh)
     out = copy.copy(scene)
     out.mesh = cmesh
     out.transfer = conditioned_transfer(tf, h, s_mid, s_half, data_range, _diagonal(mesh))
     out.camera = conditioned_camera(scene.camera, centre, h)
     info = {"origin": [float(v) for v in centre], "scale": h, "scalar_offset": s_mid, "scalar_scale": s_half,
-            "cached": cached}
+            "reordered": getattr(cmesh, "cell_order", None) is not None, "cached": cached}
     return out, info
 
 

@@ -4,28 +4,36 @@ mapped by the transfer function's range, in float64, before any stage casts it t
 for the data's variation, not for its offset (georeferenced coordinates, pressures in pascal, meshes
 in nanometres or light years), and later thresholds act relative to the mesh's size.
 
+A mesh whose cells come in an incoherent order (a Delaunay tetrahedralisation of scattered points)
+has its cells and points renumbered along a Morton curve (:mod:`warpvol.conditioning.reorder`), so a
+ray's next cell is usually in cache; meshes numbered coherently (meshers' output, grids) are left as
+they are.
+
 The conditioned mesh is built once per (mesh, scalar mapping) and kept in the pipeline's persistent
 state, so the per-mesh caches of the later stages (``cell_setup``, ``vsb_setup``, ...) keep hitting
 across renders with a new camera or a transfer function of the same range. Stats: ``origin`` and
 ``scale`` (world point and length that become 0 and 1), ``scalar_offset`` and ``scalar_scale``
-(``s' = (s - offset) / scale``), ``cached``.
+(``s' = (s - offset) / scale``), ``reordered``, ``cached``.
 """
 
 from __future__ import annotations
 
 from warpvol.conditioning.conditioning import condition_scene
-from warpvol.stage import Context, Stage, register_stage
+from warpvol.conditioning.reorder import REORDER_CHOICES
+from warpvol.stage import Context, Param, Stage, register_stage
 
 
 @register_stage
 class Condition(Stage):
     """Replace ``ctx.scene`` by the same scene in unit-size, float32-friendly coordinates and scalars.
 
-    ==========  =====  =========  ===========================
+    ==========  =====  =========  ==============================================================
     parameter   type   default    meaning
-    ==========  =====  =========  ===========================
-    (none)
-    ==========  =====  =========  ===========================
+    ==========  =====  =========  ==============================================================
+    reorder     str    ``auto``   renumber cells and points along a Morton curve: ``auto`` (when
+                                  over half the neighbour pairs lie 4,096+ records apart),
+                                  ``morton`` (always), ``none``
+    ==========  =====  =========  ==============================================================
 
     Example
     -------
@@ -38,11 +46,14 @@ class Condition(Stage):
 
     name = "condition"
     summary = "scene moved to the mesh centre, scaled to unit size, scalars mapped by the TF range (float64)"
+    params = (Param("reorder", str, "auto", "renumber cells and points along a Morton curve (auto: when the "
+                    "mesh's order is incoherent)", choices=REORDER_CHOICES),)
     needs = ()
     provides = ("conditioned",)
     setup = True  # per-mesh work kept across renders (see the module docstring)
 
     def run(self, ctx: Context) -> None:
-        ctx.scene, info = condition_scene(ctx.scene, cache=ctx.persistent.setdefault("condition", {}))
+        ctx.scene, info = condition_scene(ctx.scene, cache=ctx.persistent.setdefault("condition", {}),
+                                          reorder=self.reorder)
         ctx.buffers["conditioned"] = True
         ctx.stats["condition"] = info
