@@ -1,7 +1,7 @@
 """Cost laws: time, peak memory and bytes per tet against mesh size and image size.
 
 Renderers: warpvol's ``raycast``, ``harc_best`` and ``pt_best`` presets (warm: kernels compiled, per-mesh
-data built), the exact float64 reference (:func:`warpvol.reference.numpy_render.render_reference`, Warp
+data built; ``vsbuffer_best`` on request, ``--renderers vsbuffer_best``), the exact float64 reference (:func:`warpvol.reference.numpy_render.render_reference`, Warp
 kernels; kernels compiled by a 16x16 warm-up, per-mesh set-up included in its time: it keeps none) and
 VTK's ``vtkProjectedTetrahedraMapper`` (offscreen, set up as in ``scripts/bench_raycast.py``; warm).
 
@@ -44,7 +44,9 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-RENDERERS = ("raycast", "harc_best", "pt_best", "reference", "vtk_pt")
+RENDERERS = ("raycast", "harc_best", "pt_best", "reference", "vtk_pt", "vsbuffer_best")
+#: the default run's renderers (``vsbuffer_best``, seconds per frame from 10^6 tets on, is run on request)
+DEFAULT_RENDERERS = RENDERERS[:5]
 TF_POINTS = [[0.0, 0.1, 0.2, 0.8, 0.0], [0.35, 0.2, 0.7, 0.9, 0.4], [0.6, 1.0, 0.8, 0.2, 1.5],
              [1.0, 1.0, 0.2, 0.1, 0.6]]
 
@@ -194,6 +196,8 @@ def points_of_table(table: dict) -> list[dict]:
                      bytes_per_tet=r["peak bytes/tet"], load=[r["load (1 min)"]])
             if r.get("kept bytes/tet") is not None:
                 p["kept_bytes_per_tet"] = r["kept bytes/tet"]
+        if r.get("run"):
+            p["run"] = r["run"]
         out.append(p)
     return out
 
@@ -235,7 +239,7 @@ def plot(points: list[dict], renderers, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
-    colours = dict(zip(RENDERERS, ("C0", "C1", "C2", "C3", "C4")))
+    colours = dict(zip(RENDERERS, ("C0", "C1", "C2", "C3", "C4", "C5")))
     for r in renderers:
         for kind, ls in (("structured", "-"), ("delaunay", "--")):
             pts = sorted((p for p in points if p.get("sweep") == "mesh" and p["renderer"] == r and p["kind"] == kind
@@ -272,7 +276,7 @@ def main(argv=None) -> int:
     ap.add_argument("--sizes", nargs="+", type=int, default=[128, 256, 512, 1024])
     ap.add_argument("--image-tets", type=float, default=1e5)
     ap.add_argument("--repeat", type=int, default=2)
-    ap.add_argument("--renderers", default=",".join(RENDERERS))
+    ap.add_argument("--renderers", default=",".join(DEFAULT_RENDERERS))
     ap.add_argument("--timeout", type=float, default=300.0, help="seconds per point (child process)")
     ap.add_argument("--cache", default=str(ROOT / "out" / "bench_scaling"))
     ap.add_argument("--no-docs", action="store_true", help="do not write docs/data/scaling.json, docs/img/scaling.png")
@@ -299,12 +303,13 @@ def main(argv=None) -> int:
         specs += [{"sweep": "image", "kind": "structured", "mesh": img_mesh, "size": size, "renderer": r,
                    "repeat": args.repeat} for r in renderers]
     t_start = time.perf_counter()
+    sources = ["python scripts/bench_scaling.py " + " ".join(argv if argv is not None else sys.argv[1:])]
     points = []
     print(f"{'sweep':<6}{'mesh':<20}{'tets':>10}{'size':>6}  {'renderer':<10}{'time [s]':>10}{'first [s]':>10}"
           f"{'peak [MiB]':>11}{'B/tet':>8}{'kept':>8}  load")
     for spec in specs:
         res = run_point({k: spec[k] for k in ("renderer", "mesh", "size", "repeat")}, args.timeout)
-        res.update(sweep=spec["sweep"], kind=spec["kind"])
+        res.update(sweep=spec["sweep"], kind=spec["kind"], run=sources[-1])
         points.append(res)
         mesh = Path(spec["mesh"]).stem
         if "error" in res:
@@ -315,14 +320,17 @@ def main(argv=None) -> int:
                   f"{res['bytes_per_tet']:>8.0f}{res.get('kept_bytes_per_tet', float('nan')):>8.0f}  {res['load'][0]:.2f}",
                   flush=True)
     data = ROOT / "docs" / "data" / "scaling.json"
-    sources = ["python scripts/bench_scaling.py " + " ".join(argv if argv is not None else sys.argv[1:])]
     if args.merge and data.exists():
         old = json.loads(data.read_text())
         kept = [p for p in points_of_table(old["tables"]["points"]) if point_key(p) not in {point_key(q) for q in points}]
         print(f"kept {len(kept)} points of {data.name} not measured again")
         points = kept + points
         renderers = [r for r in RENDERERS if any(p["renderer"] == r for p in points)]
-        sources = old.get("sources", [old.get("source", "")]) + sources
+        # the runs whose points the tables hold (points of files written before points named their run:
+        # that file's runs)
+        runs = [p.get("run") for p in points]
+        earlier = old.get("sources", [old.get("source", "")]) if None in runs else []
+        sources = list(dict.fromkeys(earlier + [r for r in runs if r]))
     fit_rows = fits(points, renderers, img_mesh)
     print("\nfitted exponents (least squares in log-log)")
     for row in fit_rows:
@@ -332,14 +340,14 @@ def main(argv=None) -> int:
     if args.no_docs:
         return 0
     cols = ["sweep", "mesh", "tets", "pixels", "renderer", "time [s]", "first [s]", "peak [MiB]", "peak bytes/tet",
-            "kept bytes/tet", "load (1 min)"]
+            "kept bytes/tet", "load (1 min)", "run"]
     rows = [[p["sweep"], Path(p["mesh"]).stem, p.get("tets"), p.get("pixels", p["size"] ** 2), p["renderer"],
              None if "error" in p else round(p["time_s"], 4),
              None if "error" in p else round(p["first_s"], 3),
              None if "error" in p else round(p["peak_bytes"] / 2**20, 1),
              None if "error" in p else round(p["bytes_per_tet"], 1),
              None if "error" in p else round(p.get("kept_bytes_per_tet", float("nan")), 1),
-             None if "error" in p else round(p["load"][0], 2)] for p in points]
+             None if "error" in p else round(p["load"][0], 2), p.get("run", "")] for p in points]
     fit_cols = list(fit_rows[0].keys()) if fit_rows else []
     doc = {"source": " + ".join(sources), "sources": sources,
            "tables": {
@@ -357,7 +365,7 @@ def main(argv=None) -> int:
                                        f"Runs on {os.cpu_count()} cores, shared machine (load in the points table): "
                                        + "; ".join(sources) + ".")},
                "points": {"title": "Every point (median of the warm renders)", "columns": cols, "rows": rows,
-                          "notes": "Failed or timed-out points show '-'; the runs are listed under the exponents table."}}}
+                          "notes": "Failed or timed-out points show '-'; run: the command that measured the point."}}}
     data.parent.mkdir(parents=True, exist_ok=True)
     data.write_text(json.dumps(doc, indent=1))
     plot(points, renderers, ROOT / "docs" / "img" / "scaling.png")

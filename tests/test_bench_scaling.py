@@ -34,3 +34,6 @@ def test_points_table_reads_back_into_the_written_fits():
                 assert want == v, (row["renderer"], col)
     # one key per measured point: a re-measured point replaces its earlier row
     assert len({bs.point_key(p) for p in points}) == len(points)
+    # every point names the run that measured it, and the runs listed are exactly those
+    runs = [p.get("run") for p in points]
+    assert all(runs) and set(runs) == set(doc["sources"])
