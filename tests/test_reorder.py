@@ -109,3 +109,24 @@ def test_condition_stage_refuses_an_unknown_reorder_naming_it():
         Pipeline.from_config({"name": "x", "stages": [{"stage": "condition", "reorder": "hilbert"},
                                                       {"stage": "cell_setup"}, {"stage": "entry_bins"},
                                                       {"stage": "raycast"}]})
+
+
+def test_source_cells_move_whole():
+    """A mesh whose tets are grouped into the source cells they were split from (``cell_start``, 5 tets
+    per cube here) keeps every group whole and consecutive, in Morton order of the groups."""
+    from warpvol.scene.grids import grid_points, structured_to_tets5
+
+    x = np.linspace(-1.0, 1.0, 7)
+    pts = grid_points(x, x, x)
+    tets = structured_to_tets5((7, 7, 7))
+    rng = np.random.default_rng(5)
+    groups = rng.permutation(len(tets) // 5)  # the cubes in a random order, each cube's 5 tets together
+    order = (groups[:, None] * 5 + np.arange(5)).ravel()
+    m = TetMesh(pts, tets[order], np.linalg.norm(pts, axis=1), cell_start=np.arange(0, len(tets) + 1, 5))
+    r = reordered_mesh(m)
+    np.testing.assert_array_equal(r.cell_start, m.cell_start)  # 5 tets per group still
+    old_group = r.cell_order // 5
+    assert (old_group.reshape(-1, 5) == old_group[::5, None]).all()  # each new group is one old group
+    np.testing.assert_array_equal(cell_keys(r), cell_keys(m))
+    np.testing.assert_array_equal(r.adjacency, TetMesh(r.points, r.tets, r.scalars).adjacency)
+    assert far_neighbour_fraction(r.adjacency, 32) < far_neighbour_fraction(m.adjacency, 32)

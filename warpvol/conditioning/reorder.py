@@ -9,11 +9,11 @@ code of their positions (points) and centroids (cells) on a 2^21 grid over the m
 :func:`far_neighbour_fraction` measures the order a mesh has, and :func:`needs_reorder` is the rule
 the ``condition`` stage applies by default (``reorder = "auto"``).
 
-Measured (Warp on the CPU, 512^2, warm frames, images within 1e-5 of each other): a 1.06 M-tet
-Delaunay mesh of random points (87 % of its neighbour pairs more than 4,096 cells apart, 7 % after the
-renumbering): ``raycast`` 1.46x, ``harc_best`` 1.33x faster; LOX Post (616 k tets as shipped, 17 % far)
-0.96x -- a mesher's own order is as good as the curve's, so ``auto`` leaves such meshes, and their
-images, exactly as they are.
+Measured (``scripts/bench_reorder.py``: Warp on the CPU, 512^2, warm frames interleaved in one process,
+images within 1e-5 of each other): a 1.06 M-tet Delaunay mesh of random points (87 % of its neighbour pairs
+more than 4,096 cells apart, 5 % after the renumbering): ``raycast`` 1.25-1.34x, ``harc_best`` 1.24-1.31x,
+``pt_best`` 1.28-1.35x faster; LOX Post (616 k tets as shipped, 17 % far): 0.94-1.01x -- a mesher's own
+order is as good as the curve's, so ``auto`` leaves such meshes, and their images, exactly as they are.
 
 Renumbering keeps every tet's local vertex order (so its orientation and its local faces), the
 geometry and the scalars: the image is the same up to float32 rounding, which depends on the vertex
@@ -73,23 +73,35 @@ def far_neighbour_fraction(adjacency: np.ndarray, window: int = FAR_WINDOW) -> f
 def needs_reorder(mesh, mode: str = "auto") -> bool:
     """Whether the ``condition`` stage renumbers ``mesh``: always (``morton``), never (``none``), or
     (``auto``) when more than :data:`FAR_FRACTION` of its neighbour pairs lie :data:`FAR_WINDOW`
-    records apart. Meshes of convex cells drawn whole (``cell_start``: their tets grouped per cell)
-    are left as they are."""
+    records apart."""
     if mode not in REORDER_CHOICES:
         raise ValueError(f"reorder: {mode!r}; allowed: {', '.join(REORDER_CHOICES)}")
-    if mode == "none" or getattr(mesh, "cell_start", None) is not None:
+    if mode == "none":
         return False
     return mode == "morton" or far_neighbour_fraction(mesh.adjacency) > FAR_FRACTION
 
 
-def morton_permutations(points: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(point_order, cell_order)``: old indices of the points and of the cells in Morton order of
-    the points and of the cells' centroids (stable: ties keep their order)."""
+def morton_permutations(points: np.ndarray, tets: np.ndarray,
+                        cell_start: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``(point_order, cell_order)``: old indices of the points and of the tets in Morton order of
+    the points and of the tets' centroids (stable: ties keep their order). With ``cell_start`` (tets
+    grouped into the source cells they were split from) the groups move whole, in the Morton order of
+    their centroids, their tets in the order they had."""
     lo = points.min(axis=0)
     extent = float((points.max(axis=0) - lo).max())
     point_order = np.argsort(morton_codes(points, lo, extent), kind="stable")
-    cell_order = np.argsort(morton_codes(points[tets].mean(axis=1), lo, extent), kind="stable")
-    return point_order, cell_order
+    centroids = points[tets].mean(axis=1)
+    if cell_start is None:
+        return point_order, np.argsort(morton_codes(centroids, lo, extent), kind="stable")
+    cs = np.asarray(cell_start, dtype=np.int64)
+    sizes = np.diff(cs)
+    group_centroids = np.add.reduceat(centroids, cs[:-1], axis=0) / sizes[:, None]
+    groups = np.argsort(morton_codes(group_centroids, lo, extent), kind="stable")
+    # the tets of each group in the new group order: starts repeated over their sizes plus 0 .. size - 1
+    n = sizes[groups]
+    first = np.repeat(cs[:-1][groups], n)
+    within = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+    return point_order, first + within
 
 
 def reordered_mesh(mesh, point_order: np.ndarray | None = None, cell_order: np.ndarray | None = None):
@@ -97,8 +109,9 @@ def reordered_mesh(mesh, point_order: np.ndarray | None = None, cell_order: np.n
 
     The result is a :class:`~warpvol.scene.mesh.TetMesh` of the same tets, points and scalars (no
     validation again), with ``point_order`` and ``cell_order`` attributes (the old index of each new
-    point and cell); its adjacency is the old one renumbered, the other index-bearing caches
-    (boundary faces, cracks) are computed again on use.
+    point and tet); its adjacency is the old one renumbered, the other index-bearing caches
+    (boundary faces, cracks) are computed again on use. A mesh whose tets are grouped into source cells
+    (``cell_start``) keeps each group whole and consecutive, its ``cell_start`` renumbered with it.
 
     Examples
     --------
@@ -115,8 +128,9 @@ def reordered_mesh(mesh, point_order: np.ndarray | None = None, cell_order: np.n
 
     from warpvol.scene.mesh import TetMesh
 
+    cell_start = getattr(mesh, "cell_start", None)
     if point_order is None or cell_order is None:
-        point_order, cell_order = morton_permutations(mesh.points, mesh.tets)
+        point_order, cell_order = morton_permutations(mesh.points, mesh.tets, cell_start)
     point_order = np.asarray(point_order, dtype=np.int64)
     cell_order = np.asarray(cell_order, dtype=np.int64)
     new_point = np.empty_like(point_order)
@@ -141,6 +155,15 @@ def reordered_mesh(mesh, point_order: np.ndarray | None = None, cell_order: np.n
     if dropped is not None:
         out.dropped_tets = new_point[dropped]
     out.__dict__["adjacency"] = adjacency
+    if cell_start is not None:  # the source cells' groups, in their new order (cell_order keeps them whole)
+        first = np.asarray(cell_start)[:-1]
+        group_of = np.repeat(np.arange(len(first)), np.diff(cell_start))
+        moved = group_of[cell_order]
+        starts = np.flatnonzero(np.r_[True, moved[1:] != moved[:-1]])
+        if len(starts) != len(first):
+            raise ValueError("cell_order splits a source cell's tets (cell_start groups must stay whole)")
+        out.cell_start = np.r_[starts, len(cell_order)].astype(np.int64)
+        out.cell_start.setflags(write=False)
     out.point_order, out.cell_order = point_order, cell_order
     for a in (out.points, out.scalars, out.tets, adjacency):
         a.setflags(write=False)
