@@ -39,7 +39,8 @@ the frame buffer in its number format (:func:`warpvol.kernels.formats.fmt_quanti
 Counters per row block (``counters[chunk, k]``): 0 entries, 1 fragment-program steps (iso sub-steps
 included), 2 cells visited, 3 failed rays, 4 rays stopped by the step bound, 5 iso crossings the
 iso table missed (checked against the TF's control points; diagnostic), 6 texture fetches, 7 entries
-whose rasterised face the consistent edge test rejected (searched among the face's neighbours), 8 failed
+whose rasterised face the consistent edge test rejected (searched among the face's surface neighbours on a
+first entry, over the lists of the pixel and its 8 neighbours on a re-entry), 8 failed
 rays of the consistent walk with exact segments that crossed a layer too thin for float32 segment
 lengths (:func:`warpvol.kernels.walk.thin_unresolved`; redone in float64 like every failed ray),
 9 rays of the paper's set-up that took a step with ``lambda' < lambda`` (an exit chosen by rounding:
@@ -248,6 +249,7 @@ def make_march(walk: int, setup: int, mode: int):
         s_in = float(0.0)
         fc = Face()
         entry_failed = int(0)
+        rescan = int(0)
         for it in range(frag_start[idx], frag_start[idx + 1]):
             b = int(frag_bf[it])
             c = int(bf_tet[b])
@@ -275,15 +277,17 @@ def make_march(walk: int, setup: int, mode: int):
                     # 1/256 pixel of a projected edge): the ray crosses a face around this one, found
                     # among its edge neighbours and theirs on the front boundary
                     wp.atomic_add(counters, chunk, 7, 1)
-                    b2, ok, t, s = ring_search(b, bf_tet, bf_face, bf_nbr, tets, verts, r)
-                    if ok and prev >= 0:
+                    if prev >= 0:
                         # a re-entry (peel pass): at a crack the faces around belong to other cells,
-                        # whose surface neighbours do not reach the crossed face; redone in float64
-                        ok = False
-                    if ok:
-                        c = int(bf_tet[b2])
-                        f = int(bf_face[b2])
-                        cand = boundary_face(tets[c], f, verts, r)
+                        # whose surface neighbours do not reach the crossed face; the exact face test over
+                        # the lists of this pixel and its 8 neighbours decides (below)
+                        rescan = 1
+                    else:
+                        b2, ok, t, s = ring_search(b, bf_tet, bf_face, bf_nbr, tets, verts, r)
+                        if ok:
+                            c = int(bf_tet[b2])
+                            f = int(bf_face[b2])
+                            cand = boundary_face(tets[c], f, verts, r)
                 if ok:
                     if t > t_start - t_tol and c != prev:
                         cell = c
@@ -293,7 +297,8 @@ def make_march(walk: int, setup: int, mode: int):
                         fc = cand
                         break
                 else:
-                    entry_failed = 1  # no face around crosses either: resolved in float64 on the host
+                    if rescan == 0:
+                        entry_failed = 1  # no face around crosses either: resolved in float64 on the host
                     break
         if wp.static(not planes):
             if cell < 0 and entry_failed == 0:
@@ -304,7 +309,8 @@ def make_march(walk: int, setup: int, mode: int):
                 for nb in range(9):
                     qx = px + (nb % 3) - 1
                     qy = py + (nb // 3) - 1
-                    if nb != 4 and qx >= 0 and qy >= 0 and qx < width and qy < height:
+                    # (this pixel's own list too after a rejected face: its later faces were not tested)
+                    if (nb != 4 or rescan == 1) and qx >= 0 and qy >= 0 and qx < width and qy < height:
                         q = qy * width + qx
                         for it2 in range(frag_start[q], frag_start[q + 1]):
                             b = int(frag_bf[it2])

@@ -308,3 +308,20 @@ def test_per_pixel_loop_work_adds_up_to_the_counted_program_and_batches_cost_mor
     s = np.array([[5, 1, 0], [2, 2, 7]])
     run, batched = programs.batched_slots(s, s > 0, tile=2)
     assert (run, batched) == (17, 5 * 4 + 7 * 1)  # tiles [[5,1],[2,2]] (4 ran, max 5) and [[0],[7]] (1 ran)
+
+
+def test_peel_pass_resolves_a_rejected_rasterised_face_in_float32():
+    """A re-entry whose rasterised face the consistent edge test rejects (the pixel centre within 1/256
+    pixel of a projected edge) is found by the exact face test over the lists of the pixel and its 8
+    neighbours, in float32: no ray left to the float64 redo, the same re-entries as raycast's, the image
+    within harc_best's tolerance row (concave at 96^2: 3 such re-entries)."""
+    sc = builtin_scene("concave").with_camera(width_px=96, height_px=96)
+    h = Pipeline.load("harc_best").render(sc, quiet=True)
+    st = h.report["stats"]["harc_peel"]
+    assert st["entry_searches"] >= 1, st  # the case occurs
+    assert st["failed"] == 0 and st["unresolved_rays"] == 0, st
+    rc = Pipeline.load("raycast").render(sc, quiet=True)
+    assert st["reentries"] == rc.report["stats"]["peel"]["reentries"]
+    e = image_error(h.image, render_reference(sc.mesh, sc.transfer, sc.camera))
+    tol = TOLERANCES["harc_best"]
+    assert e["rmse"] <= tol["rmse"] and e["max_abs"] <= tol["max_abs"], e
