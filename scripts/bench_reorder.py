@@ -22,7 +22,6 @@ import os
 import statistics
 import sys
 import time
-import tomllib
 import warnings
 from pathlib import Path
 
@@ -54,17 +53,14 @@ def scene_of(args):
 
 def pipelines(preset: str, modes: tuple[str, str]):
     """The preset twice, its ``condition`` stage's ``reorder`` set to each mode."""
-    from warpvol.pipeline import Pipeline, _read_pipeline_text
+    from warpvol.pipeline import Pipeline
+    from warpvol.tools.sweep import pipeline_config
 
     out = {}
     for mode in modes:
-        cfg = tomllib.loads(_read_pipeline_text(preset)[0])
-        found = False
-        for st in cfg["stages"]:
-            if st["stage"] == "condition":
-                st["reorder"], found = mode, True
-        if not found:
-            raise SystemExit(f"--presets: {preset} has no condition stage (nothing to renumber)")
+        cfg = pipeline_config(preset, (("condition.reorder", mode),))
+        if isinstance(cfg, str):  # the preset has no condition stage: nothing to renumber
+            raise SystemExit(f"--presets: {preset}: {cfg}")
         out[mode] = Pipeline.from_config(cfg)
     return out
 

@@ -3,8 +3,6 @@ stage's ``reorder``): the renumbered mesh is the same mesh (tets, orientation, a
 rule leaves coherently numbered meshes alone and renumbers incoherent ones, and the exact presets render
 a shuffled mesh within their tolerance rows either way."""
 
-import tomllib
-
 import numpy as np
 import pytest
 
@@ -13,10 +11,11 @@ from warpvol.conditioning.reorder import (far_neighbour_fraction, morton_codes, 
                                           needs_reorder, reordered_mesh)
 from warpvol.errors import ConfigError
 from warpvol.metrics import image_error
-from warpvol.pipeline import Pipeline, _read_pipeline_text
+from warpvol.pipeline import Pipeline
 from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.builtin import builtin_mesh, builtin_scene
 from warpvol.scene.mesh import TetMesh, signed_volumes
+from warpvol.tools.sweep import pipeline_config
 
 ROWS = {"raycast": "raycast/fp32", "harc_best": "harc_best", "pt_best": "pt_best",
         "vsbuffer_best": "vsbuffer/vsbuffer_best"}
@@ -92,11 +91,7 @@ def test_shuffled_mesh_renders_within_tolerance_renumbered_or_not(preset):
     tol = TOLERANCES[ROWS[preset]]
     images = {}
     for mode in ("none", "morton"):
-        cfg = tomllib.loads(_read_pipeline_text(preset)[0])
-        for st in cfg["stages"]:
-            if st["stage"] == "condition":
-                st["reorder"] = mode
-        res = Pipeline.from_config(cfg).render(sc, quiet=True)
+        res = Pipeline.from_config(pipeline_config(preset, (("condition.reorder", mode),))).render(sc, quiet=True)
         assert res.report["stats"]["condition"]["reordered"] is (mode == "morton")
         e = image_error(res.image, ref)
         assert e["rmse"] <= tol["rmse"] and e["max_abs"] <= tol["max_abs"], (mode, e)

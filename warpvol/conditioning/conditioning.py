@@ -37,14 +37,13 @@ from __future__ import annotations
 
 import copy
 import math
-from functools import cached_property
 
 import numpy as np
 
 from warpvol.conditioning.reorder import needs_reorder, reordered_mesh
 from warpvol.errors import ConfigError
 from warpvol.scene.camera import Camera
-from warpvol.scene.mesh import TetMesh
+from warpvol.scene.mesh import TetMesh, derived_mesh
 from warpvol.scene.transfer import TransferFunction
 
 #: largest finite float32
@@ -121,15 +120,7 @@ def _conditioned_mesh(mesh: TetMesh, centre: np.ndarray, h: float, s_mid: float,
             f"{name}: scalars: {float(mesh.scalars[k]):.6g} lies {abs(float(s[k])):.3g} times {s_half:.3g} from "
             f"{s_mid:.6g}, the middle of the transfer function's range within the data; float32 holds up to "
             f"{FLOAT32_SAFE:.3g} (widen the transfer function's range or clip the data)")
-    out = TetMesh.__new__(TetMesh)
-    cls_attrs = vars(TetMesh)
-    for key, value in vars(mesh).items():
-        if isinstance(cls_attrs.get(key), cached_property):
-            keep = key in TOPOLOGY_CACHE  # geometry (bounds, planes, gradients, ...) is computed again
-        else:
-            keep = not key.startswith("_")  # tets, cell_start, counts, ...; not private caches (content hashes)
-        if keep:
-            out.__dict__[key] = value
+    out = derived_mesh(mesh, TOPOLOGY_CACHE)  # geometry (bounds, planes, gradients, ...) is computed again
     for arr in (pts, s):
         arr.setflags(write=False)
     out.points, out.scalars = pts, s

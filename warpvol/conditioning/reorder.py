@@ -124,9 +124,7 @@ def reordered_mesh(mesh, point_order: np.ndarray | None = None, cell_order: np.n
     >>> bool((r.adjacency >= 0).sum() == (m.adjacency >= 0).sum())
     True
     """
-    from functools import cached_property
-
-    from warpvol.scene.mesh import TetMesh
+    from warpvol.scene.mesh import derived_mesh
 
     cell_start = getattr(mesh, "cell_start", None)
     if point_order is None or cell_order is None:
@@ -140,14 +138,7 @@ def reordered_mesh(mesh, point_order: np.ndarray | None = None, cell_order: np.n
     adj = np.asarray(mesh.adjacency)[cell_order]
     adjacency = np.where(adj >= 0, new_cell[np.maximum(adj, 0)], -1).astype(np.int32)
 
-    out = TetMesh.__new__(TetMesh)
-    cls_attrs = vars(TetMesh)
-    for key, value in vars(mesh).items():
-        if isinstance(cls_attrs.get(key), cached_property):
-            if key in ("is_convex", "bounds", "scalar_range"):  # invariant under renumbering
-                out.__dict__[key] = value
-        elif not key.startswith("_"):
-            out.__dict__[key] = value
+    out = derived_mesh(mesh, ("is_convex", "bounds", "scalar_range"))  # invariant under renumbering
     out.points = mesh.points[point_order]
     out.scalars = mesh.scalars[point_order]
     out.tets = new_point[mesh.tets[cell_order]]

@@ -576,6 +576,22 @@ def check_duplicate_tets(name: str, tets: np.ndarray) -> None:
                         f"{n} duplicated tet(s)")
 
 
+def derived_mesh(mesh: TetMesh, keep_cached: tuple[str, ...]) -> TetMesh:
+    """An unvalidated copy of ``mesh`` for a caller that then replaces some of its arrays: its public
+    attributes (points, tets, scalars, ``cell_start``, counts, ...) and, of its cached properties, those
+    named in ``keep_cached`` (what the caller's change leaves valid); private caches (content hashes) and
+    the other cached properties are computed again on use."""
+    out = TetMesh.__new__(TetMesh)
+    cls_attrs = vars(TetMesh)
+    for key, value in vars(mesh).items():
+        if isinstance(cls_attrs.get(key), cached_property):
+            if key in keep_cached:
+                out.__dict__[key] = value
+        elif not key.startswith("_"):
+            out.__dict__[key] = value
+    return out
+
+
 def _cell_groups(name: str, cell_start, dropped: np.ndarray) -> np.ndarray:
     """``cell_start`` validated against the input tets, with the ``dropped`` tets taken out."""
     cs = np.asarray(cell_start)
