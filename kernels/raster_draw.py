@@ -63,9 +63,12 @@ def k_fragments(s: TriSetup, pos: wp.array(dtype=wp.vec4), tris: wp.array(dtype=
                 depth: wp.array2d(dtype=wp.float32), depth_func: int, depth_write: int, depth_clip: int,
                 write: int, counts: wp.array(dtype=wp.int32), offsets: wp.array(dtype=wp.int32),
                 frag_prim: wp.array(dtype=wp.int32), frag_depth: wp.array(dtype=wp.float32),
-                frag_attrs: wp.array2d(dtype=wp.float32)):
-    """Pass ``write=0`` counts the fragments of each pixel; ``write=1`` writes them at ``offsets``."""
-    i, j = wp.tid()
+                frag_attrs: wp.array2d(dtype=wp.float32), row0: int):
+    """Pass ``write=0`` counts the fragments of each pixel; ``write=1`` writes them at ``offsets``.
+    Launch dimension: a block of rows from ``row0`` (blocks of rows may run concurrently: every pixel's
+    fragments depend on its own depth value and tile only)."""
+    ii, j = wp.tid()
+    i = row0 + ii
     width = depth.shape[1]
     tile = (i / s.tile_size) * s.tiles_x + j / s.tile_size
     zb = depth[i, j]

@@ -365,13 +365,22 @@ class Rasterizer:
         counts = wp.zeros(npx, dtype=wp.int32, device=dev)
         f1 = wp.zeros(1, dtype=wp.float32, device=dev)
         a1 = wp.zeros((1, 1), dtype=wp.float32, device=dev)
-        wp.launch(krd.k_fragments, dim=self.shape,
-                  inputs=[tr.struct, tr.positions, tr.tris, a1, wp.zeros(1, dtype=wp.int32, device=dev), 0,
-                          wp.zeros(self.shape, dtype=wp.float32, device=dev), DEPTH_FUNCS["always"], 0,
-                          int(self.depth_clip), 0, counts,
-                          wp.zeros(npx + 1, dtype=wp.int32, device=dev), wp.zeros(1, dtype=wp.int32, device=dev),
-                          f1, a1], device=dev)
+        self._fragment_rows([tr.struct, tr.positions, tr.tris, a1, wp.zeros(1, dtype=wp.int32, device=dev), 0,
+                             wp.zeros(self.shape, dtype=wp.float32, device=dev), DEPTH_FUNCS["always"], 0,
+                             int(self.depth_clip), 0, counts, wp.zeros(npx + 1, dtype=wp.int32, device=dev),
+                             wp.zeros(1, dtype=wp.int32, device=dev), f1, a1])
         return int(counts.numpy().sum())
+
+    def _fragment_rows(self, inputs: list) -> None:
+        """:func:`~warpvol.kernels.raster_draw.k_fragments` over the image; on the CPU in blocks of rows
+        launched concurrently from a host thread per core (a pixel's fragments depend on its own depth
+        value and its tile's triangles only: the same lists as one launch)."""
+        dev = self.device
+        rows = blocks(self.height, -(-self.height // 16)) if str(dev).startswith("cpu") else [(0, self.height)]
+        if len(rows) > 1:
+            preload(dev, krd)
+        launch_blocks(dev, len(rows), lambda b: wp.launch(krd.k_fragments, dim=(rows[b][1], self.width),
+                                                          inputs=[*inputs, rows[b][0]], device=dev))
 
     def _count_slots(self, n: int) -> tuple[int, wp.array]:
         """``(counting flag, per-thread (generated, passed) slots)`` for a fused draw kernel."""
@@ -430,9 +439,8 @@ class Rasterizer:
         empty_f = wp.zeros(1, dtype=wp.float32, device=dev)
         empty_a = wp.zeros((1, max(na, 1)), dtype=wp.float32, device=dev)
         d0 = wp.clone(dbuf)  # the counting pass must not change the depth buffer
-        wp.launch(krd.k_fragments, dim=self.shape,
-                  inputs=[tr.struct, tr.positions, tr.tris, a_w, m_w, na, d0, *self._dflags(), 0, counts, offsets,
-                          empty_i, empty_f, empty_a], device=dev)
+        self._fragment_rows([tr.struct, tr.positions, tr.tris, a_w, m_w, na, d0, *self._dflags(), 0, counts, offsets,
+                             empty_i, empty_f, empty_a])
         wp.utils.array_scan(counts, offsets[:npx], inclusive=False)
         total = int(offsets[npx - 1:npx].numpy()[0] + counts[npx - 1:npx].numpy()[0])
         offsets[npx:].fill_(total)
@@ -443,9 +451,8 @@ class Rasterizer:
         prim = wp.zeros(max(total, 1), dtype=wp.int32, device=dev)
         fdepth = wp.zeros(max(total, 1), dtype=wp.float32, device=dev)
         fattr = wp.zeros((max(total, 1), max(na, 1)), dtype=wp.float32, device=dev)
-        wp.launch(krd.k_fragments, dim=self.shape,
-                  inputs=[tr.struct, tr.positions, tr.tris, a_w, m_w, na, dbuf, *self._dflags(), 1, counts, offsets,
-                          prim, fdepth, fattr], device=dev)
+        self._fragment_rows([tr.struct, tr.positions, tr.tris, a_w, m_w, na, dbuf, *self._dflags(), 1, counts, offsets,
+                             prim, fdepth, fattr])
         return Fragments(self.shape, total, offsets, prim, fdepth, fattr)
 
     def _fragments_by_triangle(self, tr: Triangles, a_w: wp.array, m_w: wp.array, na: int) -> Fragments:
