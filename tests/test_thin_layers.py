@@ -91,6 +91,48 @@ def test_pt_best_eye_in_the_plane_of_interior_diagonal_faces():
     assert st["edge_on_faces"] > 0 and st["float64_pixels"] > 0
 
 
+def test_pt_best_redoes_pixels_inside_faces_narrower_than_the_snapping():
+    # the eye 5e-4 off the x = y plane of the diagonal faces (over 10x float32's edge-on distance): those
+    # faces project to slivers ~0.002 px wide, narrower than the rasteriser's 1/256-px snapping, and the
+    # centre pixel's ray (eye -> target, a point of such a face) runs inside one; snapped, the cut of its
+    # two tets into triangles takes that pixel's front or back point from a face on the wrong side
+    eye = (0.42 + 5e-4, 0.42, 3.7)
+    sc = Scene(mesh=_box(5), transfer=_tf(2.5), name="sliver",
+               camera=Camera(eye=eye, target=(0.05, 0.05, 0.0), up=(0, 1, 0), fov_y_deg=30.0,
+                             width_px=41, height_px=41))
+    ref = render_reference(sc.mesh, sc.transfer, sc.camera)
+    res = Pipeline.load("pt_best").render(sc, quiet=True)
+    err = image_error(res.image, ref)
+    tol = TOLERANCES["pt_best"]
+    assert err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"], err
+    st = res.report["stats"]["pt_integrate"]
+    assert st["edge_on_faces"] == 0 and st["sliver_faces"] > 0 and st["float64_pixels"] > 0
+
+
+def test_sliver_pixels_are_the_centres_near_its_edges():
+    """``_mark_near_edges`` (each edge stepped along its major axis) marks exactly the pixel centres a
+    brute-force distance test finds within ``delta`` of the triangles' edges."""
+    from warpvol.projection.pt_thin import _mark_near_edges
+
+    rng = np.random.default_rng(5)
+    h, w, delta = 23, 31, 4.0 / 256.0
+    col = rng.uniform(-3, w + 3, (60, 3))
+    row = rng.uniform(-3, h + 3, (60, 3))
+    col[:20, 1] = col[:20, 0] + 1e-3  # near-degenerate edges and slivers
+    row[20:30] = np.rint(row[20:30]) + 0.5  # edges through rows of pixel centres
+    got = np.zeros((h, w), dtype=bool)
+    _mark_near_edges(got, col, row, delta)
+    jj, ii = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)
+    want = np.zeros((h, w), dtype=bool)
+    for c, r in zip(col, row):
+        for a, b in ((0, 1), (1, 2), (2, 0)):
+            ex, ey = c[b] - c[a], r[b] - r[a]
+            t = np.clip(((jj - c[a]) * ex + (ii - r[a]) * ey) / max(ex * ex + ey * ey, 1e-300), 0.0, 1.0)
+            want |= np.hypot(jj - c[a] - t * ex, ii - r[a] - t * ey) <= delta
+    assert want.sum() > 50
+    np.testing.assert_array_equal(got, want)
+
+
 @pytest.mark.parametrize("preset", ["raycast", "harc_best"])
 def test_no_thin_layer_rays_on_ordinary_scenes(preset):
     for name in ("box", "linear_box", "stiff"):

@@ -66,7 +66,10 @@ kraus2004_full         1.6e-2       0.15         n_s = 64, HILO16, log2 / unifor
 pt_best                2.5e-4       4e-3         exact per-fragment integral, perspective-correct, fp32
                                                  buffer, MPVO / XMPVO; seen box 3.4e-8 / 1.2e-7, sphere
                                                  1.3e-4 / 1.6e-3, concave 9.8e-5 / 2.2e-3 (thick vertex
-                                                 rounded to 1/256 px, silhouette pixels), stiff 7.1e-5
+                                                 rounded to 1/256 px, silhouette pixels), stiff 7.1e-5;
+                                                 SPX 512^2 6.8e-6 / 7.8e-4, Blunt Fin close 1.8e-5 /
+                                                 1.7e-3 (pixels inside faces narrower than the snapping
+                                                 redone in float64)
 harc_best               2e-6         1e-4         the raycast/fp32 walk (shared funcs) entered from the
                                                     rasterised boundary, exact segments, fp32 buffer; seen on
                                                     the built-ins 48^2 <= 1.9e-7 / 3.3e-6

@@ -30,6 +30,9 @@ THIN_TAU = 2e-3  # half of pt_best's max_abs tolerance (tests/tolerances.py)
 #: radius) of the perspective eye is seen edge-on
 EDGE_ON_ULPS = 64.0
 EPS32 = float(np.finfo(np.float32).eps)
+#: pixel centres within this many pixels of a sliver face's projection (:func:`snap_edge_on_faces`) may
+#: be cut on the wrong side of it: four times the rasteriser's 1/256-pixel snapping
+SLIVER_PX = 4.0 / 256.0
 
 
 def _geometry(mesh, tf) -> dict:
@@ -120,7 +123,7 @@ def _face_planes(mesh) -> dict:
     faces = np.unique(np.sort(tets[:, [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]]].reshape(-1, 3), axis=1), axis=0)
     p0, p1, p2 = pts[faces[:, 0]], pts[faces[:, 1]], pts[faces[:, 2]]
     n = np.cross(p1 - p0, p2 - p0)
-    cache.update(faces=faces, n=n, c=np.einsum("ij,ij->i", n, p0), nn=np.linalg.norm(n, axis=1))
+    cache.update(faces=faces, n=n, c=np.einsum("ij,ij->i", n, p0), nn=np.linalg.norm(n, axis=1), p0=p0)
     return cache
 
 
@@ -138,6 +141,62 @@ def edge_on_faces(mesh, camera) -> np.ndarray:
     fp = _face_planes(mesh)
     dist = np.abs(fp["n"] @ eye - fp["c"]) / np.maximum(fp["nn"], 1e-300)  # eye to each face's plane
     return fp["faces"][(dist < tol) & (fp["nn"] > 0)]
+
+
+def _face_densities(mesh, tf) -> np.ndarray:
+    """Largest density over each face's scalar range (faces of :func:`_face_planes`), cached on the mesh
+    per transfer function."""
+    key = np.asarray(tf.points).tobytes() + tf.emission.encode()
+    cache = mesh.__dict__.setdefault("_pt_face_density", {})
+    if key not in cache:
+        sc = np.asarray(mesh.scalars, dtype=np.float64)[_face_planes(mesh)["faces"]]
+        cache.clear()
+        cache[key] = density_max(tf, sc.min(axis=1), sc.max(axis=1))
+    return cache[key]
+
+
+def snap_edge_on_faces(mesh, tf, camera, tau: float = THIN_TAU) -> np.ndarray:
+    """Faces ``(n, 3)`` seen so nearly edge-on that their projection is narrower than the rasteriser
+    resolves: the tets on either side are cut into triangles at positions snapped to 1/256 pixel, and a
+    pixel centre inside such a sliver takes its front or back point from a face on the wrong side of it
+    -- a thickness error up to the face's extent along the view. Marked when the largest density over
+    the face's scalar range times that extent times the part of the sliver the snapping can misplace
+    (``min(1, (1/256) / width)``, width = projected height of the triangle in pixels) exceeds ``tau``.
+
+    Only faces within the angle where the bound ``density x pixel size / (256 |cos|)`` of that error can
+    exceed ``tau`` are projected (``cos`` between the face normal and the view ray): a few per cent of
+    the faces."""
+    fp = _face_planes(mesh)
+    faces = fp["faces"]
+    if len(faces) == 0:
+        return np.zeros((0, 3), dtype=np.int64)
+    dens = _face_densities(mesh, tf)
+    eye = np.asarray(camera.eye, dtype=np.float64)
+    if camera.projection == "perspective":
+        # dens px > 256 tau cos, with px = k |rel . f| and cos = |n . rel| / (|n| |rel|), multiplied out;
+        # inside the view frustum |rel| <= depth * corner (the frustum corner ray's length per unit depth),
+        # so depth^2 * corner in place of depth * |rel| keeps every face the exact test could mark
+        rel = fp["p0"] - eye
+        depth = np.abs(rel @ camera.forward)
+        th = np.tan(np.radians(camera.fov_y_deg) / 2.0)
+        corner = np.sqrt(1.0 + th * th * (1.0 + camera.aspect * camera.aspect))
+        k = 2.0 * th / camera.height_px * corner
+        cand = np.flatnonzero(dens * (k * depth * depth) * fp["nn"] > 256.0 * tau * np.abs(fp["n"] @ eye - fp["c"]))
+    else:
+        px = camera.ortho_height / camera.height_px
+        cand = np.flatnonzero(dens * px * fp["nn"] > 256.0 * tau * np.abs(fp["n"] @ np.asarray(camera.forward, np.float64)))
+    if len(cand) == 0:
+        return np.zeros((0, 3), dtype=np.int64)
+    col, row, depth = _window(TetMeshFaces(mesh, faces[cand]), camera, np.arange(len(cand)))
+    col, row, depth = col[:, :3], row[:, :3], depth[:, :3]
+    area2 = np.abs((col[:, 1] - col[:, 0]) * (row[:, 2] - row[:, 0]) - (col[:, 2] - col[:, 0]) * (row[:, 1] - row[:, 0]))
+    longest = np.max([np.hypot(col[:, a] - col[:, b], row[:, a] - row[:, b]) for a, b in ((0, 1), (0, 2), (1, 2))],
+                     axis=0)
+    width = area2 / np.maximum(longest, 1e-300)  # the triangle's projected height, pixels
+    span = depth.max(axis=1) - depth.min(axis=1)  # extent along the view
+    snap = np.minimum(1.0, (1.0 / 256.0) / np.maximum(width, 1e-300))
+    err = dens[cand] * span * snap
+    return faces[cand[err > tau]]
 
 
 def _boundary_edges(mesh, tf) -> dict:
@@ -220,6 +279,46 @@ def _mark_boxes(cover: np.ndarray, col: np.ndarray, row: np.ndarray) -> None:
     cover |= diff.cumsum(axis=0).cumsum(axis=1)[:h, :w] > 0
 
 
+def _mark_near_edges(cover: np.ndarray, col: np.ndarray, row: np.ndarray, delta: float) -> None:
+    """Mark in ``cover`` (H, W) the pixels whose centres lie within ``delta`` (< 0.35) pixels of an edge of
+    the projected triangle of each row of window points ``col``, ``row`` (n, 3) (a sliver narrower than
+    ``2 delta`` lies wholly within that band). Each edge is stepped along its major axis: per pixel
+    column (row) of its span, the one row (column) whose centre is nearest the edge there is tested."""
+    h, w = cover.shape
+    a = np.stack([np.column_stack([col[:, i], row[:, i]]) for i in (0, 1, 2)], axis=1)  # (n, 3, 2)
+    p, q = a.reshape(-1, 2), a[:, [1, 2, 0]].reshape(-1, 2)
+    for major in (0, 1):  # 0: edges closer to horizontal stepped by column; 1: the others by row
+        d = q - p
+        sel = (np.abs(d[:, major]) >= np.abs(d[:, 1 - major])) if major == 0 else \
+            (np.abs(d[:, 1]) > np.abs(d[:, 0]))
+        pp, dd = p[sel], d[sel]
+        if len(pp) == 0:
+            continue
+        lim = float(w if major == 0 else h)
+        lo = np.clip(np.minimum(pp[:, major], pp[:, major] + dd[:, major]) - delta - 0.5, -1.0, lim)
+        hi = np.clip(np.maximum(pp[:, major], pp[:, major] + dd[:, major]) + delta - 0.5, -1.0, lim)
+        c0 = np.ceil(lo).astype(np.int64)
+        cnt = np.maximum(np.floor(hi).astype(np.int64) - c0 + 1, 0)
+        if cnt.sum() == 0:
+            continue
+        e = np.repeat(np.arange(len(pp)), cnt)
+        c = c0[e] + (np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt))
+        m = c + 0.5  # pixel centre along the major axis
+        den = np.where(dd[e, major] == 0.0, 1.0, dd[e, major])
+        u = np.clip((m - pp[e, major]) / den, 0.0, 1.0)
+        other = np.rint(pp[e, 1 - major] + u * dd[e, 1 - major] - 0.5).astype(np.int64)
+        o = other + 0.5
+        # distance from the pixel centre to the segment
+        rx = (m if major == 0 else o) - pp[e, 0]
+        ry = (o if major == 0 else m) - pp[e, 1]
+        ex, ey = dd[e, 0], dd[e, 1]
+        t = np.clip((rx * ex + ry * ey) / np.maximum(ex * ex + ey * ey, 1e-300), 0.0, 1.0)
+        near = np.hypot(rx - t * ex, ry - t * ey) <= delta
+        jj, ii = (c, other) if major == 0 else (other, c)
+        near &= (jj >= 0) & (jj < w) & (ii >= 0) & (ii < h)
+        cover[ii[near], jj[near]] = True
+
+
 def _segment_samples(col: np.ndarray, row: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Points every half pixel along each row's projected face (three collinear window points): the
     segment between its two farthest vertices, as (m, 1) columns and rows."""
@@ -235,24 +334,30 @@ def _segment_samples(col: np.ndarray, row: np.ndarray) -> tuple[np.ndarray, np.n
 
 def unresolved_pixels(mesh, tf, camera, tau: float = THIN_TAU, silhouettes: bool = True,
                       edge_on: bool = True) -> dict:
-    """The thin tets (:func:`thin_tets`), the faces seen edge-on from the eye (:func:`edge_on_faces`),
-    the silhouette edges snapping makes visible (:func:`silhouette_edges`) and the pixels they may make
-    wrong (``pixels``, flat indices): within one pixel of a thin tet's projected bounding box or of an
-    edge-on face's or a silhouette edge's projected segment."""
+    """The thin tets (:func:`thin_tets`), the faces seen edge-on from the eye (:func:`edge_on_faces`) or
+    narrower than the snapping resolves (:func:`snap_edge_on_faces`, ``sliver_faces``), the silhouette
+    edges snapping makes visible (:func:`silhouette_edges`) and the pixels they may make wrong
+    (``pixels``, flat indices): within one pixel of a thin tet's projected bounding box or of an edge-on
+    face's or a silhouette edge's projected segment, within :data:`SLIVER_PX` of a sliver face's
+    projected edges."""
     cover = np.zeros((camera.height_px, camera.width_px), dtype=bool)
     thin = thin_tets(mesh, tf, camera, tau)
     if len(thin):
         col, row, _ = _window(mesh, camera, thin)
         _mark_boxes(cover, col, row)
     faces = edge_on_faces(mesh, camera) if edge_on else np.zeros((0, 3), dtype=np.int64)
+    slivers = snap_edge_on_faces(mesh, tf, camera, tau) if edge_on else np.zeros((0, 3), dtype=np.int64)
+    if len(slivers):
+        col, row, _ = _window(TetMeshFaces(mesh, slivers), camera, np.arange(len(slivers)))
+        _mark_near_edges(cover, col[:, :3], row[:, :3], SLIVER_PX)
     sil = silhouette_edges(mesh, tf, camera) if silhouettes else np.zeros((0, 2), dtype=np.int64)
-    segs = np.concatenate([faces, np.column_stack([sil, sil[:, 1]])]) if len(sil) else faces
+    segs = np.concatenate([faces, np.column_stack([sil, sil[:, 1]])])
     if len(segs):
         tmp = TetMeshFaces(mesh, segs)
         col, row, _ = _window(tmp, camera, np.arange(len(segs)))
         _mark_boxes(cover, *_segment_samples(col[:, :3], row[:, :3]))
-    return {"thin_tets": int(len(thin)), "edge_on_faces": int(len(faces)), "silhouette_edges": int(len(sil)),
-            "pixels": np.flatnonzero(cover.ravel())}
+    return {"thin_tets": int(len(thin)), "edge_on_faces": int(len(faces)), "sliver_faces": int(len(slivers)),
+            "silhouette_edges": int(len(sil)), "pixels": np.flatnonzero(cover.ravel())}
 
 
 class TetMeshFaces:

@@ -83,7 +83,8 @@ class PTIntegrate(Stage):
 
     def redo_unresolved(self, ctx: Context) -> None:
         """Pixels covered by tets float32 cannot draw right (thin cells that carry the image, faces seen
-        edge-on from the eye; :func:`warpvol.projection.pt_thin.unresolved_pixels`): redone with the float64 ray
+        edge-on from the eye or narrower than the rasteriser's snapping resolves;
+        :func:`warpvol.projection.pt_thin.unresolved_pixels`): redone with the float64 ray
         tracer in an fp32 frame buffer, counted; in a lower-precision buffer (a format's rounding is
         its artifact) counted and reported as a warning."""
         import numpy as np
@@ -94,7 +95,7 @@ class PTIntegrate(Stage):
         sc = ctx.scene
         u = unresolved_pixels(sc.mesh, sc.transfer, sc.camera)
         px = u["pixels"]
-        st = {"thin_tets": u["thin_tets"], "edge_on_faces": u["edge_on_faces"],
+        st = {"thin_tets": u["thin_tets"], "edge_on_faces": u["edge_on_faces"], "sliver_faces": u["sliver_faces"],
               "silhouette_edges": u["silhouette_edges"], "float64_pixels": 0}
         if len(px) and self.config["format"] == "fp32":
             val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, px)
@@ -104,12 +105,14 @@ class PTIntegrate(Stage):
             st["float64_pixels"] = int(len(px))
             ctx.count(float64_rays=int(len(px)))
             ctx.progress(f"pt_integrate: {len(px)} pixels covered by {u['thin_tets']} thin tets, "
-                         f"{u['edge_on_faces']} faces seen edge-on and {u['silhouette_edges']} silhouette edges "
+                         f"{u['edge_on_faces']} faces seen edge-on, {u['sliver_faces']} faces narrower than the "
+                         f"snapping resolves and {u['silhouette_edges']} silhouette edges "
                          "were redone in float64")
         elif len(px):
             st["warning"] = (f"{len(px)} pixels are covered by {u['thin_tets']} tets thinner than float32 resolves "
                              f"with significant extinction, {u['edge_on_faces']} faces seen edge-on from "
-                             f"the eye or {u['silhouette_edges']} silhouette edges whose snapping changes the "
+                             f"the eye, {u['sliver_faces']} faces narrower than the snapping resolves or "
+                             f"{u['silhouette_edges']} silhouette edges whose snapping changes the "
                              f"thickness visibly; drawn in the {self.config['format']} buffer as computed (may be "
                              "wrong)")
         ctx.stats["pt_integrate"] = st
