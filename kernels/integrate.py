@@ -46,7 +46,9 @@ def exp_neg(x: float) -> float:
     """``exp(-x)`` for ``x >= 0``; below :data:`THIN_DEPTH` by its degree-4 Taylor polynomial
     (truncation <= x^5/120 = 2.6e-9 relative, below float32 rounding) -- the walkers' hot path."""
     if x <= THIN_DEPTH:
-        return 1.0 - x * (1.0 - x * 0.5 * (1.0 - x * (1.0 / 3.0) * (1.0 - x * 0.25)))
+        # 1 - x + x^2/2 - x^3/6 + x^4/24 in Estrin's form: three dependent multiplies instead of eight
+        x2 = x * x
+        return (1.0 - x) + x2 * ((0.5 - x * (1.0 / 6.0)) + x2 * (1.0 / 24.0))
     return wp.exp(-x)
 
 
@@ -54,7 +56,9 @@ def exp_neg(x: float) -> float:
 def one_minus_exp_neg_thin(x: float) -> float:
     """``1 - exp(-x)`` for ``0 <= x <=`` :data:`THIN_DEPTH` by its degree-5 Taylor polynomial (no
     cancellation; truncation x^6/720: <= 4e-10 relative)."""
-    return x * (1.0 - x * 0.5 * (1.0 - x * (1.0 / 3.0) * (1.0 - x * 0.25 * (1.0 - x * 0.2))))
+    # x - x^2/2 + x^3/6 - x^4/24 + x^5/120 in Estrin's form (short dependency chains)
+    x2 = x * x
+    return x * ((1.0 - 0.5 * x) + x2 * (((1.0 / 6.0) - x * (1.0 / 24.0)) + x2 * (1.0 / 120.0)))
 
 
 @wp.func
