@@ -15,8 +15,8 @@ through a tet, and the thin-layer check of integrated segments (``@wp.func`` onl
 * :func:`oriented_side` -- that value for the directed edge ``i -> j`` (negated when ``i > j``).
 * :func:`face_cross` -- ray through a triangle given its three directed edge values: whether it
   crosses (all values >= 0, sum > 0), and the crossing's ``t`` and scalar from the barycentric
-  weights (a convex combination of the face's vertices and scalars: bounded, and the same from both
-  cells sharing the face).
+  weights (convex combinations of the vertices' ``(p - o) . d`` and scalars: bounded, and the same
+  from both cells sharing the face).
 * :class:`Face`, :func:`make_face`, :func:`boundary_face` -- a face the ray crosses, with its
   vertices' frames and its three edge values, oriented outward for the cell the ray leaves.
 * :func:`next_face` -- one step: the ray entered a tet through a :class:`Face`; only the three
@@ -136,16 +136,18 @@ def pixel_ray(px: int, py: int, width: int, height: int, eye: wp.vec3d, fwd: wp.
 
 @wp.func
 def vertex_frame(v: wp.vec4, r: Ray):
-    """Vertex record ``(x, y, z, s)`` -> ``(p, q, m)``: position, ``q = p - o``, ``m = d x q``."""
+    """Vertex record ``(x, y, z, s)`` -> ``(p, h, m)``: position, ``h = q . d`` (its ray parameter's
+    share: a crossing's ``t`` is the barycentric mean of its face's ``h``) and ``m = d x q``, with
+    ``q = p - o``."""
     p = wp.vec3(v[0], v[1], v[2])
     q = p - r.o
-    return p, q, wp.cross(r.d, q)
+    return p, wp.dot(q, r.d), wp.cross(r.d, q)
 
 
 @wp.func
-def edge_side(qa: wp.vec3, ma: wp.vec3, e: wp.vec3, r: Ray) -> float:
+def edge_side(pa: wp.vec3, ma: wp.vec3, e: wp.vec3, r: Ray) -> float:
     """Plücker side of ray ``r`` and edge ``a -> b`` (``a`` the lower global vertex index), from
-    ``qa = a - o``, ``ma = d x qa`` and the edge vector ``e = b - a`` taken from the stored points:
+    ``pa``, ``ma = d x qa`` (``qa = pa - o``) and the edge vector ``e = b - a`` taken from the stored points:
     ``d . (qa x e) = e . ma``. Every cell sharing the edge computes the same float32 value, and its
     rounding error scales with ``|qa| |e|`` (the edge's length, not its distance from the origin).
 
@@ -160,7 +162,7 @@ def edge_side(qa: wp.vec3, ma: wp.vec3, e: wp.vec3, r: Ray) -> float:
             if v == 0.0:
                 v = TIE * wp.dot(r.tie_y, wp.cross(r.d, e))
         else:
-            ae = wp.cross(qa + r.back, e)
+            ae = wp.cross(pa - r.o + r.back, e)
             v = TIE * wp.dot(r.tie_x, ae)
             if v == 0.0:
                 v = TIE * wp.dot(r.tie_y, ae)
@@ -168,49 +170,45 @@ def edge_side(qa: wp.vec3, ma: wp.vec3, e: wp.vec3, r: Ray) -> float:
 
 
 @wp.func
-def oriented_side(gi: int, gj: int, pi: wp.vec3, qi: wp.vec3, mi: wp.vec3, pj: wp.vec3, qj: wp.vec3,
-                  mj: wp.vec3, r: Ray) -> float:
+def oriented_side(gi: int, gj: int, pi: wp.vec3, mi: wp.vec3, pj: wp.vec3, mj: wp.vec3, r: Ray) -> float:
     """:func:`edge_side` of the directed edge ``i -> j`` (global indices ``gi``, ``gj``; points
-    ``p``, relative ``q = p - o``, ``m = d x q``)."""
+    ``p``, ``m = d x (p - o)``)."""
     if gi < gj:
-        return edge_side(qi, mi, pj - pi, r)
-    return -edge_side(qj, mj, pi - pj, r)
+        return edge_side(pi, mi, pj - pi, r)
+    return -edge_side(pj, mj, pi - pj, r)
 
 
 @wp.func
-def face_cross(qa: wp.vec3, qb: wp.vec3, qc: wp.vec3, sa: float, sb: float, sc: float, wab: float, wbc: float,
-               wca: float, d: wp.vec3):
-    """Crossing of the ray (direction ``d``) with triangle ``(a, b, c)`` (vertices relative to the ray
-    origin) given its directed edge values ``wab``, ``wbc``, ``wca``: crossed when all are >= 0 with a
-    positive sum. Returns ``(crossed, t, s)``: ray parameter and scalar at the crossing from the
-    barycentric weights ``(wbc, wca, wab) / sum`` -- a convex combination of the face's vertices and
-    scalars (the scalar taken relative to the face's smallest, so a constant face gives its value
-    exactly), bounded, and the same from both cells sharing the face."""
+def face_cross(ha: float, hb: float, hc: float, sa: float, sb: float, sc: float, wab: float, wbc: float,
+               wca: float):
+    """Crossing of the ray with triangle ``(a, b, c)`` given its vertices' ``h = (p - o) . d`` and its
+    directed edge values ``wab``, ``wbc``, ``wca``: crossed when all are >= 0 with a positive sum.
+    Returns ``(crossed, t, s)``: ray parameter and scalar at the crossing from the barycentric weights
+    ``(wbc, wca, wab) / sum`` -- convex combinations of the vertices' ``h`` and scalars (the scalar
+    taken relative to the face's smallest, so a constant face gives its value exactly), bounded, and
+    the same from both cells sharing the face."""
     ssum = wab + wbc + wca
     if wab < 0.0 or wbc < 0.0 or wca < 0.0 or not (ssum > 0.0):
         return False, 0.0, 0.0
     inv = 1.0 / ssum
-    x = (qa * wbc + qb * wca + qc * wab) * inv
     # the scalar relative to the face's smallest: exact on a face of constant scalar, where a transfer
     # function steep at that value would turn the rounding of a plain barycentric sum into a visible error
     s0 = wp.min(sa, wp.min(sb, sc))
     s = s0 + ((sa - s0) * wbc + (sb - s0) * wca + (sc - s0) * wab) * inv
-    return True, wp.dot(x, d), s
+    return True, (ha * wbc + hb * wca + hc * wab) * inv, s
 
 
 @wp.struct
 class Face:
     """A face the ray crosses, as vertices ``A, B, C`` in the outward order of the cell the ray
-    leaves: global indices ``g``, positions ``p*``, ``q* = p* - o``, ``m* = d x q*``, scalars ``s``
-    and the directed edge values ``w = (A->B, B->C, C->A)`` (all >= 0: the ray crosses it)."""
+    leaves: global indices ``g``, positions ``p*``, ``h = ((pA, pB, pC) - o) . d``, ``m* = d x (p* - o)``,
+    scalars ``s`` and the directed edge values ``w = (A->B, B->C, C->A)`` (all >= 0: the ray crosses it)."""
 
     g: wp.vec3i
     pa: wp.vec3
     pb: wp.vec3
     pc: wp.vec3
-    qa: wp.vec3
-    qb: wp.vec3
-    qc: wp.vec3
+    h: wp.vec3
     ma: wp.vec3
     mb: wp.vec3
     mc: wp.vec3
@@ -246,12 +244,13 @@ def make_face(ga: int, gb: int, gc: int, verts: wp.array(dtype=wp.vec4), r: Ray)
     va = verts[ga]
     vb = verts[gb]
     vc = verts[gc]
-    pa, qa, ma = vertex_frame(va, r)
-    pb, qb, mb = vertex_frame(vb, r)
-    pc, qc, mc = vertex_frame(vc, r)
-    w = wp.vec3(oriented_side(ga, gb, pa, qa, ma, pb, qb, mb, r), oriented_side(gb, gc, pb, qb, mb, pc, qc, mc, r),
-                oriented_side(gc, ga, pc, qc, mc, pa, qa, ma, r))
-    return fan_face(wp.vec3i(ga, gb, gc), pa, qa, ma, pb, qb, mb, pc, qc, mc, wp.vec3(va[3], vb[3], vc[3]), w)
+    pa, ha, ma = vertex_frame(va, r)
+    pb, hb, mb = vertex_frame(vb, r)
+    pc, hc, mc = vertex_frame(vc, r)
+    w = wp.vec3(oriented_side(ga, gb, pa, ma, pb, mb, r), oriented_side(gb, gc, pb, mb, pc, mc, r),
+                oriented_side(gc, ga, pc, mc, pa, ma, r))
+    return fan_face(wp.vec3i(ga, gb, gc), pa, ma, pb, mb, pc, mc, wp.vec3(ha, hb, hc), wp.vec3(va[3], vb[3], vc[3]),
+                    w)
 
 
 @wp.func
@@ -268,20 +267,18 @@ def monotone_exit(t_in: float, t_out: float, stall: int):
 
 
 @wp.func
-def fan_face(g: wp.vec3i, pa: wp.vec3, qa: wp.vec3, ma: wp.vec3, pb: wp.vec3, qb: wp.vec3, mb: wp.vec3,
-             pc: wp.vec3, qc: wp.vec3, mc: wp.vec3, sv: wp.vec3, w: wp.vec3) -> Face:
+def fan_face(g: wp.vec3i, pa: wp.vec3, ma: wp.vec3, pb: wp.vec3, mb: wp.vec3, pc: wp.vec3, mc: wp.vec3, h: wp.vec3,
+             sv: wp.vec3, w: wp.vec3) -> Face:
     """:class:`Face` from already evaluated vertex frames, scalars and edge values."""
     fc = Face()
     fc.g = g
     fc.pa = pa
-    fc.qa = qa
     fc.ma = ma
     fc.pb = pb
-    fc.qb = qb
     fc.mb = mb
     fc.pc = pc
-    fc.qc = qc
     fc.mc = mc
+    fc.h = h
     fc.s = sv
     fc.w = w
     return fc
@@ -290,7 +287,7 @@ def fan_face(g: wp.vec3i, pa: wp.vec3, qa: wp.vec3, ma: wp.vec3, pb: wp.vec3, qb
 @wp.func
 def face_hit(fc: Face, r: Ray):
     """:func:`face_cross` of a :class:`Face`: ``(crossed, t, s)``."""
-    return face_cross(fc.qa, fc.qb, fc.qc, fc.s[0], fc.s[1], fc.s[2], fc.w[0], fc.w[1], fc.w[2], r.d)
+    return face_cross(fc.h[0], fc.h[1], fc.h[2], fc.s[0], fc.s[1], fc.s[2], fc.w[0], fc.w[1], fc.w[2])
 
 
 @wp.func
@@ -309,22 +306,22 @@ def next_face_from(tv: wp.vec4i, gn: int, fc: Face, verts: wp.array(dtype=wp.vec
     """:func:`next_face` given the new vertex's global index ``gn = tv[j]`` (a walker that has it
     from the neighbour record loads its vertex without waiting for ``tv``)."""
     vn = verts[gn]
-    pn, qn, mn = vertex_frame(vn, r)
-    na = oriented_side(gn, fc.g[0], pn, qn, mn, fc.pa, fc.qa, fc.ma, r)
-    nb = oriented_side(gn, fc.g[1], pn, qn, mn, fc.pb, fc.qb, fc.mb, r)
-    nc = oriented_side(gn, fc.g[2], pn, qn, mn, fc.pc, fc.qc, fc.mc, r)
+    pn, hn, mn = vertex_frame(vn, r)
+    na = oriented_side(gn, fc.g[0], pn, mn, fc.pa, fc.ma, r)
+    nb = oriented_side(gn, fc.g[1], pn, mn, fc.pb, fc.mb, r)
+    nc = oriented_side(gn, fc.g[2], pn, mn, fc.pc, fc.mc, r)
     # candidates (N, A, B), (N, B, C), (N, C, A), each from the face record's vertices in place (no copies)
-    ok, t, s = face_cross(qn, fc.qa, fc.qb, vn[3], fc.s[0], fc.s[1], na, fc.w[0], -nb, r.d)
+    ok, t, s = face_cross(hn, fc.h[0], fc.h[1], vn[3], fc.s[0], fc.s[1], na, fc.w[0], -nb)
     if ok:
-        return fan_face(wp.vec3i(gn, fc.g[0], fc.g[1]), pn, qn, mn, fc.pa, fc.qa, fc.ma, fc.pb, fc.qb, fc.mb,
+        return fan_face(wp.vec3i(gn, fc.g[0], fc.g[1]), pn, mn, fc.pa, fc.ma, fc.pb, fc.mb, wp.vec3(hn, fc.h[0], fc.h[1]),
                         wp.vec3(vn[3], fc.s[0], fc.s[1]), wp.vec3(na, fc.w[0], -nb)), local_index(tv, fc.g[2]), t, s
-    ok, t, s = face_cross(qn, fc.qb, fc.qc, vn[3], fc.s[1], fc.s[2], nb, fc.w[1], -nc, r.d)
+    ok, t, s = face_cross(hn, fc.h[1], fc.h[2], vn[3], fc.s[1], fc.s[2], nb, fc.w[1], -nc)
     if ok:
-        return fan_face(wp.vec3i(gn, fc.g[1], fc.g[2]), pn, qn, mn, fc.pb, fc.qb, fc.mb, fc.pc, fc.qc, fc.mc,
+        return fan_face(wp.vec3i(gn, fc.g[1], fc.g[2]), pn, mn, fc.pb, fc.mb, fc.pc, fc.mc, wp.vec3(hn, fc.h[1], fc.h[2]),
                         wp.vec3(vn[3], fc.s[1], fc.s[2]), wp.vec3(nb, fc.w[1], -nc)), local_index(tv, fc.g[0]), t, s
-    ok, t, s = face_cross(qn, fc.qc, fc.qa, vn[3], fc.s[2], fc.s[0], nc, fc.w[2], -na, r.d)
+    ok, t, s = face_cross(hn, fc.h[2], fc.h[0], vn[3], fc.s[2], fc.s[0], nc, fc.w[2], -na)
     if ok:
-        return fan_face(wp.vec3i(gn, fc.g[2], fc.g[0]), pn, qn, mn, fc.pc, fc.qc, fc.mc, fc.pa, fc.qa, fc.ma,
+        return fan_face(wp.vec3i(gn, fc.g[2], fc.g[0]), pn, mn, fc.pc, fc.mc, fc.pa, fc.ma, wp.vec3(hn, fc.h[2], fc.h[0]),
                         wp.vec3(vn[3], fc.s[2], fc.s[0]), wp.vec3(nc, fc.w[2], -na)), local_index(tv, fc.g[1]), t, s
     return Face(), int(-1), float(0.0), float(0.0)
 
