@@ -58,7 +58,7 @@ def one_minus_exp_neg_thin(x: float) -> float:
     cancellation; truncation x^6/720: <= 4e-10 relative)."""
     # x - x^2/2 + x^3/6 - x^4/24 + x^5/120 in Estrin's form (short dependency chains)
     x2 = x * x
-    return x * ((1.0 - 0.5 * x) + x2 * (((1.0 / 6.0) - x * (1.0 / 24.0)) + x2 * (1.0 / 120.0)))
+    return (x - 0.5 * x2) + (x2 * x) * (((1.0 / 6.0) - x * (1.0 / 24.0)) + x2 * (1.0 / 120.0))
 
 
 @wp.func
@@ -87,9 +87,10 @@ def integrate_piece(h: float, front: wp.vec4, back: wp.vec4, model: int) -> wp.v
     if tau_total <= THIN_DEPTH:
         # optically thin piece: scalar moments of the transmittance by 3-point Gauss-Legendre at the
         # depths x0, x1, x2 = tau(GL3_X0), tau(1/2), tau(GL3_X2) (exact up to degree 5 in x)
-        x0 = GL3_X0 * (a + 0.5 * b * GL3_X0)
-        x1 = 0.5 * (a + 0.25 * b)
-        x2 = GL3_X2 * (a + 0.5 * b * GL3_X2)
+        # (two products summed: short dependency chains)
+        x0 = GL3_X0 * a + (0.5 * GL3_X0 * GL3_X0) * b
+        x1 = 0.5 * a + 0.125 * b
+        x2 = GL3_X2 * a + (0.5 * GL3_X2 * GL3_X2) * b
         c1 = wp.vec3(back[0], back[1], back[2])
         if model == 0:
             # int c tau' e^-tau = c1 (1 - e^-T) - (c1 - c0) (1 - M0) = c1 (M0 - e^-T) + c0 (1 - M0),
