@@ -30,7 +30,7 @@ import warp as wp
 
 from .blend import BlendState, blend
 from .pt import CLAMP_ABS, CLAMP_REL, PERSP_EXACT, PERSP_OFF, exact_color, vec8f
-from .raster import TriSetup, edge_step_i, edge_step_j, edges_at, inside, tile_rect, tile_span
+from .raster import TriSetup, edge_step_i, edge_step_j, edges_at, row_span, tile_rect, tile_span
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -130,16 +130,14 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
         sj = edge_step_j(s, t)
         si = edge_step_i(s, t)
         for i in range(i0, i1 + 1):
-            ee = row
             ry = gy * (float(i) + 0.5 - pa[1])  # the row's term, as the sum below adds it last
-            for j in range(j0, j1 + 1):
-                if inside(ee):
-                    x = a0 + gx * (float(j) + 0.5 - pa[0]) + ry
-                    a, moved = clamp8(x, lo, hi, tol)
-                    nfrag += 1
-                    nclamp += moved
-                    c = exact_color(sfsbl_ray(a, mode, ortho, ray_len[i, j]), tf_s, tf_v, model)
-                    fb[i, j] = blend(bs, c, fb[i, j], j, i, t)
-                ee = ee + sj
+            run = row_span(row, sj, j1 - j0 + 1)  # the row's covered pixels: one run
+            for j in range(j0 + run[0], j0 + run[1] + 1):
+                x = a0 + gx * (float(j) + 0.5 - pa[0]) + ry
+                a, moved = clamp8(x, lo, hi, tol)
+                nfrag += 1
+                nclamp += moved
+                c = exact_color(sfsbl_ray(a, mode, ortho, ray_len[i, j]), tf_s, tf_v, model)
+                fb[i, j] = blend(bs, c, fb[i, j], j, i, t)
             row = row + si
     counts[tile] = wp.vec2i(nfrag, nclamp)

@@ -228,6 +228,53 @@ def inside(e: vec3l) -> bool:
 
 
 @wp.func
+def first_nonneg(e: wp.int64, step: wp.int64, n: int) -> int:
+    """Smallest ``k`` in ``[0, n)`` with ``e + k step >= 0`` for an increasing edge function (``step > 0``);
+    ``n`` if none. A float64 estimate corrected by the exact int64 test (bit-exact with stepping)."""
+    if e >= wp.int64(0):
+        return 0
+    k = int(wp.ceil(wp.float64(-e) / wp.float64(step)))
+    k = wp.clamp(k, 0, n)
+    while k > 0 and e + wp.int64(k - 1) * step >= wp.int64(0):
+        k -= 1
+    while k < n and e + wp.int64(k) * step < wp.int64(0):
+        k += 1
+    return k
+
+
+@wp.func
+def last_nonneg(e: wp.int64, step: wp.int64, n: int) -> int:
+    """Largest ``k`` in ``[0, n)`` with ``e + k step >= 0`` for a decreasing edge function (``step < 0``);
+    -1 if none. A float64 estimate corrected by the exact int64 test."""
+    if e < wp.int64(0):
+        return -1
+    k = int(wp.floor(wp.float64(e) / wp.float64(-step)))
+    k = wp.clamp(k, -1, n - 1)
+    while k < n - 1 and e + wp.int64(k + 1) * step >= wp.int64(0):
+        k += 1
+    while k >= 0 and e + wp.int64(k) * step < wp.int64(0):
+        k -= 1
+    return k
+
+
+@wp.func
+def row_span(e: vec3l, sj: vec3l, n: int) -> wp.vec2i:
+    """The pixels ``k`` in ``[0, n)`` of a row whose (biased) edge functions ``e + k sj`` are all >= 0
+    (:func:`inside`): ``(first, last)``, empty when first > last. Each edge function is linear in ``k``, so
+    the covered pixels of a row are one run; exact (the same pixels as testing each in turn)."""
+    lo = int(0)
+    hi = n - 1
+    for q in range(3):
+        if sj[q] > wp.int64(0):
+            lo = wp.max(lo, first_nonneg(e[q], sj[q], n))
+        elif sj[q] < wp.int64(0):
+            hi = wp.min(hi, last_nonneg(e[q], sj[q], n))
+        elif e[q] < wp.int64(0):
+            hi = -1
+    return wp.vec2i(lo, hi)
+
+
+@wp.func
 def edges_of(x: wp.vec3i, y: wp.vec3i, bi: wp.vec3i, j: int, i: int) -> vec3l:
     """The three edge functions, minus their fill-rule bias ``bi``, of a set-up triangle with snapped
     vertices ``x``, ``y`` at the centre of pixel (row i, column j): covered iff all are >= 0 (:func:`inside`)."""

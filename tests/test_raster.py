@@ -8,6 +8,7 @@ from warpvol.errors import ConfigError
 from warpvol.gpu.blend import BlendUnit, FrameBuffer
 from warpvol.gpu.raster import Rasterizer, rasterize
 from warpvol.gpu.vertex import VertexStage, transform_vertices, viewport_matrix
+from warpvol.kernels.raster import inside, row_span, vec3l
 from warpvol.scene.camera import Camera
 
 from helpers import DEVICES
@@ -489,3 +490,46 @@ def test_threaded_setup_is_the_same_setup():
         assert np.array_equal(getattr(sa, name).numpy(), getattr(sb, name).numpy()), name
     assert a.bin_entries == b.bin_entries > n
     assert np.array_equal(sa.tri_of.numpy()[:a.bin_entries], sb.tri_of.numpy()[:b.bin_entries])
+
+
+
+@wp.kernel(enable_backward=False)
+def _k_row_span_check(e: wp.array(dtype=vec3l), sj: wp.array(dtype=vec3l), n: wp.array(dtype=wp.int32),
+                      span: wp.array(dtype=wp.vec2i), stepped: wp.array(dtype=wp.vec2i)):
+    r = wp.tid()
+    span[r] = row_span(e[r], sj[r], n[r])
+    lo = int(n[r])
+    hi = int(-1)
+    ee = e[r]
+    for k in range(n[r]):
+        if inside(ee):
+            lo = wp.min(lo, k)
+            hi = wp.max(hi, k)
+        ee = ee + sj[r]
+    stepped[r] = wp.vec2i(lo, hi)
+
+
+@pytest.mark.parametrize("device", DEVICES)
+def test_row_span_is_the_run_of_covered_pixels(device):
+    """``row_span`` (the covered run of a row from the three edge functions, float64 estimate corrected
+    in int64) = testing every pixel with exact stepping: random rows, edges near zero, huge values."""
+    rng = np.random.default_rng(21)
+    m = 20000
+    n = rng.integers(1, 70, m).astype(np.int32)
+    sj = rng.integers(-(1 << 20), 1 << 20, (m, 3)) * rng.choice([1, 256, 1 << 14], (m, 3))
+    sj[rng.random((m, 3)) < 0.1] = 0
+    # starts placed so that the zero crossings fall inside the row, at its ends and just beside pixels
+    k0 = rng.uniform(-5, 75, (m, 3))
+    e = np.rint(-k0 * sj).astype(np.int64) + rng.integers(-2, 3, (m, 3))
+    big = rng.random(m) < 0.05
+    e[big] = rng.integers(-(1 << 50), 1 << 50, (int(big.sum()), 3))
+    sj[big] = rng.integers(-(1 << 40), 1 << 40, (int(big.sum()), 3))
+    w = lambda a, t: wp.array(a, dtype=t, device=device)  # noqa: E731
+    span, stepped = wp.zeros(m, dtype=wp.vec2i, device=device), wp.zeros(m, dtype=wp.vec2i, device=device)
+    wp.launch(_k_row_span_check, dim=m, inputs=[w(e, vec3l), w(sj.astype(np.int64), vec3l), w(n, wp.int32), span,
+                                                 stepped], device=device)
+    got, want = span.numpy(), stepped.numpy()
+    empty = want[:, 0] > want[:, 1]
+    assert 0.2 < empty.mean() < 0.9
+    np.testing.assert_array_equal(got[~empty], want[~empty])
+    assert (got[empty, 0] > got[empty, 1]).all()
