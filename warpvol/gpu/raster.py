@@ -114,6 +114,8 @@ def guard_band_overflow(window: np.ndarray, prims: np.ndarray, width: int, heigh
     x, y, w = win[:, 0], win[:, 1], win[:, 3]
     with np.errstate(invalid="ignore"):
         beyond = (w > 0) & ~((np.abs(x) <= GUARD_PX) & (np.abs(y) <= GUARD_PX))
+    if not beyond.any():  # no vertex beyond the guard band: nothing to count (the usual view)
+        return 0, 0.0
     px, py = x[prims], y[prims]
     off = (px < 0).all(1) | (px > width).all(1) | (py < 0).all(1) | (py > height).all(1)
     bad = beyond[prims].any(axis=1) & ~off

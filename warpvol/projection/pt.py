@@ -148,9 +148,10 @@ def eye_plane_check(mesh, camera) -> EyePlane:
         hx = hy * camera.aspect
         sides = (x - hx, -x - hx, y - hy, -y - hy)
         crossing = ~behind & (dmin < 0)
-    outside = np.zeros(len(tets), dtype=bool)
-    for s in sides:  # every vertex of the tet outside one plane
-        outside |= per_tet(np.logical_and, s > 0)
+    code = np.zeros(len(d), dtype=np.uint8)  # per vertex, one bit per side plane it lies outside of
+    for k, s in enumerate(sides):
+        code |= (s > 0).astype(np.uint8) << np.uint8(k)
+    outside = per_tet(np.bitwise_and, code) != 0  # every vertex of the tet outside one plane
     n_cross, n_behind, n_out = int(crossing.sum()), int(behind.sum()), int((outside & ~behind).sum())
     counts = dict(crossing=n_cross, behind=n_behind, outside=n_out)
     if (behind | outside).all():
