@@ -91,8 +91,7 @@ def centroid_keys(mesh, camera, metric: str = "distance") -> np.ndarray:
 
 def centroid_order(mesh, camera, metric: str = "distance") -> SortResult:
     """Numeric sort: cells by decreasing centroid key (stable, ties by index)."""
-    key = centroid_keys(mesh, camera, metric)
-    order = np.argsort(-key, kind="stable").astype(np.int32)
+    order = cells_by_key(centroid_keys(mesh, camera, metric))
     return SortResult(order, "centroid", False, note="centroid (numeric) sort is approximate")
 
 
@@ -118,12 +117,20 @@ def face_directions(mesh, camera) -> np.ndarray:
     return dirs.numpy()
 
 
+def cells_by_key(key: np.ndarray) -> np.ndarray:
+    """Cells by decreasing depth key (stable): where :func:`topological_order` breaks a cycle."""
+    return np.argsort(-key, kind="stable").astype(np.int32)
+
+
 def topological_order(mesh, dirs: np.ndarray, key: np.ndarray,
-                      extra: tuple[np.ndarray, np.ndarray] | None = None, priority: bool = True) -> tuple[np.ndarray, int]:
+                      extra: tuple[np.ndarray, np.ndarray] | None = None, priority: bool = True,
+                      by_key: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """Priority topological sort of the face graph (one Warp thread on the CPU) with optional extra
     edges ``extra = (src, dst)`` (``src`` drawn before ``dst``); returns ``(order, cycles_broken)``.
     ``priority=False``: ready cells in the order they became ready (a queue; for exact orders, where
-    any topological order draws the same image); cycles are broken at the farthest cell either way."""
+    any topological order draws the same image); cycles are broken at the farthest cell either way
+    (``by_key``: :func:`cells_by_key`, when the caller has it; else sorted if the first run meets a cycle,
+    which then runs again)."""
     import warp as wp
 
     from warpvol.kernels import sort as ks
@@ -140,8 +147,10 @@ def topological_order(mesh, dirs: np.ndarray, key: np.ndarray,
              wp.array(off, dtype=wp.int32, device=dev),
              wp.array(np.append(dst[o], 0).astype(np.int32), dtype=wp.int32, device=dev),
              wp.array(key.astype(np.float64), dtype=wp.float64, device=dev)]
-    by_key = np.zeros(1, np.int32)  # cells by key: only to break a cycle, sorted when the first run meets one
-    for _ in range(2):
+    known = by_key is not None
+    if not known:
+        by_key = np.zeros(1, np.int32)  # cells by key: only to break a cycle, sorted when the first run meets one
+    for _ in range(1 if known else 2):
         order = wp.zeros(m, dtype=wp.int32, device=dev)
         stats = wp.zeros(2, dtype=wp.int32, device=dev)
         wp.launch(ks.k_priority_topo, dim=1,
@@ -150,9 +159,9 @@ def topological_order(mesh, dirs: np.ndarray, key: np.ndarray,
                           0 if priority else 1],
                   device=dev)
         st = stats.numpy()
-        if not st[1]:
+        if known or not st[1]:
             break
-        by_key = np.argsort(-key, kind="stable").astype(np.int32)
+        by_key = cells_by_key(key)
     return order.numpy(), int(st[0])
 
 
@@ -211,13 +220,15 @@ def mpvo_order(mesh, camera, nonconvex: bool | None = None, metric: str = "dista
             rays = pool.submit(boundary_ray_constraints, mesh, camera)
             dirs = face_directions(mesh, camera)
             key = centroid_keys(mesh, camera, metric)
+            by_key = cells_by_key(key)  # in case of a cycle; sorted while the rays are being found
             src, dst, nfrag = rays.result()
         extra, info = (src, dst), {"boundary_fragments": nfrag, "ray_constraints": len(src)}
     else:
         dirs = face_directions(mesh, camera)
         key = centroid_keys(mesh, camera, metric)
+        by_key = None
     # MPVONC needs its depth priority; MPVO (convex) and XMPVO orders are exact: a queue is enough
-    order, cycles = topological_order(mesh, dirs, key, extra, priority=nonconvex and not exact_rays)
+    order, cycles = topological_order(mesh, dirs, key, extra, priority=nonconvex and not exact_rays, by_key=by_key)
     method = "xmpvo" if exact_rays else "mpvonc" if nonconvex else "mpvo"
     notes = []
     if cycles:
