@@ -77,17 +77,23 @@ def test_pt_best_redoes_thin_layer_pixels_in_float64(view):
     assert st["thin_tets"] > 0 and st["float64_pixels"] > 0
 
 
-def test_pt_best_eye_in_the_plane_of_interior_diagonal_faces():
-    # the 6-tet split cuts each cube along x = y planes: the eye at x = y sees those faces edge-on
+def _pt_best_diagonal_view(eye, size: int) -> dict:
+    """pt_best of the 6-tet box (each cube cut along x = y planes) seen from ``eye`` towards a point of
+    such a plane, checked against the reference within pt_best's tolerance row; its pt_integrate stats."""
     sc = Scene(mesh=_box(5), transfer=_tf(2.5), name="diag",
-               camera=Camera(eye=(0.42, 0.42, 3.7), target=(0.05, 0.05, 0.0), up=(0, 1, 0), fov_y_deg=30.0,
-                             width_px=40, height_px=40))
+               camera=Camera(eye=eye, target=(0.05, 0.05, 0.0), up=(0, 1, 0), fov_y_deg=30.0, width_px=size,
+                             height_px=size))
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
     res = Pipeline.load("pt_best").render(sc, quiet=True)
     err = image_error(res.image, ref)
     tol = TOLERANCES["pt_best"]
     assert err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"], err
-    st = res.report["stats"]["pt_integrate"]
+    return res.report["stats"]["pt_integrate"]
+
+
+def test_pt_best_eye_in_the_plane_of_interior_diagonal_faces():
+    # the eye at x = y sees the diagonal faces edge-on
+    st = _pt_best_diagonal_view((0.42, 0.42, 3.7), 40)
     assert st["edge_on_faces"] > 0 and st["float64_pixels"] > 0
 
 
@@ -96,16 +102,7 @@ def test_pt_best_redoes_pixels_inside_faces_narrower_than_the_snapping():
     # faces project to slivers ~0.002 px wide, narrower than the rasteriser's 1/256-px snapping, and the
     # centre pixel's ray (eye -> target, a point of such a face) runs inside one; snapped, the cut of its
     # two tets into triangles takes that pixel's front or back point from a face on the wrong side
-    eye = (0.42 + 5e-4, 0.42, 3.7)
-    sc = Scene(mesh=_box(5), transfer=_tf(2.5), name="sliver",
-               camera=Camera(eye=eye, target=(0.05, 0.05, 0.0), up=(0, 1, 0), fov_y_deg=30.0,
-                             width_px=41, height_px=41))
-    ref = render_reference(sc.mesh, sc.transfer, sc.camera)
-    res = Pipeline.load("pt_best").render(sc, quiet=True)
-    err = image_error(res.image, ref)
-    tol = TOLERANCES["pt_best"]
-    assert err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"], err
-    st = res.report["stats"]["pt_integrate"]
+    st = _pt_best_diagonal_view((0.42 + 5e-4, 0.42, 3.7), 41)
     assert st["edge_on_faces"] == 0 and st["sliver_faces"] > 0 and st["float64_pixels"] > 0
 
 
