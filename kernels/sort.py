@@ -13,6 +13,10 @@ kernel stops there with ``stats[1] = 1`` (the host sorts the keys and runs it ag
 have no cycle and never pay that sort). With ``fifo`` the ready cells leave in the order they
 became ready (a queue, O(1) per cell): for an exact order (MPVO on a convex mesh, XMPVO) any
 topological order draws the same image, so the depth priority is only needed by MPVONC.
+
+``k_ray_gaps`` finds XMPVO's extra edges along the pixel rays: per pixel, its boundary fragments
+ordered by depth (an insertion sort in place: a pixel holds a few), and wherever the ray leaves the
+mesh through one boundary face and enters again through the next, the pair of their cells.
 """
 
 import warp as wp
@@ -162,3 +166,39 @@ def k_face_directions(points: wp.array(dtype=wp.vec3d), tets: wp.array2d(dtype=w
             for g in range(4):
                 if adj[b, g] == a:
                     dirs[b, g] = -s
+
+
+@wp.kernel
+def k_ray_gaps(offsets: wp.array(dtype=wp.int32), prim: wp.array(dtype=wp.int32), depth: wp.array(dtype=wp.float32),
+               front: wp.array(dtype=wp.int32), cell: wp.array(dtype=wp.int32), src: wp.array(dtype=wp.int32),
+               dst: wp.array(dtype=wp.int32), p0: int):
+    """Pixel ``p0 + tid``: its fragments ``offsets[p] ..`` (``prim``: boundary face, ``depth``) sorted in
+    place by depth, at equal depth the exit (``front == 0``) before the entry, stably (primitive order);
+    then for each consecutive exit -> entry pair the entered face's cell (``src``, drawn first: farther)
+    and the left face's cell (``dst``) at the exit's slot, else -1 there. Blocks of pixels may run
+    concurrently (each owns its slots)."""
+    p = p0 + wp.tid()
+    a = offsets[p]
+    b = offsets[p + 1]
+    for k in range(a + 1, b):  # insertion sort: stable, short lists
+        kd = depth[k]
+        kp = prim[k]
+        kf = front[kp]
+        m = k - 1
+        while m >= a:
+            md = depth[m]
+            if md > kd or (md == kd and front[prim[m]] > kf):
+                depth[m + 1] = md
+                prim[m + 1] = prim[m]
+                m -= 1
+            else:
+                break
+        depth[m + 1] = kd
+        prim[m + 1] = kp
+    for k in range(a, b):
+        src[k] = -1
+        dst[k] = -1
+        if k + 1 < b:
+            if front[prim[k]] == 0 and front[prim[k + 1]] == 1:  # leave the mesh, then re-enter it
+                src[k] = cell[prim[k + 1]]
+                dst[k] = cell[prim[k]]

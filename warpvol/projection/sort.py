@@ -168,8 +168,12 @@ def topological_order(mesh, dirs: np.ndarray, key: np.ndarray,
 def boundary_ray_constraints(mesh, camera, device: str = "cpu") -> tuple[np.ndarray, np.ndarray, int]:
     """XMPVO's extra edges ``(src, dst)`` (``src`` drawn before ``dst``, deduplicated) from the boundary
     faces consecutive along the camera's pixel rays, and the number of boundary fragments rasterised."""
-    from warpvol.gpu.raster import Rasterizer, depth_order
+    import warp as wp
+
+    from warpvol.gpu.raster import Rasterizer
     from warpvol.gpu.vertex import VertexStage
+    from warpvol.kernels import sort as ks
+    from warpvol.parallel import blocks, launch_blocks, preload
     from warpvol.projection.pt import RASTER_RULES
     from warpvol.scene.mesh import FACE_VERTS
 
@@ -187,17 +191,19 @@ def boundary_ray_constraints(mesh, camera, device: str = "cpu") -> tuple[np.ndar
         vs.transform(mesh.points).window_array, tri, walk="triangle")  # the pixel walk's list, faster
     if frags.count < 2:
         return empty, empty, frags.count
-    pix = frags.pixel_index()
-    prim = frags.prim.numpy()[:frags.count]
-    depth = frags.depth.numpy()[:frags.count]
-    fr = front[prim]
-    o = depth_order(pix, depth, fr)  # along each ray; at equal depth the exit before the entry
-    pix, prim, fr = pix[o], prim[o], fr[o]
-    gap = (pix[1:] == pix[:-1]) & ~fr[:-1] & fr[1:]  # leave the mesh, then re-enter it
-    cell = bf[:, 0]
-    src, dst = cell[prim[1:][gap]], cell[prim[:-1][gap]]  # the farther cell is drawn first
-    keep = src != dst
-    pair = np.unique(src[keep] * mesh.n_tets + dst[keep])
+    # per pixel along its ray (at equal depth the exit before the entry): where it leaves the mesh and
+    # re-enters, the entered cell (farther: drawn first) and the left one (kernels/sort.py k_ray_gaps)
+    n, npx = frags.count, camera.width_px * camera.height_px
+    src_w, dst_w = wp.empty(n, dtype=wp.int32, device=device), wp.empty(n, dtype=wp.int32, device=device)
+    args = [frags.offsets, frags.prim, frags.depth, wp.array(front.astype(np.int32), dtype=wp.int32, device=device),
+            wp.array(bf[:, 0].astype(np.int32), dtype=wp.int32, device=device), src_w, dst_w]
+    parts = blocks(npx, -(-npx // 16)) if str(device).startswith("cpu") else [(0, npx)]
+    preload(device, ks)
+    launch_blocks(device, len(parts), lambda b: wp.launch(ks.k_ray_gaps, dim=parts[b][1], inputs=[*args, parts[b][0]],
+                                                          device=device))
+    src, dst = src_w.numpy()[:n], dst_w.numpy()[:n]
+    keep = (src >= 0) & (src != dst)
+    pair = np.unique(src[keep].astype(np.int64) * mesh.n_tets + dst[keep])
     return pair // mesh.n_tets, pair % mesh.n_tets, frags.count
 
 
