@@ -188,3 +188,38 @@ def test_depth_order_is_lexsort_by_pixel_depth_and_tie():
     shuffled = rng.permutation(n)
     np.testing.assert_array_equal(depth_order(pix[shuffled], depth[shuffled], tie[shuffled]),
                                   np.lexsort((tie[shuffled], depth[shuffled], pix[shuffled])))
+
+
+def test_ray_gaps_kernel_matches_a_sort_of_all_fragments():
+    """``k_ray_gaps`` (per pixel, insertion sort in place) finds the exit -> entry pairs that a stable sort
+    of all fragments by (pixel, depth, entry flag) finds: random lists with equal depths, -0 and +0, a
+    pixel with one fragment and empty pixels."""
+    import warp as wp
+
+    from warpvol.kernels import sort as ks
+
+    rng = np.random.default_rng(3)
+    npx, nfaces = 400, 60
+    counts = rng.integers(0, 9, npx)
+    counts[:50] = 0
+    counts[50:60] = 1
+    off = np.zeros(npx + 1, np.int32)
+    np.cumsum(counts, out=off[1:])
+    n = int(off[-1])
+    prim = rng.integers(0, nfaces, n).astype(np.int32)
+    depth = rng.choice(np.array([0.1, 0.2, 0.3, -0.0, 0.0, 0.5], np.float32), n)
+    depth[::7] = rng.uniform(0, 1, len(depth[::7])).astype(np.float32)
+    front = rng.integers(0, 2, nfaces).astype(np.int32)
+    cell = rng.integers(0, 25, nfaces).astype(np.int32)
+    pix = np.repeat(np.arange(npx), counts)
+    o = np.lexsort((front[prim], depth + np.float32(0.0), pix))  # stable: primitive order at full ties
+    p, f = prim[o], front[prim[o]].astype(bool)
+    gap = (pix[o][1:] == pix[o][:-1]) & ~f[:-1] & f[1:]
+    want = sorted(zip(cell[p[1:][gap]].tolist(), cell[p[:-1][gap]].tolist()))
+    src, dst = wp.empty(n, dtype=wp.int32), wp.empty(n, dtype=wp.int32)
+    wp.launch(ks.k_ray_gaps, dim=npx, inputs=[wp.array(off), wp.array(prim), wp.array(depth), wp.array(front),
+                                              wp.array(cell), src, dst, 0], device="cpu")
+    s, d = src.numpy(), dst.numpy()
+    got = sorted(zip(s[s >= 0].tolist(), d[s >= 0].tolist()))
+    assert len(want) > 100
+    assert got == want
