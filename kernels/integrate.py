@@ -62,7 +62,7 @@ def one_minus_exp_neg_thin(x: float) -> float:
 
 
 @wp.func
-def _piece_term(x: float, v: float, a: float, b: float, r0: float, dr: float,
+def _piece_term(x: float, a: float, b: float, r0: float, dr: float,
                 c0: wp.vec3, dc: wp.vec3, model: int) -> wp.vec3:
     # integrand at local parameter x of the piece (0..1); tau(x) = a x + b x^2 / 2
     tau = a * x + 0.5 * b * x * x
@@ -121,10 +121,10 @@ def integrate_piece(h: float, front: wp.vec4, back: wp.vec4, model: int) -> wp.v
         dx = wp.min(dx, 1.0 - x)
         if dx <= 0.0:
             break
-        s = _piece_term(x + GL_X0 * dx, x, a, b, r0, dr, c0, dc, model) * GL_W0
-        s += _piece_term(x + GL_X1 * dx, x, a, b, r0, dr, c0, dc, model) * GL_W1
-        s += _piece_term(x + GL_X2 * dx, x, a, b, r0, dr, c0, dc, model) * GL_W1
-        s += _piece_term(x + GL_X3 * dx, x, a, b, r0, dr, c0, dc, model) * GL_W0
+        s = _piece_term(x + GL_X0 * dx, a, b, r0, dr, c0, dc, model) * GL_W0
+        s += _piece_term(x + GL_X1 * dx, a, b, r0, dr, c0, dc, model) * GL_W1
+        s += _piece_term(x + GL_X2 * dx, a, b, r0, dr, c0, dc, model) * GL_W1
+        s += _piece_term(x + GL_X3 * dx, a, b, r0, dr, c0, dc, model) * GL_W0
         acc += s * (dx * h)
         x = x + dx
         if wp.exp(-(a * x + 0.5 * b * x * x)) < T_CUTOFF:
