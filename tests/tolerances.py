@@ -68,7 +68,7 @@ pt_best                2.5e-4       4e-3         exact per-fragment integral, pe
                                                  1.3e-4 / 1.6e-3, concave 9.8e-5 / 2.2e-3 (thick vertex
                                                  rounded to 1/256 px, silhouette pixels), stiff 7.1e-5;
                                                  SPX 512^2 6.8e-6 / 7.8e-4, Blunt Fin close 1.8e-5 /
-                                                 1.7e-3 (pixels inside faces narrower than the snapping
+                                                 1.7e-3 (pixels inside faces the snapping can flip
                                                  redone in float64)
 harc_best               2e-6         1e-4         the raycast/fp32 walk (shared funcs) entered from the
                                                     rasterised boundary, exact segments, fp32 buffer; seen on

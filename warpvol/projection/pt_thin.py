@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from warpvol.scene.tf_ranges import density_max
+from warpvol.scene.tf_ranges import density_bound, density_max
 
 #: a tet whose smallest height is below this many float32 units (2^-23) of the mesh radius is thin
 THIN_ULPS = 1024.0
@@ -33,6 +33,9 @@ EPS32 = float(np.finfo(np.float32).eps)
 #: pixel centres within this many pixels of a sliver face's projection (:func:`snap_edge_on_faces`) may
 #: be cut on the wrong side of it: four times the rasteriser's 1/256-pixel snapping
 SLIVER_PX = 4.0 / 256.0
+#: a face projected narrower than this (pixels) may flip its orientation when its vertices are snapped to
+#: 1/256 pixel (each moves up to 1/512): 1/256 with a factor 2 of margin
+SNAP_FLIP_PX = 2.0 / 256.0
 
 
 def _geometry(mesh, tf) -> dict:
@@ -123,7 +126,11 @@ def _face_planes(mesh) -> dict:
     faces = np.unique(np.sort(tets[:, [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]]].reshape(-1, 3), axis=1), axis=0)
     p0, p1, p2 = pts[faces[:, 0]], pts[faces[:, 1]], pts[faces[:, 2]]
     n = np.cross(p1 - p0, p2 - p0)
-    cache.update(faces=faces, n=n, c=np.einsum("ij,ij->i", n, p0), nn=np.linalg.norm(n, axis=1), p0=p0)
+    nn = np.linalg.norm(n, axis=1)
+    longest = np.max([np.linalg.norm(p1 - p0, axis=1), np.linalg.norm(p2 - p0, axis=1), np.linalg.norm(p2 - p1, axis=1)],
+                     axis=0)
+    cache.update(faces=faces, n=n, c=np.einsum("ij,ij->i", n, p0), nn=nn, p0=p0, longest=longest,
+                 height=nn / np.maximum(longest, 1e-300))
     return cache
 
 
@@ -143,48 +150,41 @@ def edge_on_faces(mesh, camera) -> np.ndarray:
     return fp["faces"][(dist < tol) & (fp["nn"] > 0)]
 
 
-def _face_densities(mesh, tf) -> np.ndarray:
-    """Largest density over each face's scalar range (faces of :func:`_face_planes`), cached on the mesh
-    per transfer function."""
-    key = np.asarray(tf.points).tobytes() + tf.emission.encode()
-    cache = mesh.__dict__.setdefault("_pt_face_density", {})
-    if key not in cache:
-        sc = np.asarray(mesh.scalars, dtype=np.float64)[_face_planes(mesh)["faces"]]
-        cache.clear()
-        cache[key] = density_max(tf, sc.min(axis=1), sc.max(axis=1))
-    return cache[key]
-
-
 def snap_edge_on_faces(mesh, tf, camera, tau: float = THIN_TAU) -> np.ndarray:
-    """Faces ``(n, 3)`` seen so nearly edge-on that their projection is narrower than the rasteriser
-    resolves: the tets on either side are cut into triangles at positions snapped to 1/256 pixel, and a
-    pixel centre inside such a sliver takes its front or back point from a face on the wrong side of it
-    -- a thickness error up to the face's extent along the view. Marked when the largest density over
-    the face's scalar range times that extent times the part of the sliver the snapping can misplace
-    (``min(1, (1/256) / width)``, width = projected height of the triangle in pixels) exceeds ``tau``.
+    """Faces ``(n, 3)`` whose projection is narrower than the rasteriser's snapping can keep apart: snapping
+    moves each vertex by up to 1/512 pixel, so a projected triangle less than 1/256 pixel high (here, with
+    margin, 2/256) can lose or flip its orientation, and the tets on either side are then cut into
+    triangles on the wrong side of it -- a pixel centre inside the sliver takes its front or back point
+    from the wrong face, a thickness error up to the depth difference across the sliver: at most the face's
+    extent along the view and at most its own height (so a needle-shaped face, narrow in every view, is
+    thin in depth too). Marked when, in that regime, the largest density over the face's scalar range
+    times that depth difference exceeds ``tau`` (a face seen edge-on).
 
-    Only faces within the angle where the bound ``density x pixel size / (256 |cos|)`` of that error can
-    exceed ``tau`` are projected (``cos`` between the face normal and the view ray): a few per cent of
-    the faces."""
+    Only faces that can be that narrow are projected: the projected height of a triangle is at least its
+    height in its plane times ``|cos|`` (normal against the view ray) over twice the pixel size (per-mesh
+    heights)."""
     fp = _face_planes(mesh)
     faces = fp["faces"]
     if len(faces) == 0:
         return np.zeros((0, 3), dtype=np.int64)
-    dens = _face_densities(mesh, tf)
+    dens_all = density_bound(tf)  # a bound for every face
+    if dens_all <= 0.0:
+        return np.zeros((0, 3), dtype=np.int64)
     eye = np.asarray(camera.eye, dtype=np.float64)
+    wide = SNAP_FLIP_PX
     if camera.projection == "perspective":
-        # dens px > 256 tau cos, with px = k |rel . f| and cos = |n . rel| / (|n| |rel|), multiplied out;
-        # inside the view frustum |rel| <= depth * corner (the frustum corner ray's length per unit depth),
-        # so depth^2 * corner in place of depth * |rel| keeps every face the exact test could mark
+        # width >= h |cos| / (2 px), px = 2 tan depth / H, |cos| = |n . rel| / (|n| |rel|); inside the view
+        # frustum |rel| <= corner depth: a face with h |n . rel| >= wide 4 tan corner depth^2 |n| / H is wider
         rel = fp["p0"] - eye
         depth = np.abs(rel @ camera.forward)
         th = np.tan(np.radians(camera.fov_y_deg) / 2.0)
         corner = np.sqrt(1.0 + th * th * (1.0 + camera.aspect * camera.aspect))
-        k = 2.0 * th / camera.height_px * corner
-        cand = np.flatnonzero(dens * (k * depth * depth) * fp["nn"] > 256.0 * tau * np.abs(fp["n"] @ eye - fp["c"]))
+        narrow = fp["height"] * np.abs(fp["n"] @ eye - fp["c"]) < \
+            wide * 4.0 * th * corner / camera.height_px * depth * depth * fp["nn"]
     else:
         px = camera.ortho_height / camera.height_px
-        cand = np.flatnonzero(dens * px * fp["nn"] > 256.0 * tau * np.abs(fp["n"] @ np.asarray(camera.forward, np.float64)))
+        narrow = fp["height"] * np.abs(fp["n"] @ np.asarray(camera.forward, np.float64)) < wide * 2.0 * px * fp["nn"]
+    cand = np.flatnonzero(narrow & (dens_all * fp["height"] > tau) & (fp["nn"] > 0))
     if len(cand) == 0:
         return np.zeros((0, 3), dtype=np.int64)
     col, row, depth = _window(TetMeshFaces(mesh, faces[cand]), camera, np.arange(len(cand)))
@@ -193,10 +193,16 @@ def snap_edge_on_faces(mesh, tf, camera, tau: float = THIN_TAU) -> np.ndarray:
     longest = np.max([np.hypot(col[:, a] - col[:, b], row[:, a] - row[:, b]) for a, b in ((0, 1), (0, 2), (1, 2))],
                      axis=0)
     width = area2 / np.maximum(longest, 1e-300)  # the triangle's projected height, pixels
-    span = depth.max(axis=1) - depth.min(axis=1)  # extent along the view
-    snap = np.minimum(1.0, (1.0 / 256.0) / np.maximum(width, 1e-300))
-    err = dens[cand] * span * snap
-    return faces[cand[err > tau]]
+    # across the sliver two points of the face differ in depth by at most its extent along the view and
+    # at most its own height (a needle-shaped face is thin in every view, and thin in depth too)
+    span = np.minimum(depth.max(axis=1) - depth.min(axis=1), fp["height"][cand])
+    keep = (width < wide) & (dens_all * span > tau)
+    cand, span = cand[keep], span[keep]
+    if len(cand) == 0:
+        return np.zeros((0, 3), dtype=np.int64)
+    sc = np.asarray(mesh.scalars, dtype=np.float64)[faces[cand]]
+    dens = density_max(tf, sc.min(axis=1), sc.max(axis=1))
+    return faces[cand[dens * span > tau]]
 
 
 def _boundary_edges(mesh, tf) -> dict:

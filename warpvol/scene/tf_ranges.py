@@ -14,6 +14,11 @@ def _density_points(tf) -> tuple[np.ndarray, np.ndarray]:
     return p[:, 0], dens
 
 
+def density_bound(tf) -> float:
+    """Largest density of ``tf`` anywhere (a bound for :func:`density_max` over any range)."""
+    return float(_density_points(tf)[1].max(initial=0.0))
+
+
 def density_max(tf, smin: np.ndarray, smax: np.ndarray) -> np.ndarray:
     """Largest density of ``tf`` over each scalar range ``[smin, smax]`` (piecewise linear: the ends
     and the control points between), float64."""
