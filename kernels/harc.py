@@ -271,7 +271,7 @@ def make_march(walk: int, setup: int, mode: int):
                     break
             else:
                 cand = boundary_face(tets[c], f, verts, r)
-                ok, t, s = face_hit(cand, r)
+                ok, t, s = face_hit(cand)
                 if not ok:
                     # the rasteriser's snapped coverage and the edge test disagree (pixel centre within
                     # 1/256 pixel of a projected edge): the ray crosses a face around this one, found
@@ -318,7 +318,7 @@ def make_march(walk: int, setup: int, mode: int):
                             f = int(bf_face[b])
                             if c != prev:
                                 cand = boundary_face(tets[c], f, verts, r)
-                                ok, t, s = face_hit(cand, r)
+                                ok, t, s = face_hit(cand)
                                 if ok and t > t_start - t_tol and (cell < 0 or t < t_in):
                                     cell = c
                                     face_in = f

@@ -28,7 +28,7 @@ def ring_search(b: int, bf_tet: wp.array(dtype=wp.int32), bf_face: wp.array(dtyp
     for k in range(3):
         n1 = nb[k]
         if n1 >= 0:
-            ok, t, s = face_hit(boundary_face(tets[bf_tet[n1]], bf_face[n1], verts, r), r)
+            ok, t, s = face_hit(boundary_face(tets[bf_tet[n1]], bf_face[n1], verts, r))
             if ok:
                 return n1, True, t, s
     for k in range(3):
@@ -38,7 +38,7 @@ def ring_search(b: int, bf_tet: wp.array(dtype=wp.int32), bf_face: wp.array(dtyp
             for j in range(3):
                 n2 = nb2[j]
                 if n2 >= 0 and n2 != b:
-                    ok, t, s = face_hit(boundary_face(tets[bf_tet[n2]], bf_face[n2], verts, r), r)
+                    ok, t, s = face_hit(boundary_face(tets[bf_tet[n2]], bf_face[n2], verts, r))
                     if ok:
                         return n2, True, t, s
     return int(-1), False, float(0.0), float(0.0)

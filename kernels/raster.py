@@ -245,16 +245,8 @@ def first_nonneg(e: wp.int64, step: wp.int64, n: int) -> int:
 @wp.func
 def last_nonneg(e: wp.int64, step: wp.int64, n: int) -> int:
     """Largest ``k`` in ``[0, n)`` with ``e + k step >= 0`` for a decreasing edge function (``step < 0``);
-    -1 if none. A float64 estimate corrected by the exact int64 test."""
-    if e < wp.int64(0):
-        return -1
-    k = int(wp.floor(wp.float64(e) / wp.float64(-step)))
-    k = wp.clamp(k, -1, n - 1)
-    while k < n - 1 and e + wp.int64(k + 1) * step >= wp.int64(0):
-        k += 1
-    while k >= 0 and e + wp.int64(k) * step < wp.int64(0):
-        k -= 1
-    return k
+    -1 if none: :func:`first_nonneg` of the row read backwards (``k' = n - 1 - k``)."""
+    return n - 1 - first_nonneg(e + wp.int64(n - 1) * step, -step, n)
 
 
 @wp.func

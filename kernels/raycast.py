@@ -76,7 +76,7 @@ def tile_entry(px: int, py: int, t_start: float, prev: int, r: Ray, t_tol: float
         c = int(bface_tet[bf])
         f = int(bface_local[bf])
         cand = boundary_face(tets[c], f, verts, r)
-        ok, t, s = face_hit(cand, r)
+        ok, t, s = face_hit(cand)
         if ok and t > far_t:
             far_t = t
         if ok and t > t_start - t_tol and t < best_t and c != prev:

@@ -285,7 +285,7 @@ def fan_face(g: wp.vec3i, pa: wp.vec3, ma: wp.vec3, pb: wp.vec3, mb: wp.vec3, pc
 
 
 @wp.func
-def face_hit(fc: Face, r: Ray):
+def face_hit(fc: Face):
     """:func:`face_cross` of a :class:`Face`: ``(crossed, t, s)``."""
     return face_cross(fc.h[0], fc.h[1], fc.h[2], fc.s[0], fc.s[1], fc.s[2], fc.w[0], fc.w[1], fc.w[2])
 

@@ -129,7 +129,7 @@ def _face_planes(mesh) -> dict:
     nn = np.linalg.norm(n, axis=1)
     longest = np.max([np.linalg.norm(p1 - p0, axis=1), np.linalg.norm(p2 - p0, axis=1), np.linalg.norm(p2 - p1, axis=1)],
                      axis=0)
-    cache.update(faces=faces, n=n, c=np.einsum("ij,ij->i", n, p0), nn=nn, p0=p0, longest=longest,
+    cache.update(faces=faces, n=n, c=np.einsum("ij,ij->i", n, p0), nn=nn, p0=p0,
                  height=nn / np.maximum(longest, 1e-300))
     return cache
 
@@ -292,11 +292,10 @@ def _mark_near_edges(cover: np.ndarray, col: np.ndarray, row: np.ndarray, delta:
     column (row) of its span, the one row (column) whose centre is nearest the edge there is tested."""
     h, w = cover.shape
     a = np.stack([np.column_stack([col[:, i], row[:, i]]) for i in (0, 1, 2)], axis=1)  # (n, 3, 2)
-    p, q = a.reshape(-1, 2), a[:, [1, 2, 0]].reshape(-1, 2)
-    for major in (0, 1):  # 0: edges closer to horizontal stepped by column; 1: the others by row
-        d = q - p
-        sel = (np.abs(d[:, major]) >= np.abs(d[:, 1 - major])) if major == 0 else \
-            (np.abs(d[:, 1]) > np.abs(d[:, 0]))
+    p = a.reshape(-1, 2)
+    d = a[:, [1, 2, 0]].reshape(-1, 2) - p
+    flat = np.abs(d[:, 0]) >= np.abs(d[:, 1])  # closer to horizontal: stepped by column, the others by row
+    for major, sel in ((0, flat), (1, ~flat)):
         pp, dd = p[sel], d[sel]
         if len(pp) == 0:
             continue
