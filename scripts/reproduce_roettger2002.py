@@ -125,8 +125,8 @@ def fig8(width: int, height: int, repeat: int, device: str, tables: dict | None 
                       None if None in (mf3, mf2) else mf2 / mf3, None if None in (mf3, f3) else mf3 / f3,
                       None if mf2 is None else mf2 / f2])
     print("Modelled: the fragment stage's counted work on the card's profile (warpvol.model as it is; the 2D path "
-          "each platform ran: two planes on the PCs, one texture on the SGI); Octane MXI 3D: pt_table3d counts "
-          "two fragment-program set-up ops per fragment, for which the Octane (no combiners) has no rate.")
+          "each platform ran: two planes on the PCs, one texture on the SGI); the 3D table is resident (a redraw "
+          "uploads no texture).")
     urows = fig8_units(reports)
     print("Emulated times are CPU emulation cost, not a 2002 card's fill rate.")
     if tables is not None:

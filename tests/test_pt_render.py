@@ -84,6 +84,18 @@ def test_roettger2000_3d_preset(name):
     assert c["pt_project"]["tets_projected"] == sc.mesh.n_tets
 
 
+def test_table3d_texture_is_resident_on_redraw():
+    """The 3D table is uploaded with the first frame only: a redraw sends the vertex data alone."""
+    sc = builtin_scene("sphere").with_camera(width_px=32, height_px=32)
+    pipe = Pipeline.load("roettger2000_3d")
+    first = pipe.render(sc, quiet=True).report["counters"]["pt_table3d"]
+    again = pipe.render(sc, quiet=True).report["counters"]["pt_table3d"]
+    table = first["texture_bytes"]
+    assert table >= 64 * 64 * 32 * 4  # the roettger2000_3d table, RGBA8
+    assert first["bytes_up"] - again["bytes_up"] == table
+    assert "texture_bytes" not in again and again["bytes_up"] > 0
+
+
 def test_pre_integration_resolves_thin_tf_peaks():
     """Sphere: narrow TF peaks; per-vertex averaged colour misses them, an exact 3D table does not."""
     sc = builtin_scene("sphere").with_camera(width_px=64, height_px=64)

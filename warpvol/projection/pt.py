@@ -520,7 +520,8 @@ def table3d_program(table, texel_format: str = "auto", filter: str = "linear", w
                     z_off: float = 0.0) -> tuple[Callable, str]:
     """Fragment program looking up ``table`` (layout ``data[l, sb, sf]``, any 3D table builder) through
     an emulated 3D texture of ``texel_format`` (``auto``: the format that holds the table's stored
-    values: fp32 -> rgba32f, fp16 -> rgba16f, rgba8 -> rgba8, hilo16 -> rgba16). ``mode``: the
+    values: fp32 -> rgba32f, fp16 -> rgba16f, rgba8 -> rgba8, hilo16 -> rgba16); the texture is uploaded
+    once per table and format and kept in ``table.extra``. ``mode``: the
     fragments' attributes (:data:`PERSPECTIVE_MODES`; not ``off``: :func:`perspective_attrs`).
     Returns the program and the texel format used."""
     from warpvol.gpu.texture import Texture3D
@@ -535,7 +536,12 @@ def table3d_program(table, texel_format: str = "auto", filter: str = "linear", w
         if table.format not in TEXEL_FOR_TABLE:
             raise ConfigError(f"table: no 3D texel format holds a {table.format!r} table; give texel_format")
         texel_format = TEXEL_FOR_TABLE[table.format]
-    tex = Texture3D(table.data, fmt=texel_format, filter=filter, device=device, weight_bits=weight_bits)
+    # the texture stays resident between frames (kept on the table): a redraw uploads nothing
+    key = ("texture3d", str(device), texel_format, filter, weight_bits)
+    tex = table.extra.get(key)
+    if tex is None:
+        tex = table.extra[key] = Texture3D(table.data, fmt=texel_format, filter=filter, device=device,
+                                           weight_bits=weight_bits)
     la, lb, llog = _axis_affine(ax_l)
     consts = [*_scalar_consts(ax_f), 1.0 / float(ax_l.scale), la, lb, llog]
     flags = [PERSPECTIVE_MODES[mode], int(ortho), float(z_off)]
