@@ -459,21 +459,35 @@ def exact_color(a: wp.vec3, tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp
     return wp.vec4(r[0], r[1], r[2], 1.0 - exp_neg(r[3]))
 
 
+@wp.func
+def table3d_coords(attrs: wp.array2d(dtype=wp.float32), f: int, mode: int, ortho: int, z_off: float, s_off: float,
+                   s_inv: float, s_a: float, s_b: float, l_inv: float, l_a: float, l_b: float, l_log2: int) -> wp.vec3:
+    """Texture coordinates ``(u, v, r)`` of fragment ``f``'s (sf, sb, l) (:func:`fragment_sfsbl`) in a 3D
+    table: normalised (``(s - s_off) s_inv``, ``l l_inv``) and mapped by the table's axes."""
+    a = fragment_sfsbl(attrs, f, mode, ortho, z_off)
+    return wp.vec3(axis_coord((a[0] - s_off) * s_inv, s_a, s_b, 0), axis_coord((a[1] - s_off) * s_inv, s_a, s_b, 0),
+                   axis_coord(a[2] * l_inv, l_a, l_b, l_log2))
+
+
 @wp.kernel
 def k_frag_table3d(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: int, z_off: float, tex: Tex3D,
                    s_off: float,
                    s_inv: float, s_a: float, s_b: float, l_inv: float, l_a: float, l_b: float, l_log2: int,
                    out: wp.array(dtype=wp.vec4)):
-    """Röttger et al. 2000: the fragment's (sf, sb, l) (:func:`fragment_sfsbl`) normalised
-    (``(s - s_off) s_inv``, ``l l_inv``), mapped to texture coordinates of the table's axes and
-    looked up through the 3D texture unit; the table's RGBA (premultiplied C, alpha) is the
-    fragment colour."""
+    """Röttger et al. 2000: the fragment's (sf, sb, l) looked up through the 3D texture unit at
+    :func:`table3d_coords`; the table's RGBA (premultiplied C, alpha) is the fragment colour."""
     f = wp.tid()
-    a = fragment_sfsbl(attrs, f, mode, ortho, z_off)
-    u = axis_coord((a[0] - s_off) * s_inv, s_a, s_b, 0)
-    v = axis_coord((a[1] - s_off) * s_inv, s_a, s_b, 0)
-    r = axis_coord(a[2] * l_inv, l_a, l_b, l_log2)
-    out[f] = tex3d(tex, u, v, r)
+    c = table3d_coords(attrs, f, mode, ortho, z_off, s_off, s_inv, s_a, s_b, l_inv, l_a, l_b, l_log2)
+    out[f] = tex3d(tex, c[0], c[1], c[2])
+
+
+@wp.kernel
+def k_table3d_coords(attrs: wp.array2d(dtype=wp.float32), mode: int, ortho: int, z_off: float, s_off: float,
+                     s_inv: float, s_a: float, s_b: float, l_inv: float, l_a: float, l_b: float, l_log2: int,
+                     out: wp.array(dtype=wp.vec3)):
+    """The texture coordinates :func:`k_frag_table3d` looks up (the texture-cache analysis reads them)."""
+    f = wp.tid()
+    out[f] = table3d_coords(attrs, f, mode, ortho, z_off, s_off, s_inv, s_a, s_b, l_inv, l_a, l_b, l_log2)
 
 
 @wp.func
@@ -556,6 +570,15 @@ def k_cyl_vertices(attr: wp.array(dtype=wp.vec3), s_off: float, s_inv: float, l_
     out[i, 2] = c[2]
 
 
+@wp.func
+def cylindrical_coords(attrs: wp.array2d(dtype=wp.float32), prim: wp.array(dtype=wp.int32),
+                       tris: wp.array(dtype=wp.vec3i), vattrs: wp.array2d(dtype=wp.float32), f: int, ua: float,
+                       ub: float, va: float, vb: float) -> wp.vec3:
+    """``(α, u, v)`` of fragment ``f``: ``α`` of its triangle's thick vertex, in-tile ``(u, v)``."""
+    return wp.vec3(vattrs[tris[prim[f]][0], 0], ua * wp.clamp(attrs[f, 1], 0.0, 1.0) + ub,
+                   va * wp.clamp(attrs[f, 2], 0.0, 1.0) + vb)
+
+
 @wp.kernel
 def k_frag_cylindrical(attrs: wp.array2d(dtype=wp.float32), prim: wp.array(dtype=wp.int32),
                        tris: wp.array(dtype=wp.vec3i), vattrs: wp.array2d(dtype=wp.float32), atlas: Atlas,
@@ -565,10 +588,17 @@ def k_frag_cylindrical(attrs: wp.array2d(dtype=wp.float32), prim: wp.array(dtype
     interpolated, in-tile coordinates ``u = ua s + ub``, ``v = va t + vb``; the two nearest planes
     blended with a ``weight_bits``-bit weight (0: fp32), or the nearest plane alone (``nearest``)."""
     f = wp.tid()
-    a = vattrs[tris[prim[f]][0], 0]
-    u = ua * wp.clamp(attrs[f, 1], 0.0, 1.0) + ub
-    v = va * wp.clamp(attrs[f, 2], 0.0, 1.0) + vb
-    out[f] = cyl_planes_sample(atlas, a, u, v, weight_bits, nearest)
+    c = cylindrical_coords(attrs, prim, tris, vattrs, f, ua, ub, va, vb)
+    out[f] = cyl_planes_sample(atlas, c[0], c[1], c[2], weight_bits, nearest)
+
+
+@wp.kernel
+def k_cylindrical_coords(attrs: wp.array2d(dtype=wp.float32), prim: wp.array(dtype=wp.int32),
+                         tris: wp.array(dtype=wp.vec3i), vattrs: wp.array2d(dtype=wp.float32), ua: float, ub: float,
+                         va: float, vb: float, out: wp.array(dtype=wp.vec3)):
+    """The ``(α, u, v)`` :func:`k_frag_cylindrical` samples (the texture-cache analysis reads them)."""
+    f = wp.tid()
+    out[f] = cylindrical_coords(attrs, prim, tris, vattrs, f, ua, ub, va, vb)
 
 
 @wp.kernel

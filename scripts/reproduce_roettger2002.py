@@ -78,6 +78,7 @@ def fig8(width: int, height: int, repeat: int, device: str, tables: dict | None 
     import statistics
 
     from warpvol.reference.numpy_render import render_reference
+    from warpvol.reproduce.texcache import table_misses
     from warpvol.scene.builtin import builtin_scene
 
     sc = builtin_scene("sphere")
@@ -88,7 +89,7 @@ def fig8(width: int, height: int, repeat: int, device: str, tables: dict | None 
           f"(the paper's window), 8-bit frame buffer, error vs the exact reference; every variant draws from "
           f"roettger2000_3d's software table (64^3, RGBA8)")
     print(f"{'variant':<29} | {'rmse':>9} {'max':>7} | {'render [s]':>10} | {'fragments':>9} {'2D/3D fetches':>13} "
-          f"{'combiner ops':>12}")
+          f"{'combiner ops':>12} {'blocks / frag':>13}")
     reports, vrows, crows = {}, [], []
     for name, (pre, ov, frag) in F8_VARIANTS.items():
         p = _preset(pre, device, **ov)
@@ -99,13 +100,17 @@ def fig8(width: int, height: int, repeat: int, device: str, tables: dict | None 
             res = p.render(sc, reference=ref, quiet=True)
             ts.append(time.perf_counter() - t0)
         c = res.report["counters"][frag]
+        fetches = sum(v for k, v in c.items() if k.startswith("tex_"))
+        # texture memory a cache would read (blocks per triangle, warpvol.reproduce.texcache), for the model
+        tc = table_misses(p, sc)
+        c["tex_miss_bytes"] = tc["miss_bytes"]
         reports[name] = res.report
         e = res.report["error"]
-        fetches = sum(v for k, v in c.items() if k.startswith("tex_"))
+        per = tc["blocks"] / max(tc["fragments"], 1)
         vrows.append([name, float(e["rmse"]), float(e["max_abs"]), statistics.median(ts), int(c["fragments"]),
-                      int(fetches), int(c.get("combiner_ops", 0))])
+                      int(fetches), int(c.get("combiner_ops", 0)), per])
         print(f"{name:<29} | {e['rmse']:>9.2e} {e['max_abs']:>7.3f} | {statistics.median(ts):>10.3f} | "
-              f"{c['fragments']:>9,d} {fetches:>13,d} {c.get('combiner_ops', 0):>12,d}")
+              f"{c['fragments']:>9,d} {fetches:>13,d} {c.get('combiner_ops', 0):>12,d} {per:>13.3f}")
     print(f"\n{'card':<13} | paper: {'3D fps':>6} {'2D fps':>6} {'2D/3D':>6} {'printed':>8} | modelled: "
           f"{'3D fps':>6} {'2D fps':>6} {'2D/3D':>6} | ratio to paper: 3D, 2D")
     for card, (f3, f2, printed) in PAPER_F8.items():
@@ -126,7 +131,7 @@ def fig8(width: int, height: int, repeat: int, device: str, tables: dict | None 
                       None if mf2 is None else mf2 / f2])
     print("Modelled: the fragment stage's counted work on the card's profile (warpvol.model as it is; the 2D path "
           "each platform ran: two planes on the PCs, one texture on the SGI); the 3D table is resident (a redraw "
-          "uploads no texture).")
+          "uploads no texture); memory includes the texture blocks each triangle's lookups read.")
     urows = fig8_units(reports)
     print("Emulated times are CPU emulation cost, not a 2002 card's fill rate.")
     if tables is not None:
@@ -138,7 +143,8 @@ def fig8(width: int, height: int, repeat: int, device: str, tables: dict | None 
             f"Fig. 8: frame rates of 3D texturing and 2D multi-texturing, paper and modelled ({what})",
             ["card", "paper 3D fps", "paper 2D fps", "paper 2D / 3D", "paper speed-up as printed", "modelled 3D fps",
              "modelled 2D fps", "modelled 2D / 3D", "modelled / paper (3D)", "modelled / paper (2D)"], crows,
-            "Modelled: the counted vertex, raster, texture, combiner and blending work (host sorting left out) on the "
+            "Modelled: the counted vertex, raster, texture, combiner and blending work and the texture blocks each "
+            "triangle's lookups read from memory (host sorting left out) on the "
             "card's profile, the 2D path each platform ran (two planes on the PCs, one texture on the SGI); cards "
             "without a profile are the paper's only"
             + "".join(f"; {r[0]} {path}: not modelled (a capability or rate the counted work needs is missing)"
@@ -146,9 +152,11 @@ def fig8(width: int, height: int, repeat: int, device: str, tables: dict | None 
             + ". " + calibrations(*F8_PROFILES.values()))
         tables["fig8_variants"] = table(
             f"Fig. 8 variants: error against the exact reference and counted work ({what})",
-            ["variant", "RMSE", "max abs", "emulated render [s]", "fragments", "2D/3D fetches", "combiner ops"], vrows,
+            ["variant", "RMSE", "max abs", "emulated render [s]", "fragments", "2D/3D fetches", "combiner ops",
+             "texture blocks / fragment"], vrows,
             f"Emulated render time: median of {repeat} renders on this machine's CPU (emulation cost, not a 2002 "
-            "card's fill rate).")
+            "card's fill rate). Texture blocks: the 4x4-texel blocks each triangle's lookups touch, once per "
+            "triangle (warpvol.reproduce.texcache), read from memory at the profile's bandwidth in the model.")
         tables["fig8_units"] = table(
             "Fig. 8: modelled fragment-stage milliseconds per unit (the slowest unit, marked *, is the stage's time)",
             ["card", "path", "raster [ms]", "texture [ms]", "shader [ms]", "rop [ms]", "memory [ms]", "bound",

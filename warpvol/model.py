@@ -32,7 +32,8 @@ rop          ``blends_<fmt>``, ``writes_<fmt>``, ``clear_pixels``     ``blend_<f
                                                                       ``pixel_fill``, ``clear_rate``
 memory       frame-buffer bytes: (2 blends + writes + clears) x       ``memory_bandwidth`` (unit left out
              bytes per pixel of the format; ``tex_miss_bytes``        where a profile has no figure)
-             (texture-cache misses, where counted)
+             (texture-cache misses, where counted:
+             :mod:`warpvol.reproduce.texcache`)
 ===========  =======================================================  =======================================
 
 Programmable fragment pipes whose texture fetches take an issue slot of the program (profile cap

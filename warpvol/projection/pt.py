@@ -552,6 +552,12 @@ def table3d_program(table, texel_format: str = "auto", filter: str = "linear", w
                   device=device)
         return out
 
+    def coords(frags, tris):  # the (u, v, r) each fragment fetches (texture-cache analysis)
+        out = wp.zeros(frags.count, dtype=wp.vec3, device=device)
+        wp.launch(kpt.k_table3d_coords, dim=frags.count, inputs=[frags.attrs, *flags, *consts, out], device=device)
+        return out
+
+    run.coords, run.texture = coords, tex
     return run, texel_format
 
 
@@ -593,4 +599,11 @@ def cylindrical_program(planes, tf, geo: PTGeometry, weight_bits: int | None = 8
                           out], device=device)
         return out
 
+    def coords(frags, tris):  # the (alpha, u, v) each fragment samples (texture-cache analysis)
+        out = wp.zeros(frags.count, dtype=wp.vec3, device=device)
+        wp.launch(kpt.k_cylindrical_coords, dim=frags.count, inputs=[frags.attrs, frags.prim, tris, vattrs, *consts, out],
+                  device=device)
+        return out
+
+    run.coords, run.texture, run.nearest = coords, tex, bool(sgi)
     return vattrs.numpy(), run

@@ -112,6 +112,11 @@ ROETTGER_F8 = {"3d": [{"stage": "table_exact", "n_s": 64, "n_l": 64, "format": "
 #: fetch counter, bytes per texel): Guthe et al. 2002 §5 ascribe the Bucky Ball's lower frame rate to "a
 #: larger variation of the scalar values which lead to a reduced texture cache coherence"
 LOCALITY = {"guthe": ("pt_guthe", 512, "tex_2d_rgba8s_linear", 4)}
+#: configurations whose table lookups get the texture-cache term counted from the redraw's fragments
+#: (:mod:`warpvol.reproduce.texcache`): the fragment stages of Roettger & Ertl 2002 Fig. 8, whose §4 names
+#: the 3D texture's "additional texture memory accesses and a reduced texture cache coherency" as the
+#: reason for the 2D speed-up, and Kraus et al. 2004 Table 1, which look up the same kind of 3D table
+TEXCACHE = {"roettger": ("pt_table3d", "pt_cylindrical"), "kraus": ("pt_table3d",)}
 
 
 def table_locality(sc, n_s: int) -> dict:
@@ -148,8 +153,34 @@ def table_locality(sc, n_s: int) -> dict:
     return {"fragments": float(area.sum()), "new_texels": float((area * new).sum() / max(area.sum(), 1e-12))}
 
 
+def _with_texcache(key: str, c: dict, make, device: str = "cpu") -> dict:
+    """Add ``tex_miss_bytes`` (:func:`warpvol.reproduce.texcache.table_misses` of a redraw) to the fragment
+    stage of a TEXCACHE configuration."""
+    stages = [s for s in TEXCACHE.get(key.split("/")[0], ()) if s in c]
+    if not stages:
+        return c
+    path = CACHE / (key.replace("/", "__") + "__texcache.json")
+    if path.is_file():
+        tc = json.loads(path.read_text())
+    else:
+        from warpvol.pipeline import Pipeline
+        from warpvol.reproduce.texcache import table_misses
+
+        pipe = CONFIGS[key][1]
+        p = Pipeline.load(pipe, device=device) if isinstance(pipe, str) else \
+            Pipeline.from_config({"name": key.replace("/", "_"), "stages": pipe}, device=device)
+        tc = table_misses(p, make())
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(tc, indent=1))
+    g = dict(c[stages[0]])
+    g["tex_miss_bytes"] = int(tc["miss_bytes"])
+    return {**c, stages[0]: g}
+
+
 def _with_locality(key: str, c: dict, make) -> dict:
-    """Add ``tex_miss_bytes`` (table texels new to the texture cache x bytes) to a LOCALITY configuration."""
+    """Add ``tex_miss_bytes`` (table texels new to the texture cache x bytes) to a LOCALITY configuration
+    (geometric estimate) or a TEXCACHE one (counted from the fragments)."""
+    c = _with_texcache(key, c, make)
     spec = LOCALITY.get(key.split("/")[0])
     if spec is None or "sort_" in key or spec[0] not in c:
         return c
@@ -228,7 +259,8 @@ def counters(key: str, device: str = "cpu", refresh: bool = False) -> dict:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps({"key": key, "tets": int(sc.mesh.n_tets), "counters": c, "stats": stats},
                                indent=1, default=str))
-    (CACHE / (key.replace("/", "__") + "__locality.json")).unlink(missing_ok=True)
+    for tail in ("__locality.json", "__texcache.json"):
+        (CACHE / (key.replace("/", "__") + tail)).unlink(missing_ok=True)
     return _with_locality(key, c, lambda: sc)
 
 

@@ -1,0 +1,42 @@
+"""Texture-cache misses counted from the fragment stream (warpvol.reproduce.texcache)."""
+
+import numpy as np
+
+from warpvol.pipeline import Pipeline
+from warpvol.reproduce.texcache import BLOCK, distinct_blocks, table_misses
+from warpvol.scene.builtin import builtin_scene
+
+
+def test_bilinear_footprint_blocks_per_triangle():
+    # one triangle sweeping a row of texel centres across an 8-texel-wide texture: every block of the row once
+    x = np.arange(8) + 0.5 + 0.5  # footprints k..k+1 for k = 0..7 (the last clamped): both blocks
+    texel = np.stack([x, np.full(8, 1.0)], axis=1)
+    assert distinct_blocks(np.zeros(8), texel, (8, 8)) == 8 // BLOCK
+    # the same fetches split over two triangles: each reads its own blocks again
+    assert distinct_blocks(np.repeat([0, 1], 4), texel, (8, 8)) == 1 + 2
+    # a footprint straddling a block row edge touches the two rows' blocks
+    assert distinct_blocks([0], [[1.0, BLOCK]], (8, 8)) == 2
+
+
+def test_nearest_and_trilinear_footprints():
+    # nearest: the one texel floor(x); at a block edge only the block holding it
+    assert distinct_blocks([0], [[BLOCK + 0.0, 1.0]], (8, 8), filter="nearest") == 1
+    # trilinear at a slice centre + 0.5: two slices, one block each
+    assert distinct_blocks([0], [[1.0, 1.0, 2.0]], (4, 8, 8)) == 2
+    # clamp-to-edge: coordinates past the texture read its edge blocks only
+    assert distinct_blocks([0, 0], [[-5.0, 1.0], [40.0, 1.0]], (8, 8)) == 2
+
+
+def test_table_misses_counts_the_drawn_fragments():
+    sc = builtin_scene("sphere").with_camera(width_px=64, height_px=48)
+    p3 = Pipeline.load("roettger2000_3d")
+    r3 = table_misses(p3, sc)
+    frags = p3.render(sc, quiet=True).report["counters"]["pt_table3d"]["fragments"]
+    assert r3["fragments"] == frags > 0
+    assert r3["block_bytes"] == 4 * BLOCK * BLOCK  # RGBA8 texels
+    assert 0 < r3["blocks"] and r3["miss_bytes"] == r3["blocks"] * r3["block_bytes"]
+    # the 2D planes of the same table: one tile per triangle and plane, fewer blocks per fragment than the
+    # 3D texture, whose lookups cross its l slices (Roettger & Ertl 2002 §4's reason for the 2D speed-up)
+    r2 = table_misses(Pipeline.load("roettger2002_cylindrical"), sc)
+    assert r2["fragments"] == r3["fragments"]
+    assert r2["blocks"] < r3["blocks"]

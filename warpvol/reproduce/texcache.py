@@ -1,0 +1,143 @@
+"""Texture-cache misses of table lookups, counted from the fragments a render draws (throughput model).
+
+Roettger & Ertl 2002 (§4) give the reason the 3D-texture path of projected tetrahedra rasterises more
+slowly than 2D textures: "additional texture memory accesses and a reduced texture cache coherency". The
+emulated texture unit fetches the right texels but keeps no cache, so this module counts what a cache
+would have to read from memory, from the texture coordinates each fragment of a redraw looks up
+(``program.coords`` of :func:`warpvol.projection.pt.table3d_program` and
+:func:`~warpvol.projection.pt.cylindrical_program`):
+
+- a fetch touches its filter footprint: ``2 x 2`` texels (bilinear) of a 2D texture, ``2 x 2`` in each of
+  two slices (trilinear) of a 3D texture, one texel (nearest), with the texture unit's clamp-to-edge
+  (:func:`warpvol.kernels.texture.axis_linear`); an atlas tile's texels sit in the atlas' big texture;
+- memory holds textures in blocks of :data:`BLOCK` x :data:`BLOCK` texels; a 3D texture is a stack of
+  such blocked 2D slices;
+- the cache holds the blocks of one triangle: each block a triangle's fragments touch is read once per
+  triangle, and nothing is kept from one triangle to the next.
+
+The block size and the per-triangle working set are estimates (no vendor documents the texture caches of
+these cards; 4 x 4 is the block the cards' texture compression formats use, S3TC / DXT); the counted
+blocks x block bytes are ``tex_miss_bytes``, priced at the profile's ``memory_bandwidth``
+(:mod:`warpvol.model`). Used by :mod:`warpvol.reproduce.model_rows` for the configurations it names.
+
+>>> import numpy as np
+>>> prim = np.array([0, 0, 1])                          # two fragments of triangle 0, one of triangle 1
+>>> texel = np.array([[1.0, 1.0], [2.0, 1.0], [1.0, 1.0]])  # texel-space (x, y)
+>>> distinct_blocks(prim, texel, (8, 8))  # bilinear: texel columns 0-1 and 1-2, all in block column 0
+2
+>>> distinct_blocks(prim, texel + [3.0, 0.0], (8, 8))  # columns 3-4 straddle blocks 0 and 1
+4
+"""
+
+from __future__ import annotations
+
+import contextlib
+
+import numpy as np
+
+#: texels per block edge (memory blocks of BLOCK x BLOCK texels; estimate, see the module docstring)
+BLOCK = 4
+
+
+def distinct_blocks(prim: np.ndarray, texel: np.ndarray, shape: tuple, filter: str = "linear",
+                    block: int = BLOCK) -> int:
+    """Distinct ``(triangle, block)`` pairs that fetches at texel-space coordinates ``texel`` (n, d),
+    ``d`` = 2 (x, y) or 3 (x, y, slice), of a texture of ``shape`` (rows, columns) or (slices, rows,
+    columns) touch, ``prim`` (n,) naming each fetch's triangle. Texel space as the texture unit's: ``x =
+    u * width``; ``linear`` covers texels ``floor(x - 0.5)`` and the next one on each axis, ``nearest``
+    ``floor(x)``, clamped to the texture."""
+    prim = np.asarray(prim, dtype=np.int64)
+    t = np.asarray(texel, dtype=np.float64)
+    if len(prim) == 0:
+        return 0
+    d = t.shape[1]
+    ext = [int(shape[-1]), int(shape[-2])] + ([int(shape[0])] if d == 3 else [])  # per axis: x, y, slice
+    axes = []
+    for a in range(d):
+        x = np.nan_to_num(np.clip(t[:, a], -1.0, ext[a] + 1.0))
+        k = np.floor(x - 0.5).astype(np.int64) if filter == "linear" else np.floor(x).astype(np.int64)
+        ks = (k, k + 1) if filter == "linear" else (k,)
+        axes.append([np.clip(kk, 0, ext[a] - 1) for kk in ks])
+    nbx, nby = -(-ext[0] // block), -(-ext[1] // block)
+    nsl = ext[2] if d == 3 else 1
+    keys = []
+    for kx in axes[0]:
+        for ky in axes[1]:
+            for kz in (axes[2] if d == 3 else [np.zeros_like(prim)]):
+                keys.append(((prim * nsl + kz) * nby + ky // block) * nbx + kx // block)
+    return int(len(np.unique(np.concatenate(keys))))
+
+
+def _texel_coords(program, c: np.ndarray) -> tuple[np.ndarray, tuple, list[np.ndarray]]:
+    """Texel-space coordinates of a batch's lookups ``c`` (``program.coords``): ``(texel shape, per
+    fetch (n, d) texel coordinates)``."""
+    tex = program.texture
+    if c.shape[1] == 3 and not hasattr(tex, "ntiles"):  # 3D table: (u, v, r)
+        sl, h, w = tex.shape
+        return tex, [np.stack([c[:, 0] * w, c[:, 1] * h, c[:, 2] * sl], axis=1)]
+    # atlas of planes: (alpha, u, v); the two planes next to alpha (one, nearest, on the SGI path)
+    n, th, tw, cols = tex.ntiles, tex.tile_h, tex.tile_w, tex.cols
+    pa = np.clip(c[:, 0], 0.0, 1.0) * (n - 1)
+    if getattr(program, "nearest", False):
+        planes = [np.clip(np.floor(pa + 0.5), 0, n - 1).astype(np.int64)]
+    else:
+        p0 = np.minimum(np.floor(pa).astype(np.int64), max(n - 2, 0))
+        planes = [p0, np.minimum(p0 + 1, n - 1)]
+    out = []
+    for p in planes:
+        row, col = np.divmod(p, cols)
+        x = col * (tw + 2) + 1 + np.clip(c[:, 1], 0.0, 1.0) * tw
+        y = row * (th + 2) + 1 + np.clip(c[:, 2], 0.0, 1.0) * th
+        out.append(np.stack([x, y], axis=1))
+    return tex.texture, out
+
+
+@contextlib.contextmanager
+def _observe_draws(seen: list):
+    """While active, every :func:`warpvol.projection.pt.draw` batch whose program has ``coords`` adds
+    ``(program, prim, coords)`` to ``seen``."""
+    import warpvol.projection.pt as pt
+
+    draw = pt.draw
+
+    def observed(geo, vertex_attrs, program, fb, blend, **kw):
+        if not hasattr(program, "coords"):
+            return draw(geo, vertex_attrs, program, fb, blend, **kw)
+
+        def run(frags, tris):
+            n = frags.count
+            seen.append((program, frags.prim.numpy()[:n].copy(), program.coords(frags, tris).numpy()[:n]))
+            return program(frags, tris)
+
+        return draw(geo, vertex_attrs, run, fb, blend, **kw)
+
+    pt.draw = observed
+    try:
+        yield
+    finally:
+        pt.draw = draw
+
+
+def table_misses(pipeline, scene) -> dict:
+    """Texture-cache misses of ``pipeline``'s table lookups in a redraw of ``scene`` (the first render
+    builds tables and compiles kernels): ``fragments``, ``blocks`` (distinct per triangle, summed over the
+    draw's batches and the fetch's textures), ``block_bytes`` (the texture's bytes per texel x BLOCK^2)
+    and ``miss_bytes``."""
+    import warnings
+
+    seen: list = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        pipeline.render(scene, quiet=True)
+        with _observe_draws(seen):
+            pipeline.render(scene, quiet=True)
+    frags = blocks = 0
+    nbytes = 0
+    for program, prim, c in seen:
+        frags += len(prim)
+        tex, texels = _texel_coords(program, c)
+        nbytes = tex.nbytes // int(np.prod(tex.shape))
+        for t in texels:
+            blocks += distinct_blocks(prim, t, tex.shape, tex.effective_filter)
+    bb = nbytes * BLOCK * BLOCK
+    return {"fragments": int(frags), "blocks": int(blocks), "block_bytes": int(bb), "miss_bytes": int(blocks * bb)}
