@@ -266,36 +266,3 @@ def test_texture_cache_misses_are_memory_traffic():
     r = model_counters({"fragments": 1_200_000, "tex_miss_bytes": 10_400_000_000}, p)
     assert r["bound"] == "memory" and r["s"] == pytest.approx(1.0, rel=1e-12)  # 10.4 GB at 10.4 GB/s
     assert model_counters({"tex_miss_bytes": 1}, load_profile("octane_mxi"))["s"] == 0.0  # no memory figure: no unit
-
-
-def test_table_locality_of_one_tet_is_the_closed_form():
-    """One tetrahedron seen orthographically along -z: its hull is the right triangle of legs 64 px
-    (2,048 px); scalar range 0.5 of the transfer domain spans (n_s / 2)^2 / 2 texels of an (sf, sb) table."""
-    from warpvol.reproduce.model_rows import table_locality
-    from warpvol.scene.mesh import TetMesh
-
-    pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
-    m = TetMesh(pts, np.array([[0, 1, 2, 3]]), np.array([0.0, 0.5, 0.0, 0.0]), name="one")
-    tf = TransferFunction([[0.0, 1, 1, 1, 0.5], [1.0, 1, 1, 1, 0.5]])
-    cam = Camera(projection="orthographic", eye=(0.5, 0.5, 5.0), target=(0.5, 0.5, 0.0), ortho_height=1.0,
-                 width_px=64, height_px=64)
-    for n_s, new in ((16, (8 ** 2 / 2) / 2048), (512, 4.0)):  # 32 texels over 2,048 px; 32,768: capped at 4
-        loc = table_locality(scene(m, tf, cam), n_s)
-        assert loc["fragments"] == pytest.approx(2048.0, rel=1e-9) and loc["new_texels"] == pytest.approx(new)
-
-
-def test_table_locality_fragments_match_the_rasterised_fragments():
-    """The projected-tet areas the locality term weights by add up to the fragments PT rasterises."""
-    from warpvol.reproduce.model_rows import table_locality
-
-    m = box_mesh(dims=(3, 3, 3), scalar=lambda p: p[:, 0] + 2 * p[:, 1])
-    tf = TransferFunction([[-3.0, 1, 0, 0, 0.5], [3.0, 0, 0, 1, 0.5]])
-    cam = Camera(eye=(2.5, 1.5, 4.0), target=(0, 0, 0), fov_y_deg=40.0, width_px=48, height_px=48)
-    sc = scene(m, tf, cam)
-    res = Pipeline.from_config({"stages": [{"stage": "vertex"}, {"stage": "sort", "method": "mpvo"},
-                                           {"stage": "table_exact", "n_s": 16, "n_l": 8, "format": "rgba8"},
-                                           {"stage": "pt_project"}, {"stage": "pt_table3d"}]}).render(sc, quiet=True)
-    frags = res.report["counters"]["pt_table3d"]["fragments"]
-    loc = table_locality(sc, 16)
-    assert frags > 500 and loc["fragments"] == pytest.approx(frags, rel=0.03)
-    assert 0.0 < loc["new_texels"] <= 4.0

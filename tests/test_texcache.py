@@ -40,3 +40,19 @@ def test_table_misses_counts_the_drawn_fragments():
     r2 = table_misses(Pipeline.load("roettger2002_cylindrical"), sc)
     assert r2["fragments"] == r3["fragments"]
     assert r2["blocks"] < r3["blocks"]
+
+
+def test_atlas_tiles_read_at_one_coordinate():
+    """Guthe et al.'s coefficient tiles are all read at the fragment's (u, v): one fetch per tile, each in
+    its own tile of the atlas (a 1-texel border around every tile)."""
+    from types import SimpleNamespace
+
+    from warpvol.gpu.texture import TextureAtlas
+    from warpvol.reproduce.texcache import _texel_coords
+
+    atlas = TextureAtlas(np.zeros((3, 4, 4, 4)), fmt="rgba32f")  # 3 tiles of 4x4 in a 2-column atlas
+    prog = SimpleNamespace(texture=atlas, all_tiles=True)
+    tex, fetches = _texel_coords(prog, np.array([[0.5, 0.25, 0.0]]))
+    assert tex is atlas.texture and len(fetches) == 3
+    got = [f[0].tolist() for f in fetches]  # x = col (4 + 2) + 1 + u 4, y = row (4 + 2) + 1 + v 4
+    assert got == [[3.0, 2.0], [9.0, 2.0], [3.0, 8.0]]

@@ -468,6 +468,24 @@ def guthe_program(table, *, mode: str = "off", ortho: bool = False, weight_bits:
                           scale, out], device=device)
         return out
 
+    return guthe_lookups(run, atlas, consts, mode=mode, ortho=ortho, z_off=z_off, device=device)
+
+
+def guthe_lookups(run: Callable, atlas, consts: list, *, mode: str, ortho: bool, z_off: float, device: str) -> Callable:
+    """``run`` (a Guthe et al. fragment program over ``atlas``'s coefficient tiles, ``consts`` as
+    :func:`guthe_program` builds them) with ``coords``: the (sf, sb) texture coordinates each fragment
+    reads every tile at (texture-cache analysis; the tiles hold signed 8-bit RGBA on the cards, 4 bytes per
+    texel, whatever the emulation stores)."""
+    from warpvol.kernels import pt as kpt
+
+    def coords(frags, tris):
+        out = wp.zeros(frags.count, dtype=wp.vec3, device=device)
+        wp.launch(kpt.k_table3d_coords, dim=frags.count,
+                  inputs=[frags.attrs, PERSPECTIVE_MODES[mode], int(ortho), float(z_off), *consts[:5], 1.0, 0.0, 0,
+                          out], device=device)
+        return out
+
+    run.coords, run.texture, run.all_tiles, run.texel_bytes = coords, atlas, True, 4
     return run
 
 

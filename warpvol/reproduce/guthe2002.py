@@ -250,5 +250,6 @@ def table5(scenes, *, res: int = 512, device="cpu", log=None) -> dict:
                  "Emulated: this CPU, the same emulated work for both cards. Modelled: warpvol.model on "
                  "geforce4_ti4600 / radeon8500; the host sorts are priced by algorithm, their rates calibrated on "
                  "the text's 'half of the time is spent by sorting' (GeForce4 Blunt Fin: MPVO's graph sort on the "
-                 "MPVO row, the numeric sort on the numeric row); XMPVO adds its boundary-fragment sort, and a "
-                 "texture-cache term prices each data set's table locality. " + calibrations("geforce4_ti4600", "radeon8500"))
+                 "MPVO row, the numeric sort on the numeric row); XMPVO adds its boundary-fragment sort. The texture "
+                 "memory each triangle's lookups read (warpvol.reproduce.texcache) is priced by "
+                 "scripts/validate_model.py, not in this table. " + calibrations("geforce4_ti4600", "radeon8500"))

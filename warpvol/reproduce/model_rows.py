@@ -108,49 +108,13 @@ ROETTGER_F8 = {"3d": [{"stage": "table_exact", "n_s": 64, "n_l": 64, "format": "
                           {"stage": "pt_cylindrical", "path": "sgi"}]}
 
 
-#: configurations whose table lookups get a texture-cache term, with (stage, table texels per scalar axis,
-#: fetch counter, bytes per texel): Guthe et al. 2002 §5 ascribe the Bucky Ball's lower frame rate to "a
-#: larger variation of the scalar values which lead to a reduced texture cache coherence"
-LOCALITY = {"guthe": ("pt_guthe", 512, "tex_2d_rgba8s_linear", 4)}
 #: configurations whose table lookups get the texture-cache term counted from the redraw's fragments
-#: (:mod:`warpvol.reproduce.texcache`): the fragment stages of Roettger & Ertl 2002 Fig. 8, whose §4 names
-#: the 3D texture's "additional texture memory accesses and a reduced texture cache coherency" as the
-#: reason for the 2D speed-up, and Kraus et al. 2004 Table 1, which look up the same kind of 3D table
-TEXCACHE = {"roettger": ("pt_table3d", "pt_cylindrical"), "kraus": ("pt_table3d",)}
-
-
-def table_locality(sc, n_s: int) -> dict:
-    """How far apart the (sf, sb) table lookups of neighbouring fragments lie, from the scene's geometry.
-
-    A projected tetrahedron covers ``A`` pixels (the hull of its four projected vertices: half the sum of
-    its four vertex triangles) and its triangles span ``(n_s ds)^2 / 2`` texels of a table indexed by
-    (sf, sb), ``ds`` being its scalar range over the transfer function's domain (the thick vertex's
-    (sf, sb) and the silhouette vertices on the diagonal). ``r = texels / A`` is the texels one fragment
-    moves on from its neighbour; a bilinear fetch touches 4 texels, so ``min(r, 4)`` of them are new to
-    the texture cache (the cache's own line size is not known and not counted). Returned:
-    ``fragments`` (sum of ``A``: the rasterised fragments) and ``new_texels`` (fragment-weighted mean of
-    ``min(r, 4)``).
-    """
-    import numpy as np
-
-    m, cam = sc.mesh, sc.camera
-    pts = np.asarray(m.points, float)
-    tets = np.asarray(m.tets)
-    near, far = cam.depth_range(pts.min(0), pts.max(0))
-    h = np.c_[pts, np.ones(len(pts))] @ (cam.viewport_matrix() @ cam.projection_matrix(near, far)
-                                         @ cam.view_matrix()).T
-    q = (h[:, :2] / h[:, 3:4])[tets]
-
-    def tri(a, b, c):
-        return 0.5 * np.abs((q[:, b, 0] - q[:, a, 0]) * (q[:, c, 1] - q[:, a, 1])
-                            - (q[:, c, 0] - q[:, a, 0]) * (q[:, b, 1] - q[:, a, 1]))
-
-    area = (tri(0, 1, 2) + tri(0, 1, 3) + tri(0, 2, 3) + tri(1, 2, 3)) / 2
-    tf = np.asarray(sc.transfer.points, float)[:, 0]
-    s = (np.asarray(m.scalars, float)[tets] - tf.min()) / (tf.max() - tf.min())
-    texels = (n_s * (s.max(1) - s.min(1))) ** 2 / 2
-    new = np.minimum(texels / np.maximum(area, 1e-12), 4.0)
-    return {"fragments": float(area.sum()), "new_texels": float((area * new).sum() / max(area.sum(), 1e-12))}
+#: (:mod:`warpvol.reproduce.texcache`), and the fragment stages that look up: Roettger & Ertl 2002 (§4)
+#: name the 3D texture's "additional texture memory accesses and a reduced texture cache coherency" as
+#: the reason for Fig. 8's 2D speed-up; Guthe et al. 2002 (§5) ascribe the Bucky Ball's lower frame rate
+#: to "a larger variation of the scalar values which lead to a reduced texture cache coherence"; Kraus et
+#: al. 2004 look up the same kind of 3D table as Roettger's
+TEXCACHE = {"roettger": ("pt_table3d", "pt_cylindrical"), "kraus": ("pt_table3d",), "guthe": ("pt_guthe",)}
 
 
 def _with_texcache(key: str, c: dict, make, device: str = "cpu") -> dict:
@@ -175,25 +139,6 @@ def _with_texcache(key: str, c: dict, make, device: str = "cpu") -> dict:
     g = dict(c[stages[0]])
     g["tex_miss_bytes"] = int(tc["miss_bytes"])
     return {**c, stages[0]: g}
-
-
-def _with_locality(key: str, c: dict, make) -> dict:
-    """Add ``tex_miss_bytes`` (table texels new to the texture cache x bytes) to a LOCALITY configuration
-    (geometric estimate) or a TEXCACHE one (counted from the fragments)."""
-    c = _with_texcache(key, c, make)
-    spec = LOCALITY.get(key.split("/")[0])
-    if spec is None or "sort_" in key or spec[0] not in c:
-        return c
-    stage, n_s, fetch, nbytes = spec
-    path = CACHE / (key.replace("/", "__") + "__locality.json")
-    if path.is_file():
-        loc = json.loads(path.read_text())
-    else:
-        loc = table_locality(make(), n_s)
-        path.write_text(json.dumps(loc, indent=1))
-    g = dict(c[stage])
-    g["tex_miss_bytes"] = int(round(g.get(fetch, 0) * loc["new_texels"] * nbytes))
-    return {**c, stage: g}
 
 
 def _westermann(name: str):
@@ -234,7 +179,7 @@ def counters(key: str, device: str = "cpu", refresh: bool = False) -> dict:
     path = CACHE / (key.replace("/", "__") + ".json")
     make, pipe = CONFIGS[key]
     if path.is_file() and not refresh:
-        return _with_locality(key, json.loads(path.read_text())["counters"], make)
+        return _with_texcache(key, json.loads(path.read_text())["counters"], make, device)
     from warpvol.pipeline import Pipeline
 
     sc = make()
@@ -259,9 +204,8 @@ def counters(key: str, device: str = "cpu", refresh: bool = False) -> dict:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps({"key": key, "tets": int(sc.mesh.n_tets), "counters": c, "stats": stats},
                                indent=1, default=str))
-    for tail in ("__locality.json", "__texcache.json"):
-        (CACHE / (key.replace("/", "__") + tail)).unlink(missing_ok=True)
-    return _with_locality(key, c, lambda: sc)
+    (CACHE / (key.replace("/", "__") + "__texcache.json")).unlink(missing_ok=True)
+    return _with_texcache(key, c, lambda: sc, device)
 
 
 def tets(key: str) -> int | None:

@@ -4,8 +4,9 @@ Roettger & Ertl 2002 (§4) give the reason the 3D-texture path of projected tetr
 slowly than 2D textures: "additional texture memory accesses and a reduced texture cache coherency". The
 emulated texture unit fetches the right texels but keeps no cache, so this module counts what a cache
 would have to read from memory, from the texture coordinates each fragment of a redraw looks up
-(``program.coords`` of :func:`warpvol.projection.pt.table3d_program` and
-:func:`~warpvol.projection.pt.cylindrical_program`):
+(``program.coords`` of :func:`warpvol.projection.pt.table3d_program`,
+:func:`~warpvol.projection.pt.cylindrical_program` and Guthe et al.'s programs,
+:func:`~warpvol.projection.pt.guthe_lookups`):
 
 - a fetch touches its filter footprint: ``2 x 2`` texels (bilinear) of a 2D texture, ``2 x 2`` in each of
   two slices (trilinear) of a 3D texture, one texel (nearest), with the texture unit's clamp-to-edge
@@ -68,20 +69,22 @@ def distinct_blocks(prim: np.ndarray, texel: np.ndarray, shape: tuple, filter: s
     return int(len(np.unique(np.concatenate(keys))))
 
 
-def _texel_coords(program, c: np.ndarray) -> tuple[np.ndarray, tuple, list[np.ndarray]]:
-    """Texel-space coordinates of a batch's lookups ``c`` (``program.coords``): ``(texel shape, per
-    fetch (n, d) texel coordinates)``."""
+def _texel_coords(program, c: np.ndarray) -> tuple:
+    """Texel-space coordinates of a batch's lookups ``c`` (``program.coords``): ``(texture, [per fetch
+    (n, d) texel coordinates])`` -- a 3D table's ``(u, v, r)``; an atlas of planes' ``(alpha, u, v)``;
+    or, with ``program.all_tiles``, an atlas whose every tile is read at ``(u, v)``."""
     tex = program.texture
     if c.shape[1] == 3 and not hasattr(tex, "ntiles"):  # 3D table: (u, v, r)
         sl, h, w = tex.shape
         return tex, [np.stack([c[:, 0] * w, c[:, 1] * h, c[:, 2] * sl], axis=1)]
-    # atlas of planes: (alpha, u, v); the two planes next to alpha (one, nearest, on the SGI path)
     n, th, tw, cols = tex.ntiles, tex.tile_h, tex.tile_w, tex.cols
-    pa = np.clip(c[:, 0], 0.0, 1.0) * (n - 1)
-    if getattr(program, "nearest", False):
-        planes = [np.clip(np.floor(pa + 0.5), 0, n - 1).astype(np.int64)]
-    else:
-        p0 = np.minimum(np.floor(pa).astype(np.int64), max(n - 2, 0))
+    if getattr(program, "all_tiles", False):  # Guthe et al.'s coefficients: every tile at (u, v) = c[:, :2]
+        planes = [np.full(len(c), k, dtype=np.int64) for k in range(n)]
+        c = np.stack([np.zeros(len(c)), c[:, 0], c[:, 1]], axis=1)
+    elif getattr(program, "nearest", False):  # planes (alpha, u, v): the nearest plane (SGI path)
+        planes = [np.clip(np.floor(np.clip(c[:, 0], 0.0, 1.0) * (n - 1) + 0.5), 0, n - 1).astype(np.int64)]
+    else:  # planes: the two next to alpha
+        p0 = np.minimum(np.floor(np.clip(c[:, 0], 0.0, 1.0) * (n - 1)).astype(np.int64), max(n - 2, 0))
         planes = [p0, np.minimum(p0 + 1, n - 1)]
     out = []
     for p in planes:
@@ -136,7 +139,7 @@ def table_misses(pipeline, scene) -> dict:
     for program, prim, c in seen:
         frags += len(prim)
         tex, texels = _texel_coords(program, c)
-        nbytes = tex.nbytes // int(np.prod(tex.shape))
+        nbytes = getattr(program, "texel_bytes", None) or tex.nbytes // int(np.prod(tex.shape))
         for t in texels:
             blocks += distinct_blocks(prim, t, tex.shape, tex.effective_filter)
     bb = nbytes * BLOCK * BLOCK

@@ -111,7 +111,7 @@ def fixed_program(stage: Stage, ctx: Context, table, arith: str, *, mode: str, o
 
     from warpvol.gpu.texture import Texture1D, TextureAtlas
     from warpvol.kernels import combiners as kc
-    from warpvol.projection.pt import PERSPECTIVE_MODES, _scalar_consts
+    from warpvol.projection.pt import PERSPECTIVE_MODES, _scalar_consts, guthe_lookups
     from warpvol.tables.guthe2d import arith_constants
 
     try:
@@ -143,4 +143,4 @@ def fixed_program(stage: Stage, ctx: Context, table, arith: str, *, mode: str, o
                           *consts, w_dev, s_acc, rng, unit, out], device=device)
         return out
 
-    return run
+    return guthe_lookups(run, atlas, consts, mode=mode, ortho=ortho, z_off=z_off, device=device)
