@@ -102,7 +102,7 @@ def fig8(width: int, height: int, repeat: int, device: str, tables: dict | None 
         c = res.report["counters"][frag]
         fetches = sum(v for k, v in c.items() if k.startswith("tex_"))
         # texture memory a cache would read (blocks per triangle, warpvol.reproduce.texcache), for the model
-        tc = table_misses(p, sc)
+        tc = table_misses(p, sc, warm=True)
         c["tex_miss_bytes"] = tc["miss_bytes"]
         reports[name] = res.report
         e = res.report["error"]

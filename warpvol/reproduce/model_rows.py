@@ -117,9 +117,19 @@ ROETTGER_F8 = {"3d": [{"stage": "table_exact", "n_s": 64, "n_l": 64, "format": "
 TEXCACHE = {"roettger": ("pt_table3d", "pt_cylindrical"), "kraus": ("pt_table3d",), "guthe": ("pt_guthe",)}
 
 
-def _with_texcache(key: str, c: dict, make, device: str = "cpu") -> dict:
+def _pipeline(key: str, device: str):
+    """The pipeline of configuration ``key`` (a preset name or a stage list)."""
+    from warpvol.pipeline import Pipeline
+
+    pipe = CONFIGS[key][1]
+    return Pipeline.load(pipe, device=device) if isinstance(pipe, str) else \
+        Pipeline.from_config({"name": key.replace("/", "_"), "stages": pipe}, device=device)
+
+
+def _with_texcache(key: str, c: dict, make, device: str = "cpu", warm=None) -> dict:
     """Add ``tex_miss_bytes`` (:func:`warpvol.reproduce.texcache.table_misses` of a redraw) to the fragment
-    stage of a TEXCACHE configuration."""
+    stage of a TEXCACHE configuration. ``warm``: the configuration's pipeline, already rendered on
+    ``make()``'s scene (else one is built and rendered first)."""
     stages = [s for s in TEXCACHE.get(key.split("/")[0], ()) if s in c]
     if not stages:
         return c
@@ -127,13 +137,9 @@ def _with_texcache(key: str, c: dict, make, device: str = "cpu") -> dict:
     if path.is_file():
         tc = json.loads(path.read_text())
     else:
-        from warpvol.pipeline import Pipeline
         from warpvol.reproduce.texcache import table_misses
 
-        pipe = CONFIGS[key][1]
-        p = Pipeline.load(pipe, device=device) if isinstance(pipe, str) else \
-            Pipeline.from_config({"name": key.replace("/", "_"), "stages": pipe}, device=device)
-        tc = table_misses(p, make())
+        tc = table_misses(warm or _pipeline(key, device), make(), warm=warm is not None)
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(tc, indent=1))
     g = dict(c[stages[0]])
@@ -180,8 +186,6 @@ def counters(key: str, device: str = "cpu", refresh: bool = False) -> dict:
     make, pipe = CONFIGS[key]
     if path.is_file() and not refresh:
         return _with_texcache(key, json.loads(path.read_text())["counters"], make, device)
-    from warpvol.pipeline import Pipeline
-
     sc = make()
     if isinstance(pipe, tuple):  # the host visibility sort alone, counted as the sort stage counts it
         from warpvol.projection.sort import visibility_order
@@ -193,8 +197,7 @@ def counters(key: str, device: str = "cpu", refresh: bool = False) -> dict:
         path.write_text(json.dumps({"key": key, "tets": int(sc.mesh.n_tets), "counters": c,
                                     "stats": {"sort": {"method": r.method, "exact": bool(r.exact)}}}, indent=1))
         return c
-    p = Pipeline.load(pipe, device=device) if isinstance(pipe, str) else \
-        Pipeline.from_config({"name": key.replace("/", "_"), "stages": pipe}, device=device)
+    p = _pipeline(key, device)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         p.render(sc, quiet=True)  # tables, per-mesh textures and kernels: the redraw below is the frame
@@ -205,7 +208,7 @@ def counters(key: str, device: str = "cpu", refresh: bool = False) -> dict:
     path.write_text(json.dumps({"key": key, "tets": int(sc.mesh.n_tets), "counters": c, "stats": stats},
                                indent=1, default=str))
     (CACHE / (key.replace("/", "__") + "__texcache.json")).unlink(missing_ok=True)
-    return _with_texcache(key, c, lambda: sc, device)
+    return _with_texcache(key, c, lambda: sc, device, warm=p)
 
 
 def tets(key: str) -> int | None:

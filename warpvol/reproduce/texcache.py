@@ -74,7 +74,7 @@ def _texel_coords(program, c: np.ndarray) -> tuple:
     (n, d) texel coordinates])`` -- a 3D table's ``(u, v, r)``; an atlas of planes' ``(alpha, u, v)``;
     or, with ``program.all_tiles``, an atlas whose every tile is read at ``(u, v)``."""
     tex = program.texture
-    if c.shape[1] == 3 and not hasattr(tex, "ntiles"):  # 3D table: (u, v, r)
+    if not hasattr(tex, "ntiles"):  # 3D table: (u, v, r)
         sl, h, w = tex.shape
         return tex, [np.stack([c[:, 0] * w, c[:, 1] * h, c[:, 2] * sl], axis=1)]
     n, th, tw, cols = tex.ntiles, tex.tile_h, tex.tile_w, tex.cols
@@ -121,17 +121,18 @@ def _observe_draws(seen: list):
         pt.draw = draw
 
 
-def table_misses(pipeline, scene) -> dict:
-    """Texture-cache misses of ``pipeline``'s table lookups in a redraw of ``scene`` (the first render
-    builds tables and compiles kernels): ``fragments``, ``blocks`` (distinct per triangle, summed over the
-    draw's batches and the fetch's textures), ``block_bytes`` (the texture's bytes per texel x BLOCK^2)
-    and ``miss_bytes``."""
+def table_misses(pipeline, scene, warm: bool = False) -> dict:
+    """Texture-cache misses of ``pipeline``'s table lookups in a redraw of ``scene`` (a first render builds
+    tables and compiles kernels, unless ``warm``: the caller rendered the scene with this pipeline
+    already): ``fragments``, ``blocks`` (distinct per triangle, summed over the draw's batches and the
+    fetch's textures), ``block_bytes`` (the texture's bytes per texel x BLOCK^2) and ``miss_bytes``."""
     import warnings
 
     seen: list = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        pipeline.render(scene, quiet=True)
+        if not warm:
+            pipeline.render(scene, quiet=True)
         with _observe_draws(seen):
             pipeline.render(scene, quiet=True)
     frags = blocks = 0
