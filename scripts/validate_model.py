@@ -120,6 +120,7 @@ def absolute_rows(m: Model) -> list[dict]:
             s, why = m.seconds(m.counters(f"roettger/sphere/{cfg}"), prof, skip=("sort",))
             row("Roettger 2002", f"Fig. 8 {CARD[prof]} {'3D texture' if kind == '3d' else '2D planes'} [fps]", pv,
                 None if s is None else 1.0 / s, "prediction" if s else "-", why or "our view of the sphere, 512x384")
+    roettger_f8_notes(rows, m)
     # Guthe et al. 2002 §4, Table 4 (builds, counting mode), Table 5 (rendering)
     row("Guthe 2002", "§4 Radeon 8500: 4 vs 1 steps per pass [x]", 2.0, guthe_steps_per_pass_speedup(m.device),
         "calibration on this row", "pass_overhead_s of radeon8500 ('a speedup of nearly two')")
@@ -142,7 +143,8 @@ def absolute_rows(m: Model) -> list[dict]:
     # Kraus et al. 2004 Table 1
     for k, pv in KRAUS.items():
         s, why = m.seconds(m.counters(f"kraus/bluntfin/{k}"), "quadro_fx3000")
-        row("Kraus 2004", f"T1 {KRAUS_LABEL[k]} [s]", pv, s, "prediction" if s else "-", why)
+        row("Kraus 2004", f"T1 {KRAUS_LABEL[k]} [s]", pv, s, "prediction" if s else "-",
+            why or (kraus_dither_note() if k == "dither" else ""))
     # Westermann & Ertl 1997 Table 1
     for data, pname in (("bluntfin", "bluntfin"), ("fe", "fedata")):
         c = m.counters(f"westermann/{data}")
@@ -176,6 +178,42 @@ def absolute_rows(m: Model) -> list[dict]:
                 None if s is None else 1.0 / s, "calibration on this row" if cal else "prediction",
                 note[kind] if cal else "our viewpoint (the paper's are not given); paper: geometric mean of min-max")
     return rows
+
+
+def roettger_f8_notes(rows: list[dict], m: Model) -> None:
+    """Notes on Fig. 8's Radeon 8500 and Octane MXI rows from the paper's own figures: the Radeon 8500 against
+    the GeForce3 in the same figure (vendor figures have it faster, the paper slower), and the lookup rate the
+    Octane's 3D row implies for the fragments our view draws."""
+    from warpvol.model import load_profile
+
+    fig = {(r["row"].split()[2], r["row"].split()[-3]): r for r in rows if r["row"].startswith("Fig. 8 ")}
+    gp, rp = load_profile("geforce3"), load_profile("radeon8500")
+    spec = ", ".join(f"{rp.rate(k) / gp.rate(k):.2f}x its {what}" for k, what in
+                     (("pixel_fill", "fill rate"), ("tex_2d_linear", "bilinear texel rate"),
+                      ("memory_bandwidth", "memory bandwidth")))
+    for kind in ("3D", "2D"):
+        gf, ra = fig.get(("GeForce3", kind)), fig.get(("Radeon", kind))
+        if gf and ra and gf["modelled"] and ra["modelled"]:
+            ra["note"] += (f"; paper: {ra['paper_value'] / gf['paper_value']:.2f}x the GeForce3's fps, modelled "
+                           f"{ra['modelled'] / gf['modelled']:.2f}x (profiles: {spec})")
+    c = m.counters("roettger/sphere/3d")
+    oc = fig.get(("Octane", "3D"))
+    if c and oc and oc["modelled"]:
+        n = c["pt_table3d"]["fragments"]
+        oc["note"] += (f"; both paths blend-bound at the Table 2 blend rate; the paper's 3D rate is "
+                       f"{oc['paper_value'] * n / 1e6:.1f} M trilinear lookups/s for our {n / 1e6:.2f} M fragments "
+                       f"(no source gives the texture memory's rate)")
+
+
+def kraus_dither_note() -> str:
+    """What the paper's own increments in Table 1 give for alpha dithering's ten instructions and two fetches
+    (Kraus et al. 2004 §5): per instruction from (ii) (eleven) and (iv) (seven), per fetch from (iii) (one
+    more 3D fetch)."""
+    per_op = sorted(((KRAUS["ii"] - KRAUS["i"]) / 11, (KRAUS["iv"] - KRAUS["iii"]) / 7))
+    fetch = KRAUS["iii"] - KRAUS["ii"]
+    lo, hi = (10 * k + 2 * fetch for k in per_op)
+    return (f"the paper's own increments ((ii) 11 instructions, (iv) 7, (iii) one fetch) give dithering's 10 "
+            f"instructions and 2 fetches {lo:+.3f} to {hi:+.3f} s; the paper has {KRAUS['dither'] - KRAUS['iv']:+.3f} s")
 
 
 def espinha_seconds(m: Model, data: str, kind: str) -> float | None:

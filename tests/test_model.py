@@ -244,6 +244,28 @@ def test_validation_rows_compute_and_relative_rows_keep_the_papers_sign():
     assert "Blunt Fin" in vm.DATA.values()
 
 
+def test_validation_notes_derive_from_the_papers_own_rows():
+    """The notes on the rows outside [0.5, 2] are arithmetic on the paper's figures and the profiles: Kraus'
+    dithering against Table 1's own increments, the Radeon 8500 against the GeForce3 of the same figure."""
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location("validate_model", Path(__file__).parents[1] / "scripts" /
+                                                  "validate_model.py")
+    vm = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(vm)
+    # 10 x 0.048 / 11 + 2 x 0.031 = 0.1056, 10 x 0.040 / 7 + 2 x 0.031 = 0.1191; Table 1: 0.621 - 0.314
+    assert vm.kraus_dither_note().endswith("+0.106 to +0.119 s; the paper has +0.307 s")
+    rows = [{"row": f"Fig. 8 {c} {k} [fps]", "paper_value": pv, "modelled": mv, "note": ""}
+            for c, k, pv, mv in (("GeForce3", "3D texture", 47.6, 60.0), ("Radeon 8500", "3D texture", 33.8, 90.0))]
+    m = vm.Model("cpu", refresh=False, cached_only=True)
+    m.counters = lambda key: None  # no renders: the Octane note needs counters and is left out
+    vm.roettger_f8_notes(rows, m)
+    assert rows[0]["note"] == ""
+    assert "paper: 0.71x the GeForce3's fps, modelled 1.50x" in rows[1]["note"]
+    assert "1.38x its fill rate" in rows[1]["note"] and "1.20x its memory bandwidth" in rows[1]["note"]
+
+
 def test_uploads_cost_the_bus_and_where_profiled_the_host_issuing_them():
     """``bytes_up`` go over the bus (GPU, serial) and, where the host has ``upload_rate``, cost the CPU
     issuing them too: VICP (uploads every frame) minus VICP-GPU (cells resident) is exactly that."""
