@@ -114,13 +114,18 @@ def absolute_rows(m: Model) -> list[dict]:
     row("Roettger 2002", "§3 GeForce3: 4 combiner steps vs single texturing [x]", 2.0,
         roettger_combiner_speedup(256, m.device), "prediction", "the text's 'approximately twice as fast'")
     # Roettger & Ertl 2002 Fig. 8 (rendering, host sort left out: the paper's are rasterisation rates)
+    fig8, fragments = {}, None
     for prof, (p3, p2) in ROETTGER_F8.items():
         for kind, pv in (("3d", p3), ("2d", p2)):
             cfg = "2d_sgi" if (kind, prof) == ("2d", "octane_mxi") else kind  # single texture, nearest
-            s, why = m.seconds(m.counters(f"roettger/sphere/{cfg}"), prof, skip=("sort",))
+            c = m.counters(f"roettger/sphere/{cfg}")
+            if c and kind == "3d":
+                fragments = c["pt_table3d"]["fragments"]
+            s, why = m.seconds(c, prof, skip=("sort",))
             row("Roettger 2002", f"Fig. 8 {CARD[prof]} {'3D texture' if kind == '3d' else '2D planes'} [fps]", pv,
                 None if s is None else 1.0 / s, "prediction" if s else "-", why or "our view of the sphere, 512x384")
-    roettger_f8_notes(rows, m)
+            fig8[(prof, kind)] = rows[-1]
+    roettger_f8_notes(fig8, fragments)
     # Guthe et al. 2002 §4, Table 4 (builds, counting mode), Table 5 (rendering)
     row("Guthe 2002", "§4 Radeon 8500: 4 vs 1 steps per pass [x]", 2.0, guthe_steps_per_pass_speedup(m.device),
         "calibration on this row", "pass_overhead_s of radeon8500 ('a speedup of nearly two')")
@@ -180,29 +185,27 @@ def absolute_rows(m: Model) -> list[dict]:
     return rows
 
 
-def roettger_f8_notes(rows: list[dict], m: Model) -> None:
-    """Notes on Fig. 8's Radeon 8500 and Octane MXI rows from the paper's own figures: the Radeon 8500 against
-    the GeForce3 in the same figure (vendor figures have it faster, the paper slower), and the lookup rate the
-    Octane's 3D row implies for the fragments our view draws."""
+def roettger_f8_notes(fig8: dict, fragments: int | None) -> None:
+    """Notes on Fig. 8's Radeon 8500 and Octane MXI rows (``fig8``: (profile, "3d" / "2d") -> row) from the
+    paper's own figures: the Radeon 8500 against the GeForce3 in the same figure (vendor figures have it
+    faster, the paper slower), and the lookup rate the Octane's 3D row implies for the ``fragments`` our
+    view draws (None: not counted, no note)."""
     from warpvol.model import load_profile
 
-    fig = {(r["row"].split()[2], r["row"].split()[-3]): r for r in rows if r["row"].startswith("Fig. 8 ")}
     gp, rp = load_profile("geforce3"), load_profile("radeon8500")
     spec = ", ".join(f"{rp.rate(k) / gp.rate(k):.2f}x its {what}" for k, what in
                      (("pixel_fill", "fill rate"), ("tex_2d_linear", "bilinear texel rate"),
                       ("memory_bandwidth", "memory bandwidth")))
-    for kind in ("3D", "2D"):
-        gf, ra = fig.get(("GeForce3", kind)), fig.get(("Radeon", kind))
+    for kind in ("3d", "2d"):
+        gf, ra = fig8.get(("geforce3", kind)), fig8.get(("radeon8500", kind))
         if gf and ra and gf["modelled"] and ra["modelled"]:
             ra["note"] += (f"; paper: {ra['paper_value'] / gf['paper_value']:.2f}x the GeForce3's fps, modelled "
                            f"{ra['modelled'] / gf['modelled']:.2f}x (profiles: {spec})")
-    c = m.counters("roettger/sphere/3d")
-    oc = fig.get(("Octane", "3D"))
-    if c and oc and oc["modelled"]:
-        n = c["pt_table3d"]["fragments"]
+    oc = fig8.get(("octane_mxi", "3d"))
+    if fragments and oc and oc["modelled"]:
         oc["note"] += (f"; both paths blend-bound at the Table 2 blend rate; the paper's 3D rate is "
-                       f"{oc['paper_value'] * n / 1e6:.1f} M trilinear lookups/s for our {n / 1e6:.2f} M fragments "
-                       f"(no source gives the texture memory's rate)")
+                       f"{oc['paper_value'] * fragments / 1e6:.1f} M trilinear lookups/s for our "
+                       f"{fragments / 1e6:.2f} M fragments (no source gives the texture memory's rate)")
 
 
 def kraus_dither_note() -> str:

@@ -212,19 +212,25 @@ def test_numeric_sort_is_cheaper_than_the_mpvo_graph_and_xmpvo_adds_constraints(
     assert numeric < mpvo < xmpvo
 
 
-def test_validation_rows_compute_and_relative_rows_keep_the_papers_sign():
-    """scripts/validate_model.py on counters of small stand-ins: every absolute row computes, and the
-    relative rows whose counts are synthetic here keep the paper's sign (partial pre-integration slower
-    than full on the same walk; the numeric sort faster than MPVO)."""
+def _validate_model_script():
+    """scripts/validate_model.py as a module (scripts/ is not a package)."""
     import importlib.util
     from pathlib import Path
-
-    from warpvol.gpu import programs
 
     spec = importlib.util.spec_from_file_location("validate_model", Path(__file__).parents[1] / "scripts" /
                                                   "validate_model.py")
     vm = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(vm)
+    return vm
+
+
+def test_validation_rows_compute_and_relative_rows_keep_the_papers_sign():
+    """scripts/validate_model.py on counters of small stand-ins: every absolute row computes, and the
+    relative rows whose counts are synthetic here keep the paper's sign (partial pre-integration slower
+    than full on the same walk; the numeric sort faster than MPVO)."""
+    from warpvol.gpu import programs
+
+    vm = _validate_model_script()
     m = vm.Model("cpu", refresh=False)
     cells, steps = 100_000, 102_000  # partial: iso splits add sub-steps
     full = {"harc": {"cell_steps": cells, "combiner_ops": cells * 34, "tex_2d_rgba32f_nearest": 6 * cells,
@@ -247,23 +253,18 @@ def test_validation_rows_compute_and_relative_rows_keep_the_papers_sign():
 def test_validation_notes_derive_from_the_papers_own_rows():
     """The notes on the rows outside [0.5, 2] are arithmetic on the paper's figures and the profiles: Kraus'
     dithering against Table 1's own increments, the Radeon 8500 against the GeForce3 of the same figure."""
-    import importlib.util
-    from pathlib import Path
-
-    spec = importlib.util.spec_from_file_location("validate_model", Path(__file__).parents[1] / "scripts" /
-                                                  "validate_model.py")
-    vm = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(vm)
+    vm = _validate_model_script()
     # 10 x 0.048 / 11 + 2 x 0.031 = 0.1056, 10 x 0.040 / 7 + 2 x 0.031 = 0.1191; Table 1: 0.621 - 0.314
     assert vm.kraus_dither_note().endswith("+0.106 to +0.119 s; the paper has +0.307 s")
-    rows = [{"row": f"Fig. 8 {c} {k} [fps]", "paper_value": pv, "modelled": mv, "note": ""}
-            for c, k, pv, mv in (("GeForce3", "3D texture", 47.6, 60.0), ("Radeon 8500", "3D texture", 33.8, 90.0))]
-    m = vm.Model("cpu", refresh=False, cached_only=True)
-    m.counters = lambda key: None  # no renders: the Octane note needs counters and is left out
-    vm.roettger_f8_notes(rows, m)
-    assert rows[0]["note"] == ""
-    assert "paper: 0.71x the GeForce3's fps, modelled 1.50x" in rows[1]["note"]
-    assert "1.38x its fill rate" in rows[1]["note"] and "1.20x its memory bandwidth" in rows[1]["note"]
+    fig8 = {(prof, "3d"): {"paper_value": pv, "modelled": mv, "note": ""}
+            for prof, pv, mv in (("geforce3", 47.6, 60.0), ("radeon8500", 33.8, 90.0), ("octane_mxi", 8.5, 20.0))}
+    vm.roettger_f8_notes(fig8, None)  # fragments not counted: no Octane note
+    assert fig8[("geforce3", "3d")]["note"] == "" and fig8[("octane_mxi", "3d")]["note"] == ""
+    note = fig8[("radeon8500", "3d")]["note"]
+    assert "paper: 0.71x the GeForce3's fps, modelled 1.50x" in note
+    assert "1.38x its fill rate" in note and "1.20x its memory bandwidth" in note
+    vm.roettger_f8_notes(fig8, 2_258_196)  # 8.5 fps x 2.258 M fragments
+    assert "19.2 M trilinear lookups/s for our 2.26 M fragments" in fig8[("octane_mxi", "3d")]["note"]
 
 
 def test_uploads_cost_the_bus_and_where_profiled_the_host_issuing_them():
