@@ -6,7 +6,10 @@ that row (its ratio is 1 by construction and never counts as agreement). **Relat
 over method B on the same card and data (speed of A / speed of B), paper and modelled, and their ratio;
 these test what the model says about the hardware rather than one fitted rate. A relative row agrees
 when the modelled relation has the paper's sign (which method is faster) and modelled / paper is within
-[0.5, 2].
+[0.5, 2]. Each relative row takes its role from its two absolute rows: ``prediction`` when both are
+predictions (only these make the count), ``one calibration row`` when one of them was fitted (its ratio
+then repeats the other row's; counted apart), ``calibration only`` when both were (not a prediction, not
+counted). The counts, agree / predicted by role, are printed and written to the JSON (table ``counts``).
 
 Counters come from one redraw of each configuration at the paper's image size
 (:mod:`warpvol.reproduce.model_rows`, cached under ``out/validate_model/counters``; ``--refresh``
@@ -14,6 +17,11 @@ re-renders, which takes a few minutes on two CPU cores); the table builds (Roett
 Table 4) are counted in counting mode. Configurations whose data are absent are listed as skipped.
 
     .venv/bin/python scripts/validate_model.py [--refresh] [--json docs/data/validate_model.json]
+    .venv/bin/python scripts/validate_model.py --absolute-from docs/data/validate_model.json --json ...
+
+``--absolute-from`` takes the absolute rows (values, roles, notes) from an earlier JSON instead of counting
+them and rebuilds the relative rows and the counts from those rows alone (no renders): what the relative
+rows and counts say follows from the absolute rows, which tests/test_model.py checks on the shipped JSON.
 """
 
 from __future__ import annotations
@@ -228,41 +236,62 @@ def espinha_seconds(m: Model, data: str, kind: str) -> float | None:
     return m.seconds(c, "geforce6800gt")[0]
 
 
-def relative_rows(m: Model, absolute: list[dict]) -> list[dict]:
-    """Speed of A over speed of B (= time B / time A) on one card and data set, paper and modelled."""
-    fps = {(r["paper"], r["row"]): (r["paper_value"], r["modelled"]) for r in absolute}
+#: a relative row's role from the roles of its two absolute rows (the counts take ``prediction`` rows only)
+REL_PREDICTION, REL_ONE_CAL, REL_CAL_ONLY = "prediction", "one calibration row", "calibration only"
+
+
+def relative_role(role_a: str, role_b: str) -> str | None:
+    """``prediction`` (both rows predicted), ``one calibration row`` (one of them fitted: the relative ratio
+    repeats the other row's), ``calibration only`` (both fitted: not a prediction); None when either row is
+    not modelled."""
+    cal = [r.startswith("calibration") for r in (role_a, role_b)]
+    if any(r not in ("prediction",) and not c for r, c in zip((role_a, role_b), cal)):
+        return None
+    return (REL_PREDICTION, REL_ONE_CAL, REL_CAL_ONLY)[sum(cal)]
+
+
+def relative_rows(m: Model | None, absolute: list[dict], view_note: str = "") -> list[dict]:
+    """Speed of A over speed of B (= time B / time A), paper and modelled: two methods on one card and data
+    set, one method on two data sets, two table sizes or two cards. Built from the absolute rows alone (their
+    values and roles); ``m`` only adds the Espinha view note from the counters (None: ``view_note``)."""
+    fps = {(r["paper"], r["row"]): r for r in absolute}
     rows = []
 
     def rel(paper, what, card, data, a_key, b_key, time_rows=False, note=""):
-        pa, ma = fps[(paper, a_key)]
-        pb, mb = fps[(paper, b_key)]
+        ra, rb = fps.get((paper, a_key)), fps.get((paper, b_key))
+        if ra is None or rb is None:  # a table without that paper's rows (tests build partial tables)
+            return
+        (pa, ma), (pb, mb) = (ra["paper_value"], ra["modelled"]), (rb["paper_value"], rb["modelled"])
         if time_rows:  # seconds: speed ratio = time B / time A
-            p_rel = None if None in (pa, pb) else pb / pa
-            m_rel = None if None in (ma, mb) else mb / ma
-        else:
-            p_rel = None if None in (pa, pb) else pa / pb
-            m_rel = None if None in (ma, mb) else ma / mb
+            pa, pb, ma, mb = pb, pa, mb, ma
+        p_rel = None if None in (pa, pb) else pa / pb
+        m_rel = None if None in (ma, mb) else ma / mb
+        role = relative_role(ra["role"], rb["role"])
         ok = None
-        if p_rel is not None and m_rel is not None:
+        if p_rel is not None and m_rel is not None and role is not None:
             ok = ((p_rel > 1) == (m_rel > 1)) and 0.5 <= m_rel / p_rel <= 2.0
+        cal = [k for k, r in ((a_key, ra), (b_key, rb)) if r["role"].startswith("calibration")]
+        if cal:
+            note = "; ".join(x for x in (f"calibration: {', '.join(cal)}", note) if x)
         rows.append({"paper": paper, "row": what, "card": card, "data": data, "paper_rel": p_rel, "modelled_rel": m_rel,
-                     "ratio": None if ok is None else m_rel / p_rel, "agrees": ok, "note": note})
+                     "ratio": None if ok is None else m_rel / p_rel, "agrees": ok, "role": role or "-",
+                     "note": note})
 
-    E = "Espinha 2005"
+    E, G6 = "Espinha 2005", CARD["geforce6800gt"]
+
+    def esp(kind, data):
+        return f"T2/T3 {ESPINHA_LABEL[kind]} {DATA[data]} [fps]"
+
     for data in ("bluntfin", "loxpost"):
-        f = f"T2/T3 {ESPINHA_LABEL['full']} {DATA[data]} [fps]"
-        for k in ("partial10", "partial255", "vicp"):
-            rel(E, f"{ESPINHA_LABEL[k]} over full pre-integration", CARD["geforce6800gt"], DATA[data],
-                f"T2/T3 {ESPINHA_LABEL[k]} {DATA[data]} [fps]", f)
-        rel(E, "VICP-GPU over VICP", CARD["geforce6800gt"], DATA[data],
-            f"T2/T3 VICP-GPU {DATA[data]} [fps]", f"T2/T3 VICP {DATA[data]} [fps]")
+        for k in ("partial10", "partial255", "vicp", "vicp_gpu"):
+            rel(E, f"{ESPINHA_LABEL[k]} over full pre-integration", G6, DATA[data], esp(k, data), esp("full", data))
+        rel(E, "VICP-GPU over VICP", G6, DATA[data], esp("vicp_gpu", data), esp("vicp", data))
         # the iso-surface sub-steps: a TF of 255 segments splits rays at 255 control points, 10 segments at 10
-        rel(E, "HARC partial, 255 over 10 TF segments", CARD["geforce6800gt"], DATA[data],
-            f"T2/T3 {ESPINHA_LABEL['partial255']} {DATA[data]} [fps]",
-            f"T2/T3 {ESPINHA_LABEL['partial10']} {DATA[data]} [fps]")
-    rel(E, "HARC full pre-integration, LOX Post over Blunt Fin", CARD["geforce6800gt"], "both",
-        f"T2/T3 {ESPINHA_LABEL['full']} LOX Post [fps]", f"T2/T3 {ESPINHA_LABEL['full']} Blunt Fin [fps]",
-        note=espinha_view_note(m))
+        rel(E, "HARC partial, 255 over 10 TF segments", G6, DATA[data], esp("partial255", data),
+            esp("partial10", data))
+    for k in ESPINHA:  # one method, the two data sets (the paper gives no viewpoints: see the note)
+        rel(E, f"{ESPINHA_LABEL[k]}, LOX Post over Blunt Fin", G6, "both", esp(k, "loxpost"), esp(k, "bluntfin"),
+            note=(espinha_view_note(m) if m is not None else view_note) if k == "full" else "")
     K = "Kraus 2004"
     keys = {k: f"T1 {v} [s]" for k, v in KRAUS_LABEL.items()}
     for a, b, what in (("ii", "i", "perspective interpolation (ii): (i) over (i)+(ii)"),
@@ -272,20 +301,76 @@ def relative_rows(m: Model, absolute: list[dict]) -> list[dict]:
                        ("fp16", "iv", "fp16 read-back buffer: 8-bit over fp16")):
         # speed of the configuration without the enhancement over the one with it (>1: the enhancement costs)
         rel(K, what, CARD["quadro_fx3000"], "Blunt Fin", keys[b], keys[a], time_rows=True,
-            note=overhead_note(fps[(K, keys[a])], fps[(K, keys[b])]))
+            note=overhead_note(*((fps.get((K, keys[x]), {}).get("paper_value"), fps.get((K, keys[x]), {}).get("modelled"))
+                                 for x in (a, b))))
     R = "Roettger 2002"
+    for N_a, N_b in ((64, 128), (128, 256)):  # Table 2: one build, two table sizes (time ratio)
+        for kind, host in (("software", "R10K"), ("hardware", "Octane MXI")):
+            rel(R, f"T2 {kind} build: {N_a}x{N_a}x{N_a // 2} over {N_b}x{N_b}x{N_b // 2}", host, "table build", f"T2 {kind} {N_a}x{N_a}x{N_a // 2} [s] ({host})",
+                f"T2 {kind} {N_b}x{N_b}x{N_b // 2} [s] ({host})", time_rows=True)
+    for N in (64, 128, 256):  # Table 2's speed-up column: hardware over software build
+        rel(R, f"T2 hardware over software build, {N}x{N}x{N // 2}", "Octane MXI / R10K", "table build",
+            f"T2 hardware {N}x{N}x{N // 2} [s] (Octane MXI)", f"T2 software {N}x{N}x{N // 2} [s] (R10K)",
+            time_rows=True)
     for prof in ROETTGER_F8:
         rel(R, "Fig. 8: 2D planes over 3D texture", CARD[prof], "sphere (2,560 tets)",
             f"Fig. 8 {CARD[prof]} 2D planes [fps]", f"Fig. 8 {CARD[prof]} 3D texture [fps]")
+    for prof in ("radeon8500", "octane_mxi"):  # one path, two cards of the same figure
+        for kind in ("3D texture", "2D planes"):
+            rel(R, f"Fig. 8 {kind}: {CARD[prof]} over GeForce3", f"{CARD[prof]} / GeForce3", "sphere (2,560 tets)",
+                f"Fig. 8 {CARD[prof]} {kind} [fps]", f"Fig. 8 GeForce3 {kind} [fps]")
     G = "Guthe 2002"
+    rel(G, "T4 set-up: n = 1 over n = 2", CARD["radeon8500"], "table build", "T4 Radeon 8500 set-up n = 1 [s]",
+        "T4 Radeon 8500 set-up n = 2 [s]", time_rows=True)
+    rel(G, "T4 set-up: n = 2 over n = 4", CARD["radeon8500"], "table build", "T4 Radeon 8500 set-up n = 2 [s]",
+        "T4 Radeon 8500 set-up n = 4 [s]", time_rows=True)
     for card in GUTHE_T5:
-        rel(G, "T5 Blunt Fin over Bucky Ball (numeric)", CARD[card], "both",
-            f"T5 {CARD[card]} Blunt Fin numeric [fps]", f"T5 {CARD[card]} Bucky Ball numeric [fps]")
+        for la, _ in SORTS:
+            rel(G, f"T5 Blunt Fin over Bucky Ball ({la})", CARD[card], "both",
+                f"T5 {CARD[card]} Blunt Fin {la} [fps]", f"T5 {CARD[card]} Bucky Ball {la} [fps]")
         for data in ("bluntfin", "bucky"):
             for (la, _), (lb, _) in ((SORTS[0], SORTS[1]), (SORTS[1], SORTS[2])):
                 rel(G, f"T5 {la} over {lb}", CARD[card], DATA[data], f"T5 {CARD[card]} {DATA[data]} {la} [fps]",
                     f"T5 {CARD[card]} {DATA[data]} {lb} [fps]")
+    for data in ("bluntfin", "bucky"):  # one method and data set, the two cards
+        for la, _ in SORTS:
+            rel(G, f"T5 {la}: Radeon 8500 over GeForce4 Ti 4600", "Radeon 8500 / GeForce4 Ti 4600", DATA[data],
+                f"T5 Radeon 8500 {DATA[data]} {la} [fps]", f"T5 GeForce4 Ti 4600 {DATA[data]} {la} [fps]")
+    W = "Westermann 1997"
+    for data, what in (("bluntfin", "Blunt Fin"), ("fe", "fedata (FE-like stand-in mesh)")):
+        rel(W, "T1 GrOps over Int (Int time / GrOps time)", "Indigo2 IMPACT / R4400",
+            what, f"T1 {what} GrOps [s] (Indigo2 IMPACT)", f"T1 {what} Int [s] (R4400)", time_rows=True)
+    for part, host in (("GrOps", "Indigo2 IMPACT"), ("Int", "R4400")):
+        rel(W, f"T1 {part}: Blunt Fin over fedata", host, "both", f"T1 Blunt Fin {part} [s] ({host})",
+            f"T1 fedata (FE-like stand-in mesh) {part} [s] ({host})", time_rows=True,
+            note="fedata: a stand-in mesh of the paper's FE data set's size")
     return rows
+
+
+def relative_counts(relative: list[dict]) -> dict:
+    """role -> (agreeing, rows with both values) over the relative rows."""
+    out = {}
+    for role in (REL_PREDICTION, REL_ONE_CAL, REL_CAL_ONLY):
+        rs = [r for r in relative if r["role"] == role and r["agrees"] is not None]
+        out[role] = (sum(bool(r["agrees"]) for r in rs), len(rs))
+    return out
+
+
+def absolute_counts(absolute: list[dict]) -> tuple[int, int, int]:
+    """(predictions within [0.5, 2], predictions modelled, calibration rows)."""
+    pred = [r for r in absolute if r["role"] == "prediction" and r["ratio"] is not None]
+    return (sum(0.5 <= r["ratio"] <= 2.0 for r in pred), len(pred),
+            sum(r["role"].startswith("calibration") for r in absolute))
+
+
+def count_lines(absolute: list[dict], relative: list[dict]) -> list[str]:
+    inside, pred, cal = absolute_counts(absolute)
+    rc = relative_counts(relative)
+    (a, n), (a1, n1), (a2, n2) = rc[REL_PREDICTION], rc[REL_ONE_CAL], rc[REL_CAL_ONLY]
+    return [f"Absolute predictions within [0.5, 2]: {inside} of {pred} ({cal} calibration rows not counted).",
+            f"Relative predictions (both rows predicted) with the paper's sign and ratio in [0.5, 2]: {a} of {n}.",
+            f"Counted apart: relative rows with one calibration row agree {a1} of {n1}; rows made only of "
+            f"calibration rows ({n2}, agreeing by construction or not) are not counted."]
 
 
 def espinha_view_note(m: Model) -> str:
@@ -325,47 +410,78 @@ def print_tables(absolute: list[dict], relative: list[dict]) -> None:
         print(f"{r['paper']:<16} {r['row']:<58} {_f(r['paper_value']):>8} {_f(r['modelled']):>9} "
               f"{_r(r['ratio']):>6}"
               f"  {r['role']}{'; ' + r['note'] if r['note'] else ''}")
-    print(f"\nRelative rows (speed of A over speed of B, same card and data):\n{'paper':<16} {'row':<52} "
-          f"{'card':<16} {'data':<12} {'paper':>6} {'model':>6} {'ratio':>6}  agrees")
+    print(f"\nRelative rows (speed of A over speed of B):\n{'paper':<16} {'row':<52} "
+          f"{'card':<16} {'data':<12} {'paper':>6} {'model':>6} {'ratio':>6}  agrees  role")
     for r in relative:
         print(f"{r['paper']:<16} {r['row']:<52} {r['card']:<16} {r['data']:<12} {_f(r['paper_rel'], 3):>6} "
               f"{_f(r['modelled_rel'], 3):>6} {_r(r['ratio']):>6}"
-              f"  {'-' if r['agrees'] is None else ('yes' if r['agrees'] else 'NO')}{'; ' + r['note'] if r['note'] else ''}")
-    pred = [r for r in absolute if r["role"] == "prediction" and r["ratio"] is not None]
-    inside = [r for r in pred if 0.5 <= r["ratio"] <= 2.0]
-    agree = [r for r in relative if r["agrees"]]
-    print(f"\nAbsolute predictions within [0.5, 2]: {len(inside)} of {len(pred)} "
-          f"({sum(r['role'].startswith('calibration') for r in absolute)} calibration rows not counted). "
-          f"Relative rows with the paper's sign and ratio in [0.5, 2]: {len(agree)} of "
-          f"{sum(r['agrees'] is not None for r in relative)}.")
+              f"  {'-' if r['agrees'] is None else ('yes' if r['agrees'] else 'NO'):<6}  {r['role']}"
+              f"{'; ' + r['note'] if r['note'] else ''}")
+    print("\n" + "\n".join(count_lines(absolute, relative)))
 
 
-def to_json(absolute: list[dict], relative: list[dict], skipped: dict) -> dict:
-    notes_abs = ("ratio = modelled / paper. 'calibration on this row': a profile constant was fitted to it (the "
-                 "profile file names the row), so its ratio is 1 by construction and is not counted as agreement. "
-                 "Every profile number's source is in warpvol/profiles/*.toml.")
-    notes_rel = ("speed of A over speed of B on the same card and data (>1: A faster); ratio = modelled / paper; "
-                 "agrees: the paper's sign and ratio within [0.5, 2].")
+NOTES_ABS = ("ratio = modelled / paper. 'calibration on this row': a profile constant was fitted to it (the "
+             "profile file names the row), so its ratio is 1 by construction and is not counted as agreement. "
+             "Every profile number's source is in warpvol/profiles/*.toml.")
+NOTES_REL = ("speed of A over speed of B (>1: A faster), two methods on one card and data set, or one method on two "
+             "data sets, table sizes or cards; ratio = modelled / paper; agrees: the paper's sign and ratio within "
+             "[0.5, 2]. role: 'prediction' when both absolute rows are predictions (only these are counted), 'one "
+             "calibration row' when one was fitted (the ratio then repeats the other row's; counted apart), "
+             "'calibration only' when both were (not a prediction, not counted).")
+
+
+def counts_table(absolute: list[dict], relative: list[dict], what: str = "") -> dict:
+    inside, pred, cal = absolute_counts(absolute)
+    rc = relative_counts(relative)
+    rows = [["absolute rows", "prediction", inside, pred, "modelled / paper within [0.5, 2]"],
+            ["absolute rows", "calibration on this row", None, cal, "not counted: fitted to the row"]]
+    rows += [["relative rows", role, a, n, {REL_PREDICTION: "the count: both rows predicted",
+                                            REL_ONE_CAL: "counted apart: the ratio repeats the predicted row's",
+                                            REL_CAL_ONLY: "not counted: both rows fitted"}[role]]
+             for role, (a, n) in rc.items()]
+    return {"title": f"Throughput model: agreement by role{what}",
+            "columns": ["rows", "role", "agree", "of", "counted"], "rows": rows,
+            "notes": " ".join(count_lines(absolute, relative))}
+
+
+def to_json(absolute: list[dict], relative: list[dict], skipped: dict, notes_abs: str = NOTES_ABS,
+            source: str = "python scripts/validate_model.py --json docs/data/validate_model.json") -> dict:
     if skipped:
         notes_abs += " Skipped: " + "; ".join(f"{k} ({v})" for k, v in skipped.items())
+
     def tables(absolute, relative, what=""):
         return {"rows": {"title": f"Throughput model: absolute rows{what}",
                          "columns": ["paper", "row", "paper value", "modelled", "ratio", "role", "note"],
                          "rows": [[r["paper"], r["row"], r["paper_value"], r["modelled"], r["ratio"], r["role"],
                                    r["note"]] for r in absolute], "notes": notes_abs},
-                "relative": {"title": f"Throughput model: relative rows (method A over method B){what}",
+                "relative": {"title": f"Throughput model: relative rows (A over B){what}",
                              "columns": ["paper", "row", "card", "data", "paper", "modelled", "ratio", "agrees",
-                                         "note"],
+                                         "role", "note"],
                              "rows": [[r["paper"], r["row"], r["card"], r["data"], r["paper_rel"], r["modelled_rel"],
-                                       r["ratio"], r["agrees"], r["note"]] for r in relative], "notes": notes_rel}}
+                                       r["ratio"], r["agrees"], r["role"], r["note"]] for r in relative],
+                             "notes": f"{NOTES_REL} {' '.join(count_lines(absolute, relative)[1:])}"},
+                "counts": counts_table(absolute, relative, what)}
 
     out = tables(absolute, relative)
     for paper in dict.fromkeys(r["paper"] for r in absolute):  # each paper's page shows its own rows
         slug = paper.split()[0].lower() + paper.split()[-1]
         per = tables([r for r in absolute if r["paper"] == paper], [r for r in relative if r["paper"] == paper],
                      f", {paper}")
-        out[f"rows_{slug}"], out[f"relative_{slug}"] = per["rows"], per["relative"]
-    return {"source": "python scripts/validate_model.py --json docs/data/validate_model.json", "tables": out}
+        out[f"rows_{slug}"], out[f"relative_{slug}"], out[f"counts_{slug}"] = per["rows"], per["relative"], per["counts"]
+    return {"source": source, "tables": out}
+
+
+def absolute_from(path: str) -> tuple[list[dict], str, str, str]:
+    """The absolute rows of an earlier JSON (``to_json``'s form), its absolute-table notes, its source and
+    the Espinha view note of its relative rows."""
+    with open(path) as f:
+        d = json.load(f)
+    t = d["tables"]["rows"]
+    keys = ("paper", "row", "paper_value", "modelled", "ratio", "role", "note")
+    rows = [dict(zip(keys, r)) for r in t["rows"]]
+    view = next((r[-1][r[-1].index("cells walked"):] for r in d["tables"]["relative"]["rows"]
+                 if "cells walked" in str(r[-1])), "")
+    return rows, t.get("notes", NOTES_ABS), d.get("absolute_source", d.get("source", path)), view
 
 
 def main(argv=None) -> int:
@@ -373,18 +489,28 @@ def main(argv=None) -> int:
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--refresh", action="store_true", help="re-render every configuration (minutes)")
     ap.add_argument("--cached-only", action="store_true", help="skip configurations not yet counted (no renders)")
-    ap.add_argument("--json", metavar="PATH", help="write both tables as JSON (docs/hooks.py renders it)")
+    ap.add_argument("--absolute-from", metavar="JSON", help="take the absolute rows from an earlier --json output "
+                    "(no counting) and rebuild the relative rows and counts from them")
+    ap.add_argument("--json", metavar="PATH", help="write the tables as JSON (docs/hooks.py renders it)")
     a = ap.parse_args(argv)
-    from warpvol.pipeline import quiet_warp
+    if a.absolute_from:
+        absolute, notes_abs, src, view = absolute_from(a.absolute_from)
+        relative = relative_rows(None, absolute, view)
+        out = to_json(absolute, relative, {}, notes_abs,
+                      f"python scripts/validate_model.py --absolute-from {a.absolute_from} --json {a.json}")
+        out["absolute_source"] = src
+    else:
+        from warpvol.pipeline import quiet_warp
 
-    quiet_warp()
-    m = Model(a.device, a.refresh, a.cached_only)
-    absolute = absolute_rows(m)
-    relative = relative_rows(m, absolute)
+        quiet_warp()
+        m = Model(a.device, a.refresh, a.cached_only)
+        absolute = absolute_rows(m)
+        relative = relative_rows(m, absolute)
+        out = to_json(absolute, relative, m.skipped)
     print_tables(absolute, relative)
     if a.json:
         with open(a.json, "w") as f:
-            json.dump(to_json(absolute, relative, m.skipped), f, indent=1)
+            json.dump(out, f, indent=1)
         print(f"wrote {a.json}", file=sys.stderr)
     return 0
 

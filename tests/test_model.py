@@ -267,6 +267,57 @@ def test_validation_notes_derive_from_the_papers_own_rows():
     assert "19.2 M trilinear lookups/s for our 2.26 M fragments" in fig8[("octane_mxi", "3d")]["note"]
 
 
+def test_relative_rows_take_their_role_from_their_absolute_rows():
+    """A relative row made only of calibration rows is no prediction and is not counted; one with a
+    calibration row is counted apart; the count is over rows whose two absolute rows are predictions."""
+    vm = _validate_model_script()
+    cal, pred = "calibration on this row", "prediction"
+    assert vm.relative_role(cal, cal) == "calibration only" and vm.relative_role(pred, pred) == "prediction"
+    assert vm.relative_role(cal, pred) == vm.relative_role(pred, cal) == "one calibration row"
+    assert vm.relative_role("-", pred) is None
+
+    def row(name, pv, mv, role):
+        return {"paper": "Guthe 2002", "row": name, "paper_value": pv, "modelled": mv, "ratio": mv / pv,
+                "role": role, "note": ""}
+
+    absolute = [row(f"T5 {vm.CARD[c]} {vm.DATA[d]} {la} [fps]", 2.0 + i / 10, 2.0 + i / 10, pred)
+                for i, (c, d, (la, _)) in enumerate((c, d, s) for c in vm.GUTHE_T5 for d in ("bluntfin", "bucky")
+                                                    for s in vm.SORTS)]
+    absolute[0]["role"] = absolute[1]["role"] = cal  # GeForce4, Blunt Fin: numeric and MPVO fitted
+    rel = [r for r in vm.relative_rows(None, absolute) if r["paper"] == "Guthe 2002" and r["row"].startswith("T5")]
+    first = next(r for r in rel if r["row"] == "T5 numeric over MPVO" and r["card"] == "GeForce4 Ti 4600"
+                 and r["data"] == "Blunt Fin")
+    assert first["role"] == "calibration only" and "calibration: " in first["note"]
+    counts = vm.relative_counts(rel)
+    n_cal_only = sum(r["role"] == "calibration only" for r in rel)
+    n_one = sum(r["role"] == "one calibration row" for r in rel)
+    assert n_cal_only == 1 and n_one > 0
+    assert counts["prediction"][1] == len(rel) - n_cal_only - n_one
+    assert "calibration only" not in vm.count_lines(absolute, rel)[1]
+
+
+def test_shipped_validation_json_counts_follow_from_its_absolute_rows():
+    """docs/data/validate_model.json: every relative row, its role and the counts are what the script
+    builds from the JSON's own absolute rows (nothing typed in, nothing counted twice)."""
+    import json
+    from pathlib import Path
+
+    vm = _validate_model_script()
+    path = Path(__file__).parents[1] / "docs" / "data" / "validate_model.json"
+    shipped = json.loads(path.read_text())["tables"]
+    absolute, notes, _, view = vm.absolute_from(str(path))
+    rebuilt = vm.to_json(absolute, vm.relative_rows(None, absolute, view), {}, notes)["tables"]
+    for key in ("relative", "counts", "relative_guthe2002", "counts_espinha2005"):
+        assert shipped[key]["rows"] == rebuilt[key]["rows"], key
+        assert shipped[key]["notes"] == rebuilt[key]["notes"], key
+    by_role = {(r[0], r[1]): r[2:4] for r in shipped["counts"]["rows"]}
+    n_pred = sum(r[8] == "prediction" and r[7] is not None for r in shipped["relative"]["rows"])
+    assert by_role[("relative rows", "prediction")][1] == n_pred
+    gf4 = next(r for r in shipped["relative"]["rows"] if r[1:4] == ["T5 numeric over MPVO", "GeForce4 Ti 4600",
+                                                                    "Blunt Fin"])
+    assert gf4[8] == "calibration only"  # both of its rows fitted the GeForce4's sort rates
+
+
 def test_uploads_cost_the_bus_and_where_profiled_the_host_issuing_them():
     """``bytes_up`` go over the bus (GPU, serial) and, where the host has ``upload_rate``, cost the CPU
     issuing them too: VICP (uploads every frame) minus VICP-GPU (cells resident) is exactly that."""
