@@ -24,7 +24,7 @@ LAYERS = {
     "warpvol.scene": 2,
     # 3 emulated GPU units (formats, counters), the exact reference, the performance model, conditioning
     "warpvol.gpu": 3, "warpvol.reference": 3, "warpvol.model": 3, "warpvol.conditioning.conditioning": 3,
-    "warpvol.conditioning.reorder": 3,
+    "warpvol.conditioning.reorder": 3, "warpvol.conditioning.visibility": 3,
     # 4 pre-integration tables
     "warpvol.tables": 4,
     # 5 the stage framework

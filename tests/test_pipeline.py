@@ -61,7 +61,7 @@ def test_report_has_contract_fields_and_skips():
     res = Pipeline.load("raycast").render(scene(box_mesh(), tf, cam), quiet=True, reference=None)
     r = res.report
     assert r["pipeline"] == "raycast"
-    assert set(r["stages"]) == {"condition", "cell_setup", "entry_bins", "raycast"}
+    assert set(r["stages"]) == {"condition", "visibility", "cell_setup", "entry_bins", "raycast"}
     assert all(v >= 0 for v in r["stages"].values()) and r["total_s"] >= sum(r["stages"].values()) * 0.99
     assert r["skipped"] == [{"stage": "peel", "reason": "mesh boundary is convex: every ray enters the mesh at most once"}]
     res2 = Pipeline.load("raycast").render(scene(box_mesh(), tf, cam), quiet=True, reference=res.image)
@@ -124,4 +124,4 @@ def test_every_stage_declares_what_it_needs_and_provides():
 
 def test_the_raycast_preset_passes_the_check_and_its_stages_chain():
     pipe = Pipeline.load("raycast")
-    assert [s.name for s in pipe.stages] == ["condition", "cell_setup", "entry_bins", "raycast", "peel"]
+    assert [s.name for s in pipe.stages] == ["condition", "visibility", "cell_setup", "entry_bins", "raycast", "peel"]

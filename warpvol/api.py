@@ -351,7 +351,7 @@ class Rendering(RenderResult):
 
 def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = DEFAULT_PIPELINE,
            reference: Any = False, device: str = "cpu", gpu: Any = None, *, scalars: str | None = None,
-           split: int | None = None, size: Any = None, quiet: bool = True) -> Rendering:
+           split: int | None = None, size: Any = None, quiet: bool = True, skip: bool = True) -> Rendering:
     """Render a mesh in one call.
 
     Parameters
@@ -395,6 +395,10 @@ def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = 
     quiet : bool
         Keep per-stage progress lines and Warp's start-up and module-load messages off the output:
         Warp is initialised quietly before anything else, so nothing reaches stdout.
+    skip : bool
+        Leave out what the scene does not need: cells the transfer function makes invisible, empty
+        space, depth behind an opaque front (``report["left_out"]`` counts it per stage). ``False``
+        does all the work, for comparison (``--no-skip`` on the command line).
 
     Returns
     -------
@@ -419,7 +423,7 @@ def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = 
     scene = _interned(as_scene(mesh, transfer, camera, scalars=scalars, split=split, size=size))
     pipe, key = _pipeline(pipeline, device)  # unknown pipelines fail before the reference spends time
     ref, ref_s = _reference(reference, scene, quiet=quiet)
-    res = pipe.render(scene, reference=ref, quiet=quiet, device=device, gpu=gpu)
+    res = pipe.render(scene, reference=ref, quiet=quiet, device=device, gpu=gpu, skip=skip)
     if key is not None:
         cache.pipeline_used(key)
     if ref_s is not None:

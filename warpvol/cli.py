@@ -95,7 +95,7 @@ def cmd_render(args) -> int:
     elif args.compute_reference:
         ref, ref_s = compute_reference(scene, args.quiet, args.scheduler, args.bands, args.workers or 2)
     try:
-        res = pipe.render(scene, reference=ref, quiet=args.quiet, gpu=args.gpu)
+        res = pipe.render(scene, reference=ref, quiet=args.quiet, gpu=args.gpu, skip=not args.no_skip)
     except MemoryError:
         raise out_of_memory(scene, ["render"], f"rendering with {pipe.name}", _available_memory()) from None
     if args.compute_reference:
@@ -294,9 +294,11 @@ def cmd_plan(args) -> int:
         check_image_memory(scene.camera, ["render"], _available_memory())
     for scene, pipe in ((sc, p) for sc in scenes for p in pipes):
         print(f"{pipe.name} on {scene.name}:")
-        for s in pipe.plan(scene):
+        for s in pipe.plan(scene, skip=not args.no_skip):
             state = {True: "runs", False: "skipped", None: "decided at render time"}[s["run"]]
             print(f"  {s['stage']:<20} {state}" + (f": {s['reason']}" if s["reason"] else ""))
+            if s.get("leaves_out"):
+                print(f"  {'':<20} leaves out: {s['leaves_out']}")
         if args.no_measure:
             continue
         row = bench_pipeline(pipe, scene, None, repeats=args.repeats)
@@ -436,6 +438,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--height", type=int, help="override camera.height_px")
     r.add_argument("--strict", action="store_true", help="zero-volume tets are an error")
     r.add_argument("--gpu", help="GPU profile (warpvol gpus): check capabilities, add modelled_s to the report")
+    r.add_argument("--no-skip", action="store_true", help="do all the work: no culling of cells the transfer "
+                   "function makes invisible, no empty-space skipping, no early ray termination (for comparison; "
+                   "the report's left_out section says what is left out otherwise)")
     mesh_args(r)
     band_args(r, "the reference of --compute-reference")
     common(r)
@@ -497,6 +502,8 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--pipeline", nargs="+", default=["all"], help="preset(s) or 'all'")
     pl.add_argument("--repeats", type=int, default=3)
     pl.add_argument("--no-measure", action="store_true", help="dry run only: no renders")
+    pl.add_argument("--no-skip", action="store_true", help="plan with skipping off (render --no-skip): no stage "
+                    "leaves out invisible cells, empty space or occluded depth")
     scene_args(pl, many=True)
     pl.set_defaults(func=cmd_plan)
 

@@ -244,37 +244,47 @@ class Pipeline:
             keys.append(key)
         return keys
 
-    def plan(self, scene: Any) -> list[dict]:
-        """Dry run of the planner: ``{"stage", "run", "reason"}`` per stage, nothing rendered.
+    def plan(self, scene: Any, skip: bool = True) -> list[dict]:
+        """Dry run of the planner: ``{"stage", "run", "reason", "leaves_out"}`` per stage, nothing rendered.
 
         Asks each stage's :meth:`Stage.skip_reason` with an empty context (no buffers); a hook that
         needs what an earlier stage builds is reported as decided at render time, with its error.
+        ``leaves_out``: what a stage that runs leaves out of its work and why (:meth:`Stage.leaves_out`),
+        ``None`` when nothing or with ``skip=False``.
 
         Examples
         --------
         >>> from warpvol.scene.builtin import builtin_scene
         >>> [(p["stage"], p["run"]) for p in Pipeline.load("raycast").plan(builtin_scene("box"))]
-        [('condition', True), ('cell_setup', True), ('entry_bins', True), ('raycast', True), ('peel', False)]
+        [('condition', True), ('visibility', True), ('cell_setup', True), ('entry_bins', True), ('raycast', True), ('peel', False)]
         """
-        ctx = Context(scene=scene, device=self.stages[0].device, quiet=True)
+        ctx = Context(scene=scene, device=self.stages[0].device, quiet=True, skip=bool(skip))
         out = []
         for key, st in zip(self.stage_keys(), self.stages):
             try:
                 reason = st.skip_reason(ctx)
             except Exception as e:  # noqa: BLE001 - the hook needs buffers of earlier stages
                 reason = f"decided at render time ({type(e).__name__}: {e})"
-                out.append({"stage": key, "run": None, "reason": reason})
+                out.append({"stage": key, "run": None, "reason": reason, "leaves_out": None})
                 continue
-            out.append({"stage": key, "run": not reason, "reason": reason or None})
+            what = None
+            if not reason and ctx.skip:
+                try:
+                    what = st.leaves_out(ctx)
+                except Exception as e:  # noqa: BLE001 - the hook needs buffers of earlier stages
+                    what = f"decided at render time ({type(e).__name__}: {e})"
+            out.append({"stage": key, "run": not reason, "reason": reason or None, "leaves_out": what})
         return out
 
     def render(self, scene: Any, *, reference: np.ndarray | None = None, quiet: bool = False,
-               device: str | None = None, gpu: str | None = None, force: Any = ()) -> RenderResult:
+               device: str | None = None, gpu: str | None = None, force: Any = (), skip: bool = True) -> RenderResult:
         """Run the stages; ``gpu``: a GPU profile name (:mod:`warpvol.model`): checks every stage's
         capabilities first and adds ``gpu`` and ``modelled_s`` to the report. ``force``: stage names
         or report keys that run even when their :meth:`Stage.skip_reason` says the scene does not need
         them (the planner audit's "with the skipped stage" render); they are listed under
-        ``report["forced"]`` with the reason."""
+        ``report["forced"]`` with the reason. ``skip``: stages leave out what the scene does not need
+        (invisible cells, empty space, occluded depth); ``False`` does all the work, for comparison.
+        What was left out is under ``report["left_out"]`` (per stage: ``why`` and counts)."""
         from warpvol.gpu.counters import Counters
 
         force = {force} if isinstance(force, str) else set(force)
@@ -297,7 +307,7 @@ class Pipeline:
             profile = model.load_profile(gpu)
             for st in self.stages:
                 model.check_caps(profile, st.where, st.requires_caps())
-        ctx = Context(scene=scene, device=device, quiet=quiet, persistent=self.persistent)
+        ctx = Context(scene=scene, device=device, quiet=quiet, persistent=self.persistent, skip=bool(skip))
         if not any(st.name == "condition" for st in self.stages):  # input cast to float32 as it is: say what it loses
             from warpvol.conditioning.conditioning import precision_warnings
 
@@ -307,7 +317,7 @@ class Pipeline:
             ctx.stats["known_losses"] = {"warning": self.known_losses}
         report: dict[str, Any] = {"pipeline": self.name, "device": device, "scene": getattr(scene, "name", None),
                                   "image": [scene.camera.height_px, scene.camera.width_px],
-                                  "stages": {}, "skipped": []}
+                                  "stages": {}, "skipped": [], "skip": bool(skip)}
         rows: dict[str, dict] = {}  # per stage: seconds, of which kernel compilation, set-up or frame, reused
         t_all = time.perf_counter()
         for key, st in zip(self.stage_keys(), self.stages):
@@ -352,6 +362,8 @@ class Pipeline:
         if not np.isfinite(img).all():
             raise RuntimeError(f"pipeline {self.name!r} produced NaN/Inf pixels")
         report["counters"] = ctx.counters
+        if ctx.omitted:
+            report["left_out"] = ctx.omitted
         if model is not None:
             report["gpu"] = gpu
             report["modelled_s"] = model.model_report(ctx.counters, profile)

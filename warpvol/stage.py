@@ -127,6 +127,13 @@ class Stage:
         """Planner hook: return a reason if this scene does not need the stage, else ``None``."""
         return None
 
+    def leaves_out(self, ctx: "Context") -> str | None:
+        """Planner hook for a stage that runs: what it leaves out of its work when ``ctx.skip`` is on
+        (invisible cells, empty space, depth behind an opaque front) and why, in words; ``None``:
+        nothing. Called without buffers (by :meth:`warpvol.pipeline.Pipeline.plan`); what was left
+        out in a render is counted through :meth:`Context.left_out`."""
+        return None
+
     def run(self, ctx: "Context") -> None:  # pragma: no cover - abstract
         raise NotImplementedError
 
@@ -167,6 +174,21 @@ class Context:
     #: set by a stage that wrote the final image early (e.g. nothing in view): why the later stages
     #: are skipped
     finished: str | None = None
+    #: leave out what the scene does not need (invisible cells, empty space, occluded depth); ``False``
+    #: (``skip=False``, ``--no-skip``): every stage does all its work, for comparison
+    skip: bool = True
+    #: what each stage left out (report key -> ``{"why": text, count name: integer}``), filled through
+    #: :meth:`left_out`; the report's ``left_out`` section
+    omitted: dict[str, dict] = field(default_factory=dict)
+
+    def left_out(self, why: str | None = None, **amounts: int) -> None:
+        """Record what the running stage left out, e.g. ``ctx.left_out(why="invisible under the
+        transfer function", cells_culled=n)``; counts add up over calls, ``why`` replaces."""
+        d = self.omitted.setdefault(self.stage_key or "_host", {})
+        if why is not None:
+            d["why"] = str(why)
+        for k, v in amounts.items():
+            d[k] = d.get(k, 0) + int(v)
 
     def count(self, **amounts: int) -> None:
         """Add to the running stage's counters, e.g. ``ctx.count(cell_steps=n, fragments=m)``."""
