@@ -32,7 +32,7 @@ from warpvol.scene.mesh import TetMesh
 from warpvol.scene.scene import Scene
 from warpvol.scene.scene_file import scene_from_config
 from warpvol.scene.transfer import TransferFunction
-from warpvol.timing import time_summary
+from warpvol.timing import CompileClock, announce_compile, time_summary, wall_fields
 
 IMAGE_EXTENSIONS = (".exr", ".png")
 
@@ -220,7 +220,9 @@ def _reference(reference: Any, scene: Scene, fn: str = "render",
         from warpvol.reference.numpy_render import render_reference
 
         t0 = time.perf_counter()
-        with ProgressBar("exact reference", enabled=not quiet) as bar:  # stderr only; none with quiet
+        # stderr only; none with quiet. Its kernels compile on first use: said before the wait
+        with ProgressBar("exact reference", enabled=not quiet) as bar, \
+                CompileClock(None if quiet else announce_compile):
             img, hit = cache.reference(scene, lambda: render_reference(scene.mesh, scene.transfer, scene.camera,
                                                                        progress=bar.fraction))
         return img, (0.0 if hit else time.perf_counter() - t0)
@@ -417,18 +419,27 @@ def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = 
     >>> warpvol.render(scene.mesh, size=16).image.shape  # default transfer function and camera
     (16, 16, 4)
     """
+    t_call = time.perf_counter()
     _quiet(quiet, device)
-    device = _device(device)
+    device = _device(device)  # Warp starts here at the latest
     gpu = gpu_profile(gpu)
+    t_scene = time.perf_counter()
     scene = _interned(as_scene(mesh, transfer, camera, scalars=scalars, split=split, size=size))
+    t_pipe = time.perf_counter()
     pipe, key = _pipeline(pipeline, device)  # unknown pipelines fail before the reference spends time
+    t_ref = time.perf_counter()
     ref, ref_s = _reference(reference, scene, quiet=quiet)
+    t_render = time.perf_counter()
     res = pipe.render(scene, reference=ref, quiet=quiet, device=device, gpu=gpu, skip=skip)
     if key is not None:
         cache.pipeline_used(key)
     if ref_s is not None:
         res.report["reference_s"] = ref_s
         res.report["reference_cached"] = reference is True and ref_s == 0.0
+    # a reference read from a file or given as an array, or found in the cache, counts as input conversion
+    wall_fields(res.report, startup_s=(t_scene - t_call) + (t_ref - t_pipe),
+                conversion_s=(t_pipe - t_scene) + max(0.0, t_render - t_ref - (ref_s or 0.0)),
+                wall_s=time.perf_counter() - t_call)
     return Rendering(res.image, res.report, scene=scene, reference=ref)
 
 

@@ -27,6 +27,7 @@ import numpy as np
 from warpvol.errors import ConfigError
 from warpvol.progress import ProgressBar
 from warpvol.reference.numpy_render import render_reference
+from warpvol.timing import CompileClock, announce_compile
 
 
 def band_rows(height: int, n_bands: int) -> list[tuple[int, int]]:
@@ -134,6 +135,7 @@ def compute_reference(scene, quiet: bool = False, scheduler: str | None = None, 
     if scheduler is not None:
         img = reference_in_bands(scene, scheduler, bands=bands, workers=workers, quiet=quiet)
     else:
-        with ProgressBar("reference", enabled=not quiet) as bar:
+        # the reference's kernels compile on first use: said before the wait, as for a pipeline's
+        with ProgressBar("reference", enabled=not quiet) as bar, CompileClock(None if quiet else announce_compile):
             img = render_reference(scene.mesh, scene.transfer, scene.camera, progress=bar.fraction)
     return img, time.perf_counter() - t0

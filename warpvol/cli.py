@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +33,7 @@ from warpvol.cli_checks import (BYTES_PER_PIXEL, IMAGE_OUTPUT, MAX_PIXELS, OUTPU
                                 folder_outputs, out_of_memory, output_folder, pipeline_inputs, scene_inputs)
 from warpvol.errors import ConfigError, WarpvolError, check_number
 from warpvol.io import check_inputs
-from warpvol.timing import time_summary
+from warpvol.timing import process_age_s, time_summary, wall_fields, wall_summary
 
 
 def _load_scene(spec: str, args) -> "object":
@@ -83,8 +84,10 @@ def cmd_render(args) -> int:
                  + ([(Path(args.reference), "--reference image")] if args.reference else []), outs)
     check_sizes(args)
     pipe = Pipeline.load(args.pipeline, device=args.device)
+    t_scene = time.perf_counter()  # up to here: the interpreter, imports, Warp's start-up, the checks
     ref = read_exr(args.reference) if args.reference else None
     scene = _load_scene(args.scene, args)
+    conversion_s = time.perf_counter() - t_scene
     check_image_memory(scene.camera, ["render"] + (["png"] if args.png else [])
                        + (["reference"] if ref is not None or args.compute_reference else [])
                        + (["error_image"] if args.error_image else []), _available_memory())
@@ -100,6 +103,8 @@ def cmd_render(args) -> int:
         raise out_of_memory(scene, ["render"], f"rendering with {pipe.name}", _available_memory()) from None
     if args.compute_reference:
         res.report["reference_s"] = ref_s
+    t0 = getattr(args, "t_start", t_scene)
+    wall_fields(res.report, startup_s=t_scene - t0, conversion_s=conversion_s, wall_s=time.perf_counter() - t0)
     # all outputs or none: each is written beside its target, then all are renamed together
     with Outputs() as out:
         _write_image(out, outs["-o"], res.image, args.background)
@@ -131,7 +136,7 @@ def _summary(report: dict) -> None:
     if "modelled_s" in report:
         t = report["modelled_s"]["total"]
         line += f"  modelled on {report['gpu']}: " + ("-" if t is None else f"{t:.4f} s")
-    print(line)
+    print(line + wall_summary(report))
 
 
 def cmd_gpus(args) -> int:
@@ -534,7 +539,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # the start on the perf_counter clock: as a command (argv None), the process's own start, so that wall_s
+    # is what the user waited, imports included; called from Python, this call's
+    t_start = time.perf_counter() - ((process_age_s() or 0.0) if argv is None else 0.0)
     args = build_parser().parse_args(argv)
+    args.t_start = t_start
     try:
         if args.cmd in ("render", "reference", "demo", "bench", "plan", "stress", "sweep"):
             from warpvol.pipeline import quiet_warp

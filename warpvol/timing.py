@@ -170,6 +170,45 @@ def split_times(stage_rows: dict[str, dict], total_s: float) -> dict[str, float]
             "total_s": total_s}
 
 
+def process_age_s() -> float | None:
+    """Seconds since this process started (the interpreter's start-up and imports included), for a
+    command line's ``wall_s``: the system's uptime less the process's start tick (Linux ``/proc``, to
+    the clock tick, 10 ms); ``None`` where there is no ``/proc``. (psutil's ``create_time`` rests on the
+    boot time in whole seconds, up to a second off.)"""
+    import os
+
+    try:
+        with open("/proc/uptime") as f:
+            uptime = float(f.read().split()[0])
+        with open("/proc/self/stat") as f:
+            stat = f.read()
+        start_ticks = int(stat[stat.rindex(")") + 2:].split()[19])  # field 22 (starttime), after comm
+        return max(0.0, uptime - start_ticks / os.sysconf("SC_CLK_TCK"))
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def wall_fields(report: dict, *, startup_s: float, conversion_s: float, wall_s: float) -> dict:
+    """Add what a call spent outside the pipeline to ``report``: ``startup_s`` (Warp start-up, the
+    pipeline's loading and, on the command line, the interpreter and its imports), ``conversion_s``
+    (reading and converting the inputs: mesh, scene, a reference image) and ``wall_s``, what the caller
+    waited. ``startup_s + conversion_s + reference_s + total_s`` make up ``wall_s`` but for the report's
+    own bookkeeping (the error against the reference, a few milliseconds), kept as ``other_s``.
+
+    Examples
+    --------
+    >>> r = wall_fields({"total_s": 1.0, "reference_s": 0.5}, startup_s=0.25, conversion_s=0.125, wall_s=1.9)
+    >>> r["wall_s"], round(r["other_s"], 3)
+    (1.9, 0.025)
+    """
+    report["startup_s"] = startup_s
+    report["conversion_s"] = conversion_s
+    report["wall_s"] = wall_s
+    report["other_s"] = max(0.0, wall_s - startup_s - conversion_s - (report.get("reference_s") or 0.0)
+                            - report["total_s"])
+    return report
+
+
 def time_summary(report: dict) -> str:
     """The frame time first, then what else the render spent, e.g. ``"frame 0.740 s (+ set-up 0.290 s,
     kernel compilation 11.5 s)"``; a report without the split gives its total.
@@ -184,3 +223,19 @@ def time_summary(report: dict) -> str:
     extra = [f"{what} {report[k]:.3f} s" for k, what in (("setup_s", "set-up"), ("compile_s", "kernel compilation"))
              if report.get(k, 0.0) >= 5e-4]
     return f"frame {report['render_s']:.3f} s" + (f" (+ {', '.join(extra)})" if extra else "")
+
+
+def wall_summary(report: dict) -> str:
+    """The reference's time and what the call waited in all, for the command line's summary line, e.g.
+    ``"; reference 1.20 s; wall 3.40 s (start-up 1.10 s, scene 0.20 s)"``; empty for a report without them.
+
+    Examples
+    --------
+    >>> wall_summary({"reference_s": 1.2, "wall_s": 3.4, "startup_s": 1.1, "conversion_s": 0.2})
+    '; reference 1.20 s; wall 3.40 s (start-up 1.10 s, scene 0.20 s)'
+    """
+    out = f"; reference {report['reference_s']:.2f} s" if report.get("reference_s") is not None else ""
+    if report.get("wall_s") is not None:
+        out += f"; wall {report['wall_s']:.2f} s (start-up {report['startup_s']:.2f} s, scene " \
+               f"{report['conversion_s']:.2f} s)"
+    return out

@@ -1,0 +1,72 @@
+"""Times that match the wall clock: a render's report splits what the caller waited (``wall_s``) into
+Warp's start-up and the pipeline's loading (``startup_s``), input conversion (``conversion_s``), the
+reference (``reference_s``) and the pipeline (``total_s``); the command line prints the reference's time
+and the wall time; the reference announces its kernel compilation as the pipelines do."""
+
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import warpvol
+from warpvol import timing
+
+ROOT = Path(__file__).resolve().parent.parent
+#: the parts may miss the wall time by the report's bookkeeping (the error against the reference): at most this
+PARTS_MARGIN_S = 0.05
+
+
+def _parts(rep):
+    return rep["startup_s"] + rep["conversion_s"] + (rep.get("reference_s") or 0.0) + rep["total_s"]
+
+
+def test_render_fields_add_up_to_the_wall_time():
+    warpvol.clear_cache()  # the reference is computed, not found
+    scene = warpvol.builtin_scene("box").with_camera(width_px=16, height_px=16)
+    t0 = time.perf_counter()
+    r = warpvol.render(scene, pipeline="raycast", reference=True)
+    waited = time.perf_counter() - t0
+    rep = r.report
+    assert rep["reference_s"] > 0 and not rep["reference_cached"]
+    assert rep["wall_s"] <= waited and waited - rep["wall_s"] < 0.02 + 0.02 * waited
+    assert abs(rep["wall_s"] - _parts(rep) - rep["other_s"]) < 1e-9
+    assert rep["other_s"] < PARTS_MARGIN_S + 0.05 * rep["wall_s"]
+    assert min(rep["startup_s"], rep["conversion_s"]) >= 0
+
+
+def test_command_line_reports_and_prints_the_wall_time(tmp_path):
+    """A command's ``wall_s`` counts from the process's start (interpreter and imports included); what is
+    left to the measured time is writing the outputs and the interpreter's exit, under a second here."""
+    exe = Path(sys.executable).with_name("warpvol")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    t0 = time.perf_counter()
+    p = subprocess.run([str(exe), "render", "builtin:box", "--width", "16", "--height", "16", "-o", "x.png",
+                        "--compute-reference", "--report", "r.json", "--quiet"], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=600, env=env)
+    waited = time.perf_counter() - t0
+    assert p.returncode == 0, p.stderr
+    rep = json.loads((tmp_path / "r.json").read_text())
+    assert rep["wall_s"] <= waited and waited - rep["wall_s"] < 1.0 + 0.1 * waited
+    assert abs(rep["wall_s"] - _parts(rep) - rep["other_s"]) < 1e-9
+    assert rep["other_s"] < PARTS_MARGIN_S + 0.05 * rep["wall_s"]
+    assert rep["startup_s"] > 0.1  # the interpreter and its imports are counted
+    line = p.stdout.strip().splitlines()[-1]
+    assert f"reference {rep['reference_s']:.2f} s" in line and f"wall {rep['wall_s']:.2f} s" in line
+
+
+def test_reference_announces_its_kernel_compilation(monkeypatch, capsys):
+    """Loading the reference's kernels is announced before the wait (here a reload from Warp's kernel cache,
+    made to count as slow)."""
+    import warp as wp
+
+    warpvol.clear_cache()
+    scene = warpvol.builtin_scene("box").with_camera(width_px=8, height_px=8)
+    warpvol.render(scene, pipeline="raycast", reference=True)  # the reference's kernels are loaded
+    warpvol.clear_cache()
+    wp.get_module("warpvol.kernels.reference").unload()
+    monkeypatch.setattr(timing, "ANNOUNCE_AFTER_S", 0.0)
+    capsys.readouterr()
+    warpvol.api._reference(True, scene, quiet=False)
+    assert "[warpvol] compiling Warp kernels (warpvol.kernels.reference" in capsys.readouterr().err
