@@ -196,7 +196,7 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
     if ln_in_combiner and ln_format != "unorm8":
         key = key + (("ln_format", ln_format),)
     key = key if emulate else key + (("emulate", False),)  # counting-only tables never pass for real ones
-    meta = {"builder": "roettger_hw", "emission": tf.emission, "lmax": lmax, "steps": steps, "bits": bits,
+    meta = {"builder": "roettger_hw", "emission": tf.emission, "lmax": lmax, "steps": steps, "n_tex": n_tex, "bits": bits,
             "passes": passes, "variant": variant, "fragments": 0, "blends": 0}
     fb_fmt = f"unorm{bits}"
     group = 4 if variant == "geforce3" else 1
