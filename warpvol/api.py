@@ -23,6 +23,7 @@ import numpy as np
 
 from warpvol import cache
 from warpvol.errors import ConfigError
+from warpvol.figures import comparison_figure, draw_pair
 from warpvol.pipeline import DEFAULT_PIPELINE, Pipeline, RenderResult, check_device, list_presets, quiet_warp
 from warpvol.scene.camera import Camera
 from warpvol.scene.defaults import colormap_transfer, default_extinction, default_transfer, pixel_size, scalar_window
@@ -251,28 +252,6 @@ def _reference(reference: Any, scene: Scene, fn: str = "render",
 
 
 # -- results --------------------------------------------------------------------------------------
-def _rgb(image: np.ndarray, background=(0.0, 0.0, 0.0)) -> np.ndarray:
-    from warpvol.io import composite_over
-
-    return np.clip(composite_over(np.asarray(image, np.float64), background), 0.0, 1.0)
-
-
-def _draw(ax_img, ax_err, res: "Rendering", title: str, norm=None) -> None:
-    """One panel pair: the image (title: time and RMSE) and its error map against the reference on
-    the logarithmic colour scale ``norm`` (:func:`warpvol.metrics.error_norm`; one per figure)."""
-    from warpvol.metrics import draw_error, error_norm
-
-    ax_img.imshow(_rgb(res.image), interpolation="nearest")
-    t = res.report.get("median_s", res.report.get("render_s", res.report["total_s"]))
-    err = res.error
-    ax_img.set_title(f"{title}\n{t:.3f} s" + (f", RMSE {err['rmse']:.2e}" if err else ""), fontsize=9)
-    ax_img.set_axis_off()
-    if ax_err is not None:
-        emap = res.error_image
-        draw_error(ax_err, emap, error_norm(emap) if norm is None else norm)
-        ax_err.set_title(f"|error|, log scale (max {err['max_abs']:.2e})", fontsize=9)
-
-
 @dataclass
 class Rendering(RenderResult):
     """What :func:`render` returns: ``image`` (premultiplied RGBA float32, row 0 at the top),
@@ -333,7 +312,7 @@ class Rendering(RenderResult):
 
     def _fill(self, fig):
         axes = fig.subplots(1, 1 if self.reference is None else 2, squeeze=False)
-        _draw(axes[0, 0], axes[0, 1] if self.reference is not None else None, self, self.report.get("pipeline", ""))
+        draw_pair(axes[0, 0], axes[0, 1] if self.reference is not None else None, self, self.report.get("pipeline", ""))
         return fig
 
     def _repr_png_(self) -> bytes:
@@ -450,7 +429,7 @@ TABLE_COLUMNS = ("pipeline", "status", "time_s", "cold_s", "rmse", "max_abs", "p
 @dataclass
 class Comparison:
     """What :func:`compare` returns: a matplotlib ``figure`` (one image + error-map pair per
-    pipeline that rendered), the same data as a ``table`` (one dict per pipeline, :data:`TABLE_COLUMNS`;
+    pipeline that rendered, a labelled empty panel with the reason for one that declined or failed), the same data as a ``table`` (one dict per pipeline, :data:`TABLE_COLUMNS`;
     a pipeline that declined the scene or failed is a row with ``status`` and ``reason``), each
     pipeline's :class:`Rendering` in ``results`` and the ``reference`` image. Unpacks as
     ``figure, table``; shows as figure and table in Jupyter.
@@ -552,8 +531,6 @@ def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, refere
     >>> [r["pipeline"] for r in table], table[0]["rmse"] < 1e-5, len([a for a in fig.axes if a.images])
     (['raycast'], True, 2)
     """
-    from matplotlib.figure import Figure
-
     from warpvol.errors import WarpvolError
 
     _quiet(quiet, device)
@@ -594,17 +571,8 @@ def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, refere
         err = r.report["error"]
         table.append({**row, "status": "ok", "time_s": warm, "cold_s": cold, "rmse": err["rmse"],
                       "max_abs": err["max_abs"], "psnr": err["psnr"], "reason": ""})
-    fig = None
-    if results:
-        from warpvol.metrics import error_norm
-
-        norm = error_norm(*(r.error_image for r in results.values()))  # one colour scale for every panel
-        fig = Figure(figsize=(8.4, 4.0 * len(results)), layout="constrained")
-        axes = fig.subplots(len(results), 2, squeeze=False)
-        for row_axes, (k, r) in zip(axes, results.items()):
-            _draw(row_axes[0], row_axes[1], r, k, norm)
-        if ref_s is not None:
-            fig.suptitle(f"{scene.name}: exact reference {ref_s:.2f} s", fontsize=10)
+    # every pipeline has its row: a declined or failed one as an empty panel with the reason
+    fig = comparison_figure(results, table, None if ref_s is None else f"{scene.name}: exact reference {ref_s:.2f} s")
     return Comparison(fig, table, results, ref, ref_s)
 
 

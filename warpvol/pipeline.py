@@ -396,7 +396,11 @@ def _read_pipeline_text(name_or_path: str | Path) -> tuple[str, str]:
         if not p.is_file():
             raise ConfigError(f"--pipeline: file not found: {p}")
         return p.read_text(), str(p)
-    raise ConfigError(f"--pipeline: {s!r} is neither a preset nor a file; presets: {', '.join(sorted(presets))}")
+    import difflib
+
+    close = difflib.get_close_matches(s, list(presets), n=3, cutoff=0.6)
+    hint = f"did you mean {' or '.join(map(repr, close))}? " if close else ""
+    raise ConfigError(f"--pipeline: {s!r} is neither a preset nor a file; {hint}presets: {', '.join(sorted(presets))}")
 
 
 def list_presets() -> list[tuple[str, str]]:

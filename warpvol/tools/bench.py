@@ -127,9 +127,18 @@ def pareto_front(points: list[tuple[float, float]]) -> list[bool]:
 
 
 def resolve_pipelines(names: list[str] | tuple[str, ...] | str | None) -> list[str]:
-    """``all`` (or nothing) -> every shipped preset; otherwise the names as given (presets or files)."""
+    """``all`` (or nothing) -> every shipped preset; otherwise the names as given (presets or files), each
+    argument also split at commas (``raycast,pt_best`` as ``raycast pt_best``).
+
+    Examples
+    --------
+    >>> resolve_pipelines(["raycast,pt_best", "harc_best"])
+    ['raycast', 'pt_best', 'harc_best']
+    """
     from warpvol.pipeline import list_presets
 
+    if isinstance(names, (list, tuple)):
+        names = [n.strip() for a in names for n in (a.split(",") if isinstance(a, str) else [a]) if n != ""]
     if names is None or names == "all" or list(names) == ["all"]:
         return [n for n, _ in list_presets()]
     names = [names] if isinstance(names, str) else list(names)
