@@ -91,12 +91,23 @@ def test_alpha_dithering_removes_the_8_bit_bias():
 
 
 def test_planner_skips_perspective_for_orthographic_and_picks_thickness_axis():
-    box = render(preset("kraus2004_full", **SMALL_KRAUS), scene("box"))
+    """The planner's choices a pipeline may ask for (not the faithful kraus2004_full, which runs both
+    enhancements on every scene): pt_perspective skipped on orthographic cameras, and of two
+    table_incremental stages the uniform axis for a narrow thickness range, the logarithmic one otherwise."""
+    from warpvol.pipeline import Pipeline
+
+    table = {"stage": "table_incremental", "n_s": 64, "n_l": 16, "format": "hilo16"}
+    cfg = {"name": "kraus_adaptive", "stages": [
+        {"stage": "vertex"}, {"stage": "sort", "method": "mpvo"},
+        {**table, "axis": "uniform", "applies_to": "narrow_range"}, {**table, "axis": "log2", "applies_to": "wide_range"},
+        {"stage": "pt_project"}, {"stage": "pt_perspective"},
+        {"stage": "pt_table3d", "texel_format": "rgba16", "format": "fp16", "blend": "readback"}]}
+    box = render(Pipeline.from_config(cfg), scene("box"))
     skipped = {s["stage"]: s["reason"] for s in box.report["skipped"]}
     assert box.report["stats"]["pt"]["interpolation"] == "screen-linear"
     assert "orthographic" in skipped["pt_perspective"] and "same image" in skipped["pt_perspective"]
     assert "uniform thickness axis suffices" in skipped["table_incremental#2"]  # the log2 stage
-    stiff = render(preset("kraus2004_full", **SMALL_KRAUS), scene("stiff"))
+    stiff = render(Pipeline.from_config(cfg), scene("stiff"))
     skipped = {s["stage"]: s["reason"] for s in stiff.report["skipped"]}
     assert "logarithmic thickness axis" in skipped["table_incremental"]  # the uniform stage
     assert "pt_perspective" not in skipped
