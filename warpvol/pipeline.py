@@ -318,6 +318,8 @@ class Pipeline:
         report: dict[str, Any] = {"pipeline": self.name, "device": device, "scene": getattr(scene, "name", None),
                                   "image": [scene.camera.height_px, scene.camera.width_px],
                                   "stages": {}, "skipped": [], "skip": bool(skip)}
+        if getattr(getattr(scene, "mesh", None), "load_notes", None):  # what the reader left out, counted
+            report["mesh_notes"] = dict(scene.mesh.load_notes)
         rows: dict[str, dict] = {}  # per stage: seconds, of which kernel compilation, set-up or frame, reused
         t_all = time.perf_counter()
         for key, st in zip(self.stage_keys(), self.stages):

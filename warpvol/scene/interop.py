@@ -92,7 +92,7 @@ def structured_arrays(dims, points, scalars, *, name: str, weld: bool, split: in
 
 def dataset_arrays(ds, scalars: str | None, *, name: str = "mesh",
                       source: str | None = None, split: int | None = None, scalars_key: str = "scalars",
-                      dataset_key: str = "mesh", split_key: str = "split"
+                      dataset_key: str = "mesh", split_key: str = "split", notes: dict | None = None
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
     """``(points, tets, scalars, cell_start)`` of an in-memory pyvista data set: tet-only grids as they
     are, other cells split into tets (see :mod:`warpvol.scene.loaders`).
@@ -100,7 +100,8 @@ def dataset_arrays(ds, scalars: str | None, *, name: str = "mesh",
     ``scalars`` names a point-data array (one component). ``split`` (structured grids only) is the
     number of tets per hex cell: 6 (Kuhn split, the default) or 5 (alternating 5-tet split).
     ``source`` names the data set in messages (default: its type); ``scalars_key`` and
-    ``dataset_key`` are the argument or key names errors start with.
+    ``dataset_key`` are the argument or key names errors start with. Ghost cells of an unstructured grid
+    are dropped (:func:`drop_ghosts`); ``notes`` (a dict, if given) gets the counts of what was dropped.
     """
     import pyvista as pv
 
@@ -147,6 +148,74 @@ def dataset_arrays(ds, scalars: str | None, *, name: str = "mesh",
         raise ConfigError(f"{dataset_key}: {p} is a {type(ds).__name__}, which has no volume cells; "
                           "expected an unstructured, structured, image or rectilinear grid")
 
+    notes = {} if notes is None else notes
+    ds, weld = drop_ghosts(ds, notes, name)
+    points, tets, values, cell_start = _unstructured_arrays(ds, scalars, name, notes)
+    if weld is not None:  # the ghost points left (copies of a neighbour piece's points) join their owners
+        tets = np.concatenate([weld, np.arange(len(weld), len(points))])[tets]  # (+ points the split added)
+        used = np.unique(tets)
+        if len(used) < len(points):
+            remap = np.full(len(points), -1, dtype=np.int64)
+            remap[used] = np.arange(len(used))
+            points, values, tets = points[used], values[used], remap[tets]
+    return points, tets, values, cell_start
+
+
+#: vtkGhostType bits (vtkDataSetAttributes): a cell another piece owns, a cell or point not in the data set
+_DUPLICATECELL, _HIDDENCELL, _DUPLICATEPOINT, _HIDDENPOINT = 1, 32, 1, 2
+_GHOSTS = "vtkGhostType"
+
+
+def drop_ghosts(ds, notes: dict, name: str = "mesh"):
+    """``(ds, weld)``: an unstructured grid without its ghost cells (``vtkGhostType`` cells another piece
+    owns, as the pieces of a ``.pvtu`` written with ghost levels carry them) and without cells that use a
+    hidden point; ``weld`` maps each point of the result to the point it stands for (a ghost point onto
+    the owned point at the same position), or is ``None`` when nothing was dropped. ``notes`` gets
+    ``ghost_cells_dropped`` and ``hidden_cells_dropped`` (when not 0) and ``ghost_points_joined``.
+
+    Written here rather than with ``vtkRemoveGhosts``: that filter drops the point flags the joining of
+    the pieces needs.
+    """
+    cg = np.asarray(ds.cell_data[_GHOSTS]) if _GHOSTS in ds.cell_data else np.zeros(ds.n_cells, np.uint8)
+    pg = np.asarray(ds.point_data[_GHOSTS]) if _GHOSTS in ds.point_data else np.zeros(ds.n_points, np.uint8)
+    ghost = (cg & _DUPLICATECELL) != 0
+    hidden = (cg & _HIDDENCELL) != 0
+    if (pg & _HIDDENPOINT).any():
+        conn = np.asarray(ds.cell_connectivity)
+        uses = np.add.reduceat((pg[conn] & _HIDDENPOINT) != 0, np.asarray(ds.cell_offsets)[:-1]) > 0
+        hidden |= uses & ~ghost
+    drop = ghost | hidden
+    if not drop.any():
+        return ds, None
+    for key, n in (("ghost_cells_dropped", ghost.sum()), ("hidden_cells_dropped", (hidden & ~ghost).sum())):
+        if n:
+            notes[key] = int(n)
+    if drop.all():
+        raise MeshError(f"{name}: every cell is a ghost or hidden cell ({int(drop.sum())} cells)")
+    out = ds.extract_cells(np.flatnonzero(~drop))
+    pts = np.asarray(out.points, dtype=np.float64)
+    weld = np.arange(out.n_points)
+    if _GHOSTS in out.point_data:
+        dup = (np.asarray(out.point_data[_GHOSTS]) & _DUPLICATEPOINT) != 0
+        if dup.any() and (~dup).any():
+            _, key = np.unique(pts, axis=0, return_inverse=True)
+            key = key.ravel()
+            owner = np.full(key.max() + 1, -1, dtype=np.int64)
+            own = np.flatnonzero(~dup)
+            owner[key[own]] = own
+            target = owner[key[dup]]
+            found = target >= 0
+            weld[np.flatnonzero(dup)[found]] = target[found]
+            if found.any():
+                notes["ghost_points_joined"] = int(found.sum())
+    return out, weld
+
+
+def _unstructured_arrays(ds, scalars: str, name: str, notes: dict):
+    """:func:`dataset_arrays` of an unstructured grid whose ghost cells are gone."""
+    import pyvista as pv
+
+    arr = np.asarray(ds.point_data[scalars])
     points = np.asarray(ds.points, dtype=np.float64)
     values = arr.reshape(-1).astype(np.float64)
     ctypes = np.asarray(ds.celltypes)
@@ -167,7 +236,7 @@ def dataset_arrays(ds, scalars: str | None, *, name: str = "mesh",
                 raise MeshError(f"{name}: no volume cells (cell types {sorted(kinds)}); "
                                 "only 2D/1D cells cannot be split into tets")
             points, values, tets, cell_start = split_cells(points, values, ctypes, np.asarray(ds.cell_offsets),
-                                                           conn)
+                                                           conn, notes)
             return points, tets, values, cell_start
         from vtkmodules.vtkFiltersGeneral import vtkDataSetTriangleFilter
 
@@ -193,7 +262,7 @@ def dataset_arrays(ds, scalars: str | None, *, name: str = "mesh",
 
 
 def pyvista_arrays(dataset: Any, scalars: str | None = None, split: int | None = None, *,
-                   name: str | None = None, arg: str = "dataset"):
+                   name: str | None = None, arg: str = "dataset", notes: dict | None = None):
     """``(points, tets, scalars, cell_start, name)`` of a pyvista (or VTK) data set, converted as scene
     files are (see :meth:`warpvol.TetMesh.from_pyvista`)."""
     ds = as_pyvista_dataset(dataset, arg)
@@ -202,7 +271,8 @@ def pyvista_arrays(dataset: Any, scalars: str | None = None, split: int | None =
         if scalars is None and len(ds.point_data.keys()) == 1:
             scalars = ds.point_data.keys()[0]
     name = name or f"pyvista {type(ds).__name__}"
-    return (*dataset_arrays(ds, scalars, split=split, name=name, scalars_key="scalars", dataset_key=arg), name)
+    return (*dataset_arrays(ds, scalars, split=split, name=name, scalars_key="scalars", dataset_key=arg,
+                            notes=notes), name)
 
 
 def mesh_to_pyvista(mesh, scalars_name: str = "scalars"):

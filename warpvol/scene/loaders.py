@@ -25,7 +25,12 @@ How cells become tets
   skipped) are split by :func:`warpvol.scene.split_cells.split_cells`: every quad face is cut along the
   diagonal through its smallest vertex key (the rank of the vertex position), so two cells sharing
   a quad face cut it alike and the tets conform (Dompierre et al. 1999). Each cell's tets are
-  consecutive (``cell_start``).
+  consecutive (``cell_start``). A collapsed cell (one point at several corners: a hexahedron on an
+  O-grid axis is a wedge) loses the pieces that have no volume or cancel, counted in
+  :attr:`TetMesh.load_notes`.
+* Ghost cells of unstructured grids (``vtkGhostType``: the layer a ``.pvtu`` piece carries from its
+  neighbours) and cells using a hidden point are dropped and counted; the pieces' copies of each
+  other's points are joined (:func:`warpvol.scene.interop.drop_ghosts`).
 * Any other cell type (polyhedra, higher-order cells) goes through VTK's
   ``vtkDataSetTriangleFilter`` (tets only). Faces that do not conform after that are counted by
   :class:`~warpvol.scene.mesh.TetMesh` (``crack_faces``, ``nonconforming_faces``) and walked by the
@@ -148,17 +153,20 @@ def mesh_from_dataset(ds, scalars: str | None, *, strict: bool = False, name: st
                       dataset_key: str = "mesh", split_key: str = "split") -> TetMesh:
     """Turn an in-memory pyvista data set into a :class:`TetMesh` (see the module docstring and
     :func:`warpvol.scene.interop.dataset_arrays`)."""
+    notes: dict = {}
     points, tets, values, cell_start = interop.dataset_arrays(
         ds, scalars, name=name, source=source, split=split, scalars_key=scalars_key, dataset_key=dataset_key,
-        split_key=split_key)
-    return TetMesh(points, tets, values, name=name, strict=strict, cell_start=cell_start)
+        split_key=split_key, notes=notes)
+    return TetMesh(points, tets, values, name=name, strict=strict, cell_start=cell_start, load_notes=notes)
 
 
 def mesh_from_pyvista(dataset: Any, scalars: str | None = None, split: int | None = None, *,
                       strict: bool = False, name: str | None = None, arg: str = "dataset") -> TetMesh:
     """:meth:`TetMesh.from_pyvista` with the argument name ``arg`` in messages."""
-    points, tets, values, cell_start, name = interop.pyvista_arrays(dataset, scalars, split, name=name, arg=arg)
-    return TetMesh(points, tets, values, name=name, strict=strict, cell_start=cell_start)
+    notes: dict = {}
+    points, tets, values, cell_start, name = interop.pyvista_arrays(dataset, scalars, split, name=name, arg=arg,
+                                                                    notes=notes)
+    return TetMesh(points, tets, values, name=name, strict=strict, cell_start=cell_start, load_notes=notes)
 
 
 # -- PLOT3D ---------------------------------------------------------------------------------------

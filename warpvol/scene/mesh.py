@@ -66,6 +66,10 @@ class TetMesh:
         .. cell_start[c + 1]`` are cell ``c``; loaders set it when they split convex cells). Only the
         VSBUFFER renderer uses it, to draw such cells whole (``vsb_setup cells = "native"``); dropped
         zero-volume tets leave their cells, a cell left without tets is dropped.
+    load_notes : dict, optional
+        What the loader left out of the data set it read, as counts (ghost cells of other pieces,
+        zero-volume pieces of collapsed cells, ...); every render's report repeats them under
+        ``"mesh_notes"``.
 
     Examples
     --------
@@ -75,8 +79,9 @@ class TetMesh:
     """
 
     def __init__(self, points, tets, scalars, *, name: str = "mesh", strict: bool = False,
-                 zero_volume_rtol: float = 1e-12, cell_start=None):
+                 zero_volume_rtol: float = 1e-12, cell_start=None, load_notes: dict | None = None):
         self.name = name
+        self.load_notes = dict(load_notes or {})
         # copies: the caller's arrays stay writable and later edits to them cannot reach the mesh
         points = _as_array(name, "points", points, np.float64)
         tets = _as_array(name, "tets", tets, None)
@@ -414,8 +419,10 @@ class TetMesh:
         >>> TetMesh.from_pyvista(grid, scalars="x").n_tets, TetMesh.from_pyvista(grid, "x", split=5).n_tets
         (48, 40)
         """
-        points, tets, values, cell_start, name = interop.pyvista_arrays(dataset, scalars, split, name=name)
-        return cls(points, tets, values, name=name, strict=strict, cell_start=cell_start)
+        notes: dict = {}
+        points, tets, values, cell_start, name = interop.pyvista_arrays(dataset, scalars, split, name=name,
+                                                                        notes=notes)
+        return cls(points, tets, values, name=name, strict=strict, cell_start=cell_start, load_notes=notes)
 
     def to_pyvista(self, scalars_name: str = "scalars"):
         """This mesh as a ``pyvista.UnstructuredGrid`` of tets with the scalars as active point data.

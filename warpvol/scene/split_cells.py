@@ -12,6 +12,14 @@ the reference cell without added points is enumerated once (exact integer arithm
 diagonal configuration gets one with the fewest tets. A configuration no triangulation matches
 (possible for hexahedra only, never under the smallest-key rule) is split around an added centre
 point whose scalar is the mean of the cell's corners.
+
+A collapsed cell names one point at several corners (a hexahedron on the axis of an O-grid has a
+face collapsed onto an edge: a wedge; a face collapsed onto a point: a pyramid). Its split is
+taken as the split of the cell before the collapse, moved with the points: pieces that name a
+point twice have no volume, and two pieces that become the same tet with opposite orientations
+cancel (they lay on either side of a face the collapse flattened). Both are dropped, and what
+remains tiles the collapsed cell, since the signed volumes of a split sum to the cell's volume
+for any corner positions. :func:`split_cells` counts them (``notes``).
 """
 
 from __future__ import annotations
@@ -20,6 +28,8 @@ import itertools
 from functools import lru_cache
 
 import numpy as np
+
+from warpvol.errors import MeshError
 
 VTK_TETRA, VTK_VOXEL, VTK_HEXAHEDRON, VTK_WEDGE, VTK_PYRAMID = 10, 11, 12, 13, 14
 #: cell types split here (others with volume go through VTK's triangulation filter)
@@ -144,13 +154,15 @@ def quad_bits(keys: np.ndarray, quads: np.ndarray) -> np.ndarray:
 
 
 def split_cells(points: np.ndarray, scalars: np.ndarray, cell_types: np.ndarray, offsets: np.ndarray,
-                conn: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                conn: np.ndarray, notes: dict | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Split the volume cells of an unstructured grid (types :data:`SPLIT_TYPES`; cells of
     :data:`FLAT_TYPES` are skipped) into conforming tets.
 
     ``offsets`` (C + 1) and ``conn`` are VTK's cell arrays. Returns ``(points, scalars, tets,
     cell_start)``: points and scalars gain one centre point per cell split around its centre (none
     under the smallest-key rule); the tets of each cell are consecutive, cells in input order.
+    The pieces of collapsed cells that have no volume or cancel are dropped (see the module
+    docstring); ``notes`` (a dict, if given) gets ``collapsed_cells`` and ``collapsed_pieces_dropped``.
     """
     cell_types = np.asarray(cell_types)
     offsets = np.asarray(offsets, dtype=np.int64)
@@ -197,6 +209,12 @@ def split_cells(points: np.ndarray, scalars: np.ndarray, cell_types: np.ndarray,
         return points, scalars, np.zeros((0, 4), dtype=np.int64), np.zeros(1, dtype=np.int64)
     cell = np.concatenate(parts_cell)
     tets = np.concatenate(parts_tets)
+    keep = _collapsed_pieces(points, cell, tets, cell_types)
+    if not keep.all():
+        if notes is not None:
+            notes["collapsed_cells"] = int(len(np.unique(cell[~keep])))
+            notes["collapsed_pieces_dropped"] = int((~keep).sum())
+        cell, tets = cell[keep], tets[keep]
     order = np.argsort(cell, kind="stable")
     cell, tets = cell[order], tets[order]
     counts = np.bincount(cell, minlength=len(cell_types))
@@ -214,3 +232,50 @@ def _boundary_triangles(cell_type: int, cfg: int) -> np.ndarray:
         else:
             tris += [[q[0], q[1], q[2]], [q[2], q[3], q[0]]]
     return np.array(tris, dtype=np.int64)
+
+
+def _parity(rows: np.ndarray) -> np.ndarray:
+    """(T,) parity (0 even, 1 odd) of the permutation that sorts each row of ``rows`` (T, 4)."""
+    perm = np.argsort(rows, axis=1, kind="stable")
+    inv = sum((perm[:, i] > perm[:, j]).astype(np.int64) for i in range(4) for j in range(i + 1, 4))
+    return inv % 2
+
+
+def _collapsed_pieces(points: np.ndarray, cell: np.ndarray, tets: np.ndarray, cell_types: np.ndarray) -> np.ndarray:
+    """(T,) bool: the split tets to keep. Pieces of a split cell (not a tet) that name a point twice
+    are dropped, and so are pairs of pieces of one cell with the same points in opposite orientations
+    (see the module docstring). Pieces left that coincide, or that turn opposite ways (the flattened
+    cell folds over itself), would overlap: an error naming the cell."""
+    srt = np.sort(tets, axis=1)
+    keep = ~((srt[:, 1:] == srt[:, :-1]).any(axis=1) & (cell_types[cell] != VTK_TETRA))
+    if keep.all():
+        return keep
+    bad = np.unique(cell[~keep])
+    idx = np.flatnonzero(np.isin(cell, bad) & keep)  # the other pieces of the collapsed cells
+    rows = np.column_stack([cell[idx], srt[idx]])
+    _, inv, counts = np.unique(rows, axis=0, return_inverse=True, return_counts=True)
+    inv = inv.ravel()
+    dup = counts[inv] > 1
+    if dup.any():
+        par = _parity(tets[idx])
+        odd = np.bincount(inv, weights=par, minlength=len(counts))
+        if (counts > 2).any() or (odd[counts == 2] != 1).any():
+            _overlap(int(cell[idx[np.argmax(dup)]]), cell, tets)
+        keep[idx[dup]] = False
+    idx = idx[keep[idx]]
+    p = points[tets[idx]]
+    vol6 = np.einsum("ij,ij->i", p[:, 1] - p[:, 0], np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0]))
+    size = np.abs(p - p[:, :1]).max(axis=(1, 2))
+    tiny = np.abs(vol6) <= 1e-12 * size ** 3
+    pos = np.zeros(len(cell_types), dtype=bool)
+    neg = np.zeros(len(cell_types), dtype=bool)
+    pos[cell[idx[(vol6 > 0) & ~tiny]]] = True
+    neg[cell[idx[(vol6 < 0) & ~tiny]]] = True
+    if (pos & neg).any():  # the flattened cell folds over itself: its pieces overlap
+        _overlap(int(np.argmax(pos & neg)), cell, tets)
+    return keep
+
+
+def _overlap(c: int, cell: np.ndarray, tets: np.ndarray):
+    raise MeshError(f"cell {c} (points {np.unique(tets[cell == c]).tolist()}) collapses so that the pieces "
+                    "of its split overlap; a collapsed cell must be a wedge, pyramid or tet")
