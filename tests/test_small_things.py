@@ -47,3 +47,21 @@ def test_compare_figure_shows_a_declined_pipeline_with_its_reason():
     assert "cross the eye plane" in text and not panel.images
     assert len([ax for ax in fig.axes if ax.images]) == 2  # raycast's image and error map
     matplotlib.pyplot.close(fig)
+
+
+@pytest.mark.parametrize("which", ["distance", "wavelet"])
+def test_default_transfer_function_uses_the_range(which):
+    """A mesh on its own (default colour map, opacity ramp and camera) gives an image whose brightest channel
+    comes near the colour map's brightness and whose mesh is neither empty nor opaque."""
+    import numpy as np
+    import pyvista as pv
+
+    if which == "distance":
+        grid = pv.ImageData(dimensions=(12, 12, 12), spacing=(0.2, 0.2, 0.2))
+        grid.point_data["r"] = np.linalg.norm(grid.points - 1.1, axis=1)
+    else:
+        grid = pv.Wavelet(extent=(-5, 5, -5, 5, -5, 5))
+    img = warpvol.render(grid, size=48).image
+    covered = img[..., 3] > 1e-3
+    assert img[..., :3].max() >= 0.6
+    assert 0.35 <= img[covered][:, 3].mean() <= 0.85

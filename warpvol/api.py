@@ -346,7 +346,7 @@ def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = 
     transfer : None, colour-map name, TransferFunction, ParaView preset, VTK functions or vtkVolumeProperty
         ``None``: the ``"viridis"`` colour map over the point scalars' range with ParaView's opacity
         ramp (extinction rising linearly, scaled so an average ray gathers an optical depth of about
-        2); a name: any matplotlib
+        6); a name: any matplotlib
         colour map or ParaView preset name the same way (:mod:`warpvol.scene.defaults`; an unknown
         name is an error listing the closest). A preset is a ``.json`` file or its dict
         (:meth:`TransferFunction.from_paraview`); a ``(vtkColorTransferFunction,

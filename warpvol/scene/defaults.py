@@ -7,9 +7,10 @@ shows all of it.
   ramp: extinction rising linearly from 0 at the low end of the scalar range to ``extinction_max``
   at the high end. An unknown name is an error listing the closest names.
 * :func:`default_extinction`: the top of the ramp chosen so that an average ray through the mesh
-  (its mean chord, ``4 volume / boundary area``) gathers an optical depth of about 2 (opacity
-  ~0.86) over the mean of its scalars: neither an empty nor an opaque image, whatever the mesh's
-  units, shape or scalar distribution.
+  (its mean chord, ``4 volume / boundary area``) gathers an optical depth of about 6 over the mean of
+  its scalars: the brightest parts come near the colour map's own brightness and most of the mesh is
+  half transparent, neither an empty nor an opaque image, whatever the mesh's units, shape or scalar
+  distribution.
 * :func:`default_scene`: the mesh, :func:`default_transfer` and :meth:`Camera.fit`.
 
 Examples
@@ -40,7 +41,7 @@ DEFAULT_COLORMAP = "viridis"
 #: image size of :func:`default_scene` (pyvista's default window)
 DEFAULT_SIZE = (512, 512)
 #: mean optical depth of a ray through the mesh under :func:`default_extinction`
-DEFAULT_DEPTH = 2.0
+DEFAULT_DEPTH = 6.0
 #: control points of a colour-map transfer function (colours sampled uniformly over the range)
 COLORMAP_POINTS = 33
 
