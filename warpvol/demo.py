@@ -21,13 +21,13 @@ def demo_page(scene, report: dict, err_max: float) -> str:
     cam, e = scene.camera, report["error"]
     bg = ", ".join(f"{v:g}" for v in DEMO_BACKGROUND)
     figures = [
-        dict(file="image.png", title="image",
+        dict(file="image.png", title="image", chart=False,
              text=f"what the {report['pipeline']} pipeline rendered: premultiplied RGBA composited over grey ({bg}), "
                   "8 bits per channel (full precision in image.exr)."),
-        dict(file="reference.png", title="reference",
+        dict(file="reference.png", title="reference", chart=False,
              text="the exact float64 ray integral of the same scene (warpvol reference), composited the same way "
                   "(reference.exr)."),
-        dict(file="error.png", title="error",
+        dict(file="error.png", title="error", chart=True,
              text=f"per pixel, the largest |image - reference| over R, G, B and A, on a logarithmic colour scale "
                   f"from {ERROR_FLOOR:.0e} to the maximum ({err_max:.2e}); one step of an 8-bit channel is 3.9e-3."),
     ]

@@ -78,9 +78,14 @@ def draw_error(ax, err: np.ndarray, norm, *, colorbar: bool = True):
     return im
 
 
+#: height in pixels of the text (title, colour-bar ticks and label) in :func:`error_png_bytes`'s PNG
+ERROR_PNG_TEXT_PX = 13
+
+
 def error_png_bytes(err: np.ndarray, *, title: str | None = None, norm=None) -> bytes:
     """A PNG of error map ``err`` (H, W) on a logarithmic colour scale with its colour bar (the scale
-    written beside it), the map drawn at least 256 pixels high (each error pixel a block of pixels)."""
+    written beside it), the map drawn at least 256 pixels high (each error pixel a block of pixels) and its
+    text :data:`ERROR_PNG_TEXT_PX` pixels high, legible when the PNG is shown at its own size."""
     import io
 
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -90,20 +95,20 @@ def error_png_bytes(err: np.ndarray, *, title: str | None = None, norm=None) -> 
     norm = error_norm(err) if norm is None else norm
     h, w = err.shape
     s = max(1, int(np.ceil(256 / max(h, 1))))
-    W, H, left, bottom, top = w * s + 190, h * s + 56, 10, 16, 40  # figure and margins in pixels
     dpi = 100
+    pt = ERROR_PNG_TEXT_PX * 72 / dpi  # font size in points for text that many pixels high
+    W, H, left, bottom, top = w * s + 110, h * s + 80, 10, 16, 64  # figure and margins in pixels
     fig = Figure(figsize=(W / dpi, H / dpi), dpi=dpi)
     FigureCanvasAgg(fig)
     ax = fig.add_axes((left / W, bottom / H, w * s / W, h * s / H))
     draw_error(ax, err, norm, colorbar=False)
     cax = fig.add_axes(((left + w * s + 14) / W, bottom / H, 12 / W, h * s / H))
     cb = fig.colorbar(ax.images[0], cax=cax)
-    cb.set_label(ERROR_LABEL, fontsize=7)
-    cb.ax.tick_params(labelsize=7)
-    text = title if title is not None else (f"max |error| {float(err.max()):.2e}; log scale {norm.vmin:.0e} .. "
-                                            f"{norm.vmax:.1e}\n(errors below {norm.vmin:.0e}, exact pixels too, "
-                                            "take the lowest colour)")
-    fig.text(left / W, 1 - 4 / H, text, fontsize=7, va="top")
+    cb.ax.tick_params(labelsize=pt)  # what the colours mean is the title's first line (a vertical label would not fit)
+    text = title if title is not None else ("max |image - reference| over RGBA\n"
+                                            f"log scale {norm.vmin:.0e} .. {norm.vmax:.1e}, max {float(err.max()):.2e}\n"
+                                            f"(below {norm.vmin:.0e}, exact too: the lowest colour)")
+    fig.text(left / W, 1 - 4 / H, text, fontsize=pt, va="top")
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi)
     return buf.getvalue()
