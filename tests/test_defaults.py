@@ -197,7 +197,7 @@ def test_error_maps_share_one_logarithmic_scale(tmp_path):
     png = read_png(tmp_path / "e.png")
     assert png.shape[1] > png.shape[0] >= 256
     cols = [len({tuple(p) for p in png[:, j, :3]}) for j in range(png.shape[1])]
-    assert max(cols[png.shape[0]:]) > 50  # a gradient column right of the map: the colour bar
+    assert max(cols[10 + 256 + 2:]) > 50  # a gradient column right of the map (10 px margin, 256 px): the colour bar
     # on a log scale 1e-6 sits two thirds up from 1e-8 to 1e-2 (linear scaling would put it at 1e-4)
     lo, hi = np.log10(ERROR_FLOOR), np.log10(1e-2)
     frac = matplotlib.colors.LogNorm(1e-8, 1e-2)(1e-6)
