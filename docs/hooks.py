@@ -51,6 +51,24 @@ MARKER = re.compile(r"(?<!`)<!--\s*(table|bench|presets|preset|cli|architecture-
 
 
 # -- formatting -----------------------------------------------------------------------------------
+CODE_SPAN = re.compile(r"(`[^`\n]*`)")
+#: characters of plain text that Markdown would read as markup: backslash-escaped
+MD_SPECIAL = re.compile(r"([\\*_\[\]#|])")
+
+
+def md_text(text: str) -> str:
+    """Text from a JSON file as Markdown that shows it as written: ``*``, ``_``, ``[``, ``]``, ``#``, ``|``
+    and ``\\`` escaped, ``<`` and ``>`` as entities, newlines as spaces; `code spans` (the notes' way of
+    naming a constant) are kept as code.
+
+    >>> print(md_text("5.6 s x pixels / (450*450*2*450), `a_b*c` <ok>"))
+    5.6 s x pixels / (450\\*450\\*2\\*450), `a_b*c` &lt;ok&gt;
+    """
+    parts = CODE_SPAN.split(str(text).replace("\n", " "))
+    return "".join(p if k % 2 else MD_SPECIAL.sub(r"\\\1", p).replace("<", "&lt;").replace(">", "&gt;")
+                   for k, p in enumerate(parts))
+
+
 def _cell(v) -> str:
     if v is None:
         return "-"
@@ -67,7 +85,7 @@ def _cell(v) -> str:
         return ", ".join(_cell(x) for x in v)
     if isinstance(v, dict):
         return ", ".join(f"{k} {_cell(x)}" for k, x in v.items())
-    return str(v).replace("|", "\\|").replace("\n", " ")
+    return md_text(v)
 
 
 def markdown_table(columns: list[str], rows: list) -> str:
@@ -104,7 +122,7 @@ def paper_table(arg: str) -> str:
     out.append(markdown_table(cols, rows))
     src = t.get("source") or data.get("source")
     if t.get("notes"):
-        out.append(f"\n{t['notes']}")
+        out.append(f"\n{md_text(t['notes'])}")
     if src:
         out.append(f"\n*Generated from `docs/data/{paper}.json` (`{src}`).*")
     return "\n".join(out) + "\n"

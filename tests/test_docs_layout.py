@@ -48,3 +48,42 @@ def test_demo_error_map_is_shown_at_its_own_size(tmp_path, browser, capsys):
     w, natural = shown["error.png"]
     assert natural > 0 and w >= natural, shown  # not shrunk: its text stays ERROR_PNG_TEXT_PX high
     assert ERROR_PNG_TEXT_PX >= 12
+
+
+def _hooks():
+    sys.path.insert(0, str(ROOT / "docs"))
+    try:
+        import hooks
+    finally:
+        sys.path.pop(0)
+    return hooks
+
+
+def _json_texts():
+    import json
+
+    for path in sorted((ROOT / "docs" / "data").glob("*.json")):
+        tables = json.loads(path.read_text()).get("tables") or {}
+        for name, t in tables.items():
+            for key in ("title", "notes"):
+                if isinstance(t.get(key), str):
+                    yield f"{path.stem}/{name}/{key}", t[key]
+
+
+def test_text_from_json_shows_as_written_in_markdown():
+    """Notes and titles of the generated tables (and a formula with ``*``) come out of Markdown as their own
+    text: no emphasis, no link, no HTML from plain characters; `code` stays code."""
+    import html
+    import re
+
+    import markdown
+
+    hooks = _hooks()
+    texts = dict(_json_texts())
+    texts["formula"] = "5.6 s x pixels read / (450*450*2*450) + 4.47 us; a_b_c, [x], <tag>, #1 & `k_1*2`"
+    assert "westermann1997/table1/notes" in texts
+    for key, text in texts.items():
+        out = markdown.markdown(hooks.md_text(text), extensions=["tables"])
+        assert not re.search(r"<(em|strong|a|h\d)\b", out), (key, out)
+        shown = html.unescape(re.sub(r"<[^>]+>", "", out)).strip()
+        assert shown == " ".join(text.replace("`", "").split()), key
