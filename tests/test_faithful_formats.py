@@ -54,3 +54,25 @@ def test_kraus2004_full_runs_every_enhancement_on_every_scene():
     s = skip.render(sc, quiet=True)
     assert s.report["counters"]["pt_table3d"]["combiner_ops"] == (7 + 1) * c["fragments"]
     assert np.abs(np.asarray(s.image) - np.asarray(res.image)).max() < 1e-3  # w = 1: the same image
+
+
+def test_guthe_presets_build_their_tables_as_the_paper_did():
+    """Guthe et al. 2002 §4: the Radeon 8500 builds the colour slices by 12-bit ping-pong filtering (m = 128,
+    4 steps per pass, one pass sequence per colour channel); the GeForce4 cannot (saturation loses the low
+    bits), so its presets use the paper's software build with the same m. Exact slices are an option."""
+    from test_pt_render import preset
+
+    want = {"guthe2002_linear": ("software", None), "guthe2002_quadratic_gf4": ("software", None),
+            "guthe2002_quartic_radeon": ("pingpong", "radeon8500")}
+    for name, (slices, gpu) in want.items():
+        t = _stage(Pipeline.load(name), "table_guthe")
+        assert t["slices"] == slices and t["m"] == 128 and (gpu is None or t["gpu"] == gpu), name
+    sc = builtin_scene("linear_box").with_camera(width_px=16, height_px=16)
+    r = preset("guthe2002_quartic_radeon", table_guthe={"n_s": 16}).render(sc, quiet=True)
+    c = r.report["counters"]["table_guthe"]
+    assert c["passes"] == 4 * 3 * (128 // 4) and c["writes_unorm8"] == c["fragments"]  # 4 slices x 3 channels
+    q = preset("guthe2002_quadratic_gf4", table_guthe={"n_s": 16}).render(sc, quiet=True)
+    assert q.report["counters"]["table_guthe"]["sw_samples"] == 2 * 16 * 16 * 128  # 2 slices, m samples each
+    e = preset("guthe2002_quadratic_gf4", table_guthe={"n_s": 16, "slices": "exact"}).render(sc, quiet=True)
+    assert "sw_samples" not in e.report["counters"].get("table_guthe", {})
+    assert 0 < np.abs(np.asarray(q.image) - np.asarray(e.image)).max() <= 1.5 / 255  # m = 128 samples vs exact

@@ -53,8 +53,13 @@ roettger2002_hw         2e-2         0.15           preset as shipped (64^3, 128
                                                     / 0.071, stiff 6.3e-3 / 0.082
 guthe2002_*            5e-3         5e-2         presets with n_s = 64 (shipped: 512), box, linear_box,
                                                  concave, stiff 48^2 (colour x extinction only); seen
-                                                 linear <= 3.0e-3 / 2.9e-2, degree 2 and 4 <= 3.05e-3 /
-                                                 2.9e-2 (8-bit buffer and texels dominate)
+                                                 linear <= 3.2e-3 / 2.9e-2, degree 2 <= 3.0e-3 / 2.9e-2
+                                                 (software slices, m = 128; 8-bit buffer and texels
+                                                 dominate)
+guthe2002_quartic_     4.5e-2       0.25         the Radeon 8500 preset: 12-bit ping-pong slices (m =
+radeon                                           128, truncated every pass); seen box 1.33e-2 / 3.5e-2,
+                                                 linear_box 1.38e-2 / 4.0e-2, concave 3.38e-2 / 0.177,
+                                                 stiff 1.06e-2 / 5.9e-2 (exact slices: <= 3.1e-3 / 2.9e-2)
 kraus2004_basic        1.8e-2       0.14         n_s = 64, 8-bit table and buffer, uniform l axis, all
                                                  built-ins 48^2; seen <= 1.16e-2 / 9.0e-2 (sphere's narrow
                                                  peak); stiff row 6e-3 / 5e-2 (seen 3.4e-3 / 2.9e-2)
@@ -121,7 +126,7 @@ TOLERANCES = {
     "roettger2002_cylindrical": {"rmse": 2.5e-2, "max_abs": 0.2},
     "guthe2002_linear": {"rmse": 0.005, "max_abs": 0.05},
     "guthe2002_quadratic_gf4": {"rmse": 0.005, "max_abs": 0.05},
-    "guthe2002_quartic_radeon": {"rmse": 0.005, "max_abs": 0.05},
+    "guthe2002_quartic_radeon": {"rmse": 0.045, "max_abs": 0.25},
     "kraus2004_basic": {"rmse": 0.018, "max_abs": 0.14},
     "kraus2004_basic/stiff": {"rmse": 0.006, "max_abs": 0.05},
     "kraus2004_full": {"rmse": 0.016, "max_abs": 0.15},

@@ -43,6 +43,10 @@ ALPHA_FORMATS = ("al16", "rgba8", "fp32")
 ALPHA_MIN = 1e-6
 
 
+#: how the colour slices are integrated: the paper's software build, its hardware ping-pong build, exactly
+SLICES = ("software", "pingpong", "exact")
+
+
 def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_alpha: int = 1024,
                   format: str = "snorm8", alpha_format: str = "al16", slices: str = "exact", m: int = 128,
                   gpu: str = "radeon8500", scales: str = "free", device: str = "cpu",
@@ -68,10 +72,14 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
     alpha_format : str
         ``al16`` (16-bit A/L pair, the paper), ``rgba8`` (8-bit alpha) or ``fp32``.
     slices : str
-        How the colour slices ``C(l_i)`` are integrated: ``exact`` (software) or ``pingpong``
-        (hardware, Radeon 8500 ping-pong filtering with ``m`` steps; §4).
+        How the colour slices ``C(l_i)`` are integrated: ``software`` (the paper's software build, §4:
+        ``m`` samples along the segment, each step blending the sample's colour and opacity,
+        ``C = kappa a + (1 - a) C`` with ``a = 1 - exp(-(l/m) rho)``, in float32; the table's alpha
+        for ``C / alpha`` is the same samples' opacity), ``pingpong`` (hardware, ping-pong filtering
+        with ``m`` steps at 12 bits on the card ``gpu``; §4) or ``exact`` (the exact integral of the
+        piecewise-linear TF: no paper's build, an improvement).
     m : int
-        Integration steps of the ping-pong slices.
+        Integration steps of the software and the ping-pong slices.
     gpu : str
         Ping-pong overflow rule: ``radeon8500`` (bit masking) or ``geforce4`` (saturation, which
         loses the low bits: the paper's reason only the Radeon builds these tables).
@@ -98,7 +106,7 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
     n_alpha = check_res("n_alpha", n_alpha, 2, 1 << 16)
     check_choice("format", format, COEF_FORMATS)
     check_choice("alpha_format", alpha_format, ALPHA_FORMATS)
-    check_choice("slices", slices, ("exact", "pingpong"))
+    check_choice("slices", slices, SLICES)
     m = check_res("m", m, 1, 1 << 16)
     check_choice("gpu", gpu, ("radeon8500", "geforce4"))
     check_choice("scales", scales, tuple(SCALE_SETS))
@@ -108,11 +116,12 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
     ax_f = scalar_axis("sf", tf, n_s)
     ax_b = scalar_axis("sb", tf, n_s)
     key = table_key("guthe2d", tf.hash, n_s=n_s, degree=degree, lmax=lmax, n_alpha=n_alpha,
-                    alpha_format=alpha_format, slices=slices, m=m if slices == "pingpong" else 0, format=format,
+                    alpha_format=alpha_format, slices=slices, m=m if slices != "exact" else 0, format=format,
                     gpu=gpu if slices == "pingpong" else "")
     key = key if scales == "free" else key + (("scales", scales),)
     key = key if emulate else key + (("emulate", False),)
-    meta = {"builder": "guthe2d", "emission": tf.emission, "lmax": lmax, "degree": degree, "alpha_format": alpha_format}
+    meta = {"builder": "guthe2d", "emission": tf.emission, "lmax": lmax, "degree": degree, "alpha_format": alpha_format,
+            "slices": slices, "m": m if slices != "exact" else None, "gpu": gpu if slices == "pingpong" else None}
     x = farr(ax_f.nodes, device)
     tf_s, tf_v = tf_arrays(tf, device)
     lo, hi = tf.srange
@@ -123,12 +132,23 @@ def build_guthe2d(tf, *, n_s: int = 128, degree: int = 1, lmax: float = 1.0, n_a
         launch_bands(k.guthe_moments, None, n_s, n_s, device, lambda l0, nl, j0, nj: [
             x, x[j0:j0 + nj], lo, hi - lo, tf_s, tf_v, mom[j0:j0 + nj]], pieces=pieces,
             what=f"Guthe moments {n_s}x{n_s}")
+        lengths = farr(lmax * np.arange(1, degree + 1) / degree, device)
         if slices == "exact":
-            lengths = farr(lmax * np.arange(1, degree + 1) / degree, device)
             launch_bands(k.exact_table3d, degree, n_s, n_s, device, lambda l0, nl, j0, nj: [
                 x, x[j0:j0 + nj], lengths[l0:l0 + nl], lo, hi - lo, tf_s, tf_v, model_id(tf),
                 sl[l0:l0 + nl, j0:j0 + nj]], pieces=pieces, what=f"Guthe slices {degree}x{n_s}x{n_s}")
             s = sl.numpy().astype(np.float64)
+        elif slices == "software":
+            # the software step of Roettger & Ertl's eqs. 5-7 for colour times extinction, walked from the back:
+            # each of exactly m samples adds its slab's associated colour kappa (1 - exp(-(l/m) rho))
+            # (oversampling ~0 with n_min = m: m samples for every (sf, sb))
+            launch_bands(k.roettger_sw_table3d, degree, n_s, n_s, device, lambda l0, nl, j0, nj: [
+                x, x[j0:j0 + nj], lengths[l0:l0 + nl], lo, hi - lo, tf_s, tf_v, model_id(tf), 1.0, 1e-9, m, 0,
+                sl[l0:l0 + nl, j0:j0 + nj]], pieces=max(1, m // 2), what=f"Guthe software slices {degree}x{n_s}x{n_s}")
+            s = sl.numpy().astype(np.float64)
+            from warpvol.gpu import counters as cnt
+
+            cnt.count(sw_samples=degree * n_s * n_s * m)
         else:
             from warpvol.tables.pingpong import build_pingpong
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from warpvol.stage import Param, register_stage
+from warpvol.tables.guthe2d import SLICES
 from warpvol.tables.stages.support import LMAX, TableStage, output_param
 
 
@@ -19,8 +20,10 @@ class TableGuthe(TableStage):
     n_alpha       int    1024       alpha1D entries
     format        str    snorm8     coefficients: ``snorm8`` | ``fp16`` | ``fp32``
     alpha_format  str    al16       ``al16`` (A/L pair) | ``rgba8`` | ``fp32``
-    slices        str    exact      colour slices: ``exact`` (software) | ``pingpong`` (emulated)
-    m             int    128        ping-pong integration steps per slice
+    slices        str    software   colour slices: ``software`` (the paper's m-step build) |
+                                    ``pingpong`` (the paper's 12-bit hardware build, emulated) |
+                                    ``exact`` (the exact integral: no paper's, an improvement)
+    m             int    128        integration steps per slice (software and ping-pong)
     gpu           str    radeon8500 ping-pong overflow: ``radeon8500`` (wrap) | ``geforce4`` (saturate)
     scales        str    free       coefficient scale factors: ``free`` (float constants) |
                                     ``nv_combiner`` (1/2..4) | ``ati_fs`` (1/8..8)
@@ -40,8 +43,9 @@ class TableGuthe(TableStage):
         Param("n_alpha", int, 1024, "alpha1D entries", lo=2, hi=65536),
         Param("format", str, "snorm8", "coefficient format", choices=("snorm8", "fp16", "fp32")),
         Param("alpha_format", str, "al16", "alpha1D format", choices=("al16", "rgba8", "fp32")),
-        Param("slices", str, "exact", "colour slices: software or ping-pong filtering", choices=("exact", "pingpong")),
-        Param("m", int, 128, "ping-pong integration steps per slice", lo=1, hi=65536),
+        Param("slices", str, "software", "colour slices: the paper's software or ping-pong build, or exact",
+              choices=SLICES),
+        Param("m", int, 128, "integration steps per slice (software and ping-pong builds)", lo=1, hi=65536),
         Param("gpu", str, "radeon8500", "ping-pong overflow (Radeon wrap / GeForce saturate)",
               choices=("radeon8500", "geforce4")),
         Param("scales", str, "free", "coefficient scale factors the shader can apply",
