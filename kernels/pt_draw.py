@@ -24,6 +24,12 @@ fragments in primitive order, as the per-pixel fragment list does, without writi
 test is ``always`` without depth writes or depth clipping (projected tetrahedra). Counts per tile go
 to ``counts[tile]``: (fragments, fragments whose attributes the clamp moved). Launch dimension: a
 block of tiles from ``tile0`` (blocks of tiles may run concurrently: they own disjoint pixels).
+
+Early termination (``t_min > 0``): the tile's triangles are taken in reverse, front to back, and the
+caller blends with "under" (``one_minus_dst_alpha, one``); a pixel whose remaining transmittance
+``1 - alpha`` is at most ``t_min`` takes no more fragments (not walked through the program), and once
+every pixel of the tile has, the tile's remaining triangles are left. ``skipped[tile]``: (fragments
+left out, bin entries left out).
 """
 
 import warp as wp
@@ -99,12 +105,28 @@ def sfsbl_ray(a: vec8f, mode: int, ortho: int, ray_factor: float) -> wp.vec3:
 def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array(dtype=vec8f),
                      mode: int, ortho: int, ray_len: wp.array2d(dtype=float), tf_s: wp.array(dtype=float),
                      tf_v: wp.array(dtype=wp.vec4), model: int,
-                     bs: BlendState, fb: wp.array2d(dtype=wp.vec4), tile0: int, counts: wp.array(dtype=wp.vec2i)):
+                     bs: BlendState, fb: wp.array2d(dtype=wp.vec4), tile0: int, counts: wp.array(dtype=wp.vec2i),
+                     t_min: float, skipped: wp.array(dtype=wp.vec2i)):
     tile = tile0 + wp.tid()
     nfrag = int(0)
     nclamp = int(0)
     rect = tile_rect(s, tile, fb.shape[1], fb.shape[0])
-    for e in range(s.tile_start[tile], s.tile_end[tile]):
+    # early termination (front to back only): a pixel whose remaining transmittance 1 - alpha is at most
+    # t_min takes no more fragments; once every pixel of the tile has, the tile's other triangles are left
+    area = (rect[2] - rect[0] + 1) * (rect[3] - rect[1] + 1)
+    term = t_min > 0.0
+    done = int(0)
+    nskip = int(0)
+    ntail = int(0)
+    e0 = s.tile_start[tile]
+    ne = s.tile_end[tile] - e0
+    for q in range(ne):
+        if term and done >= area:
+            ntail = ne - q
+            break
+        e = e0 + q
+        if term:  # front to back: the tile's triangles (submitted back to front) in reverse
+            e = e0 + ne - 1 - q
         t = s.tri_of[e]
         span = tile_span(s, t, rect)
         j0 = span[0]
@@ -133,11 +155,19 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
             ry = gy * (float(i) + 0.5 - pa[1])  # the row's term, as the sum below adds it last
             run = row_span(row, sj, j1 - j0 + 1)  # the row's covered pixels: one run
             for j in range(j0 + run[0], j0 + run[1] + 1):
+                d = fb[i, j]
+                if term and 1.0 - d[3] <= t_min:
+                    nskip += 1
+                    continue
                 x = a0 + gx * (float(j) + 0.5 - pa[0]) + ry
                 a, moved = clamp8(x, lo, hi, tol)
                 nfrag += 1
                 nclamp += moved
                 c = exact_color(sfsbl_ray(a, mode, ortho, ray_len[i, j]), tf_s, tf_v, model)
-                fb[i, j] = blend(bs, c, fb[i, j], j, i, t)
+                d = blend(bs, c, d, j, i, t)
+                fb[i, j] = d
+                if term and 1.0 - d[3] <= t_min:
+                    done += 1
             row = row + si
     counts[tile] = wp.vec2i(nfrag, nclamp)
+    skipped[tile] = wp.vec2i(nskip, ntail)

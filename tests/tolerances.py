@@ -19,6 +19,11 @@ planner/skip           1e-6         1e-5         a render with a stage the plann
                                                  on vs the render without it (same pipeline, same
                                                  scene): the skip rule claims the stage changes
                                                  nothing. Seen: 0 / 0 (raycast, peel on convex meshes)
+skip/on_off            1e-6         1e-5         a render with skipping on (invisible cells culled, early
+                                                 termination at a 1e-6 bound, front-to-back blending) vs
+                                                 the same pipeline with skip=False: the cells left out
+                                                 composite as the identity. Seen (pt_best): <= 1.0e-6
+                                                 max_abs (blending order's rounding)
 pt/constant_tf/ortho/   1e-4 / 5e-4  1e-3 / 2.5e-3  projected tetrahedra, constant TF (averaged colour exact):
   fp32 / fp16                            thick vertex rounded to 1/256 px while its (sf, sb, l)
                                          are the exact crossing's; fp32 seen 3.4e-5 / 3.6e-4,
@@ -112,6 +117,7 @@ TOLERANCES = {
     "raycast/fp32": {"rmse": 2e-6, "max_abs": 1e-4},
     "segment/fp32": {"rtol": 2e-5, "atol": 1e-6},
     "planner/skip": {"rmse": 1e-6, "max_abs": 1e-5},
+    "skip/on_off": {"rmse": 1e-6, "max_abs": 1e-5},
     "pt/constant_tf/ortho/fp32": {"rmse": 1e-4, "max_abs": 1e-3},
     "pt/constant_tf/ortho/fp16": {"rmse": 5e-4, "max_abs": 2.5e-3},
     "pt/constant_tf/ortho/unorm12": {"rmse": 4e-4, "max_abs": 2e-3},

@@ -120,3 +120,30 @@ def per_cell(tet_visible: np.ndarray, cell_start: np.ndarray | None) -> np.ndarr
         return tet_visible
     cs = np.asarray(cell_start, dtype=np.int64)
     return np.logical_or.reduceat(tet_visible, cs[:-1]) if len(cs) > 1 else np.zeros(0, dtype=bool)
+
+
+def radiance_bound(tf: TransferFunction, length: float) -> float:
+    """The most any one channel of a pixel can still change, per unit of the ray's remaining
+    transmittance, whatever lies behind: alpha changes by at most the transmittance itself (1); the
+    colour by at most the largest colour channel (``color_extinction``: the colour is weighted by
+    ``rho T``, whose integral is at most 1) or that times ``length``, the longest path through the mesh
+    (``emission_density``: the colour is emitted per unit length)."""
+    c = float(np.abs(np.asarray(tf.points[:, 1:4], dtype=np.float64)).max())
+    if tf.emission == "emission_density":
+        c *= float(length)
+    return max(1.0, c)
+
+
+def termination_threshold(tf: TransferFunction, length: float, max_change: float) -> float:
+    """Early ray termination with a stated bound: the remaining transmittance below which a ray (a
+    pixel) may stop so that no channel of its pixel changes by more than ``max_change``
+    (:func:`radiance_bound`). ``length``: the longest path through the mesh (its bounding box's
+    diagonal will do).
+
+    Examples
+    --------
+    >>> tf = TransferFunction([[0, 0.5, 0.2, 2.0, 1.0], [1, 0.1, 0.1, 0.1, 3.0]])
+    >>> termination_threshold(tf, 3.0, 1e-6)  # colour up to 2: stop at transmittance 5e-7
+    5e-07
+    """
+    return float(max_change) / radiance_bound(tf, length)

@@ -218,7 +218,7 @@ def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
 
 
 def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend, *, batch_tets: int = 65536,
-         device: str = "cpu", bands: int = 1, walk: str = "pixel") -> dict:
+         device: str = "cpu", bands: int = 1, walk: str = "pixel", t_min: float = 0.0) -> dict:
     """Rasterise ``geo`` in batches of ``batch_tets`` tets, run ``program(fragments, tris) -> colours``
     (a ``wp.array`` of vec4, premultiplied RGBA; ``tris`` the batch's triangles on the device, indexed
     by ``fragments.prim``) on each batch and blend into ``fb`` in order.
@@ -232,7 +232,9 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
     ``triangle`` gives the same fragments as the emulated ``pixel`` walk, faster), or ``fused``
     (:func:`exact_program` only: no fragment list; one kernel per bin walks the triangles, runs the
     program and blends in registers, :mod:`warpvol.kernels.pt_draw`: the same fragments in the same
-    order, attributes from plane equations, values equal to float32 rounding).
+    order, attributes from plane equations, values equal to float32 rounding). ``t_min > 0`` (fused
+    only, ``blend`` "under"): front to back with early termination at remaining transmittance ``t_min``
+    (:mod:`warpvol.kernels.pt_draw`), counted as ``fragments_terminated`` and ``bins_terminated``.
     Returns counts (``fragments``, ``batches``, ``attrs_clamped``).
     """
     if walk not in DRAW_WALKS:
@@ -243,7 +245,9 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
     if walk == "fused" and not np.isfinite(vertex_attrs).all():
         raise ConfigError("attrs: holds NaN or Inf")
     if walk == "fused":
-        return _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, bands)
+        return _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, bands, t_min)
+    if t_min > 0:
+        raise ConfigError("early termination: only the fused draw (walk = 'fused') terminates early")
     if bands > 1 and fb.height > 1 and not getattr(blend, "dither", False):
         return _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands, walk)
     from warpvol.gpu.raster import Rasterizer
@@ -271,7 +275,7 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
     return {"fragments": n_frag, "batches": n_batch, "attrs_clamped": int(clamped.numpy()[0])}
 
 
-def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads) -> dict:
+def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads, t_min=0.0) -> dict:
     """:func:`draw` with ``walk="fused"``: per batch, triangle setup and binning, then one kernel thread
     per tile walks, interpolates, clamps, integrates and blends (:mod:`warpvol.kernels.pt_draw`). Tiles
     own disjoint pixels, so on the CPU blocks of tiles are launched from ``threads`` host threads
@@ -300,25 +304,30 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
     rast = Rasterizer(fb.width, fb.height, device=device, tile_size=FUSED_TILE, **RASTER_RULES)
     st = blend.state(fb)
     cpu = str(device).startswith("cpu")
-    n_frag = n_clamped = n_batch = 0
+    n_frag = n_clamped = n_batch = n_skip = n_tail = 0
     m = geo.n_tets
-    for k0 in range(0, m, batch_tets):
+    starts = list(range(0, m, batch_tets))
+    for k0 in starts[::-1] if t_min > 0 else starts:  # early termination: front to back
         k1 = min(m, k0 + batch_tets)
-        detail("pt draw", k0 / m, f"tets {k0:,} of {m:,}")  # an open progress bar shows it
+        detail("pt draw", n_batch * batch_tets / m, f"batch {n_batch + 1} of {len(starts)}")  # an open progress bar
         tr = rast.setup(geo.positions, geo.tris[4 * k0:4 * k1], threads=threads if cpu else 1)
         n_batch += 1
         counts = wp.zeros(tr.n_tiles, dtype=wp.vec2i, device=device)
+        skipped = wp.zeros(tr.n_tiles, dtype=wp.vec2i, device=device)
         # 8 blocks per thread: the mesh covers the tiles unevenly
         tile_blocks = blocks(tr.n_tiles, -(-tr.n_tiles // (8 * threads))) if cpu and threads > 1 else [(0, tr.n_tiles)]
 
-        def run(b, tr=tr, counts=counts, tile_blocks=tile_blocks):
+        def run(b, tr=tr, counts=counts, skipped=skipped, tile_blocks=tile_blocks):
             t0, n = tile_blocks[b]
             wp.launch(pt_draw.k_pt_exact_tiles, dim=n,
                       inputs=[tr.struct, tr.positions, va, fused["mode"], fused["ortho"], ray_len, fused["tf_s"],
-                              fused["tf_v"], fused["model"], st, fb.array, t0, counts], device=device)
+                              fused["tf_v"], fused["model"], st, fb.array, t0, counts, float(t_min), skipped],
+                      device=device)
 
         launch_blocks(device, len(tile_blocks), run, threads=threads)
         nf, nc = (int(x) for x in counts.numpy().astype(np.int64).sum(axis=0))
+        ns, nt = (int(x) for x in skipped.numpy().astype(np.int64).sum(axis=0))
+        n_skip, n_tail = n_skip + ns, n_tail + nt
         n_frag += nf
         n_clamped += nc
         c = cnt.active()
@@ -326,6 +335,8 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
             c.add(fragments=nf, fragments_passed=nf)
         blend.count(fb, nf)
     out = {"fragments": n_frag, "batches": n_batch, "attrs_clamped": n_clamped}
+    if t_min > 0:
+        out.update(fragments_terminated=n_skip, bins_terminated=n_tail)
     if threads > 1 and cpu:
         out["threads"] = threads
     return out

@@ -56,4 +56,5 @@ class Condition(Stage):
         ctx.scene, info = condition_scene(ctx.scene, cache=ctx.persistent.setdefault("condition", {}),
                                           reorder=self.reorder)
         ctx.buffers["conditioned"] = True
+        ctx.buffers.pop("visible_cells", None)  # per cell of the scene before: its cells may be renumbered
         ctx.stats["condition"] = info

@@ -42,7 +42,7 @@ class Visibility(Stage):
     name = "visibility"
     summary = "which cells the transfer function can make visible, from each cell's scalar range (cached)"
     params = ()
-    needs = ("conditioned",)
+    needs = ()  # after ``condition`` where there is one (the mask follows the conditioned mesh's cells)
     provides = ("visible_cells",)
     setup = True  # per (mesh, TF), kept across renders
 

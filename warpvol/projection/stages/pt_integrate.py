@@ -12,6 +12,8 @@ before it the segment is perspective-correct. Writes ``ctx.image``; counts ``fra
 
 from __future__ import annotations
 
+import numpy as np
+
 from warpvol.projection.pt import DRAW_WALKS
 from warpvol.projection.stages.pt_perspective import fragment_inputs
 from warpvol.projection.stages.pt_vertex_color import BATCH, DITHER, composite, fb_param
@@ -32,6 +34,11 @@ class PTIntegrate(Stage):
     row_bands   int    0         [0, 256]; 0 = one per CPU core (1 on       image row bands drawn
                                  other devices)                              concurrently (``fused``:
                                                                              host threads over tiles)
+    early_      float  0         [0, 0.01]; applies with ``fused``          front to back with early
+    termination                  and ``fp32`` (else none)                    termination: a pixel stops
+                                                                             once what could still come
+                                                                             from behind changes no
+                                                                             channel by more than this
     walk        str    pixel     ``pixel`` ``triangle`` ``fused``            fragment generation:
                                                                              emulated per-pixel tile
                                                                              walk, or per-triangle
@@ -62,8 +69,22 @@ class PTIntegrate(Stage):
               Param("walk", str, "pixel", "fragment generation: per-pixel tile walk (emulated hardware) or "
                     "per-triangle bounding-box walk + stable sort by pixel (same fragments), or fused: walk, program "
                     "and blend in one kernel per bin (same fragments, no fragment list; plane-equation attributes)",
-                    choices=DRAW_WALKS))
+                    choices=DRAW_WALKS),
+              Param("early_termination", float, 0.0, "front to back with early termination: a pixel stops once "
+                    "what could still come from behind changes no channel by more than this (0: off; applies to "
+                    "the fused walk into fp32, no termination otherwise)", lo=0.0, hi=0.01))
     needs = ("pt_geometry",)
+
+    def _terminates(self) -> bool:
+        """Early termination applies to the fused draw into an fp32 buffer (front to back, "under")."""
+        return self.config["early_termination"] > 0 and self.config["walk"] == "fused" and self.config["format"] == "fp32"
+
+    def leaves_out(self, ctx: Context) -> str | None:
+        if not self._terminates():
+            return None
+        return (f"fragments behind an opaque front: drawn front to back, a pixel stops once its remaining "
+                f"transmittance times the brightest radiance behind is at most {self.config['early_termination']:g} "
+                "(the largest change of any channel it allows)")
     provides = ("image",)
 
     def run(self, ctx: Context) -> None:
@@ -77,8 +98,21 @@ class PTIntegrate(Stage):
             from warpvol.parallel import cpu_threads
 
             bands = cpu_threads() if str(ctx.device).startswith("cpu") else 1
-        info = composite(self, ctx, attrs, program, bands=bands, walk=self.config["walk"])
+        eps = self.config["early_termination"] if ctx.skip and self._terminates() else 0.0
+        t_min = 0.0
+        if eps > 0:
+            from warpvol.conditioning.visibility import termination_threshold
+
+            lo, hi = (np.asarray(b, dtype=np.float64) for b in ctx.scene.mesh.bounds)
+            t_min = termination_threshold(ctx.scene.transfer, float(np.linalg.norm(hi - lo)), eps)
+        info = composite(self, ctx, attrs, program, bands=bands, walk=self.config["walk"], t_min=t_min)
         ctx.count(segment_integrals=info["fragments"])
+        if t_min > 0:
+            opaque = int(np.count_nonzero(1.0 - ctx.image[..., 3] <= t_min))
+            ctx.left_out(why=f"fragments behind an opaque front (drawn front to back; a pixel stops at remaining "
+                         f"transmittance {t_min:.3g}, so no channel changes by more than {eps:g})",
+                         fragments_terminated=info["fragments_terminated"], bins_terminated=info["bins_terminated"],
+                         pixels_terminated=opaque)
         self.redo_unresolved(ctx)
 
     def redo_unresolved(self, ctx: Context) -> None:
@@ -87,7 +121,6 @@ class PTIntegrate(Stage):
         :func:`warpvol.projection.pt_thin.unresolved_pixels`): redone with the float64 ray
         tracer in an fp32 frame buffer, counted; in a lower-precision buffer (a format's rounding is
         its artifact) counted and reported as a warning."""
-        import numpy as np
 
         from warpvol.projection.pt_thin import unresolved_pixels
         from warpvol.reference.pixels import redo_pixels_float64

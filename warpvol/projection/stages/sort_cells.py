@@ -5,6 +5,13 @@ Stores the back-to-front order (int32 cell indices) in ``ctx.buffers["order"]`` 
 about it in ``ctx.stats["sort"]`` (method run, whether it is exact, why not); counts
 ``cells_sorted``, ``graph_edges`` and ``cycles_broken`` (XMPVO also ``boundary_fragments`` and
 ``ray_constraints``).
+
+With the ``visibility`` stage before it (skipping on) the order keeps only the cells the transfer
+function can make visible (``ctx.buffers["visible_cells"]``): the whole mesh is sorted (an invisible
+cell can still be what orders two visible ones), then the invisible cells are dropped. A subsequence
+of a visibility order is a visibility order of the cells it keeps, and an invisible cell composites
+as the identity, so the image is the same; the later stages project, rasterise and integrate only
+what is left. The report's ``left_out`` counts ``cells_culled``.
 """
 
 from __future__ import annotations
@@ -66,10 +73,21 @@ class SortCells(Stage):
             return (f"convex boundary: MPVO gives an exact order, {self.config['method']} not needed")
         return None
 
+    def leaves_out(self, ctx: Context) -> str | None:
+        return ("with the visibility stage before it: the cells the transfer function makes invisible, "
+                "dropped from the order after the sort (not projected, rasterised or integrated)")
+
     def run(self, ctx: Context) -> None:
         mesh = ctx.scene.mesh
         r = visibility_order(mesh, ctx.scene.camera, self.config["method"], self.config["metric"])
         ctx.buffers["order"] = r.order
+        vis = ctx.buffers.get("visible_cells")
+        if vis is not None and ctx.skip:
+            kept = r.order[vis[r.order]]
+            ctx.buffers["order"] = kept
+            ctx.left_out(why="cells the transfer function makes invisible (zero extinction and colour over "
+                         "their scalar range): dropped from the visibility order, not drawn",
+                         cells_culled=len(r.order) - len(kept))
         info = {"method": r.method, "exact": r.exact}
         if r.note:
             info["approximate"] = r.note

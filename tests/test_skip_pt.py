@@ -1,0 +1,105 @@
+"""``pt_best`` leaves out what the scene does not need: cells the transfer function makes invisible
+(dropped from the visibility order after the sort) and fragments behind an opaque front (front to back
+with early termination at a stated bound). Images against ``skip=False`` and the reference, counts on
+analytic cases."""
+
+import numpy as np
+import pytest
+
+from test_sort import jittered_box, random_camera
+from test_visibility import _layered_mesh, _scene, _shell_tf
+from tolerances import TOLERANCES
+from warpvol.pipeline import Pipeline
+from warpvol.reference.numpy_render import render_reference
+from warpvol.scene.builtin import builtin_scene
+from warpvol.scene.scene import Scene
+from warpvol.scene.transfer import TransferFunction
+
+
+def _within(a, b, row):
+    d = np.abs(np.asarray(a, np.float64) - np.asarray(b, np.float64))
+    return float(np.sqrt(np.mean(d * d))) <= row["rmse"] and float(d.max()) <= row["max_abs"], (
+        float(np.sqrt(np.mean(d * d))), float(d.max()))
+
+
+def test_pt_best_draws_only_visible_cells_of_a_known_fraction():
+    sc = _scene(px=32)  # 10 layers along z, the TF's shell meets 2 of them
+    pipe = Pipeline.load("pt_best")
+    on, off = pipe.render(sc, quiet=True), pipe.render(sc, quiet=True, skip=False)
+    n = sc.mesh.n_tets
+    assert on.report["left_out"]["sort"]["cells_culled"] == n - n // 5
+    assert on.report["counters"]["pt_project"]["tets_projected"] == n // 5
+    assert off.report["counters"]["pt_project"]["tets_projected"] == n and "left_out" not in off.report
+    assert on.report["counters"]["sort"]["cells_sorted"] == n  # the whole mesh is sorted, then filtered
+    ok, d = _within(on.image, off.image, TOLERANCES["skip/on_off"])
+    assert ok, d
+    ref = render_reference(sc.mesh, sc.transfer, sc.camera)
+    ok, d = _within(on.image, ref, TOLERANCES["pt_best"])
+    assert ok, d
+    assert on.image[..., 3].max() > 0.3  # the shell is drawn
+
+
+def _cyclic_case(seed, drop, method):
+    """A jittered grid (convex, or with cells dropped) whose in-front-of relation has a cycle for the
+    camera; scalar x, a shell TF around x = 0.1 (a part of the cells visible)."""
+    rng = np.random.default_rng(seed)
+    mesh, cam = jittered_box(rng, dims=(6, 6, 6), jitter=0.3), random_camera(rng, 24)
+    if drop:  # the second draw of the seed's generator
+        mesh, cam = jittered_box(rng, dims=(6, 6, 6), jitter=0.3, drop=drop), random_camera(rng, 24)
+    tf = TransferFunction([[-1.0, 0, 0, 0, 0], [-0.2, 0.2, 0.2, 0.2, 0.0], [0.1, 1.0, 0.6, 0.2, 4.0],
+                           [0.4, 0.2, 0.2, 0.2, 0.0], [1.0, 0, 0, 0, 0]])
+    return Scene(mesh=mesh, transfer=tf, camera=cam, name=f"jittered-{method}")
+
+
+@pytest.mark.parametrize("seed,drop,method", [(7, 0.0, "mpvo"), (1, 0.3, "xmpvo")])
+def test_pt_best_subsequence_of_a_cyclic_order_draws_the_same_image(seed, drop, method):
+    """The order with broken cycles is approximate; dropping the invisible cells from it draws what the
+    whole order draws (they composite as the identity)."""
+    sc = _cyclic_case(seed, drop, method)
+    pipe = Pipeline.load("pt_best")
+    on, off = pipe.render(sc, quiet=True), pipe.render(sc, quiet=True, skip=False)
+    assert on.report["stats"]["sort"]["method"] == method
+    assert on.report["stats"]["sort"]["cycles_broken"] > 0 and off.report["stats"]["sort"]["cycles_broken"] > 0
+    vis = on.report["stats"]["visibility"]
+    assert 0 < vis["visible"] < vis["cells"]
+    assert on.report["left_out"][next(k for k in on.report["left_out"] if k.startswith("sort"))]["cells_culled"] \
+        == vis["cells"] - vis["visible"]
+    ok, d = _within(on.image, off.image, TOLERANCES["skip/on_off"])
+    assert ok, d
+    assert on.image[..., 3].max() > 0.2
+
+
+def test_pt_best_early_termination_count_and_bound():
+    """An opaque box seen along z (optical depth 40 on every covered pixel): every covered pixel
+    terminates; the image stays within the preset's tolerance of the reference and of the full draw."""
+    base = builtin_scene("box").with_camera(width_px=16, height_px=16)  # cube [-1, 1]^3, ortho height 3
+    sc = Scene(mesh=base.mesh, camera=base.camera, name="opaque box",
+               transfer=TransferFunction([[0.0, 0.8, 0.6, 0.4, 20.0], [2.0, 0.8, 0.6, 0.4, 20.0]]))
+    pipe = Pipeline.load("pt_best")
+    on, off = pipe.render(sc, quiet=True), pipe.render(sc, quiet=True, skip=False)
+    centres = -1.5 + 3.0 / 16 * (np.arange(16) + 0.5)
+    covered = int(np.count_nonzero(np.abs(centres) < 1)) ** 2
+    lo = on.report["left_out"]["pt_integrate"]
+    assert lo["pixels_terminated"] == covered
+    # a pixel crosses 4 layers of cells (2-4 triangles each); all but the front layer's are left out
+    assert lo["fragments_terminated"] > 0
+    assert on.report["counters"]["pt_integrate"]["fragments"] < off.report["counters"]["pt_integrate"]["fragments"]
+    assert "1e-06" in lo["why"]
+    ok, d = _within(on.image, off.image, TOLERANCES["skip/on_off"])
+    assert ok, d
+    ref = render_reference(sc.mesh, sc.transfer, sc.camera)
+    ok, d = _within(on.image, ref, TOLERANCES["pt_best"])
+    assert ok, d
+
+
+def test_early_termination_only_in_the_fused_fp32_draw():
+    """Other formats and walks blend back to front: the parameter leaves nothing out there."""
+    from test_pt_render import preset
+
+    sc = builtin_scene("box").with_camera(width_px=12, height_px=12)
+    sc = Scene(mesh=sc.mesh, camera=sc.camera, name="opaque box",
+               transfer=TransferFunction([[0.0, 0.8, 0.6, 0.4, 20.0], [2.0, 0.8, 0.6, 0.4, 20.0]]))
+    r = preset("pt_best", pt_integrate={"format": "unorm8"}).render(sc, quiet=True)
+    assert "pt_integrate" not in r.report.get("left_out", {})
+    r = preset("pt_best", pt_integrate={"walk": "triangle"}).render(sc, quiet=True)
+    assert "pt_integrate" not in r.report.get("left_out", {})
