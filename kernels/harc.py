@@ -44,7 +44,9 @@ first entry, over the lists of the pixel and its 8 neighbours on a re-entry), 8 
 rays of the consistent walk with exact segments that crossed a layer too thin for float32 segment
 lengths (:func:`warpvol.kernels.walk.thin_unresolved`; redone in float64 like every failed ray),
 9 rays of the paper's set-up that took a step with ``lambda' < lambda`` (an exit chosen by rounding:
-the ray is suspect, its pixel possibly wrong; counted, not changed).
+the ray is suspect, its pixel possibly wrong; counted, not changed), 10 entries through a face the
+rasterised lists left out, found by the exact test of the faces whose open edge passes within 1/64
+pixel of the pixel centre (``edge_start`` / ``edge_bf``, :func:`warpvol.raycasting.harc.edge_pixels`).
 """
 
 import threading
@@ -53,7 +55,7 @@ import warp as wp
 
 from .formats import NumFmt, fmt_quantize
 from .harc_integ import INTEG_EXACT, Integ, integrate_sub, segment, segments_kernel  # noqa: F401 (re-exported)
-from .harc_walk import composite, exact_walk, ring_search  # noqa: F401 (composite: re-exported)
+from .harc_walk import composite, exact_walk, nearest_listed, ring_search  # noqa: F401 (composite: re-exported)
 from .integrate import exp_neg, integrate_piece, integrate_segment_tf
 from .raycast import STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED
 from .texture import Tex2D, tex2d_texel
@@ -205,6 +207,8 @@ def make_march(walk: int, setup: int, mode: int):
         bf_face: wp.array(dtype=wp.int32),
         bf_nbr: wp.array(dtype=wp.vec3i),
         far: wp.array(dtype=float),
+        edge_start: wp.array(dtype=wp.int32),
+        edge_bf: wp.array(dtype=wp.int32),
         ig: Integ,
         fb: NumFmt,
         t_stop: float,
@@ -250,6 +254,7 @@ def make_march(walk: int, setup: int, mode: int):
         fc = Face()
         entry_failed = int(0)
         rescan = int(0)
+        edge_entry = int(0)
         for it in range(frag_start[idx], frag_start[idx + 1]):
             b = int(frag_bf[it])
             c = int(bf_tet[b])
@@ -312,19 +317,20 @@ def make_march(walk: int, setup: int, mode: int):
                     # (this pixel's own list too after a rejected face: its later faces were not tested)
                     if (nb != 4 or rescan == 1) and qx >= 0 and qy >= 0 and qx < width and qy < height:
                         q = qy * width + qx
-                        for it2 in range(frag_start[q], frag_start[q + 1]):
-                            b = int(frag_bf[it2])
-                            c = int(bf_tet[b])
-                            f = int(bf_face[b])
-                            if c != prev:
-                                cand = boundary_face(tets[c], f, verts, r)
-                                ok, t, s = face_hit(cand)
-                                if ok and t > t_start - t_tol and (cell < 0 or t < t_in):
-                                    cell = c
-                                    face_in = f
-                                    t_in = wp.max(t, t_start)
-                                    s_in = s
-                                    fc = cand
+                        cell, face_in, t_in, s_in, fc = nearest_listed(
+                            frag_start[q], frag_start[q + 1], frag_bf, bf_tet, bf_face, tets, verts, r, prev, t_start,
+                            t_tol, cell, face_in, t_in, s_in, fc)
+            if entry_failed == 0:
+                # the faces whose open edge (silhouette, outline of a part) passes within 1/64 pixel of the centre,
+                # tested exactly: the snapped coverage can leave such a face out with a deeper layer (or nothing)
+                # listed in its place -- a cell smaller than the snapping, a face seen edge-on
+                c0 = cell
+                t0 = t_in
+                cell, face_in, t_in, s_in, fc = nearest_listed(
+                    edge_start[idx], edge_start[idx + 1], edge_bf, bf_tet, bf_face, tets, verts, r, prev, t_start, t_tol,
+                    cell, face_in, t_in, s_in, fc)
+                if cell != c0 or t_in != t0:
+                    edge_entry = 1
         if wp.static(paper):
             if entry_failed == 1:
                 status[idx] = STATUS_LOST
@@ -338,6 +344,8 @@ def make_march(walk: int, setup: int, mode: int):
             status[idx] = STATUS_DONE
             return
         wp.atomic_add(counters, chunk, 0, 1)
+        if edge_entry == 1:
+            wp.atomic_add(counters, chunk, 10, 1)
 
         # ---- propagation: one cell per fragment-program step (Fig. 6) ----
         backward = int(0)

@@ -45,6 +45,30 @@ def ring_search(b: int, bf_tet: wp.array(dtype=wp.int32), bf_face: wp.array(dtyp
 
 
 @wp.func
+def nearest_listed(lo: int, hi: int, items: wp.array(dtype=wp.int32), bf_tet: wp.array(dtype=wp.int32),
+                   bf_face: wp.array(dtype=wp.int32), tets: wp.array(dtype=wp.vec4i), verts: wp.array(dtype=wp.vec4),
+                   r: Ray, prev: int, t_start: float, t_tol: float, cell: int, face_in: int, t_in: float, s_in: float,
+                   fc: Face):
+    """The nearer of the entry ``(cell, face_in, t_in, s_in, fc)`` (``cell < 0``: none yet) and the first crossing
+    beyond ``t_start - t_tol`` of the front faces ``items[lo:hi]`` (consistent edge test), faces of ``prev`` (the
+    cell just left) skipped; the ray parameter is clamped to ``t_start``."""
+    for it in range(lo, hi):
+        b = int(items[it])
+        c = int(bf_tet[b])
+        f = int(bf_face[b])
+        if c != prev:
+            cand = boundary_face(tets[c], f, verts, r)
+            ok, t, s = face_hit(cand)
+            if ok and t > t_start - t_tol and (cell < 0 or t < t_in):
+                cell = c
+                face_in = f
+                t_in = wp.max(t, t_start)
+                s_in = s
+                fc = cand
+    return cell, face_in, t_in, s_in, fc
+
+
+@wp.func
 def composite(acc: wp.vec4, c: wp.vec4) -> wp.vec4:
     """Front-to-back "under": ``(R, G, B, A) + (1 - A) (r, g, b, a)`` (Fig. 6 line 24)."""
     return acc + (1.0 - acc[3]) * c

@@ -216,44 +216,159 @@ def entry_fragments(mesh, camera, device: str = "cpu") -> dict:
         return wp.array(a, dtype=dtype, device=device)
 
     nbr = surface_neighbours(tris).reshape(-1, 3)
-    far = reentry_bound(mesh, camera, tris, nbr, start, frag_bf)
+    edge_start, edge_bf = edge_pixels(mesh, camera, tris, nbr) if len(bf) and in_front else (
+        np.zeros(npx + 1, np.int64), np.zeros(0, np.int64))
+    far = reentry_bound(mesh, camera, tris, nbr, start, frag_bf, edge_start, edge_bf)
     return {"frag_start": arr(start), "frag_bf": arr(frag_bf), "bf_tet": arr(bf[:, 0]), "bf_face": arr(bf[:, 1]),
             "bf_nbr": arr(nbr, wp.vec3i), "far": wp.array(far, dtype=wp.float32, device=device),
+            "edge_start": arr(edge_start), "edge_bf": arr(edge_bf), "edge_pairs": int(len(edge_bf)),
             "fragments": int(count), "faces": int(len(bf)), "max_layers": layers}
 
 
-def reentry_bound(mesh, camera, tris: np.ndarray, nbr: np.ndarray, start: np.ndarray, frag_bf: np.ndarray) -> np.ndarray:
+#: pixel centres within this distance (pixels) of a front face's open edge get the face tested exactly at the
+#: ray start: about 6x the rasteriser's snapping error (1/512 px per coordinate), so a face whose snapped
+#: coverage leaves out a centre it contains is always among them
+EDGE_PX = 1.0 / 64.0
+
+
+def edge_pixels(mesh, camera, tris: np.ndarray, nbr: np.ndarray, delta: float = EDGE_PX,
+                chunk: int = 1 << 20) -> tuple[np.ndarray, np.ndarray]:
+    """Per pixel, the front faces with an *open* edge passing within ``delta`` pixels of its centre, as CSR
+    ``(start (H*W+1), face)`` (float64 window coordinates of :func:`window_xy
+    <warpvol.raycasting.stages.entry_bins.window_xy>`, edges clipped to the eye's front half-space).
+
+    An edge is open where the front faces on its two sides do not both cover a band of the window along it:
+    no front face beyond it (a silhouette, the outline of a part) or a face on either side narrower than
+    ``delta`` in the window (seen edge-on, thinner than the snapping, a cell smaller than a pixel). Only
+    there can the rasteriser's snapped coverage leave out a face at a centre it contains with nothing of
+    its layer listed instead (a deeper layer, or no face at all); elsewhere the face across the edge is
+    listed, and the entry search's consistent edge test rejects it and searches its surface rings. The
+    kernel tests these faces exactly at every ray start and takes the nearest crossing."""
+    from warpvol.raycasting.stages.entry_bins import window_xy
+
+    w, h = camera.width_px, camera.height_px
+    wx, wy, bad, _ = window_xy(camera, np.asarray(mesh.points, np.float64)[tris.reshape(-1)])
+    win = np.stack([wx, wy], axis=-1).reshape(-1, 3, 2)
+    e1, e2 = win[:, 1] - win[:, 0], win[:, 2] - win[:, 0]
+    longest = np.sqrt(np.max([(e * e).sum(axis=1) for e in (e1, e2, win[:, 2] - win[:, 1])], axis=0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        height = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) / longest  # the triangle's least width
+    wide = (height >= delta) & ~bad.reshape(-1, 3).any(axis=1)  # NaN (a point on the eye plane): narrow
+    b, k = np.nonzero((nbr < 0) | ~wide[:, None] | ~wide[np.maximum(nbr, 0)])  # open edge k of face b
+    a3 = mesh.points[tris[b, (k + 1) % 3]].astype(np.float64)  # its vertices k + 1, k + 2
+    b3 = mesh.points[tris[b, (k + 2) % 3]].astype(np.float64)
+    fwd = np.asarray(camera.forward, np.float64)
+    if camera.projection == "perspective":  # keep the part in front of the eye (a ray meets nothing behind it)
+        za, zb = (a3 - camera.eye) @ fwd, (b3 - camera.eye) @ fwd
+        ext = float(np.ptp(mesh.points, axis=0).max()) + float(np.abs(mesh.points - camera.eye).max())
+        zmin = 1e-9 * ext
+        keep = (za > zmin) | (zb > zmin)
+        b, a3, b3, za, zb = b[keep], a3[keep], b3[keep], za[keep], zb[keep]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            c = a3 + np.clip((zmin - za) / (zb - za), 0.0, 1.0)[:, None] * (b3 - a3)  # the point at z = zmin
+        a3 = np.where((za < zmin)[:, None], c, a3)
+        b3 = np.where((zb < zmin)[:, None], c, b3)
+    ax, ay, _, _ = window_xy(camera, a3)
+    bx, by, _, _ = window_xy(camera, b3)
+    pix, face = [], []
+    for lo in range(0, len(b), chunk):
+        sl = slice(lo, lo + chunk)
+        p, f = _near_segments(ax[sl], ay[sl], bx[sl], by[sl], b[sl], w, h, delta)
+        pix.append(p)
+        face.append(f)
+    pix = np.concatenate(pix) if pix else np.zeros(0, np.int64)
+    face = np.concatenate(face) if face else np.zeros(0, np.int64)
+    key = np.unique(pix * (len(tris) + 1) + face)  # one pair per (pixel, face), grouped by pixel
+    pix, face = key // (len(tris) + 1), key % (len(tris) + 1)
+    start = np.zeros(w * h + 1, np.int64)
+    np.cumsum(np.bincount(pix, minlength=w * h), out=start[1:])
+    return start, face
+
+
+def _near_segments(ax, ay, bx, by, ids, w: int, h: int, delta: float):
+    """``(pixel, id)`` pairs: pixel centres within ``delta`` of the window-space segments ``a b``. Each segment
+    is walked along its major axis, one pixel column (row) at a time, testing the three pixels across it."""
+    ok = np.isfinite(ax) & np.isfinite(ay) & np.isfinite(bx) & np.isfinite(by)
+    ax, ay, bx, by, ids = ax[ok], ay[ok], bx[ok], by[ok], ids[ok]
+    xmaj = np.abs(bx - ax) >= np.abs(by - ay)
+    # major axis u (x for x-major), minor v; n the pixel count along u
+    ua, va, ub, vb = np.where(xmaj, ax, ay), np.where(xmaj, ay, ax), np.where(xmaj, bx, by), np.where(xmaj, by, bx)
+    nu = np.where(xmaj, w, h)
+    i0 = np.clip(np.ceil(np.minimum(ua, ub) - delta - 0.5), 0, nu).astype(np.int64)
+    i1 = np.clip(np.floor(np.maximum(ua, ub) + delta - 0.5), -1, nu - 1).astype(np.int64)
+    cnt = np.maximum(i1 - i0 + 1, 0)
+    seg = np.repeat(np.arange(len(ua)), cnt)
+    i = i0[seg] + np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    du, dv = (ub - ua)[seg], (vb - va)[seg]
+    uc = i + 0.5
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.clip(np.where(du != 0, (uc - ua[seg]) / du, 0.0), 0.0, 1.0)
+    vline = va[seg] + t * dv
+    pix, face = [], []
+    nv = np.where(xmaj, h, w)[seg]
+    xm = xmaj[seg]
+    j0 = np.rint(vline - 0.5).astype(np.int64)  # the nearest pixel row (column) to the line
+    for dj in (-1, 0, 1):
+        j = j0 + dj
+        vc = j + 0.5
+        # distance from the pixel centre (uc, vc) to the segment, in window pixels
+        px_u, px_v = uc - ua[seg], vc - va[seg]
+        ll = du * du + dv * dv
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = np.clip(np.where(ll > 0, (px_u * du + px_v * dv) / ll, 0.0), 0.0, 1.0)
+        d2 = (px_u - s * du) ** 2 + (px_v - s * dv) ** 2
+        hit = (d2 <= delta * delta) & (j >= 0) & (j < nv)
+        col = np.where(xm, i, j)[hit]
+        row = np.where(xm, j, i)[hit]
+        pix.append(row * w + col)
+        face.append(ids[seg[hit]])
+    return np.concatenate(pix), np.concatenate(face)
+
+
+def reentry_bound(mesh, camera, tris: np.ndarray, nbr: np.ndarray, start: np.ndarray, frag_bf: np.ndarray,
+                  edge_start: np.ndarray | None = None, edge_bf: np.ndarray | None = None) -> np.ndarray:
     """Per pixel (H*W, float32), a bound past which a ray leaving the mesh cannot re-enter it: the largest
     depth ``g`` (distance from the eye, perspective; depth along the view direction, orthographic) of any
     vertex of a front face the HARC entry search of that pixel can reach -- the faces listed at the pixel
     and its 8 neighbours and, through :func:`ring_search <warpvol.kernels.harc_walk.ring_search>`, the two
-    rings of surface neighbours around each -- plus a rounding margin of 1e-4 of the scene's extent.
+    rings of surface neighbours around each, and the pixel's open-edge faces (:func:`edge_pixels`,
+    ``edge_start`` / ``edge_bf``) -- plus a rounding margin of 1e-4 of the scene's extent.
     ``g`` is largest at a vertex (a distance is convex, a depth linear), so a crossing of any of those
     faces has ``t + t0 <= bound`` (``t0`` the ray origin's shift); ``-inf`` where no face is listed
     around the pixel."""
     w, h = camera.width_px, camera.height_px
     out = np.full(h * w, -np.inf)
-    if len(frag_bf) and len(tris):
+    n_edge = 0 if edge_bf is None else len(edge_bf)
+    if (len(frag_bf) or n_edge) and len(tris):
         rel = np.asarray(mesh.points, np.float64) - np.asarray(camera.eye, np.float64)
         if camera.projection == "perspective":
             g = np.linalg.norm(rel, axis=1)
         else:
             g = rel @ np.asarray(camera.forward, np.float64)
-        k = g[tris].max(axis=1)
+        k = k0 = g[tris].max(axis=1)
         for _ in range(2):  # the two rings ring_search visits
             kn = np.where(nbr >= 0, k[np.maximum(nbr, 0)], -np.inf)
             k = np.maximum(k, kn.max(axis=1))
-        counts = np.diff(start)
-        listed = np.flatnonzero(counts > 0)
-        out[listed] = np.maximum.reduceat(k[frag_bf], start[:-1][listed])
-        img = np.pad(out.reshape(h, w), 1, constant_values=-np.inf)
-        near = img[1:-1, 1:-1].copy()
-        for dy in (0, 1, 2):
-            for dx in (0, 1, 2):
-                np.maximum(near, img[dy:dy + h, dx:dx + w], out=near)
+        near = _list_max(out, start, frag_bf, k).reshape(h, w)
+        if len(frag_bf):
+            img = np.pad(near, 1, constant_values=-np.inf)
+            for dy in (0, 1, 2):
+                for dx in (0, 1, 2):
+                    np.maximum(near, img[dy:dy + h, dx:dx + w], out=near)
+        if n_edge:
+            np.maximum(near, _list_max(out, edge_start, edge_bf, k0).reshape(h, w), out=near)
         ext = float(np.abs(rel).max()) + float(np.ptp(mesh.points, axis=0).max())
         out = near.reshape(-1) + 1e-4 * ext
     return out.astype(np.float32)
+
+
+def _list_max(empty: np.ndarray, start: np.ndarray, items: np.ndarray, key: np.ndarray) -> np.ndarray:
+    """Per list of the CSR ``(start, items)``, the largest ``key[item]`` (``empty``'s values where a list is empty)."""
+    out = empty.copy()
+    listed = np.flatnonzero(np.diff(start) > 0)
+    if len(listed):
+        out[listed] = np.maximum.reduceat(key[items], start[:-1][listed])
+    return out
 
 
 def integ_setup(mode: str, tf, device: str, *, table=None, psi=None, iso=None, iso_rule: str = "paper",
@@ -353,9 +468,9 @@ class HarcState:
         return self.rgba.numpy().reshape(height, width, 4).astype(np.float32)
 
 
-N_COUNTERS = 10
+N_COUNTERS = 11
 COUNTER_NAMES = ("entries", "steps", "cells", "failed", "step_bound", "iso_missed", "texture_fetches",
-                 "entry_searches", "thin_layer_rays", "backward_rays")
+                 "entry_searches", "thin_layer_rays", "backward_rays", "edge_entries")
 
 
 def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, fb_format: str, t_stop: float,
@@ -383,8 +498,8 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     eye_w = wp.vec3(*np.asarray(ctx.scene.camera.eye, np.float64).astype(np.float32))
     common = cam_args + [eye_w, mesh_tex, cells["verts"], cells["tets"], cells["nbr"], cells["nbr_vertex"],
                          entry["frag_start"], entry["frag_bf"], entry["bf_tet"], entry["bf_face"], entry["bf_nbr"],
-                         entry["far"], ig, get_format(fb_format).kernel_params(), float(t_stop), int(max_steps),
-                         1e-6 * cells["radius"]]
+                         entry["far"], entry["edge_start"], entry["edge_bf"], ig, get_format(fb_format).kernel_params(),
+                         float(t_stop), int(max_steps), 1e-6 * cells["radius"]]
     kernel = kh.march_kernel(WALKS[walk], SETUPS[setup], ig.mode)  # this configuration's kernel
     wp.load_module(kernel.module, device=ctx.device)  # compiled / loaded here, not by the row-block threads at once
 

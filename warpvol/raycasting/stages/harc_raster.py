@@ -9,7 +9,9 @@ from warpvol.stage import Context, Stage, register_stage
 class HarcRaster(Stage):
     """Rasterise the front-facing boundary faces (vertex stage + rasteriser unit) into per-pixel
     fragment lists (entry tet, local face) sorted by depth: the first is the ray's entry, the next
-    ones the layers depth peeling goes through (:func:`warpvol.raycasting.harc.entry_fragments`).
+    ones the layers depth peeling goes through (:func:`warpvol.raycasting.harc.entry_fragments`); and
+    per pixel the faces whose open edge passes within 1/64 pixel of its centre, which the ray start
+    tests exactly (:func:`warpvol.raycasting.harc.edge_pixels`; ``edge_pixel_faces`` counts the pairs).
 
     ==========  =====  =========  ===========================
     parameter   type   default    meaning
@@ -30,4 +32,4 @@ class HarcRaster(Stage):
         ctx.buffers["harc_entry"] = e
         # the vertex stage and the rasteriser count their own work (vertices, primitives, fragments)
         ctx.stats["harc_raster"] = {"front_faces": e["faces"], "fragments": e["fragments"],
-                                    "boundary_layers": e["max_layers"]}
+                                    "boundary_layers": e["max_layers"], "edge_pixel_faces": e["edge_pairs"]}
