@@ -235,7 +235,7 @@ def test_raw_volume_order_endianness_and_errors(tmp_path):
     np.testing.assert_allclose(m.points[[0, 1, 2, 6]], [[1, 2, 3], [2, 2, 3], [1, 2.5, 3], [1, 2, 5]])
     little = read_raw(tmp_path / "v.raw", [2, 3, 4], "uint16", [1, 1, 1])
     assert not np.array_equal(little.scalars, vals)  # default is little endian
-    with pytest.raises(ConfigError, match=r"raw\.path: .*v\.raw has 48 bytes, expected 96 bytes"):
+    with pytest.raises(ConfigError, match=r"raw\.path: file .*v\.raw holds 48 bytes, dims .* need 96"):
         read_raw(tmp_path / "v.raw", [2, 3, 4], "float32", [1, 1, 1])
     with pytest.raises(ConfigError, match=r"raw\.dtype: unsupported sample type 'int64'; allowed: 'uint8'"):
         read_raw(tmp_path / "v.raw", [2, 3, 4], "int64", [1, 1, 1])

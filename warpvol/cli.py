@@ -260,6 +260,7 @@ def cmd_bench(args) -> int:
     scene = _load_scene(args.scene, args)
     check_image_memory(scene.camera, ["render", "png", "reference", "error_image"], _available_memory())
     outdir = output_folder(args.output)
+    cache_dir = output_folder(args.cache_dir, "--cache-dir") if args.cache_dir else outdir / "reference-cache"
     if args.gpu and gpu_support(args.gpu):
         print(f"warpvol: {gpu_support(args.gpu)}", file=sys.stderr)
     # only files bench wrote (recorded in -o's manifest) are replaced or deleted, nothing before all is checked
@@ -276,7 +277,7 @@ def cmd_bench(args) -> int:
         print(f"warpvol: bench: resuming, {len(saved)} pipeline(s) read from {outdir / ROW_DIR}", file=sys.stderr)
     try:
         res = run_bench(scene, names, repeats=args.repeats, gpu=args.gpu, device=args.device, quiet=args.quiet,
-                        progress=args.progress, cache_dir=args.cache_dir or outdir / "reference-cache",
+                        progress=args.progress, cache_dir=cache_dir,
                         audit=args.audit, quick=args.quick, done=saved, on_row=save)
     except KeyboardInterrupt:
         print(f"warpvol: bench: the finished pipelines are saved in {outdir / ROW_DIR}; run the same command with "

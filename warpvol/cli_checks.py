@@ -91,13 +91,19 @@ def folder_outputs(outdir: Path, rels: list[str]) -> dict[str, Path]:
     return {f"-o ({r})": outdir / r for r in rels}
 
 
-def output_folder(path: str) -> Path:
-    """An output folder: created if missing, refused if a file, checked writable."""
+def output_folder(path: str, flag: str = "-o") -> Path:
+    """An output folder: created if missing, refused if a file (or under one), checked writable."""
     p = Path(path)
     if p.exists() and not p.is_dir():
-        raise ConfigError(f"-o: {p} exists and is not a folder")
-    p.mkdir(parents=True, exist_ok=True)
-    check_writable("-o", p)
+        raise ConfigError(f"{flag}: {p} exists and is not a folder; give a folder (created if missing)")
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError as e:  # a file on the way (FileExistsError, NotADirectoryError), permissions
+        raise ConfigError(f"{flag}: cannot create the folder {p}: {e.strerror or e}"
+                          + (" (a file of that name is on its path)" if isinstance(e, (FileExistsError,
+                                                                                     NotADirectoryError)) else "")
+                          ) from None
+    check_writable(flag, p)
     return p
 
 

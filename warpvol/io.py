@@ -330,6 +330,49 @@ def saved_records(outdir: str | Path, subdir: str, owned=None) -> list[tuple[Pat
     return [(f, read_record(f)) for f in files if not f.name.startswith(".") and f.is_file()]
 
 
+def toml_nesting(text: str) -> str:
+    r"""Where a TOML text nests deepest, for the error on nesting too deep for Python's parser (which
+    raises a ``RecursionError`` and names nothing): ``"at key 'camera.width_px' (line 4: 2000 arrays or
+    inline tables inside each other)"``.
+
+    Examples
+    --------
+    >>> toml_nesting('[camera]\nsize = 1\nup = [[[0]], 1]\n')
+    "at key 'camera.up' (line 3: 3 arrays or inline tables inside each other)"
+    """
+    table, key, depth, line = "", "", 0, 1
+    best = (0, "", 0)
+    eq_on_line, i, n = False, 0, len(text)
+    while i < n:
+        c = text[i]
+        if c == "\n":
+            line, eq_on_line = line + 1, False
+        elif c == "#":
+            i = text.find("\n", i) - 1 if "\n" in text[i:] else n
+        elif c in "\"'":
+            q = c * 3 if text.startswith(c * 3, i) else c
+            j = i + len(q)
+            while j < n and not text.startswith(q, j):
+                j += 2 if c == '"' and text[j] == "\\" else 1
+            line += text.count("\n", i, j)
+            i = j + len(q) - 1
+        elif depth == 0 and c == "[" and not eq_on_line:  # a [table] or [[array of tables]] header
+            end = text.find("\n", i)
+            table, key = text[i:end if end >= 0 else n].split("#")[0].strip().strip("[]").strip(), ""
+            i = (end if end >= 0 else n) - 1
+        elif depth == 0 and c == "=":
+            start = text.rfind("\n", 0, i) + 1
+            key, eq_on_line = text[start:i].strip(), True
+        elif c in "[{":
+            depth += 1
+            if depth > best[0]:
+                best = (depth, ".".join(k for k in (table, key) if k), line)
+        elif c in "]}":
+            depth = max(depth - 1, 0)
+        i += 1
+    return f"at key {best[1]!r} (line {best[2]}: {best[0]} arrays or inline tables inside each other)"
+
+
 def _write_oiio(tmp: str, pixels: np.ndarray, fmt, shown: Path) -> None:
     import OpenImageIO as oiio
 

@@ -229,8 +229,12 @@ class Pipeline:
         text, where = _read_pipeline_text(name_or_path)
         try:
             cfg = tomllib.loads(text)
-        except (tomllib.TOMLDecodeError, RecursionError) as e:  # RecursionError: nested too deeply
+        except tomllib.TOMLDecodeError as e:
             raise ConfigError(f"{where}: invalid TOML: {e}") from None
+        except RecursionError:
+            from warpvol.io import toml_nesting
+
+            raise ConfigError(f"{where}: invalid TOML: nested too deeply {toml_nesting(text)}") from None
         cfg.setdefault("name", Path(str(name_or_path)).stem)
         return cls.from_config(cfg, device=device, where=where)
 

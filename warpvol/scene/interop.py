@@ -45,7 +45,7 @@ def as_pyvista_dataset(obj: Any, arg: str = "dataset"):
         blocks = [b for b in obj if b is not None]
         if len(blocks) != 1:
             raise ConfigError(f"{arg}: a MultiBlock with {len(blocks)} blocks; pass a single data set "
-                              f"({_DATASET_TYPES}), e.g. multiblock.combine()")
+                              f"({_DATASET_TYPES}), e.g. multiblock.combine(merge_points=True)")
         obj = blocks[0]
     if not isinstance(obj, pv.DataSet):
         try:

@@ -139,7 +139,10 @@ def read_mesh_file(path: Path | str, scalars: str | None, *, strict: bool = Fals
     if isinstance(ds, pv.MultiBlock):
         blocks = [b for b in ds if b is not None]
         if len(blocks) != 1:
-            raise ConfigError(f"{where}.path: {p} holds {len(blocks)} blocks; warpvol needs a single data set")
+            raise ConfigError(f"{where}.path: {p} holds {len(blocks)} blocks; warpvol needs a single data set: "
+                              "combine the blocks into one file, e.g. python -c \"import pyvista as pv; "
+                              f"pv.read('{p}').combine(merge_points=True).save('{p.with_suffix('.vtu').name}')\" "
+                              "(ParaView: the Merge Blocks filter, then save as .vtu)")
         ds = blocks[0]
     if scalars is None and active_scalars:
         keys = list(ds.point_data.keys())
@@ -294,15 +297,24 @@ def read_raw(path: Path | str, dims, dtype: Any = "uint8", spacing=(1.0, 1.0, 1.
     sp = np.array([check_number(f"{where}.spacing[{a}]", v, lo=0, lo_open=True) for a, v in enumerate(spacing)])
     org = check_vec3(f"{where}.origin", origin)
     n = d[0] * d[1] * d[2]
-    expected = n * dt.itemsize
-    actual = p.stat().st_size
-    if actual != expected:
-        raise ConfigError(f"{where}.path: {p} has {actual} bytes, expected {expected} bytes "
-                          f"({d[0]}x{d[1]}x{d[2]} samples of {dt.itemsize} byte(s), {dtype!r})")
+    check_raw_size(p, d, dt, where=where)
     values = np.fromfile(p, dtype=dt, count=n).astype(np.float64)
     kk, jj, ii = np.meshgrid(np.arange(d[2]), np.arange(d[1]), np.arange(d[0]), indexing="ij")
     points = np.column_stack([ii.ravel(), jj.ravel(), kk.ravel()]).astype(np.float64) * sp + org
     return _structured_mesh(d, points, values, name=str(p), strict=strict, weld=False, split=split)
+
+
+def check_raw_size(path: Path, dims, dt: np.dtype, *, where: str = "raw") -> None:
+    """A raw volume's file must hold exactly ``nx*ny*nz`` samples of ``dt``; else an error saying what
+    the file holds and what the dims need."""
+    d = [int(v) for v in dims]
+    need = d[0] * d[1] * d[2] * dt.itemsize
+    have = Path(path).stat().st_size
+    if have != need:
+        why = ("shorter than the dims say: check dims and dtype" if have < need else
+               "longer than the dims say: check dims and dtype (raw files have no header)")
+        raise ConfigError(f"{where}.path: file {path} holds {have:,} bytes, dims {d[0]}x{d[1]}x{d[2]} of "
+                          f"{dt.name} ({dt.itemsize} byte(s) per sample) need {need:,}; the file is {why}")
 
 
 # -- [mesh] table ---------------------------------------------------------------------------------

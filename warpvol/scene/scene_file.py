@@ -20,9 +20,10 @@ from pathlib import Path
 from typing import Any
 
 from warpvol.errors import ConfigError, check_keys
+from warpvol.io import toml_nesting
 from warpvol.scene.builtin import builtin_camera, builtin_scene, builtin_transfer
 from warpvol.scene.camera import Camera
-from warpvol.scene.loaders import load_mesh
+from warpvol.scene.loaders import _file, check_raw_size, load_mesh, raw_dtype
 from warpvol.scene.mesh import TetMesh
 from warpvol.scene.scene import Scene
 from warpvol.scene.transfer import TransferFunction
@@ -105,15 +106,15 @@ def _read_toml(p: Path) -> dict:
     if not p.is_file():
         raise ConfigError(f"scene file not found: {p}")
     try:
-        with open(p, "rb") as fh:
-            return tomllib.load(fh)
+        text = p.read_text(encoding="utf-8")
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"{p}: TOML syntax error: {e}") from None
     except UnicodeDecodeError as e:
         raise ConfigError(f"{p}: not a UTF-8 text file: {e}") from None
     except RecursionError:
-        raise ConfigError(f"{p}: TOML nested too deeply (arrays or tables inside each other beyond what "
-                          "Python's parser handles); a scene file needs at most a few levels") from None
+        raise ConfigError(f"{p}: TOML nested too deeply {toml_nesting(text)}, beyond what Python's parser "
+                          "handles; a scene file needs at most a few levels") from None
 
 
 #: bytes per sample of a raw volume once it is a tet mesh: float64 point and scalar, six int64 tets
@@ -134,6 +135,14 @@ def _check_mesh_memory(mesh_cfg: Any, p: Path) -> None:
     from warpvol.io import available_memory
 
     n = _raw_samples(mesh_cfg)
+    if n is not None:  # a file that does not match its dims is that, whatever memory there is
+        raw = mesh_cfg["raw"]
+        try:
+            f, dt = _file(p.parent, raw.get("path"), "path"), raw_dtype(raw.get("dtype"))
+        except ConfigError:
+            f = None  # the loader names what is wrong
+        if f is not None:
+            check_raw_size(f, raw["dims"], dt, where=f"{p}: mesh.raw")
     have = available_memory() if n is not None else None
     if n is not None and have is not None and n * RAW_BYTES_PER_SAMPLE > have:
         raise ConfigError(f"{p}: mesh.raw: the volume is too large for the memory available to warpvol "

@@ -132,11 +132,14 @@ def load_config(path: str | Path) -> SweepConfig:
     if not p.is_file():
         raise ConfigError(f"sweep config not found: {p}")
     try:
-        cfg = tomllib.loads(p.read_text())
+        text = p.read_text()
+        cfg = tomllib.loads(text)
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
         raise ConfigError(f"{p}: invalid TOML: {e}") from None
     except RecursionError:
-        raise ConfigError(f"{p}: invalid TOML: nested too deeply (arrays or tables inside each other)") from None
+        from warpvol.io import toml_nesting
+
+        raise ConfigError(f"{p}: invalid TOML: nested too deeply {toml_nesting(text)}") from None
     check_keys(str(p), cfg, list(CONFIG_KEYS))
     scenes = cfg.get("scenes")
     if not isinstance(scenes, list) or not scenes or not all(isinstance(s, str) for s in scenes):
