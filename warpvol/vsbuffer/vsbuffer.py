@@ -43,6 +43,7 @@ import time
 from contextlib import contextmanager
 import numpy as np
 
+from warpvol.conditioning.visibility import per_cell
 from warpvol.errors import ConfigError
 from warpvol.parallel import blocks, cpu_threads, launch_blocks
 from warpvol.vsbuffer.cells import ConvexCellMesh
@@ -116,7 +117,10 @@ def _unit_counters():
     out.update(c.as_dict())
 
 
-def _device_cells(cm: ConvexCellMesh, origin: np.ndarray, device: str, camera=None):
+def _device_cells(cm: ConvexCellMesh, origin: np.ndarray, device: str, camera=None, visible=None):
+    """The cells on the device; ``visible`` (per cell, optional): faces towards a cell left out are
+    boundary faces to the walk (no adjacency into it), so the walk meets the cells left out as empty
+    space."""
     import warp as wp
 
     from warpvol.kernels import vsbuffer as kv
@@ -136,7 +140,10 @@ def _device_cells(cm: ConvexCellMesh, origin: np.ndarray, device: str, camera=No
     c.scalars = wp.array(tm.scalars.astype(np.float32), dtype=wp.float32, device=device)
     c.tets = wp.array(tm.tets.astype(np.int32), dtype=wp.vec4i, device=device)
     c.planes = wp.array(fp.reshape(-1, 4).astype(np.float32), dtype=wp.vec4, device=device)
-    c.adj = wp.array(tm.adjacency.reshape(-1).astype(np.int32), dtype=wp.int32, device=device)
+    adj = tm.adjacency
+    if visible is not None:
+        adj = np.where((adj >= 0) & ~visible[cm.piece_cell[np.maximum(adj, 0)]], -1, adj)
+    c.adj = wp.array(adj.reshape(-1).astype(np.int32), dtype=wp.int32, device=device)
     g0 = tm.offsets + tm.gradients @ origin
     c.grad = wp.array(np.column_stack([tm.gradients, g0]).astype(np.float32), dtype=wp.vec4, device=device)
     c.piece_cell = wp.array(cm.piece_cell.astype(np.int32), dtype=wp.int32, device=device)
@@ -178,6 +185,15 @@ def work_counters(c: dict) -> dict:
     return out
 
 
+def _nothing_drawn(H: int, W: int, R: int, cells, nonconvex: int, audit: bool, note: str, counters: dict):
+    """:func:`render_vsbuffer`'s result where no plane draws anything: a transparent image, why in ``note``."""
+    return np.zeros((H, W, 4), np.float32), {
+        "counters": counters, "id_s": 0.0, "walk_s": 0.0, "setup_s": 0.0, "depth_res": R, "range": 0.0,
+        "lists": None, "vsbuffers": None, "drawn": None, "missed_length": 0.0,
+        "missed_per_ray": np.zeros((H, W), np.int32) if audit else None, "octree_nodes": 0,
+        "cells": cells.n_cells, "tets": cells.n_tets, "nonconvex_cells": nonconvex, "note": note}
+
+
 def _zero_counts(planes: int) -> dict:
     from warpvol.kernels import vsbuffer as kv
 
@@ -190,7 +206,8 @@ def _zero_counts(planes: int) -> dict:
 
 def _walk_inputs(cells: ConvexCellMesh, transfer, camera, device: str, rows: int, cmin: float, cspan: float,
                  integration: str, steps: int, neighbour_check: bool, adjacency: str, t_min: float, max_list: int,
-                 table=None, weight_bits: int | None = 8, texture_cache: dict | None = None, ties: bool = False):
+                 table=None, weight_bits: int | None = 8, texture_cache: dict | None = None, ties: bool = False,
+                 visible=None):
     """``(Walk, VsbCells, ray origins, ray directions, tf_s, tf_v, textures)`` on ``device`` for one
     frame; ``textures``: the 3D table's texture (``"table"``; kept alive, its fetches counted) or none."""
     import warp as wp
@@ -200,7 +217,7 @@ def _walk_inputs(cells: ConvexCellMesh, transfer, camera, device: str, rows: int
     from warpvol.kernels import vsbuffer as kv
 
     origin = 0.5 * (cells.bounds[0] + cells.bounds[1])
-    dc = _device_cells(cells, origin, device, camera if ties else None)
+    dc = _device_cells(cells, origin, device, camera if ties else None, visible)
     o_np, d_np = camera.rays(normalise=True)
     # origins moved along their rays (float64) to the sphere around the mesh: ray parameters then stay
     # of the mesh's size in float32 however far the eye is (lengths, not positions, are integrated)
@@ -278,7 +295,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
                     raster_rules: dict | None = None, count=None, keep_lists: bool = False,
                     keep_buffers: bool = False, audit: bool = True, rewalk: bool = False, table=None,
                     weight_bits: int = 8, texture_cache: dict | None = None,
-                    on_batch=None) -> tuple[np.ndarray, dict]:
+                    on_batch=None, visible_pieces=None) -> tuple[np.ndarray, dict]:
     """Render ``cells`` with the VSBUFFER algorithm; returns ``(image (H, W, 4) premultiplied, stats)``.
 
     Parameters
@@ -351,6 +368,13 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         ``on_batch(first_row, n_rows)`` before each batch of planes: progress, and the point where an
         exception raised there (or a Ctrl-C's ``KeyboardInterrupt``) stops the sweep. A batch draws
         at most :data:`BATCH_PIXELS` ID-buffer pixels, so Ctrl-C waits for one short batch.
+    visible_pieces : (T,) bool, optional
+        Per piece (tet), whether the transfer function can make it visible
+        (:func:`warpvol.conditioning.visibility.cell_visibility`): a cell none of whose pieces is
+        visible is left out of the octree, so no plane draws, walks, audits or integrates it, and the
+        walk treats a face towards it as a boundary face (empty space behind it, found again in the
+        VSBUFFER as in a non-convex mesh). An invisible cell adds nothing to any ray: the image is the
+        same. Counted as ``cells_culled``.
 
     ``stats`` holds ``counters`` (all counted work), ``id_s`` (octree query + both ID passes + read-back
     + comparison) and ``walk_s`` (column walk and integration), ``depth_res``, ``range``, ``cells``
@@ -380,11 +404,11 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     R = int(depth_res) or H
     if camera.projection == "perspective" and float(((cells.points - camera.eye) @ camera.forward).max()) <= 0.0:
         # the whole mesh behind the eye: no plane cuts anything in view, the image is transparent
-        return np.zeros((H, W, 4), np.float32), {
-            "counters": _zero_counts(0), "id_s": 0.0, "walk_s": 0.0, "setup_s": 0.0, "depth_res": R, "range": 0.0,
-            "lists": None, "vsbuffers": None, "drawn": None, "missed_length": 0.0, "missed_per_ray": np.zeros((H, W), np.int32) if audit else None,
-            "octree_nodes": 0, "cells": cells.n_cells, "tets": cells.n_tets, "nonconvex_cells": nonconvex,
-            "note": "mesh behind the eye"}
+        return _nothing_drawn(H, W, R, cells, nonconvex, audit, "mesh behind the eye", _zero_counts(0))
+    vis_cell = None if visible_pieces is None else per_cell(visible_pieces, cells.cell_start)
+    if vis_cell is not None and not vis_cell.any():  # nothing the transfer function shows
+        return _nothing_drawn(H, W, R, cells, nonconvex, audit, "no cell visible under the transfer function",
+                              dict(_zero_counts(0), cells_culled=cells.n_cells))
     stride = R + 2
     t0 = time.perf_counter()
     abc = ray_space(cells.points, camera)
@@ -408,11 +432,17 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         o = fl[np.argsort(fc[fl], kind="stable")]
         cnt = np.bincount(fc[o], minlength=cells.n_cells)
         csr[name] = (o, np.concatenate([[0], np.cumsum(cnt)])[:-1], cnt)
-    tree = build_octree(*cells.cell_bounds, tree_depth, tree_insert)
+    if vis_cell is None:
+        tree = build_octree(*cells.cell_bounds, tree_depth, tree_insert)
+    else:  # only the visible cells enter the octree: no plane draws the others
+        keep = np.nonzero(vis_cell)[0]
+        tree = build_octree(*(b[keep] for b in cells.cell_bounds), tree_depth, tree_insert)
+        tree.cells = keep[tree.cells]
     node_cnt = np.diff(tree.cell_start)
     w, dc, ray_o, ray_d, tf_s, tf_v, textures = _walk_inputs(
         cells, transfer, camera, device, R, cmin, cspan, integration, steps, neighbour_check, adjacency, t_min,
-        max_list, table=table, weight_bits=weight_bits or None, texture_cache=texture_cache, ties=rewalk)
+        max_list, table=table, weight_bits=weight_bits or None, texture_cache=texture_cache, ties=rewalk,
+        visible=vis_cell)
     out = wp.zeros(W * H, dtype=wp.vec4, device=device)
     rules = dict(raster_rules or {})
     # planes of one batch are stacked in one ID buffer: keep it within the rasteriser's 65536 rows
@@ -420,6 +450,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     P = max(1, min(int(planes_per_batch), H, 65536 // stride, BATCH_PIXELS // (stride * W)))
     threads = threads or cpu_threads()
     cnt = _zero_counts(H)
+    cnt["cells_culled"] = 0 if vis_cell is None else int(cells.n_cells - vis_cell.sum())
     missed_length = 0.0
     ray_missed = wp.zeros(W * H, dtype=wp.int32, device=device)
     t_setup = time.perf_counter() - t0

@@ -8,6 +8,10 @@ host's intersections and integration; the 3D table's texture fetches under ``int
 indigo2_impact`` models it; every count of the walk (runs, reused exit points, ``lost_segments``,
 ``missed_cells`` ...) and the time in ID-buffer generation and in integration go to
 ``stats["vsbuffer"]``.
+
+With the ``visibility`` stage before it (skipping on), the cells the transfer function makes invisible
+are left out of the octree: no plane draws, walks, audits or integrates them, and the walk meets them
+as empty space (``left_out``: ``cells_culled``).
 """
 
 from __future__ import annotations
@@ -90,6 +94,14 @@ class VsbSweep(Stage):
 
             raise ConfigError(f"{self.where}.rewalk: needs audit = true (the audit finds the rays to walk again)")
 
+    def leaves_out(self, ctx: Context) -> str | None:
+        what = []
+        if self.config["t_min"] > 0:
+            what.append(f"the rest of each ray once its transmittance is below t_min = {self.config['t_min']:g}")
+        what.append("with the visibility stage before it: the cells the transfer function makes invisible (left "
+                    "out of the octree: not drawn, walked or integrated)")
+        return "; ".join(what)
+
     def run(self, ctx: Context) -> None:
         from warpvol.errors import ConfigError
 
@@ -110,7 +122,10 @@ class VsbSweep(Stage):
         from warpvol.progress import detail
 
         h = cam.height_px  # the sweep's planes, one per image row: its share done goes to an open progress bar
-        img, st = render_vsbuffer(ctx.buffers["vsb_cells"], sc.transfer, sc.camera, device=ctx.device,
+        vis = ctx.buffers.get("visible_cells") if ctx.skip else None
+        if not ctx.skip:  # all the work, for comparison: no early ray termination either
+            cfg["t_min"] = 0.0
+        img, st = render_vsbuffer(ctx.buffers["vsb_cells"], sc.transfer, sc.camera, device=ctx.device, visible_pieces=vis,
                                   count=ctx.count, table=table, on_batch=lambda j0, n: detail(self.name, j0 / h,
                                                                                                   f"plane {j0} of {h}"),
                                   texture_cache=ctx.persistent.setdefault("vsb_textures", {}), **cfg)
@@ -119,6 +134,18 @@ class VsbSweep(Stage):
         ctx.stats["vsbuffer"]["walk"] = c  # every count of the sweep; the hardware work is in ``counters``
         ctx.stats["vsbuffer"].update(lost_segments=c["lost_segments"], missed_cells=c["missed_cells"])
         ctx.stats["vsbuffer"]["rays_rewalked"] = c["rays_rewalked"]
+        why, left = [], {}
+        if vis is not None:
+            why.append("cells the transfer function makes invisible (zero extinction and colour over their scalar "
+                       "range): left out of the octree, never drawn into a VSBUFFER, walked or integrated")
+            left["cells_culled"] = c["cells_culled"]
+        if cfg["t_min"] > 0:
+            import numpy as np
+
+            why.append(f"the rest of a ray once its transmittance is below t_min = {cfg['t_min']:g}")
+            left["rays_terminated"] = int(np.count_nonzero(1.0 - img[..., 3] < cfg["t_min"]))
+        if why:
+            ctx.left_out(why="; ".join(why), **left)
         # the paper's Table 1 column "drawn tetra": cells drawn over all sweep planes, by the selection rule
         ctx.stats["vsbuffer"].update(tree_insert=self.tree_insert, cell_test=self.cell_test,
                                      drawn_cells=c["drawn_cells"])
