@@ -8,7 +8,7 @@ import warp as wp
 from .harc_walk import composite
 from .integrate import integrate_segment
 from .pt import axis_coord
-from .texture import Tex2D, Tex3D, tex2d, tex3d
+from .texture import Tex1D, Tex2D, Tex3D, tex1d, tex2d, tex3d
 from .tf import tf_eval, tf_first_break, tf_next_break
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
@@ -44,6 +44,23 @@ class Integ:
     p_b: float
     iso: Tex2D
     iso_rule: int
+    tf_tex: Tex1D
+    tf_tex_on: int
+    tf_scale: wp.vec4
+
+
+@wp.func
+def tf_read(ig: Integ, s: float) -> wp.vec4:
+    """The TF at scalar ``s`` as partial pre-integration's fragment program reads it: from the 1D TF
+    texture (``tf_tex_on``: texel k holds the TF at k / (width - 1) of its range, read linearly at the
+    texel-centre coordinate, colour and extinction stored over their maxima ``tf_scale`` and scaled
+    back by one multiply) or, for the exact option, from the control-point arrays."""
+    if ig.tf_tex_on == 0:
+        return tf_eval(s, ig.tf_s, ig.tf_v)
+    w = float(ig.tf_tex.width)
+    x = wp.clamp((s - ig.s_off) * ig.s_inv, 0.0, 1.0)
+    v = tex1d(ig.tf_tex, x * (w - 1.0) / w + 0.5 / w)
+    return wp.cw_mul(v, ig.tf_scale)
 
 
 @wp.func
@@ -60,8 +77,8 @@ def integrate_sub(ig: Integ, sf: float, sb: float, l: float) -> wp.vec4:
         r = axis_coord(l * ig.l_inv, ig.t_la, ig.t_lb, ig.t_llog)
         return tex3d(ig.table, u, v, r)
     # partial pre-integration (Moreland & Angel 2004)
-    vf = tf_eval(sf, ig.tf_s, ig.tf_v)
-    vb = tf_eval(sb, ig.tf_s, ig.tf_v)
+    vf = tf_read(ig, sf)
+    vb = tf_read(ig, sb)
     xf = vf[3] * l
     xb = vb[3] * l
     gf = xf / (xf + 1.0)

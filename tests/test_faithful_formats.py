@@ -76,3 +76,21 @@ def test_guthe_presets_build_their_tables_as_the_paper_did():
     e = preset("guthe2002_quadratic_gf4", table_guthe={"n_s": 16, "slices": "exact"}).render(sc, quiet=True)
     assert "sw_samples" not in e.report["counters"].get("table_guthe", {})
     assert 0 < np.abs(np.asarray(q.image) - np.asarray(e.image)).max() <= 1.5 / 255  # m = 128 samples vs exact
+
+
+def test_espinha_partial_reads_the_tf_from_an_8_bit_texture():
+    """Partial pre-integration reads the TF at both ends of each sub-segment; the faithful preset reads it
+    from a 256-texel RGBA8 1D texture (what the throughput model prices), not from fp32 control points."""
+    from test_pt_render import preset
+
+    h = _stage(Pipeline.load("espinha2005_partial"), "harc")
+    assert (h["tf_texture"], h["tf_texels"]) == ("rgba8", 256)
+    sc = builtin_scene("sphere").with_camera(width_px=24, height_px=24)
+    res = {t: preset("espinha2005_partial", harc={"tf_texture": t}).render(sc, quiet=True)
+           for t in ("exact", "rgba8", "rgba16f")}
+    c8, c16 = res["rgba8"].report["counters"]["harc"], res["rgba16f"].report["counters"]["harc"]
+    assert c8["tex_1d_rgba8_linear"] == c16["tex_1d_rgba16f_linear"] > 0 and "tex_1d_rgba16f_linear" not in c8
+    assert c8["tex_1d_rgba8_linear"] == res["exact"].report["counters"]["harc"]["tex_1d_rgba8_linear"]
+    d8 = np.abs(np.asarray(res["rgba8"].image) - np.asarray(res["exact"].image)).max()
+    d16 = np.abs(np.asarray(res["rgba16f"].image) - np.asarray(res["exact"].image)).max()
+    assert 0 < d16 and 0 < d8  # the texture is what the program reads

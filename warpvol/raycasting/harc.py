@@ -373,14 +373,18 @@ def _list_max(empty: np.ndarray, start: np.ndarray, items: np.ndarray, key: np.n
 
 def integ_setup(mode: str, tf, device: str, *, table=None, psi=None, iso=None, iso_rule: str = "paper",
                 lmax: float = 1.0, table_texel: str = "auto", weight_bits: int | None = 8,
-                cache: dict | None = None):
+                cache: dict | None = None, tf_texture: str = "exact", tf_texels: int = 256):
     """The kernel's :class:`warpvol.kernels.harc.Integ` and the textures it holds.
 
     ``table``: a 3D pre-integration table (``data[l, sb, sf]``) for ``full``; ``psi`` (the psi
-    table) and ``iso`` (the iso-crossing table) for ``partial``. ``cache`` (a dict kept by the
+    table) and ``iso`` (the iso-crossing table) for ``partial``; ``partial`` reads the TF from a 1D
+    texture of ``tf_texels`` texels in ``tf_texture`` (``rgba8`` or ``rgba16f``, linear; extinction
+    stored over its maximum) or, with ``exact``, from the control points. ``cache`` (a dict kept by the
     pipeline) holds the textures made from tables by table key, so redrawing with the same tables
     uploads nothing (as a texture stays resident on the card until the TF changes)."""
-    from warpvol.gpu.texture import Texture2D, Texture3D
+    import warp as wp
+
+    from warpvol.gpu.texture import Texture1D, Texture2D, Texture3D
     from warpvol.kernels import harc as kh
     from warpvol.projection.pt import TEXEL_FOR_TABLE, _axis_affine
 
@@ -409,11 +413,13 @@ def integ_setup(mode: str, tf, device: str, *, table=None, psi=None, iso=None, i
                                                      device=device))
     dummy3 = cached(("empty3d",), lambda: Texture3D(np.zeros((1, 1, 1, 4)), fmt="rgba32f", filter="nearest",
                                                      device=device))
-    ig.table, ig.psi, ig.iso = dummy3.struct, dummy2.struct, dummy2.struct
+    dummy1 = cached(("empty1d",), lambda: Texture1D(np.zeros((2, 4)), fmt="rgba32f", filter="nearest", device=device))
+    ig.table, ig.psi, ig.iso, ig.tf_tex, ig.tf_tex_on = dummy3.struct, dummy2.struct, dummy2.struct, dummy1.struct, 0
+    ig.tf_scale = wp.vec4(1.0, 1.0, 1.0, 1.0)
     ig.t_sa, ig.t_sb, ig.l_inv, ig.t_la, ig.t_lb, ig.t_llog = 1.0, 0.0, 1.0 / lmax, 1.0, 0.0, 0
     ig.iso_rule = ISO_RULES[iso_rule]
     ig.p_a, ig.p_b = 1.0, 0.0
-    keep += [dummy2, dummy3]
+    keep += [dummy2, dummy3]  # (the 1D dummy stays out: keep's 1D texture is the TF's, counted per step)
     if mode == "full":
         if table is None or table.data.ndim != 4:
             raise ConfigError("integration 'full' needs a 3D table (a table stage before this one)")
@@ -439,7 +445,29 @@ def integ_setup(mode: str, tf, device: str, *, table=None, psi=None, iso=None, i
         ig.psi, ig.iso = pt.struct, it.struct
         ig.p_a, ig.p_b, _ = _axis_affine(psi.axes[1])
         keep += [pt, it]
+        if tf_texture != "exact":
+            values, scale = tf_texture_values(tf, tf_texels)
+            tt = cached(("tf", tf.hash, tf_texels, tf_texture, weight_bits), lambda: Texture1D(
+                values, fmt=tf_texture, filter="linear", device=device, weight_bits=weight_bits))
+            ig.tf_tex, ig.tf_tex_on, ig.tf_scale = tt.struct, 1, wp.vec4(*scale)
+            keep.append(tt)
     return ig, keep
+
+
+#: partial pre-integration's TF: a 1D texture in one of these formats, or the control points (``exact``)
+TF_TEXTURES = ("exact", "rgba8", "rgba16f")
+
+
+def tf_texture_values(tf, n: int) -> tuple[np.ndarray, tuple]:
+    """Texels ``(n, 4)`` of partial pre-integration's 1D TF texture and the program's scale constant:
+    texel k is the TF at k / (n - 1) of its range, ``(rgb / c_max, tau / tau_max)``, and the program
+    multiplies the fetched texel by ``(c_max, c_max, c_max, tau_max)`` (colours and extinction may
+    exceed a unorm texel's 1)."""
+    lo, hi = tf.srange
+    v = np.asarray(tf.evaluate(lo + np.arange(n) / (n - 1) * (hi - lo)), dtype=np.float64)
+    c = float(v[:, :3].max()) if v[:, :3].max() > 0 else 1.0
+    tau = float(v[:, 3].max()) if v[:, 3].max() > 0 else 1.0
+    return v / np.array([c, c, c, tau]), (c, c, c, tau)
 
 
 def rgba(two: np.ndarray) -> np.ndarray:

@@ -39,14 +39,16 @@ def count_pass(ctx: Context, c: dict, textures: list, walk: str, integration: st
     tex = [t for t in textures if t.shape != (1, 1) and t.shape != (1, 1, 1)]
     if walk == "planes" and c["texture_fetches"]:
         cnt.add(**{"tex_2d_rgba32f_nearest": c["texture_fetches"], "texels": c["texture_fetches"]})
-    for t in tex:  # full: the 3D table; partial: psi, then iso
-        t.count(c["steps"])
+    tf_tex = [t for t in tex if len(t.shape) == 1]  # partial: the TF's 1D texture, when it is one
+    for t in tex:  # full: the 3D table; partial: psi, then iso, one each per step; the TF at both ends
+        t.count(2 * c["steps"] if len(t.shape) == 1 else c["steps"])
     if walk == "planes" and integration in ("full", "partial"):  # the fragment program's instructions
         from warpvol.gpu import programs
 
         sub = programs.FULL if integration == "full" else programs.PARTIAL_SUB
         cnt.add(combiner_ops=c["cells"] * programs.n_alu(programs.WALK) + c["steps"] * programs.n_alu(sub))
-        if integration == "partial":  # the TF at both ends of each sub-segment (1D texture)
+        if integration == "partial" and not tf_tex:  # the exact option reads the TF's control points at both
+            # ends of each sub-segment: counted as the 8-bit 1D texture fetches it stands in for
             cnt.add(tex_1d_rgba8_linear=2 * c["steps"], texels=4 * c["steps"])
         if work is not None:
             px = work()
@@ -87,6 +89,10 @@ class Harc(Stage):
     psi                str    psi        ``ctx.buffers`` key of the psi table (``partial``)
     iso                str    iso        ``ctx.buffers`` key of the iso table (``partial``)
     iso_rule           str    paper      ``paper`` (``sf == s_iso``) | ``behind`` (edge-anchored table)
+    tf_texture         str    exact      ``partial``: the TF as a 1D texture ``rgba8`` | ``rgba16f``
+                                         (linear, extinction over its maximum), or ``exact`` (the
+                                         control points; no card's format)
+    tf_texels          int    256        texels of that 1D texture
     ray_setup          str    robust     ``robust`` (float64 ray from the mesh, float64 redo) |
                                          ``paper`` (fp32 ray from the eye, lost rays stay lost)
     weight_bits        int    8          texture filter-weight bits (0: fp32 weights)
@@ -109,6 +115,9 @@ class Harc(Stage):
         Param("psi", str, "psi", "ctx.buffers key of the psi table (partial)"),
         Param("iso", str, "iso", "ctx.buffers key of the iso-crossing table (partial)"),
         Param("iso_rule", str, "paper", "next_s_iso rule", choices=("paper", "behind")),
+        Param("tf_texture", str, "exact", "partial: the TF's 1D texture format, or exact control points",
+              choices=("exact", "rgba8", "rgba16f")),
+        Param("tf_texels", int, 256, "partial: texels of the TF's 1D texture", lo=2, hi=4096),
         Param("ray_setup", str, "robust", "ray set-up and unresolved rays", choices=("robust", "paper")),
         Param("weight_bits", int, 8, "texture filter-weight fraction bits (0: fp32)", lo=0, hi=16),
         Param("format", str, "fp32", "frame-buffer format", choices=("unorm8", "unorm12", "unorm16", "fp16", "fp32")),
@@ -149,7 +158,8 @@ class Harc(Stage):
             tables[key] = ctx.buffers[name]
         ig, keep = integ_setup(self.integration, ctx.scene.transfer, ctx.device, iso_rule=self.iso_rule,
                                weight_bits=self.weight_bits or None, lmax=ctx.scene.mesh.lmax,
-                               cache=ctx.persistent.setdefault("harc_textures", {}), **tables)
+                               cache=ctx.persistent.setdefault("harc_textures", {}), tf_texture=self.tf_texture,
+                               tf_texels=self.tf_texels, **tables)
         cam = ctx.scene.camera
         state = HarcState(cam.width_px * cam.height_px, ctx.device)
         entry = ctx.buffers["harc_entry"]
