@@ -80,7 +80,8 @@ def _cell(v) -> str:
         if v == 0:
             return "0"
         a = abs(v)
-        return f"{v:.3g}" if 1e-3 <= a < 1e5 else f"{v:.2e}"
+        # an exponent's minus sign must not break the number over two lines in a narrow column
+        return f"{v:.3g}" if 1e-3 <= a < 1e5 else f'<span class="nb">{v:.2e}</span>'
     if isinstance(v, (list, tuple)):
         return ", ".join(_cell(x) for x in v)
     if isinstance(v, dict):
@@ -88,12 +89,36 @@ def _cell(v) -> str:
     return md_text(v)
 
 
+#: a generated table with more columns than this is split into several, each repeating the key columns
+MAX_COLUMNS = 10
+
+
 def markdown_table(columns: list[str], rows: list) -> str:
-    """A Markdown table; ``rows`` are lists in column order or dicts keyed by column."""
+    """A Markdown table; ``rows`` are lists in column order or dicts keyed by column. A table of more than
+    :data:`MAX_COLUMNS` columns becomes several tables (one under the other), each repeating the leading
+    key columns (up to two whose values are all text), so that each fits a page's width."""
+    rows = [[r.get(c) for c in columns] if isinstance(r, dict) else (list(r) + [None] * len(columns))[:len(columns)]
+            for r in rows]
+    if len(columns) <= MAX_COLUMNS:
+        return _one_table(columns, rows)
+    keys = 0
+    while keys < 2 and rows and all(isinstance(r[keys], str) for r in rows):
+        keys += 1
+    keys = max(keys, 1)
+    rest = list(range(keys, len(columns)))
+    n_parts = -(-len(rest) // (MAX_COLUMNS - keys))
+    per = -(-len(rest) // n_parts)
+    parts = []
+    for k in range(n_parts):
+        idx = list(range(keys)) + rest[k * per:(k + 1) * per]
+        parts.append(_one_table([columns[i] for i in idx], [[r[i] for i in idx] for r in rows]))
+    return "\n\n".join(parts)
+
+
+def _one_table(columns: list[str], rows: list[list]) -> str:
     lines = ["| " + " | ".join(_cell(c) for c in columns) + " |", "|" + " --- |" * len(columns)]
-    for r in rows:
-        vals = [r.get(c) for c in columns] if isinstance(r, dict) else list(r) + [None] * (len(columns) - len(r))
-        lines.append("| " + " | ".join(_cell(v) for v in vals[:len(columns)]) + " |")
+    for vals in rows:
+        lines.append("| " + " | ".join(_cell(v) for v in vals) + " |")
     return "\n".join(lines)
 
 
@@ -261,6 +286,11 @@ def on_config(config, **kwargs):
 
 
 def on_page_markdown(markdown, page=None, config=None, files=None, **kwargs):
+    # a page with generated tables gives its width to them: no table of contents beside the text column
+    if page is not None and re.search(r"(?<!`)<!--\s*(table|bench)\b", markdown):
+        hide = page.meta.setdefault("hide", [])
+        if isinstance(hide, list) and "toc" not in hide:
+            hide.append("toc")
     return expand(markdown)
 
 

@@ -2,9 +2,7 @@
 site builds with warnings as errors with no broken internal link or image (checked in headless
 Chromium)."""
 
-import os
 import re
-import subprocess
 import sys
 from pathlib import Path
 
@@ -36,15 +34,7 @@ def test_readme_has_python_blocks_and_stays_short():
         assert word not in text, word
 
 
-@pytest.fixture(scope="module")
-def site(tmp_path_factory):
-    pytest.importorskip("mkdocs", reason="mkdocs is not installed (pip install -e '.[test]')")
-    out = tmp_path_factory.mktemp("site")
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    r = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-q", "-d", str(out)], cwd=ROOT,
-                       capture_output=True, text=True, env=env, timeout=600)
-    assert r.returncode == 0, r.stdout + r.stderr
-    return out
+# the site fixture (mkdocs build --strict, once per session) is in tests/conftest.py
 
 
 def test_site_builds_strict(site):

@@ -87,3 +87,56 @@ def test_text_from_json_shows_as_written_in_markdown():
         assert not re.search(r"<(em|strong|a|h\d)\b", out), (key, out)
         shown = html.unescape(re.sub(r"<[^>]+>", "", out)).strip()
         assert shown == " ".join(text.replace("`", "").split()), key
+
+
+#: the pages with wide generated tables and figures
+WIDE_PAGES = ["performance/", "papers/westermann1997/", "papers/roettger2002/", "papers/guthe2002/",
+              "papers/kraus2004/", "papers/espinha2005/"]
+
+_TABLES_JS = """() => {
+  const vw = document.documentElement.clientWidth;
+  return Array.from(document.querySelectorAll('article table')).map((t, i) => {
+    const r = t.getBoundingClientRect();
+    let p = t.parentElement, scroller = null;
+    while (p && p !== document.body) {
+      const cs = getComputedStyle(p);
+      if ((cs.overflowX === 'auto' || cs.overflowX === 'scroll') && p.scrollWidth > p.clientWidth + 1) {
+        scroller = {visible: !/(transparent|rgba\\(0, 0, 0, 0\\))\\s*$/.test(cs.scrollbarColor || ''),
+                    right: p.getBoundingClientRect().right, width: p.clientWidth};
+        break;
+      }
+      p = p.parentElement;
+    }
+    const head = Array.from(t.rows[0] ? t.rows[0].cells : []).map(c => c.textContent.trim());
+    return {i, right: r.right, width: r.width, vw, scroller, head};
+  });
+}"""
+
+
+def _served(site):
+    return _check_site()._serve(Path(site))
+
+
+def test_every_table_is_readable_at_1280_px(site, browser):
+    """Every table of the paper and performance pages lies inside the viewport, or inside a scroll container
+    with a visible scroll bar that itself lies inside the viewport and shows most of the table: no column
+    (the ratio, error and Pareto columns included) is cut off unseen."""
+    server, base = _served(site)
+    page = browser.new_page(viewport=VIEWPORT)
+    try:
+        cut, n = [], 0
+        for pg in WIDE_PAGES:
+            page.goto(f"{base}/{pg}", wait_until="load")
+            for t in page.evaluate(_TABLES_JS):
+                n += 1
+                fits = t["right"] <= t["vw"] + 0.5
+                # scrolled: with a visible bar, inside the viewport, and at most a fifth more than it shows
+                sc = t["scroller"]
+                scrolls = sc is not None and sc["visible"] and sc["right"] <= t["vw"] + 0.5 and \
+                    t["width"] <= 1.2 * sc["width"]
+                if not (fits or scrolls):
+                    cut.append(f"{pg} table {t['i']} ({', '.join(t['head'][:3])}, ...): right edge {t['right']:.0f} px")
+    finally:
+        page.close()
+        server.shutdown()
+    assert n >= 27 and cut == [], cut
