@@ -305,4 +305,72 @@ def _role(m: re.Match) -> str:
 
 
 def on_page_content(html, page=None, config=None, files=None, **kwargs):
-    return ROLE.sub(_role, html)
+    return api_defaults(ROLE.sub(_role, html))
+
+
+# -- API reference: the Default column from the live signature -------------------------------------
+DOC_HEADING = re.compile(r'<h\d id="(warpvol(?:\.\w+)+)" class="doc doc-heading">')
+PARAM_ROW = re.compile(r'(<tr class="doc-section-item">\s*<td>\s*<code>(\w+)</code>\s*</td>.*?)(<td>(?:(?!<td>).)*?</td>)'
+                       r'(\s*</tr>)', re.S)
+
+
+def _api_object(dotted: str):
+    import importlib
+
+    parts = dotted.split(".")
+    obj = importlib.import_module(parts[0])
+    for name in parts[1:]:
+        obj = getattr(obj, name, None)
+        if obj is None:
+            return None
+    return obj
+
+
+def _param_table_section(section: str, dotted: str) -> str:
+    """``section`` (one documented object's HTML, up to the next object) with its parameter table's
+    Default column taken from the object's signature; a documented parameter the signature lacks is an
+    error."""
+    import html as _html
+    import inspect
+
+    start = section.find("<th>Default</th>")
+    if start < 0:
+        return section
+    end = section.find("</table>", start)
+    obj = _api_object(dotted)
+    try:
+        sig = inspect.signature(obj)
+    except (TypeError, ValueError):
+        return section
+    params = sig.parameters
+    var_kw = any(p.kind is p.VAR_KEYWORD for p in params.values())
+
+    def row(m: re.Match) -> str:
+        name = m.group(2)
+        p = params.get(name)
+        if p is None:
+            if var_kw:
+                return m.group(0)
+            raise ValueError(f"docs: {dotted} documents a parameter {name!r} that its signature "
+                             f"{dotted}{sig} does not have")
+        cell = "<em>required</em>" if p.default is p.empty else f"<code>{_html.escape(repr(p.default))}</code>"
+        return f"{m.group(1)}<td>\n                {cell}\n            </td>{m.group(4)}"
+
+    return section[:start] + PARAM_ROW.sub(row, section[start:end]) + section[end:]
+
+
+def api_defaults(html: str) -> str:
+    """Every mkdocstrings parameter table on a page with its Default column generated from the live
+    signature (``inspect.signature``), so a default shows as the value it is (``'raycast'``, not the name
+    of the constant written in the source) and no parameter borrows another's default."""
+    heads = list(DOC_HEADING.finditer(html))
+    if not heads:
+        return html
+    out, pos = [], 0
+    for k, m in enumerate(heads):
+        end = heads[k + 1].start() if k + 1 < len(heads) else len(html)
+        out.append(html[pos:m.end()])
+        out.append(_param_table_section(html[m.end():end], m.group(1)))
+        pos = end
+    out.append(html[pos:])
+    return "".join(out)

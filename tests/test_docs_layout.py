@@ -140,3 +140,64 @@ def test_every_table_is_readable_at_1280_px(site, browser):
         page.close()
         server.shutdown()
     assert n >= 27 and cut == [], cut
+
+
+def _api_tables(page_html: str):
+    """``(object, [(parameter, default shown)])`` for every parameter table of the API reference page."""
+    import html
+    import re
+
+    heads = list(re.finditer(r'<h\d id="(warpvol(?:\.\w+)+)" class="doc doc-heading">', page_html))
+    for k, m in enumerate(heads):
+        seg = page_html[m.end():heads[k + 1].start() if k + 1 < len(heads) else len(page_html)]
+        start = seg.find("<th>Default</th>")
+        if start < 0:
+            continue
+        table = seg[start:seg.find("</table>", start)]
+        rows = []
+        for r in re.findall(r'<tr class="doc-section-item">.*?</tr>', table, re.S):
+            cells = [html.unescape(re.sub(r"<[^>]+>", "", c)).strip() for c in re.findall(r"<td>.*?</td>", r, re.S)]
+            rows.append((cells[0], cells[-1]))
+        yield m.group(1), rows
+
+
+def test_api_reference_parameters_exist_with_their_real_defaults(site):
+    """The Python API page's parameter tables: every documented parameter is in the object's signature, and the
+    Default column shows the signature's own default (``'raycast'``, ``None``, ``True``; ``required``)."""
+    import importlib
+    import inspect
+
+    checked, wrong = 0, []
+    for dotted, rows in _api_tables((site / "guide" / "python" / "index.html").read_text()):
+        obj = importlib.import_module("warpvol")
+        for part in dotted.split(".")[1:]:
+            obj = getattr(obj, part)
+        params = inspect.signature(obj).parameters
+        for name, shown in rows:
+            p = params.get(name)
+            real = None if p is None else "required" if p.default is p.empty else repr(p.default)
+            checked += 1
+            if shown != real:
+                wrong.append(f"{dotted}({name}): shown {shown!r}, signature {real!r}")
+    assert checked >= 40 and wrong == [], wrong
+
+
+def test_numpydoc_parameters_are_one_per_entry_and_in_the_signature():
+    """Each public function's numpydoc Parameters name one parameter per entry (a grouped ``a, b`` entry
+    gives all of them the first one's type and default in the rendered table) and only parameters its
+    signature has."""
+    import inspect
+    import re
+
+    bad = []
+    for name in ("render", "compare", "builtin_scene", "load_scene", "presets", "set_cache_budget"):
+        fn = getattr(__import__("warpvol"), name)
+        params = inspect.signature(fn).parameters
+        doc = inspect.getdoc(fn) or ""
+        block = re.search(r"^Parameters\n-+\n(.*?)(?:^\w[^\n]*\n-+\n|\Z)", doc, re.S | re.M)
+        for line in (block.group(1).splitlines() if block else []):
+            if line and not line[0].isspace():  # an entry: "name : type" (its description is indented)
+                names = [n.strip() for n in line.split(" : ")[0].split(",")]
+                if len(names) > 1 or names[0] not in params:
+                    bad.append(f"{name}: {line.strip()!r}")
+    assert bad == [], bad

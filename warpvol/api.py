@@ -513,7 +513,14 @@ def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, refere
         EXR file is used as given.
     repeats : int
         Warm renders per pipeline after the first (0: report the first render's time).
-    device, gpu, scalars, quiet
+    device : str
+        Warp device, as in :func:`render`.
+    gpu : str, optional
+        A GPU profile, as in :func:`render`: the table's times stay the emulation's, each result's
+        report gains ``modelled_s``.
+    scalars : str, optional
+        Point-data array of a mesh given as ``scene_or_parts``, as in :func:`render`.
+    quiet : bool
         As in :func:`render`.
 
     Returns
