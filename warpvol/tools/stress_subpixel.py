@@ -111,3 +111,18 @@ def silhouette_scene(px: int = 16, eps: float = 1e-6) -> Scene:
                  width_px=px, height_px=px)
     return Scene(mesh=mesh, transfer=TransferFunction([list(r) for r in SUBPIXEL_TF]), camera=cam,
                  name="silhouette_on_centres")
+
+
+def sheet_scene(thick: float, px: int = 24, perspective: bool = False) -> Scene:
+    """A sheet ``thick`` thick (3 x 3 cells across [-1, 1]^2 at z = 0.1), seen nearly face-on, its scalar
+    stepping from 0 to 1 across it, with extinction ``0.3 / thick``: optical depth about 0.3 through it."""
+    x = np.linspace(-1.0, 1.0, 4)
+    mesh = TetMesh(grid_points(x, x, [0.1, 0.1 + thick]), structured_to_tets((4, 4, 2)),
+                   np.r_[np.zeros(16), np.ones(16)], name="sheet")
+    tf = TransferFunction([[0.0, 0.9, 0.5, 0.2, 0.3 / thick], [1.0, 0.2, 0.5, 0.9, 0.3 / thick]])
+    if perspective:
+        cam = Camera(eye=(0.3, 0.5, 4.0), target=(0, 0, 0), fov_y_deg=40.0, width_px=px, height_px=px)
+    else:
+        cam = Camera(projection="orthographic", eye=(0.2, 0.3, 4.0), target=(0, 0, 0), ortho_height=2.4,
+                     width_px=px, height_px=px)
+    return Scene(mesh=mesh, transfer=tf, camera=cam, name=f"sheet_{thick:g}")

@@ -260,12 +260,14 @@ class ConvexCellMesh:
         keep[np.nonzero(bad[self.piece_cell])[0]] = True  # ... and every piece of a non-convex cell
         return ConvexCellMesh(self.pieces, np.nonzero(keep)[0], name=self.name)
 
-    def thin_pieces(self, transfer) -> np.ndarray:
+    def thin_pieces(self, transfer, length=None) -> np.ndarray:
         """(T,) bool: pieces thinner than float32 resolves for their extinction. A float32 segment
         length is known to about ``2^-20`` of the mesh radius; where the transfer function's largest
         extinction over a piece's scalar range times that exceeds ``1e-5`` (an optical-depth error beyond
         the exact presets' tolerance) and the piece is thinner than ``2^-12`` of the radius (so not simply
-        opaque), the pixels crossing it cannot be integrated exactly in float32."""
+        opaque), the pixels crossing it cannot be integrated exactly in float32. ``length`` (scalar or
+        (T,)) replaces ``2^-20`` of the radius: e.g. each piece's diameter, for a ray that may run inside a
+        piece seen edge-on."""
         lo, hi = self.bounds
         radius = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-300)
         p = self.points[self.pieces.tets]  # (T, 4, 3)
@@ -279,7 +281,7 @@ class ConvexCellMesh:
         ext = np.maximum(np.interp(smin, ts, te), np.interp(smax, ts, te))
         for k in range(len(ts)):
             ext = np.where((smin <= ts[k]) & (ts[k] <= smax), np.maximum(ext, te[k]), ext)
-        return (ext * 2.0 ** -20 * radius > 1e-5) & (h < 2.0 ** -12 * radius)
+        return (ext * (2.0 ** -20 * radius if length is None else length) > 1e-5) & (h < 2.0 ** -12 * radius)
 
     def __repr__(self) -> str:
         return f"ConvexCellMesh({self.name!r}, {self.n_cells} cells, {self.n_tets} tets)"
