@@ -38,6 +38,14 @@ def counts(rows: str, role: str) -> tuple[int, int]:
     return next((r[2], r[3]) for r in VM["counts"]["rows"] if r[:2] == [rows, role])
 
 
+R02 = _tables("roettger2002")
+
+
+def roettger_check(starts: str) -> float:
+    """The ours column of a row of roettger2002.json's Table 1 checks."""
+    return next(r[2] for r in R02["table1_checks"]["rows"] if r[0].startswith(starts))
+
+
 F8 = "Fig. 8: 2D planes over 3D texture"
 ESP = "T2/T3 HARC {} [fps]"
 
@@ -93,6 +101,10 @@ CLAIMS = [
     ("papers/espinha2005.md", "VICP-GPU over VICP is\n  {m:.2f} (paper {p:.2f}) on the Blunt Fin",
      dict(m=relative("VICP-GPU over VICP", "GeForce 6800 GT", "Blunt Fin"),
           p=relative("VICP-GPU over VICP", "GeForce 6800 GT", "Blunt Fin", "paper"))),
+    ("papers/roettger2002.md", "the combiner build gains a factor of {g:.2f} in equivalent steps over plain 8-bit "
+     "blending at 64 steps, not the paper's 4 ({e:.2f} with an exact fp32 `l/n`",
+     dict(g=roettger_check("GeForce3 combiners at 64 steps, l/n in the 8-bit constant register"),
+          e=roettger_check("GeForce3 combiners at 64 steps, l/n an exact fp32 constant"))),
     ("papers/westermann1997.md", "The modelled GrOps are {b:.1f} s\n  (Blunt Fin, {rb:.2f}x the paper's {pb:.1f} s) "
      "and {f:.1f} s (fedata stand-in, {rf:.2f}x of {pf:.1f} s)",
      dict(b=absolute("T1 Blunt Fin GrOps [s] (Indigo2 IMPACT)", "modelled"),
