@@ -141,25 +141,31 @@ def interleaved_times(renderers, repeat: int) -> dict[str, list[float]]:
 def scene_and_reference(scene_path: str, size: int, out: Path):
     """The scene (file or ``builtin:NAME``) at ``size`` x ``size`` and its exact reference (cached as
     EXR in ``out``)."""
-    from warpvol.io import read_exr, write_exr
-    from warpvol.reference.numpy_render import render_reference
     from warpvol.scene.builtin import builtin_scene
     from warpvol.scene.scene_file import load_scene
 
-    out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     scene = builtin_scene(scene_path[8:]) if scene_path.startswith("builtin:") else load_scene(scene_path)
     scene.camera = scene.camera.replace(width_px=size, height_px=size)
     print(f"scene {scene.name}: {scene.mesh.n_tets} tets, {size}x{size}, loaded in "
           f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)
-    ref_path = out / f"reference_{scene.name}_{size}.exr"
+    return scene, cached_reference(scene, out)
+
+
+def cached_reference(scene, out: Path) -> np.ndarray:
+    """The scene's exact reference, cached as EXR in ``out`` by scene name and image size."""
+    from warpvol.io import read_exr, write_exr
+    from warpvol.reference.numpy_render import render_reference
+
+    out.mkdir(parents=True, exist_ok=True)
+    ref_path = out / f"reference_{scene.name}_{scene.camera.width_px}.exr"
     if ref_path.exists():
-        return scene, read_exr(ref_path)
+        return read_exr(ref_path)
     t0 = time.perf_counter()
     ref = render_reference(scene.mesh, scene.transfer, scene.camera).astype(np.float32)
-    print(f"reference: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    print(f"reference {scene.name}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     write_exr(ref_path, ref)
-    return scene, ref
+    return ref
 
 
 FILL_SCENES = (str(ROOT / "scenes" / "bluntfin_close.toml"), str(ROOT / "scenes" / "spx_fill.toml"))

@@ -25,10 +25,18 @@ Writes ``docs/data/scaling.json`` (tables for the documentation's ``<!-- table: 
 markers) and ``docs/img/scaling.png`` (log-log plot), unless ``--no-docs``; meshes are cached in
 ``--cache``.
 
+``--tf shell`` measures the cost law of what the renderers leave out instead: the mesh sweep only, with a
+transfer function that shows one iso-like shell of the scalar (a hat around 0.5 whose half-width is
+:data:`SHELL_CELLS` cell edges in scalar units), so the visible fraction of the cells shrinks as the mesh
+grows (~tets^-1/3: a surface's cells over the volume's). A renderer whose frame grows with the visible
+cells and covered pixels rather than the mesh shows time ~ tets^a with a well below 1. Writes
+``docs/data/scaling_shell.json`` (tables ``points`` and ``exponents``, with the visible fraction).
+
 Usage::
 
     ./run.sh python scripts/bench_scaling.py [--tets 1e4 1e5 1e6] [--sizes 128 256 512 1024] [--repeat 2]
         [--renderers raycast,harc_best,pt_best,reference,vtk_pt] [--timeout 300] [--no-docs]
+    ./run.sh python scripts/bench_scaling.py --tf shell --kinds structured --renderers raycast,harc_best,pt_best,vtk_pt
 """
 
 from __future__ import annotations
@@ -49,6 +57,16 @@ RENDERERS = ("raycast", "harc_best", "pt_best", "reference", "vtk_pt", "vsbuffer
 DEFAULT_RENDERERS = RENDERERS[:5]
 TF_POINTS = [[0.0, 0.1, 0.2, 0.8, 0.0], [0.35, 0.2, 0.7, 0.9, 0.4], [0.6, 1.0, 0.8, 0.2, 1.5],
              [1.0, 1.0, 0.2, 0.1, 0.6]]
+#: ``--tf shell``: the shell's half-width in cell edges (scalar units: the field's slope is about 1)
+SHELL_CELLS = 0.75
+
+
+def shell_points(n_tets: float) -> list:
+    """The shell TF of ``--tf shell`` for a mesh of about ``n_tets`` tets: zero except a hat around
+    0.5 whose half-width is :data:`SHELL_CELLS` edges of the structured grid of that many tets."""
+    w = SHELL_CELLS * 2.0 / max(1.0, (n_tets / 6.0) ** (1.0 / 3.0))
+    return [[0.0, 1.0, 0.8, 0.2, 0.0], [0.5 - w, 1.0, 0.8, 0.2, 0.0], [0.5, 1.0, 0.8, 0.2, 6.0],
+            [0.5 + w, 1.0, 0.8, 0.2, 0.0], [1.0, 1.0, 0.8, 0.2, 0.0]]
 
 
 # -- meshes ----------------------------------------------------------------------------------------
@@ -116,12 +134,12 @@ def child(spec: dict) -> dict:
     from warpvol.scene.scene import Scene
     from warpvol.scene.transfer import TransferFunction
 
-    def scene_of(points, tets, scalars, name, size):
+    def scene_of(points, tets, scalars, name, size, tf_points=TF_POINTS):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # Delaunay slivers dropped as zero-volume tets
             mesh = TetMesh(points, tets, scalars, name=name)
         cam = Camera.fit(mesh, width_px=size, height_px=size)
-        return Scene(mesh=mesh, transfer=TransferFunction(np.array(TF_POINTS)), camera=cam, name=name)
+        return Scene(mesh=mesh, transfer=TransferFunction(np.array(tf_points)), camera=cam, name=name)
 
     def renderer(name, scene):
         if name == "vtk_pt":
@@ -141,7 +159,9 @@ def child(spec: dict) -> dict:
     # kernels compiled and loaded, libraries imported, on a 48-tet mesh: not counted in the memory
     renderer(name, scene_of(*make_mesh("structured", 48), "tiny", 16))()
     data = np.load(spec["mesh"])
-    scene = scene_of(data["points"], data["tets"], data["scalars"], Path(spec["mesh"]).stem, int(spec["size"]))
+    tf_points = shell_points(len(data["tets"])) if spec.get("tf") == "shell" else TF_POINTS
+    scene = scene_of(data["points"], data["tets"], data["scalars"], Path(spec["mesh"]).stem, int(spec["size"]),
+                     tf_points)
     mesh, size = scene.mesh, int(spec["size"])
     base = rss_bytes()
     render = renderer(name, scene)
@@ -160,7 +180,14 @@ def child(spec: dict) -> dict:
             "size": size, "pixels": size * size, "time_s": statistics.median(times), "times_s": times,
             "first_s": first, "peak_bytes": max(0, peak - base), "bytes_per_tet": max(0, peak - base) / mesh.n_tets,
             "kept_bytes": max(0, kept), "kept_bytes_per_tet": max(0, kept) / mesh.n_tets,
-            "load": list(os.getloadavg())}
+            "load": list(os.getloadavg()), "visible_fraction": visible_fraction(scene)}
+
+
+def visible_fraction(scene) -> float:
+    """The fraction of the cells the scene's transfer function can make visible."""
+    from warpvol.conditioning.visibility import cell_visibility
+
+    return float(cell_visibility(scene.mesh, scene.transfer).mean())
 
 
 def run_point(spec: dict, timeout: float) -> dict:
@@ -280,6 +307,9 @@ def main(argv=None) -> int:
     ap.add_argument("--timeout", type=float, default=300.0, help="seconds per point (child process)")
     ap.add_argument("--cache", default=str(ROOT / "out" / "bench_scaling"))
     ap.add_argument("--no-docs", action="store_true", help="do not write docs/data/scaling.json, docs/img/scaling.png")
+    ap.add_argument("--tf", default="dense", choices=("dense", "shell"),
+                    help="shell: the mesh sweep with a one-shell TF whose visible fraction shrinks as the mesh grows "
+                         "(writes docs/data/scaling_shell.json)")
     ap.add_argument("--merge", action="store_true",
                     help="keep the points of docs/data/scaling.json that this run does not measure again (a run of "
                          "extra points, e.g. --sizes 2048 or --tets 1e7, adds them to the tables, fits and plot)")
@@ -298,6 +328,10 @@ def main(argv=None) -> int:
         for n in args.tets:
             specs += [{"sweep": "mesh", "kind": kind, "mesh": str(mesh_file(cache, kind, n)), "size": args.mesh_size_px,
                        "renderer": r, "repeat": args.repeat} for r in renderers]
+    if args.tf == "shell":
+        for s in specs:
+            s["tf"] = "shell"
+        return shell_sweep(specs, args, argv)
     img_mesh = str(mesh_file(cache, "structured", args.image_tets))
     for size in args.sizes:
         specs += [{"sweep": "image", "kind": "structured", "mesh": img_mesh, "size": size, "renderer": r,
@@ -370,6 +404,54 @@ def main(argv=None) -> int:
     data.write_text(json.dumps(doc, indent=1))
     plot(points, renderers, ROOT / "docs" / "img" / "scaling.png")
     print(f"wrote {data} and {ROOT / 'docs' / 'img' / 'scaling.png'}")
+    return 0
+
+
+def shell_sweep(specs: list[dict], args, argv) -> int:
+    """``--tf shell``: the mesh sweep with the shell TF; time ~ tets^a and visible ~ tets^v per renderer
+    and mesh kind, written to ``docs/data/scaling_shell.json`` unless ``--no-docs``."""
+    source = "python scripts/bench_scaling.py " + " ".join(argv if argv is not None else sys.argv[1:])
+    points = []
+    print(f"{'mesh':<22}{'tets':>10}{'visible':>9}  {'renderer':<14}{'time [s]':>10}{'first [s]':>10}  load")
+    for spec in specs:
+        res = run_point({k: spec[k] for k in ("renderer", "mesh", "size", "repeat", "tf")}, args.timeout)
+        res.update(kind=spec["kind"])
+        points.append(res)
+        mesh = Path(spec["mesh"]).stem
+        if "error" in res:
+            print(f"{mesh:<22}{'':>19}  {spec['renderer']:<14} failed: {res['error']}")
+            continue
+        print(f"{mesh:<22}{res['tets']:>10,}{100 * res['visible_fraction']:>8.2f}%  {res['renderer']:<14}"
+              f"{res['time_s']:>10.3f}{res['first_s']:>10.3f}  {res['load'][0]:.2f}", flush=True)
+    ok = [p for p in points if "error" not in p]
+    fit_rows = []
+    for r in dict.fromkeys(p["renderer"] for p in ok):
+        for kind in dict.fromkeys(p["kind"] for p in ok):
+            pts = [p for p in ok if p["renderer"] == r and p["kind"] == kind]
+            a = slope([p["tets"] for p in pts], [p["time_s"] for p in pts])
+            v = slope([p["tets"] for p in pts], [p["visible_fraction"] * p["tets"] for p in pts])
+            fit_rows.append([r, kind, None if a is None else round(a, 2), None if v is None else round(v, 2)])
+            print(f"  {r} ({kind}): time ~ tets^{a:.2f}, visible cells ~ tets^{v:.2f}" if a is not None else
+                  f"  {r} ({kind}): too few points")
+    if args.no_docs:
+        return 0
+    doc = {"source": source, "sources": [source], "tables": {
+        "exponents": {"title": "Cost law with a one-shell transfer function (visible fraction shrinking as the mesh grows)",
+                      "columns": ["renderer", "mesh", "time ~ tets^a", "visible cells ~ tets^v"], "rows": fit_rows,
+                      "notes": f"least-squares slopes in log-log over the mesh sweep at {args.mesh_size_px}^2; "
+                               f"shell half-width {SHELL_CELLS} cell edges; {os.cpu_count()} cores, shared machine "
+                               f"(load in the points table): {source}."},
+        "points": {"title": "Every point (median of the warm renders)",
+                   "columns": ["mesh", "tets", "visible cells [%]", "renderer", "time [s]", "first [s]", "load (1 min)"],
+                   "rows": [[Path(p["mesh"]).stem, p.get("tets"),
+                             None if "error" in p else round(100 * p["visible_fraction"], 2), p["renderer"],
+                             None if "error" in p else round(p["time_s"], 4),
+                             None if "error" in p else round(p["first_s"], 3),
+                             None if "error" in p else round(p["load"][0], 2)] for p in points],
+                   "notes": "Failed or timed-out points show '-'."}}}
+    data = ROOT / "docs" / "data" / "scaling_shell.json"
+    data.write_text(json.dumps(doc, indent=1))
+    print(f"wrote {data}")
     return 0
 
 

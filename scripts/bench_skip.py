@@ -1,0 +1,235 @@
+"""Benchmark: what leaving out invisible cells, empty space and occluded depth buys the exact presets,
+against VTK's projected-tetrahedra mapper, on views whose data fills the image.
+
+For each view (default ``scenes/bluntfin_close.toml``, the NASA Blunt Fin from close by, and
+``scenes/spx_fill.toml``, the SPX mesh filling the image) and three transfer functions:
+
+* ``dense``: the scene's own (a faint background everywhere plus its peaks);
+* ``sparse``: one iso-like shell, a hat around the median scalar whose half-width is chosen so that
+  5-10 % of the cells can be visible (:func:`warpvol.conditioning.visibility.cell_visibility`; the
+  fraction is printed);
+* ``opaque``: the scene's colours with a constant extinction of 100 over the mesh's diagonal, so a ray
+  is opaque (transmittance 1e-6) within 14 % of the diagonal,
+
+it renders with ``vtkProjectedTetrahedraMapper`` (pyvista/VTK, offscreen, set up as in
+``scripts/bench_raycast.py``) and every exact preset (``raycast``, ``harc_best``, ``pt_best``,
+``vsbuffer_best``), and each preset also with ``skip=False`` (all the work, for comparison; not
+``vsbuffer_best`` unless ``--no-skip-vsbuffer``), interleaved in one process: each round renders once
+with every renderer in turn, after a warm-up round (kernels compiled, per-mesh data built, VTK's
+structures built), so load from other processes on a shared machine hits all of them alike.
+``vsbuffer_best`` (its sweep emulated plane by plane: minutes per frame at 512^2 on two cores) runs
+on the same views at ``--slow-size`` (default 128^2), interleaved with VTK at that size,
+``--slow-repeat`` timed rounds.
+
+Prints per renderer the median time, ``VTK PT median / this median`` (> 1: faster than VTK), the error
+against the exact reference (cached in ``--out``) with the preset's tolerance row, and what the render
+left out (``report["left_out"]``: cells culled, fragments, steps and rays left), with the machine's load
+average; writes ``--out/skip_result.json``.
+
+Usage::
+
+    ./run.sh python scripts/bench_skip.py [--size 512] [--repeat 3] [--slow-repeat 1] [--presets ...]
+        [--tfs dense sparse opaque] [--scenes scenes/bluntfin_close.toml scenes/spx_fill.toml]
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "scripts"))
+
+from bench_raycast import FILL_SCENES, cached_reference, load_average, tolerance_row, vtk_renderer  # noqa: E402
+
+PRESETS = ("raycast", "harc_best", "pt_best", "vsbuffer_best")
+TFS = ("dense", "sparse", "opaque")
+SLOW = ("vsbuffer_best",)
+TOLERANCE_KEYS = {"vsbuffer_best": "vsbuffer/vsbuffer_best"}
+#: visible fraction the sparse TF's shell aims at (accepted within 5-10 %)
+SPARSE_TARGET = 0.075
+
+
+def sparse_tf(scene):
+    """One iso-like shell: a hat around the scalar quantile nearest the median (0.5, 0.6, ... 0.95) whose
+    iso-surface crosses under :data:`SPARSE_TARGET` of the cells, its half-width bisected so that about
+    that fraction of the cells can be visible; ``(tf, visible fraction)``."""
+    from warpvol.conditioning.visibility import cell_scalar_range, cell_visibility
+    from warpvol.scene.transfer import TransferFunction
+
+    mesh, tf = scene.mesh, scene.transfer
+    s = np.asarray(mesh.scalars, np.float64)
+    lo, hi = float(s.min()), float(s.max())
+    clo, chi = cell_scalar_range(mesh.tets, s)
+    cands = [float(np.quantile(s, q)) for q in (0.5, 0.6, 0.7, 0.8, 0.9, 0.95)]
+    crossing = [float(((clo <= c) & (chi >= c)).mean()) for c in cands]
+    s0 = next((c for c, f in zip(cands, crossing) if f < 0.9 * SPARSE_TARGET), cands[int(np.argmin(crossing))])
+    colour = tf.evaluate(s0)[:3]
+    ext = 3.0 * float(tf.extinction.max())
+
+    def make(w):
+        pts = [[lo - 1.0, *colour, 0.0], [s0 - w, *colour, 0.0], [s0, *colour, ext], [s0 + w, *colour, 0.0],
+               [hi + 1.0, *colour, 0.0]]
+        return TransferFunction(pts, tf.emission)
+
+    a, b = 1e-9 * (hi - lo), 0.5 * (hi - lo)
+    for _ in range(40):
+        w = 0.5 * (a + b)
+        frac = float(cell_visibility(mesh, make(w)).mean())
+        if frac < SPARSE_TARGET:
+            a = w
+        else:
+            b = w
+    w = 0.5 * (a + b)
+    return make(w), float(cell_visibility(mesh, make(w)).mean())
+
+
+def opaque_tf(scene):
+    """The scene's colours with a constant extinction of 100 over the mesh's diagonal."""
+    from warpvol.scene.transfer import TransferFunction
+
+    lo, hi = (np.asarray(b, np.float64) for b in scene.mesh.bounds)
+    pts = np.array(scene.transfer.points, np.float64)
+    pts[:, 4] = 100.0 / float(np.linalg.norm(hi - lo))
+    return TransferFunction(pts, scene.transfer.emission)
+
+
+def variant(scene, name):
+    """The scene with transfer function ``name`` (``dense``, ``sparse``, ``opaque``) and its visible fraction."""
+    from warpvol.conditioning.visibility import cell_visibility
+
+    out = copy.copy(scene)
+    if name == "sparse":
+        out.transfer, frac = sparse_tf(scene)
+    else:
+        if name == "opaque":
+            out.transfer = opaque_tf(scene)
+        frac = float(cell_visibility(scene.mesh, out.transfer).mean())
+    out.name = f"{scene.name}_{name}"
+    return out, frac
+
+
+def preset_renderer(scene, name: str, skip: bool, device: str = "cpu"):
+    from warpvol.pipeline import Pipeline
+
+    pipe = Pipeline.load(name, device=device)
+    last = {}
+
+    def render():
+        last["res"] = pipe.render(scene, quiet=True, skip=skip)
+
+    return render, lambda: last["res"]
+
+
+def left_out_summary(report: dict) -> str:
+    """``report["left_out"]``'s counts in one short line."""
+    parts = []
+    for stage, d in (report.get("left_out") or {}).items():
+        counts = ", ".join(f"{k} {v:,}" for k, v in d.items() if k != "why" and v)
+        if counts:
+            parts.append(f"{stage}: {counts}")
+    return "; ".join(parts) or "-"
+
+
+def run_view(path: str, tf_name: str, presets, size: int, repeat: int, slow_repeat: int, no_skip_slow: bool,
+             out: Path) -> dict:
+    from warpvol.metrics import image_error
+
+    from warpvol.scene.scene_file import load_scene
+
+    base = load_scene(path)
+    base.camera = base.camera.replace(width_px=size, height_px=size)
+    scene, frac = variant(base, tf_name)
+    ref = cached_reference(scene, out)
+    rows = [("VTK PT", *vtk_renderer(scene, "projected_tetrahedra"), None, repeat)]  # (label, render, image, result, rounds)
+    for name in presets:
+        n = slow_repeat if name in SLOW else repeat
+        r, res = preset_renderer(scene, name, True)
+        rows.append((name, r, None, res, n))
+        if name not in SLOW or no_skip_slow:
+            r, res = preset_renderer(scene, name, False)
+            rows.append((f"{name} no-skip", r, None, res, n))
+    times = {row[0]: [] for row in rows}
+    load0 = load_average()
+    for k in range(repeat + 1):  # round 0: warm-up
+        for label, render, _, _, n in rows:
+            if k > n:
+                continue
+            t0 = time.perf_counter()
+            render()
+            times[label].append(time.perf_counter() - t0)
+    load1 = load_average()
+    vtk_t = statistics.median(times["VTK PT"][1:])
+    print(f"\n{scene.name}: {scene.mesh.n_tets:,} tets, {size}x{size}, visible cells {100 * frac:.1f} %, "
+          f"{repeat} interleaved rounds after a warm-up; {load0} (start), {load1} (end)")
+    print(f"{'renderer':<24}{'median [s]':>11}{'VTK PT / this':>15}{'rmse':>11}{'max_abs':>11}{'tolerance':>11}  left out")
+    result = {"tets": int(scene.mesh.n_tets), "size": size, "visible_fraction": frac, "load": [load0, load1],
+              "rows": {}}
+    for label, render, image, res, _ in rows:
+        t = statistics.median(times[label][1:])
+        row = {"median_s": t, "times_s": times[label], "vtk_pt_over_this": vtk_t / t}
+        if res is None:  # VTK: its 8-bit image
+            e = image_error(image(), ref)
+            lo, tol = "-", ""
+        else:
+            rep = res().report
+            e = image_error(res().image, ref)
+            lo = left_out_summary(rep)
+            row["left_out"] = rep.get("left_out")
+            tr = tolerance_row(TOLERANCE_KEYS.get(label.split()[0], label.split()[0]))
+            tol = ""
+            if tr is not None:
+                ok = e["rmse"] <= tr["rmse"] and e["max_abs"] <= tr["max_abs"]
+                row["within_tolerance"] = ok
+                tol = "ok" if ok else "EXCEEDED"
+        row["error"] = e
+        result["rows"][label] = row
+        print(f"{label:<24}{t:>11.3f}{vtk_t / t:>15.2f}{e['rmse']:>11.3e}{e['max_abs']:>11.3e}{tol:>11}  {lo}",
+              flush=True)
+    return result
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--scenes", nargs="+", default=list(FILL_SCENES))
+    ap.add_argument("--tfs", nargs="+", default=list(TFS), choices=TFS)
+    ap.add_argument("--presets", nargs="+", default=list(PRESETS), choices=PRESETS)
+    ap.add_argument("--size", type=int, default=512)
+    ap.add_argument("--repeat", type=int, default=3, help="timed rounds after the warm-up round")
+    ap.add_argument("--slow-repeat", type=int, default=1, help="timed rounds of vsbuffer_best")
+    ap.add_argument("--slow-size", type=int, default=128, help="image size of vsbuffer_best (and VTK beside it)")
+    ap.add_argument("--no-skip-vsbuffer", action="store_true", help="also vsbuffer_best with skip=False")
+    ap.add_argument("--out", default=str(ROOT / "out" / "bench_skip"))
+    args = ap.parse_args(argv)
+    from warpvol.pipeline import quiet_warp
+
+    quiet_warp()
+    out = Path(args.out)
+    result = {}
+    t0 = time.perf_counter()
+    fast = [p for p in args.presets if p not in SLOW]
+    slow = [p for p in args.presets if p in SLOW]
+    for path in args.scenes:
+        for tf_name in args.tfs:
+            if fast:
+                result[f"{Path(path).stem}/{tf_name}/{args.size}"] = run_view(
+                    path, tf_name, fast, args.size, args.repeat, args.slow_repeat, args.no_skip_vsbuffer, out)
+            if slow:
+                result[f"{Path(path).stem}/{tf_name}/{args.slow_size}"] = run_view(
+                    path, tf_name, slow, args.slow_size, args.slow_repeat, args.slow_repeat, args.no_skip_vsbuffer, out)
+    print(f"\ntotal {time.perf_counter() - t0:.0f} s; {load_average()}")
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "skip_result.json").write_text(json.dumps(result, indent=1, default=float))
+    print(f"wrote {out / 'skip_result.json'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
