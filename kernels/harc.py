@@ -46,7 +46,8 @@ lengths (:func:`warpvol.kernels.walk.thin_unresolved`; redone in float64 like ev
 9 rays of the paper's set-up that took a step with ``lambda' < lambda`` (an exit chosen by rounding:
 the ray is suspect, its pixel possibly wrong; counted, not changed), 10 entries through a face the
 rasterised lists left out, found by the exact test of the faces whose open edge passes within 1/64
-pixel of the pixel centre (``edge_start`` / ``edge_bf``, :func:`warpvol.raycasting.harc.edge_pixels`).
+pixel of the pixel centre (``edge_start`` / ``edge_bf``, :func:`warpvol.raycasting.harc.edge_pixels`),
+11 rays ended by early ray termination (``1 - A`` below ``t_stop``).
 """
 
 import threading
@@ -55,7 +56,7 @@ import warp as wp
 
 from .formats import NumFmt, fmt_quantize
 from .harc_integ import INTEG_EXACT, Integ, integrate_sub, segment, segments_kernel  # noqa: F401 (re-exported)
-from .harc_walk import composite, exact_walk, nearest_listed, ring_search  # noqa: F401 (composite: re-exported)
+from .harc_walk import composite, exact_walk, nearest_in_rings, nearest_listed, ring_search  # noqa: F401 (composite: re-exported)
 from .integrate import exp_neg, integrate_piece, integrate_segment_tf
 from .raycast import STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED
 from .texture import Tex2D, tex2d_texel
@@ -254,6 +255,7 @@ def make_march(walk: int, setup: int, mode: int):
         fc = Face()
         entry_failed = int(0)
         rescan = int(0)
+        rejected = int(-1)
         edge_entry = int(0)
         for it in range(frag_start[idx], frag_start[idx + 1]):
             b = int(frag_bf[it])
@@ -285,8 +287,10 @@ def make_march(walk: int, setup: int, mode: int):
                     if prev >= 0:
                         # a re-entry (peel pass): at a crack the faces around belong to other cells,
                         # whose surface neighbours do not reach the crossed face; the exact face test over
-                        # the lists of this pixel and its 8 neighbours decides (below)
+                        # the lists of this pixel and its 8 neighbours and the rejected face's rings decides
+                        # (below)
                         rescan = 1
+                        rejected = b
                     else:
                         b2, ok, t, s = ring_search(b, bf_tet, bf_face, bf_nbr, tets, verts, r)
                         if ok:
@@ -320,6 +324,12 @@ def make_march(walk: int, setup: int, mode: int):
                         cell, face_in, t_in, s_in, fc = nearest_listed(
                             frag_start[q], frag_start[q + 1], frag_bf, bf_tet, bf_face, tets, verts, r, prev, t_start,
                             t_tol, cell, face_in, t_in, s_in, fc)
+                if rejected >= 0:
+                    # a sliver beside the rejected face (the boundary of the visible cells has many) may be listed
+                    # at no pixel around: its surface rings
+                    cell, face_in, t_in, s_in, fc = nearest_in_rings(
+                        rejected, bf_tet, bf_face, bf_nbr, tets, verts, r, prev, t_start, t_tol, cell, face_in, t_in,
+                        s_in, fc)
             if entry_failed == 0:
                 # the faces whose open edge (silhouette, outline of a part) passes within 1/64 pixel of the centre,
                 # tested exactly: the snapped coverage can leave such a face out with a deeper layer (or nothing)
@@ -467,6 +477,8 @@ def make_march(walk: int, setup: int, mode: int):
                 wp.atomic_add(counters, chunk, 4, 1)
                 if wp.static(paper):
                     status[idx] = STATUS_LOST  # the step bound ended it inside the mesh
+            else:
+                wp.atomic_add(counters, chunk, 11, 1)  # early ray termination: 1 - A below t_stop
 
     return harc_march
 

@@ -69,6 +69,37 @@ def nearest_listed(lo: int, hi: int, items: wp.array(dtype=wp.int32), bf_tet: wp
 
 
 @wp.func
+def nearest_in_rings(b: int, bf_tet: wp.array(dtype=wp.int32), bf_face: wp.array(dtype=wp.int32),
+                     bf_nbr: wp.array(dtype=wp.vec3i), tets: wp.array(dtype=wp.vec4i), verts: wp.array(dtype=wp.vec4),
+                     r: Ray, prev: int, t_start: float, t_tol: float, cell: int, face_in: int, t_in: float,
+                     s_in: float, fc: Face):
+    """As :func:`nearest_listed` over the two rings of front faces around face ``b`` (its edge neighbours and
+    theirs, :func:`ring_search`'s faces): a re-entry whose listed face the edge test rejects, where the face
+    the ray crosses is a sliver beside it that no pixel near this one lists."""
+    nb = bf_nbr[b]
+    for k in range(3):
+        n1 = nb[k]
+        if n1 >= 0:
+            nb2 = bf_nbr[n1]
+            for j in range(4):
+                n2 = n1
+                if j < 3:
+                    n2 = nb2[j]
+                if n2 >= 0 and n2 != b:
+                    c = int(bf_tet[n2])
+                    if c != prev:
+                        cand = boundary_face(tets[c], int(bf_face[n2]), verts, r)
+                        ok, t, s = face_hit(cand)
+                        if ok and t > t_start - t_tol and (cell < 0 or t < t_in):
+                            cell = c
+                            face_in = int(bf_face[n2])
+                            t_in = wp.max(t, t_start)
+                            s_in = s
+                            fc = cand
+    return cell, face_in, t_in, s_in, fc
+
+
+@wp.func
 def composite(acc: wp.vec4, c: wp.vec4) -> wp.vec4:
     """Front-to-back "under": ``(R, G, B, A) + (1 - A) (r, g, b, a)`` (Fig. 6 line 24)."""
     return acc + (1.0 - acc[3]) * c

@@ -15,8 +15,8 @@ is marked ``STATUS_FAILED`` and redone on the host in float64; it is counted, ne
 Per-pixel state (radiance, transmittance, ray parameter, status) lives in device arrays so passes
 can be separate launches; a pass launches one thread per active ray: pixels ``first ..`` while every
 ray is active, else the pixels ``ids[first ..]`` of the rays still active (a list made by the host).
-``counters[chunk]`` (entries, steps, unfinished, failed, left active, failed on a thin layer) has one
-row per concurrently launched block.
+``counters[chunk]`` (entries, steps, unfinished, failed, left active, failed on a thin layer, terminated
+early) has one row per concurrently launched block.
 """
 
 import warp as wp
@@ -242,6 +242,8 @@ def march(
         status[idx] = STATUS_DONE
         if tr >= t_min:
             wp.atomic_add(counters, chunk, 2, 1)  # rays stopped by max_steps
+        else:
+            wp.atomic_add(counters, chunk, 6, 1)  # early ray termination: transmittance below t_min
         active = 0
     elif t_in >= t_end:
         status[idx] = STATUS_DONE  # left the bounding sphere: no further entry possible

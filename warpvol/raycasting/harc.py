@@ -159,9 +159,11 @@ def surface_neighbours(tris: np.ndarray) -> np.ndarray:
     return out.astype(np.int32)
 
 
-def entry_fragments(mesh, camera, device: str = "cpu") -> dict:
+def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None = None) -> dict:
     """Rasterise the front-facing boundary faces (the rasteriser unit, window coordinates from the
-    vertex stage) into per-pixel fragment lists sorted by depth.
+    vertex stage) into per-pixel fragment lists sorted by depth. ``faces``: ``(B, 2)`` rows ``(tet,
+    local face)`` to rasterise instead of the mesh's boundary (the visible sub-mesh's boundary,
+    :func:`warpvol.raycasting.visible.visible_boundary`).
 
     Returns ``dict(frag_start (H*W+1), frag_bf, bf_tet, bf_face, bf_nbr, fragments, faces,
     max_layers)``: per fragment the index of its face in the front-face list; per front face its tet,
@@ -175,10 +177,11 @@ def entry_fragments(mesh, camera, device: str = "cpu") -> dict:
     from warpvol.gpu.raster import GUARD_PX, Rasterizer, depth_order, guard_band_overflow
     from warpvol.gpu.vertex import VertexStage
     from warpvol.raycasting.stages.entry_bins import entry_face_mask
+    from warpvol.raycasting.visible import face_triangles
 
-    front = entry_face_mask(mesh, camera)
-    bf = mesh.boundary_faces[front]
-    tris = mesh.boundary_triangles()[front]
+    front = entry_face_mask(mesh, camera, faces)
+    bf = (mesh.boundary_faces if faces is None else np.asarray(faces, dtype=np.int64).reshape(-1, 2))[front]
+    tris = face_triangles(mesh.tets, bf)
     w, h = camera.width_px, camera.height_px
     npx = w * h
     count = 0
@@ -496,9 +499,10 @@ class HarcState:
         return self.rgba.numpy().reshape(height, width, 4).astype(np.float32)
 
 
-N_COUNTERS = 11
+N_COUNTERS = 12
 COUNTER_NAMES = ("entries", "steps", "cells", "failed", "step_bound", "iso_missed", "texture_fetches",
-                 "entry_searches", "thin_layer_rays", "backward_rays", "edge_entries")
+                 "entry_searches", "thin_layer_rays", "backward_rays", "edge_entries",
+                 "terminated_early")
 
 
 def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, fb_format: str, t_stop: float,

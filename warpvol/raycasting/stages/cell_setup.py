@@ -63,6 +63,7 @@ def mesh_arrays(mesh, device: str) -> dict:
                           device=device),
         "tets": wp.array(tets, dtype=wp.vec4i, device=device),
         "nbr": wp.array(nbr, dtype=wp.vec4i, device=device),
+        "nbr_host": nbr,
         "nbr_vertex": wp.array(neighbour_vertices(nbr, tets), dtype=wp.vec4i, device=device),
     }
 
@@ -85,9 +86,35 @@ def cell_arrays(mesh, tf, device: str, cache: dict | None = None) -> dict:
     return cells
 
 
+def confine_to_visible(ctx: Context, cells: dict) -> int:
+    """Empty-space skipping (:mod:`warpvol.raycasting.visible`): with a ``visible_cells`` mask that leaves
+    cells out, the walk's neighbour records ``cells["nbr"]`` end at invisible neighbours and
+    ``cells["entry_faces"]`` lists the visible sub-mesh's boundary faces (the faces ``entry_bins`` and
+    ``harc_raster`` start rays from); both kept per (mesh, mask, device). Returns the cells left out."""
+    import warp as wp
+
+    from warpvol.raycasting.visible import skipping, sub_mesh
+
+    vis, n_out = skipping(ctx)
+    if vis is None:
+        return 0
+    cache = ctx.persistent.setdefault("sub_mesh", {}).setdefault(str(ctx.device), {})
+    sm = sub_mesh(ctx.scene.mesh, vis, cells["nbr_host"], cache)
+    if "nbr_device" not in sm:
+        sm["nbr_device"] = wp.array(sm["nbr"], dtype=wp.vec4i, device=ctx.device)
+    cells["nbr"] = sm["nbr_device"]
+    cells["entry_faces"] = sm["faces"]
+    cells["cells_not_walked"] = n_out
+    return n_out
+
+
 @register_stage
 class CellSetup(Stage):
     """Per-mesh cell data (points, scalars, tets, neighbour faces; cached per mesh) and the TF.
+
+    With a ``visibility`` stage before it (and skipping on), the walk is confined to the cells the
+    transfer function makes visible (:func:`confine_to_visible`): rays start and re-enter at the visible
+    sub-mesh's boundary, and no ray walks an invisible cell.
 
     ==========  =====  =========  ===========================
     parameter   type   default    meaning
@@ -105,5 +132,8 @@ class CellSetup(Stage):
     def run(self, ctx: Context) -> None:
         cache = ctx.persistent.setdefault("cells", {})
         cells = cell_arrays(ctx.scene.mesh, ctx.scene.transfer, ctx.device, cache)
+        n_out = confine_to_visible(ctx, cells)
         ctx.buffers["cells"] = cells
         ctx.stats["cell_setup"] = {"cached": cells["cached"]}
+        if n_out:
+            ctx.stats["cell_setup"].update(cells_not_walked=n_out, entry_faces=int(len(cells["entry_faces"])))

@@ -15,14 +15,16 @@ import numpy as np
 from warpvol.stage import Context, Param, Stage, register_stage
 
 
-def entry_face_mask(mesh, camera) -> np.ndarray:
+def entry_face_mask(mesh, camera, faces: np.ndarray | None = None) -> np.ndarray:
     """Boundary faces a ray may enter through (conservative: the kernel's Plücker test decides).
+    ``faces``: ``(B, 2)`` rows ``(tet, local face)`` to choose from (the visible sub-mesh's boundary,
+    :func:`warpvol.raycasting.visible.visible_boundary`); ``None``: the mesh's boundary faces.
 
     Orthographic: faces with ``n . f < tol`` (edge-on faces included). Perspective: faces with the
     eye on (or within ``tol`` of) their outer side; all faces when the eye lies in the mesh's
     bounding sphere, because rays then start walking behind the eye (``t_clip``) and enter through
     faces there."""
-    bf = mesh.boundary_faces
+    bf = mesh.boundary_faces if faces is None else np.asarray(faces, dtype=np.int64).reshape(-1, 2)
     planes = mesh.face_planes[bf[:, 0], bf[:, 1]]  # (B,4)
     lo, hi = mesh.bounds
     diam = float(np.linalg.norm(hi - lo))
@@ -57,16 +59,19 @@ def window_xy(camera, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return wx, wy, bad, z
 
 
-def bin_boundary_faces(mesh, camera, tile: int) -> dict:
-    """CSR bins of the boundary faces rays may enter through, over screen tiles (plain NumPy).
+def bin_boundary_faces(mesh, camera, tile: int, faces: np.ndarray | None = None) -> dict:
+    """CSR bins of the boundary faces rays may enter through, over screen tiles (plain NumPy); ``faces``
+    as :func:`entry_face_mask` (``None``: the mesh's boundary).
 
     Returns ``dict(bface_tet, bface_local, bface_box, tile_start, tile_items, tiles_x, tiles_y, tile)``;
     ``bface_box`` (int32, 4 per face: first column, first row, last column, last row) bounds the
     pixels whose rays may cross the face (its projected box grown by one pixel, plus one).
     """
-    front = entry_face_mask(mesh, camera)
-    bf = mesh.boundary_faces[front]
-    tris = mesh.boundary_triangles()[front]
+    from warpvol.raycasting.visible import face_triangles
+
+    front = entry_face_mask(mesh, camera, faces)
+    bf = (mesh.boundary_faces if faces is None else np.asarray(faces, dtype=np.int64).reshape(-1, 2))[front]
+    tris = face_triangles(mesh.tets, bf)
     w, h = camera.width_px, camera.height_px
     tiles_x, tiles_y = -(-w // tile), -(-h // tile)
     n_tiles = tiles_x * tiles_y
@@ -116,7 +121,9 @@ def bin_boundary_faces(mesh, camera, tile: int) -> dict:
 
 @register_stage
 class EntryBins(Stage):
-    """Bin the boundary faces rays may enter through into screen tiles (ray start / re-entry search).
+    """Bin the boundary faces rays may enter through into screen tiles (ray start / re-entry search):
+    the mesh's, or the visible sub-mesh's when ``cell_setup`` confines the walk to the visible cells
+    (``cells["entry_faces"]``).
 
     ==========  =====  =======  ======================================
     parameter   type   default  meaning
@@ -134,7 +141,8 @@ class EntryBins(Stage):
     def run(self, ctx: Context) -> None:
         import warp as wp
 
-        b = bin_boundary_faces(ctx.scene.mesh, ctx.scene.camera, self.tile)
+        faces = ctx.buffers.get("cells", {}).get("entry_faces")
+        b = bin_boundary_faces(ctx.scene.mesh, ctx.scene.camera, self.tile, faces)
         ctx.stats["entry_faces"] = int(len(b["bface_tet"]))
         ctx.stats["entry_bin_items"] = int(len(b["tile_items"]))
         ctx.buffers["entry_bins"] = {

@@ -67,8 +67,9 @@ def px_work(state, cam):
 
 
 HARC_PARAMS = (
-    Param("early_termination", float, 0.0, "stop a ray once its transmittance 1 - A is below this (0: off, "
-          "as in the paper's measurements)", lo=0.0, hi=1.0),
+    Param("early_termination", float, 0.0, "stop a ray once no channel of its pixel can change by more than this "
+          "(its transmittance 1 - A times the brightest radiance behind below it; 0: off, as in the paper's "
+          "measurements)", lo=0.0, hi=1.0),
     Param("max_steps", int, 1_000_000, "cells per ray and pass (bounded passes); a ray reaching it is counted",
           lo=1),
     Param("threads", int, 0, "host threads launching row blocks on the CPU (0: all cores)", lo=0, hi=256),
@@ -97,7 +98,9 @@ class Harc(Stage):
                                          ``paper`` (fp32 ray from the eye, lost rays stay lost)
     weight_bits        int    8          texture filter-weight bits (0: fp32 weights)
     format             str    fp32       frame-buffer format of each pass's result
-    early_termination  float  0          1 - A below this stops the ray (0: off)
+    early_termination  float  0          stop a ray once no channel can change by more than this:
+                                         1 - A below it over the brightest radiance behind (0: off;
+                                         off with skipping off)
     max_steps          int    1000000    cells per ray and pass
     threads            int    0          host threads for CPU row blocks (0: all cores)
     =================  =====  =========  ==========================================================
@@ -129,8 +132,15 @@ class Harc(Stage):
             caps["tex3d"] = True
         return caps
 
+    def leaves_out(self, ctx: Context) -> str | None:
+        from warpvol.raycasting.stages.raycast import leaves_out_text
+
+        return leaves_out_text(ctx, self.early_termination)
+
     def run(self, ctx: Context) -> None:
+        from warpvol.kernels.raycast import STATUS_FAILED
         from warpvol.raycasting.harc import HarcState, integ_setup, lost_rays, lost_warning, march_pass, resolve_failed
+        from warpvol.raycasting.stages.raycast import rays_without_cell, report_left_out, stop_transmittance
 
         mt = ctx.buffers["harc_mesh"]
         if self.walk == "planes" and mt["struct"] is None:
@@ -142,6 +152,9 @@ class Harc(Stage):
             raise ConfigError(f"{self.where}.ray_setup: {self.ray_setup!r} reads harc_mesh textures with arithmetic = "
                               f"{'fp32' if paper else 'float64'!r} (the ray's frame), not "
                               f"{mt.get('arithmetic')!r}")
+        if self.walk == "planes" and "entry_faces" in ctx.buffers["cells"]:
+            raise ConfigError(f"{self.where}.walk: 'planes' reads the mesh's own adjacency texture and cannot walk "
+                              "only the visible cells; drop the visibility stage or use walk = 'plucker'")
         st = mt["struct"]
         keep_st = None
         if st is None:  # the plucker walk reads the compact layout (the cells' arrays)
@@ -164,18 +177,19 @@ class Harc(Stage):
         state = HarcState(cam.width_px * cam.height_px, ctx.device)
         entry = ctx.buffers["harc_entry"]
         threads = self.threads or cpu_threads()
+        t_stop = stop_transmittance(ctx, self.early_termination)
 
         def run_pass(max_steps=self.max_steps):
             return march_pass(ctx, state, walk=self.walk, mesh_tex=st, entry=entry, ig=ig, fb_format=self.format,
-                              t_stop=self.early_termination, max_steps=max_steps, threads=threads,
-                              setup=self.ray_setup)
+                              t_stop=t_stop, max_steps=max_steps, threads=threads, setup=self.ray_setup)
 
         import time
 
         t0 = time.perf_counter()
         c = run_pass()
         t1 = time.perf_counter()
-        ctx.buffers["harc_state"] = {"state": state, "run_pass": run_pass, "keep": (keep, keep_st),
+        missed = rays_without_cell(state.last, state.status, int(STATUS_FAILED))
+        ctx.buffers["harc_state"] = {"state": state, "run_pass": run_pass, "keep": (keep, keep_st), "eps": self.early_termination if t_stop > 0 else 0.0,
                                      "count": lambda c: count_pass(ctx, c, keep, self.walk, self.integration,
                                                                    self.format, lambda: px_work(state, cam)),
                                      "resolve": lambda: resolve_failed(ctx, state),
@@ -193,6 +207,7 @@ class Harc(Stage):
             ctx.stats["harc"]["lost_rays"] = lost
             if lost or c["backward_rays"]:
                 ctx.stats["harc"]["warning"] = lost_warning(lost, state.n, c["backward_rays"])
+        report_left_out(ctx, self.early_termination if t_stop > 0 else 0.0, c["terminated_early"], missed)
         if redone:
             ctx.progress(f"harc: {redone} rays the float32 walk could not resolve were redone in float64")
         if not paper and redone > 0.25 * state.n:  # correct, but at the float64 tracer's speed: say why

@@ -9,12 +9,14 @@ from warpvol.stage import Context, Param, Stage, register_stage
 class HarcPeel(Stage):
     """Further ray-casting passes: each re-rasterises the front boundary faces with the depth test
     "beyond the last exit" (the next boundary layer) and walks on, until no ray re-enters or
-    ``max_passes``. Skipped by the planner when the mesh boundary is convex.
+    ``max_passes``. Skipped by the planner when the mesh boundary is convex, unless the walk is confined
+    to the cells the transfer function makes visible (their boundary is rarely convex).
 
     ==========  =====  =========  ===================================
     parameter   type   default    meaning
     ==========  =====  =========  ===================================
-    max_passes  int    64         upper bound on peel passes (>= 1)
+    max_passes  int    64         upper bound on peel passes (>= 1); robust set-up: rays still
+                                  re-entering after it are redone in float64
     ==========  =====  =========  ===================================
     """
 
@@ -25,7 +27,9 @@ class HarcPeel(Stage):
     params = (Param("max_passes", int, 64, "upper bound on peel passes", lo=1),)
 
     def skip_reason(self, ctx: Context) -> str | None:
-        if ctx.scene.mesh.is_convex:
+        from warpvol.raycasting.visible import confined
+
+        if ctx.scene.mesh.is_convex and not confined(ctx):
             return "mesh boundary is convex: every ray enters the mesh at most once (no boundary layer to peel)"
         return None
 
@@ -45,9 +49,20 @@ class HarcPeel(Stage):
             if c["entries"] == 0:
                 break
             entries += c["entries"]
+        unfinished = 0
+        if passes == self.max_passes and c["entries"] and hs.get("lost") is None:
+            # robust set-up: rays that may still re-enter are redone whole in float64, never left half-walked
+            from warpvol.kernels.raycast import STATUS_ACTIVE, STATUS_FAILED
+            from warpvol.raycasting.visible import unfinished_to_float64
+
+            unfinished = unfinished_to_float64(hs["state"], int(STATUS_ACTIVE), int(STATUS_FAILED))
         redone = hs["resolve"]()
+        from warpvol.raycasting.stages.raycast import report_left_out
+
+        report_left_out(ctx, hs.get("eps", 0.0), total.get("terminated_early", 0))
         mesh = ctx.scene.mesh  # interior faces without a neighbour: rays re-enter at the coincident face
         ctx.stats["harc_peel"] = {"passes": passes, "reentries": entries, "unresolved_rays": redone, **total,
+                                  "passes_exhausted_rays": unfinished,
                                   "exhausted": passes == self.max_passes, "crack_faces": len(mesh.crack_faces),
                                   "nonconforming_faces": len(mesh.nonconforming_faces)}
         if hs.get("lost") is not None:  # the paper's set-up: rays lost in the peel passes too

@@ -12,6 +12,8 @@ class HarcRaster(Stage):
     ones the layers depth peeling goes through (:func:`warpvol.raycasting.harc.entry_fragments`); and
     per pixel the faces whose open edge passes within 1/64 pixel of its centre, which the ray start
     tests exactly (:func:`warpvol.raycasting.harc.edge_pixels`; ``edge_pixel_faces`` counts the pairs).
+    When ``cell_setup`` confines the walk to the cells the transfer function makes visible, the faces are
+    the visible sub-mesh's boundary (``cells["entry_faces"]``).
 
     ==========  =====  =========  ===========================
     parameter   type   default    meaning
@@ -28,7 +30,8 @@ class HarcRaster(Stage):
     def run(self, ctx: Context) -> None:
         from warpvol.raycasting.harc import entry_fragments
 
-        e = entry_fragments(ctx.scene.mesh, ctx.scene.camera, ctx.device)
+        faces = ctx.buffers.get("cells", {}).get("entry_faces")  # the visible sub-mesh's (cell_setup)
+        e = entry_fragments(ctx.scene.mesh, ctx.scene.camera, ctx.device, faces)
         ctx.buffers["harc_entry"] = e
         # the vertex stage and the rasteriser count their own work (vertices, primitives, fragments)
         ctx.stats["harc_raster"] = {"front_faces": e["faces"], "fragments": e["fragments"],

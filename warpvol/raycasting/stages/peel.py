@@ -3,13 +3,15 @@
 After ``raycast`` a ray that left the mesh through a boundary face may enter it again further on
 (concave or disconnected meshes). Each pass searches the next front-facing boundary face beyond the
 ray's current parameter and walks on; passes repeat until no ray re-enters. The planner skips the
-stage when the mesh boundary is convex (every ray enters at most once).
+stage when the mesh boundary is convex (every ray enters at most once), unless the walk is confined to
+the cells the transfer function makes visible (their boundary is rarely convex).
 """
 
 from __future__ import annotations
 
 from warpvol.parallel import cpu_threads
-from warpvol.raycasting.stages.raycast import RAY_PARAMS, march_pass, resolve_failed
+from warpvol.raycasting.stages.raycast import (RAY_PARAMS, march_pass, report_left_out, resolve_failed,
+                                               stop_transmittance)
 from warpvol.stage import Context, Param, Stage, register_stage
 
 
@@ -20,9 +22,10 @@ class Peel(Stage):
     ==========  =====  =========  =============================================================
     parameter   type   default    meaning
     ==========  =====  =========  =============================================================
-    max_passes  int    256        upper bound on re-entry passes (>= 1)
+    max_passes  int    256        upper bound on re-entry passes (>= 1); rays still
+                                  re-entering after it are redone in float64
     max_steps   int    1000000    cell steps per ray and pass before giving up
-    t_min       float  1e-6       early termination below this transmittance (0: off)
+    t_min       float  1e-6       early termination: the most a channel may change (0: off)
     threads     int    0          host threads launching CPU row blocks (0: all cores)
     ==========  =====  =========  =============================================================
     """
@@ -34,7 +37,9 @@ class Peel(Stage):
     params = (Param("max_passes", int, 256, "upper bound on re-entry passes", lo=1),) + RAY_PARAMS
 
     def skip_reason(self, ctx: Context) -> str | None:
-        if ctx.scene.mesh.is_convex:
+        from warpvol.raycasting.visible import confined
+
+        if ctx.scene.mesh.is_convex and not confined(ctx):
             return "mesh boundary is convex: every ray enters the mesh at most once"
         return None
 
@@ -43,24 +48,34 @@ class Peel(Stage):
         if state is None:
             raise RuntimeError("stage 'peel' needs the 'raycast' stage before it")
         threads = self.threads or cpu_threads()
+        t_min = stop_transmittance(ctx, self.t_min)
         passes, entries = 0, 0
         ctx.count(passes=0)
-        thin = 0
+        thin, early = 0, 0
         for _ in range(self.max_passes):
             if state.active == 0:
                 break  # the last pass left no ray that could re-enter: a pass would find nothing
-            c = march_pass(ctx, state, max_steps=self.max_steps, t_min=self.t_min, threads=threads)
+            c = march_pass(ctx, state, max_steps=self.max_steps, t_min=t_min, threads=threads)
             passes += 1
             thin += int(c[5])
+            early += int(c[6])
             ctx.count(passes=1, entries=int(c[0]), cell_steps=int(c[1]))
             if c[0] == 0:
                 break
             entries += int(c[0])
             ctx.progress(f"peel pass {passes}: {int(c[0])} rays re-entered")
+        unfinished = 0
+        if state.active and passes == self.max_passes:  # rays that may re-enter further: redone whole
+            from warpvol.kernels import raycast as k
+            from warpvol.raycasting.visible import unfinished_to_float64
+
+            unfinished = unfinished_to_float64(state, int(k.STATUS_ACTIVE), int(k.STATUS_FAILED))
         redone = resolve_failed(ctx, state)
         ctx.count(float64_rays=redone)
+        report_left_out(ctx, self.t_min if t_min > 0 else 0.0, early)
         mesh = ctx.scene.mesh  # interior faces without a neighbour: rays re-enter at the coincident face
         ctx.stats["peel"] = {"passes": passes, "reentries": entries, "float64_rays": redone, "thin_layer_rays": thin,
+                             "terminated_early": early, "passes_exhausted_rays": unfinished,
                              "crack_faces": len(mesh.crack_faces), "nonconforming_faces": len(mesh.nonconforming_faces)}
         cam = ctx.scene.camera
         ctx.image = state.image(cam.height_px, cam.width_px)

@@ -94,7 +94,8 @@ def ray_blocks(ctx: Context, active: np.ndarray, threads: int, rows_per_block: i
 def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float, threads: int,
                rows_per_block: int = 16) -> np.ndarray:
     """One propagation pass over all active rays (one thread per active ray: :func:`ray_blocks`); returns
-    summed counters ``(entries, steps, unfinished, failed, left active, failed on a thin layer)`` and sets
+    summed counters ``(entries, steps, unfinished, failed, left active, failed on a thin layer, terminated
+    early)`` and sets
     ``state.active`` to the last (rays that may re-enter: 0 means a further pass would find nothing).
     Failed rays keep ``STATUS_FAILED`` for :func:`resolve_failed`."""
     import warp as wp
@@ -106,8 +107,8 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
     ids, parts = ray_blocks(ctx, (state.status.numpy() & 3) == int(k.STATUS_ACTIVE), threads, rows_per_block)
     if not parts:
         state.active = 0
-        return np.zeros(6, np.int64)
-    counters = wp.zeros((len(parts), 6), dtype=wp.int32, device=ctx.device)
+        return np.zeros(7, np.int64)
+    counters = wp.zeros((len(parts), 7), dtype=wp.int32, device=ctx.device)
     common = cam_args + [cells["verts"], cells["tets"], cells["nbr"], cells["nbr_vertex"], bins["bface_tet"], bins["bface_local"],
                          bins["bface_box"], bins["tile_start"], bins["tile_items"], bins["tile"], bins["tiles_x"],
                          cells["tf_s"], cells["tf_v"], cells["model"], max_steps, t_min, 1e-6 * cells["radius"]]
@@ -146,9 +147,68 @@ def resolve_failed(ctx: Context, state: MarchState) -> int:
     return int(len(failed))
 
 
+def stop_transmittance(ctx: Context, max_change: float) -> float:
+    """Early ray termination with a stated bound: the transmittance below which a ray stops so that no
+    channel of its pixel changes by more than ``max_change`` (``max_change`` over the brightest radiance
+    that could lie behind: :func:`warpvol.conditioning.visibility.termination_threshold`, with the mesh's
+    diagonal as the longest path); 0 (no termination) with skipping off or ``max_change`` 0."""
+    if not ctx.skip or max_change <= 0:
+        return 0.0
+    from warpvol.conditioning.visibility import termination_threshold
+
+    return termination_threshold(ctx.scene.transfer, ctx.buffers["cells"]["diameter"], max_change)
+
+
+def termination_bound(max_change: float) -> str:
+    """The stated bound of early ray termination, in words."""
+    return (f"a ray stops once its transmittance times the brightest radiance that could lie behind is below "
+            f"{max_change:g}: no channel of its pixel changes by more than {max_change:g}")
+
+
+def leaves_out_text(ctx: Context, t_min: float) -> str | None:
+    """The planner's words for what a ray caster leaves out (cells the TF makes invisible, depth behind
+    an opaque front); ``None``: nothing."""
+    from warpvol.raycasting.visible import confined
+
+    parts = []
+    if confined(ctx):
+        parts.append("walks only the cells the transfer function makes visible: rays enter and re-enter at the "
+                     "visible cells' boundary, a pixel whose ray meets none costs only its entry search")
+    if t_min > 0:
+        parts.append(termination_bound(t_min))
+    return "; ".join(parts) or None
+
+
+def rays_without_cell(last, status, failed_code: int) -> int:
+    """Rays that walked no cell in the first pass and were not handed to the float64 redo (``last`` still
+    -1): with the walk confined to the visible cells, the rays that meet no visible cell."""
+    return int(np.count_nonzero((last.numpy() < 0) & (status.numpy() != failed_code)))
+
+
+def report_left_out(ctx: Context, t_min: float, early: int, missed: int | None = None) -> None:
+    """Count what a ray-casting pass left out (``report["left_out"]``): rays terminated early (``t_min``:
+    the bound on a channel's change, 0: no termination) and, on the first pass (``missed`` given) of a
+    walk confined to the visible cells, the cells it never walks and the rays that met no visible
+    cell."""
+    if not ctx.skip:
+        return
+    cells = ctx.buffers.get("cells", {})
+    amounts = {"rays_terminated_early": early} if t_min > 0 else {}
+    why = []
+    if missed is not None and "entry_faces" in cells:
+        amounts.update(cells_not_walked=int(cells.get("cells_not_walked", 0)), rays_without_visible_cell=missed)
+        why.append("cells the transfer function makes invisible are not walked (rays enter and re-enter at "
+                   "the visible cells' boundary)")
+    if t_min > 0:
+        why.append(termination_bound(t_min))
+    if amounts:
+        ctx.left_out(why="; ".join(why) if missed is not None else None, **amounts)
+
+
 RAY_PARAMS = (
     Param("max_steps", int, 1_000_000, "cell steps per ray and pass before giving up", lo=1),
-    Param("t_min", float, 1e-6, "early ray termination below this transmittance (0: off)", lo=0.0, hi=1.0),
+    Param("t_min", float, 1e-6, "early ray termination: the most any channel of a pixel may change by it (the "
+          "transmittance times the brightest radiance behind; 0: off)", lo=0.0, hi=1.0),
     Param("threads", int, 0, "host threads launching row blocks on the CPU (0: all cores)", lo=0, hi=256),
 )
 
@@ -169,9 +229,16 @@ class Raycast(Stage):
     parameter   type   default    meaning
     ==========  =====  =========  =============================================================
     max_steps   int    1000000    cell steps per ray and pass before giving up (>= 1)
-    t_min       float  1e-6       early termination below this transmittance, [0, 1] (0: off)
+    t_min       float  1e-6       early termination: the most a channel may change, [0, 1] (0: off)
     threads     int    0          host threads launching CPU row blocks (0: all cores)
     ==========  =====  =========  =============================================================
+
+    Early ray termination with a stated bound: a ray stops once no channel of its pixel can change by more
+    than ``t_min`` = 1e-6 (:func:`stop_transmittance`: at transmittance ``t_min`` with colours in [0, 1]
+    under ``color_extinction``, lower for brighter colours or ``emission_density``), half the RMSE
+    tolerance of ``raycast/fp32`` in ``tests/tolerances.py`` and 1 % of its max-abs tolerance. Skipping
+    off (``skip=False``, ``--no-skip``) turns it off. Rays ended so are counted (``terminated_early``;
+    ``report["left_out"]``).
 
     Needs ``cell_setup`` and ``entry_bins`` before it; writes ``ctx.image``.
     """
@@ -183,17 +250,25 @@ class Raycast(Stage):
     provides = ("march", "image")
     params = RAY_PARAMS
 
+    def leaves_out(self, ctx: Context) -> str | None:
+        return leaves_out_text(ctx, self.t_min)
+
     def run(self, ctx: Context) -> None:
         cam = ctx.scene.camera
         state = MarchState(cam.width_px * cam.height_px, ctx.device)
         ctx.buffers["march"] = state
         threads = self.threads or cpu_threads()
-        c = march_pass(ctx, state, max_steps=self.max_steps, t_min=self.t_min, threads=threads)
+        t_min = stop_transmittance(ctx, self.t_min)
+        c = march_pass(ctx, state, max_steps=self.max_steps, t_min=t_min, threads=threads)
+        from warpvol.kernels import raycast as k
+
+        missed = rays_without_cell(state.last, state.status, int(k.STATUS_FAILED))
         redone = resolve_failed(ctx, state)
         ctx.count(rays=cam.width_px * cam.height_px, entries=int(c[0]), cell_steps=int(c[1]),
                   float64_rays=redone)
         ctx.stats["raycast"] = {"entries": int(c[0]), "cell_steps": int(c[1]), "unfinished_rays": int(c[2]),
-                                "float64_rays": redone, "thin_layer_rays": int(c[5])}
+                                "float64_rays": redone, "thin_layer_rays": int(c[5]), "terminated_early": int(c[6])}
+        report_left_out(ctx, self.t_min if t_min > 0 else 0.0, int(c[6]), missed)
         if redone:
             ctx.progress(f"raycast: {redone} rays the float32 walk could not resolve were redone in float64")
         ctx.image = state.image(cam.height_px, cam.width_px)
