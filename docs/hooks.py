@@ -47,7 +47,7 @@ DOCS = Path(__file__).resolve().parent
 DATA = DOCS / "data"
 ROOT = DOCS.parent
 
-MARKER = re.compile(r"(?<!`)<!--\s*(table|bench|presets|preset|cli|architecture-link)\b\s*:?\s*([^>]*?)\s*-->")
+MARKER = re.compile(r"(?<!`)<!--\s*(table|bench|presets|preset|cli|architecture-link|error-time)\b\s*:?\s*([^>]*?)\s*-->")
 
 
 # -- formatting -----------------------------------------------------------------------------------
@@ -255,8 +255,37 @@ def architecture_link(_: str, page_url: str = "") -> str:
     return "The architecture page (`docs/architecture.md`) is not written yet."
 
 
+#: design width in pixels of a generated figure (drawn at twice that for sharp screens)
+FIGURE_WIDTH_PX = 900
+
+
+def error_time_plot(arg: str) -> str:
+    """``<!-- error-time: NAME -->``: the bench run ``docs/data/NAME.json`` as a log-log figure of RMSE
+    against run time, every preset labelled (:func:`warpvol.tools.report_html.error_time_figure`), as a
+    PNG inside the page at its design width."""
+    import base64
+    import io
+
+    path = DATA / f"{arg}.json"
+    if not path.is_file():
+        return _note("note", f"{arg}: not generated yet",
+                     f"Run `warpvol bench ... -o DIR` and copy `DIR/table.json` to `docs/data/{arg}.json`.")
+    from warpvol.tools.report_html import ERROR_TIME_SIZE, error_time_figure
+
+    rows = json.loads(path.read_text()).get("rows") or []
+    fig = error_time_figure(rows)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=2 * FIGURE_WIDTH_PX / ERROR_TIME_SIZE[0])
+    data = base64.b64encode(buf.getvalue()).decode()
+    return (f'<figure class="wv-figure"><img src="data:image/png;base64,{data}" width="{FIGURE_WIDTH_PX}" '
+            f'alt="RMSE against run time of every preset, log-log ({arg})"><figcaption>Generated from '
+            f'<code>docs/data/{arg}.json</code>: every preset that rendered, its median time and its RMSE; '
+            'red: the Pareto front; where the bench recorded it, a bar from the fastest to the slowest timed '
+            'render.</figcaption></figure>\n')
+
+
 HANDLERS = {"table": paper_table, "bench": bench_table, "preset": preset_stages, "presets": presets_list,
-            "cli": cli_help, "architecture-link": architecture_link}
+            "cli": cli_help, "architecture-link": architecture_link, "error-time": error_time_plot}
 
 
 def expand(markdown: str) -> str:
@@ -305,7 +334,17 @@ def _role(m: re.Match) -> str:
 
 
 def on_page_content(html, page=None, config=None, files=None, **kwargs):
-    return api_defaults(ROLE.sub(_role, html))
+    return zoomable_images(api_defaults(ROLE.sub(_role, html)))
+
+
+IMG_ALONE = re.compile(r'(<a\b[^>]*>\s*)?(<img\b[^>]*\bsrc="(?!data:)([^"]+)"[^>]*>)')
+
+
+def zoomable_images(html: str) -> str:
+    """Every image file on a page (not already a link) becomes a link to itself, opened at full size on
+    a click: a figure drawn wider than the text column stays legible."""
+    return IMG_ALONE.sub(lambda m: m.group(0) if m.group(1) else f'<a class="zoom" href="{m.group(3)}">{m.group(2)}</a>',
+                         html)
 
 
 # -- API reference: the Default column from the live signature -------------------------------------

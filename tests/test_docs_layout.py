@@ -201,3 +201,31 @@ def test_numpydoc_parameters_are_one_per_entry_and_in_the_signature():
                 if len(names) > 1 or names[0] not in params:
                     bad.append(f"{name}: {line.strip()!r}")
     assert bad == [], bad
+
+
+_IMAGES_JS = """() => Array.from(document.querySelectorAll('article img')).map(i => {
+  const a = i.closest('a');
+  const design = i.getAttribute('width') ? Number(i.getAttribute('width')) : i.naturalWidth;
+  return {src: (i.getAttribute('src') || '').slice(0, 60), alt: i.alt, shown: i.getBoundingClientRect().width,
+          design, zoom: !!a && a.href === i.currentSrc};
+})"""
+
+
+def test_figures_are_legible_at_the_page_width(site, browser):
+    """Every figure on the performance and paper pages is shown at its design width (the width it was drawn
+    for), or opens at full size on a click; the performance page has the error-against-time figure."""
+    server, base = _served(site)
+    page = browser.new_page(viewport=VIEWPORT)
+    try:
+        small, alts = [], []
+        for pg in WIDE_PAGES:
+            page.goto(f"{base}/{pg}", wait_until="load")
+            for im in page.evaluate(_IMAGES_JS):
+                alts.append(im["alt"])
+                if im["shown"] + 0.5 < im["design"] and not im["zoom"]:
+                    small.append(f"{pg} {im['src']}: shown {im['shown']:.0f} px of {im['design']} px, no zoom")
+    finally:
+        page.close()
+        server.shutdown()
+    assert any(a.startswith("RMSE against run time of every preset") for a in alts), alts
+    assert small == [], small

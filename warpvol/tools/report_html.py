@@ -198,6 +198,106 @@ def pareto_figure(rows: list[dict], tk: str = "total_s", gpu: str | None = None)
     return fig, tips
 
 
+#: design size of :func:`error_time_figure` in inches at 100 dpi (900 x 560 px), its text size in points
+ERROR_TIME_SIZE = (9.0, 5.6)
+ERROR_TIME_FONT = 10
+
+
+def error_time_figure(rows: list[dict], title: str = "RMSE against run time, every preset"):
+    """Log-log RMSE against the median run time of every preset that rendered, each point labelled with its
+    preset's name; a horizontal bar spans the fastest to the slowest timed render where the rows record it
+    (``min_s``, ``max_s``); the Pareto front is red. An exact match (RMSE 0) is drawn at a tenth of the
+    smallest RMSE. Sized :data:`ERROR_TIME_SIZE` with :data:`ERROR_TIME_FONT`-point text, legible at 900 px.
+
+    Examples
+    --------
+    >>> fig = error_time_figure([{"pipeline": "a", "status": "ok", "total_s": 0.1, "min_s": 0.09, "max_s": 0.2,
+    ...                           "rmse": 1e-7, "pareto": True},
+    ...                          {"pipeline": "b", "status": "ok", "total_s": 1.0, "rmse": 1e-3}])
+    >>> sorted(t.get_text() for t in fig.axes[0].texts)
+    ['a', 'b']
+    """
+    from matplotlib.figure import Figure
+
+    pts, floor = _plot_points(rows, "total_s")
+    fig = Figure(figsize=ERROR_TIME_SIZE, dpi=100, layout="constrained")
+    ax = fig.subplots()
+    spread = False
+    for k, (_, r) in enumerate(sorted(pts, key=lambda p: (p[1]["total_s"], p[1]["rmse"]))):
+        x, y, front = r["total_s"], max(r["rmse"], floor), bool(r.get("pareto"))
+        color = "tab:red" if front else "tab:blue"
+        if r.get("min_s") is not None and r.get("max_s") is not None:
+            ax.errorbar([x], [y], xerr=[[max(0.0, x - r["min_s"])], [max(0.0, r["max_s"] - x)]], fmt="none",
+                        ecolor=color, elinewidth=1.2, capsize=3, alpha=0.8, zorder=2)
+            spread = True
+        ax.scatter([x], [y], s=40, color=color, zorder=3)
+    front = sorted((r["total_s"], max(r["rmse"], floor)) for _, r in pts if r.get("pareto"))
+    if len(front) > 1:
+        ax.plot(*zip(*front), color="tab:red", lw=1.2, label="Pareto front", drawstyle="steps-post", zorder=1)
+    if pts:
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlim(*_decades([r.get("min_s") or r["total_s"] for _, r in pts] + [r.get("max_s") or r["total_s"]
+                                                                                for _, r in pts]))
+        ax.set_ylim(*_decades([max(r["rmse"], floor) for _, r in pts]))
+    if spread:
+        ax.plot([], [], color="0.4", lw=1.2, label="fastest to slowest timed render")
+    if len(front) > 1 or spread:
+        ax.legend(fontsize=ERROR_TIME_FONT - 1, loc="upper right")
+    ax.set_xlabel("median run time on this CPU [s] (log)", fontsize=ERROR_TIME_FONT)
+    ax.set_ylabel("RMSE against the exact reference (log)", fontsize=ERROR_TIME_FONT)
+    ax.tick_params(labelsize=ERROR_TIME_FONT - 1)
+    ax.set_title(title, fontsize=ERROR_TIME_FONT + 1)
+    ax.grid(True, which="major", alpha=0.35)
+    ax.grid(True, which="minor", alpha=0.12)
+    _place_labels(fig, ax, [(str(r["pipeline"]), r["total_s"], max(r["rmse"], floor)) for _, r in pts])
+    return fig
+
+
+#: label positions tried around a point, in points: right, left, then further above and below
+_LABEL_OFFSETS = [(dx, dy) for dy in (4, -13, 15, -24, 26, -35, 37, -46) for dx in (7, -7)]
+
+
+def _place_labels(fig, ax, labels: list[tuple[str, float, float]]) -> None:
+    """Name every point: each label takes the first position around its point (:data:`_LABEL_OFFSETS`)
+    where it overlaps no point and no label placed before and stays inside the axes, with a thin leader
+    line to its point."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
+    fig.draw_without_rendering()
+    renderer = canvas.get_renderer()
+    frame = ax.get_window_extent(renderer)
+    from matplotlib.transforms import Bbox
+
+    r = 5.0 * fig.dpi / 72.0  # a marker's half size in pixels: labels keep off every point
+    placed = [Bbox.from_extents(px - r, py - r, px + r, py + r)
+              for px, py in (ax.transData.transform((x, y)) for _, x, y in labels)]
+    for name, x, y in sorted(labels, key=lambda t: (t[2], t[1])):
+        best = None
+        for dx, dy in _LABEL_OFFSETS:
+            t = ax.annotate(name, (x, y), textcoords="offset points", xytext=(dx, dy), ha="left" if dx > 0 else "right",
+                            fontsize=ERROR_TIME_FONT - 1, color="0.1", zorder=4)
+            box = t.get_window_extent(renderer).expanded(1.04, 1.1)
+            inside = frame.contains(box.x0, box.y0) and frame.contains(box.x1, box.y1)
+            if inside and not any(box.overlaps(b) for b in placed):
+                best = (t, box, True)
+                break
+            t.remove()
+        if best is None:  # nowhere free: the first position, overlapping
+            dx, dy = _LABEL_OFFSETS[0]
+            t = ax.annotate(name, (x, y), textcoords="offset points", xytext=(dx, dy), fontsize=ERROR_TIME_FONT - 1,
+                            color="0.1", zorder=4)
+            best = (t, t.get_window_extent(renderer), False)
+        t, box, far = best
+        if far:  # a leader line from the label to its point says whose it is
+            t.arrow_patch = None
+            t.set_annotation_clip(False)
+            ax.annotate("", (x, y), xytext=t.get_position(), textcoords="offset points",
+                        arrowprops=dict(arrowstyle="-", color="0.55", lw=0.6, shrinkA=0, shrinkB=3))
+        placed.append(box)
+
+
 def pareto_svg(rows: list[dict], tk: str = "total_s", gpu: str | None = None) -> str:
     """:func:`pareto_figure` as SVG text (text kept as text), a ``<title>`` (hover text) in each point's
     group."""
