@@ -210,7 +210,8 @@ def cmd_demo(args) -> int:
     check_image_memory(scene.camera, ["render", "png", "reference", "error_image"], _available_memory(), "--size")
     outdir.mkdir(parents=True, exist_ok=True)
     check_writable("-o", outdir)
-    OwnedFiles(outdir, "demo").claim(DEMO_FILES)  # a user's own file of one of these names is left alone
+    owned = OwnedFiles(outdir, "demo")
+    owned.check(DEMO_FILES)  # a user's own file of one of these names is left alone
     print(f"demo: scene {args.scene!r} ({scene.mesh.n_tets} tets, {args.size}x{args.size}), "
           f"pipeline {pipe.name!r}", file=sys.stderr)
     ref, ref_s = compute_reference(scene, args.quiet)
@@ -221,7 +222,7 @@ def cmd_demo(args) -> int:
     print(f"first render: {first.report['total_s']:.3f} s, of which kernel compilation / loading "
           f"{first.report['compile_s']:.3f} s (once per machine: Warp keeps compiled kernels in its cache) and "
           f"set-up {first.report['setup_s']:.3f} s (kept for later frames); the warm frame:", file=sys.stderr)
-    with Outputs() as out:
+    with Outputs(owned) as out:  # recorded as warpvol's once written
         out.exr(outdir / "image.exr", res.image)
         out.exr(outdir / "reference.exr", ref.astype(np.float32))
         out.png(outdir / "image.png", res.image, background=DEMO_BACKGROUND)
@@ -263,12 +264,12 @@ def cmd_bench(args) -> int:
     cache_dir = output_folder(args.cache_dir, "--cache-dir") if args.cache_dir else outdir / "reference-cache"
     if args.gpu and gpu_support(args.gpu):
         print(f"warpvol: {gpu_support(args.gpu)}", file=sys.stderr)
-    # only files bench wrote (recorded in -o's manifest) are replaced or deleted, nothing before all is checked
+    # only files bench wrote and that are still as written (-o's record) are replaced or deleted, nothing
+    # before all is checked; each file is recorded once written
     owned = OwnedFiles(outdir, "bench")
     owned.check(rels)
     if not args.resume:
         owned.remove(owned.owned_in(ROW_DIR))
-    owned.record(rels)
     # each pipeline's row and image are saved as it finishes: an interrupted bench loses nothing
     saved, save = row_store(outdir, scene, repeats=args.repeats, gpu=args.gpu, quick=args.quick,
                             audit=args.audit, owned=owned, note=_note(args.quiet),
@@ -283,7 +284,7 @@ def cmd_bench(args) -> int:
         print(f"warpvol: bench: the finished pipelines are saved in {outdir / ROW_DIR}; run the same command with "
               "--resume to go on", file=sys.stderr)
         raise
-    write_bench(res, outdir, plan={n: p.plan(scene) for n, p in plan_pipes.items()})
+    write_bench(res, outdir, plan={n: p.plan(scene) for n, p in plan_pipes.items()}, owned=owned)
     print(table_markdown(res.rows))
     print(f"wrote {outdir}/index.html, table.csv, table.json, table.md, pareto.png, pareto.svg")
     return 0
@@ -342,12 +343,11 @@ def cmd_stress(args) -> int:
         rels = [f"{CASE_DIR}/{n}.json" for n in names] + list(STRESS_FILES)
         check_inputs(pipeline_inputs(pipe_names), folder_outputs(Path(args.output), rels))
         outdir = output_folder(args.output)
-        # only files stress wrote (recorded in -o's manifest) are replaced or deleted
+        # only files stress wrote and that are still as written (-o's record) are replaced or deleted
         owned = OwnedFiles(outdir, "stress")
         owned.check(rels)
         if not args.resume:
             owned.remove(owned.owned_in(CASE_DIR))
-        owned.record(rels)
         saved, save = case_store(outdir, args.quick, pipe_names, owned=owned, note=_note(args.quiet),
                                  digests={n: pipeline_digest(n) for n in pipe_names})
     else:
@@ -364,7 +364,7 @@ def cmd_stress(args) -> int:
         raise
     md = stress_markdown(rows) + "\n\n" + stress_matrix(rows)
     if outdir is not None:
-        with Outputs() as out:
+        with Outputs(owned) as out:
             out.text(outdir / "stress.json", report_json({"quick": args.quick, "rows": rows}))
             out.text(outdir / "stress.csv", table_csv(rows))
             out.text(outdir / "stress.md", md + "\n")
@@ -392,10 +392,16 @@ def cmd_sweep(args) -> int:
         + pipeline_inputs(cfg.presets)
     check_inputs(inputs, folder_outputs(Path(args.output), rels))
     outdir = output_folder(args.output)
-    OwnedFiles(outdir, "sweep").claim(rels)  # only files sweep wrote are replaced
+    owned = OwnedFiles(outdir, "sweep")
+    owned.check(rels)  # only files sweep wrote and that are still as written are replaced
+
+    def done(row: dict, _client) -> None:  # a task's files are recorded once written
+        if row.get("status") == "ok":
+            owned.wrote([f"tasks/{row['task']}{ext}" for ext in (".json", ".npy")])
+
     res = run_sweep(cfg, outdir, scheduler=args.scheduler, workers=args.workers, serial=args.serial, quiet=args.quiet,
-                    progress=args.progress)
-    write_sweep(res, outdir)
+                    progress=args.progress, on_result=done)
+    write_sweep(res, outdir, owned=owned)
     failed = [r for r in res.rows if r["status"] == "failed"]
     print(table_markdown([{**r, "pipeline": f"{r['scene']} {r['view']} {r['pipeline']} [{r['options']}]"}
                           for r in res.rows]))

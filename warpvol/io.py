@@ -53,8 +53,9 @@ class Outputs:
     ['a.exr', 'a.json']
     """
 
-    def __init__(self) -> None:
+    def __init__(self, owned: "OwnedFiles | None" = None) -> None:
         self._staged: list[tuple[str, Path]] = []
+        self.owned = owned
 
     def __enter__(self) -> "Outputs":
         return self
@@ -117,8 +118,13 @@ class Outputs:
 
     def commit(self) -> None:
         """Rename every staged file onto its target (targets were checked up front, so a failure here
-        is rare; the files not yet renamed are then removed)."""
+        is rare; the files not yet renamed are then removed). With ``owned`` (:class:`OwnedFiles`), the
+        targets are checked again first (a file a user put there meanwhile is kept: nothing is renamed),
+        and recorded once renamed."""
+        done: list[Path] = []
         try:
+            if self.owned is not None:
+                self.owned.check([self._rel(path) for _, path in self._staged])
             while self._staged:
                 tmp, path = self._staged[0]
                 try:
@@ -126,8 +132,14 @@ class Outputs:
                 except OSError as e:
                     raise OSError(f"cannot write {path}: {e.strerror or e}") from None
                 self._staged.pop(0)
+                done.append(path)
         finally:
             self.discard()
+            if self.owned is not None and done:
+                self.owned.wrote([self._rel(p) for p in done])
+
+    def _rel(self, path: Path) -> str:
+        return os.path.relpath(path, self.owned.folder)
 
     def discard(self) -> None:
         """Remove every staged temporary file."""
@@ -145,10 +157,12 @@ def atomic_write_text(path: str | Path, text: str) -> None:
         out.text(path, text)
 
 
-def save_result(folder: str | Path, stem: str, record: str, image: np.ndarray | None = None) -> None:
+def save_result(folder: str | Path, stem: str, record: str, image: np.ndarray | None = None,
+                owned: "OwnedFiles | None" = None) -> None:
     """One finished unit of a long run (a sweep task, a bench pipeline, a stress case), whole or
     absent: ``stem.npy`` (the image, if any) first, then the ``stem.json`` text ``record``, whose
-    presence marks the unit done; each file atomically, the folder created if missing."""
+    presence marks the unit done; each file atomically, the folder created if missing, and recorded
+    in ``owned`` (:class:`OwnedFiles`, if given) once written."""
     import io
 
     folder = Path(folder)
@@ -156,9 +170,10 @@ def save_result(folder: str | Path, stem: str, record: str, image: np.ndarray | 
     if image is not None:
         buf = io.BytesIO()
         np.save(buf, np.asarray(image))
-        with Outputs() as out:
+        with Outputs(owned) as out:
             out.bytes(folder / f"{stem}.npy", buf.getvalue())
-    atomic_write_text(folder / f"{stem}.json", record)
+    with Outputs(owned) as out:
+        out.text(folder / f"{stem}.json", record)
 
 
 def available_memory() -> int | None:
@@ -225,86 +240,117 @@ MANIFEST = ".warpvol-files.json"
 
 
 class OwnedFiles:
-    """The files warpvol wrote into an output folder (``bench``, ``stress``, ``sweep``, ``demo``),
-    recorded in ``FOLDER/.warpvol-files.json`` as paths relative to the folder. Only recorded files
-    are ever replaced or deleted: :meth:`claim` refuses, before any work, a run that would write over
-    a file it did not write (a user's own file), and records the names it will write *before* they
-    are written (a run killed in between leaves a recorded name without a file: harmless).
+    """The files warpvol wrote into an output folder (``bench``, ``stress``, ``sweep``, ``demo``), recorded
+    in ``FOLDER/.warpvol-files.json`` after they are written: each file's path relative to the folder,
+    the tool, its size and the SHA-256 of its bytes, and the folder the record describes.
+
+    A file counts as warpvol's only while it is still as recorded: a file a user saved under a recorded
+    name, or changed since, is the user's, and is never replaced or deleted. A record written for
+    another folder (copied in with a folder) is refused as a whole. :meth:`check` refuses, before any
+    work, a run that would write over a file that is not warpvol's; :meth:`wrote` records files once
+    they are written (:class:`Outputs` with ``owned`` checks its targets again just before renaming
+    onto them, and records them after).
 
     Examples
     --------
     >>> import tempfile; d = Path(tempfile.mkdtemp())
     >>> _ = (d / "mine.json").write_text("{}")
     >>> own = OwnedFiles(d, "stress")
-    >>> own.claim(["cases/a.json", "stress.json"]); own.owns("cases/a.json"), own.owns("mine.json")
+    >>> with Outputs(owned=own) as out:
+    ...     out.text(d / "stress.json", "[]")
+    >>> own.owns("stress.json"), own.owns("mine.json")
     (True, False)
-    >>> own.claim(["mine.json"])
+    >>> own.check(["mine.json"])
     Traceback (most recent call last):
     ...
     warpvol.errors.ConfigError: -o: ... exists and was not written by warpvol stress; ...
-    >>> sorted(OwnedFiles(d, "stress").owned_in("cases"))
-    ['cases/a.json']
+    >>> _ = (d / "stress.json").write_text("my own notes")  # replaced by the user: theirs now
+    >>> OwnedFiles(d, "stress").owns("stress.json")
+    False
     """
 
     def __init__(self, folder: str | Path, tool: str, flag: str = "-o") -> None:
         self.folder, self.tool, self.flag = Path(folder), tool, flag
-        self.files: dict[str, str] = {}
+        self.files: dict[str, dict] = {}
+        self.refused = ""  # why the record there was not taken, said in errors
         try:
             rec = json.loads((self.folder / MANIFEST).read_text(encoding="utf-8"))
-            files = rec.get("files", {}) if isinstance(rec, dict) else {}
-            self.files = {str(k): str(v) for k, v in files.items()} if isinstance(files, dict) else {}
         except FileNotFoundError:
-            pass
+            return
         except (OSError, ValueError):  # unreadable record: nothing counts as written by warpvol
-            self.files = {}
+            self.refused = f"the record {MANIFEST} there cannot be read"
+            return
+        files = rec.get("files") if isinstance(rec, dict) else None
+        if not isinstance(files, dict) or rec.get("folder") != self._here():
+            where = rec.get("folder") if isinstance(rec, dict) else None
+            self.refused = (f"the record {MANIFEST} there describes {where}, not this folder" if isinstance(where, str)
+                            else f"the record {MANIFEST} there does not say which folder it describes")
+            return
+        self.files = {str(k): v for k, v in files.items()
+                      if isinstance(v, dict) and isinstance(v.get("size"), int) and isinstance(v.get("sha256"), str)}
+
+    def _here(self) -> str:
+        return os.path.realpath(self.folder)
 
     def owns(self, rel: str) -> bool:
-        return rel in self.files
+        """Whether ``rel`` is a file warpvol wrote and is still as written (size and content hash)."""
+        e = self.files.get(rel)
+        p = self.folder / rel
+        if e is None or p.is_symlink() or not p.is_file():
+            return False
+        try:
+            return p.stat().st_size == e["size"] and _sha256(p) == e["sha256"]
+        except OSError:
+            return False
 
     def owned_in(self, sub: str) -> list[str]:
-        """Recorded files directly in the subfolder ``sub`` (relative paths)."""
-        return [r for r in self.files if str(Path(r).parent) == sub]
-
-    def claim(self, rels: Iterable[str]) -> None:
-        """:meth:`check` then :meth:`record`."""
-        rels = list(rels)
-        self.check(rels)
-        self.record(rels)
+        """Files directly in the subfolder ``sub`` (relative paths) that warpvol wrote and are as written."""
+        return [r for r in self.files if str(Path(r).parent) == sub and self.owns(r)]
 
     def check(self, rels: Iterable[str]) -> None:
-        """Every file in ``rels`` is absent or was written by warpvol, else a
+        """Every file in ``rels`` is absent or warpvol's as written (:meth:`owns`), else a
         :class:`~warpvol.errors.ConfigError` naming the first that is not."""
         for rel in rels:
             p = self.folder / rel
-            if os.path.lexists(p) and rel not in self.files:
+            if os.path.lexists(p) and not self.owns(rel):
                 kind = "it" if not p.is_dir() else "that folder"
-                raise ConfigError(f"{self.flag}: {p} exists and was not written by warpvol {self.tool}; "
+                why = ("; it changed since warpvol wrote it" if rel in self.files else
+                       f" ({self.refused})" if self.refused else "")
+                raise ConfigError(f"{self.flag}: {p} exists and was not written by warpvol {self.tool}{why}; "
                                   f"warpvol replaces only the files it wrote: move {kind} away or choose another folder")
 
-    def record(self, rels: Iterable[str]) -> None:
-        """Record ``rels`` as written by this tool (before they are written)."""
-        new = [r for r in dict.fromkeys(rels) if self.files.get(r) != self.tool]
-        if new:
-            self.files.update((r, self.tool) for r in new)
-            self._save()
+    def wrote(self, rels: Iterable[str]) -> None:
+        """Record ``rels``, written by this tool just now, with their sizes and content hashes."""
+        for rel in dict.fromkeys(rels):
+            p = self.folder / rel
+            if p.is_file():
+                self.files[rel] = {"tool": self.tool, "size": p.stat().st_size, "sha256": _sha256(p)}
+        self._save()
 
     def remove(self, rels: Iterable[str]) -> list[str]:
-        """Delete the recorded files among ``rels`` (others are left alone); returns those deleted."""
+        """Delete the files among ``rels`` that warpvol wrote and are as written; a recorded file that
+        changed is the user's now: left alone and no longer recorded. Returns those deleted."""
         gone = []
         for rel in list(rels):
             if rel not in self.files:
                 continue
-            try:
+            if self.owns(rel):
                 os.unlink(self.folder / rel)
                 gone.append(rel)
-            except FileNotFoundError:
-                pass
             del self.files[rel]
         self._save()
         return gone
 
     def _save(self) -> None:
-        atomic_write_text(self.folder / MANIFEST, json.dumps({"files": dict(sorted(self.files.items()))}, indent=1))
+        atomic_write_text(self.folder / MANIFEST, json.dumps({"folder": self._here(),
+                                                              "files": dict(sorted(self.files.items()))}, indent=1))
+
+
+def _sha256(path: Path) -> str:
+    import hashlib
+
+    with open(path, "rb") as fh:
+        return hashlib.file_digest(fh, "sha256").hexdigest()
 
 
 def read_record(path: str | Path) -> dict | None:

@@ -502,16 +502,16 @@ def row_store(outdir: str | Path, scene: Any, *, repeats: int, gpu: str | None, 
     def save(name: str, row: dict, image: np.ndarray | None) -> None:
         extra = {} if digests is None or name not in digests else {"pipeline_sha": digests[name]}
         save_result(d, row_stem(name), report_json({**key, **extra, "key": name, "row": row}),
-                    None if image is None else np.asarray(image, np.float32))
+                    None if image is None else np.asarray(image, np.float32), owned=owned)
 
     return saved, save
 
 
-def write_bench(result: BenchResult, outdir: str | Path, *, plan: dict | None = None) -> list[Path]:
+def write_bench(result: BenchResult, outdir: str | Path, *, plan: dict | None = None, owned: Any = None) -> list[Path]:
     """Write table.csv / table.json / table.md, the Pareto plot of the emulated times (pareto.svg with
     hover titles, pareto.png the same plot), with a GPU profile the one of the modelled times
     (pareto_modelled.svg / .png) and index.html into ``outdir``, all or none
-    (:class:`warpvol.io.Outputs`). Returns the paths."""
+    (:class:`warpvol.io.Outputs`; ``owned``: its :class:`warpvol.io.OwnedFiles`). Returns the paths."""
     from warpvol.io import Outputs
     from warpvol.pipeline import report_json
     from warpvol.tools import report_html as rh
@@ -520,7 +520,7 @@ def write_bench(result: BenchResult, outdir: str | Path, *, plan: dict | None = 
     files = {"table.csv": rh.table_csv(result.rows), "table.json": report_json(result.as_json()),
              "table.md": rh.table_markdown(result.rows) + "\n", "pareto.svg": rh.pareto_svg(result.rows)}
     paths = []
-    with Outputs() as out:
+    with Outputs(owned) as out:
         for name, text in files.items():
             out.text(out_dir / name, text)
             paths.append(out_dir / name)

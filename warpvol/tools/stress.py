@@ -369,7 +369,7 @@ def case_store(outdir, quick: bool, pipelines: list[str], *, digests: dict[str, 
 
     def save(name: str, rows: list[dict]) -> None:
         extra = {} if digests is None else {"pipeline_sha": digests}
-        save_result(d, name, report_json({**key, **extra, "case": name, "rows": rows}))
+        save_result(d, name, report_json({**key, **extra, "case": name, "rows": rows}), owned=owned)
 
     return saved, save
 

@@ -366,7 +366,7 @@ def run_sweep(cfg: SweepConfig, outdir: str | Path, *, scheduler: str | None = N
 SWEEP_FILES = ("table.csv", "table.json", "table.md", "pareto.svg", "pareto.png", "index.html")
 
 
-def write_sweep(result: SweepResult, outdir: str | Path) -> None:
+def write_sweep(result: SweepResult, outdir: str | Path, owned: Any = None) -> None:
     """table.csv / .json / .md, pareto.png / .svg over all rows and index.html with one section per
     scene and view (each with its own Pareto front), all or none."""
     from warpvol.io import Outputs
@@ -401,7 +401,7 @@ def write_sweep(result: SweepResult, outdir: str | Path) -> None:
         sections.append(rh.bench_section(br, title=f"{scene_name} / view {view}"))
     head = (f"<p>{len(result.rows)} rows; {result.skipped_done} tasks read from an earlier run; "
             f"{result.wall_s:.1f} s wall time.</p>")
-    with Outputs() as o:
+    with Outputs(owned) as o:
         o.text(out / "table.csv", rh.table_csv(result.rows))
         o.text(out / "table.json", report_json({"name": result.config.name, "rows": result.rows}))
         o.text(out / "table.md", rh.table_markdown(
