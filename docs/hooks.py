@@ -208,8 +208,10 @@ def preset_stages(name: str) -> str:
         params = {key: v for key, v in st.items() if key != "stage"}
         rows.append([k, f"`{st['stage']}`", ", ".join(f"`{key} = {json.dumps(v)}`" for key, v in params.items())
                      or "(defaults)"])
-    return f"`{name}`: {cfg.get('description', '').strip()}\n\n" + markdown_table(["#", "stage", "set by the preset"],
-                                                                                  rows) + "\n"
+    losses = cfg.get("known_losses", "").strip()  # a faithful preset's losses, as every report states them
+    return (f"`{name}`: {cfg.get('description', '').strip()}\n\n"
+            + (f"*Known losses:* {losses.removeprefix('known losses ')}\n\n" if losses else "")
+            + markdown_table(["#", "stage", "set by the preset"], rows) + "\n")
 
 
 def presets_list(_: str) -> str:

@@ -94,3 +94,15 @@ def test_espinha_partial_reads_the_tf_from_an_8_bit_texture():
     d8 = np.abs(np.asarray(res["rgba8"].image) - np.asarray(res["exact"].image)).max()
     d16 = np.abs(np.asarray(res["rgba16f"].image) - np.asarray(res["exact"].image)).max()
     assert 0 < d16 and 0 < d8  # the texture is what the program reads
+
+
+def test_walk_listing_computes_both_scalars_per_cell_as_fig6_does():
+    """Espinha & Celes Fig. 6 lines 10-11: each cell evaluates sf and sb from its own gradient (two DP4),
+    as the emulated walk does; the listing carries no sf from the previous cell."""
+    from warpvol.gpu import programs
+
+    lines = [ln.split("#")[0].split() for ln in programs.WALK.strip().splitlines()]
+    dp4 = [ln[1].rstrip(",") for ln in lines if ln and ln[0] == "DP4"]
+    assert "sf" in dp4 and "sb" in dp4
+    assert not any(ln[:2] == ["MOV", "sf,"] for ln in lines)
+    assert (programs.n_alu(programs.WALK), programs.n_tex(programs.WALK)) == (30, 6)

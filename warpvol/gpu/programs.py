@@ -32,6 +32,7 @@ TEX n2, cell, MESH2
 TEX n3, cell, MESH3
 TEX nb, cell, NEIGHBOURS   # neighbour indices
 TEX g, cell, GRADIENT      # scalar gradient and offset
+DP4 sf, g, x               # scalar at the entry from this cell's gradient (Fig. 6 line 10; x: the last exit)
 DP3 dn.x, d, n0            # d . n_i
 DP3 dn.y, d, n1
 DP3 dn.z, d, n2
@@ -59,7 +60,6 @@ FLR y, y
 MAD tc.x, y, -width, cell  # column
 ADD tc, tc, 0.5            # texel centre
 MOV lam_in, t.x            # carry the exit to the next entry
-MOV sf, sb
 BRK (cell < 0)             # left the mesh
 ENDLOOP
 """
