@@ -52,8 +52,11 @@ class Visibility(Stage):
         return None
 
     def leaves_out(self, ctx: Context) -> str | None:
-        return ("marks the cells whose scalar range the transfer function maps to zero (no colour, no "
-                "opacity); later stages leave them out")
+        vis = cell_visibility(_tetmesh(ctx.scene.mesh), ctx.scene.transfer)
+        n = len(vis)
+        k = n - int(np.count_nonzero(vis))
+        return (f"{k:,} of {n:,} cells ({100.0 * k / max(n, 1):.1f} %) have a scalar range the transfer function "
+                "maps to zero (no colour, no opacity): marked for the later stages to leave out")
 
     def run(self, ctx: Context) -> None:
         mesh, tf = _tetmesh(ctx.scene.mesh), ctx.scene.transfer
