@@ -213,19 +213,23 @@ _IMAGES_JS = """() => Array.from(document.querySelectorAll('article img')).map(i
 
 def test_figures_are_legible_at_the_page_width(site, browser):
     """Every figure on the performance and paper pages is shown at its design width (the width it was drawn
-    for), or opens at full size on a click; the performance page has the error-against-time figure."""
+    for), or opens at full size on a click; the performance page has the error-against-time figure and each
+    paper page our renders and error maps of its presets."""
     server, base = _served(site)
     page = browser.new_page(viewport=VIEWPORT)
     try:
-        small, alts = [], []
+        small, alts, paper_images = [], [], set()
         for pg in WIDE_PAGES:
             page.goto(f"{base}/{pg}", wait_until="load")
             for im in page.evaluate(_IMAGES_JS):
                 alts.append(im["alt"])
+                if "img/papers/" in im["src"]:
+                    paper_images.add(pg)
                 if im["shown"] + 0.5 < im["design"] and not im["zoom"]:
                     small.append(f"{pg} {im['src']}: shown {im['shown']:.0f} px of {im['design']} px, no zoom")
     finally:
         page.close()
         server.shutdown()
     assert any(a.startswith("RMSE against run time of every preset") for a in alts), alts
+    assert paper_images == {pg for pg in WIDE_PAGES if pg.startswith("papers/")}  # ours beside each paper's figure
     assert small == [], small
