@@ -1,1 +1,29 @@
 """Warp kernels, one module per hardware unit (installed as ``warpvol.kernels``)."""
+
+
+def kernel_modules() -> list:
+    """Every Warp module (``warp`` ``Module`` objects) that defines kernels: one per file of this package
+    that has kernels, and one per HARC march configuration (:func:`warpvol.kernels.harc.march_kernel`,
+    each a module of its own). Files that define only ``@wp.func`` s are compiled through the kernels that
+    call them."""
+    import importlib
+    import pkgutil
+
+    import warp as wp
+
+    out = []
+    for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
+        mod = importlib.import_module(f"{__name__}.{info.name}")
+        wm = wp.get_module(mod.__name__)
+        if wm.kernels:
+            out.append(wm)
+    from . import harc
+    from .harc_integ import INTEG_EXACT, INTEG_FULL, INTEG_PARTIAL
+
+    for walk in (harc.WALK_PLANES, harc.WALK_PLUCKER):
+        for setup in (harc.SETUP_ROBUST, harc.SETUP_PAPER):
+            for mode in (INTEG_EXACT, INTEG_FULL, INTEG_PARTIAL):
+                if setup == harc.SETUP_PAPER and walk != harc.WALK_PLANES:
+                    continue  # make_march refuses it: the paper's set-up walks the face planes
+                out.append(harc.march_kernel(walk, setup, mode).module)
+    return out

@@ -147,3 +147,12 @@ TOLERANCES = {
     "vsbuffer/vsbuffer_best": {"rmse": 2e-6, "max_abs": 1e-4},
     "vsbuffer/table_exact": {"rmse": 1e-2, "max_abs": 0.1},
 }
+
+#: the row of each shipped preset as shipped (presets whose row is not their name)
+PRESET_ROWS = {"raycast": "raycast/fp32", "pt_vertex_color": "pt_vertex_color/fp32",
+               "westermann1997": "vsbuffer/westermann1997", "vsbuffer_best": "vsbuffer/vsbuffer_best"}
+
+
+def preset_tolerance(name: str) -> dict:
+    """The tolerance row of the shipped preset ``name`` (its own name, else :data:`PRESET_ROWS`)."""
+    return TOLERANCES[PRESET_ROWS.get(name, name)]

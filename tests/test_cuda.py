@@ -1,0 +1,141 @@
+"""The kernels on CUDA without a GPU: every module that defines Warp kernels compiles to PTX for sm_75,
+sm_80 and sm_90 through NVRTC (it ships with warp-lang, so no driver or GPU is needed); a kernel that
+uses a CPU-only construct turns the check red, naming its module and kernel. With a CUDA device, every
+preset's pipeline is built on ``cuda:0`` and renders a small scene there within its tolerance row of
+the CPU image; without one that test is skipped and says why.
+
+The PTX goes to a cache outside the repository (``$WARPVOL_PTX_CACHE``, else
+``~/.cache/warpvol/ptx``), keyed by each module's hash: a warm run only re-compiles changed modules.
+Cold, the three architectures take ~45-55 s each on two shared cores (NVRTC; sm_75 and sm_90
+measured while other jobs ran), warm about a second.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+import warp as wp
+
+from tolerances import preset_tolerance
+
+ARCHS = (75, 80, 90)
+
+
+def ptx_cache() -> Path:
+    d = os.environ.get("WARPVOL_PTX_CACHE") or Path.home() / ".cache" / "warpvol" / "ptx"
+    Path(d).mkdir(parents=True, exist_ok=True)
+    return Path(d)
+
+
+@contextlib.contextmanager
+def captured_fds():
+    """What native code (NVRTC's log) writes to fds 1 and 2 while the block runs: ``out[0]`` after it."""
+    out = [""]
+    with tempfile.TemporaryFile(mode="w+b") as tmp:
+        saved = [os.dup(1), os.dup(2)]
+        try:
+            os.dup2(tmp.fileno(), 1)
+            os.dup2(tmp.fileno(), 2)
+            yield out
+        finally:
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            for fd in saved:
+                os.close(fd)
+            tmp.seek(0)
+            out[0] = tmp.read().decode("utf-8", "replace")
+
+
+def _errors(log: str, n: int = 3) -> str:
+    lines = [ln.strip() for ln in log.splitlines() if re.search(r"\berror\b", ln)]
+    return " | ".join(lines[:n]) or log.strip()[-400:]
+
+
+def compile_ptx(module, arch: int, module_dir: Path) -> list[str]:
+    """Compile the Warp ``module`` to PTX for ``sm_<arch>``; ``[]`` or one line per failing kernel
+    (module, kernel, NVRTC's first errors). On a failure each kernel is compiled alone (a module of its
+    own, same options) to name the ones that fail."""
+    try:
+        with captured_fds() as log:
+            wp.compile_aot_module(module, arch=arch, module_dir=str(module_dir), use_ptx=True)
+        return []
+    except Exception as e:  # noqa: BLE001 - NVRTC's failure is a plain Exception
+        first = f"{type(e).__name__}: {e}"
+    failed = []
+    for key, k in module.kernels.items():
+        alone = wp.kernel(k.func, module="unique", module_options=dict(module.options), enable_backward=False)
+        try:
+            with captured_fds() as klog:
+                wp.compile_aot_module(alone.module, arch=arch, module_dir=str(module_dir), use_ptx=True)
+        except Exception:  # noqa: BLE001
+            failed.append(f"{module.name}: kernel {key} does not compile for sm_{arch}: {_errors(klog[0])}")
+    return failed or [f"{module.name}: does not compile for sm_{arch} ({first}): {_errors(log[0])}"]
+
+
+@pytest.fixture(scope="module")
+def kernel_modules():
+    from warpvol.kernels import kernel_modules
+
+    mods = kernel_modules()
+    assert len(mods) >= 20 and all(m.kernels for m in mods)
+    return mods
+
+
+@pytest.mark.parametrize("arch", ARCHS)
+def test_every_kernel_compiles_to_ptx(kernel_modules, arch):
+    failures = [f for m in kernel_modules for f in compile_ptx(m, arch, ptx_cache())]
+    assert not failures, "\n".join(failures)
+
+
+# ---- a deliberately broken kernel: valid on the CPU, not on CUDA --------------------------------
+
+@wp.func_native(snippet="return _wp_isfinite((double)x) ? x : 0.0f;")  # the CPU runtime's helper
+def cpu_only_isfinite(x: float) -> float: ...
+
+
+@wp.kernel(enable_backward=False)
+def k_cpu_only(a: wp.array(dtype=float)):
+    i = wp.tid()
+    a[i] = cpu_only_isfinite(a[i])
+
+
+def test_a_cpu_only_construct_turns_the_check_red(tmp_path):
+    a = wp.array(np.array([1.0, np.inf], np.float32), device="cpu")
+    wp.launch(k_cpu_only, dim=2, inputs=[a], device="cpu")  # fine on the CPU ...
+    assert a.numpy().tolist() == [1.0, 0.0]
+    failures = compile_ptx(k_cpu_only.module, 75, tmp_path)  # ... not for the GPU
+    assert len(failures) == 1, failures
+    assert k_cpu_only.module.name in failures[0] and "kernel k_cpu_only" in failures[0]
+    assert "_wp_isfinite" in failures[0]
+
+
+# ---- every preset on cuda:0 -------------------------------------------------------------------
+
+def _cuda() -> bool:
+    try:
+        return wp.is_cuda_available()
+    except Exception:  # noqa: BLE001
+        return False
+
+
+@pytest.mark.skipif(not _cuda(), reason="no CUDA device here (Warp finds no driver or GPU): "
+                                        "the presets' pipelines on cuda:0 are checked on a GPU machine only")
+def test_every_preset_builds_and_renders_on_cuda():
+    from warpvol.pipeline import Pipeline, list_presets
+    from warpvol.scene.builtin import builtin_scene
+
+    sc = builtin_scene("concave").with_camera(width_px=24, height_px=24)
+    for name, _ in list_presets():
+        p = Pipeline.load(name, device="cuda:0")
+        assert all(st.device == "cuda:0" for st in p.stages), name
+        gpu = p.render(sc, quiet=True)
+        cpu = Pipeline.load(name, device="cpu").render(sc, quiet=True)
+        assert gpu.report["device"] == "cuda:0"
+        tol = preset_tolerance(name)
+        assert np.abs(gpu.image - cpu.image).max() <= tol["max_abs"], name
