@@ -113,3 +113,17 @@ def test_record_says_name_size_hash_and_folder(tmp_path, capsys):
         data = (tmp_path / rel).read_bytes()
         assert e == {"tool": "demo", "size": len(data), "sha256": hashlib.sha256(data).hexdigest()}
     _run(DEMO, tmp_path, capsys)  # its own files, as written: replaced
+
+
+def test_sweep_records_its_task_files_and_keeps_a_replaced_one(tmp_path, capsys):
+    cfg = tmp_path / "sweep.toml"
+    cfg.write_text('scenes = ["builtin:box"]\npresets = ["raycast"]\n[[views]]\nname = "v"\nwidth_px = 6\nheight_px = 6\n')
+    argv, out = ["sweep", str(cfg), "--serial", "--quiet"], tmp_path / "o"
+    _run(argv, out, capsys)
+    files = json.loads((out / MANIFEST).read_text())["files"]
+    tasks = sorted(r for r in files if r.startswith("tasks/"))
+    assert len(tasks) == 2 and all(files[r]["tool"] == "sweep" for r in tasks) and "index.html" in files
+    task = out / tasks[0]
+    task.write_bytes(b"mine")
+    assert "changed since warpvol wrote it" in _run(argv, out, capsys, 2)
+    assert task.read_bytes() == b"mine"
