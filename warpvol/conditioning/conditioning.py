@@ -15,9 +15,12 @@ points        ``(p - c) / h``: ``c`` the centre of the mesh's bounding box, ``h`
               so the mesh fills ``[-1, 1]`` along its longest axis
 camera        ``eye``, ``target`` the same way; orthographic ``height / h``; field of view and ``up`` as
               they are (a similarity transform keeps every ray through every pixel centre)
-scalars       ``(s - m) / r`` with ``m``, ``r`` the midpoint and half-span of the scalars that matter
-              (the transfer function's range within the data's, :func:`scalar_frame`); the control
-              points the same way, restricted to the data's range (no scalar beyond it is looked up)
+scalars       ``(s - m) / r``: ``m`` the midpoint of the scalars that matter (the transfer function's
+              range within the data's, :func:`scalar_frame`), or the control point that keeps the
+              narrowest transfer-function segments apart in float32 when the midpoint does not (a
+              log-scaled field: :func:`scalar_mapping`); ``r`` the largest distance from ``m`` to their
+              ends. The control points the same way, restricted to the data's range (no scalar beyond
+              it is looked up)
 extinction    ``rho * h`` (extinction is per world unit of length, the new unit is ``h`` long)
 colour        as it is for ``color_extinction``; ``c * h`` for ``emission_density`` (``c`` is an
               emission per unit length there)
@@ -55,11 +58,20 @@ FLOAT32_SAFE = FLOAT32_MAX / 1024.0
 FLOAT32_BITS = 24
 #: precision warnings are given from this many lost bits on
 WARN_BITS = 4
+#: smallest width of a transfer-function segment the exact presets keep their tolerance with, relative
+#: to its far end's distance from the scalars' float32 origin (:func:`scalar_mapping`): float32 keeps
+#: 2^12 steps across it. Measured with raycast, one segment of 2^-13.5 gave max abs 6.5e-5 (rmse
+#: 2.5e-6) on a field that dwells in it; less is reported with a warning
+MIN_RESOLUTION = 2.0 ** -12
+#: under this (16 float32 steps) control points cannot be kept apart: the scene is declined
+DECLINE_RESOLUTION = 2.0 ** -20
+#: the midpoint of the scalars stays the offset while every segment keeps this much there
+PREFER_RESOLUTION = 2.0 ** -8
 
 #: cached properties of a :class:`TetMesh` that describe its topology only; a similarity transform
 #: keeps them, so the conditioned mesh takes them over instead of computing them again
 TOPOLOGY_CACHE = ("adjacency", "boundary_faces", "crack_faces", "nonconforming_faces", "is_convex",
-                  "_position_ids")
+                  "_position_ids", "point_used")
 
 
 def _shift_scale(x: np.ndarray, centre, scale: float, field: str) -> np.ndarray:
@@ -107,13 +119,112 @@ def scalar_frame(tf: TransferFunction, data_range: tuple[float, float]) -> tuple
     return mid, half
 
 
+def _segments(tf: TransferFunction, data_range: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """``(knots, values)`` of the transfer function restricted to the data's range: its value at both
+    ends and the control points between (what :func:`conditioned_transfer` keeps), float64."""
+    d_lo, d_hi = (float(v) for v in data_range)
+    inner = (tf.s > d_lo) & (tf.s < d_hi)
+    s = np.concatenate([[d_lo], tf.s[inner], [d_hi]])
+    vals = np.concatenate([tf.evaluate(d_lo)[None], tf.points[inner, 1:], tf.evaluate(d_hi)[None]])
+    return s, vals
+
+
+def _resolution(knots: np.ndarray, m: float) -> np.ndarray:
+    """Per segment ``[knots[i], knots[i + 1]]``: its width over its far end's distance from ``m`` (a
+    float32 value ``s - m`` is rounded by up to 2^-24 of that distance, so the segment keeps about
+    ``resolution * 2^24`` float32 steps); ``inf`` for a segment ending at ``m`` on both sides."""
+    far = np.maximum(np.abs(knots[:-1] - m), np.abs(knots[1:] - m))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(far > 0, np.diff(knots) / np.where(far > 0, far, 1.0), np.inf)
+
+
+def scalar_mapping(tf: TransferFunction, scalars: np.ndarray, data_range: tuple[float, float],
+                   where: str = "transfer") -> tuple[float, float, dict]:
+    """``(offset, scale, info)`` of the affine scalar map ``s' = (s - offset) / scale`` of the exact
+    presets. Only an affine map keeps the image: a tet interpolates its vertex scalars linearly, and
+    the map must commute with that.
+
+    float32 rounds ``s'`` relative to its size, so the offset decides which transfer-function segments
+    float32 still resolves. A segment counts where the colour or extinction changes and data scalars
+    fall into it; it keeps ``resolution * 2^24`` float32 steps (:func:`_resolution`). The midpoint of
+    the scalars that matter (:func:`scalar_frame`) is the offset while every segment keeps
+    :data:`PREFER_RESOLUTION` there; else the control point (or 0) that resolves the narrowest
+    segments best: a log-scaled field (density 1e-6 .. 1e3, a control point per decade) is mapped
+    about its smallest decade. ``scale`` is the largest distance from the offset to the ends of the
+    scalars that matter, so they map into [-1, 1].
+
+    ``info``: ``resolution`` (the smallest over the segments) and, when a segment keeps less than
+    :data:`MIN_RESOLUTION` at the best offset, ``warning`` naming those control points. Under
+    :data:`DECLINE_RESOLUTION` float32 cannot keep the control points apart and the transfer
+    function is declined naming them.
+
+    Examples
+    --------
+    >>> tf = TransferFunction([[10.0 ** k, 0.5, 0.5, 0.5, 7.0 + k] for k in range(-6, 4)])
+    >>> s = 10.0 ** np.linspace(-6, 3, 50)
+    >>> offset, scale, info = scalar_mapping(tf, s, (1e-6, 1e3))
+    >>> offset, round(info["resolution"], 2)
+    (1e-05, 0.9)
+    """
+    mid, half = scalar_frame(tf, data_range)
+    lo, hi = mid - half, mid + half
+    knots, vals = _segments(tf, data_range)
+    live = (np.abs(np.diff(vals, axis=0)) > 0).any(axis=1) & (np.diff(knots) > 0)
+    if len(knots) > 2:  # segments data scalars fall into (a scalar on a control point: both sides)
+        s = np.asarray(scalars, dtype=np.float64)
+        occupied = np.zeros(len(knots) - 1, dtype=bool)
+        for side in ("left", "right"):
+            occupied[np.clip(np.searchsorted(knots, s, side=side) - 1, 0, len(occupied) - 1)] = True
+        live &= occupied
+    if not live.any():
+        return mid, half, {"resolution": None}
+
+    def worst(m):
+        return float(_resolution(knots, m)[live].min())
+
+    best, best_res = mid, worst(mid)
+    if best_res < PREFER_RESOLUTION:
+        narrow = np.argsort(np.where(live, np.diff(knots), np.inf), kind="stable")[:8]
+        for m in np.unique(np.concatenate([knots[narrow], knots[narrow + 1], [0.0, lo, hi]])):
+            r = worst(float(m)) if lo <= m <= hi else -1.0
+            if r > best_res:
+                best, best_res = float(m), r
+    info: dict = {"resolution": best_res}
+    if best_res < MIN_RESOLUTION:
+        res = _resolution(knots, best)
+        bad = np.flatnonzero(live & (res < MIN_RESOLUTION))
+        bad = bad[np.argsort(res[bad], kind="stable")]  # the least resolved first
+        pairs = ", ".join(f"[{knots[i]:.10g}, {knots[i + 1]:.10g}]" for i in bad[:4])
+        more = f" and {len(bad) - 4} more" if len(bad) > 4 else ""
+        steps = max(1, int(best_res * 2.0 ** FLOAT32_BITS))
+        text = (f"{where}.points: float32 keeps only {steps} step(s) across the segment(s) {pairs}{more} with the "
+                f"scalars {lo:.6g} .. {hi:.6g} centred on {best:.6g}")
+        if best_res < DECLINE_RESOLUTION:
+            raise ConfigError(text + f" (at least {DECLINE_RESOLUTION * 2.0 ** FLOAT32_BITS:.0f} needed to keep its "
+                              "control points apart); narrow the transfer function's range, or render the scalars' logarithm")
+        info["warning"] = (text + f", fewer than the {MIN_RESOLUTION * 2.0 ** FLOAT32_BITS:.0f} that keep the "
+                           "preset's tolerance: pixels whose scalars lie there may be off by more")
+    scale = max(hi - best, best - lo)
+    return best, (scale if scale > 0 else half), info
+
+
+def _scatter(values: np.ndarray, used: np.ndarray) -> np.ndarray:
+    """``values`` of the used points at their places, zeros (the conditioned centre) elsewhere."""
+    out = np.zeros((len(used),) + values.shape[1:])
+    out[used] = values
+    return out
+
+
 def _conditioned_mesh(mesh: TetMesh, centre: np.ndarray, h: float, s_mid: float, s_half: float) -> TetMesh:
     """The mesh with points ``(p - centre) / h`` and scalars ``(s - s_mid) / s_half``, sharing the
     tets, cells and topology of ``mesh`` (no validation again: the same tets stay, the same ones
     dropped)."""
     name = getattr(mesh, "name", "mesh")
-    pts = _shift_scale(mesh.points, centre, h, f"{name}: points")
-    s = _shift_scale(mesh.scalars, s_mid, s_half, f"{name}: scalars")
+    used = mesh.point_used  # points no tet uses (a part cut from a larger model) go to the centre
+    pts = _shift_scale(mesh.points if used is None else mesh.points[used], centre, h, f"{name}: points")
+    s = _shift_scale(mesh.scalars if used is None else mesh.scalars[used], s_mid, s_half, f"{name}: scalars")
+    if used is not None:
+        pts, s = _scatter(pts, used), _scatter(s, used)
     if np.abs(s).max() > FLOAT32_SAFE:
         k = int(np.abs(s).argmax())
         raise ConfigError(
@@ -172,6 +283,13 @@ def check_float32_ranges(scene) -> None:
             raise ConfigError(f"{field}: |value| up to {m:.3g} is beyond float32's range (+-{FLOAT32_SAFE:.3g} "
                               "with headroom); this pipeline casts it to float32 as it is (the exact presets "
                               "'raycast', 'harc_best', 'pt_best', 'vsbuffer_best' condition it first)")
+    if mesh.point_used is not None:  # points no tet uses are cast too (their values never reach a pixel)
+        m = float(np.abs(mesh.points).max())
+        if not m <= FLOAT32_SAFE:
+            raise ConfigError(f"{name}: points: {mesh.n_unused_points:,} points no cell uses lie up to {m:.3g} from "
+                              f"the origin, beyond float32's range; this pipeline casts every point as it is: drop "
+                              "the unused points (pyvista: clean()) or use an exact preset ('raycast', 'harc_best', "
+                              "'pt_best', 'vsbuffer_best')")
 
 
 def condition_scene(scene, cache: dict | None = None, reorder: str = "none") -> tuple[object, dict]:
@@ -180,7 +298,11 @@ def condition_scene(scene, cache: dict | None = None, reorder: str = "none") -> 
     ``info`` holds ``origin`` (the world point that becomes 0), ``scale`` (the world length that
     becomes 1), ``scalar_offset`` and ``scalar_scale`` (``s' = (s - offset) / scale``), ``reordered``
     (cells and points renumbered along a space-filling curve: ``reorder`` is ``"morton"``, or ``"auto"``
-    and the mesh's order is incoherent, :func:`warpvol.conditioning.reorder.needs_reorder`) and ``cached``.
+    and the mesh's order is incoherent, :func:`warpvol.conditioning.reorder.needs_reorder`), ``cached``,
+    ``unused_points`` (points no tet uses: left out of every bound and frame, mapped to the centre),
+    ``scalar_resolution`` (the narrowest transfer-function segment the data reaches over its distance
+    from the offset, :func:`scalar_mapping`; ``None`` without one) and, when float32 resolves such a
+    segment too coarsely for the exact presets' tolerance, ``warning``.
     The scene object is copied (any object with ``mesh``, ``transfer`` and ``camera``), the input
     untouched. With ``cache`` (a dict kept across calls) the conditioned mesh is reused while the
     mesh object and the scalar mapping stay the same, so per-mesh caches downstream keep hitting.
@@ -199,7 +321,7 @@ def condition_scene(scene, cache: dict | None = None, reorder: str = "none") -> 
     mesh = _tets_of(source)  # convex cells drawn whole are conditioned through their tets
     centre, h = mesh_frame(mesh)
     data_range = mesh.scalar_range
-    s_mid, s_half = scalar_frame(tf, data_range)
+    s_mid, s_half, mapping = scalar_mapping(tf, mesh.scalars, data_range, getattr(tf, "where", "transfer"))
     hit = None if cache is None else cache.get("mesh")  # (weakref to the source, mapping, renumbering, result)
     if hit is not None and hit[0]() is source and hit[1] == (s_mid, s_half) and hit[2] == reorder:
         cmesh, cached = hit[3], True
@@ -216,7 +338,10 @@ def condition_scene(scene, cache: dict | None = None, reorder: str = "none") -> 
     out.transfer = conditioned_transfer(tf, h, s_mid, s_half, data_range, _diagonal(mesh))
     out.camera = conditioned_camera(scene.camera, centre, h)
     info = {"origin": [float(v) for v in centre], "scale": h, "scalar_offset": s_mid, "scalar_scale": s_half,
-            "reordered": getattr(cmesh, "cell_order", None) is not None, "cached": cached}
+            "reordered": getattr(cmesh, "cell_order", None) is not None, "cached": cached,
+            "scalar_resolution": mapping["resolution"], "unused_points": mesh.n_unused_points}
+    if "warning" in mapping:
+        info["warning"] = mapping["warning"]
     return out, info
 
 
@@ -228,10 +353,7 @@ def conditioned_transfer(tf: TransferFunction, h: float, s_mid: float, s_half: f
     the restriction changes no colour; control points far outside (e.g. at +-1.7e308) drop out.
     ``diag``: the mesh diagonal in world units (optical depth and emission bounds)."""
     where = getattr(tf, "where", "transfer")
-    d_lo, d_hi = (float(v) for v in data_range)
-    inner = (tf.s > d_lo) & (tf.s < d_hi)
-    s = np.concatenate([[d_lo], tf.s[inner], [d_hi]])
-    vals = np.concatenate([tf.evaluate(d_lo)[None], tf.points[inner, 1:], tf.evaluate(d_hi)[None]])
+    s, vals = _segments(tf, data_range)
     _check_values(vals, s, tf.emission, diag, where)
     u = _shift_scale(s, s_mid, s_half, f"{where}.points (s)")
     if not u[-1] > u[0]:  # constant data: the TF is constant on it

@@ -48,7 +48,7 @@ def _geometry(mesh, tf) -> dict:
         return cache[key]
     pts = np.asarray(mesh.points, dtype=np.float64)
     tets = np.asarray(mesh.tets)
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    lo, hi = (np.asarray(b, dtype=np.float64) for b in mesh.bounds)  # of the points the tets use
     radius = 0.5 * float(np.linalg.norm(hi - lo))
     p = [pts[tets[:, k]] for k in range(4)]
     vol6 = np.abs(np.einsum("ij,ij->i", p[1] - p[0], np.cross(p[2] - p[0], p[3] - p[0])))

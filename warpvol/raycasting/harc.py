@@ -186,7 +186,8 @@ def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None 
     npx = w * h
     count = 0
     # a mesh wholly behind the eye plane (camera looking away) has nothing to rasterise: no ray starts
-    in_front = bool((((mesh.points - camera.eye) @ camera.forward) > 0).any())
+    used = mesh.points if mesh.point_used is None else mesh.points[mesh.point_used]
+    in_front = bool((((used - camera.eye) @ camera.forward) > 0).any())
     if len(bf) and in_front:
         near, far = camera.depth_range(*mesh.bounds)
         vs = VertexStage.from_camera(camera, near, far, device=device).transform(mesh.points)
@@ -263,7 +264,8 @@ def edge_pixels(mesh, camera, tris: np.ndarray, nbr: np.ndarray, delta: float = 
     fwd = np.asarray(camera.forward, np.float64)
     if camera.projection == "perspective":  # keep the part in front of the eye (a ray meets nothing behind it)
         za, zb = (a3 - camera.eye) @ fwd, (b3 - camera.eye) @ fwd
-        ext = float(np.ptp(mesh.points, axis=0).max()) + float(np.abs(mesh.points - camera.eye).max())
+        lo, hi = mesh.bounds  # of the points the tets use
+        ext = float((hi - lo).max()) + float(np.abs(np.stack([lo, hi]) - camera.eye).max())
         zmin = 1e-9 * ext
         keep = (za > zmin) | (zb > zmin)
         b, a3, b3, za, zb = b[keep], a3[keep], b3[keep], za[keep], zb[keep]
@@ -360,7 +362,7 @@ def reentry_bound(mesh, camera, tris: np.ndarray, nbr: np.ndarray, start: np.nda
                     np.maximum(near, img[dy:dy + h, dx:dx + w], out=near)
         if n_edge:
             np.maximum(near, _list_max(out, edge_start, edge_bf, k0).reshape(h, w), out=near)
-        ext = float(np.abs(rel).max()) + float(np.ptp(mesh.points, axis=0).max())
+        ext = float(np.abs(rel).max()) + float((mesh.bounds[1] - mesh.bounds[0]).max())
         out = near.reshape(-1) + 1e-4 * ext
     return out.astype(np.float32)
 

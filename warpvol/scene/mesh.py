@@ -142,12 +142,33 @@ class TetMesh:
         return len(self.tets)
 
     @cached_property
+    def point_used(self) -> np.ndarray | None:
+        """Which points a tet uses (bool per point), or ``None`` when every point is used. A part cut
+        from a larger model often keeps its parent's points; bounds, scalar ranges and every frame
+        built from them come from the used points alone."""
+        used = np.zeros(len(self.points), dtype=bool)
+        used[self.tets.ravel()] = True
+        if used.all():
+            return None
+        used.setflags(write=False)
+        return used
+
+    @property
+    def n_unused_points(self) -> int:
+        used = self.point_used
+        return 0 if used is None else int(len(used) - used.sum())
+
+    @cached_property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        return self.points.min(axis=0), self.points.max(axis=0)
+        """``(min, max)`` corners of the points the tets use."""
+        p = self.points if self.point_used is None else self.points[self.point_used]
+        return p.min(axis=0), p.max(axis=0)
 
     @cached_property
     def scalar_range(self) -> tuple[float, float]:
-        return float(self.scalars.min()), float(self.scalars.max())
+        """Smallest and largest scalar of the points the tets use."""
+        s = self.scalars if self.point_used is None else self.scalars[self.point_used]
+        return float(s.min()), float(s.max())
 
     # -- topology ---------------------------------------------------------------------------------
     @cached_property

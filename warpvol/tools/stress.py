@@ -46,6 +46,7 @@ from warpvol.scene.mesh import TetMesh
 from warpvol.scene.scene import Scene
 from warpvol.scene.transfer import TransferFunction
 from warpvol.tools.stress_meshes import _box, _tf
+from warpvol.tools.stress_range import range_cases
 from warpvol.tools.stress_real import add_real_data_cases
 
 
@@ -181,6 +182,7 @@ def _cases() -> dict[str, tuple[str, Callable[[bool], Case]]]:
         with_ref(f"image_{px}x{px}", f"a {px}x{px} image (--quick: {'1x1' if px == 1 else '512x512'}) of the built-in "
                  "box; reference: its closed form", boxed)
     add_real_data_cases(simple, with_ref, sc)
+    range_cases(simple, with_ref, sc)
     return c
 
 

@@ -221,7 +221,7 @@ class ConvexCellMesh:
         lo, hi = self.bounds
         centre = 0.5 * (lo + hi)
         pts = self.points - centre
-        tol = CONVEX_RTOL * max(float(np.abs(pts).max()), 1e-300)
+        tol = CONVEX_RTOL * max(float((0.5 * (hi - lo)).max()), 1e-300)  # max |pts| over the used points
         # the distinct vertices of every multi-piece cell (CSR over cells)
         pc = self.piece_cell
         sel = multi[pc]

@@ -73,8 +73,10 @@ CUT_SLACK = 2.0 ** -16
 # ------------------------------------------------------------------------------------------------
 
 
-def ray_space(points: np.ndarray, camera) -> np.ndarray:
-    """(N, 3) float64 ray-space coordinates ``(a, b, c)`` of world points (module docstring).
+def ray_space(points: np.ndarray, camera, used: np.ndarray | None = None) -> np.ndarray:
+    """(N, 3) float64 ray-space coordinates ``(a, b, c)`` of world points (module docstring). With
+    ``used`` (bool per point, :attr:`warpvol.scene.mesh.TetMesh.point_used`) only the used points are
+    mapped and checked; the others take the first used point's coordinates (inside every range).
 
     Examples
     --------
@@ -83,6 +85,11 @@ def ray_space(points: np.ndarray, camera) -> np.ndarray:
     >>> ray_space(np.array([[0.0, 0.0, 0.0], [-1.0, 1.0, 1.0]]), cam).tolist()   # centre; top-left corner
     [[2.0, 2.0, 5.0], [0.0, 0.0, 4.0]]
     """
+    if used is not None:
+        out = np.empty((len(used), 3))
+        out[used] = ray_space(np.asarray(points)[used], camera)
+        out[~used] = out[int(np.argmax(used))]
+        return out
     q = np.asarray(points, dtype=np.float64) - camera.eye
     x, y, z = q @ camera.right, q @ camera.true_up, q @ camera.forward
     w, h = camera.width_px, camera.height_px
@@ -95,6 +102,12 @@ def ray_space(points: np.ndarray, camera) -> np.ndarray:
         raise ConfigError("vsbuffer: a perspective view needs the whole mesh in front of the eye "
                           f"(nearest point at eye depth {zmin:g}); move the eye out of the mesh or use 'raycast'")
     return np.stack([(x / (z * th * camera.aspect) + 1.0) * w / 2.0, (1.0 - y / (z * th)) * h / 2.0, -1.0 / z], axis=1)
+
+
+def ray_used(cells) -> np.ndarray:
+    """The points of ``cells`` its tets use."""
+    used = cells.pieces.point_used
+    return cells.points if used is None else cells.points[used]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -268,7 +281,7 @@ def walk_column(cells: ConvexCellMesh, transfer, camera, column, row: int, col: 
 
     ids = np.asarray(column, dtype=np.int32).reshape(-1)
     R, W = len(ids), camera.width_px
-    abc = ray_space(cells.points, camera)
+    abc = ray_space(cells.points, camera, cells.pieces.point_used)
     cmin, cmax = float(abc[:, 2].min()), float(abc[:, 2].max())
     w, dc, ray_o, ray_d, tf_s, tf_v, _ = _walk_inputs(cells, transfer, camera, device, R, cmin,
                                                       max(cmax - cmin, 1e-30), integration, 1, neighbour_check,
@@ -402,7 +415,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         raise ConfigError(f"adjacency: {adjacency!r} not allowed; allowed: {', '.join(ADJACENCY_MODES)}")
     W, H = camera.width_px, camera.height_px
     R = int(depth_res) or H
-    if camera.projection == "perspective" and float(((cells.points - camera.eye) @ camera.forward).max()) <= 0.0:
+    if camera.projection == "perspective" and float(((ray_used(cells) - camera.eye) @ camera.forward).max()) <= 0.0:
         # the whole mesh behind the eye: no plane cuts anything in view, the image is transparent
         return _nothing_drawn(H, W, R, cells, nonconvex, audit, "mesh behind the eye", _zero_counts(0))
     vis_cell = None if visible_pieces is None else per_cell(visible_pieces, cells.cell_start)
@@ -411,7 +424,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
                               dict(_zero_counts(0), cells_culled=cells.n_cells))
     stride = R + 2
     t0 = time.perf_counter()
-    abc = ray_space(cells.points, camera)
+    abc = ray_space(cells.points, camera, cells.pieces.point_used)
     cmin, cmax = float(abc[:, 2].min()), float(abc[:, 2].max())
     cspan = max(cmax - cmin, 1e-30 * max(1.0, abs(cmax)))
     pb = abc[cells.pieces.tets][..., 1]  # (T, 4)

@@ -2,7 +2,9 @@
 mapped by the transfer function's range, in float64, before any stage casts it to float32
 (:func:`warpvol.conditioning.conditioning.condition_scene`). The image is the same; float32 then keeps its 24 bits
 for the data's variation, not for its offset (georeferenced coordinates, pressures in pascal, meshes
-in nanometres or light years), and later thresholds act relative to the mesh's size.
+in nanometres or light years), and later thresholds act relative to the mesh's size. The scalars'
+offset is chosen so that float32 keeps every transfer-function segment the data reaches apart (a
+log-scaled field is mapped about its smallest decade); points no cell uses take no part in any frame.
 
 A mesh whose cells come in an incoherent order (a Delaunay tetrahedralisation of scattered points)
 has its cells and points renumbered along a Morton curve (:mod:`warpvol.conditioning.reorder`), so a
@@ -13,7 +15,8 @@ The conditioned mesh is built once per (mesh, scalar mapping) and kept in the pi
 state, so the per-mesh caches of the later stages (``cell_setup``, ``vsb_setup``, ...) keep hitting
 across renders with a new camera or a transfer function of the same range. Stats: ``origin`` and
 ``scale`` (world point and length that become 0 and 1), ``scalar_offset`` and ``scalar_scale``
-(``s' = (s - offset) / scale``), ``reordered``, ``cached``.
+(``s' = (s - offset) / scale``), ``reordered``, ``cached``, ``scalar_resolution``, ``unused_points`` and,
+where float32 resolves a transfer-function segment too coarsely for the preset's tolerance, ``warning``.
 """
 
 from __future__ import annotations
