@@ -415,10 +415,12 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
         raise ConfigError(f"adjacency: {adjacency!r} not allowed; allowed: {', '.join(ADJACENCY_MODES)}")
     W, H = camera.width_px, camera.height_px
     R = int(depth_res) or H
+    vis_cell = None if visible_pieces is None else per_cell(visible_pieces, cells.cell_start)
     if camera.projection == "perspective" and float(((ray_used(cells) - camera.eye) @ camera.forward).max()) <= 0.0:
         # the whole mesh behind the eye: no plane cuts anything in view, the image is transparent
-        return _nothing_drawn(H, W, R, cells, nonconvex, audit, "mesh behind the eye", _zero_counts(0))
-    vis_cell = None if visible_pieces is None else per_cell(visible_pieces, cells.cell_start)
+        culled = 0 if vis_cell is None else int(cells.n_cells - vis_cell.sum())
+        return _nothing_drawn(H, W, R, cells, nonconvex, audit, "mesh behind the eye",
+                              dict(_zero_counts(0), cells_culled=culled))
     if vis_cell is not None and not vis_cell.any():  # nothing the transfer function shows
         return _nothing_drawn(H, W, R, cells, nonconvex, audit, "no cell visible under the transfer function",
                               dict(_zero_counts(0), cells_culled=cells.n_cells))
