@@ -43,6 +43,34 @@ def test_pvtu_ghost_cells_are_dropped_and_counted(tmp_path, dims, tets, n_pieces
         assert res.report["mesh_notes"]["ghost_cells_dropped"] == ghosts
 
 
+@pytest.mark.parametrize("dims,tets", [((7, 5, 5), False), ((6, 6, 4), True)])
+def test_a_ghost_cell_whose_copy_is_absent_is_kept(tmp_path, dims, tets):
+    import pyvista as pv
+
+    path, _ = write_pvtu(tmp_path, ghost_grid(dims, tets), 2, 1, 0)
+    piece = pv.read(tmp_path / "piece0.vtu")  # one piece on its own: its ghost layer is all there is there
+    n_ghost = int((np.asarray(piece.cell_data["vtkGhostType"]) & 1).sum())
+    m = TetMesh.from_pyvista(piece, "s")
+    assert m.load_notes == {"ghost_cells_kept": n_ghost}
+    assert m.n_tets == TetMesh.from_pyvista(_without_flags(piece), "s").n_tets
+    # pieces already assembled (as VTK's structured readers leave them): flags on cells that exist once
+    g = ghost_grid(dims, tets)
+    flags = np.zeros(g.n_cells, np.uint8)
+    flags[: g.n_cells // 4] = 1
+    g.cell_data["vtkGhostType"] = flags
+    whole = TetMesh.from_pyvista(g, "s")
+    assert whole.load_notes == {"ghost_cells_kept": g.n_cells // 4}
+    assert signed_volumes(whole.points, whole.tets).sum() / 6 == pytest.approx(1.0)
+
+
+def _without_flags(ds):
+    out = ds.copy()
+    for data in (out.cell_data, out.point_data):
+        if "vtkGhostType" in data:
+            del data["vtkGhostType"]
+    return out
+
+
 def test_hidden_points_drop_their_cells():
     g = ghost_grid((4, 4, 4), False)
     gt = np.zeros(g.n_points, np.uint8)

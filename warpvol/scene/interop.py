@@ -173,12 +173,22 @@ def drop_ghosts(ds, notes: dict, name: str = "mesh"):
     the owned point at the same position), or is ``None`` when nothing was dropped. ``notes`` gets
     ``ghost_cells_dropped`` and ``hidden_cells_dropped`` (when not 0) and ``ghost_points_joined``.
 
+    A ghost cell is dropped only where the data set holds the cell it copies (a cell of the same type on
+    points at the same positions, not itself a ghost): a piece read on its own keeps its ghost layer,
+    counted as ``ghost_cells_kept``, and a data set whose pieces were already assembled (flags left on
+    cells that now exist once) loses nothing.
+
     Written here rather than with ``vtkRemoveGhosts``: that filter drops the point flags the joining of
     the pieces needs.
     """
     cg = np.asarray(ds.cell_data[_GHOSTS]) if _GHOSTS in ds.cell_data else np.zeros(ds.n_cells, np.uint8)
     pg = np.asarray(ds.point_data[_GHOSTS]) if _GHOSTS in ds.point_data else np.zeros(ds.n_points, np.uint8)
     ghost = (cg & _DUPLICATECELL) != 0
+    if ghost.any():
+        copies = ghost & _has_copy(ds, ghost)
+        if (ghost & ~copies).any():
+            notes["ghost_cells_kept"] = int((ghost & ~copies).sum())
+        ghost = copies
     hidden = (cg & _HIDDENCELL) != 0
     if (pg & _HIDDENPOINT).any():
         conn = np.asarray(ds.cell_connectivity)
@@ -209,6 +219,22 @@ def drop_ghosts(ds, notes: dict, name: str = "mesh"):
             if found.any():
                 notes["ghost_points_joined"] = int(found.sum())
     return out, weld
+
+
+def _has_copy(ds, ghost: np.ndarray) -> np.ndarray:
+    """(C,) bool: whether a cell that is not a ghost has the same type and corner positions as this one."""
+    _, rank = np.unique(np.asarray(ds.points, dtype=np.float64), axis=0, return_inverse=True)
+    off = np.asarray(ds.cell_offsets, dtype=np.int64)
+    conn = rank.ravel()[np.asarray(ds.cell_connectivity, dtype=np.int64)]
+    sizes = np.diff(off)
+    rows = np.full((len(sizes), int(sizes.max()) + 1), -1, dtype=np.int64)
+    rows[:, 0] = np.asarray(ds.celltypes)
+    cell = np.repeat(np.arange(len(sizes)), sizes)
+    rows[cell, 1 + np.arange(len(conn)) - off[:-1][cell]] = conn
+    rows[:, 1:].sort(axis=1)
+    _, key = np.unique(rows, axis=0, return_inverse=True)
+    key = key.ravel()
+    return np.isin(key, key[~ghost])
 
 
 def _unstructured_arrays(ds, scalars: str, name: str, notes: dict):

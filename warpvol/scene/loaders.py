@@ -29,8 +29,9 @@ How cells become tets
   O-grid axis is a wedge) loses the pieces that have no volume or cancel, counted in
   :attr:`TetMesh.load_notes`.
 * Ghost cells of unstructured grids (``vtkGhostType``: the layer a ``.pvtu`` piece carries from its
-  neighbours) and cells using a hidden point are dropped and counted; the pieces' copies of each
-  other's points are joined (:func:`warpvol.scene.interop.drop_ghosts`).
+  neighbours) whose owning copy is in the file, and cells using a hidden point, are dropped and
+  counted; the pieces' copies of each other's points are joined
+  (:func:`warpvol.scene.interop.drop_ghosts`).
 * Any other cell type (polyhedra, higher-order cells) goes through VTK's
   ``vtkDataSetTriangleFilter`` (tets only). Faces that do not conform after that are counted by
   :class:`~warpvol.scene.mesh.TetMesh` (``crack_faces``, ``nonconforming_faces``) and walked by the
