@@ -11,13 +11,19 @@ ROOT = Path(__file__).resolve().parent.parent
 VIEWPORT = {"width": 1280, "height": 900}
 
 
-def _check_site():
+def _docs_module(name: str):
+    """A module of ``docs/`` (``check_site``, ``hooks``), imported from there."""
+    import importlib
+
     sys.path.insert(0, str(ROOT / "docs"))
     try:
-        import check_site
+        return importlib.import_module(name)
     finally:
         sys.path.pop(0)
-    return check_site
+
+
+def _check_site():
+    return _docs_module("check_site")
 
 
 @pytest.fixture(scope="module")
@@ -50,15 +56,6 @@ def test_demo_error_map_is_shown_at_its_own_size(tmp_path, browser, capsys):
     assert ERROR_PNG_TEXT_PX >= 12
 
 
-def _hooks():
-    sys.path.insert(0, str(ROOT / "docs"))
-    try:
-        import hooks
-    finally:
-        sys.path.pop(0)
-    return hooks
-
-
 def _json_texts():
     import json
 
@@ -78,7 +75,7 @@ def test_text_from_json_shows_as_written_in_markdown():
 
     import markdown
 
-    hooks = _hooks()
+    hooks = _docs_module("hooks")
     texts = dict(_json_texts())
     texts["formula"] = "5.6 s x pixels read / (450*450*2*450) + 4.47 us; a_b_c, [x], <tag>, #1 & `k_1*2`"
     assert "westermann1997/table1/notes" in texts
