@@ -494,7 +494,8 @@ def build_parser() -> argparse.ArgumentParser:
         common(sp)
 
     b = sub.add_parser("bench", help="every pipeline on one scene: table, error-vs-time plot, HTML page")
-    b.add_argument("--pipelines", nargs="+", default=["all"], help="'all' (every preset) or names/files")
+    b.add_argument("--pipelines", nargs="+", default=["all"], help="'all' (every preset) or names/files, "
+                   "space- or comma-separated")
     b.add_argument("--gpu", help="GPU profile for modelled times (where the build has GPU profiles)")
     b.add_argument("-o", "--output", required=True, help="output folder")
     b.add_argument("--repeats", type=int, default=3, help="timed renders per pipeline after a warm-up (median)")
@@ -511,7 +512,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.set_defaults(func=cmd_bench)
 
     pl = sub.add_parser("plan", help="which stages a preset leaves out for a scene, why, and the time saved")
-    pl.add_argument("--pipeline", nargs="+", default=["all"], help="preset(s) or 'all'")
+    pl.add_argument("--pipeline", nargs="+", default=["all"], help="preset(s), space- or comma-separated, or 'all'")
     pl.add_argument("--repeats", type=int, default=3)
     pl.add_argument("--no-measure", action="store_true", help="dry run only: no renders")
     pl.add_argument("--no-skip", action="store_true", help="plan with skipping off (render --no-skip): no stage "
@@ -522,7 +523,8 @@ def build_parser() -> argparse.ArgumentParser:
     st = sub.add_parser("stress", help="stiff and extreme scenes x every pipeline: finite? error? time? (exit 1 on a failure)")
     st.add_argument("--quick", action="store_true", help="the same cases at reduced sizes (CI)")
     st.add_argument("--cases", nargs="+", help="case names (default: all; see warpvol.tools.stress.CASES)")
-    st.add_argument("--pipelines", nargs="+", default=["all"], help="'all' (every preset) or names/files")
+    st.add_argument("--pipelines", nargs="+", default=["all"], help="'all' (every preset) or names/files, "
+                    "space- or comma-separated")
     st.add_argument("-o", "--output", help="folder for stress.json / .csv / .md / .html (and cases/: each case's rows "
                     "saved as it finishes)")
     st.add_argument("--progress", action="store_true", help="progress on stderr also when it is not a "
