@@ -10,6 +10,9 @@ when the modelled relation has the paper's sign (which method is faster) and mod
 predictions (only these make the count), ``one calibration row`` when one of them was fitted (its ratio
 then repeats the other row's; counted apart), ``calibration only`` when both were (not a prediction, not
 counted). The counts, agree / predicted by role, are printed and written to the JSON (table ``counts``).
+Rows whose agreement rests on one estimated constant (the texture-cache block edge of Roettger's Fig. 8,
+Kraus' fp16 rebind time, VICP's host upload rate) carry the ratio at half and double that constant in
+their notes, and so do the relative rows built on them.
 
 Counters come from one redraw of each configuration at the paper's image size
 (:mod:`warpvol.reproduce.model_rows`, cached under ``out/validate_model/counters``; ``--refresh``
@@ -22,6 +25,8 @@ Table 4) are counted in counting mode. Configurations whose data are absent are 
 ``--absolute-from`` takes the absolute rows (values, roles, notes) from an earlier JSON instead of counting
 them and rebuilds the relative rows and the counts from those rows alone (no renders): what the relative
 rows and counts say follows from the absolute rows, which tests/test_model.py checks on the shipped JSON.
+With ``--sensitivity`` it adds the sensitivity notes from the counter cache, for each row whose cached
+counters give its own modelled value again.
 """
 
 from __future__ import annotations
@@ -83,12 +88,20 @@ class Model:
             self.skipped[key] = f"{type(e).__name__}: {e}"
             return None
 
-    def seconds(self, c: dict | None, profile: str, skip=()) -> tuple[float | None, str]:
+    def seconds(self, c: dict | None, profile: str, skip=(), scale: dict | None = None) -> tuple[float | None, str]:
+        """Modelled seconds of counters ``c`` on ``profile``; ``scale``: {(section, key): factor} multiplies
+        those profile constants (the sensitivity notes)."""
+        import copy
+
         from warpvol.model import check_caps, counter_needs, load_profile, model_counters
 
         if c is None:
             return None, "skipped (data or configuration unavailable)"
         p = load_profile(profile)
+        if scale:
+            p = copy.deepcopy(p)
+            for (section, key), f in scale.items():
+                getattr(p, section)[key]["value"] = float(getattr(p, section)[key]["value"]) * f
         total = 0.0
         for key, cc in c.items():
             if key.startswith(tuple(skip)):
@@ -107,9 +120,13 @@ class Model:
 def absolute_rows(m: Model) -> list[dict]:
     rows = []
 
-    def row(paper, name, pv, mv, role, note=""):
+    def row(paper, name, pv, mv, role, note="", at=None):
+        """``at``: (constant, modelled at half it, modelled at double it) where the row rests on one estimate."""
+        if at is not None and mv is not None:
+            note = "; ".join(x for x in (note, sensitivity(pv, at[1:], at[0])) if x)
         rows.append({"paper": paper, "row": name, "paper_value": pv, "modelled": mv,
-                     "ratio": None if pv is None or mv is None else mv / pv, "role": role, "note": note})
+                     "ratio": None if pv is None or mv is None else mv / pv, "role": role, "note": note,
+                     "at": None if at is None or mv is None else {"constant": at[0], "half": at[1], "double": at[2]}})
 
     # Roettger & Ertl 2002 Table 2 and §3 (table builds, counting mode)
     for N in (64, 128, 256):
@@ -126,12 +143,15 @@ def absolute_rows(m: Model) -> list[dict]:
     for prof, (p3, p2) in ROETTGER_F8.items():
         for kind, pv in (("3d", p3), ("2d", p2)):
             cfg = "2d_sgi" if (kind, prof) == ("2d", "octane_mxi") else kind  # single texture, nearest
-            c = m.counters(f"roettger/sphere/{cfg}")
+            key = f"roettger/sphere/{cfg}"
+            c = m.counters(key)
             if c and kind == "3d":
                 fragments = c["pt_table3d"]["fragments"]
             s, why = m.seconds(c, prof, skip=("sort",))
+            at = fig8_at(m, key, c, prof) if s else None
             row("Roettger 2002", f"Fig. 8 {CARD[prof]} {'3D texture' if kind == '3d' else '2D planes'} [fps]", pv,
-                None if s is None else 1.0 / s, "prediction" if s else "-", why or "our view of the sphere, 512x384")
+                None if s is None else 1.0 / s, "prediction" if s else "-", why or "our view of the sphere, 512x384",
+                at)
             fig8[(prof, kind)] = rows[-1]
     roettger_f8_notes(fig8, fragments)
     # Guthe et al. 2002 §4, Table 4 (builds, counting mode), Table 5 (rendering)
@@ -155,9 +175,11 @@ def absolute_rows(m: Model) -> list[dict]:
                     why or (f"host {rate}: 'half of the time is spent by sorting'" if cal else ""))
     # Kraus et al. 2004 Table 1
     for k, pv in KRAUS.items():
-        s, why = m.seconds(m.counters(f"kraus/bluntfin/{k}"), "quadro_fx3000")
+        c = m.counters(f"kraus/bluntfin/{k}")
+        s, why = m.seconds(c, "quadro_fx3000")
+        at = kraus_fp16_at(m, c) if (k == "fp16" and s) else None
         row("Kraus 2004", f"T1 {KRAUS_LABEL[k]} [s]", pv, s, "prediction" if s else "-",
-            why or (kraus_dither_note() if k == "dither" else ""))
+            why or (kraus_dither_note() if k == "dither" else ""), at)
     # Westermann & Ertl 1997 Table 1
     for data, pname in (("bluntfin", "bluntfin"), ("fe", "fedata")):
         c = m.counters(f"westermann/{data}")
@@ -187,9 +209,11 @@ def absolute_rows(m: Model) -> list[dict]:
             s = espinha_seconds(m, data, kind)
             cal = (kind, data) in (("full", "bluntfin"), ("vicp", "loxpost"))
             note = {"full": "loop_issue_rate of geforce6800gt", "vicp": "host cell_sort_rate of geforce6800gt"}
+            at = vicp_at(m, data) if (kind == "vicp" and s) else None
             row("Espinha 2005", f"T2/T3 {ESPINHA_LABEL[kind]} {DATA[data]} [fps]", _mid(lo, hi),
                 None if s is None else 1.0 / s, "calibration on this row" if cal else "prediction",
-                note[kind] if cal else "our viewpoint (the paper's are not given); paper: geometric mean of min-max")
+                note[kind] if cal else "our viewpoint (the paper's are not given); paper: geometric mean of min-max",
+                at)
     return rows
 
 
@@ -227,13 +251,82 @@ def kraus_dither_note() -> str:
             f"instructions and 2 fetches {lo:+.3f} to {hi:+.3f} s; the paper has {KRAUS['dither'] - KRAUS['iv']:+.3f} s")
 
 
-def espinha_seconds(m: Model, data: str, kind: str) -> float | None:
+def espinha_seconds(m: Model, data: str, kind: str, scale: dict | None = None) -> float | None:
     c = m.counters(f"espinha/{data}/{'vicp' if kind.startswith('vicp') else kind}")
     if c is None:
         return None
     if kind == "vicp_gpu":  # VICP-GPU: the cell data resident on the card (no per-frame upload)
         c = {k: ({kk: vv for kk, vv in v.items() if kk != "bytes_up"} if k == "vicp" else v) for k, v in c.items()}
-    return m.seconds(c, "geforce6800gt")[0]
+    return m.seconds(c, "geforce6800gt", scale=scale)[0]
+
+
+#: the estimated constants single agreements rest on (their rows show the ratio at half and double them)
+FB_REBIND = "fb_rebind_s (10 us per fp16 buffer rebind, an estimate)"
+UPLOAD = "host upload_rate (694 MB/s, derived from Kraus et al. 2004)"
+BLOCK_EDGE = "texture-cache block edge (4 texels, an estimate: 2 and 8)"
+
+
+def _inv(t: float | None) -> float | None:
+    return None if t is None else 1.0 / t
+
+
+def fig8_at(m: Model, key: str, c: dict, prof: str) -> tuple | None:
+    """Roettger Fig. 8 on ``prof``: fps at block edges 2 and 8 (None where the profile does not price the
+    cache term: no memory bandwidth)."""
+    from warpvol.model import load_profile
+    from warpvol.reproduce.model_rows import texcache_at
+    from warpvol.reproduce.texcache import SENSITIVITY_BLOCKS
+
+    if not load_profile(prof).rate("memory_bandwidth"):
+        return None
+    return (BLOCK_EDGE, *(_inv(m.seconds(texcache_at(key, c, b), prof, skip=("sort",))[0]) for b in SENSITIVITY_BLOCKS))
+
+
+def kraus_fp16_at(m: Model, c: dict) -> tuple:
+    """Kraus Table 1's fp16 read-back total (s) at half and double ``fb_rebind_s``."""
+    return (FB_REBIND, *(m.seconds(c, "quadro_fx3000", scale={("rates", "fb_rebind_s"): f})[0] for f in (0.5, 2.0)))
+
+
+def vicp_at(m: Model, data: str) -> tuple:
+    """Espinha's VICP fps at half and double the host's ``upload_rate``."""
+    return (UPLOAD, *(_inv(espinha_seconds(m, data, "vicp", scale={("host", "upload_rate"): f})) for f in (0.5, 2.0)))
+
+
+def sensitivity_from_counters(m: Model, absolute: list[dict]) -> None:
+    """Give the rows that rest on one estimated constant (``fig8_at``, ``kraus_fp16_at``, ``vicp_at``) their
+    sensitivities from counted configurations, for rows taken from an earlier JSON (``--absolute-from``):
+    only where the counters give the row's own modelled value (else the note says so)."""
+    jobs = {f"Fig. 8 {CARD[p]} {'3D texture' if k == '3d' else '2D planes'} [fps]":
+            (f"roettger/sphere/{k}", lambda c, p=p, k=k: fig8_at(m, f"roettger/sphere/{k}", c, p), p, 1)
+            for p in ("geforce3", "radeon8500") for k in ("3d", "2d")}
+    jobs[f"T1 {KRAUS_LABEL['fp16']} [s]"] = ("kraus/bluntfin/fp16", lambda c: kraus_fp16_at(m, c), "quadro_fx3000", 0)
+    for d in ("bluntfin", "loxpost"):
+        jobs[f"T2/T3 VICP {DATA[d]} [fps]"] = (f"espinha/{d}/vicp", lambda c, d=d: vicp_at(m, d), None, 1)
+    for r in absolute:
+        if r["row"] not in jobs or r["modelled"] is None:
+            continue
+        if "sensitivity: " in r["note"]:  # from a rerun on its own output: the note ends with it
+            r["note"] = r["note"][:r["note"].index("sensitivity: ")].rstrip("; ")
+        key, make, prof, inverse = jobs[r["row"]]
+        c = m.counters(key)
+        base = None
+        if c is not None:
+            base = (espinha_seconds(m, key.split("/")[1], "vicp") if prof is None
+                    else m.seconds(c, prof, skip=("sort",) if key.startswith("roettger") else ())[0])
+        base = _inv(base) if inverse else base
+        if base is None or abs(base - r["modelled"]) > 1e-9 * abs(r["modelled"]):
+            r["note"] = "; ".join(x for x in (r["note"], "sensitivity not computed: the counters at hand do not give "
+                                              "this row's modelled value") if x)
+            continue
+        at = make(c)
+        r["at"] = {"constant": at[0], "half": at[1], "double": at[2]}
+        r["note"] = "; ".join(x for x in (r["note"], sensitivity(r["paper_value"], at[1:], at[0])) if x)
+
+
+def sensitivity(paper: float | None, at, what: str) -> str:
+    """What an agreement rests on: modelled / paper at half and at double one estimated constant."""
+    lo, hi = (None if v is None or not paper else v / paper for v in at)
+    return f"sensitivity: ratio {_r(lo)} at half, {_r(hi)} at double {what}"
 
 
 #: a relative row's role from the roles of its two absolute rows (the counts take ``prediction`` rows only)
@@ -273,6 +366,15 @@ def relative_rows(m: Model | None, absolute: list[dict], view_note: str = "") ->
         cal = [k for k, r in ((a_key, ra), (b_key, rb)) if r["role"].startswith("calibration")]
         if cal:
             note = "; ".join(x for x in (f"calibration: {', '.join(cal)}", note) if x)
+        consts = {r["at"]["constant"] for r in (ra, rb) if r.get("at")}
+        if len(consts) == 1 and ok is not None:  # the relation rests on one estimate: at half and double it
+            const = consts.pop()
+            alt = []
+            for h in ("half", "double"):
+                va, vb = ((r["at"][h] if r.get("at") and r["at"]["constant"] == const else r["modelled"])
+                          for r in (ra, rb))
+                alt.append(None if None in (va, vb) else (vb / va if time_rows else va / vb))
+            note = "; ".join(x for x in (note, sensitivity(p_rel, alt, const)) if x)
         rows.append({"paper": paper, "row": what, "card": card, "data": data, "paper_rel": p_rel, "modelled_rel": m_rel,
                      "ratio": None if ok is None else m_rel / p_rel, "agrees": ok, "role": role or "-",
                      "note": note})
@@ -453,7 +555,8 @@ def to_json(absolute: list[dict], relative: list[dict], skipped: dict, notes_abs
         return {"rows": {"title": f"Throughput model: absolute rows{what}",
                          "columns": ["paper", "row", "paper value", "modelled", "ratio", "role", "note"],
                          "rows": [[r["paper"], r["row"], r["paper_value"], r["modelled"], r["ratio"], r["role"],
-                                   r["note"]] for r in absolute], "notes": notes_abs},
+                                   r["note"]] for r in absolute], "notes": notes_abs,
+                         "sensitivity": {r["row"]: r["at"] for r in absolute if r.get("at")}},
                 "relative": {"title": f"Throughput model: relative rows (A over B){what}",
                              "columns": ["paper", "row", "card", "data", "paper", "modelled", "ratio", "agrees",
                                          "role", "note"],
@@ -478,7 +581,7 @@ def absolute_from(path: str) -> tuple[list[dict], str, str, str]:
         d = json.load(f)
     t = d["tables"]["rows"]
     keys = ("paper", "row", "paper_value", "modelled", "ratio", "role", "note")
-    rows = [dict(zip(keys, r)) for r in t["rows"]]
+    rows = [{**dict(zip(keys, r)), "at": t.get("sensitivity", {}).get(r[1])} for r in t["rows"]]
     view = next((r[-1][r[-1].index("cells walked"):] for r in d["tables"]["relative"]["rows"]
                  if "cells walked" in str(r[-1])), "")
     return rows, t.get("notes", NOTES_ABS), d.get("absolute_source", d.get("source", path)), view
@@ -491,13 +594,21 @@ def main(argv=None) -> int:
     ap.add_argument("--cached-only", action="store_true", help="skip configurations not yet counted (no renders)")
     ap.add_argument("--absolute-from", metavar="JSON", help="take the absolute rows from an earlier --json output "
                     "(no counting) and rebuild the relative rows and counts from them")
+    ap.add_argument("--sensitivity", action="store_true", help="with --absolute-from: add the sensitivity notes of "
+                    "the rows resting on one estimated constant from the counter cache (no renders)")
     ap.add_argument("--json", metavar="PATH", help="write the tables as JSON (docs/hooks.py renders it)")
     a = ap.parse_args(argv)
     if a.absolute_from:
         absolute, notes_abs, src, view = absolute_from(a.absolute_from)
+        if a.sensitivity:
+            from warpvol.pipeline import quiet_warp
+
+            quiet_warp()
+            sensitivity_from_counters(Model(a.device, False, cached_only=True), absolute)
         relative = relative_rows(None, absolute, view)
         out = to_json(absolute, relative, {}, notes_abs,
-                      f"python scripts/validate_model.py --absolute-from {a.absolute_from} --json {a.json}")
+                      f"python scripts/validate_model.py --absolute-from {a.absolute_from}"
+                      f"{' --sensitivity' if a.sensitivity else ''} --json {a.json}")
         out["absolute_source"] = src
     else:
         from warpvol.pipeline import quiet_warp

@@ -34,6 +34,17 @@ def relative(row: str, card: str, data: str | None = None, col: str = "modelled"
     return dict(zip(("paper", "modelled", "ratio"), hits[0][4:7]))[col]
 
 
+def at(row: str, which: str) -> float:
+    """An absolute row's modelled / paper with its estimated constant halved or doubled."""
+    return VM["rows"]["sensitivity"][row][which] / ABS[row]["paper"]
+
+
+def rel_at(a: str, b: str, which: str) -> float:
+    """A over B (speed) with the shared estimated constant halved or doubled, over the paper's A over B."""
+    s = VM["rows"]["sensitivity"]
+    return (s[a][which] / s[b][which]) / (ABS[a]["paper"] / ABS[b]["paper"])
+
+
 def counts(rows: str, role: str) -> tuple[int, int]:
     return next((r[2], r[3]) for r in VM["counts"]["rows"] if r[:2] == [rows, role])
 
@@ -105,6 +116,19 @@ CLAIMS = [
      "blending at 64 steps, not the paper's 4 ({e:.2f} with an exact fp32 `l/n`",
      dict(g=roettger_check("GeForce3 combiners at 64 steps, l/n in the 8-bit constant register"),
           e=roettger_check("GeForce3 combiners at 64 steps, l/n an exact fp32 constant"))),
+    ("performance.md", "the GeForce3's Fig. 8 2D-over-3D speed-up on the texture-cache block edge (ratio {r:.2f} at 4 "
+     "texels, {h:.2f} at 2, {d:.2f} at 8), Kraus' fp16 read-back total on the 10 µs per buffer rebind ({k:.2f}; "
+     "{kh:.2f} at 5 µs, {kd:.2f} at 20 µs), and VICP's Blunt Fin frame rate on the host upload rate ({v:.2f}; "
+     "{vh:.2f} at half the rate, {vd:.2f} at double)",
+     dict(r=relative(F8, "GeForce3", col="ratio"),
+          h=rel_at("Fig. 8 GeForce3 2D planes [fps]", "Fig. 8 GeForce3 3D texture [fps]", "half"),
+          d=rel_at("Fig. 8 GeForce3 2D planes [fps]", "Fig. 8 GeForce3 3D texture [fps]", "double"),
+          k=absolute("T1 total floating-point colour buffer (read-back) [s]"),
+          kh=at("T1 total floating-point colour buffer (read-back) [s]", "half"),
+          kd=at("T1 total floating-point colour buffer (read-back) [s]", "double"),
+          v=absolute(ESP.format("VICP Blunt Fin").replace("HARC ", "")),
+          vh=at(ESP.format("VICP Blunt Fin").replace("HARC ", ""), "half"),
+          vd=at(ESP.format("VICP Blunt Fin").replace("HARC ", ""), "double"))),
     ("papers/westermann1997.md", "The modelled GrOps are {b:.1f} s\n  (Blunt Fin, {rb:.2f}x the paper's {pb:.1f} s) "
      "and {f:.1f} s (fedata stand-in, {rf:.2f}x of {pf:.1f} s)",
      dict(b=absolute("T1 Blunt Fin GrOps [s] (Indigo2 IMPACT)", "modelled"),

@@ -318,6 +318,40 @@ def test_shipped_validation_json_counts_follow_from_its_absolute_rows():
     assert gf4[8] == "calibration only"  # both of its rows fitted the GeForce4's sort rates
 
 
+def test_agreements_resting_on_one_estimate_show_it():
+    """Rows whose agreement rests on one guessed constant carry the ratio at half and double it, and a
+    relative row built on such rows carries the same for the relation (from the rows' values alone)."""
+    vm = _validate_model_script()
+    assert vm.sensitivity(2.0, (1.0, None), "k") == "sensitivity: ratio 0.50 at half, - at double k"
+
+    def row(name, pv, mv, at=None):
+        return {"paper": "Roettger 2002", "row": name, "paper_value": pv, "modelled": mv, "ratio": mv / pv,
+                "role": "prediction", "note": "", "at": at and {"constant": vm.BLOCK_EDGE, "half": at[0],
+                                                               "double": at[1]}}
+
+    absolute = [row(f"Fig. 8 {vm.CARD[p]} {k} [fps]", 10.0, 12.0, (15.0, 8.0) if k == "3D texture" else (18.0, 12.0))
+                for p in vm.ROETTGER_F8 for k in ("3D texture", "2D planes")]
+    rel = next(r for r in vm.relative_rows(None, absolute) if r["row"] == "Fig. 8: 2D planes over 3D texture")
+    # 2D over 3D: 12/12 as counted, 18/15 at half the block edge, 12/8 at double; the paper's 10/10
+    assert rel["ratio"] == 1.0 and rel["note"].endswith(f"ratio 1.20 at half, 1.50 at double {vm.BLOCK_EDGE}")
+
+
+def test_shipped_validation_json_shows_the_estimates_agreements_rest_on():
+    import json
+    from pathlib import Path
+
+    vm = _validate_model_script()
+    t = json.loads((Path(__file__).parents[1] / "docs" / "data" / "validate_model.json").read_text())["tables"]
+    notes = {r[1]: r[6] for r in t["rows"]["rows"]}
+    for name, const in (("Fig. 8 GeForce3 3D texture [fps]", vm.BLOCK_EDGE), ("Fig. 8 Radeon 8500 2D planes [fps]",
+                                                                             vm.BLOCK_EDGE),
+                        (f"T1 {vm.KRAUS_LABEL['fp16']} [s]", vm.FB_REBIND), ("T2/T3 VICP Blunt Fin [fps]", vm.UPLOAD)):
+        assert f"at double {const}" in notes[name], name
+        assert t["rows"]["sensitivity"][name]["constant"] == const
+    f8 = next(r for r in t["relative"]["rows"] if r[1] == "Fig. 8: 2D planes over 3D texture" and r[2] == "GeForce3")
+    assert f"at double {vm.BLOCK_EDGE}" in f8[-1]
+
+
 def test_uploads_cost_the_bus_and_where_profiled_the_host_issuing_them():
     """``bytes_up`` go over the bus (GPU, serial) and, where the host has ``upload_rate``, cost the CPU
     issuing them too: VICP (uploads every frame) minus VICP-GPU (cells resident) is exactly that."""

@@ -134,9 +134,8 @@ def _with_texcache(key: str, c: dict, make, device: str = "cpu", warm=None) -> d
     if not stages:
         return c
     path = CACHE / (key.replace("/", "__") + "__texcache.json")
-    if path.is_file():
-        tc = json.loads(path.read_text())
-    else:
+    tc = json.loads(path.read_text()) if path.is_file() else None
+    if tc is None or "miss_bytes_by_block" not in tc:  # (a file from before the block sensitivity: recount)
         from warpvol.reproduce.texcache import table_misses
 
         tc = table_misses(warm or _pipeline(key, device), make(), warm=warm is not None)
@@ -145,6 +144,18 @@ def _with_texcache(key: str, c: dict, make, device: str = "cpu", warm=None) -> d
     g = dict(c[stages[0]])
     g["tex_miss_bytes"] = int(tc["miss_bytes"])
     return {**c, stages[0]: g}
+
+
+def texcache_at(key: str, c: dict, block: int) -> dict:
+    """Counters ``c`` of configuration ``key`` (as :func:`counters` returns them) with the texture-cache
+    term counted for memory blocks of ``block`` x ``block`` texels (one of
+    :data:`warpvol.reproduce.texcache.SENSITIVITY_BLOCKS`); unchanged where the term is not counted."""
+    stages = [s for s in TEXCACHE.get(key.split("/")[0], ()) if s in c and "tex_miss_bytes" in c[s]]
+    path = CACHE / (key.replace("/", "__") + "__texcache.json")
+    if not stages or not path.is_file():
+        return c
+    by = json.loads(path.read_text())["miss_bytes_by_block"]
+    return {**c, stages[0]: {**c[stages[0]], "tex_miss_bytes": int(by[str(block)])}}
 
 
 def _westermann(name: str):

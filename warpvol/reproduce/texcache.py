@@ -121,11 +121,16 @@ def _observe_draws(seen: list):
         pt.draw = draw
 
 
+#: other block edges counted beside BLOCK, to show what an agreement resting on BLOCK depends on
+SENSITIVITY_BLOCKS = (BLOCK // 2, BLOCK * 2)
+
+
 def table_misses(pipeline, scene, warm: bool = False) -> dict:
     """Texture-cache misses of ``pipeline``'s table lookups in a redraw of ``scene`` (a first render builds
     tables and compiles kernels, unless ``warm``: the caller rendered the scene with this pipeline
     already): ``fragments``, ``blocks`` (distinct per triangle, summed over the draw's batches and the
-    fetch's textures), ``block_bytes`` (the texture's bytes per texel x BLOCK^2) and ``miss_bytes``."""
+    fetch's textures), ``block_bytes`` (the texture's bytes per texel x BLOCK^2) and ``miss_bytes``;
+    ``miss_bytes_by_block``: the same count for block edges :data:`SENSITIVITY_BLOCKS` and BLOCK."""
     import warnings
 
     seen: list = []
@@ -135,13 +140,18 @@ def table_misses(pipeline, scene, warm: bool = False) -> dict:
             pipeline.render(scene, quiet=True)
         with _observe_draws(seen):
             pipeline.render(scene, quiet=True)
-    frags = blocks = 0
+    frags = 0
     nbytes = 0
+    edges = sorted({BLOCK, *SENSITIVITY_BLOCKS})
+    blocks = dict.fromkeys(edges, 0)
     for program, prim, c in seen:
         frags += len(prim)
         tex, texels = _texel_coords(program, c)
         nbytes = getattr(program, "texel_bytes", None) or tex.nbytes // int(np.prod(tex.shape))
         for t in texels:
-            blocks += distinct_blocks(prim, t, tex.shape, tex.effective_filter)
+            for b in edges:
+                blocks[b] += distinct_blocks(prim, t, tex.shape, tex.effective_filter, block=b)
     bb = nbytes * BLOCK * BLOCK
-    return {"fragments": int(frags), "blocks": int(blocks), "block_bytes": int(bb), "miss_bytes": int(blocks * bb)}
+    return {"fragments": int(frags), "blocks": int(blocks[BLOCK]), "block_bytes": int(bb),
+            "miss_bytes": int(blocks[BLOCK] * bb),
+            "miss_bytes_by_block": {str(b): int(n * nbytes * b * b) for b, n in blocks.items()}}
