@@ -58,6 +58,7 @@ def roettger_check(starts: str) -> float:
 
 
 F8 = "Fig. 8: 2D planes over 3D texture"
+KD, KIV = "T1 total with alpha dithering [s]", "T1 + logarithmic lookup (iv) = frame buffer total [s]"
 ESP = "T2/T3 HARC {} [fps]"
 
 
@@ -129,6 +130,11 @@ CLAIMS = [
           v=absolute(ESP.format("VICP Blunt Fin").replace("HARC ", "")),
           vh=at(ESP.format("VICP Blunt Fin").replace("HARC ", ""), "half"),
           vd=at(ESP.format("VICP Blunt Fin").replace("HARC ", ""), "double"))),
+    ("papers/kraus2004.md", "dithering's modelled cost (+{m:.2f} s) is a sixth\n  of the paper's (+{p:.2f} s)",
+     dict(m=absolute(KD, "modelled") - absolute(KIV, "modelled"), p=absolute(KD, "paper") - absolute(KIV, "paper"))),
+    ("performance.md", "the paper's dithering costs +{p:.3f} s over the\n  frame-buffer total, the counted work (ten "
+     "instructions and two 2D fetches per fragment) +{m:.3f} s",
+     dict(m=absolute(KD, "modelled") - absolute(KIV, "modelled"), p=absolute(KD, "paper") - absolute(KIV, "paper"))),
     ("papers/westermann1997.md", "The modelled GrOps are {b:.1f} s\n  (Blunt Fin, {rb:.2f}x the paper's {pb:.1f} s) "
      "and {f:.1f} s (fedata stand-in, {rf:.2f}x of {pf:.1f} s)",
      dict(b=absolute("T1 Blunt Fin GrOps [s] (Indigo2 IMPACT)", "modelled"),
