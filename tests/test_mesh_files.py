@@ -149,3 +149,15 @@ def test_stress_cases_of_mesh_files_have_no_silently_wrong_row(case):
         tol = TOLERANCES[EXACT[r["pipeline"]]]
         within = r["status"] == "ok" and r["max_abs"] <= tol["max_abs"] and r["rmse"] <= tol["rmse"]
         assert within or r["status"] == "declined" or r["message"], r  # exact, or declined / warned in words
+
+
+def test_render_command_says_what_the_reader_left_out(tmp_path, capsys):
+    import json
+
+    from warpvol.cli import main
+
+    path, ghosts = write_pvtu(tmp_path, ghost_grid((6, 5, 5)), 2, 1)
+    assert main(["render", str(path), "-o", str(tmp_path / "o.png"), "--width", "12", "--height", "12",
+                 "--report", str(tmp_path / "r.json"), "--quiet"]) == 0
+    assert f"warpvol: mesh: ghost cells dropped: {ghosts}" in capsys.readouterr().err
+    assert json.loads((tmp_path / "r.json").read_text())["mesh_notes"]["ghost_cells_dropped"] == ghosts

@@ -137,6 +137,9 @@ def _summary(report: dict) -> None:
         t = report["modelled_s"]["total"]
         line += f"  modelled on {report['gpu']}: " + ("-" if t is None else f"{t:.4f} s")
     print(line + wall_summary(report))
+    if report.get("mesh_notes"):  # what the mesh reader left out or changed, counted (also in the report)
+        print("warpvol: mesh: " + ", ".join(f"{k.replace('_', ' ')}: {v}" for k, v in report["mesh_notes"].items()),
+              file=sys.stderr)
 
 
 def cmd_gpus(args) -> int:
