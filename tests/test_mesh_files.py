@@ -15,7 +15,7 @@ from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.camera import Camera
 from warpvol.scene.loaders import load_mesh
 from warpvol.scene.mesh import TetMesh, signed_volumes
-from warpvol.scene.split_cells import VTK_HEXAHEDRON, split_cells
+from warpvol.scene.split_cells import VTK_HEXAHEDRON, VTK_PYRAMID, VTK_WEDGE, split_cells
 from warpvol.scene.transfer import TransferFunction
 from warpvol.tools.stress_files import ghost_grid, ogrid, write_pvtu
 
@@ -161,3 +161,20 @@ def test_render_command_says_what_the_reader_left_out(tmp_path, capsys):
                  "--report", str(tmp_path / "r.json"), "--quiet"]) == 0
     assert f"warpvol: mesh: ghost cells dropped: {ghosts}" in capsys.readouterr().err
     assert json.loads((tmp_path / "r.json").read_text())["mesh_notes"]["ghost_cells_dropped"] == ghosts
+
+
+WEDGE = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [0, 1, 1]], float)
+PYRAMID = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0.5, 1]], float)
+
+
+@pytest.mark.parametrize("pts,ctype,corners,volume", [
+    (WEDGE, VTK_WEDGE, [0, 1, 2, 3, 3, 3], 1 / 6),      # top triangle onto a point: a tet
+    (WEDGE, VTK_WEDGE, [0, 1, 1, 3, 4, 4], 0.0),        # onto the quad y = 0: flat
+    (PYRAMID, VTK_PYRAMID, [0, 1, 2, 2, 4], 1 / 6),     # base quad onto a triangle: a tet
+    (PYRAMID, VTK_PYRAMID, [0, 0, 2, 3, 4], 1 / 6)])
+def test_collapsed_wedge_and_pyramid_tile_their_shape(pts, ctype, corners, volume):
+    notes = {}
+    p, _, tets, _ = split_cells(pts, np.zeros(len(pts)), np.array([ctype]), np.array([0, len(pts)]),
+                                np.array(corners), notes)
+    v = signed_volumes(p, tets) / 6 if len(tets) else np.zeros(0)
+    assert (v > 0).all() and v.sum() == pytest.approx(volume) and notes["collapsed_cells"] == 1
