@@ -24,33 +24,33 @@ from warpvol.stage import Context, Param, Stage, register_stage
 class PTIntegrate(Stage):
     """Exact per-fragment segment integral of the TF (no table), back-to-front blending.
 
-    ==========  =====  ========  ==========================================  =======================
-    parameter   type   default   allowed                                     meaning
-    ==========  =====  ========  ==========================================  =======================
-    format      str    fp32      ``unorm8`` ``unorm12`` ``unorm16``          frame-buffer format
-                                 ``fp16`` ``fp32``
-    dither      bool   false                                                 alpha dithering
-    batch_tets  int    65536     [1, 2^26]                                   tets per batch
-    row_bands   int    0         [0, 256]; 0 = one per CPU core (1 on       image row bands drawn
-                                 other devices)                              concurrently (``fused``:
-                                                                             host threads over tiles)
-    early_      float  0         [0, 0.01]; applies with ``fused``          front to back with early
-    termination                  and ``fp32`` (else none)                    termination: a pixel stops
-                                                                             once what could still come
-                                                                             from behind changes no
-                                                                             channel by more than this
-    walk        str    pixel     ``pixel`` ``triangle`` ``fused``            fragment generation:
-                                                                             emulated per-pixel tile
-                                                                             walk, or per-triangle
-                                                                             bounding-box walk + sort
-                                                                             (same fragments, faster),
-                                                                             or one kernel per bin
-                                                                             doing walk, program and
-                                                                             blend (same fragments;
-                                                                             plane-equation
-                                                                             attributes, the pixel's
-                                                                             ray in the thickness)
-    ==========  =====  ========  ==========================================  =======================
+    =================  =====  ========  ==========================================  =======================
+    parameter          type   default   allowed                                     meaning
+    =================  =====  ========  ==========================================  =======================
+    format             str    fp32      ``unorm8`` ``unorm12`` ``unorm16``          frame-buffer format
+                                        ``fp16`` ``fp32``
+    dither             bool   false                                                 alpha dithering
+    batch_tets         int    65536     [1, 2^26]                                   tets per batch
+    row_bands          int    0         [0, 256]; 0 = one per CPU core (1 on       image row bands drawn
+                                        other devices)                              concurrently (``fused``:
+                                                                                    host threads over tiles)
+    early_termination  float  0         [0, 0.01]; applies with ``fused``          front to back with early
+                                        and ``fp32`` (else none)                    termination: a pixel stops
+                                                                                    once what could still come
+                                                                                    from behind changes no
+                                                                                    channel by more than this
+    walk               str    pixel     ``pixel`` ``triangle`` ``fused``            fragment generation:
+                                                                                    emulated per-pixel tile
+                                                                                    walk, or per-triangle
+                                                                                    bounding-box walk + sort
+                                                                                    (same fragments, faster),
+                                                                                    or one kernel per bin
+                                                                                    doing walk, program and
+                                                                                    blend (same fragments;
+                                                                                    plane-equation
+                                                                                    attributes, the pixel's
+                                                                                    ray in the thickness)
+    =================  =====  ========  ==========================================  =======================
 
     Example
     -------
