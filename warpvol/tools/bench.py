@@ -158,8 +158,8 @@ def quick_pipeline(pipe: Any) -> Any:
     Examples
     --------
     >>> from warpvol.pipeline import Pipeline
-    >>> [st.name for st in quick_pipeline(Pipeline.load("raycast")).stages][:2]
-    ['condition', 'cell_setup']
+    >>> [st.config["n_s"] for st in quick_pipeline(Pipeline.load("roettger2000_3d")).stages if "n_s" in st.config]
+    [16]
     """
     from warpvol.pipeline import Pipeline
 
