@@ -64,7 +64,7 @@ def test_opaque_slab_rays_stop_at_known_depth(preset):
     to_139 = render(preset, scene(slab(layers[:4]), tf, cam), skip=False).report
     n = cam.width_px * cam.height_px
     assert first_stats(on.report, preset)["terminated_early"] == n  # every ray stopped behind the front
-    assert on.report["left_out"][preset if preset == "raycast" else "harc"]["rays_terminated_early"] == n
+    assert on.report["left_out"][preset if preset == "raycast" else "harc"]["rays_terminated"] == n
     assert first_stats(off.report, preset)["terminated_early"] == 0 and "left_out" not in off.report
     assert steps(to_137) < steps(on.report) <= steps(to_139) < steps(off.report)
     # the stated bound: at most t_min per channel (plus float32 rounding: an ulp of 1 is 6e-8)

@@ -193,7 +193,7 @@ def report_left_out(ctx: Context, t_min: float, early: int, missed: int | None =
     if not ctx.skip:
         return
     cells = ctx.buffers.get("cells", {})
-    amounts = {"rays_terminated_early": early} if t_min > 0 else {}
+    amounts = {"rays_terminated": early} if t_min > 0 else {}
     why = []
     if missed is not None and "entry_faces" in cells:
         amounts.update(cells_not_walked=int(cells.get("cells_not_walked", 0)), rays_without_visible_cell=missed)
