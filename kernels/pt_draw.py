@@ -14,8 +14,8 @@ pixel centre, in registers:
 2. each attribute clamped into its triangle's vertex range (:func:`clamp8`, the test of
    :func:`~warpvol.kernels.pt.clamp_attr`);
 3. ``(sf, sb, l)`` by Kraus et al.'s division (:func:`sfsbl_ray`), the exact thickness with the
-   ray-length factor of the pixel's own ray (``ray_len``, float64 on the host) instead of the
-   interpolated front point's, and the segment integrated exactly
+   ray-length factor of the pixel's own ray (``ray_len``, float64 on the host; read only in that mode:
+   a 1x1 array otherwise) instead of the interpolated front point's, and the segment integrated exactly
    (:func:`~warpvol.kernels.pt.exact_color`);
 4. blended onto the pixel (:func:`~warpvol.kernels.blend.blend`, batch-local primitive index for dithering).
 
@@ -111,6 +111,7 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
     nfrag = int(0)
     nclamp = int(0)
     rect = tile_rect(s, tile, fb.shape[1], fb.shape[0])
+    per_ray = mode == PERSP_EXACT and ortho == 0  # only then ray_len holds a factor per pixel (else 1x1, unread)
     # early termination (front to back only): a pixel whose remaining transmittance 1 - alpha is at most
     # t_min takes no more fragments; once every pixel of the tile has, the tile's other triangles are left
     area = (rect[2] - rect[0] + 1) * (rect[3] - rect[1] + 1)
@@ -163,7 +164,10 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
                 a, moved = clamp8(x, lo, hi, tol)
                 nfrag += 1
                 nclamp += moved
-                c = exact_color(sfsbl_ray(a, mode, ortho, ray_len[i, j]), tf_s, tf_v, model)
+                factor = float(1.0)
+                if per_ray:
+                    factor = ray_len[i, j]
+                c = exact_color(sfsbl_ray(a, mode, ortho, factor), tf_s, tf_v, model)
                 d = blend(bs, c, d, j, i, t)
                 fb[i, j] = d
                 if term and 1.0 - d[3] <= t_min:

@@ -13,8 +13,8 @@
    image pair is compared with the preset's row of ``tests/tolerances.py`` (max |GPU - CPU| and the
    RMSE of the difference, the bounds the CPU tests hold against the reference), and warm frames are
    timed (after one untimed frame: kernels compiled, tables built): 3 on the GPU, 1 on the CPU.
-   ``pt_best`` is timed on the GPU with the fused draw's tile size chosen by the device and with
-   64-pixel tiles (the CPU's). Rows that would run past ``--budget-s`` are listed as skipped.
+   ``pt_best`` is timed with the fused draw's bins chosen by the device (8 px on CUDA) and with 4-
+   and 64-pixel bins (64: the CPU's). Rows that would run past ``--budget-s`` are listed as skipped.
 
 Writes ``check_cuda.json`` and ``check_cuda.md`` (the table) into the output folder.
 """
@@ -43,7 +43,8 @@ BIG_ORDER = ("raycast", "harc_best", "pt_best", "pt_vertex_color", "kraus2004_fu
              "roettger2000_3d", "weiler2003_vicp", "espinha2005_full", "espinha2005_partial", "guthe2002_linear",
              "guthe2002_quadratic_gf4", "guthe2002_quartic_radeon", "roettger2002_cylindrical", "roettger2002_hw",
              "westermann1997", "vsbuffer_best")
-TILE_VARIANTS = (("pt_best [tiles: device default]", ()), ("pt_best [64-px tiles]", (("pt_integrate.fused_tile", 64),)))
+# pt_best's fused draw on the GPU: one thread per bin of 8 px (its default there), 4 px, or 64 px (the CPU's)
+TILE_VARIANTS = tuple((f"pt_best [{t}-px bins]", (("pt_integrate.fused_tile", t),)) for t in (4, 64))
 
 
 def cuda_driver_present() -> bool:

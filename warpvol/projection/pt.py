@@ -42,8 +42,24 @@ from warpvol.progress import detail
 #: the blending unit), or ``fused`` (walk, program and blending in one kernel per bin; exact_program only)
 DRAW_WALKS = ("pixel", "triangle", "fused")
 
-#: bin size of the fused draw's rasteriser set-up (pixels)
+#: bin size of the fused draw's rasteriser set-up (pixels), one kernel thread per bin: on the CPU 64-px
+#: bins (few bin entries per triangle; host threads take blocks of bins), on CUDA 8-px bins (4,096 threads
+#: at 512^2, 16,384 at 1024^2, where 64-px bins would give the GPU 64 and 256)
 FUSED_TILE = 64
+FUSED_TILE_CUDA = 8
+FUSED_TILES = (0, 4, 8, 16, 32, 64)  # 0: by device
+
+
+def fused_tile(device: str, tile: int = 0) -> int:
+    """The fused draw's bin size: ``tile``, or by device when 0 (:data:`FUSED_TILE` on the CPU,
+    :data:`FUSED_TILE_CUDA` elsewhere).
+
+    >>> fused_tile("cpu"), fused_tile("cuda:0"), fused_tile("cuda:0", 64)
+    (64, 8, 64)
+    """
+    if tile:
+        return int(tile)
+    return FUSED_TILE if str(device).startswith("cpu") else FUSED_TILE_CUDA
 
 #: rasteriser rules the decomposition snaps with and :func:`draw` rasterises with (they must agree)
 RASTER_RULES = {"snap_ties": "even", "depth_clip": False}
@@ -294,14 +310,15 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
     if a.shape[1] < 8:  # one 8-wide load per vertex; unused columns 0
         a = np.concatenate([a, np.zeros((a.shape[0], 8 - a.shape[1]), np.float32)], axis=1)
     va = wp.array(np.ascontiguousarray(a), dtype=pt_draw.vec8f, device=device)
-    # 64-pixel bins: fewer bin entries per triangle than the default 16 (~5 % faster on Blunt Fin 512^2)
+    # on the CPU 64-pixel bins: fewer bin entries per triangle than the default 16 (~5 % faster on Blunt Fin 512^2)
     factors = np.ones((1, 1), np.float32)  # the exact thickness's per-pixel ray factors (else unread)
     if fused["mode"] == PERSPECTIVE_MODES["exact"] and not fused["ortho"]:
         if fused["camera"] is None:
             raise ConfigError("camera: the fused draw's exact thickness needs the camera's pixel rays")
         factors = ray_length_factors(fused["camera"])
     ray_len = wp.array(factors, dtype=wp.float32, device=device)
-    rast = Rasterizer(fb.width, fb.height, device=device, tile_size=FUSED_TILE, **RASTER_RULES)
+    rast = Rasterizer(fb.width, fb.height, device=device, tile_size=fused_tile(device, fused.get("tile", 0)),
+                      **RASTER_RULES)
     st = blend.state(fb)
     cpu = str(device).startswith("cpu")
     n_frag = n_clamped = n_batch = n_skip = n_tail = 0
@@ -522,11 +539,12 @@ def ray_length_factors(camera) -> np.ndarray:
 
 
 def exact_program(tf, *, mode: str = "off", ortho: bool = False, device: str = "cpu", z_off: float = 0.0,
-                  camera=None) -> Callable:
+                  camera=None, tile: int = 0) -> Callable:
     """Fragment program without a table: each fragment's segment integrated exactly (fp32). ``z_off``:
     the eye-space depth offset of the perspective attributes (:attr:`PTGeometry.eye_offset`).
     ``camera``: for the fused draw (``draw(walk="fused")``), whose exact thickness takes each pixel's
-    :func:`ray_length_factors` (needed with ``mode="exact"`` in perspective)."""
+    :func:`ray_length_factors` (needed with ``mode="exact"`` in perspective); ``tile``: its bin size
+    (:func:`fused_tile`; 0: by device)."""
     from warpvol.kernels import pt as kpt
     from warpvol.tables.base import model_id
 
@@ -540,7 +558,7 @@ def exact_program(tf, *, mode: str = "off", ortho: bool = False, device: str = "
         return out
 
     run.fused = {"mode": flags[0], "ortho": flags[1], "camera": camera, "tf_s": tf_s, "tf_v": tf_v,
-                 "model": model_id(tf)}
+                 "model": model_id(tf), "tile": int(tile)}
     return run
 
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from warpvol.projection.pt import DRAW_WALKS
+from warpvol.projection.pt import DRAW_WALKS, FUSED_TILES
 from warpvol.projection.stages.pt_perspective import fragment_inputs
 from warpvol.projection.stages.pt_vertex_color import BATCH, DITHER, composite, fb_param
 from warpvol.stage import Context, Param, Stage, register_stage
@@ -39,6 +39,9 @@ class PTIntegrate(Stage):
                                                                                     once what could still come
                                                                                     from behind changes no
                                                                                     channel by more than this
+    fused_tile         int    0         ``0`` ``4`` ``8`` ``16`` ``32`` ``64``      bin size of the fused walk
+                                                                                    (one thread per bin; 0: 64
+                                                                                    on the CPU, 8 on CUDA)
     walk               str    pixel     ``pixel`` ``triangle`` ``fused``            fragment generation:
                                                                                     emulated per-pixel tile
                                                                                     walk, or per-triangle
@@ -72,7 +75,9 @@ class PTIntegrate(Stage):
                     choices=DRAW_WALKS),
               Param("early_termination", float, 0.0, "front to back with early termination: a pixel stops once "
                     "what could still come from behind changes no channel by more than this (0: off; applies to "
-                    "the fused walk into fp32, no termination otherwise)", lo=0.0, hi=0.01))
+                    "the fused walk into fp32, no termination otherwise)", lo=0.0, hi=0.01),
+              Param("fused_tile", int, 0, "bin size of the fused walk, one kernel thread per bin (0: by device, "
+                    "64 px on the CPU, 8 px on CUDA)", choices=FUSED_TILES))
     needs = ("pt_geometry",)
 
     def _terminates(self) -> bool:
@@ -92,7 +97,7 @@ class PTIntegrate(Stage):
 
         attrs, mode, ortho, z_off = fragment_inputs(ctx)
         program = exact_program(ctx.scene.transfer, mode=mode, ortho=ortho, device=ctx.device, z_off=z_off,
-                                camera=ctx.scene.camera)
+                                camera=ctx.scene.camera, tile=self.config["fused_tile"])
         bands = self.config["row_bands"]
         if bands == 0:
             from warpvol.parallel import cpu_threads
