@@ -259,13 +259,21 @@ def fits(points: list[dict], renderers, image_mesh: str) -> list[dict]:
     return rows
 
 
+#: the plot's design width in inches at 100 dpi (the documentation shows it at 900 px) and its text size
+PLOT_WIDTH_IN = 9.0
+PLOT_FONT = 10
+
+
 def plot(points: list[dict], renderers, path: Path) -> None:
+    """The three cost laws one under the other (time against tets, time against pixels, peak memory
+    against tets), each log-log with its legend beside it; drawn for :data:`PLOT_WIDTH_IN` inches at
+    100 dpi with :data:`PLOT_FONT`-point text, saved at twice that resolution."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    fig, axes = plt.subplots(3, 1, figsize=(PLOT_WIDTH_IN, 11.5), dpi=100, layout="constrained")
     colours = dict(zip(RENDERERS, ("C0", "C1", "C2", "C3", "C4", "C5")))
     for r in renderers:
         for kind, ls in (("structured", "-"), ("delaunay", "--")):
@@ -281,16 +289,22 @@ def plot(points: list[dict], renderers, path: Path) -> None:
         if pts:
             axes[1].loglog([p["pixels"] for p in pts], [p["time_s"] for p in pts], "-", marker="o", color=colours[r],
                            label=r)
-    axes[0].set(xlabel="tets", ylabel="time per frame [s]", title="time vs mesh size (solid: grid, dashed: Delaunay)")
-    axes[1].set(xlabel="pixels", ylabel="time per frame [s]", title="time vs image size")
-    axes[2].set(xlabel="tets", ylabel="peak memory [MiB]", title="peak memory vs mesh size")
+    axes[0].set_title("time against mesh size (solid: structured grid, dashed: Delaunay)", fontsize=PLOT_FONT + 1)
+    axes[0].set_xlabel("tets", fontsize=PLOT_FONT)
+    axes[0].set_ylabel("time per frame [s]", fontsize=PLOT_FONT)
+    axes[1].set_title("time against image size", fontsize=PLOT_FONT + 1)
+    axes[1].set_xlabel("pixels", fontsize=PLOT_FONT)
+    axes[1].set_ylabel("time per frame [s]", fontsize=PLOT_FONT)
+    axes[2].set_title("peak memory against mesh size", fontsize=PLOT_FONT + 1)
+    axes[2].set_xlabel("tets", fontsize=PLOT_FONT)
+    axes[2].set_ylabel("peak memory [MiB]", fontsize=PLOT_FONT)
     for ax in axes:
         ax.grid(True, which="both", alpha=0.3)
-    axes[1].legend(fontsize=8)
-    axes[0].legend(fontsize=6, ncol=2)
-    fig.tight_layout()
+        ax.tick_params(labelsize=PLOT_FONT - 1)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=PLOT_FONT - 1, loc="center left", bbox_to_anchor=(1.01, 0.5), frameon=False)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=200)
     plt.close(fig)
 
 
@@ -310,10 +324,16 @@ def main(argv=None) -> int:
     ap.add_argument("--tf", default="dense", choices=("dense", "shell"),
                     help="shell: the mesh sweep with a one-shell TF whose visible fraction shrinks as the mesh grows "
                          "(writes docs/data/scaling_shell.json)")
+    ap.add_argument("--replot", action="store_true", help="redraw docs/img/scaling.png from docs/data/scaling.json "
+                    "(no measurement)")
     ap.add_argument("--merge", action="store_true",
                     help="keep the points of docs/data/scaling.json that this run does not measure again (a run of "
                          "extra points, e.g. --sizes 2048 or --tets 1e7, adds them to the tables, fits and plot)")
     args = ap.parse_args(argv)
+    if args.replot:  # the plot again from the points docs/data/scaling.json holds, nothing measured
+        pts = points_of_table(json.loads((ROOT / "docs" / "data" / "scaling.json").read_text())["tables"]["points"])
+        plot(pts, [r for r in RENDERERS if any(p["renderer"] == r for p in pts)], ROOT / "docs" / "img" / "scaling.png")
+        return 0
     if args.child:
         print(json.dumps(child(json.loads(args.child))))
         return 0
