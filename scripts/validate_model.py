@@ -36,6 +36,10 @@ import json
 import math
 import sys
 
+from warpvol.reproduce.agreement import (NOTES_ABS, REL_CAL_ONLY, REL_ONE_CAL, REL_PREDICTION,  # noqa: F401
+                                         absolute_counts, absolute_from, count_lines, counts_table, relative_counts,
+                                         relative_role, sensitivity, to_json)
+from warpvol.reproduce.agreement import fmt_ratio as _r
 from warpvol.reproduce.guthe2002 import GUTHE_T4, guthe_steps_per_pass_speedup, guthe_t4_model
 from warpvol.reproduce.roettger2002 import ROETTGER_T2, roettger_combiner_speedup, roettger_t2_model
 from warpvol.reproduce.westermann1997 import PAPER as WESTERMANN
@@ -323,26 +327,6 @@ def sensitivity_from_counters(m: Model, absolute: list[dict]) -> None:
         r["note"] = "; ".join(x for x in (r["note"], sensitivity(r["paper_value"], at[1:], at[0])) if x)
 
 
-def sensitivity(paper: float | None, at, what: str) -> str:
-    """What an agreement rests on: modelled / paper at half and at double one estimated constant."""
-    lo, hi = (None if v is None or not paper else v / paper for v in at)
-    return f"sensitivity: ratio {_r(lo)} at half, {_r(hi)} at double {what}"
-
-
-#: a relative row's role from the roles of its two absolute rows (the counts take ``prediction`` rows only)
-REL_PREDICTION, REL_ONE_CAL, REL_CAL_ONLY = "prediction", "one calibration row", "calibration only"
-
-
-def relative_role(role_a: str, role_b: str) -> str | None:
-    """``prediction`` (both rows predicted), ``one calibration row`` (one of them fitted: the relative ratio
-    repeats the other row's), ``calibration only`` (both fitted: not a prediction); None when either row is
-    not modelled."""
-    cal = [r.startswith("calibration") for r in (role_a, role_b)]
-    if any(r not in ("prediction",) and not c for r, c in zip((role_a, role_b), cal)):
-        return None
-    return (REL_PREDICTION, REL_ONE_CAL, REL_CAL_ONLY)[sum(cal)]
-
-
 def relative_rows(m: Model | None, absolute: list[dict], view_note: str = "") -> list[dict]:
     """Speed of A over speed of B (= time B / time A), paper and modelled: two methods on one card and data
     set, one method on two data sets, two table sizes or two cards. Built from the absolute rows alone (their
@@ -449,32 +433,6 @@ def relative_rows(m: Model | None, absolute: list[dict], view_note: str = "") ->
     return rows
 
 
-def relative_counts(relative: list[dict]) -> dict:
-    """role -> (agreeing, rows with both values) over the relative rows."""
-    out = {}
-    for role in (REL_PREDICTION, REL_ONE_CAL, REL_CAL_ONLY):
-        rs = [r for r in relative if r["role"] == role and r["agrees"] is not None]
-        out[role] = (sum(bool(r["agrees"]) for r in rs), len(rs))
-    return out
-
-
-def absolute_counts(absolute: list[dict]) -> tuple[int, int, int]:
-    """(predictions within [0.5, 2], predictions modelled, calibration rows)."""
-    pred = [r for r in absolute if r["role"] == "prediction" and r["ratio"] is not None]
-    return (sum(0.5 <= r["ratio"] <= 2.0 for r in pred), len(pred),
-            sum(r["role"].startswith("calibration") for r in absolute))
-
-
-def count_lines(absolute: list[dict], relative: list[dict]) -> list[str]:
-    inside, pred, cal = absolute_counts(absolute)
-    rc = relative_counts(relative)
-    (a, n), (a1, n1), (a2, n2) = rc[REL_PREDICTION], rc[REL_ONE_CAL], rc[REL_CAL_ONLY]
-    return [f"Absolute predictions within [0.5, 2]: {inside} of {pred} ({cal} calibration rows not counted).",
-            f"Relative predictions (both rows predicted) with the paper's sign and ratio in [0.5, 2]: {a} of {n}.",
-            f"Counted apart: relative rows with one calibration row agree {a1} of {n1}; rows made only of "
-            f"calibration rows ({n2}, agreeing by construction or not) are not counted."]
-
-
 def espinha_view_note(m: Model) -> str:
     """How many cells our two views walk, against what the paper's frame rates imply (the paper gives no
     viewpoints): the one input the LOX Post rows rest on that no paper number fixes."""
@@ -498,10 +456,6 @@ def _f(v, nd=4):
     return "-" if v is None else f"{v:.{nd}g}"
 
 
-def _r(v) -> str:
-    return "-" if v is None else f"{v:.2f}"
-
-
 def print_tables(absolute: list[dict], relative: list[dict]) -> None:
     print(f"{'paper':<16} {'row':<58} {'paper':>8} {'modelled':>9} {'ratio':>6}  role")
     last = None
@@ -520,71 +474,6 @@ def print_tables(absolute: list[dict], relative: list[dict]) -> None:
               f"  {'-' if r['agrees'] is None else ('yes' if r['agrees'] else 'NO'):<6}  {r['role']}"
               f"{'; ' + r['note'] if r['note'] else ''}")
     print("\n" + "\n".join(count_lines(absolute, relative)))
-
-
-NOTES_ABS = ("ratio = modelled / paper. 'calibration on this row': a profile constant was fitted to it (the "
-             "profile file names the row), so its ratio is 1 by construction and is not counted as agreement. "
-             "Every profile number's source is in warpvol/profiles/*.toml.")
-NOTES_REL = ("speed of A over speed of B (>1: A faster), two methods on one card and data set, or one method on two "
-             "data sets, table sizes or cards; ratio = modelled / paper; agrees: the paper's sign and ratio within "
-             "[0.5, 2]. role: 'prediction' when both absolute rows are predictions (only these are counted), 'one "
-             "calibration row' when one was fitted (the ratio then repeats the other row's; counted apart), "
-             "'calibration only' when both were (not a prediction, not counted).")
-
-
-def counts_table(absolute: list[dict], relative: list[dict], what: str = "") -> dict:
-    inside, pred, cal = absolute_counts(absolute)
-    rc = relative_counts(relative)
-    rows = [["absolute rows", "prediction", inside, pred, "modelled / paper within [0.5, 2]"],
-            ["absolute rows", "calibration on this row", None, cal, "not counted: fitted to the row"]]
-    rows += [["relative rows", role, a, n, {REL_PREDICTION: "the count: both rows predicted",
-                                            REL_ONE_CAL: "counted apart: the ratio repeats the predicted row's",
-                                            REL_CAL_ONLY: "not counted: both rows fitted"}[role]]
-             for role, (a, n) in rc.items()]
-    return {"title": f"Throughput model: agreement by role{what}",
-            "columns": ["rows", "role", "agree", "of", "counted"], "rows": rows,
-            "notes": " ".join(count_lines(absolute, relative))}
-
-
-def to_json(absolute: list[dict], relative: list[dict], skipped: dict, notes_abs: str = NOTES_ABS,
-            source: str = "python scripts/validate_model.py --json docs/data/validate_model.json") -> dict:
-    if skipped:
-        notes_abs += " Skipped: " + "; ".join(f"{k} ({v})" for k, v in skipped.items())
-
-    def tables(absolute, relative, what=""):
-        return {"rows": {"title": f"Throughput model: absolute rows{what}",
-                         "columns": ["paper", "row", "paper value", "modelled", "ratio", "role", "note"],
-                         "rows": [[r["paper"], r["row"], r["paper_value"], r["modelled"], r["ratio"], r["role"],
-                                   r["note"]] for r in absolute], "notes": notes_abs,
-                         "sensitivity": {r["row"]: r["at"] for r in absolute if r.get("at")}},
-                "relative": {"title": f"Throughput model: relative rows (A over B){what}",
-                             "columns": ["paper", "row", "card", "data", "paper", "modelled", "ratio", "agrees",
-                                         "role", "note"],
-                             "rows": [[r["paper"], r["row"], r["card"], r["data"], r["paper_rel"], r["modelled_rel"],
-                                       r["ratio"], r["agrees"], r["role"], r["note"]] for r in relative],
-                             "notes": f"{NOTES_REL} {' '.join(count_lines(absolute, relative)[1:])}"},
-                "counts": counts_table(absolute, relative, what)}
-
-    out = tables(absolute, relative)
-    for paper in dict.fromkeys(r["paper"] for r in absolute):  # each paper's page shows its own rows
-        slug = paper.split()[0].lower() + paper.split()[-1]
-        per = tables([r for r in absolute if r["paper"] == paper], [r for r in relative if r["paper"] == paper],
-                     f", {paper}")
-        out[f"rows_{slug}"], out[f"relative_{slug}"], out[f"counts_{slug}"] = per["rows"], per["relative"], per["counts"]
-    return {"source": source, "tables": out}
-
-
-def absolute_from(path: str) -> tuple[list[dict], str, str, str]:
-    """The absolute rows of an earlier JSON (``to_json``'s form), its absolute-table notes, its source and
-    the Espinha view note of its relative rows."""
-    with open(path) as f:
-        d = json.load(f)
-    t = d["tables"]["rows"]
-    keys = ("paper", "row", "paper_value", "modelled", "ratio", "role", "note")
-    rows = [{**dict(zip(keys, r)), "at": t.get("sensitivity", {}).get(r[1])} for r in t["rows"]]
-    view = next((r[-1][r[-1].index("cells walked"):] for r in d["tables"]["relative"]["rows"]
-                 if "cells walked" in str(r[-1])), "")
-    return rows, t.get("notes", NOTES_ABS), d.get("absolute_source", d.get("source", path)), view
 
 
 def main(argv=None) -> int:
