@@ -327,7 +327,8 @@ class Rendering(RenderResult):
         h, w = self.image.shape[:2]
         e = self.error
         err = f", rmse={e['rmse']:.3e}, max_abs={e['max_abs']:.3e}" if e else ""
-        return f"Rendering({self.report.get('pipeline')!r}, {w}x{h}, {time_summary(self.report)}{err})"
+        wall = f", wall {self.report['wall_s']:.3f} s" if self.report.get("wall_s") is not None else ""
+        return f"Rendering({self.report.get('pipeline')!r}, {w}x{h}, {time_summary(self.report)}{wall}{err})"
 
 
 def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = DEFAULT_PIPELINE,
