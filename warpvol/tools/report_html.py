@@ -243,7 +243,7 @@ def error_time_figure(rows: list[dict], title: str = "RMSE against run time, eve
     if spread:
         ax.plot([], [], color="0.4", lw=1.2, label="fastest to slowest timed render")
     if len(front) > 1 or spread:
-        ax.legend(fontsize=ERROR_TIME_FONT - 1, loc="upper right")
+        ax.legend(fontsize=ERROR_TIME_FONT - 1, loc="center right")
     ax.set_xlabel("median run time on this CPU [s] (log)", fontsize=ERROR_TIME_FONT)
     ax.set_ylabel("RMSE against the exact reference (log)", fontsize=ERROR_TIME_FONT)
     ax.tick_params(labelsize=ERROR_TIME_FONT - 1)
@@ -273,6 +273,8 @@ def _place_labels(fig, ax, labels: list[tuple[str, float, float]]) -> None:
     r = 5.0 * fig.dpi / 72.0  # a marker's half size in pixels: labels keep off every point
     placed = [Bbox.from_extents(px - r, py - r, px + r, py + r)
               for px, py in (ax.transData.transform((x, y)) for _, x, y in labels)]
+    if ax.get_legend() is not None:  # labels keep off the legend too
+        placed.append(ax.get_legend().get_window_extent(renderer))
     for name, x, y in sorted(labels, key=lambda t: (t[2], t[1])):
         best = None
         for dx, dy in _LABEL_OFFSETS:
