@@ -46,7 +46,7 @@ lengths (:func:`warpvol.kernels.walk.thin_unresolved`; redone in float64 like ev
 9 rays of the paper's set-up that took a step with ``lambda' < lambda`` (an exit chosen by rounding:
 the ray is suspect, its pixel possibly wrong; counted, not changed), 10 entries through a face the
 rasterised lists left out, found by the exact test of the faces whose open edge passes within 1/64
-pixel of the pixel centre (``edge_start`` / ``edge_bf``, :func:`warpvol.raycasting.harc.edge_pixels`),
+pixel of the pixel centre (``edge_start`` / ``edge_bf``, :func:`warpvol.raycasting.thin_cells.edge_pixels`),
 11 rays ended by early ray termination (``1 - A`` below ``t_stop``).
 """
 

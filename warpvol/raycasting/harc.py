@@ -140,25 +140,6 @@ def empty_mesh_tex(device: str = "cpu"):
     return st, t
 
 
-def surface_neighbours(tris: np.ndarray) -> np.ndarray:
-    """``(B, 3)`` int32: for each triangle of ``tris`` (B, 3 point indices) the triangle sharing its
-    edge ``k`` (opposite vertex ``k``), -1 where none of ``tris`` does."""
-    b = len(tris)
-    out = np.full((b, 3), -1, np.int64)
-    if b == 0:
-        return out.astype(np.int32)
-    e = np.stack([tris[:, [1, 2]], tris[:, [2, 0]], tris[:, [0, 1]]], axis=1).reshape(-1, 2)
-    e.sort(axis=1)
-    key = e[:, 0].astype(np.int64) * (int(tris.max()) + 1) + e[:, 1]
-    order = np.argsort(key, kind="stable")
-    ks = key[order]
-    same = np.flatnonzero(ks[1:] == ks[:-1])
-    a, c = order[same], order[same + 1]
-    out.reshape(-1)[a] = c // 3
-    out.reshape(-1)[c] = a // 3
-    return out.astype(np.int32)
-
-
 def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None = None) -> dict:
     """Rasterise the front-facing boundary faces (the rasteriser unit, window coordinates from the
     vertex stage) into per-pixel fragment lists sorted by depth. ``faces``: ``(B, 2)`` rows ``(tet,
@@ -176,6 +157,7 @@ def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None 
 
     from warpvol.gpu.raster import GUARD_PX, Rasterizer, depth_order, guard_band_overflow
     from warpvol.gpu.vertex import VertexStage
+    from warpvol.raycasting.thin_cells import edge_pixels, surface_neighbours
     from warpvol.raycasting.stages.entry_bins import entry_face_mask
     from warpvol.raycasting.visible import face_triangles
 
@@ -229,114 +211,13 @@ def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None 
             "fragments": int(count), "faces": int(len(bf)), "max_layers": layers}
 
 
-#: pixel centres within this distance (pixels) of a front face's open edge get the face tested exactly at the
-#: ray start: about 6x the rasteriser's snapping error (1/512 px per coordinate), so a face whose snapped
-#: coverage leaves out a centre it contains is always among them
-EDGE_PX = 1.0 / 64.0
-
-
-def edge_pixels(mesh, camera, tris: np.ndarray, nbr: np.ndarray, delta: float = EDGE_PX,
-                chunk: int = 1 << 20) -> tuple[np.ndarray, np.ndarray]:
-    """Per pixel, the front faces with an *open* edge passing within ``delta`` pixels of its centre, as CSR
-    ``(start (H*W+1), face)`` (float64 window coordinates of :func:`window_xy
-    <warpvol.raycasting.stages.entry_bins.window_xy>`, edges clipped to the eye's front half-space).
-
-    An edge is open where the front faces on its two sides do not both cover a band of the window along it:
-    no front face beyond it (a silhouette, the outline of a part) or a face on either side narrower than
-    ``delta`` in the window (seen edge-on, thinner than the snapping, a cell smaller than a pixel). Only
-    there can the rasteriser's snapped coverage leave out a face at a centre it contains with nothing of
-    its layer listed instead (a deeper layer, or no face at all); elsewhere the face across the edge is
-    listed, and the entry search's consistent edge test rejects it and searches its surface rings. The
-    kernel tests these faces exactly at every ray start and takes the nearest crossing."""
-    from warpvol.raycasting.stages.entry_bins import window_xy
-
-    w, h = camera.width_px, camera.height_px
-    wx, wy, bad, _ = window_xy(camera, np.asarray(mesh.points, np.float64)[tris.reshape(-1)])
-    win = np.stack([wx, wy], axis=-1).reshape(-1, 3, 2)
-    e1, e2 = win[:, 1] - win[:, 0], win[:, 2] - win[:, 0]
-    longest = np.sqrt(np.max([(e * e).sum(axis=1) for e in (e1, e2, win[:, 2] - win[:, 1])], axis=0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        height = np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]) / longest  # the triangle's least width
-    wide = (height >= delta) & ~bad.reshape(-1, 3).any(axis=1)  # NaN (a point on the eye plane): narrow
-    b, k = np.nonzero((nbr < 0) | ~wide[:, None] | ~wide[np.maximum(nbr, 0)])  # open edge k of face b
-    a3 = mesh.points[tris[b, (k + 1) % 3]].astype(np.float64)  # its vertices k + 1, k + 2
-    b3 = mesh.points[tris[b, (k + 2) % 3]].astype(np.float64)
-    fwd = np.asarray(camera.forward, np.float64)
-    if camera.projection == "perspective":  # keep the part in front of the eye (a ray meets nothing behind it)
-        za, zb = (a3 - camera.eye) @ fwd, (b3 - camera.eye) @ fwd
-        lo, hi = mesh.bounds  # of the points the tets use
-        ext = float((hi - lo).max()) + float(np.abs(np.stack([lo, hi]) - camera.eye).max())
-        zmin = 1e-9 * ext
-        keep = (za > zmin) | (zb > zmin)
-        b, a3, b3, za, zb = b[keep], a3[keep], b3[keep], za[keep], zb[keep]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            c = a3 + np.clip((zmin - za) / (zb - za), 0.0, 1.0)[:, None] * (b3 - a3)  # the point at z = zmin
-        a3 = np.where((za < zmin)[:, None], c, a3)
-        b3 = np.where((zb < zmin)[:, None], c, b3)
-    ax, ay, _, _ = window_xy(camera, a3)
-    bx, by, _, _ = window_xy(camera, b3)
-    pix, face = [], []
-    for lo in range(0, len(b), chunk):
-        sl = slice(lo, lo + chunk)
-        p, f = _near_segments(ax[sl], ay[sl], bx[sl], by[sl], b[sl], w, h, delta)
-        pix.append(p)
-        face.append(f)
-    pix = np.concatenate(pix) if pix else np.zeros(0, np.int64)
-    face = np.concatenate(face) if face else np.zeros(0, np.int64)
-    key = np.unique(pix * (len(tris) + 1) + face)  # one pair per (pixel, face), grouped by pixel
-    pix, face = key // (len(tris) + 1), key % (len(tris) + 1)
-    start = np.zeros(w * h + 1, np.int64)
-    np.cumsum(np.bincount(pix, minlength=w * h), out=start[1:])
-    return start, face
-
-
-def _near_segments(ax, ay, bx, by, ids, w: int, h: int, delta: float):
-    """``(pixel, id)`` pairs: pixel centres within ``delta`` of the window-space segments ``a b``. Each segment
-    is walked along its major axis, one pixel column (row) at a time, testing the three pixels across it."""
-    ok = np.isfinite(ax) & np.isfinite(ay) & np.isfinite(bx) & np.isfinite(by)
-    ax, ay, bx, by, ids = ax[ok], ay[ok], bx[ok], by[ok], ids[ok]
-    xmaj = np.abs(bx - ax) >= np.abs(by - ay)
-    # major axis u (x for x-major), minor v; n the pixel count along u
-    ua, va, ub, vb = np.where(xmaj, ax, ay), np.where(xmaj, ay, ax), np.where(xmaj, bx, by), np.where(xmaj, by, bx)
-    nu = np.where(xmaj, w, h)
-    i0 = np.clip(np.ceil(np.minimum(ua, ub) - delta - 0.5), 0, nu).astype(np.int64)
-    i1 = np.clip(np.floor(np.maximum(ua, ub) + delta - 0.5), -1, nu - 1).astype(np.int64)
-    cnt = np.maximum(i1 - i0 + 1, 0)
-    seg = np.repeat(np.arange(len(ua)), cnt)
-    i = i0[seg] + np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    du, dv = (ub - ua)[seg], (vb - va)[seg]
-    uc = i + 0.5
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.clip(np.where(du != 0, (uc - ua[seg]) / du, 0.0), 0.0, 1.0)
-    vline = va[seg] + t * dv
-    pix, face = [], []
-    nv = np.where(xmaj, h, w)[seg]
-    xm = xmaj[seg]
-    j0 = np.rint(vline - 0.5).astype(np.int64)  # the nearest pixel row (column) to the line
-    for dj in (-1, 0, 1):
-        j = j0 + dj
-        vc = j + 0.5
-        # distance from the pixel centre (uc, vc) to the segment, in window pixels
-        px_u, px_v = uc - ua[seg], vc - va[seg]
-        ll = du * du + dv * dv
-        with np.errstate(divide="ignore", invalid="ignore"):
-            s = np.clip(np.where(ll > 0, (px_u * du + px_v * dv) / ll, 0.0), 0.0, 1.0)
-        d2 = (px_u - s * du) ** 2 + (px_v - s * dv) ** 2
-        hit = (d2 <= delta * delta) & (j >= 0) & (j < nv)
-        col = np.where(xm, i, j)[hit]
-        row = np.where(xm, j, i)[hit]
-        pix.append(row * w + col)
-        face.append(ids[seg[hit]])
-    return np.concatenate(pix), np.concatenate(face)
-
-
 def reentry_bound(mesh, camera, tris: np.ndarray, nbr: np.ndarray, start: np.ndarray, frag_bf: np.ndarray,
                   edge_start: np.ndarray | None = None, edge_bf: np.ndarray | None = None) -> np.ndarray:
     """Per pixel (H*W, float32), a bound past which a ray leaving the mesh cannot re-enter it: the largest
     depth ``g`` (distance from the eye, perspective; depth along the view direction, orthographic) of any
     vertex of a front face the HARC entry search of that pixel can reach -- the faces listed at the pixel
     and its 8 neighbours and, through :func:`ring_search <warpvol.kernels.harc_walk.ring_search>`, the two
-    rings of surface neighbours around each, and the pixel's open-edge faces (:func:`edge_pixels`,
+    rings of surface neighbours around each, and the pixel's open-edge faces (:func:`~warpvol.raycasting.thin_cells.edge_pixels`,
     ``edge_start`` / ``edge_bf``) -- plus a rounding margin of 1e-4 of the scene's extent.
     ``g`` is largest at a vertex (a distance is convex, a depth linear), so a crossing of any of those
     faces has ``t + t0 <= bound`` (``t0`` the ray origin's shift); ``-inf`` where no face is listed

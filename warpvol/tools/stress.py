@@ -18,7 +18,8 @@ Cases (see :data:`CASES`): extinction from 1e-6 to 1e6 per unit length, a TF jum
 1e-7 apart), edge ratio 1e6, Delaunay slivers of jittered grids, degenerate projections (a face seen
 edge-on, vertices on pixel centres with rays inside shared faces, a ray along an edge shared by six
 tets), the camera inside the mesh, far away, looking away, the near plane cutting cells, constant
-scalars, one tet and 600k tets, 1x1 and 4096x4096 images.
+scalars, one tet and 600k tets, 1x1 and 4096x4096 images, cells smaller than the rasteriser's snapping
+on pixel rays, slabs and sheets too thin for float32, a silhouette on pixel centres.
 
 Examples
 --------
@@ -48,6 +49,7 @@ from warpvol.scene.transfer import TransferFunction
 from warpvol.tools.stress_meshes import _box, _tf
 from warpvol.tools.stress_range import range_cases
 from warpvol.tools.stress_real import add_real_data_cases
+from warpvol.tools.stress_subpixel import add_subpixel_cases
 
 
 @dataclass
@@ -183,6 +185,7 @@ def _cases() -> dict[str, tuple[str, Callable[[bool], Case]]]:
                  "box; reference: its closed form", boxed)
     add_real_data_cases(simple, with_ref, sc)
     range_cases(simple, with_ref, sc)
+    add_subpixel_cases(simple, sc)
     return c
 
 

@@ -126,3 +126,24 @@ def sheet_scene(thick: float, px: int = 24, perspective: bool = False) -> Scene:
         cam = Camera(projection="orthographic", eye=(0.2, 0.3, 4.0), target=(0, 0, 0), ortho_height=2.4,
                      width_px=px, height_px=px)
     return Scene(mesh=mesh, transfer=tf, camera=cam, name=f"sheet_{thick:g}")
+
+
+def add_subpixel_cases(simple, sc) -> None:
+    """Register the stress cases of this module with ``simple(name, doc, build)`` (``build(quick)`` returns the
+    scene; ``sc`` is unused: the scenes are built here)."""
+    def px(q: bool) -> int:
+        return 24 if q else 96
+
+    simple("subpixel_needles", "needles 2e-3 pixel wide along the rays of a perspective view, in front of and behind "
+           "a block (each on its own points)",
+           lambda q: subpixel_scene("needle", 2e-3, n=16 if q else 160, px=px(q), seed=1, perspective=True))
+    simple("subpixel_specks", "tets 1e-3 pixel across on pixel rays, in front of and behind a block",
+           lambda q: subpixel_scene("speck", 1e-3, n=16 if q else 160, px=px(q), seed=2))
+    simple("thin_slabs_edge_on", "slabs 1e-6 thick seen edge-on, each holding a row of pixel rays (perspective), "
+           "with a block", lambda q: subpixel_scene("slab", 1e-6, n=5 if q else 12, px=px(q), seed=4, perspective=True))
+    simple("thin_slab_1e-9_edge_on", "one slab 1e-9 thick whose middle plane holds a row of pixel rays",
+           lambda q: subpixel_scene("slab", 1e-9, n=1, px=px(q), seed=0, block=False))
+    simple("thin_sheet_1e-8", "a sheet 1e-8 thick seen face-on, optical depth 0.3 through it",
+           lambda q: sheet_scene(1e-8, px=px(q)))
+    simple("silhouette_on_pixel_centres", "a block in front of another, its sides 1e-6 from pixel centres and its "
+           "middle grid plane through a row of them", lambda q: silhouette_scene(px(q), 1e-6))

@@ -260,28 +260,12 @@ class ConvexCellMesh:
         keep[np.nonzero(bad[self.piece_cell])[0]] = True  # ... and every piece of a non-convex cell
         return ConvexCellMesh(self.pieces, np.nonzero(keep)[0], name=self.name)
 
-    def thin_pieces(self, transfer, length=None) -> np.ndarray:
-        """(T,) bool: pieces thinner than float32 resolves for their extinction. A float32 segment
-        length is known to about ``2^-20`` of the mesh radius; where the transfer function's largest
-        extinction over a piece's scalar range times that exceeds ``1e-5`` (an optical-depth error beyond
-        the exact presets' tolerance) and the piece is thinner than ``2^-12`` of the radius (so not simply
-        opaque), the pixels crossing it cannot be integrated exactly in float32. ``length`` (scalar or
-        (T,)) replaces ``2^-20`` of the radius: e.g. each piece's diameter, for a ray that may run inside a
-        piece seen edge-on."""
-        lo, hi = self.bounds
-        radius = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-300)
-        p = self.points[self.pieces.tets]  # (T, 4, 3)
-        vol = np.abs(np.einsum("tk,tk->t", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 3] - p[:, 0]))
-        tri = p[:, FACE_VERTS]  # (T, 4, 3, 3)
-        area = np.linalg.norm(np.cross(tri[:, :, 1] - tri[:, :, 0], tri[:, :, 2] - tri[:, :, 0]), axis=-1).max(axis=1)
-        h = vol / np.maximum(area, 1e-300)  # smallest altitude (6V / 2A_max)
-        sv = self.scalars[self.pieces.tets]
-        smin, smax = sv.min(axis=1), sv.max(axis=1)
-        ts, te = transfer.s, transfer.extinction
-        ext = np.maximum(np.interp(smin, ts, te), np.interp(smax, ts, te))
-        for k in range(len(ts)):
-            ext = np.where((smin <= ts[k]) & (ts[k] <= smax), np.maximum(ext, te[k]), ext)
-        return (ext * (2.0 ** -20 * radius if length is None else length) > 1e-5) & (h < 2.0 ** -12 * radius)
+    def thin_pieces(self, transfer) -> np.ndarray:
+        """(T,) bool: pieces thinner than float32 resolves for their extinction
+        (:func:`warpvol.raycasting.thin_cells.thin_tets`)."""
+        from warpvol.raycasting.thin_cells import thin_tets
+
+        return thin_tets(self.pieces, transfer)
 
     def __repr__(self) -> str:
         return f"ConvexCellMesh({self.name!r}, {self.n_cells} cells, {self.n_tets} tets)"

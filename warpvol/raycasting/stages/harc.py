@@ -8,7 +8,9 @@ or by partial pre-integration with iso splits (``partial``), composited front to
 the frame buffer in ``format``.
 
 ``ray_setup = "robust"``: each ray set up in float64 from an origin moved to the mesh; rays the float32
-walk cannot resolve are redone in float64 on the host and counted (``unresolved_rays``).
+walk cannot resolve are redone in float64 on the host and counted (``unresolved_rays``); with exact
+segments, so are the rays that may cross a cell too thin for float32 (``thin_cell_rays``,
+:func:`warpvol.raycasting.thin_cells.unresolved_pixels`), before the walk.
 ``ray_setup = "paper"`` (the paper's fragment program; ``walk = "planes"`` on ``harc_mesh arithmetic =
 "fp32"`` textures): the ray starts at the eye in fp32, and a ray the walk cannot resolve is lost --
 counted (``lost_rays``), warned in the report, and its pixel shows what it had composited.
@@ -185,6 +187,12 @@ class Harc(Stage):
 
         import time
 
+        thin_rays = thin_tets = 0
+        if not paper and self.integration == "exact":  # rays through cells too thin for float32: float64 redo
+            from warpvol.kernels.raycast import STATUS_FAILED
+            from warpvol.raycasting.thin_cells import mark_unresolved
+
+            thin_rays, thin_tets = mark_unresolved(ctx, state.status, int(STATUS_FAILED))
         t0 = time.perf_counter()
         c = run_pass()
         t1 = time.perf_counter()
@@ -201,7 +209,8 @@ class Harc(Stage):
         count_pass(ctx, c, keep, self.walk, self.integration, self.format, lambda: px_work(state, cam))
         ctx.count(rays=state.n)
         ctx.stats["harc"] = {"walk": self.walk, "integration": self.integration, "ray_setup": self.ray_setup, **c,
-                             "unresolved_rays": redone, "pass_s": t1 - t0, "float64_s": t2 - t1}
+                             "unresolved_rays": redone, "thin_cell_rays": thin_rays, "thin_cells": thin_tets,
+                             "pass_s": t1 - t0, "float64_s": t2 - t1}
         if paper:
             lost = lost_rays(state)
             ctx.stats["harc"]["lost_rays"] = lost
@@ -210,7 +219,7 @@ class Harc(Stage):
         report_left_out(ctx, self.early_termination if t_stop > 0 else 0.0, c["terminated_early"], missed)
         if redone:
             ctx.progress(f"harc: {redone} rays the float32 walk could not resolve were redone in float64")
-        if not paper and redone > 0.25 * state.n:  # correct, but at the float64 tracer's speed: say why
+        if not paper and redone - thin_rays > 0.25 * state.n:  # correct, but at the float64 tracer's speed: say why
             ctx.stats["harc"]["note"] = (
                 f"{redone} of {state.n} rays were redone in float64 on the host: the eye lies inside the mesh's "
                 "bounding sphere, where a rasterised ray start cannot tell rays that begin inside a cell; "

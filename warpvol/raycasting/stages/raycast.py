@@ -223,7 +223,9 @@ class Raycast(Stage):
     gives a transparent image. Rays the float32 walk cannot resolve -- among them rays through a
     layer too thin for float32 segment lengths whose extinction makes that visible -- are redone in
     float64 on the host (:func:`redo_pixels_float64`) and counted (``float64_rays`` in the stats and
-    counters; ``thin_layer_rays`` of them for thin layers).
+    counters; ``thin_layer_rays`` of them for thin layers). The rays that may cross a cell too thin for
+    float32 to resolve -- at its extinction, or seen edge-on (:func:`warpvol.raycasting.thin_cells.unresolved_pixels`)
+    -- are not walked but traced in float64 from the start (``thin_cell_rays``, among ``float64_rays``).
 
     ==========  =====  =========  =============================================================
     parameter   type   default    meaning
@@ -258,16 +260,20 @@ class Raycast(Stage):
         state = MarchState(cam.width_px * cam.height_px, ctx.device)
         ctx.buffers["march"] = state
         threads = self.threads or cpu_threads()
+        from warpvol.kernels import raycast as k
+        from warpvol.raycasting.thin_cells import mark_unresolved
+
+        thin_rays, thin_tets = mark_unresolved(ctx, state.status, int(k.STATUS_FAILED))  # traced in float64
         t_min = stop_transmittance(ctx, self.t_min)
         c = march_pass(ctx, state, max_steps=self.max_steps, t_min=t_min, threads=threads)
-        from warpvol.kernels import raycast as k
 
         missed = rays_without_cell(state.last, state.status, int(k.STATUS_FAILED))
         redone = resolve_failed(ctx, state)
         ctx.count(rays=cam.width_px * cam.height_px, entries=int(c[0]), cell_steps=int(c[1]),
                   float64_rays=redone)
         ctx.stats["raycast"] = {"entries": int(c[0]), "cell_steps": int(c[1]), "unfinished_rays": int(c[2]),
-                                "float64_rays": redone, "thin_layer_rays": int(c[5]), "terminated_early": int(c[6])}
+                                "float64_rays": redone, "thin_layer_rays": int(c[5]), "terminated_early": int(c[6]),
+                                "thin_cell_rays": thin_rays, "thin_cells": thin_tets}
         report_left_out(ctx, self.t_min if t_min > 0 else 0.0, int(c[6]), missed)
         if redone:
             ctx.progress(f"raycast: {redone} rays the float32 walk could not resolve were redone in float64")

@@ -56,7 +56,9 @@ class VsbSweep(Stage):
     thin              str    warn        cells too thin for float32: ``warn`` (pixels crossing them
                                          are approximate, warned) | ``redo`` (the pixels whose rays
                                          may cross one -- too thin at its extinction, or seen edge-on
-                                         -- traced again in float64, ``thin_rays_redone``)
+                                         -- traced again in float64, ``thin_rays_redone``; so are
+                                         pixel centres within 1/64 px of a silhouette or of a face seen
+                                         edge-on, ``silhouette_rays_redone``)
     threads           int    0           host threads for the column walk on the CPU (0: all cores)
     max_sweep_pixels  int    2^32        refuse a sweep drawing more ID-buffer pixels than this (two
                                          passes x planes x (depth_res + 2) x width): the emulated sweep
@@ -171,84 +173,29 @@ class VsbSweep(Stage):
         ctx.image = img
 
     def _redo_thin(self, ctx: Context, img):
-        """``img`` with the pixels whose rays may cross an unresolved thin piece traced again in float64: a
-        piece too thin for float32 at its extinction, or a thin piece whose window footprint is narrower
-        than :data:`EDGE_ON_PX` (seen edge-on: a ray may run inside it) and whose optical depth along its
-        diameter exceeds 1e-5 (:meth:`~warpvol.vsbuffer.cells.ConvexCellMesh.thin_pieces`)."""
+        """``img`` with the pixels whose rays may cross a piece a float32 walk cannot resolve
+        (:func:`warpvol.raycasting.thin_cells.unresolved_pixels`), and those whose centre lies within 1/64 pixel
+        of a silhouette of the front boundary or of a face seen edge-on (in a sweep plane), where the ID
+        buffers' snapped coverage does not decide the cell the ray crosses
+        (:func:`~warpvol.raycasting.thin_cells.silhouette_pixels`,
+        :func:`~warpvol.raycasting.thin_cells.edge_on_pixels`), traced again in float64."""
         import numpy as np
 
+        from warpvol.raycasting.thin_cells import edge_on_pixels, silhouette_pixels, unresolved_pixels
         from warpvol.reference.pixels import redo_pixels_float64
 
         sc = ctx.scene
-        cells = ctx.buffers["vsb_cells"]
-        pieces = cells.points[cells.pieces.tets]
-        thin = cells.thin_pieces(sc.transfer)
-        diameter = np.max([np.linalg.norm(pieces[:, a] - pieces[:, b], axis=1)
-                           for a, b in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))], axis=0)
-        maybe = np.flatnonzero(cells.thin_pieces(sc.transfer, length=diameter) & ~thin)
-        thin[maybe[window_width(pieces[maybe], sc.camera) < EDGE_ON_PX]] = True
-        pix = pixels_under(pieces[thin], sc.camera)
-        ctx.stats["vsbuffer"].update(thin_pieces=int(thin.sum()), thin_rays_redone=int(len(pix)))
+        tets = getattr(sc.mesh, "pieces", sc.mesh)  # a ConvexCellMesh's tets
+        pix, n_thin = unresolved_pixels(ctx.buffers["vsb_cells"].pieces, sc.transfer, sc.camera)
+        edge = np.union1d(silhouette_pixels(tets, sc.camera), edge_on_pixels(tets, sc.camera))
+        ctx.stats["vsbuffer"].update(thin_pieces=n_thin, thin_rays_redone=int(len(pix)),
+                                     silhouette_rays_redone=int(len(np.setdiff1d(edge, pix))))
+        pix = np.union1d(pix, edge)
         if len(pix):
             h, w = sc.camera.height_px, sc.camera.width_px
             out = np.array(img, dtype=np.float32).reshape(h * w, 4)
-            out[pix] = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, pix)
+            out[pix] = redo_pixels_float64(tets, sc.transfer, sc.camera, pix)
             img = out.reshape(h, w, 4)
-            ctx.progress(f"{self.name}: {len(pix)} rays that may cross pieces thinner than float32 resolves were "
-                         "redone in float64")
+            ctx.progress(f"{self.name}: {len(pix)} rays that may cross pieces thinner than float32 resolves, or "
+                         "graze a silhouette or a face seen edge-on, were redone in float64")
         return img
-
-
-#: a thin piece whose window footprint is narrower than this (pixels) is taken as seen edge-on
-EDGE_ON_PX = 1.0 / 64.0
-
-
-def window_width(pieces, camera):
-    """(T,) the width in pixels of each piece's (T, 4, 3) window footprint: its projected area (half the
-    summed absolute areas of its projected faces) over its longest projected edge; 0 where a point does
-    not project (perspective, on the eye plane)."""
-    import numpy as np
-
-    from warpvol.raycasting.stages.entry_bins import window_xy
-
-    if len(pieces) == 0:
-        return np.zeros(0)
-    wx, wy, bad, _ = window_xy(camera, np.asarray(pieces, np.float64).reshape(-1, 3))
-    q = np.stack([wx, wy], axis=-1).reshape(-1, 4, 2)
-    area = np.zeros(len(q))
-    longest = np.zeros(len(q))
-    for a, b, c in ((0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)):
-        u, v = q[:, b] - q[:, a], q[:, c] - q[:, a]
-        area += 0.25 * np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])  # half of each face's |area| (2A / 2 / 2)
-    for a, b in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)):
-        longest = np.maximum(longest, np.linalg.norm(q[:, b] - q[:, a], axis=1))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        width = np.where(longest > 0, area / longest, 0.0)
-    return np.where(bad.reshape(-1, 4).any(axis=1) | ~np.isfinite(width), 0.0, width)
-
-
-def pixels_under(pieces, camera):
-    """Flat indices of the pixels whose rays may cross any of ``pieces`` (T, 4, 3): each piece's window box
-    grown by one pixel (float64 projection; a piece reaching the eye plane of a perspective camera: every
-    pixel)."""
-    import numpy as np
-
-    from warpvol.raycasting.stages.entry_bins import window_xy
-
-    h, w = camera.height_px, camera.width_px
-    if len(pieces) == 0:
-        return np.zeros(0, np.int64)
-    wx, wy, bad, z = window_xy(camera, np.asarray(pieces, np.float64).reshape(-1, 3))
-    wx, wy, bad, z = (a.reshape(-1, 4) for a in (wx, wy, bad, z))
-    if camera.projection == "perspective" and (bad.any() or (z <= 0).any()):
-        return np.arange(h * w, dtype=np.int64)
-    x0 = np.clip(np.floor(wx.min(axis=1) - 1.0), 0, w).astype(np.int64)
-    x1 = np.clip(np.ceil(wx.max(axis=1) + 1.0), 0, w).astype(np.int64)
-    y0 = np.clip(np.floor(wy.min(axis=1) - 1.0), 0, h).astype(np.int64)
-    y1 = np.clip(np.ceil(wy.max(axis=1) + 1.0), 0, h).astype(np.int64)
-    diff = np.zeros((h + 1, w + 1), np.int64)  # box corners, summed over both axes
-    np.add.at(diff, (y0, x0), 1)
-    np.add.at(diff, (y0, x1), -1)
-    np.add.at(diff, (y1, x0), -1)
-    np.add.at(diff, (y1, x1), 1)
-    return np.flatnonzero(diff.cumsum(axis=0).cumsum(axis=1)[:h, :w] > 0)
