@@ -70,3 +70,11 @@ def test_reference_announces_its_kernel_compilation(monkeypatch, capsys):
     capsys.readouterr()
     warpvol.api._reference(True, scene, quiet=False)
     assert "[warpvol] compiling Warp kernels (warpvol.kernels.reference" in capsys.readouterr().err
+
+
+def test_demo_says_how_long_it_took_in_all(tmp_path, capsys):
+    from warpvol.cli import main
+
+    assert main(["demo", "--size", "16", "-o", str(tmp_path), "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "; reference " in out and " s in all (start-up " in out

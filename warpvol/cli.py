@@ -208,6 +208,9 @@ def cmd_demo(args) -> int:
     if outdir.exists() and not outdir.is_dir():
         raise ConfigError(f"-o: {outdir} exists and is not a folder")
     pipe = Pipeline.load(args.pipeline or DEFAULT_PIPELINE, device=args.device)
+    t0, startup_s = getattr(args, "t_start", None), None
+    if t0 is not None:  # the interpreter, imports, Warp's start-up and the pipeline's loading
+        startup_s = time.perf_counter() - t0
     scene = builtin_scene(args.scene)
     scene.camera = scene.camera.replace(width_px=args.size, height_px=args.size)
     check_image_memory(scene.camera, ["render", "png", "reference", "error_image"], _available_memory(), "--size")
@@ -235,7 +238,9 @@ def cmd_demo(args) -> int:
         out.text(outdir / "index.html", demo_page(scene, res.report, err_max))
     _summary(res.report)
     print(f"wrote {outdir}/index.html (image, reference and error side by side), image.exr, image.png, reference.exr, "
-          f"reference.png, error.png (log scale, max {err_max:.2e}), report.json")
+          f"reference.png, error.png (log scale, max {err_max:.2e}), report.json"
+          + ("" if t0 is None else f"; {time.perf_counter() - t0:.2f} s in all (start-up {startup_s:.2f} s, "
+                                  f"reference {ref_s:.2f} s, two renders, the files)"))
     return 0
 
 
