@@ -24,7 +24,9 @@ on the same views at ``--slow-size`` (default 128^2), interleaved with VTK at th
 Prints per renderer the median time, ``VTK PT median / this median`` (> 1: faster than VTK), the error
 against the exact reference (cached in ``--out``) with the preset's tolerance row, and what the render
 left out (``report["left_out"]``: cells culled, fragments, steps and rays left), with the machine's load
-average; writes ``--out/skip_result.json``.
+average; writes ``--out/skip_result.json`` and, with ``--docs``, ``docs/data/skip.json`` (tables ``summary``
+and ``rows`` for the performance page's ``<!-- table: skip/... -->`` markers; ``--docs-from JSON`` writes
+them from an earlier run's ``skip_result.json`` without rendering).
 
 Usage::
 
@@ -207,7 +209,13 @@ def main(argv=None) -> int:
     ap.add_argument("--slow-size", type=int, default=128, help="image size of vsbuffer_best (and VTK beside it)")
     ap.add_argument("--no-skip-vsbuffer", action="store_true", help="also vsbuffer_best with skip=False")
     ap.add_argument("--out", default=str(ROOT / "out" / "bench_skip"))
+    ap.add_argument("--docs", action="store_true", help="also write docs/data/skip.json")
+    ap.add_argument("--docs-from", help="write docs/data/skip.json from this skip_result.json, render nothing")
     args = ap.parse_args(argv)
+    if args.docs_from:
+        saved = json.loads(Path(args.docs_from).read_text())
+        write_docs(saved["views"], saved["source"])
+        return 0
     from warpvol.pipeline import quiet_warp
 
     quiet_warp()
@@ -226,9 +234,60 @@ def main(argv=None) -> int:
                     path, tf_name, slow, args.slow_size, args.slow_repeat, args.slow_repeat, args.no_skip_vsbuffer, out)
     print(f"\ntotal {time.perf_counter() - t0:.0f} s; {load_average()}")
     out.mkdir(parents=True, exist_ok=True)
-    (out / "skip_result.json").write_text(json.dumps(result, indent=1, default=float))
+    source = "python scripts/bench_skip.py " + " ".join(argv if argv is not None else sys.argv[1:])
+    (out / "skip_result.json").write_text(json.dumps({"source": source, "views": result}, indent=1, default=float))
     print(f"wrote {out / 'skip_result.json'}")
+    if args.docs:
+        write_docs(result, source)
     return 0
+
+
+def write_docs(views: dict, source: str) -> None:
+    """``docs/data/skip.json``: ``summary`` (per view and TF, VTK PT's median over each preset's, with
+    skipping and, in parentheses, without) and ``rows`` (every renderer: time, ratio, error, left out)."""
+    import os
+
+    summary, rows = {}, []
+    for key, v in views.items():
+        view, tf, size = key.split("/")
+        s = summary.setdefault((view, tf), {"visible": v["visible_fraction"], "vtk": {}, "cells": {},
+                                            "load": v["load"][0].split()[-3]})
+        vtk = v["rows"]["VTK PT"]["median_s"]
+        s["vtk"][size] = vtk
+        for label, r in v["rows"].items():
+            err = r["error"]
+            rows.append([view, tf, int(size), label, round(r["median_s"], 3), round(r["vtk_pt_over_this"], 2),
+                         float(f"{err['rmse']:.3g}"), float(f"{err['max_abs']:.3g}"),
+                         {True: "ok", False: "exceeded", None: "-"}[r.get("within_tolerance")],
+                         left_out_summary({"left_out": r.get("left_out")})])
+            name = label.split()[0]
+            if name == "VTK":
+                continue
+            cell = s["cells"].setdefault(name, ["", ""])
+            cell[1 if label.endswith("no-skip") else 0] = f"{r['vtk_pt_over_this']:.2f}"
+    columns = ["view", "TF", "visible cells", "load (1 min)", "VTK PT [s]"] + [p + (" (128^2)" if p in SLOW else "") for p in PRESETS]
+    srows = []
+    for (view, tf), s in summary.items():
+        vtk = ", ".join(f"{t:.3f} ({size}^2)" for size, t in s["vtk"].items())
+        vals = []
+        for p in PRESETS:
+            c = s["cells"].get(p)
+            vals.append("-" if c is None else (c[0] + (f" ({c[1]})" if c[1] else "")))
+        srows.append([view, tf, f"{100 * s['visible']:.1f} %", s["load"], vtk] + vals)
+    doc = {"source": source, "tables": {
+        "summary": {"title": "VTK PT's median time over each exact preset's (> 1: the preset is faster); in "
+                             "parentheses the same preset with skip=False",
+                    "columns": columns, "rows": srows,
+                    "notes": f"Interleaved in one process on a shared {os.cpu_count()}-core machine (load: the 1-minute "
+                             "load average when the view started). vsbuffer_best at 128^2 beside VTK at 128^2 (its sweep is "
+                             "emulated plane by plane), without skip=False."},
+        "rows": {"title": "Every renderer: median time, VTK PT / this, error against the exact reference, "
+                          "tolerance row, what the render left out",
+                 "columns": ["view", "TF", "size", "renderer", "median [s]", "VTK PT / this", "RMSE", "max abs",
+                             "tolerance", "left out"], "rows": rows}}}
+    path = ROOT / "docs" / "data" / "skip.json"
+    path.write_text(json.dumps(doc, indent=1))
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":
