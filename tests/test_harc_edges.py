@@ -27,6 +27,7 @@ CASES = {
     "slab_1e-6_ortho_s1": lambda: subpixel_scene("slab", 1e-6, n=1, seed=1, block=False),
     "silhouette_px16": lambda: silhouette_scene(16, 1e-6),
     "silhouette_px32": lambda: silhouette_scene(32, 1e-7),
+    "silhouette_px96": lambda: silhouette_scene(96, 1e-6),  # a ray past the corner: a face without an open edge
 }
 
 

@@ -219,7 +219,8 @@ def edge_pixels(mesh, camera, tris: np.ndarray, nbr: np.ndarray, delta: float = 
 
     An edge is open where the front faces on its two sides do not both cover a band of the window along it:
     no front face beyond it (a silhouette, the outline of a part) or a face on either side narrower than
-    ``delta`` in the window (seen edge-on, thinner than the snapping, a cell smaller than a pixel). Only
+    ``delta`` in the window (seen edge-on, thinner than the snapping, a cell smaller than a pixel); within
+    ``delta`` of an open edge's end, every front face at that vertex. Only
     there can the rasteriser's snapped coverage leave out a face at a centre it contains with nothing of
     its layer listed instead (a deeper layer, or no face at all); elsewhere the face across the edge is
     listed, and the entry search's consistent edge test rejects it and searches its surface rings. The
@@ -257,6 +258,24 @@ def edge_pixels(mesh, camera, tris: np.ndarray, nbr: np.ndarray, delta: float = 
         p, f = _near_segments(ax[sl], ay[sl], bx[sl], by[sl], b[sl], w, h, delta)
         pix.append(p)
         face.append(f)
+    # around an open edge's ends every front face at the vertex: the one a ray past the vertex crosses may have
+    # no open edge of its own (a fan cut by the silhouette at that vertex)
+    ends = np.unique(np.r_[tris[b, (k + 1) % 3], tris[b, (k + 2) % 3]]) if len(b) else np.zeros(0, np.int64)
+    if len(ends):
+        vx, vy, _, vz = window_xy(camera, np.asarray(mesh.points, np.float64)[ends])
+        if camera.projection == "perspective":
+            vx = np.where(vz > 0, vx, np.nan)
+        vp, vi = _near_segments(vx, vy, vx, vy, np.arange(len(ends)), w, h, delta)
+        inc_t = np.repeat(np.arange(len(tris)), 3)  # front faces by vertex (CSR over ends)
+        inc_v = np.searchsorted(ends, tris.reshape(-1))
+        hit = (inc_v < len(ends)) & (ends[np.minimum(inc_v, len(ends) - 1)] == tris.reshape(-1))
+        order = np.argsort(inc_v[hit], kind="stable")
+        inc_t, inc_v = inc_t[hit][order], inc_v[hit][order]
+        vstart = np.searchsorted(inc_v, np.arange(len(ends) + 1))
+        cnt = vstart[vi + 1] - vstart[vi]
+        at = np.repeat(vstart[vi], cnt) + np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+        pix.append(np.repeat(vp, cnt))
+        face.append(inc_t[at])
     pix = np.concatenate(pix) if pix else np.zeros(0, np.int64)
     face = np.concatenate(face) if face else np.zeros(0, np.int64)
     key = np.unique(pix * (len(tris) + 1) + face)  # one pair per (pixel, face), grouped by pixel
