@@ -142,12 +142,31 @@ def persp_param(t: float, wa: float, wb: float) -> float:
     return q / ((1.0 - t) / wa + q)
 
 
+@wp.func
+def unsnapped_crossing(pa: wp.vec4, pb: wp.vec4, pc: wp.vec4, pd: wp.vec4) -> wp.vec2:
+    """Screen parameters ``(t, u)`` along a -> b and c -> d of the crossing of the two unsnapped
+    projected segments (float64 from the float32 window positions); ``(-1, -1)`` for parallel ones."""
+    ax = wp.float64(pa[0])
+    ay = wp.float64(pa[1])
+    d1x = wp.float64(pb[0]) - ax
+    d1y = wp.float64(pb[1]) - ay
+    d2x = wp.float64(pd[0]) - wp.float64(pc[0])
+    d2y = wp.float64(pd[1]) - wp.float64(pc[1])
+    ex = wp.float64(pc[0]) - ax
+    ey = wp.float64(pc[1]) - ay
+    den = d1x * d2y - d1y * d2x
+    if den == wp.float64(0.0):
+        return wp.vec2(-1.0, -1.0)
+    return wp.vec2(float((ex * d2y - ey * d2x) / den), float((ex * d1y - ey * d1x) / den))
+
+
 @wp.kernel
 def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal: wp.array(dtype=wp.float32),
                tets: wp.array2d(dtype=wp.int32), order: wp.array(dtype=wp.int32), n_points: int, even: int,
                thick_pos: wp.array(dtype=wp.vec4), thick_attr: wp.array(dtype=wp.vec3),
                tris: wp.array(dtype=wp.vec3i), klass: wp.array(dtype=wp.int32), moved: wp.array(dtype=wp.int32),
-               thick_front: wp.array(dtype=wp.vec4), thick_back: wp.array(dtype=wp.vec4), k0: int):
+               thick_front: wp.array(dtype=wp.vec4), thick_back: wp.array(dtype=wp.vec4),
+               attr_pos: wp.array(dtype=wp.vec4), exact: int, k0: int):
     k = k0 + wp.tid()  # a block of tets from k0 (blocks may be launched concurrently)
     c = order[k]
     v = wp.vec4i(tets[c, 0], tets[c, 1], tets[c, 2], tets[c, 3])
@@ -156,6 +175,7 @@ def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal:
     for q in range(4):
         tris[4 * k + q] = wp.vec3i(tv, tv, tv)
     thick_pos[k] = win[v[0]]
+    attr_pos[k] = win[v[0]]
     s0 = scal[v[0]]
     thick_attr[k] = wp.vec3(s0, s0, 0.0)
     e0 = eye[v[0]]
@@ -216,6 +236,7 @@ def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal:
         pface = wp.vec4(ef[0], ef[1], ef[2], pj[3] * qj + pk[3] * qk + pl[3] * ql)
         store_thick(thick_attr, thick_front, thick_back, k, si, sface, thick, pin, pface)
         thick_pos[k] = wp.vec4(float(x[i]) / 256.0, float(y[i]) / 256.0, pi[2], pi[3])  # = the snapped vertex
+        attr_pos[k] = pi  # where its attributes are taken: the unsnapped vertex
         tris[4 * k + 0] = wp.vec3i(tv, v[j], v[kk])
         tris[4 * k + 1] = wp.vec3i(tv, v[kk], v[l])
         tris[4 * k + 2] = wp.vec3i(tv, v[l], v[j])
@@ -259,6 +280,17 @@ def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal:
     fy = wp.float64(y[a]) + wp.float64(t) * wp.float64(y[b] - y[a])
     tx = int(wp.round(fx))
     ty = int(wp.round(fy))
+    ax = float(0.0)
+    ay = float(0.0)
+    at_exact = int(0)
+    if exact != 0:  # the attributes where the unsnapped projections cross (the snapped crossing is coverage's)
+        te = unsnapped_crossing(win[v[a]], win[v[b]], win[v[cc]], win[v[d]])
+        if te[0] >= 0.0 and te[0] <= 1.0 and te[1] >= 0.0 and te[1] <= 1.0:
+            t = te[0]
+            u = te[1]
+            ax = win[v[a]][0] + t * (win[v[b]][0] - win[v[a]][0])
+            ay = win[v[a]][1] + t * (win[v[b]][1] - win[v[a]][1])
+            at_exact = 1
     if not in_closed_quad(x, y, a, cc, b, d, tx, ty):
         found = False
         fx0 = int(wp.floor(fx))
@@ -296,6 +328,9 @@ def k_classify(win: wp.array(dtype=wp.vec4), eye: wp.array(dtype=wp.vec4), scal:
     if store_thick(thick_attr, thick_front, thick_back, k, s1, s2, thick, p1, p2) == 0:
         z1 = z2
     thick_pos[k] = wp.vec4(float(tx) / 256.0, float(ty) / 256.0, z1, w1)
+    attr_pos[k] = thick_pos[k]
+    if at_exact != 0:
+        attr_pos[k] = wp.vec4(ax, ay, z1, w1)
     tris[4 * k + 0] = wp.vec3i(tv, v[a], v[cc])
     tris[4 * k + 1] = wp.vec3i(tv, v[cc], v[b])
     tris[4 * k + 2] = wp.vec3i(tv, v[b], v[d])

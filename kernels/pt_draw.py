@@ -8,9 +8,10 @@ rasteriser's exact int64 edge functions and fill rule (:func:`~warpvol.kernels.r
 stepped exactly), so it draws exactly the fragments of the fragment list, and for every covered
 pixel centre, in registers:
 
-1. the attributes from per-triangle plane equations (:func:`attribute_planes`: gradients from the
-   unsnapped positions, evaluated from the first vertex) -- the fragment list interpolates with
-   per-fragment barycentrics instead; the two agree to float32 rounding;
+1. the attributes from per-triangle plane equations (:func:`attribute_planes`: set up from ``pos``,
+   the positions where the attributes were taken -- with ``pt_project exact_attrs`` the unsnapped
+   vertices and diagonal crossings, while coverage follows the snapped ones -- evaluated from the
+   first vertex); the fragment list interpolates with per-fragment barycentrics instead;
 2. each attribute clamped into its triangle's vertex range (:func:`clamp8`, the test of
    :func:`~warpvol.kernels.pt.clamp_attr`);
 3. ``(sf, sb, l)`` by Kraus et al.'s division (:func:`sfsbl_ray`), the exact thickness with the

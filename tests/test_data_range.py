@@ -24,7 +24,7 @@ from warpvol.scene.scene import Scene
 from warpvol.scene.transfer import TransferFunction
 from warpvol.tools.stress import report_warnings, run_case, Case
 from warpvol.tools.stress_meshes import _box
-from warpvol.tools.stress_range import log_scene, silent_wrong, unused_points_scene
+from warpvol.tools.stress_range import log_scene, rough_scene, silent_wrong, unused_points_scene
 
 ROWS = {"raycast": "raycast/fp32", "harc_best": "harc_best", "pt_best": "pt_best",
         "vsbuffer_best": "vsbuffer/vsbuffer_best"}
@@ -173,7 +173,7 @@ def test_render_of_a_part_file_draws_the_part(tmp_path):
 def test_stress_classes_show_no_silent_wrong_row():
     rows = []
     pipes = [Pipeline.load(p) for p in ROWS]
-    for sc in (log_scene(16, decades=9, n=4), unused_points_scene(16, 1e7, n=4)):
+    for sc in (log_scene(16, decades=9, n=4), unused_points_scene(16, 1e7, n=4), rough_scene(16, 4096)):
         rows += run_case(Case(sc.name, sc, ""), pipes)
     assert all(r["status"] == "ok" for r in rows) and not silent_wrong(rows)
     bad = dict(rows[1], rmse=1e-3, message="")

@@ -19,6 +19,10 @@ COLOUR_EXTINCTION = ["box", "linear_box", "concave", "stiff"]
 ALL = ["box", "linear_box", "sphere", "concave", "stiff"]
 
 
+#: pt_best with the attributes of the snapped positions, as the fragment list (walk "pixel") draws them
+SNAPPED = {"pt_project": {"exact_attrs": False}}
+
+
 def scene(name, size=48):
     return builtin_scene(name).with_camera(width_px=size, height_px=size)
 
@@ -154,13 +158,16 @@ def test_fast_walks_give_the_same_image(walk):
         sc = scene(name, 40)
         if proj == "orthographic":
             sc = sc.with_camera(projection="orthographic", ortho_height=3.0)
-        px = render(preset("pt_best", pt_integrate={"walk": "pixel"}), sc)
-        fast = render(preset("pt_best", pt_integrate={"walk": walk}), sc)
+        # the fragment list's attributes are those of the snapped positions: compare the fused draw with them
+        px = render(preset("pt_best", pt_integrate={"walk": "pixel"}, **SNAPPED), sc)
+        fast = render(preset("pt_best", pt_integrate={"walk": walk}, **SNAPPED), sc)
         if walk == "triangle":
             assert np.array_equal(px.image, fast.image), name
         else:
             assert np.abs(px.image - fast.image).max() <= 1e-5, name
             assert fast.report["error"]["rmse"] <= 1.01 * px.report["error"]["rmse"] + 1e-9, name
+            shipped = render(preset("pt_best"), sc)  # attribute planes at the unsnapped positions
+            assert shipped.report["error"]["rmse"] <= px.report["error"]["rmse"], name
         check(fast, "pt_best")
         cp, cf = px.report["counters"]["pt_integrate"], fast.report["counters"]["pt_integrate"]
         keys = ("fragments", "blends_fp32", "segment_integrals") + (("attrs_clamped",) if walk == "triangle" else ())
@@ -173,11 +180,11 @@ def test_fused_walk_with_the_approximate_thickness():
     """The fused draw's Kraus division with ``pt_perspective.thickness = "approx"`` (|ze_b - ze_f|, no
     ray factor) agrees with the fragment list's to float32 rounding."""
     sc = scene("concave", 40)
-    cfg = {"pt_perspective": {"thickness": "approx"}}
+    cfg = {"pt_perspective": {"thickness": "approx"}, **SNAPPED}
     px = render(preset("pt_best", pt_integrate={"walk": "pixel"}, **cfg), sc)
     fused = render(preset("pt_best", **cfg), sc)
     assert np.abs(px.image - fused.image).max() <= 1e-5
-    exact = render(preset("pt_best"), sc)
+    exact = render(preset("pt_best", **SNAPPED), sc)
     assert not np.array_equal(exact.image, fused.image)  # the approximation does change the image
 
 
@@ -187,13 +194,13 @@ def test_fused_walk_dithers_per_pixel_and_primitive():
     where the fused draw's float32-rounding differences cross a code (at most one code)."""
     sc = scene("concave", 40)
     cfg = {"format": "unorm8", "dither": True, "batch_tets": 500}
-    px = preset("pt_best", pt_integrate={**cfg, "walk": "pixel"}).render(sc, quiet=True)
-    one = preset("pt_best", pt_integrate={**cfg, "walk": "fused", "row_bands": 1}).render(sc, quiet=True)
-    two = preset("pt_best", pt_integrate={**cfg, "walk": "fused", "row_bands": 2}).render(sc, quiet=True)
+    px = preset("pt_best", pt_integrate={**cfg, "walk": "pixel"}, **SNAPPED).render(sc, quiet=True)
+    one = preset("pt_best", pt_integrate={**cfg, "walk": "fused", "row_bands": 1}, **SNAPPED).render(sc, quiet=True)
+    two = preset("pt_best", pt_integrate={**cfg, "walk": "fused", "row_bands": 2}, **SNAPPED).render(sc, quiet=True)
     assert np.array_equal(one.image, two.image)
     assert np.abs(px.image - one.image).max() <= 1.0 / 255 + 1e-7
     assert (px.image != one.image).mean() < 0.01
-    plain = preset("pt_best", pt_integrate={"format": "unorm8", "walk": "fused"}).render(sc, quiet=True)
+    plain = preset("pt_best", pt_integrate={"format": "unorm8", "walk": "fused"}, **SNAPPED).render(sc, quiet=True)
     assert not np.array_equal(plain.image, one.image)  # dithering did change codes
 
 

@@ -75,12 +75,16 @@ kraus2004_full         1.6e-2       0.15         n_s = 64, HILO16, log2 axis on 
                                                  (table resolution on the narrow peak); stiff row 6e-3 /
                                                  3e-2 (seen 3.5e-3 / 1.6e-2)
 pt_best                2.5e-4       4e-3         exact per-fragment integral, perspective-correct, fp32
-                                                 buffer, MPVO / XMPVO; seen box 3.4e-8 / 1.2e-7, sphere
-                                                 1.3e-4 / 1.6e-3, concave 9.8e-5 / 2.2e-3 (thick vertex
-                                                 rounded to 1/256 px, silhouette pixels), stiff 7.1e-5;
-                                                 SPX 512^2 6.8e-6 / 7.8e-4, Blunt Fin close 1.8e-5 /
-                                                 1.7e-3 (pixels inside faces the snapping can flip
-                                                 redone in float64)
+                                                 buffer, MPVO / XMPVO; attribute planes from the
+                                                 unsnapped positions (coverage snapped); seen 64^2 box
+                                                 3.4e-8 / 2.9e-7, sphere 1.1e-5 / 4.7e-4, concave 2.6e-6 /
+                                                 1.6e-4, stiff 8.9e-6 / 2.2e-4; sphere with 4,096 rough
+                                                 TF points 3.4e-5 / 1.7e-3 (20,000: 8.0e-5 / 7.0e-3,
+                                                 warned with its rounding bound); Blunt Fin 128^2
+                                                 1.4e-5 / 1.7e-3 (snapped planes: 3.3e-5 / 7.9e-4); with
+                                                 snapped planes SPX 512^2 6.8e-6 / 7.8e-4, Blunt Fin close
+                                                 1.8e-5 / 1.7e-3 (pixels inside faces the snapping can
+                                                 flip redone in float64)
 harc_best               2e-6         1e-4         the raycast/fp32 walk (shared funcs) entered from the
                                                     rasterised boundary, exact segments, fp32 buffer; seen on
                                                     the built-ins 48^2 <= 1.9e-7 / 3.3e-6

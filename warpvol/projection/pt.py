@@ -85,6 +85,10 @@ class PTGeometry:
     back: np.ndarray | None = None
     #: eye-space z of ``front`` / ``back`` is shifted by this (the vertex stage's ``eye_offset``)
     eye_offset: float = 0.0
+    #: (V+M) vec4 window positions where the attributes were taken (``decompose(exact_attrs=True)``):
+    #: the unsnapped points, and for a 4-triangle tet the crossing of its unsnapped diagonals. The fused
+    #: draw sets its attribute planes up from these; coverage stays the snapped ``positions``'
+    attr_positions: wp.array | None = None
 
     @property
     def n_tets(self) -> int:
@@ -188,11 +192,14 @@ def eye_plane_check(mesh, camera) -> EyePlane:
     return EyePlane("draw", near, far, **counts, message="")
 
 
-def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
+def decompose(mesh, vertices, order, device: str = "cpu", exact_attrs: bool = False) -> PTGeometry:
     """Classify and split every tet of ``mesh`` in ``order`` (back to front) into triangles.
 
     ``vertices`` is the vertex stage's output (:class:`warpvol.gpu.vertex.Vertices`) for
-    ``mesh.points``.
+    ``mesh.points``. ``exact_attrs``: a 4-triangle tet's thick vertex carries the attributes of
+    where its unsnapped diagonals cross, and :attr:`PTGeometry.attr_positions` says where each
+    vertex's attributes were taken (else they are those of the snapped crossing, as the hardware
+    draws them).
     """
     from warpvol.kernels import pt as kpt
 
@@ -205,7 +212,7 @@ def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
     eye = wp.array(vertices.eye.astype(np.float32), dtype=wp.vec4, device=device)
     scal = wp.array(mesh.scalars.astype(np.float32), dtype=wp.float32, device=device)
     # k_classify writes every element of these for each of the m tets: no zero fill
-    tp, tfront, tback = (wp.empty(max(m, 1), dtype=wp.vec4, device=device) for _ in range(3))
+    tp, tfront, tback, ap = (wp.empty(max(m, 1), dtype=wp.vec4, device=device) for _ in range(4))
     ta = wp.empty(max(m, 1), dtype=wp.vec3, device=device)
     tris = wp.empty(max(4 * m, 1), dtype=wp.vec3i, device=device)
     klass, moved = (wp.empty(max(m, 1), dtype=wp.int32, device=device) for _ in range(2))
@@ -214,7 +221,8 @@ def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
 
         preload(device, kpt)
         args = [win, eye, scal, wp.array(mesh.tets.astype(np.int32), dtype=wp.int32, device=device),
-                wp.array(order, dtype=wp.int32, device=device), v, even, tp, ta, tris, klass, moved, tfront, tback]
+                wp.array(order, dtype=wp.int32, device=device), v, even, tp, ta, tris, klass, moved, tfront, tback,
+                ap, int(exact_attrs)]
         th = cpu_threads() if str(device).startswith("cpu") and m >= 8192 else 1  # blocks of tets, concurrently
         tb = blocks(m, -(-m // th))
         launch_blocks(device, len(tb), lambda b: wp.launch(kpt.k_classify, dim=tb[b][1], inputs=[*args, tb[b][0]],
@@ -228,9 +236,13 @@ def decompose(mesh, vertices, order, device: str = "cpu") -> PTGeometry:
     pe = np.concatenate([vertices.eye[:, :3].astype(np.float32), vertices.window[:, 3:4].astype(np.float32)], axis=1)
     front = np.concatenate([pe, tfront.numpy()[:m]])
     back = np.concatenate([pe, tback.numpy()[:m]])
+    apos = None
+    if exact_attrs:
+        apos = wp.array(np.concatenate([vertices.window.astype(np.float32), ap.numpy()[:m]]), dtype=wp.vec4,
+                        device=device)
     return PTGeometry(wp.array(pos, dtype=wp.vec4, device=device), attrs, tris.numpy()[:4 * m].reshape(-1, 3),
                       dict(zip(CLASS_NAMES, map(int, counts))), int(moved.numpy()[:m].sum()), v, front, back,
-                      float(getattr(vertices, "eye_offset", 0.0)))
+                      float(getattr(vertices, "eye_offset", 0.0)), apos)
 
 
 def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend, *, batch_tets: int = 65536,
@@ -317,6 +329,7 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
             raise ConfigError("camera: the fused draw's exact thickness needs the camera's pixel rays")
         factors = ray_length_factors(fused["camera"])
     ray_len = wp.array(factors, dtype=wp.float32, device=device)
+    apos = geo.positions if geo.attr_positions is None else geo.attr_positions  # attribute planes' vertices
     rast = Rasterizer(fb.width, fb.height, device=device, tile_size=fused_tile(device, fused.get("tile", 0)),
                       **RASTER_RULES)
     st = blend.state(fb)
@@ -337,7 +350,7 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
         def run(b, tr=tr, counts=counts, skipped=skipped, tile_blocks=tile_blocks):
             t0, n = tile_blocks[b]
             wp.launch(pt_draw.k_pt_exact_tiles, dim=n,
-                      inputs=[tr.struct, tr.positions, va, fused["mode"], fused["ortho"], ray_len, fused["tf_s"],
+                      inputs=[tr.struct, apos, va, fused["mode"], fused["ortho"], ray_len, fused["tf_s"],
                               fused["tf_v"], fused["model"], st, fb.array, t0, counts, float(t_min), skipped],
                       device=device)
 

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from warpvol.scene.tf_ranges import density_bound, density_max
+from warpvol.scene.tf_ranges import density_bound, density_max, slope_max
 
 #: a tet whose smallest height is below this many float32 units (2^-23) of the mesh radius is thin
 THIN_ULPS = 1024.0
@@ -36,6 +36,16 @@ SLIVER_PX = 4.0 / 256.0
 #: a face projected narrower than this (pixels) may flip its orientation when its vertices are snapped to
 #: 1/256 pixel (each moves up to 1/512): 1/256 with a factor 2 of margin
 SNAP_FLIP_PX = 2.0 / 256.0
+#: :func:`rough_tets` flags a tet when its bound exceeds this: the bound is far from tight (the sphere's
+#: 64-point rough transfer function is flagged at 2e-3 and drawn within 1.4e-4 without a redo); at 0.05
+#: the Blunt Fin (a smooth transfer function) adds 13 / 6 pixels at 128^2 / 512^2 (599 / 1,792 at 2e-3),
+#: and transfer functions of 4,096 and 20,000 rough control points still flag every tet of the sphere
+ROUGH_TAU = 0.05
+#: :func:`rounding_bound`'s factor over one tet's rounding: pt_best's largest errors on the sphere with
+#: 4,096, 10,000 and 20,000 control points of random colour and extinction (64^2) were 3.2x, 2.5x and
+#: 2.5x the largest per-tet term (fragments along a ray add up; at 512 points, 8x, other errors dominate
+#: and the image stays within 5e-4)
+ROUNDING_FACTOR = 4.0
 
 
 def _geometry(mesh, tf) -> dict:
@@ -112,6 +122,62 @@ def thin_tets(mesh, tf, camera, tau: float = THIN_TAU) -> np.ndarray:
     snap = np.minimum(1.0, (1.0 / 256.0) / np.maximum(width_px, 1e-300))
     err = g["dens"] * (4.0 * EPS32 * g["radius"] + lmax * snap)
     return cand[err > tau]
+
+
+def _slopes(mesh, tf) -> dict:
+    """View-independent part of :func:`rough_tets` and :func:`rounding_bound` (cached on the mesh per
+    transfer function): per tet its scalar range and ``rate``, the transfer function's steepest colour
+    slope plus its steepest extinction slope times the tet's longest edge over that range (a value
+    change per unit scalar), and ``relative_rate``, the same per unit of the scalar's size."""
+    key = np.asarray(tf.points).tobytes() + tf.emission.encode()
+    cache = mesh.__dict__.setdefault("_pt_slopes", {})
+    if key in cache:
+        return cache[key]
+    tets = np.asarray(mesh.tets)
+    sc = np.asarray(mesh.scalars, dtype=np.float64)[tets]
+    smin, smax = sc.min(axis=1), sc.max(axis=1)
+    colour, ext = slope_max(tf, smin, smax)
+    rel_colour, rel_ext = slope_max(tf, smin, smax, relative=True)
+    pts = np.asarray(mesh.points, dtype=np.float64)
+    diam = np.sqrt(np.max([((pts[tets[:, a]] - pts[tets[:, b]]) ** 2).sum(axis=1)
+                           for a, b in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))], axis=0))
+    out = {"smin": smin, "smax": smax, "rate": colour + ext * diam, "relative_rate": rel_colour + rel_ext * diam}
+    cache.clear()
+    cache[key] = out
+    return out
+
+
+def rough_tets(mesh, tf, camera, tau: float = ROUGH_TAU) -> np.ndarray:
+    """Indices of the tets whose colour may be off by more than ``tau`` where the rasteriser's snapped
+    coverage and the exact attribute planes part (within :data:`SNAP_FLIP_PX` of the projected
+    edges): the transfer function's steepest rate over the tet's scalar range (:func:`_slopes`) times
+    the scalar's screen gradient (range over projected width) times that distance. A smooth transfer
+    function flags few; one of thousands of rough control points flags most tets."""
+    g = _slopes(mesh, tf)
+    change = g["rate"] * (g["smax"] - g["smin"])  # the largest value change across the tet
+    cand = np.flatnonzero(change > tau)  # the bound below is at most the change itself
+    if len(cand) == 0:
+        return cand
+    col, row, _ = _window(mesh, camera, cand)
+    area_px = 0.25 * sum(np.abs((col[:, b] - col[:, a]) * (row[:, c] - row[:, a])
+                                - (col[:, c] - col[:, a]) * (row[:, b] - row[:, a]))
+                         for a, b, c in ((0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)))
+    longest = np.max([np.hypot(col[:, a] - col[:, b], row[:, a] - row[:, b])
+                      for a, b in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))], axis=0)
+    width_px = area_px / np.maximum(longest, 1e-300)  # hull area / longest projected edge
+    return cand[change[cand] * SNAP_FLIP_PX / np.maximum(width_px, SNAP_FLIP_PX) > tau]
+
+
+def rounding_bound(mesh, tf) -> tuple[float, int]:
+    """``(bound, tets)``: an estimate of the largest colour error float32 rounding of the fragments'
+    ``(sf, sb)`` causes (:data:`ROUNDING_FACTOR` times the largest per tet of the transfer function's
+    steepest rate times one float32 unit of the scalar where that rate holds, :func:`_slopes`), and
+    how many tets reach :data:`THIN_TAU` by it. A steep transfer function (thousands of rough control
+    points) is what makes it matter: there a scalar moved by one unit in the last place crosses a
+    visible share of a segment."""
+    g = _slopes(mesh, tf)
+    per = ROUNDING_FACTOR * g["relative_rate"] * EPS32
+    return float(per.max(initial=0.0)), int((per > THIN_TAU).sum())
 
 
 def _face_planes(mesh) -> dict:
@@ -338,13 +404,14 @@ def _segment_samples(col: np.ndarray, row: np.ndarray) -> tuple[np.ndarray, np.n
 
 
 def unresolved_pixels(mesh, tf, camera, tau: float = THIN_TAU, silhouettes: bool = True,
-                      edge_on: bool = True) -> dict:
+                      edge_on: bool = True, rough: bool = False) -> dict:
     """The thin tets (:func:`thin_tets`), the faces seen edge-on from the eye (:func:`edge_on_faces`) or
     narrower than the snapping resolves (:func:`snap_edge_on_faces`, ``sliver_faces``), the silhouette
     edges snapping makes visible (:func:`silhouette_edges`) and the pixels they may make wrong
     (``pixels``, flat indices): within one pixel of a thin tet's projected bounding box or of an edge-on
     face's or a silhouette edge's projected segment, within :data:`SLIVER_PX` of a sliver face's
-    projected edges."""
+    projected edges; with ``rough`` also within :data:`SNAP_FLIP_PX` of the projected edges of the tets
+    :func:`rough_tets` finds (``rough_tets``)."""
     cover = np.zeros((camera.height_px, camera.width_px), dtype=bool)
     thin = thin_tets(mesh, tf, camera, tau)
     if len(thin):
@@ -361,8 +428,13 @@ def unresolved_pixels(mesh, tf, camera, tau: float = THIN_TAU, silhouettes: bool
         tmp = TetMeshFaces(mesh, segs)
         col, row, _ = _window(tmp, camera, np.arange(len(segs)))
         _mark_boxes(cover, *_segment_samples(col[:, :3], row[:, :3]))
+    rtets = rough_tets(mesh, tf, camera) if rough else np.zeros(0, dtype=np.int64)
+    if len(rtets):  # every edge of the tet: its four faces as triangles
+        rfaces = np.asarray(mesh.tets)[rtets][:, [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]]].reshape(-1, 3)
+        col, row, _ = _window(TetMeshFaces(mesh, rfaces), camera, np.arange(len(rfaces)))
+        _mark_near_edges(cover, col[:, :3], row[:, :3], SNAP_FLIP_PX)
     return {"thin_tets": int(len(thin)), "edge_on_faces": int(len(faces)), "sliver_faces": int(len(slivers)),
-            "silhouette_edges": int(len(sil)), "pixels": np.flatnonzero(cover.ravel())}
+            "silhouette_edges": int(len(sil)), "rough_tets": int(len(rtets)), "pixels": np.flatnonzero(cover.ravel())}
 
 
 class TetMeshFaces:

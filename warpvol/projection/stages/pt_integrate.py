@@ -8,6 +8,13 @@ concurrently from the host thread pool (``row_bands``; the same image as one dra
 set-up, no fragment list). With ``pt_perspective``
 before it the segment is perspective-correct. Writes ``ctx.image``; counts ``fragments``,
 ``blends`` and ``segment_integrals``.
+
+Pixels float32 cannot draw right are redone in float64 (:meth:`PTIntegrate.redo_unresolved`); after
+``pt_project exact_attrs`` (attribute planes at the unsnapped positions) these include the pixels
+beside the projected edges of tets the transfer function changes steeply across, and a transfer
+function steep enough that float32 rounding of the fragments' scalars may cost more than pt_best's
+stated max abs is reported with the estimated bound (``stats.pt_integrate.rounding_bound``,
+:func:`warpvol.projection.pt_thin.rounding_bound`).
 """
 
 from __future__ import annotations
@@ -18,6 +25,10 @@ from warpvol.projection.pt import DRAW_WALKS, FUSED_TILES
 from warpvol.projection.stages.pt_perspective import fragment_inputs
 from warpvol.projection.stages.pt_vertex_color import BATCH, DITHER, composite, fb_param
 from warpvol.stage import Context, Param, Stage, register_stage
+
+
+#: pt_best's stated largest error against the float64 reference (README; tests/tolerances.py row pt_best)
+PT_BEST_MAX_ABS = 4e-3
 
 
 @register_stage
@@ -131,10 +142,11 @@ class PTIntegrate(Stage):
         from warpvol.reference.pixels import redo_pixels_float64
 
         sc = ctx.scene
-        u = unresolved_pixels(sc.mesh, sc.transfer, sc.camera)
+        geo = ctx.buffers["pt_geometry"]  # attributes of the unsnapped positions: rough TFs show where coverage parts
+        u = unresolved_pixels(sc.mesh, sc.transfer, sc.camera, rough=geo.attr_positions is not None)
         px = u["pixels"]
         st = {"thin_tets": u["thin_tets"], "edge_on_faces": u["edge_on_faces"], "sliver_faces": u["sliver_faces"],
-              "silhouette_edges": u["silhouette_edges"], "float64_pixels": 0}
+              "silhouette_edges": u["silhouette_edges"], "rough_tets": u["rough_tets"], "float64_pixels": 0}
         if len(px) and self.config["format"] == "fp32":
             val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, px)
             img = ctx.image.reshape(-1, 4)
@@ -144,8 +156,8 @@ class PTIntegrate(Stage):
             ctx.count(float64_rays=int(len(px)))
             ctx.progress(f"pt_integrate: {len(px)} pixels covered by {u['thin_tets']} thin tets, "
                          f"{u['edge_on_faces']} faces seen edge-on, {u['sliver_faces']} faces narrower than the "
-                         f"snapping resolves and {u['silhouette_edges']} silhouette edges "
-                         "were redone in float64")
+                         f"snapping resolves, {u['silhouette_edges']} silhouette edges and the edges of "
+                         f"{u['rough_tets']} tets the transfer function changes steeply across were redone in float64")
         elif len(px):
             st["warning"] = (f"{len(px)} pixels are covered by {u['thin_tets']} tets thinner than float32 resolves "
                              f"with significant extinction, {u['edge_on_faces']} faces seen edge-on from "
@@ -153,4 +165,21 @@ class PTIntegrate(Stage):
                              f"{u['silhouette_edges']} silhouette edges whose snapping changes the "
                              f"thickness visibly; drawn in the {self.config['format']} buffer as computed (may be "
                              "wrong)")
+        if geo.attr_positions is not None:
+            self.check_rounding(sc, st)
         ctx.stats["pt_integrate"] = st
+
+    @staticmethod
+    def check_rounding(sc, st: dict) -> None:
+        """The estimated colour error float32 rounding of the fragments' ``(sf, sb)`` causes on a steep
+        transfer function (:func:`warpvol.projection.pt_thin.rounding_bound`) as ``rounding_bound``; a
+        warning saying so where it exceeds pt_best's stated max abs (:data:`PT_BEST_MAX_ABS`)."""
+        from warpvol.projection.pt_thin import rounding_bound
+
+        bound, n = rounding_bound(sc.mesh, sc.transfer)
+        st["rounding_bound"] = bound
+        if bound > PT_BEST_MAX_ABS:
+            text = (f"the transfer function is so steep over the scalars of {n:,} tets that float32 rounding of their "
+                    f"fragments' front and back scalars can move a pixel by up to about {bound:.2g} (pt_best states "
+                    f"{PT_BEST_MAX_ABS:g}); raycast and harc_best carry each scalar from cell to cell")
+            st["warning"] = f"{st['warning']}; {text}" if st.get("warning") else text

@@ -28,6 +28,12 @@ class PTProject(Stage):
     check_float32   bool   true       find the cells float32 cannot draw right (thin cells that carry
                                       the image) and report their pixels as a warning; off where a
                                       later stage redoes them (``pt_integrate`` in fp32)
+    exact_attrs     bool   false      attributes where they belong: a 4-triangle tet's thick vertex
+                                      carries those of its unsnapped diagonals' crossing, and the
+                                      fused draw (``pt_integrate walk = "fused"``) sets its attribute
+                                      planes up from the unsnapped positions; coverage stays the
+                                      snapped one. Off: the attributes of the snapped positions, as
+                                      the hardware draws them
     ==============  =====  =========  ==============================================================
 
     Example
@@ -47,12 +53,15 @@ class PTProject(Stage):
     needs = ("vertices", "order")
     provides = ("pt_geometry",)
     params = (Param("check_float32", bool, True, "report pixels of cells float32 cannot draw right "
-                    "(thin cells) as a warning"),)
+                    "(thin cells) as a warning"),
+              Param("exact_attrs", bool, False, "attributes of the unsnapped positions (the thick vertex's at "
+                    "the unsnapped diagonals' crossing) for the fused draw's attribute planes"))
 
     def run(self, ctx: Context) -> None:
         from warpvol.projection.pt import decompose
 
-        geo = decompose(ctx.scene.mesh, ctx.buffers["vertices"], ctx.buffers["order"], device=ctx.device)
+        geo = decompose(ctx.scene.mesh, ctx.buffers["vertices"], ctx.buffers["order"], device=ctx.device,
+                        exact_attrs=self.config["exact_attrs"])
         ctx.buffers["pt_geometry"] = geo
         ctx.count(tets_projected=geo.n_tets, triangles=geo.live_triangles(), thick_vertex_moved=geo.moved,
                   **{f"class_{k}": v for k, v in geo.classes.items()})
