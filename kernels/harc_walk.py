@@ -12,8 +12,8 @@ import warp as wp
 
 from .integrate import exp_neg, integrate_piece, integrate_segment_tf
 from .tf import tf_eval_upper, tf_upper, tf_upper_from
-from .walk import (STALL_STEPS, Face, Ray, boundary_face, face_hit, monotone_exit, next_face_from, thin_at_exit,
-                   thin_start, thin_step)
+from .walk import (STALL_STEPS, Face, Ray, boundary_face, face_hit, grazing_unresolved, monotone_exit, next_face_from,
+                   thin_at_exit, thin_start, thin_step)
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -115,7 +115,8 @@ def exact_walk(cell: int, face_in: int, fc: Face, t_in: float, s_in: float, acc:
     compositing front to back into ``acc``: one cell per step (:func:`~warpvol.kernels.walk.next_face_from`,
     the neighbour's new vertex taken from ``nbr_vertex``), the TF value carried from face to face (one TF
     evaluation per face, one linear piece unless a control point is crossed), the thin-layer check of
-    ``raycast``'s march. Stops when ``1 - A < t_stop``, at the mesh boundary, after ``max_steps`` cells, or
+    ``raycast``'s march and its check of entries and exits through faces seen nearly edge-on. Stops when
+    ``1 - A < t_stop``, at the mesh boundary, after ``max_steps`` cells, or
     on a ray it cannot resolve (no exit face, :data:`~warpvol.kernels.walk.STALL_STEPS` steps without
     progress, a thin layer).
 
@@ -131,8 +132,10 @@ def exact_walk(cell: int, face_in: int, fc: Face, t_in: float, s_in: float, acc:
     thin_mem = thin_start()  # the thin-layer check's memory of the previous segment
     k_in = tf_upper(s_in, tf_s)
     v_in = tf_eval_upper(s_in, k_in, tf_s, tf_v)
+    if grazing_unresolved(1.0 - acc[3], v_in, model, fc, r, t_in, scale):
+        failed = 1  # entering through a face seen nearly edge-on: the chord's float32 start is too uncertain
     gn = tets[cell][face_in]
-    while cells < max_steps:
+    while cells < max_steps and failed == 0:
         cells += 1
         nrow = nbr[cell]  # this cell's neighbour records, fetched while the step computes
         vrow = nbr_vertex[cell]
@@ -170,6 +173,8 @@ def exact_walk(cell: int, face_in: int, fc: Face, t_in: float, s_in: float, acc:
             if thin_at_exit(thin_mem):
                 failed = 1
                 thin = 1
+            elif grazing_unresolved(1.0 - acc[3], v_in, model, fc, r, t_in, scale):
+                failed = 1  # leaving through a face seen nearly edge-on
             break
         gn = vrow[f_out]
         cell = nb >> 2

@@ -8,8 +8,10 @@ to the pixel's screen tile (nearest crossing beyond the current parameter), then
 integrating each segment exactly for the piecewise-linear transfer function
 (:mod:`warpvol.kernels.integrate`) and compositing front to back. A ray the float32 walk cannot
 resolve -- a cell with no exit face (float32 signs no real ray can produce), no progress in depth
-for :data:`~warpvol.kernels.walk.STALL_STEPS` steps, or a segment too short for float32 to know its length beside a density
-contrast that makes the difference visible (a thin layer carrying the image, :func:`~warpvol.kernels.walk.thin_unresolved`) --
+for :data:`~warpvol.kernels.walk.STALL_STEPS` steps, a segment too short for float32 to know its length beside a density
+contrast that makes the difference visible (a thin layer carrying the image, :func:`~warpvol.kernels.walk.thin_unresolved`),
+or an entry or exit through a face seen so nearly edge-on that the chord's float32 length is visibly uncertain
+(:func:`~warpvol.kernels.walk.grazing_unresolved`) --
 is marked ``STATUS_FAILED`` and redone on the host in float64; it is counted, never silently wrong.
 
 Per-pixel state (radiance, transmittance, ray parameter, status) lives in device arrays so passes
@@ -23,8 +25,8 @@ import warp as wp
 
 from .integrate import exp_neg, integrate_piece, integrate_segment_tf
 from .tf import tf_eval, tf_eval_upper, tf_upper, tf_upper_from
-from .walk import (STALL_STEPS, Face, Ray, boundary_face, face_hit, monotone_exit, next_face_from, pixel_ray,
-                   thin_at_exit, thin_start, thin_step)
+from .walk import (STALL_STEPS, Face, Ray, boundary_face, face_hit, grazing_unresolved, monotone_exit, next_face_from,
+                   pixel_ray, thin_at_exit, thin_start, thin_step)
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -173,8 +175,10 @@ def march(
     thin = int(0)
     scale = float(radius)
     thin_mem = thin_start()  # the thin-layer check's memory of the previous segment
+    if t_in >= t_clip and grazing_unresolved(tr, v_in, model, fc, r, t_in, scale):
+        failed = 1  # entering through a face seen nearly edge-on: the chord's float32 start is too uncertain
     gn = tets[cell][face_in]
-    while steps < max_steps:
+    while steps < max_steps and failed == 0:
         steps += 1
         nrow = nbr[cell]  # this cell's neighbour records, fetched while the step computes
         vrow = nbr_vertex[cell]
@@ -219,6 +223,8 @@ def march(
             if thin_at_exit(thin_mem):
                 failed = 1
                 thin = 1
+            elif t_in > t_clip and grazing_unresolved(tr, v_in, model, fc, r, t_in, scale):
+                failed = 1  # leaving through a face seen nearly edge-on
             break
         gn = vrow[f_out]
         cell = nb >> 2

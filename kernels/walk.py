@@ -50,6 +50,9 @@ THIN_ULPS = wp.constant(1024.0)
 #: estimated pixel error (transmittance x density contrast x crossing uncertainty) above which a ray
 #: with such a segment is unresolved (redone in float64)
 THIN_ERR = wp.constant(2.0e-5)
+#: a boundary crossing whose estimated ``t`` error exceeds this many float32 units of ``t`` is grazing (a face
+#: seen nearly edge-on); oblique faces stay below it
+GRAZE_ULPS = wp.constant(128.0)
 
 
 @wp.func
@@ -361,6 +364,37 @@ def density_max(v_a: wp.vec4, v_b: wp.vec4, k_a: int, k_b: int, tf_v: wp.array(d
 def t_unit(t: float, scale: float) -> float:
     """Float32 resolution of ray parameter ``t`` (origin moved to the mesh, ``scale`` its radius)."""
     return EPS32 * (wp.abs(t) + scale)
+
+
+@wp.func
+def crossing_error(fc: Face, r: Ray) -> float:
+    """How far off in ``t`` the float32 crossing of face ``fc`` can be: each edge value ``w`` rounds by
+    about ``EPS32 |e| |q|`` (edge length times the vertex's distance from the ray origin), and ``t`` is
+    the ``w``-weighted mean of the vertices' ``h``, so it moves by the spread of ``h`` times that over the
+    sum of the ``w`` (the face's projected size). A few :func:`t_unit` for a face the ray crosses
+    head-on or obliquely; far more for a face seen nearly edge-on (``h`` spread wide, the sum of ``w``
+    small), where a ray enters or leaves the mesh at a grazing angle."""
+    qa = fc.pa - r.o
+    qb = fc.pb - r.o
+    qc = fc.pc - r.o
+    werr = EPS32 * (wp.length(fc.pb - fc.pa) * wp.length(qa) + wp.length(fc.pc - fc.pb) * wp.length(qb)
+                    + wp.length(fc.pa - fc.pc) * wp.length(qc))
+    spread = wp.max(fc.h[0], wp.max(fc.h[1], fc.h[2])) - wp.min(fc.h[0], wp.min(fc.h[1], fc.h[2]))
+    ssum = fc.w[0] + fc.w[1] + fc.w[2]
+    if not (ssum > 0.0):
+        return spread
+    return wp.min(spread, spread * werr / ssum)
+
+
+@wp.func
+def grazing_unresolved(tr: float, v: wp.vec4, model: int, fc: Face, r: Ray, t: float, scale: float) -> bool:
+    """A ray entering or leaving the mesh (or the visible cells) at ``t`` through face ``fc``, where its
+    TF value is ``v``: unresolved when the face is seen so nearly edge-on that its
+    :func:`crossing_error` exceeds :data:`GRAZE_ULPS` :func:`t_unit` (the resolution every crossing is
+    trusted to) and the transmittance there x :func:`density` x that error exceeds :data:`THIN_ERR`:
+    the chord's float32 length is off by more than the image can take."""
+    err = crossing_error(fc, r)
+    return err > GRAZE_ULPS * t_unit(t, scale) and tr * density(v, model) * err > THIN_ERR
 
 
 @wp.func
