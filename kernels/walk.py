@@ -52,7 +52,7 @@ THIN_ULPS = wp.constant(1024.0)
 THIN_ERR = wp.constant(2.0e-5)
 #: a boundary crossing whose estimated ``t`` error exceeds this many float32 units of ``t`` is grazing (a face
 #: seen nearly edge-on); oblique faces stay below it
-GRAZE_ULPS = wp.constant(128.0)
+GRAZE_ULPS = wp.constant(32.0)
 
 
 @wp.func
