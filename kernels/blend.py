@@ -277,6 +277,12 @@ def blend_float(bs: BlendState, src: wp.vec4, dst: wp.vec4) -> wp.vec4:
         # operations (s * 1 is s exactly), without the factor selection
         f = 1.0 - src[3]
         return wp.vec4(src[0] + dst[0] * f, src[1] + dst[1] * f, src[2] + dst[2] * f, src[3] + dst[3] * f)
+    if not half and bs.src_rgb == ONE_MINUS_DST_ALPHA and bs.src_a == ONE_MINUS_DST_ALPHA and bs.dst_rgb == ONE and (
+            bs.dst_a == ONE):
+        # fp32 "under" (front to back): the general path's operations (s * (1 - d.a) + d * 1) without the
+        # factor selection
+        g = 1.0 - dst[3]
+        return wp.vec4(src[0] * g + dst[0], src[1] * g + dst[1], src[2] * g + dst[2], src[3] * g + dst[3])
     s = src
     k = bs.constant
     prog = bs.arith == ARITH_PROGRAM  # composited in an fp32 fragment program: only the write rounds

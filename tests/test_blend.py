@@ -152,6 +152,10 @@ def test_over_and_under_agree_up_to_rounding(device):
     over = blend_sequence(layers[::-1], "fp32", "one", "one_minus_src_alpha", device=device)
     under = blend_sequence(layers, "fp32", "one_minus_dst_alpha", "one", device=device)
     np.testing.assert_allclose(over, under, atol=1e-5)
+    d = np.zeros(layers.shape[1:], np.float32)  # fp32 "under" is s * (1 - d.a) + d per channel, bit for bit
+    for s in layers:
+        d = s * (np.float32(1) - d[..., 3:4]) + d
+    np.testing.assert_array_equal(under, d)
     over8 = blend_sequence(layers[::-1], "unorm8", "one", "one_minus_src_alpha", device=device)
     assert np.abs(over8 - over).max() > 0  # 8-bit differs ...
     assert np.abs(over8 - over).max() < 40 / 255  # ... by at most the accumulated rounding
