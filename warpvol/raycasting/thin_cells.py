@@ -245,7 +245,7 @@ def edge_pixels(mesh, camera, tris: np.ndarray, nbr: np.ndarray, delta: float = 
         ext = float((hi - lo).max()) + float(np.abs(np.stack([lo, hi]) - camera.eye).max())
         zmin = 1e-9 * ext
         keep = (za > zmin) | (zb > zmin)
-        b, a3, b3, za, zb = b[keep], a3[keep], b3[keep], za[keep], zb[keep]
+        b, k, a3, b3, za, zb = b[keep], k[keep], a3[keep], b3[keep], za[keep], zb[keep]
         with np.errstate(divide="ignore", invalid="ignore"):
             c = a3 + np.clip((zmin - za) / (zb - za), 0.0, 1.0)[:, None] * (b3 - a3)  # the point at z = zmin
         a3 = np.where((za < zmin)[:, None], c, a3)
