@@ -74,3 +74,14 @@ def test_edge_pixels_are_the_centres_near_open_edges():
             want |= {(int(p), b) for p in np.flatnonzero(dist.reshape(-1) <= 0.4)}
     assert want and got == want
     assert EDGE_PX < 0.4
+
+
+def test_edge_pixels_with_open_edges_behind_the_eye():
+    # perspective eye 1e-4 outside the boundary, 120 degree field of view: open edges reaching behind the eye
+    # are clipped to its front half-space (their ends with them)
+    from warpvol.raycasting.harc import entry_fragments
+    from warpvol.tools.stress import build_case
+
+    sc = build_case("near_plane_cuts_cells", quick=True).scene
+    e = entry_fragments(sc.mesh, sc.camera)
+    assert e["edge_start"].shape[0] == sc.camera.width_px * sc.camera.height_px + 1
