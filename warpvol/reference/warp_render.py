@@ -30,6 +30,7 @@ from __future__ import annotations
 import sys
 import threading
 import time
+import weakref
 from typing import Callable
 
 import numpy as np
@@ -132,6 +133,31 @@ def _mesh_data(mesh: TetMesh, view: _View) -> dict:
         lo, hi = tp.min(axis=1), tp.max(axis=1)
         near = np.flatnonzero(((lo <= tol) & (hi >= -tol)).all(axis=1))
     return dict(Pc=Pc, T=T, orient=orient, adj=adj, s_eye=s_eye, near=near)
+
+
+#: the set-up of the last pixel-list redos, per mesh: (weak mesh, view key, mesh data, entry faces of all rows)
+_PIXEL_SETUP: dict = {}
+_PIXEL_SETUP_LOCK = threading.Lock()
+#: devices the reference kernels are loaded on (a load that finds them loaded still costs ~50 ms of hashing)
+_LOADED: set = set()
+
+
+def _pixel_setup(mesh: TetMesh, view: _View) -> tuple[dict, tuple]:
+    """:func:`_mesh_data` and :func:`_entry_faces` over all rows, kept for the last view of each of a few
+    meshes: a renderer redoes a few pixels in float64 once or twice per frame, and the set-up (~0.15 s on
+    a 224k-tet mesh) would otherwise cost more than the walk."""
+    key = (view.persp, view.W, view.H, view.eye.tobytes(), view.basis.tobytes(), float(view.sx), float(view.sy))
+    with _PIXEL_SETUP_LOCK:
+        hit = _PIXEL_SETUP.get(id(mesh))
+        if hit is not None and hit[0]() is mesh and hit[1] == key:
+            return hit[2], hit[3]
+    md = _mesh_data(mesh, view)
+    ent = _entry_faces(md, view, 0, view.H - 1)
+    with _PIXEL_SETUP_LOCK:
+        if len(_PIXEL_SETUP) >= 4:
+            _PIXEL_SETUP.clear()
+        _PIXEL_SETUP[id(mesh)] = (weakref.ref(mesh), key, md, ent)
+    return md, ent
 
 
 def _entry_faces(md: dict, view: _View, first: int, last: int):
@@ -243,8 +269,10 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     if not 0 <= first <= last < H:
         raise ConfigError(f"rows: expected (first, last) with 0 <= first <= last < {H}, got {rows!r}")
     nrows = last - first + 1
-    md = _mesh_data(mesh, view)
-    preload(device, K)
+    md = _mesh_data(mesh, view) if plist is None else _pixel_setup(mesh, view)[0]
+    if device not in _LOADED:
+        preload(device, K)
+        _LOADED.add(device)
 
     def arr(a, dtype):
         return wp.array(np.ascontiguousarray(a), dtype=dtype, device=device)
@@ -261,7 +289,15 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     persp = int(view.persp)
 
     # -- boundary entries per pixel ------------------------------------------------------------------
-    ftet, floc, fbox = _entry_faces(md, view, first, last)
+    if plist is None:
+        ftet, floc, fbox = _entry_faces(md, view, first, last)
+    else:  # the kept faces of all rows, boxes clipped to these rows as _entry_faces(first, last) clips them
+        ftet, floc, fbox = _pixel_setup(mesh, view)[1]
+        fbox = fbox.copy()
+        fbox[:, 0] = np.maximum(fbox[:, 0], first)
+        fbox[:, 1] = np.minimum(fbox[:, 1], last)
+        on = fbox[:, 0] <= fbox[:, 1]
+        ftet, floc, fbox = ftet[on], floc[on], fbox[on]
     if plist is not None and len(ftet):
         # a pixel list: the walk reads only the listed pixels' entries, so only faces whose box holds one
         # (counted on a summed-area table of the listed pixels over the rows) are searched
