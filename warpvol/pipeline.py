@@ -278,6 +278,8 @@ class Pipeline:
                 except Exception as e:  # noqa: BLE001 - the hook needs buffers of earlier stages
                     what = f"decided at render time ({type(e).__name__}: {e})"
             out.append({"stage": key, "run": not reason, "reason": reason or None, "leaves_out": what})
+            if not reason:
+                ctx.planned.update(st.provides)
         return out
 
     def render(self, scene: Any, *, reference: np.ndarray | None = None, quiet: bool = False,

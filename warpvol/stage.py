@@ -180,6 +180,9 @@ class Context:
     #: what each stage left out (report key -> ``{"why": text, count name: integer}``), filled through
     #: :meth:`left_out`; the report's ``left_out`` section
     omitted: dict[str, dict] = field(default_factory=dict)
+    #: when planning (:meth:`warpvol.pipeline.Pipeline.plan`, no buffers built): what the stages planned to
+    #: run before this one will provide; empty in a render
+    planned: set[str] = field(default_factory=set)
 
     def left_out(self, why: str | None = None, **amounts: int) -> None:
         """Record what the running stage left out, e.g. ``ctx.left_out(why="invisible under the
