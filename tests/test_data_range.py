@@ -98,6 +98,18 @@ def test_control_points_float32_cannot_keep_apart_are_declined_by_name():
         scalar_mapping(sc.transfer, sc.mesh.scalars, sc.mesh.scalar_range)
 
 
+@pytest.mark.parametrize("points", [2048, 8192])
+def test_rough_transfer_functions_are_exact_or_reported(points):
+    # evenly spaced control points of random colour: 8,192 leave each segment 2^-12 of the scalars' span
+    # from the offset, too coarse for raycast's tolerance (seen 1.5e-4 max abs at 96^2): reported
+    sc = rough_scene(48, points)
+    ref = render_reference(sc.mesh, sc.transfer, sc.camera)
+    res = Pipeline.load("raycast").render(sc, reference=ref, quiet=True)
+    warned = "warning" in res.report["stats"]["condition"]
+    assert warned == (points == 8192)
+    assert warned or within(res.report["error"], ROWS["raycast"]), res.report["error"]
+
+
 def test_ordinary_scenes_keep_the_midpoint_offset():
     sc = log_scene(8, decades=2)  # 10 .. 1000: every decade resolved about the midpoint of the data's range
     _, info = condition_scene(sc)
