@@ -34,7 +34,7 @@ import numpy as np
 
 from warpvol.errors import ConfigError, check_choice, check_keys, check_number
 from warpvol.stage import STAGES, Context, Param, Stage, register_stage  # noqa: F401  (the framework's names)
-from warpvol.timing import CompileClock, announce_compile, split_times
+from warpvol.timing import CompileClock, ReadCounter, announce_compile, split_times
 
 
 def _load_builtin_stages() -> None:
@@ -327,6 +327,7 @@ class Pipeline:
         if getattr(getattr(scene, "mesh", None), "load_notes", None):  # what the reader left out, counted
             report["mesh_notes"] = dict(scene.mesh.load_notes)
         rows: dict[str, dict] = {}  # per stage: seconds, of which kernel compilation, set-up or frame, reused
+        reads: dict[str, int] = {}  # per stage: wp.array.numpy() calls (timing.ReadCounter)
         t_all = time.perf_counter()
         for key, st in zip(self.stage_keys(), self.stages):
             if ctx.finished:
@@ -346,9 +347,11 @@ class Pipeline:
                 continue
             ctx.progress(f"{key} ...")
             ctx.stage_key = key
-            with Counters(ctx.counters.setdefault(key, {})), \
+            with Counters(ctx.counters.setdefault(key, {})), ReadCounter(device) as stage_reads, \
                     CompileClock(None if quiet else announce_compile) as run_clock:  # units count into its entry
                 st.run(ctx)
+            if stage_reads.count:
+                reads[key] = stage_reads.count
             ctx.stage_key = None
             if model is not None:  # work the card cannot do (e.g. fp16 blends) is an error naming the stage
                 model.check_caps(profile, st.where, model.counter_needs(ctx.counters[key]))
@@ -361,6 +364,8 @@ class Pipeline:
             ctx.progress(f"{key}: {dt:.3f} s" + (f" (compiling kernels {rows[key]['compile_s']:.3f} s)"
                                                   if rows[key]["compile_s"] >= 0.05 else ""))
         report["total_s"] = time.perf_counter() - t_all
+        # array reads back to the host (wp.array.numpy()) in the stages' runs: each a device sync on a GPU
+        report["device_reads"] = {"total": sum(reads.values()), "stages": reads}
         report.update(split_times(rows, report["total_s"]))
         report["stage_timing"] = rows
         report["cached"] = [k for k, r in rows.items() if r["cached"]]

@@ -239,3 +239,75 @@ def wall_summary(report: dict) -> str:
         out += f"; wall {report['wall_s']:.2f} s (start-up {report['startup_s']:.2f} s, scene " \
                f"{report['conversion_s']:.2f} s)"
     return out
+
+
+# ------------------------------------------------------------------------------------------------
+# device reads: each ``wp.array.numpy()`` is a device-to-host copy and a sync on a GPU
+# ------------------------------------------------------------------------------------------------
+
+_reads_active: list["ReadCounter"] = []
+_reads_installed = False
+
+
+def _install_reads() -> bool:
+    """Wrap ``warp.array.numpy`` once per process; ``False`` when this Warp has no such method."""
+    global _reads_installed
+    with _lock:
+        if _reads_installed:
+            return True
+        import warp as wp
+
+        orig = getattr(wp.array, "numpy", None)
+        if orig is None:  # pragma: no cover - unknown Warp layout
+            return False
+
+        def numpy(self, *args, **kwargs):
+            if _reads_active and not getattr(_local, "reading", 0):
+                dev = str(getattr(self, "device", ""))
+                for c in list(_reads_active):
+                    if c.device is None or dev == c.device:
+                        c._add()
+            _local.reading = getattr(_local, "reading", 0) + 1  # a read inside a read counts once
+            try:
+                return orig(self, *args, **kwargs)
+            finally:
+                _local.reading -= 1
+
+        numpy.__wrapped__ = orig  # type: ignore[attr-defined]
+        wp.array.numpy = numpy
+        _reads_installed = True
+        return True
+
+
+class ReadCounter:
+    """Context manager: ``wp.array.numpy()`` calls on arrays of ``device`` (any device if ``None``) while
+    it is active, on any thread. On a GPU each is a copy to the host that waits for the device (a
+    sync); on the CPU the same calls are views, counted alike, so a CPU run shows what a GPU frame
+    would wait for. Concurrent renders in one process count each other's reads.
+
+    >>> import warp as wp
+    >>> with ReadCounter("cpu") as reads:
+    ...     _ = wp.zeros(3, dtype=float, device="cpu").numpy()
+    >>> reads.count
+    1
+    """
+
+    def __init__(self, device: str | None = None):
+        self.device = None if device is None else str(device)
+        self.count = 0
+        self._mine = threading.Lock()
+
+    def _add(self) -> None:
+        with self._mine:
+            self.count += 1
+
+    def __enter__(self) -> "ReadCounter":
+        _install_reads()
+        with _lock:
+            _reads_active.append(self)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        with _lock:
+            if self in _reads_active:
+                _reads_active.remove(self)
