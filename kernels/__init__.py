@@ -1,4 +1,11 @@
-"""Warp kernels, one module per hardware unit (installed as ``warpvol.kernels``)."""
+"""Warp kernels, one module per hardware unit (installed as ``warpvol.kernels``).
+
+With ``WARPVOL_LAUNCH_ORDER`` set (:func:`warpvol.parallel.apply_launch_order`, a debug mode) the CPU
+kernels run their threads in another order; it is applied here, before any kernel compiles."""
+
+from warpvol.parallel import apply_launch_order
+
+apply_launch_order()
 
 
 def kernel_modules() -> list:

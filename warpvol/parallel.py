@@ -9,6 +9,7 @@ On CUDA one launch already fills the device, so blocks run in order on the calli
 from __future__ import annotations
 
 import os
+import random
 import threading
 from concurrent.futures import ThreadPoolExecutor
 from typing import Callable
@@ -32,8 +33,13 @@ def launch_blocks(device: str, n_blocks: int, launch: Callable[[int], None], thr
 
     An exception in the calling thread while it waits (``KeyboardInterrupt`` from Ctrl-C) or in a block
     cancels the blocks not yet started; a CPU launch in flight cannot be interrupted, so the wait is
-    one block's time."""
+    one block's time. With :func:`launch_order` ``reversed`` or ``shuffled`` (a debug mode) the CPU
+    blocks start in that order, from at least two host threads."""
     threads = threads or cpu_threads()
+    order = list(range(n_blocks))
+    if str(device).startswith("cpu") and (mode := launch_order()) != "serial":  # debug: blocks in another order
+        order = order[::-1] if mode == "reversed" else random.Random(n_blocks).sample(order, n_blocks)
+        threads = max(2, threads)
     if str(device).startswith("cpu") and threads > 1 and n_blocks > 1:
         failed = threading.Event()  # set by the first block that raises: queued blocks then do nothing
 
@@ -48,7 +54,7 @@ def launch_blocks(device: str, n_blocks: int, launch: Callable[[int], None], thr
 
         pool = ThreadPoolExecutor(max_workers=min(threads, n_blocks))
         try:
-            for f in [pool.submit(guarded, b) for b in range(n_blocks)]:
+            for f in [pool.submit(guarded, b) for b in order]:
                 f.result()
         except BaseException:
             # Ctrl-C (or a failed block): drop the queued blocks; only launches in flight finish
@@ -57,7 +63,7 @@ def launch_blocks(device: str, n_blocks: int, launch: Callable[[int], None], thr
             raise
         pool.shutdown(wait=True)
     else:
-        for b in range(n_blocks):
+        for b in order:
             launch(b)
 
 
@@ -79,3 +85,81 @@ def preload(device: str, *modules) -> None:
 
     for m in modules:
         wp.load_module(m, device=device)
+
+
+# ------------------------------------------------------------------------------------------------
+# debug launch order: every launch's threads in another order on the CPU
+# ------------------------------------------------------------------------------------------------
+
+#: ``WARPVOL_LAUNCH_ORDER``: ``serial`` (Warp's CPU order, thread 0 first), ``reversed`` (last thread
+#: first; blocks of :func:`launch_blocks` last first, concurrently), ``shuffled`` (blocks of 32 threads
+#: in a scattered order, each block's threads last first; blocks of :func:`launch_blocks` shuffled,
+#: concurrently)
+LAUNCH_ORDERS = ("serial", "reversed", "shuffled")
+
+_SERIAL_LOOP = """    for (size_t task_index = 0; task_index < dim->size; ++task_index)
+    {{
+        {name}_cpu_kernel_forward<wp_linear_contiguous>(*dim, task_index, _wp_args);
+    }}"""
+
+_ORDERED_LOOP = {
+    "reversed": """    for (size_t wp_k = dim->size; wp_k-- > 0;)
+    {{
+        {name}_cpu_kernel_forward<wp_linear_contiguous>(*dim, wp_k, _wp_args);
+    }}""",
+    # blocks of 32 threads visited as q -> (q * step + 5) mod nb, step coprime with nb (a permutation
+    # that scatters neighbouring blocks), the threads of each block last first
+    "shuffled": """    const size_t wp_n = dim->size;
+    const size_t wp_nb = (wp_n + 31) / 32;
+    size_t wp_step = wp_nb / 2 + 1;
+    for (;; ++wp_step)
+    {{
+        size_t wp_a = wp_step, wp_b = wp_nb;
+        while (wp_b) {{ size_t wp_t = wp_a % wp_b; wp_a = wp_b; wp_b = wp_t; }}
+        if (wp_a == 1) break;
+    }}
+    for (size_t wp_q = 0; wp_q < wp_nb; ++wp_q)
+    {{
+        const size_t wp_lo = ((wp_q * wp_step + 5) % wp_nb) * 32;
+        const size_t wp_hi = wp_lo + 32 < wp_n ? wp_lo + 32 : wp_n;
+        for (size_t wp_k = wp_hi; wp_k-- > wp_lo;)
+        {{
+            {name}_cpu_kernel_forward<wp_linear_contiguous>(*dim, wp_k, _wp_args);
+        }}
+    }}""",
+}
+
+
+def launch_order() -> str:
+    """The debug launch order from ``WARPVOL_LAUNCH_ORDER`` (default ``serial``)."""
+    order = os.environ.get("WARPVOL_LAUNCH_ORDER", "serial") or "serial"
+    if order not in LAUNCH_ORDERS:
+        raise ValueError(f"WARPVOL_LAUNCH_ORDER: {order!r} not allowed; allowed: {', '.join(LAUNCH_ORDERS)}")
+    return order
+
+
+def apply_launch_order() -> str:
+    """Make Warp's CPU kernels run their threads in :func:`launch_order` (a debug mode that finds kernels
+    depending on the CPU's serial order, which a GPU does not keep). Called when ``warpvol.kernels`` is
+    first imported, before any kernel compiles: Warp's CPU code template gets the other loop, and the
+    kernels are compiled into their own cache (``WARPVOL_ORDER_CACHE``, else
+    ``~/.cache/warpvol/warp-order-<order>``; the module hashes do not see the template). Relies on
+    Warp's code template (checked: an error if the serial loop is not where it is expected)."""
+    order = launch_order()
+    if order == "serial":
+        return order
+    import warp as wp
+    from warp._src import build, codegen
+
+    tpl = codegen.cpu_module_template_forward
+    if _SERIAL_LOOP not in tpl and all(v not in tpl for v in _ORDERED_LOOP.values()):
+        raise RuntimeError(f"WARPVOL_LAUNCH_ORDER={order}: Warp {wp.config.version}'s CPU kernel template has no "
+                           "serial thread loop where it is expected; this debug mode does not support it")
+    for v in _ORDERED_LOOP.values():
+        tpl = tpl.replace(v, _SERIAL_LOOP)
+    codegen.cpu_module_template_forward = tpl.replace(_SERIAL_LOOP, _ORDERED_LOOP[order])
+    cache = os.environ.get("WARPVOL_ORDER_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "warpvol",
+                                                                  f"warp-order-{order}")
+    os.makedirs(cache, exist_ok=True)
+    build.init_kernel_cache(cache)  # before wp.init() or after: later compiles go there
+    return order
