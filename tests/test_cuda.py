@@ -186,3 +186,33 @@ def test_fused_pt_draw_bins_by_device_draw_the_same_image():
     for t in (4, 8, 64):
         np.testing.assert_array_equal(imgs[t], imgs[0])
     assert imgs[0][..., 3].max() > 0.1
+
+
+# ---- device syncs per frame ----------------------------------------------------------------------
+
+def test_reads_back_to_the_host_are_counted_per_frame():
+    """Every ``wp.array.numpy()`` of a render's stages is counted in ``report["device_reads"]`` (a sync
+    on a GPU): per stage and in total, the same count for the same frame, and only the reads of arrays on
+    the render's device."""
+    import threading
+
+    from warpvol.pipeline import Pipeline
+    from warpvol.scene.builtin import builtin_scene
+    from warpvol.timing import ReadCounter
+
+    with ReadCounter("cpu") as reads:
+        a = wp.zeros(4, dtype=float, device="cpu")
+        a.numpy()
+        th = threading.Thread(target=a.numpy)  # a host thread's read counts too
+        th.start()
+        th.join()
+    assert reads.count == 2
+    with ReadCounter("cuda:0") as none:
+        a.numpy()
+    assert none.count == 0
+    sc = builtin_scene("concave").with_camera(width_px=16, height_px=16)
+    p = Pipeline.load("raycast")
+    r1, r2 = p.render(sc, quiet=True), p.render(sc, quiet=True)
+    d = r1.report["device_reads"]
+    assert d["total"] == sum(d["stages"].values()) > 0 and set(d["stages"]) <= set(r1.report["stages"])
+    assert r2.report["device_reads"]["stages"]["raycast"] == d["stages"]["raycast"] > 0
