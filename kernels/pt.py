@@ -51,7 +51,7 @@ from .raster import edge, snap
 from .texture import Atlas, Tex1D, Tex3D, atlas_sample, tex1d, tex3d
 from .tf import tf_eval, tf_eval_upper, tf_first_break_upper, tf_upper
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options({"enable_backward": False, "fuse_fp": False})  # same roundings on CPU and CUDA
 
 CLASS_FOUR = wp.constant(0)
 CLASS_THREE = wp.constant(1)

@@ -24,7 +24,7 @@ import warp as wp
 
 from .reference_exact import Seg, edge_side, face_cross, tet_segment  # noqa: F401  (Seg: tet_segment's result)
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options({"enable_backward": False})  # fuse_fp on: float64, contraction moves the last bit only
 
 SUB_DEPTH = wp.constant(wp.float64(1.0))
 MAX_DEPTH = wp.constant(wp.float64(42.0))

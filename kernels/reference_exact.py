@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import warp as wp
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options({"enable_backward": False})  # functions only: they take the calling kernel's options
 
 FILTER = wp.constant(wp.float64(1e-15))  # relative rounding bound of the float filter
 SPLITTER = wp.constant(wp.float64(134217729.0))  # 2^27 + 1 (Dekker split)

@@ -17,7 +17,7 @@ from collections import OrderedDict
 import numpy as np
 import warp as wp
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options({"enable_backward": False})  # functions only: they take the calling kernel's options
 
 #: merge tolerance of :func:`device_points`, relative to each channel's largest |value|: 2^-22,
 #: two float32 units in the last place at the top of the channel (the upload to float32 itself moves

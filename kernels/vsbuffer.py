@@ -19,7 +19,7 @@ from .harc import Integ, integrate_sub
 from .integrate import integrate_segment
 from .tf import tf_eval
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options({"enable_backward": False, "fuse_fp": False})  # same roundings on CPU and CUDA
 
 INTEG_TRAPEZOID = wp.constant(0)
 INTEG_EXACT = wp.constant(1)

@@ -5,7 +5,7 @@ import warp as wp
 
 from .vsbuffer import BIG, VsbCells, Walk, cell_interval, integrate_cell
 
-wp.set_module_options({"enable_backward": False})
+wp.set_module_options({"enable_backward": False, "fuse_fp": False})  # same roundings on CPU and CUDA
 
 
 @wp.kernel

@@ -216,3 +216,10 @@ def test_reads_back_to_the_host_are_counted_per_frame():
     d = r1.report["device_reads"]
     assert d["total"] == sum(d["stages"].values()) > 0 and set(d["stages"]) <= set(r1.report["stages"])
     assert r2.report["device_reads"]["stages"]["raycast"] == d["stages"]["raycast"] > 0
+
+
+def test_floating_point_contraction_is_off_where_presets_run(kernel_modules):
+    """clang and NVRTC contract a*b+c into fused multiply-adds differently, so a module that allows it
+    can round differently on each device: off in every kernel module but the float64 reference."""
+    on = sorted(m.name for m in kernel_modules if m.options.get("fuse_fp", True))
+    assert on == ["warpvol.kernels.reference"], on
