@@ -223,3 +223,28 @@ def test_floating_point_contraction_is_off_where_presets_run(kernel_modules):
     can round differently on each device: off in every kernel module but the float64 reference."""
     on = sorted(m.name for m in kernel_modules if m.options.get("fuse_fp", True))
     assert on == ["warpvol.kernels.reference"], on
+
+
+# ---- device= everywhere ---------------------------------------------------------------------------
+
+def test_every_launch_and_array_in_the_host_code_names_its_device():
+    """Host code (``warpvol/``, and ``kernels/`` outside kernel signatures) passes ``device=`` to every
+    ``wp.launch`` and array constructor, so nothing lands on Warp's default device (``cuda:0`` when a GPU
+    is present) behind a render on another. ``wp.copy`` and ``wp.clone`` follow their arrays' devices."""
+    import ast
+
+    root = Path(__file__).resolve().parents[1]
+    names = {"launch", "array", "zeros", "empty", "full", "ones", "zeros_like", "empty_like", "full_like",
+             "ones_like", "from_numpy", "array2d", "array3d"}
+    missing, checked = [], 0
+    for p in sorted(root.glob("warpvol/**/*.py")) + sorted(root.glob("kernels/*.py")):
+        tree = ast.parse(p.read_text())
+        annotations = {id(n) for a in ast.walk(tree) for ann in (getattr(a, "annotation", None), getattr(a, "returns", None))
+                       if ann is not None for n in ast.walk(ann)}
+        for n in ast.walk(tree):
+            if (isinstance(n, ast.Call) and id(n) not in annotations and isinstance(n.func, ast.Attribute)
+                    and isinstance(n.func.value, ast.Name) and n.func.value.id == "wp" and n.func.attr in names):
+                checked += 1
+                if not {k.arg for k in n.keywords} & {"device", None}:
+                    missing.append(f"{p.relative_to(root)}:{n.lineno}: wp.{n.func.attr}(...) without device=")
+    assert checked > 100 and not missing, "\n".join(missing)
