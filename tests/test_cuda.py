@@ -6,8 +6,8 @@ the CPU image; without one that test is skipped and says why.
 
 The PTX goes to a cache outside the repository (``$WARPVOL_PTX_CACHE``, else
 ``~/.cache/warpvol/ptx``), keyed by each module's hash: a warm run only re-compiles changed modules.
-Cold, the three architectures take ~45-55 s each on two shared cores (NVRTC; sm_75 and sm_90
-measured while other jobs ran), warm about a second.
+Cold, about 40 s of CPU per architecture on a 2-core machine (2 min 9 s of CPU for all three; the wall
+time grows with the load: 48 / 95 / 115 s were seen with other jobs running), warm about a second each.
 """
 
 from __future__ import annotations
