@@ -103,8 +103,9 @@ def test_unresolved_rays_are_redone_in_float64_and_counted(projection):
 
     status = state.status.numpy()
     pick = np.array([0, 13, 55, 61, 119])
+    already = set(np.flatnonzero(status == 2).tolist())  # rays the float32 pass itself left to the float64 redo
     status[pick] = 2  # STATUS_FAILED
     state.status = wp.array(status, dtype=wp.int32)
-    assert rc.resolve_failed(ctx, state) == len(pick)
+    assert rc.resolve_failed(ctx, state) == len(already | set(pick.tolist()))
     img = state.image(10, 12).reshape(-1, 4)
     np.testing.assert_allclose(img[pick], ref.reshape(-1, 4)[pick], atol=1e-6)
