@@ -272,7 +272,7 @@ def integ_setup(mode: str, tf, device: str, *, table=None, psi=None, iso=None, i
 
     from warpvol.gpu.texture import Texture1D, Texture2D, Texture3D
     from warpvol.kernels import harc as kh
-    from warpvol.projection.pt import TEXEL_FOR_TABLE, _axis_affine
+    from warpvol.projection.programs import TEXEL_FOR_TABLE, _axis_affine
 
     if mode not in INTEGRATIONS:
         raise ConfigError(f"integration: {mode!r} not allowed; allowed: {', '.join(INTEGRATIONS)}")

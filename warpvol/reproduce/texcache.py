@@ -4,9 +4,9 @@ Roettger & Ertl 2002 (§4) give the reason the 3D-texture path of projected tetr
 slowly than 2D textures: "additional texture memory accesses and a reduced texture cache coherency". The
 emulated texture unit fetches the right texels but keeps no cache, so this module counts what a cache
 would have to read from memory, from the texture coordinates each fragment of a redraw looks up
-(``program.coords`` of :func:`warpvol.projection.pt.table3d_program`,
-:func:`~warpvol.projection.pt.cylindrical_program` and Guthe et al.'s programs,
-:func:`~warpvol.projection.pt.guthe_lookups`):
+(``program.coords`` of :func:`warpvol.projection.programs.table3d_program`,
+:func:`~warpvol.projection.programs.cylindrical_program` and Guthe et al.'s programs,
+:func:`~warpvol.projection.programs.guthe_lookups`):
 
 - a fetch touches its filter footprint: ``2 x 2`` texels (bilinear) of a 2D texture, ``2 x 2`` in each of
   two slices (trilinear) of a 3D texture, one texel (nearest), with the texture unit's clamp-to-edge

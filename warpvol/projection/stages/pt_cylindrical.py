@@ -63,7 +63,7 @@ class PTCylindrical(Stage):
 
     def run(self, ctx: Context) -> None:
         from warpvol.errors import ConfigError
-        from warpvol.projection.pt import cylindrical_program
+        from warpvol.projection.programs import cylindrical_program
 
         key = self.config["planes"]
         if key not in ctx.buffers:

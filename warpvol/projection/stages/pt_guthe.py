@@ -5,7 +5,7 @@ Per fragment: ``rho_hat(sf, sb)`` (alpha of coefficient texture 0) and the colou
 (8-bit A, or the 16-bit value carried in A and L: whatever ``table_guthe``'s ``alpha_format``
 stored), colour ``C = alpha sum_i (l / lmax)^i C~_i`` (linear: ``C~_0 = C0_hat``,
 ``C~_1 = C_hat(lmax) - C0_hat``; degree 2 on the GeForce4, 4 on the Radeon 8500) with the signed
-coefficients scaled back by per-channel constants (:func:`warpvol.projection.pt.guthe_program`). ``gpu``
+coefficients scaled back by per-channel constants (:func:`warpvol.projection.programs.guthe_program`). ``gpu``
 checks the setup fits the card's texture units: ``degree + 1`` coefficient textures plus the
 dependent alpha texture (GeForce4: 4 units, degree <= 2; Radeon 8500: 6, degree <= 4).
 ``arith`` is the arithmetic after the fetches: ``fp32``, or the card's fixed-point registers
@@ -70,7 +70,7 @@ class PTGuthe(Stage):
 
     def run(self, ctx: Context) -> None:
         from warpvol.errors import ConfigError
-        from warpvol.projection.pt import guthe_program
+        from warpvol.projection.programs import guthe_program
 
         table = table_from(self, ctx, "table_guthe")
         deg = table.data.shape[0] - 1
@@ -103,7 +103,7 @@ class PTGuthe(Stage):
 
 def fixed_program(stage: Stage, ctx: Context, table, arith: str, *, mode: str, ortho: bool,
                   weight_bits: int | None, z_off: float):
-    """:func:`warpvol.projection.pt.guthe_program` with the arithmetic after the fetches in the card's
+    """:func:`warpvol.projection.programs.guthe_program` with the arithmetic after the fetches in the card's
     fixed-point registers (:func:`warpvol.kernels.combiners.k_frag_guthe_fixed`); records the register
     format, the scales and the saturated coefficient texels in ``stats["pt_guthe"]``."""
     import numpy as np
@@ -111,7 +111,8 @@ def fixed_program(stage: Stage, ctx: Context, table, arith: str, *, mode: str, o
 
     from warpvol.gpu.texture import Texture1D, TextureAtlas
     from warpvol.kernels import combiners as kc
-    from warpvol.projection.pt import PERSPECTIVE_MODES, _scalar_consts, guthe_lookups
+    from warpvol.projection.pt import PERSPECTIVE_MODES
+    from warpvol.projection.programs import _scalar_consts, guthe_lookups
     from warpvol.tables.guthe2d import arith_constants
 
     try:

@@ -104,7 +104,7 @@ class PTIntegrate(Stage):
     provides = ("image",)
 
     def run(self, ctx: Context) -> None:
-        from warpvol.projection.pt import exact_program
+        from warpvol.projection.programs import exact_program
 
         attrs, mode, ortho, z_off = fragment_inputs(ctx)
         program = exact_program(ctx.scene.transfer, mode=mode, ortho=ortho, device=ctx.device, z_off=z_off,

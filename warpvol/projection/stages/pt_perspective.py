@@ -2,7 +2,7 @@
 
 Every PT triangle is the projection of a smaller tetrahedron of the cell; each of its vertices has
 a front and a back point (equal on silhouette vertices; the thick vertex's two points on the
-viewing ray through it). The vertex program (:func:`warpvol.projection.pt.perspective_attrs`) outputs
+viewing ray through it). The vertex program (:func:`warpvol.projection.programs.perspective_attrs`) outputs
 ``a/w`` and ``1/w`` of the front and back points apart (``sf/wf``, ``sb/wb``, ``1/wf``, ``1/wb``,
 the front eye point over ``wf`` and ``zb/wb``); the rasteriser interpolates them linearly in screen
 space; the fragment programs (``pt_table3d``, ``pt_guthe``) divide per fragment and compute the
@@ -64,7 +64,7 @@ class PTPerspective(Stage):
         return None
 
     def run(self, ctx: Context) -> None:
-        from warpvol.projection.pt import perspective_attrs
+        from warpvol.projection.programs import perspective_attrs
 
         attrs = perspective_attrs(ctx.buffers["pt_geometry"], device=ctx.device)
         ctx.buffers["pt_perspective"] = {"attrs": attrs, "thickness": self.config["thickness"],

@@ -67,7 +67,7 @@ class PTTable3D(Stage):
     provides = ("image",)
 
     def run(self, ctx: Context) -> None:
-        from warpvol.projection.pt import table3d_program
+        from warpvol.projection.programs import table3d_program
 
         table = table_from(self, ctx, "table")
         attrs, mode, ortho, z_off = fragment_inputs(ctx)

@@ -2,7 +2,7 @@
 back to front into a frame buffer of the chosen format (the baseline VTK's
 ``vtkProjectedTetrahedraMapper`` follows).
 
-Per output vertex (:func:`warpvol.projection.pt.vertex_colors`): colour and extinction averaged over the front
+Per output vertex (:func:`warpvol.projection.programs.vertex_colors`): colour and extinction averaged over the front
 and back scalars, ``c̄ = (c(sf) + c(sb)) / 2``, ``τ̄ = (ρ(sf) + ρ(sb)) / 2``, and the thickness ``l``
 (0 on silhouette vertices). The rasteriser interpolates ``(c̄, τ̄, l)`` linearly in screen space; the
 fragment program computes ``α = 1 - exp(-τ̄ l)`` (Stein et al.'s exponential, evaluated exactly where
@@ -107,7 +107,7 @@ class PTVertexColor(Stage):
     provides = ("image",)
 
     def run(self, ctx: Context) -> None:
-        from warpvol.projection.pt import vertex_color_program, vertex_colors
+        from warpvol.projection.programs import vertex_color_program, vertex_colors
 
         tf = ctx.scene.transfer
         attrs = vertex_colors(ctx.buffers["pt_geometry"], tf, device=ctx.device)

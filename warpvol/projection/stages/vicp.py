@@ -138,7 +138,7 @@ class VICP(Stage):
     def _texture(self, ctx: Context, table):
         """The table as a 3D texture, made resident once per table object (a redraw uploads nothing)."""
         from warpvol.gpu.texture import Texture3D
-        from warpvol.projection.pt import TEXEL_FOR_TABLE
+        from warpvol.projection.programs import TEXEL_FOR_TABLE
         from warpvol.errors import ConfigError
 
         fmt = self.config["texel_format"]
@@ -165,7 +165,8 @@ class VICP(Stage):
         from warpvol.gpu.blend import BlendUnit, FrameBuffer
         from warpvol.gpu.raster import Rasterizer
         from warpvol.kernels import vicp as kv
-        from warpvol.projection.pt import RASTER_RULES, _axis_affine, _scalar_consts
+        from warpvol.projection.pt import RASTER_RULES
+        from warpvol.projection.programs import _axis_affine, _scalar_consts
 
         table = table_from(self, ctx, "table_exact")
         if table.data.ndim != 4 or table.data.shape[-1] != 4 or len(table.axes) != 3:
