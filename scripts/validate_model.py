@@ -126,8 +126,6 @@ def absolute_rows(m: Model) -> list[dict]:
 
     def row(paper, name, pv, mv, role, note="", at=None):
         """``at``: (constant, modelled at half it, modelled at double it) where the row rests on one estimate."""
-        if at is not None and mv is not None:
-            note = "; ".join(x for x in (note, sensitivity(pv, at[1:], at[0])) if x)
         rows.append({"paper": paper, "row": name, "paper_value": pv, "modelled": mv,
                      "ratio": None if pv is None or mv is None else mv / pv, "role": role, "note": note,
                      "at": None if at is None or mv is None else {"constant": at[0], "half": at[1], "double": at[2]}})
@@ -218,6 +216,11 @@ def absolute_rows(m: Model) -> list[dict]:
                 None if s is None else 1.0 / s, "calibration on this row" if cal else "prediction",
                 note[kind] if cal else "our viewpoint (the paper's are not given); paper: geometric mean of min-max",
                 at)
+    for r in rows:  # last in the note: what the agreement rests on
+        if r["at"]:
+            r["note"] = "; ".join(x for x in (r["note"], sensitivity(r["paper_value"], (r["at"]["half"],
+                                                                                         r["at"]["double"]),
+                                                                       r["at"]["constant"])) if x)
     return rows
 
 
