@@ -9,7 +9,7 @@ from warpvol.tables.base import sample3d
 from warpvol.tables.cylindrical import build_cylindrical, from_cylinder, plane_texture, reconstruct, to_cylinder
 from warpvol.tables.exact import build_exact3d
 from warpvol.tables.guthe2d import build_guthe2d, reconstruct as guthe_reconstruct
-from warpvol.tables.incremental import build_incremental
+from warpvol.tables.incremental import LOG2_MAX_N_L, build_incremental
 from warpvol.tables.isocross import build_isocross, lookup_nearest, split_segment
 from warpvol.tables.psi import build_psi, combine, lookup, psi_exact
 
@@ -27,6 +27,65 @@ def test_incremental_matches_exact_at_nodes(axis):
     for ax in inc.axes[1:]:
         assert ax.kind == "endpoint" and ax.coord([0.0, 1.0]) == pytest.approx([0.5 / 48, 1 - 0.5 / 48], abs=1e-15)
         assert ax.physical[0] == tf.srange[0] and ax.physical[-1] == tf.srange[1]
+
+
+def _doubling_f32(s):
+    """One log2 doubling in numpy float32, as ``incremental_step`` with ``frac = 0.5`` computes it (no
+    fused multiply-adds): ``out(sf, sb) = s(sf, sm) over s(sm, sb)``, ``sm = (sf + sb) / 2`` on the
+    scalar axes' endpoint nodes, linear along the off-node coordinate."""
+    f32 = np.float32
+    n = s.shape[0]
+    x = (np.arange(n, dtype=np.float64) / (n - 1)).astype(f32)
+    sf, sb = x[None, :], x[:, None]  # out[j, i]: sf = x[i], sb = x[j]
+    t = f32(n - 1) * np.clip(sf + f32(0.5) * (sb - sf), f32(0), f32(1)) + f32(0)
+    i0 = np.minimum(np.floor(t).astype(np.int64), n - 2)
+    w = (t - i0.astype(f32))[..., None]
+    i_col, j_row = np.broadcast_to(np.arange(n)[None, :], t.shape), np.broadcast_to(np.arange(n)[:, None], t.shape)
+    front = s[i0, i_col] * (f32(1) - w) + s[i0 + 1, i_col] * w  # s(sf, sm)
+    back = s[j_row, i0] * (f32(1) - w) + s[j_row, i0 + 1] * w   # s(sm, sb)
+    tr = f32(1) - front[..., 3:]
+    return np.concatenate([front[..., :3] + tr * back[..., :3], f32(1) - tr * (f32(1) - back[..., 3:])], axis=-1)
+
+
+def test_incremental_log2_paper_n_l_is_the_float32_doubling():
+    """n_l = 16 (Kraus et al.'s table) is built as published: every slice after the first is the
+    float32 doubling of the one before, bit for bit (the n_l bound changes no arithmetic)."""
+    tf = smooth_tf(rho_max=2.0)
+    data = build_incremental(tf, n_s=16, n_l=16, lmax=1.0, axis="log2").data
+    assert data.dtype == np.float32
+    for k in range(2, 16):
+        np.testing.assert_array_equal(data[k], _doubling_f32(data[k - 1]), err_msg=f"slice {k}")
+
+
+@pytest.mark.parametrize("n_l", [12, 16, LOG2_MAX_N_L])
+def test_incremental_log2_accepted_n_l_within_float32_bound(n_l):
+    """Up to LOG2_MAX_N_L the doublings' float32 rounding (up to 2^(n_l - 26) of optical depth at
+    lmax) stays below 2^-8: the table matches the exact one within that and the resampling error."""
+    tf = smooth_tf(rho_max=2.0)
+    inc = build_incremental(tf, n_s=32, n_l=n_l, lmax=1.0, axis="log2")
+    d = np.abs(inc.data - reference_at_nodes(inc, tf, 1.0))
+    report(f"incremental/log2 n_l = {n_l}", max=d.max())
+    assert d.max() <= TOLERANCES["incremental/log2"]["max"]
+    assert inc.data[1, ..., 3].min() > 0 and inc.data[-1, ..., 3].min() > 0.1  # extinction >= 0.2: opacity kept
+
+
+@pytest.mark.parametrize("n_l", [LOG2_MAX_N_L + 1, 24, 28, 64])
+def test_incremental_log2_refuses_n_l_beyond_float32(n_l):
+    """Beyond LOG2_MAX_N_L the log2 axis is refused, by the builder and when a pipeline is built, in
+    words (parameter, value, range, why); the uniform axis keeps n_l up to 64. (Unrefused, n_l = 64
+    built a table without opacity: the first slice's 1 - alpha rounds to 1 in float32.)"""
+    from warpvol.pipeline import Pipeline
+
+    tf = smooth_tf(rho_max=2.0)
+    with pytest.raises(ConfigError) as e:
+        build_incremental(tf, n_s=8, n_l=n_l, axis="log2")
+    msg = str(e.value)
+    assert msg.startswith(f"n_l: {n_l} is outside the allowed range [3, {LOG2_MAX_N_L}] for axis = \"log2\"")
+    assert "float32" in msg and f"2^-{n_l - 2} lmax" in msg
+    stages = [{"stage": "table_incremental", "n_s": 8, "n_l": n_l, "axis": "log2"}]
+    with pytest.raises(ConfigError, match=rf"table_incremental.*\.n_l: {n_l} is outside .*\[3, {LOG2_MAX_N_L}\]"):
+        Pipeline.from_config({"stages": stages})
+    assert build_incremental(tf, n_s=8, n_l=n_l, axis="uniform").data.shape[0] == n_l
 
 
 def test_log_axis_mapping_kraus_eq1():

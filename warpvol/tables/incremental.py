@@ -16,17 +16,43 @@ Scalar axes use Kraus' texel-centre convention too (``endpoint`` nodes, ``[(2n)^
 Slice 0 is exactly ``(0, 0, 0, 0)`` (a zero-length segment contributes nothing). Errors come from
 the bilinear resampling (second order in the scalar spacing) and accumulate with the number of
 steps: ``n_l - 2`` for uniform, ``n_l - 2`` doublings for log2 (but each over a doubled length).
+
+Float32 limits the log2 axis: each doubling composites ``1 - (1 - a)(1 - a)``, and float32 holds
+``1 - a`` in steps of ``2^-24`` below 1, so every doubling rounds the opacity by up to ``2^-25`` and
+every later one doubles what was rounded: up to about ``2^(n_l - 26)`` of optical depth at ``lmax``.
+:data:`LOG2_MAX_N_L` keeps that within ``2^-8`` (one step of an 8-bit channel); beyond it the
+first slices vanish into the rounding (from ``n_l`` about 28 the first slice's ``1 - a`` rounds to
+1 and the whole table loses its opacity), so larger ``n_l`` are refused.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from warpvol.errors import ConfigError, check_number
 from warpvol.tables.base import TABLE_FORMATS, Axis
 from warpvol.tables.common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_bands,
                      linear_index_map, model_id, scalar_axis, table_key, tf_arrays, tf_pieces, timed)
 
 THICKNESS_AXES = {"uniform": "endpoint", "log2": "log2"}
+#: largest n_l on the log2 axis: the doublings' float32 rounding, up to 2^(n_l - 26) in optical
+#: depth at lmax, stays within 2^-8 (the paper's n_l = 16: 2^-10)
+LOG2_MAX_N_L = 18
+
+
+def check_n_l(where: str, n_l, axis: str) -> int:
+    """``n_l`` checked for its thickness axis: [3, 64] uniform, [3, :data:`LOG2_MAX_N_L`] log2."""
+    if axis != "log2":
+        return check_res(where, n_l, 3, 64)
+    n_l = int(check_number(where, n_l, lo=3, integer=True))
+    if n_l > LOG2_MAX_N_L:
+        raise ConfigError(
+            f"{where}: {n_l} is outside the allowed range [3, {LOG2_MAX_N_L}] for axis = \"log2\": the first "
+            f"slice is 2^-{n_l - 2} lmax thin and the {n_l - 2} float32 doublings that build the table from "
+            f"it round the opacity by up to 2^{n_l - 26} in optical depth at lmax (more than 2^-8; from "
+            f"n_l = 28 on the first slice's 1 - alpha rounds to 1 and the table has no opacity); use "
+            f"n_l <= {LOG2_MAX_N_L} or axis = \"uniform\" (n_l up to 64)")
+    return n_l
 
 
 def build_incremental(tf, *, n_s: int = 64, n_l: int = 16, lmax: float = 1.0, axis: str = "log2",
@@ -40,7 +66,8 @@ def build_incremental(tf, *, n_s: int = 64, n_l: int = 16, lmax: float = 1.0, ax
         Resolution of the scalar axes (``endpoint`` nodes ``k / (n_s - 1)``: Kraus' texel-centre range
         ``[(2n)^-1, 1 - (2n)^-1]``, so the TF's end values sit at texel centres).
     n_l : int
-        Number of thickness slices (>= 3).
+        Number of thickness slices: [3, 64] on the uniform axis, [3, :data:`LOG2_MAX_N_L`] on
+        the log2 axis (float32 doublings, see the module's notes).
     lmax : float
         Largest thickness (the last slice).
     axis : str
@@ -51,9 +78,9 @@ def build_incremental(tf, *, n_s: int = 64, n_l: int = 16, lmax: float = 1.0, ax
     """
     check_tf(tf)
     n_s = check_res("n_s", n_s, 2)
-    n_l = check_res("n_l", n_l, 3, 64)
-    lmax = check_lmax(lmax)
     check_choice("axis", axis, tuple(THICKNESS_AXES))
+    n_l = check_n_l("n_l", n_l, axis)
+    lmax = check_lmax(lmax)
     check_choice("base", base, ("exact", "roettger_sw"))
     check_choice("format", format, TABLE_FORMATS)
     import warp as wp

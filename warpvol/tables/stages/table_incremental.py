@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from warpvol.stage import Param, register_stage
 from warpvol.tables.base import TABLE_FORMATS
+from warpvol.tables.incremental import check_n_l
 from warpvol.tables.stages.support import LMAX, TableStage, output_param
 
 
@@ -15,7 +16,7 @@ class TableIncremental(TableStage):
     parameter   type   default    meaning
     ==========  =====  =========  ==========================================================
     n_s         int    64         resolution of the sf and sb axes
-    n_l         int    16         number of thickness slices (>= 3)
+    n_l         int    16         number of thickness slices: 3 to 64; log2: 3 to 18
     lmax        float  0          largest thickness; 0 = the mesh's longest edge
     axis        str    log2       ``log2`` | ``uniform``
     base        str    exact      the Δl slice: ``exact`` | ``roettger_sw``
@@ -48,6 +49,10 @@ class TableIncremental(TableStage):
               choices=("any", "wide_range", "narrow_range")),
         output_param("table3d"),
     )
+
+    def validate(self) -> None:
+        # log2: float32 doublings limit n_l (warpvol.tables.incremental.LOG2_MAX_N_L says why)
+        check_n_l(f"{self.where}.n_l", self.config["n_l"], self.config["axis"])
 
     def builder_kwargs(self, ctx):
         kw = super().builder_kwargs(ctx)
