@@ -40,7 +40,7 @@ class TableIncremental(TableStage):
     builder = "incremental"
     params = (
         Param("n_s", int, 64, "resolution of the sf and sb axes", lo=2, hi=4096),
-        Param("n_l", int, 16, "number of thickness slices", lo=3, hi=64),
+        Param("n_l", int, 16, "number of thickness slices (log2 axis: at most 18)", lo=3, hi=64),
         LMAX,
         Param("axis", str, "log2", "thickness axis", choices=("log2", "uniform")),
         Param("base", str, "exact", "integration of the first slice", choices=("exact", "roettger_sw")),
