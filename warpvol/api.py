@@ -478,13 +478,14 @@ class Comparison:
 
 
 def _timed_renders(pipe: Pipeline, scene: Scene, ref, repeats: int, quiet: bool, device: str,
-                   gpu: str | None = None) -> tuple[Any, float, float]:
+                   gpu: str | None = None, skip: bool = True) -> tuple[Any, float, float]:
     """``(last result, cold seconds, median warm seconds)``: one render that may compile kernels and
     build the set-up, then ``repeats`` warm ones."""
     import statistics
 
-    first = pipe.render(scene, reference=ref, quiet=quiet, device=device, gpu=gpu)
-    warm = [pipe.render(scene, reference=ref, quiet=quiet, device=device, gpu=gpu) for _ in range(repeats)]
+    kw = {"reference": ref, "quiet": quiet, "device": device, "gpu": gpu, "skip": skip}
+    first = pipe.render(scene, **kw)
+    warm = [pipe.render(scene, **kw) for _ in range(repeats)]
     last = warm[-1] if warm else first
     times = [r.report["total_s"] for r in warm] or [first.report["total_s"]]
     return last, float(first.report["total_s"]), float(statistics.median(times))
@@ -492,7 +493,7 @@ def _timed_renders(pipe: Pipeline, scene: Scene, ref, repeats: int, quiet: bool,
 
 def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, reference: Any = True,
             repeats: int = 3, device: str = "cpu", gpu: Any = None, scalars: str | None = None,
-            quiet: bool = True) -> Comparison:
+            quiet: bool = True, skip: bool = True) -> Comparison:
     """Render one scene with several pipelines against one exact reference.
 
     Each pipeline renders once cold (kernel compilation, tables, per-mesh data: ``cold_s``) and then
@@ -523,6 +524,9 @@ def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, refere
         Point-data array of a mesh given as ``scene_or_parts``, as in :func:`render`.
     quiet : bool
         As in :func:`render`.
+    skip : bool
+        As in :func:`render`: ``False`` renders every pipeline doing all the work (no culling, empty-space
+        skipping or early ray termination); each result's ``report["left_out"]`` says what was left out.
 
     Returns
     -------
@@ -564,7 +568,7 @@ def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, refere
         row: dict[str, Any] = dict.fromkeys(TABLE_COLUMNS)
         row["pipeline"] = key
         try:
-            r, cold, warm = _timed_renders(pipe, scene, ref, int(repeats), quiet, device, gpu)
+            r, cold, warm = _timed_renders(pipe, scene, ref, int(repeats), quiet, device, gpu, bool(skip))
         except WarpvolError as e:  # the pipeline declines this scene, in words
             table.append({**row, "status": "declined", "reason": str(e)})
             continue

@@ -280,19 +280,20 @@ def cmd_bench(args) -> int:
         owned.remove(owned.owned_in(ROW_DIR))
     # each pipeline's row and image are saved as it finishes: an interrupted bench loses nothing
     saved, save = row_store(outdir, scene, repeats=args.repeats, gpu=args.gpu, quick=args.quick,
-                            audit=args.audit, owned=owned, note=_note(args.quiet),
+                            audit=args.audit, skip=not args.no_skip, owned=owned, note=_note(args.quiet),
                             digests={k: pipeline_digest(n) for k, n in zip(keys, names)})
     if saved and not args.quiet:
         print(f"warpvol: bench: resuming, {len(saved)} pipeline(s) read from {outdir / ROW_DIR}", file=sys.stderr)
     try:
         res = run_bench(scene, names, repeats=args.repeats, gpu=args.gpu, device=args.device, quiet=args.quiet,
                         progress=args.progress, cache_dir=cache_dir,
-                        audit=args.audit, quick=args.quick, done=saved, on_row=save)
+                        audit=args.audit, quick=args.quick, done=saved, on_row=save, skip=not args.no_skip)
     except KeyboardInterrupt:
         print(f"warpvol: bench: the finished pipelines are saved in {outdir / ROW_DIR}; run the same command with "
               "--resume to go on", file=sys.stderr)
         raise
-    write_bench(res, outdir, plan={n: p.plan(scene) for n, p in plan_pipes.items()}, owned=owned)
+    write_bench(res, outdir, plan={n: p.plan(scene, skip=not args.no_skip) for n, p in plan_pipes.items()},
+                owned=owned)
     print(table_markdown(res.rows))
     print(f"wrote {outdir}/index.html, table.csv, table.json, table.md, pareto.png, pareto.svg")
     return 0
@@ -316,8 +317,12 @@ def cmd_plan(args) -> int:
                 print(f"  {'':<20} leaves out: {s['leaves_out']}")
         if args.no_measure:
             continue
-        row = bench_pipeline(pipe, scene, None, repeats=args.repeats)
-        print(f"  render: {row['total_s']:.4f} s (median of {row['repeats']})")
+        row = bench_pipeline(pipe, scene, None, repeats=args.repeats, skip=not args.no_skip)
+        print(f"  render: {row['total_s']:.4f} s (median of {row['repeats']})"
+              + ("" if row["skip"] else ", skipping off"))
+        for key, lo in row["left_out"].items():
+            counts = ", ".join(f"{k} {v}" for k, v in lo.items() if k != "why")
+            print(f"  {key} left out: {counts} ({lo.get('why', '')})")
         for a in row["planner"]:
             if a.get("saved_s") is None:
                 print(f"  {a['stage']}: {a['note']}")
@@ -516,6 +521,8 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--quick", action="store_true", help="cap pre-integration table resolutions (as stress --quick)")
     b.add_argument("--resume", action="store_true", help="reuse the pipelines already saved in -o's pipelines/ (an "
                    "interrupted bench of the same scene and settings) and run the rest")
+    b.add_argument("--no-skip", action="store_true", help="every render does all the work (render --no-skip): "
+                   "no culling of invisible cells, no empty-space skipping, no early ray termination")
     scene_args(b)
     b.set_defaults(func=cmd_bench)
 

@@ -49,7 +49,7 @@ ROW_FIELDS = ("pipeline", "status", "message", "total_s", "min_s", "max_s", "fir
               "compile_s", "repeats",
               "stages_s", "modelled_s",
               "modelled_stages_s", "gpu_note", "rmse", "max_abs", "psnr", "table_bytes", "counters",
-              "skipped", "planner", "pareto", "pareto_modelled")
+              "skipped", "skip", "left_out", "planner", "pareto", "pareto_modelled")
 
 
 # ------------------------------------------------------------------------------------------------
@@ -230,10 +230,12 @@ def _median_times(reports: list[dict]) -> tuple[float, dict]:
 # ------------------------------------------------------------------------------------------------
 def bench_pipeline(pipe: Any, scene: Any, ref: np.ndarray | None, *, repeats: int = 3, gpu: str | None = None,
                    audit: bool = True, device: str | None = None, on_step: Callable[[str], None] | None = None,
-                   on_audit: Callable[[int], None] | None = None) -> dict:
+                   on_audit: Callable[[int], None] | None = None, skip: bool = True) -> dict:
     """Warm-up + ``repeats`` timed renders of one pipeline (and, with ``audit``, its planner audit): one
     table row; ``total_s`` is the median of the repeats, ``min_s`` / ``max_s`` their spread. ``on_step(what)``
-    follows each render; ``on_audit(n)`` is told the audit's renders before they start.
+    follows each render; ``on_audit(n)`` is told the audit's renders before they start. ``skip``: as in
+    :meth:`warpvol.pipeline.Pipeline.render` (``False``: no culling, empty-space skipping or early ray
+    termination, for comparison); the row's ``left_out`` is the last render's ``report["left_out"]``.
 
     Returns the row (see :data:`ROW_FIELDS`) and, under ``"_image"``, the last image. Exceptions
     propagate (the caller decides whether a failure ends the run).
@@ -241,7 +243,7 @@ def bench_pipeline(pipe: Any, scene: Any, ref: np.ndarray | None, *, repeats: in
     from warpvol.metrics import image_error
 
     step = on_step or (lambda _msg: None)
-    kw: dict[str, Any] = {"quiet": True, "device": device}
+    kw: dict[str, Any] = {"quiet": True, "device": device, "skip": bool(skip)}
     gpu_note = gpu_support(gpu, pipe) if gpu is not None else None
     if gpu is not None and gpu_note is None:
         kw["gpu"] = gpu
@@ -272,6 +274,7 @@ def bench_pipeline(pipe: Any, scene: Any, ref: np.ndarray | None, *, repeats: in
                            "repeats": len(runs), "stages_s": stages,
                            "table_bytes": table_bytes(pipe), "counters": last.report.get("counters", {}),
                            "skipped": last.report.get("skipped", []), "gpu_note": gpu_note,
+                           "skip": bool(skip), "left_out": last.report.get("left_out", {}),
                            "modelled_s": None, "modelled_stages_s": {}}
     mod = last.report.get("modelled_s")
     if isinstance(mod, dict):
@@ -370,14 +373,15 @@ def run_bench(scene: Any, pipelines: Any = "all", *, repeats: int = 3, gpu: str 
               cache_dir: str | Path | None = None, audit: bool = False, device: str = "cpu",
               quiet: bool = False, progress: bool = False, quick: bool = False, done: dict | None = None,
               on_row: Callable[[str, dict, np.ndarray | None], None] | None = None,
-              command: str | None = None) -> BenchResult:
+              command: str | None = None, skip: bool = True) -> BenchResult:
     """Bench ``scene`` with each pipeline (see the module docstring); failures become rows.
     ``audit``: the planner audit (forced-stage renders) too. ``quick``: table resolutions capped
     (:func:`quick_pipeline`), noted in the result. ``done``: ``{key: (row, image)}`` of pipelines
     already benched (a resumed run: not run again); ``on_row(key, row, image)`` is called after each
     pipeline that runs (e.g. to save it at once). Progress goes to stderr on a terminal
     (:class:`warpvol.progress.ProgressBar`; ``progress``: also elsewhere, as lines; ``quiet``: never).
-    ``command``: the command line, kept in the metadata."""
+    ``command``: the command line, kept in the metadata. ``skip=False``: every render does all the work
+    (no culling, empty-space skipping or early ray termination; ``--no-skip``), noted in the result."""
     from warpvol.tools.machine import load_average, run_metadata
 
     pipes = load_pipelines(pipelines, device, quick=quick)  # unknown names fail before any work
@@ -385,6 +389,9 @@ def run_bench(scene: Any, pipelines: Any = "all", *, repeats: int = 3, gpu: str 
     notes = [] if gpu is None else ([gpu_support(gpu)] if gpu_support(gpu) else [])
     if quick:
         notes.append(f"--quick: pre-integration table resolutions capped at {QUICK_TABLE_CAPS} (not the presets as shipped)")
+    if not skip:
+        notes.append("--no-skip: every render does all the work (no culling of invisible cells, no empty-space "
+                     "skipping, no early ray termination)")
     meta = run_metadata(device, command)
     rows, images = [], {}
     done = done or {}
@@ -415,7 +422,7 @@ def run_bench(scene: Any, pipelines: Any = "all", *, repeats: int = 3, gpu: str 
 
             try:
                 row = bench_pipeline(pipe, scene, ref, repeats=repeats, gpu=gpu, audit=audit, device=device,
-                                     on_step=step, on_audit=more)
+                                     on_step=step, on_audit=more, skip=skip)
                 images[key] = row.pop("_image")
             except KeyboardInterrupt:
                 raise
@@ -462,7 +469,7 @@ def row_stem(key: str) -> str:
 
 
 def row_store(outdir: str | Path, scene: Any, *, repeats: int, gpu: str | None, quick: bool, audit: bool,
-              digests: dict[str, str] | None = None, owned: Any = None,
+              skip: bool = True, digests: dict[str, str] | None = None, owned: Any = None,
               note: Callable[[str], None] | None = None):
     """``(saved, save)`` for ``outdir/pipelines``: the rows and images saved there by an earlier bench of
     the same scene (content hash) with the same settings (another run's files are an error naming the
@@ -477,13 +484,15 @@ def row_store(outdir: str | Path, scene: Any, *, repeats: int, gpu: str | None, 
 
     note = note or (lambda _text: None)
     d = Path(outdir) / ROW_DIR
-    key = {"scene": scene_hash(scene), "repeats": int(repeats), "gpu": gpu, "quick": bool(quick), "audit": bool(audit)}
+    key = {"scene": scene_hash(scene), "repeats": int(repeats), "gpu": gpu, "quick": bool(quick), "audit": bool(audit),
+           "skip": bool(skip)}
     saved: dict[str, tuple[dict, np.ndarray | None]] = {}
     for f, rec in saved_records(outdir, ROW_DIR, owned):
         if rec is None or not isinstance(rec.get("key"), str) or not isinstance(rec.get("row"), dict):
             note(f"{f} cannot be read (cut short or edited): its pipeline is benched again")
             continue
-        diff = [k for k in key if rec.get(k) != key[k]]
+        # a record saved before skip was recorded came from a bench with skipping on (the default)
+        diff = [k for k in key if rec.get(k, True if k == "skip" else None) != key[k]]
         if diff:
             raise ConfigError(f"--resume: {f} is from another bench ({', '.join(f'{k} {rec.get(k)!r}' for k in diff)}; "
                               f"this one: {', '.join(f'{k} {key[k]!r}' for k in diff)})")

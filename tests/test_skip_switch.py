@@ -1,0 +1,56 @@
+"""The skip switch reaches the stages wherever presets are compared: ``warpvol.compare(skip=)``,
+``bench_pipeline`` / ``run_bench`` (``warpvol bench --no-skip``) and the measured part of ``warpvol plan``."""
+
+import json
+
+from test_visibility import _scene
+from warpvol.cli import main
+from warpvol.pipeline import Pipeline
+
+
+def test_compare_passes_skip_to_every_render():
+    import warpvol
+
+    sc = _scene(px=12)  # 10 layers, the TF's shell meets 2 of them
+    n = sc.mesh.n_tets
+    on = warpvol.compare(sc, ["pt_best"], repeats=1)
+    off = warpvol.compare(sc, ["pt_best"], repeats=1, skip=False)
+    assert on.results["pt_best"].report["left_out"]["sort"]["cells_culled"] == n - n // 5
+    rep = off.results["pt_best"].report
+    assert rep["skip"] is False and "left_out" not in rep
+    assert rep["counters"]["pt_project"]["tets_projected"] == n
+
+
+def test_bench_pipeline_row_says_what_was_left_out():
+    from warpvol.tools.bench import bench_pipeline
+
+    sc, pipe = _scene(px=12), Pipeline.load("pt_best")
+    n = sc.mesh.n_tets
+    on = bench_pipeline(pipe, sc, None, repeats=1, audit=False)
+    off = bench_pipeline(pipe, sc, None, repeats=1, audit=False, skip=False)
+    assert on["skip"] is True and on["left_out"]["sort"]["cells_culled"] == n - n // 5
+    assert off["skip"] is False and off["left_out"] == {}
+    assert off["counters"]["pt_project"]["tets_projected"] == n
+
+
+def test_cli_bench_no_skip(tmp_path):
+    size = ["--width", "8", "--height", "8", "--repeats", "1", "--quiet"]
+    for flag, out in (([], tmp_path / "on"), (["--no-skip"], tmp_path / "off")):
+        assert main(["bench", "builtin:box", "--pipelines", "pt_best", "-o", str(out)] + flag + size) == 0
+    row_on = json.loads((tmp_path / "on" / "table.json").read_text())["rows"][0]
+    row_off = json.loads((tmp_path / "off" / "table.json").read_text())["rows"][0]
+    assert row_on["skip"] is True and row_on["left_out"]
+    assert row_off["skip"] is False and row_off["left_out"] == {}
+    # a bench with the other setting is not resumed from these rows
+    rec = json.loads(next((tmp_path / "off" / "pipelines").glob("*.json")).read_text())
+    assert rec["skip"] is False
+
+
+def test_cli_plan_measures_with_the_switch(capsys):
+    size = ["--width", "8", "--height", "8", "--repeats", "1", "--quiet"]
+    assert main(["plan", "builtin:box", "--pipeline", "pt_best"] + size) == 0
+    out = capsys.readouterr().out
+    assert "leaves out:" in out and "left out: cells_culled" in out and "skipping off" not in out
+    assert main(["plan", "builtin:box", "--pipeline", "pt_best", "--no-skip"] + size) == 0
+    out = capsys.readouterr().out
+    assert "leaves out:" not in out and "left out:" not in out and "skipping off" in out
