@@ -73,7 +73,8 @@ def build_incremental(tf, *, n_s: int = 64, n_l: int = 16, lmax: float = 1.0, ax
     axis : str
         ``"log2"`` (Kraus 2004 eq. 1) or ``"uniform"``.
     base : str
-        How the ``Δl`` slice is integrated: ``"exact"`` or ``"roettger_sw"`` (eqs. 5-7, o = 2).
+        How the ``Δl`` slice is integrated: ``"exact"`` or ``"roettger_sw"`` (eqs. 5-7, o = 2, eq. 6
+        as printed: :func:`warpvol.tables.roettger_sw.build_roettger_sw`'s default step).
     format, device : str
     """
     check_tf(tf)
@@ -108,7 +109,8 @@ def build_incremental(tf, *, n_s: int = 64, n_l: int = 16, lmax: float = 1.0, ax
         else:
             m = float(len(tf.points))
             launch_bands(k.roettger_sw_table3d, 1, n_s, n_s, device, lambda l0, nl, j0, nj: [
-                x, x[j0:j0 + nj], lengths, lo, hi - lo, tf_s, tf_v, model_id(tf), m, 2.0, 1, base3[:, j0:j0 + nj]],
+                x, x[j0:j0 + nj], lengths, lo, hi - lo, tf_s, tf_v, model_id(tf), m, 2.0, 1, 0,
+                base3[:, j0:j0 + nj]],
                 pieces=len(tf.points), what=f"incremental base slice {n_s}x{n_s}")
         wp.copy(slices[1], base3.reshape((n_s, n_s)))
         for s in range(2, n_l):
