@@ -12,7 +12,7 @@ import os
 import random
 import threading
 from concurrent.futures import ThreadPoolExecutor
-from typing import Callable
+from typing import Callable, Iterable
 
 
 def cpu_threads() -> int:
@@ -27,15 +27,22 @@ def blocks(n: int, size: int) -> list[tuple[int, int]]:
     return [(s, min(size, n - s)) for s in range(0, n, max(1, size))]
 
 
-def launch_blocks(device: str, n_blocks: int, launch: Callable[[int], None], threads: int = 0) -> None:
+def launch_blocks(device: str, n_blocks: int, launch: Callable[[int], None], threads: int = 0, *,
+                  modules: Iterable = ()) -> None:
     """Call ``launch(b)`` for every block ``b``; concurrently from ``threads`` host threads on the CPU
     (0: all cores), in order on other devices.
+
+    ``modules`` names what the launches run (Warp kernels, Warp modules or Python modules of kernels):
+    they are compiled or loaded here, on the calling thread, before any block starts (:func:`preload`),
+    so that no two host threads compile the same module at once.
 
     An exception in the calling thread while it waits (``KeyboardInterrupt`` from Ctrl-C) or in a block
     cancels the blocks not yet started; a CPU launch in flight cannot be interrupted, so the wait is
     one block's time. With :func:`launch_order` ``reversed`` or ``shuffled`` (a debug mode) the CPU
     blocks start in that order, from at least two host threads."""
     threads = threads or cpu_threads()
+    if n_blocks > 0:
+        preload(device, *modules)
     order = list(range(n_blocks))
     if str(device).startswith("cpu") and (mode := launch_order()) != "serial":  # debug: blocks in another order
         order = order[::-1] if mode == "reversed" else random.Random(n_blocks).sample(order, n_blocks)
@@ -79,11 +86,18 @@ def row_blocks(n_rows: int, n_jobs: int, threads: int, device: str) -> list[tupl
 
 
 def preload(device: str, *modules) -> None:
-    """Compile and load Warp ``modules`` for ``device`` on the calling thread, before host threads
-    launch their kernels (a module's first launch compiles it; two threads would each compile it)."""
+    """Compile and load Warp ``modules`` (Warp kernels, Warp modules or Python modules of kernels) for
+    ``device`` on the calling thread, before host threads launch their kernels (a module's first launch
+    compiles it; two threads would each compile it). Each module is loaded once however often it is
+    named; one already loaded returns at once."""
     import warp as wp
 
+    seen: list = []
     for m in modules:
+        m = getattr(m, "module", m) if isinstance(m, wp.Kernel) else m
+        if any(m is s for s in seen):
+            continue
+        seen.append(m)
         wp.load_module(m, device=device)
 
 

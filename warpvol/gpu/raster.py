@@ -312,6 +312,10 @@ class Rasterizer:
     [7, 3]
     """
 
+    #: the Warp modules its draws launch: what a caller drawing from host threads loads first
+    #: (``modules`` of :func:`warpvol.parallel.launch_blocks`)
+    KERNEL_MODULES = (kr, krd)
+
     def __init__(self, width: int, height: int, device: str = "cpu", tile_size: int = 16, cull: str = "none",
                  front_face: str = "ccw", depth_func: str = "always", depth_write: bool = False,
                  depth_clip: bool = True, traversal: str = "auto", fill_rule: str = "bottom_left",

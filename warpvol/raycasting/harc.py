@@ -416,7 +416,6 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
                          entry["far"], entry["edge_start"], entry["edge_bf"], ig, get_format(fb_format).kernel_params(),
                          float(t_stop), int(max_steps), 1e-6 * cells["radius"]]
     kernel = kh.march_kernel(WALKS[walk], SETUPS[setup], ig.mode)  # this configuration's kernel
-    wp.load_module(kernel.module, device=ctx.device)  # compiled / loaded here, not by the row-block threads at once
 
     def launch(b: int) -> None:
         first, count = parts[b]
@@ -424,7 +423,7 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
                   inputs=common + [first, ids, state.rgba, state.tcur, state.status, state.last, counters, b,
                                    state.px_work])
 
-    launch_blocks(ctx.device, len(parts), launch, threads)
+    launch_blocks(ctx.device, len(parts), launch, threads, modules=[kernel])
     return dict(zip(COUNTER_NAMES, (int(x) for x in counters.numpy().sum(axis=0))))
 
 

@@ -115,7 +115,7 @@ def launch_bands(kernel, n_l: int | None, n_rows: int, n_cols: int, device: str,
                 report(f"{what}: {state['done']}/{len(slabs)} blocks ({100.0 * state['done'] / len(slabs):.0f} %, "
                        f"{now - state['t0']:.0f} s)")
 
-    launch_blocks(device, len(slabs), launch)
+    launch_blocks(device, len(slabs), launch, modules=[kernel])
 
 
 def tf_pieces(tf: TransferFunction) -> int:

@@ -154,7 +154,7 @@ def build_pingpong(tf, *, n_s: int = 128, lengths=(1.0,), lmax: float = 1.0, m: 
                           inputs=[jobs[q][2].struct, x, x[r0:r0 + nr], m, per_pass, fmt, fmt, out[q][r0:r0 + nr]])
 
         if emulate:
-            launch_blocks(device, (len(jobs) + 1) * len(rows), launch, threads)
+            launch_blocks(device, (len(jobs) + 1) * len(rows), launch, threads, modules=[k])
         res = out.numpy()
         for q, (si, c, _) in enumerate(jobs):
             data[si, ..., c] = res[q]

@@ -243,7 +243,7 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
                                   mod, ua, ub, e_scale, int(gl_dither), r0])
 
             if emulate:
-                launch_blocks(device, len(jobs) * len(rows), launch, threads)
+                launch_blocks(device, len(jobs) * len(rows), launch, threads, modules=[k])
             for q, li in enumerate(lis):
                 if passes == "two":
                     rgb = jobs[2 * q][1].readback()[..., :3]

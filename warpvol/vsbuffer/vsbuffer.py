@@ -525,7 +525,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
             bufs[b] = idbuf
 
         # the two passes are independent draws: on the CPU each runs on its own host thread
-        launch_blocks(device, 2, draw, threads)
+        launch_blocks(device, 2, draw, threads, modules=Rasterizer.KERNEL_MODULES)
         for uc in unit_counts:
             for k, v in uc.items():
                 cnt[k] = cnt.get(k, 0) + int(v)
@@ -556,7 +556,7 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
                       inputs=[dc, w, vsb, ray_o, ray_d, tf_s, tf_v, done, out, counters, p0])
 
         # each block writes its own rows of ``done``/``counters`` (thread id = plane-in-batch * W + column)
-        launch_blocks(device, len(pblocks), launch, threads)
+        launch_blocks(device, len(pblocks), launch, threads, modules=[kv])
         c = counters.numpy().sum(axis=0)
         for k, name in enumerate(kv.COUNTERS):
             cnt[name] += int(c[k])

@@ -118,7 +118,7 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
         wp.launch(k.march, dim=count, device=ctx.device,
                   inputs=common + [first, ids, state.rgb, state.trans, state.tcur, state.status, state.last, counters, b])
 
-    launch_blocks(ctx.device, len(parts), launch, threads)
+    launch_blocks(ctx.device, len(parts), launch, threads, modules=[k])
     c = counters.numpy().sum(axis=0)
     state.active = int(c[4])
     return c
