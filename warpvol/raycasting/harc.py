@@ -383,6 +383,9 @@ class HarcState:
 
 
 N_COUNTERS = 12
+#: the peel test "beyond the last exit" accepts a boundary face from ``PEEL_TOL`` times the mesh radius
+#: before the last exit on (in every set-up; the paper's depth test compared depths plainly)
+PEEL_TOL = 1e-6
 COUNTER_NAMES = ("entries", "steps", "cells", "failed", "step_bound", "iso_missed", "texture_fetches",
                  "entry_searches", "thin_layer_rays", "backward_rays", "edge_entries",
                  "terminated_early")
@@ -414,7 +417,7 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     common = cam_args + [eye_w, mesh_tex, cells["verts"], cells["tets"], cells["nbr"], cells["nbr_vertex"],
                          entry["frag_start"], entry["frag_bf"], entry["bf_tet"], entry["bf_face"], entry["bf_nbr"],
                          entry["far"], entry["edge_start"], entry["edge_bf"], ig, get_format(fb_format).kernel_params(),
-                         float(t_stop), int(max_steps), 1e-6 * cells["radius"]]
+                         float(t_stop), int(max_steps), PEEL_TOL * cells["radius"]]
     kernel = kh.march_kernel(WALKS[walk], SETUPS[setup], ig.mode)  # this configuration's kernel
 
     def launch(b: int) -> None:

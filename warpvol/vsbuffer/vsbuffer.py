@@ -217,6 +217,12 @@ def _zero_counts(planes: int) -> dict:
     return cnt
 
 
+#: the walk's float32 frame: points, planes, gradients and ray origins shifted (in float64) to the cells'
+#: centre and the origins moved along their rays to the sphere around the mesh; ``False``: the mesh's own
+#: frame and rays from the eye (float64 values rounded to float32 once)
+ORIGIN_SHIFT = True
+
+
 def _walk_inputs(cells: ConvexCellMesh, transfer, camera, device: str, rows: int, cmin: float, cspan: float,
                  integration: str, steps: int, neighbour_check: bool, adjacency: str, t_min: float, max_list: int,
                  table=None, weight_bits: int | None = 8, texture_cache: dict | None = None, ties: bool = False,
@@ -229,14 +235,15 @@ def _walk_inputs(cells: ConvexCellMesh, transfer, camera, device: str, rows: int
 
     from warpvol.kernels import vsbuffer as kv
 
-    origin = 0.5 * (cells.bounds[0] + cells.bounds[1])
+    origin = 0.5 * (cells.bounds[0] + cells.bounds[1]) if ORIGIN_SHIFT else np.zeros(3)
     dc = _device_cells(cells, origin, device, camera if ties else None, visible)
     o_np, d_np = camera.rays(normalise=True)
     # origins moved along their rays (float64) to the sphere around the mesh: ray parameters then stay
     # of the mesh's size in float32 however far the eye is (lengths, not positions, are integrated)
     radius = 0.5 * float(np.linalg.norm(cells.bounds[1] - cells.bounds[0]))
-    t0 = np.maximum(np.einsum("hwk,hwk->hw", origin - o_np, d_np) - 1.01 * radius, 0.0)
-    o_np = o_np + t0[..., None] * d_np
+    if ORIGIN_SHIFT:
+        t0 = np.maximum(np.einsum("hwk,hwk->hw", origin - o_np, d_np) - 1.01 * radius, 0.0)
+        o_np = o_np + t0[..., None] * d_np
     ray_o = wp.array((o_np - origin).reshape(-1, 3).astype(np.float32), dtype=wp.vec3, device=device)
     ray_d = wp.array(d_np.reshape(-1, 3).astype(np.float32), dtype=wp.vec3, device=device)
     tf_s, tf_v = transfer.to_warp(device)
