@@ -30,9 +30,10 @@ CHOICES = {
 
 
 def scene(name: str, size: int):
-    sc = load_scene(f"scenes/{name}.toml" if not name.startswith("builtin:") and "/" not in name
-                    and name not in ("sphere", "box", "linear_box", "concave", "stiff") else
-                    (name if ":" in name or "/" in name else f"builtin:{name}"))
+    """A built-in scene by name, else ``scenes/NAME.toml``, at ``size`` x ``size`` pixels."""
+    from warpvol.scene.builtin import BUILTIN_SCENES
+
+    sc = load_scene(f"builtin:{name}" if name in BUILTIN_SCENES else f"scenes/{name}.toml")
     return sc.with_camera(width_px=size, height_px=size)
 
 

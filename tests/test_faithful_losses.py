@@ -56,3 +56,36 @@ def test_cell_projection_quiet_on_ordinary_meshes():
     res = Pipeline.load("kraus2004_basic").render(builtin_scene("sphere").with_camera(width_px=24, height_px=24),
                                                   quiet=True)
     assert "warning" not in res.report["stats"].get("pt_project", {})
+
+
+def _measure_script():
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location(
+        "measure_fp32_setups", Path(__file__).resolve().parents[1] / "scripts" / "measure_fp32_setups.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_harc_peel_tolerance_is_stated_and_changes_nothing_through_reentries():
+    """The stated size of the peel tolerance (no pixel, no lost ray) against the plain comparison."""
+    for name in ("espinha2005_full", "espinha2005_partial"):
+        text = Pipeline.load(name).known_losses
+        assert "1e-6 of the mesh radius before the last exit" in text and "no pixel and no lost-ray count" in text
+    m = _measure_script()
+    (row,) = [r for r in m.measure("peel_tol", m.scene("concave", 24)) if r["preset"] == "espinha2005_full"]
+    assert row["counts_faithful"]["harc_peel.reentries"] > 0  # the peel test really ran
+    assert row["pixels_differ"] == 0 and row["counts_faithful"] == row["counts_plain"]
+
+
+def test_vsbuffer_origin_shift_is_stated_and_within_its_stated_size():
+    """The float64 origin shift against the mesh's own frame: within the stated pixel and missed-cell bounds."""
+    text = Pipeline.load("westermann1997").known_losses
+    assert "changes pixels by less than 2e-5" in text and "missed_cells by at most 25" in text
+    m = _measure_script()
+    (row,) = m.measure("origin_shift", m.scene("sphere", 24))
+    assert 0 < row["max_diff"] < 2e-5  # the shift does change float32 rounding, by less than stated
+    a, b = row["counts_faithful"]["vsbuffer.missed_cells"], row["counts_plain"]["vsbuffer.missed_cells"]
+    assert a > 0 and abs(a - b) <= 25
