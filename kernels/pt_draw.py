@@ -11,7 +11,9 @@ pixel centre, in registers:
 1. the attributes from per-triangle plane equations (:func:`attribute_planes`: set up from ``pos``,
    the positions where the attributes were taken -- with ``pt_project exact_attrs`` the unsnapped
    vertices and diagonal crossings, while coverage follows the snapped ones -- evaluated from the
-   first vertex); the fragment list interpolates with per-fragment barycentrics instead;
+   first vertex; a pixel centre the snapped coverage takes past an unsnapped edge gets the attributes of
+   the triangle's nearest point, :func:`nearest_on_triangle`); the fragment list interpolates with
+   per-fragment barycentrics instead;
 2. each attribute clamped into its triangle's vertex range (:func:`clamp8`, the test of
    :func:`~warpvol.kernels.pt.clamp_attr`);
 3. ``(sf, sb, l)`` by Kraus et al.'s division (:func:`sfsbl_ray`), the exact thickness with the
@@ -83,6 +85,54 @@ def attribute_planes(pa: wp.vec4, pb: wp.vec4, pc: wp.vec4, a0: vec8f, a1: vec8f
         g[0, k] = gx[k]
         g[1, k] = gy[k]
     return g
+
+
+@wp.func
+def edge_nearest(ax: float, ay: float, bx: float, by: float, x: float, y: float) -> wp.vec2:
+    """(squared distance, parameter t) of the point of segment a-b nearest ``(x, y)``."""
+    ex = bx - ax
+    ey = by - ay
+    ll = ex * ex + ey * ey
+    t = float(0.0)
+    if ll > 0.0:
+        t = wp.clamp(((x - ax) * ex + (y - ay) * ey) / ll, 0.0, 1.0)
+    dx = ax + t * ex - x
+    dy = ay + t * ey - y
+    return wp.vec2(dx * dx + dy * dy, t)
+
+
+@wp.func
+def nearest_on_triangle(pa: wp.vec4, pb: wp.vec4, pc: wp.vec4, a0: vec8f, a1: vec8f, a2: vec8f, x: float, y: float,
+                        planes: vec8f) -> vec8f:
+    """The attributes at the window point ``(x, y)``: the plane value ``planes`` where the point lies in
+    the triangle of the unsnapped positions ``pa..pc``; where it lies outside (snapped coverage takes
+    pixel centres up to the snapping's shift beyond the unsnapped edges) those of the triangle's point
+    nearest it, on an edge. Extrapolated past an edge of a sliver triangle the planes would change by
+    the steep gradient across it (and a thickness past the tet's outline would turn negative, its
+    magnitude a spurious segment); at the nearest point the attributes are what the cell has there,
+    continuous with its neighbour along the shared edge, at most the snapping's shift from the pixel
+    centre. A triangle of zero unsnapped area keeps ``planes``."""
+    ux = pb[0] - pa[0]
+    uy = pb[1] - pa[1]
+    vx = pc[0] - pa[0]
+    vy = pc[1] - pa[1]
+    den = ux * vy - vx * uy
+    if den == 0.0:
+        return planes
+    dx = x - pa[0]
+    dy = y - pa[1]
+    b1 = (dx * vy - dy * vx) / den
+    b2 = (dy * ux - dx * uy) / den
+    if b1 >= 0.0 and b2 >= 0.0 and 1.0 - b1 - b2 >= 0.0:
+        return planes
+    eab = edge_nearest(pa[0], pa[1], pb[0], pb[1], x, y)
+    ebc = edge_nearest(pb[0], pb[1], pc[0], pc[1], x, y)
+    eca = edge_nearest(pc[0], pc[1], pa[0], pa[1], x, y)
+    if eab[0] <= ebc[0] and eab[0] <= eca[0]:
+        return a0 + (a1 - a0) * eab[1]
+    if ebc[0] <= eca[0]:
+        return a1 + (a2 - a1) * ebc[1]
+    return a2 + (a0 - a2) * eca[1]
 
 
 @wp.func
@@ -161,7 +211,8 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
                 if term and 1.0 - d[3] <= t_min:
                     nskip += 1
                     continue
-                x = a0 + gx * (float(j) + 0.5 - pa[0]) + ry
+                x = nearest_on_triangle(pa, pb, pc, a0, a1, a2, float(j) + 0.5, float(i) + 0.5,
+                                        a0 + gx * (float(j) + 0.5 - pa[0]) + ry)
                 a, moved = clamp8(x, lo, hi, tol)
                 nfrag += 1
                 nclamp += moved

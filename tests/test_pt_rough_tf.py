@@ -68,3 +68,29 @@ def test_attributes_are_taken_where_their_positions_say():
     four = exact.tris[0::4, 0] != exact.tris[0::4, 1]  # drawn tets
     d = np.abs(ap[n:, :2] - pos[n:, :2])[four[: len(ap) - n]]
     assert d.max() <= 2.0 / 256.0 and (d > 0).any()
+
+
+@pytest.mark.parametrize("dims,px,eye", [
+    ((9, 7, 6), 24, (2.2, 1.7, 2.9)),                    # the stress case ghost_layers_hex's mesh and view
+    ((9, 7, 6), 22, (2.809513, -1.082425, 0.545607)),
+    ((8, 8, 4), 37, (0.759987, -1.997032, 1.739854)),
+    ((8, 8, 4), 29, (-0.74297, -0.680711, -1.713809)),
+    ((6, 5, 5), 25, (-1.0226, -1.177284, -1.145724))])
+def test_pixels_the_snapped_coverage_takes_past_an_unsnapped_edge(dims, px, eye):
+    # hexahedra split into tets, a smooth transfer function: some pixel centres lie within the snapping's
+    # shift past an unsnapped edge of a sliver triangle the snapped coverage gives them (a tet seen with a
+    # face nearly edge-on); their attributes are those of the triangle's nearest point, not the planes
+    # extrapolated across the sliver's steep thickness (which past the tet's outline turns negative)
+    from warpvol.scene.camera import Camera
+    from warpvol.scene.mesh import TetMesh
+    from warpvol.scene.scene import Scene
+    from warpvol.scene.transfer import TransferFunction
+    from warpvol.tools.stress_files import FILE_TF, ghost_grid
+
+    mesh, tf = TetMesh.from_pyvista(ghost_grid(dims), "s"), TransferFunction([list(p) for p in FILE_TF])
+    cam = Camera(eye=eye, target=(0.5, 0.5, 0.5), up=(0, 0, 1), fov_y_deg=30.0, width_px=px, height_px=px)
+    sc = Scene(mesh=mesh, transfer=tf, camera=cam, name="hex grid")
+    res = Pipeline.load("pt_best").render(sc, reference=render_reference(mesh, tf, cam), quiet=True)
+    e = res.report["error"]
+    assert e["rmse"] <= TOL["rmse"] and e["max_abs"] <= TOL["max_abs"], e
+    assert not report_warnings(res.report)
