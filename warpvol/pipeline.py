@@ -344,6 +344,7 @@ class Pipeline:
                 ctx.progress(f"{key}: skipped ({reason})")
                 dt = time.perf_counter() - t0
                 rows[key] = {"s": dt, "compile_s": min(clock.seconds, dt), "setup": st.setup, "cached": st.setup}
+                _first_use(ctx, rows[key], report, key)
                 continue
             ctx.progress(f"{key} ...")
             ctx.stage_key = key
@@ -361,6 +362,7 @@ class Pipeline:
             stat = ctx.stats.get(st.name)
             rows[key] = {"s": dt, "compile_s": min(clock.seconds + run_clock.seconds, dt), "setup": st.setup,
                          "cached": bool(isinstance(stat, dict) and stat.get("cached"))}
+            _first_use(ctx, rows[key], report, key)
             ctx.progress(f"{key}: {dt:.3f} s" + (f" (compiling kernels {rows[key]['compile_s']:.3f} s)"
                                                   if rows[key]["compile_s"] >= 0.05 else ""))
         report["total_s"] = time.perf_counter() - t_all
@@ -387,6 +389,17 @@ class Pipeline:
 
             report["error"] = image_error(img, reference)
         return RenderResult(img, report)
+
+
+def _first_use(ctx: Context, row: dict, report: dict, key: str) -> None:
+    """Move the per-mesh set-up the stage ``key`` computed on first use (:meth:`Context.setup_work`) to
+    its timing row (``first_use_s``, counted as set-up) and the report's ``first_use`` section."""
+    if ctx.first_use:
+        row["first_use_s"] = sum(s for _, s in ctx.first_use)
+        sec = report.setdefault("first_use", {}).setdefault(key, {})
+        for what, s in ctx.first_use:
+            sec[what] = sec.get(what, 0.0) + s
+        ctx.first_use.clear()
 
 
 # ------------------------------------------------------------------------------------------------

@@ -10,8 +10,10 @@ chain stages; the built-in stages live with their families (:mod:`warpvol.stages
 from __future__ import annotations
 
 import sys
+import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Iterator
 
 import numpy as np
 
@@ -183,6 +185,38 @@ class Context:
     #: when planning (:meth:`warpvol.pipeline.Pipeline.plan`, no buffers built): what the stages planned to
     #: run before this one will provide; empty in a render
     planned: set[str] = field(default_factory=set)
+
+    #: per-mesh set-up a stage of the frame computed on first use in this render (``(what, seconds)``,
+    #: kernel compilation excluded), filled through :meth:`setup_work`; the pipeline moves it to the
+    #: stage's ``stage_timing`` row (``first_use_s``), reports it under set-up (``setup_s``) and lists
+    #: it in the report's ``first_use`` section
+    first_use: list[tuple[str, float]] = field(default_factory=list)
+
+    @contextmanager
+    def setup_work(self, what: str) -> Iterator[None]:
+        """Time a block of per-mesh set-up that a frame stage computes on first use (e.g. on a cache
+        miss: face planes, cell shapes) as set-up, not as frame time; enter it only when the work is
+        done, so a warm render reports none."""
+        from warpvol.timing import CompileClock
+
+        t0 = time.perf_counter()
+        with CompileClock() as clock:
+            yield
+        self.first_use.append((str(what), max(0.0, time.perf_counter() - t0 - clock.seconds)))
+
+    def mesh_setup(self, mesh: Any, *names: str) -> None:
+        """Compute the per-mesh properties ``names`` of ``mesh`` (``functools.cached_property`` ones, e.g.
+        ``"face_planes"``) that are not computed yet, as set-up (:meth:`setup_work`)."""
+        from functools import cached_property
+
+        for n in names:  # a plain property is computed on every access: never set-up
+            if not isinstance(getattr(type(mesh), n, None), cached_property):
+                raise TypeError(f"mesh_setup: {type(mesh).__name__}.{n} is not a cached property")
+        missing = [n for n in names if n not in vars(mesh)]
+        if missing:
+            with self.setup_work(f"mesh {', '.join(n.lstrip('_') for n in missing)}"):
+                for n in missing:
+                    getattr(mesh, n)
 
     def left_out(self, why: str | None = None, **amounts: int) -> None:
         """Record what the running stage left out, e.g. ``ctx.left_out(why="invisible under the

@@ -154,8 +154,9 @@ def announce_compile(module: str) -> None:
 
 def split_times(stage_rows: dict[str, dict], total_s: float) -> dict[str, float]:
     """``compile_s``, ``setup_s``, ``render_s`` and ``total_s`` from per-stage rows ``{"s", "compile_s",
-    "setup"}``: compilation wherever it happened, the set-up stages' remaining time, and the rest (the
-    frame, including the planner's own time) so that the three add up to ``total_s``.
+    "setup"}``: compilation wherever it happened, the set-up stages' remaining time plus the per-mesh
+    set-up other stages computed on first use (a row's ``first_use_s``), and the rest (the frame,
+    including the planner's own time) so that the three add up to ``total_s``.
 
     Examples
     --------
@@ -165,7 +166,8 @@ def split_times(stage_rows: dict[str, dict], total_s: float) -> dict[str, float]
     {'compile_s': 1.75, 'setup_s': 0.25, 'render_s': 0.75, 'total_s': 2.75}
     """
     compile_s = sum(r["compile_s"] for r in stage_rows.values())
-    setup_s = sum(r["s"] - r["compile_s"] for r in stage_rows.values() if r["setup"])
+    setup_s = sum(r["s"] - r["compile_s"] if r["setup"] else min(r.get("first_use_s", 0.0), r["s"] - r["compile_s"])
+                  for r in stage_rows.values())
     return {"compile_s": compile_s, "setup_s": setup_s, "render_s": max(0.0, total_s - compile_s - setup_s),
             "total_s": total_s}
 

@@ -403,6 +403,38 @@ def _segment_samples(col: np.ndarray, row: np.ndarray) -> tuple[np.ndarray, np.n
     return np.concatenate(cs)[:, None], np.concatenate(rs)[:, None]
 
 
+def _view_independent_parts(edge_on: bool = True, silhouettes: bool = True, rough: bool = False) -> dict:
+    """The view-independent parts :func:`unresolved_pixels` reads: name -> (mesh attribute of its
+    cache, whether keyed by the transfer function, function computing it)."""
+    parts = {"thin geometry": ("_pt_thin_cache", True, _geometry)}
+    if edge_on:
+        parts["face planes"] = ("_pt_face_planes", False, lambda mesh, tf: _face_planes(mesh))
+    if silhouettes:
+        parts["boundary edges"] = ("_pt_boundary_edges", True, _boundary_edges)
+    if rough:
+        parts["slopes"] = ("_pt_slopes", True, _slopes)
+    return parts
+
+
+def missing_parts(mesh, tf, edge_on: bool = True, silhouettes: bool = True, rough: bool = False) -> list[str]:
+    """Names of the per-mesh / per-transfer-function parts of :func:`unresolved_pixels` (with the same
+    flags) the mesh does not hold yet: set-up its first call computes (:func:`prepare_parts`)."""
+    key = np.asarray(tf.points).tobytes() + tf.emission.encode()
+    out = []
+    for name, (attr, keyed, _) in _view_independent_parts(edge_on, silhouettes, rough).items():
+        cache = mesh.__dict__.get(attr, {})
+        if not (key in cache if keyed else "faces" in cache):
+            out.append(name)
+    return out
+
+
+def prepare_parts(mesh, tf, names: list[str]) -> None:
+    """Compute the parts ``names`` (from :func:`missing_parts`) and keep them on the mesh."""
+    parts = _view_independent_parts(True, True, True)
+    for n in names:
+        parts[n][2](mesh, tf)
+
+
 def unresolved_pixels(mesh, tf, camera, tau: float = THIN_TAU, silhouettes: bool = True,
                       edge_on: bool = True, rough: bool = False) -> dict:
     """The thin tets (:func:`thin_tets`), the faces seen edge-on from the eye (:func:`edge_on_faces`) or

@@ -436,13 +436,14 @@ def resolve_failed(ctx, state: HarcState) -> int:
     import warp as wp
 
     from warpvol.kernels import raycast as kr
-    from warpvol.reference.pixels import redo_pixels_float64
+    from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
 
     status = state.status.numpy()
     failed = np.flatnonzero(status == int(kr.STATUS_FAILED))
     if len(failed) == 0:
         return 0
     sc = ctx.scene
+    ctx.mesh_setup(sc.mesh, *redo_mesh_properties(sc.camera))
     val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, failed)
     rgba = state.rgba.numpy()
     rgba[failed] = val

@@ -177,8 +177,11 @@ def mark_unresolved(ctx, status, failed: int) -> tuple[int, int]:
     import warp as wp
 
     sc = ctx.scene
-    pix, n_thin = unresolved_pixels(sc.mesh, sc.transfer, sc.camera, face_on=False,
-                                    cache=ctx.persistent.setdefault("thin_cells", {}))
+    cache = ctx.persistent.setdefault("thin_cells", {})
+    if cache.get("mesh") is not sc.mesh:  # per mesh, kept: set-up, not frame time
+        with ctx.setup_work("thin-cell shapes"):
+            _shape(sc.mesh, cache)
+    pix, n_thin = unresolved_pixels(sc.mesh, sc.transfer, sc.camera, face_on=False, cache=cache)
     if len(pix):
         st = status.numpy()
         st[pix] = failed

@@ -10,6 +10,12 @@ import numpy as np
 from warpvol.reference import numpy_render as ref
 
 
+def redo_mesh_properties(camera) -> tuple[str, ...]:
+    """The per-mesh properties (cached on the mesh) :func:`redo_pixels_float64` reads: set-up the first
+    redo on a mesh computes (``Context.mesh_setup``), not frame work."""
+    return ("sorted_tets", "adjacency") + (("_gradient_and_offset",) if camera.projection == "perspective" else ())
+
+
 def redo_pixels_float64(mesh, tf, camera, pixels: np.ndarray, max_pairs: int = 1_000_000,
                         method: str = "warp") -> np.ndarray:
     """Exact float64 colours (n, 4) of the pixels ``pixels`` (flat indices), for rays the float32

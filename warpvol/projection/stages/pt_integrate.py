@@ -138,16 +138,22 @@ class PTIntegrate(Stage):
         tracer in an fp32 frame buffer, counted; in a lower-precision buffer (a format's rounding is
         its artifact) counted and reported as a warning."""
 
-        from warpvol.projection.pt_thin import unresolved_pixels
-        from warpvol.reference.pixels import redo_pixels_float64
+        from warpvol.projection.pt_thin import missing_parts, prepare_parts, unresolved_pixels
+        from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
 
         sc = ctx.scene
         geo = ctx.buffers["pt_geometry"]  # attributes of the unsnapped positions: rough TFs show where coverage parts
-        u = unresolved_pixels(sc.mesh, sc.transfer, sc.camera, rough=geo.attr_positions is not None)
+        rough = geo.attr_positions is not None
+        missing = missing_parts(sc.mesh, sc.transfer, rough=rough)
+        if missing:  # per mesh and TF, kept on the mesh: set-up, not frame time
+            with ctx.setup_work(f"thin-cell {', '.join(missing)}"):
+                prepare_parts(sc.mesh, sc.transfer, missing)
+        u = unresolved_pixels(sc.mesh, sc.transfer, sc.camera, rough=rough)
         px = u["pixels"]
         st = {"thin_tets": u["thin_tets"], "edge_on_faces": u["edge_on_faces"], "sliver_faces": u["sliver_faces"],
               "silhouette_edges": u["silhouette_edges"], "rough_tets": u["rough_tets"], "float64_pixels": 0}
         if len(px) and self.config["format"] == "fp32":
+            ctx.mesh_setup(sc.mesh, *redo_mesh_properties(sc.camera))
             val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, px)
             img = ctx.image.reshape(-1, 4)
             img[px] = val.astype(img.dtype)

@@ -66,6 +66,7 @@ class SortCells(Stage):
         want = self.config["applies_to"]
         if want == "any":
             return None
+        ctx.mesh_setup(ctx.scene.mesh, "is_convex")  # per mesh, kept on it: set-up on first use
         convex = ctx.scene.mesh.is_convex
         if want == "convex" and not convex:
             return f"non-convex boundary: {self.config['method']} applies to convex meshes only"

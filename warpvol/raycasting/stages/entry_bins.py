@@ -15,6 +15,10 @@ import numpy as np
 from warpvol.stage import Context, Param, Stage, register_stage
 
 
+#: the per-mesh properties (cached on the mesh) :func:`entry_face_mask` reads: set-up on first use
+ENTRY_MESH_PROPERTIES = ("boundary_faces", "face_planes", "bounds")
+
+
 def entry_face_mask(mesh, camera, faces: np.ndarray | None = None) -> np.ndarray:
     """Boundary faces a ray may enter through (conservative: the kernel's Plücker test decides).
     ``faces``: ``(B, 2)`` rows ``(tet, local face)`` to choose from (the visible sub-mesh's boundary,
@@ -142,6 +146,7 @@ class EntryBins(Stage):
         import warp as wp
 
         faces = ctx.buffers.get("cells", {}).get("entry_faces")
+        ctx.mesh_setup(ctx.scene.mesh, *ENTRY_MESH_PROPERTIES)
         b = bin_boundary_faces(ctx.scene.mesh, ctx.scene.camera, self.tile, faces)
         ctx.stats["entry_faces"] = int(len(b["bface_tet"]))
         ctx.stats["entry_bin_items"] = int(len(b["tile_items"]))

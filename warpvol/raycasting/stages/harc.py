@@ -171,6 +171,7 @@ class Harc(Stage):
                 raise ConfigError(f"{self.where}.{key}: no table {name!r} in this pipeline; put a table stage "
                                   f"with output = {name!r} before this stage")
             tables[key] = ctx.buffers[name]
+        ctx.mesh_setup(ctx.scene.mesh, "edge_lengths")  # lmax's; per mesh, kept on it: set-up on first use
         ig, keep = integ_setup(self.integration, ctx.scene.transfer, ctx.device, iso_rule=self.iso_rule,
                                weight_bits=self.weight_bits or None, lmax=ctx.scene.mesh.lmax,
                                cache=ctx.persistent.setdefault("harc_textures", {}), tf_texture=self.tf_texture,

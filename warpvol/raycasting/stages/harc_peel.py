@@ -29,6 +29,7 @@ class HarcPeel(Stage):
     def skip_reason(self, ctx: Context) -> str | None:
         from warpvol.raycasting.visible import confined
 
+        ctx.mesh_setup(ctx.scene.mesh, "is_convex")  # per mesh, kept on it: set-up on first use
         if ctx.scene.mesh.is_convex and not confined(ctx):
             return "mesh boundary is convex: every ray enters the mesh at most once (no boundary layer to peel)"
         return None

@@ -29,8 +29,10 @@ class HarcRaster(Stage):
 
     def run(self, ctx: Context) -> None:
         from warpvol.raycasting.harc import entry_fragments
+        from warpvol.raycasting.stages.entry_bins import ENTRY_MESH_PROPERTIES
 
         faces = ctx.buffers.get("cells", {}).get("entry_faces")  # the visible sub-mesh's (cell_setup)
+        ctx.mesh_setup(ctx.scene.mesh, *ENTRY_MESH_PROPERTIES)
         e = entry_fragments(ctx.scene.mesh, ctx.scene.camera, ctx.device, faces)
         ctx.buffers["harc_entry"] = e
         # the vertex stage and the rasteriser count their own work (vertices, primitives, fragments)

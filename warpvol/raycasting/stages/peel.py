@@ -39,6 +39,7 @@ class Peel(Stage):
     def skip_reason(self, ctx: Context) -> str | None:
         from warpvol.raycasting.visible import confined
 
+        ctx.mesh_setup(ctx.scene.mesh, "is_convex")  # per mesh, kept on it: set-up on first use
         if ctx.scene.mesh.is_convex and not confined(ctx):
             return "mesh boundary is convex: every ray enters the mesh at most once"
         return None

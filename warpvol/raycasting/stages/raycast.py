@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from warpvol.parallel import blocks, cpu_threads, launch_blocks
-from warpvol.reference.pixels import redo_pixels_float64
+from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
 from warpvol.stage import Context, Param, Stage, register_stage
 
 
@@ -136,6 +136,7 @@ def resolve_failed(ctx: Context, state: MarchState) -> int:
     if len(failed) == 0:
         return 0
     sc = ctx.scene
+    ctx.mesh_setup(sc.mesh, *redo_mesh_properties(sc.camera))
     val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, failed)
     rgb, trans = state.rgb.numpy(), state.trans.numpy()
     rgb[failed] = val[:, :3]

@@ -181,12 +181,19 @@ class VsbSweep(Stage):
         :func:`~warpvol.raycasting.thin_cells.edge_on_pixels`), traced again in float64."""
         import numpy as np
 
-        from warpvol.raycasting.thin_cells import edge_on_pixels, silhouette_pixels, unresolved_pixels
-        from warpvol.reference.pixels import redo_pixels_float64
+        from warpvol.raycasting.stages.entry_bins import ENTRY_MESH_PROPERTIES
+        from warpvol.raycasting.thin_cells import _shape, edge_on_pixels, silhouette_pixels, unresolved_pixels
+        from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
 
         sc = ctx.scene
         tets = getattr(sc.mesh, "pieces", sc.mesh)  # a ConvexCellMesh's tets
-        pix, n_thin = unresolved_pixels(ctx.buffers["vsb_cells"].pieces, sc.transfer, sc.camera)
+        pieces = ctx.buffers["vsb_cells"].pieces
+        cache = ctx.persistent.setdefault("vsb_thin_cells", {})  # per mesh, kept: set-up, not frame time
+        if cache.get("mesh") is not pieces:
+            with ctx.setup_work("thin-piece shapes"):
+                _shape(pieces, cache)
+        ctx.mesh_setup(tets, *ENTRY_MESH_PROPERTIES)  # silhouette_pixels' entry faces
+        pix, n_thin = unresolved_pixels(pieces, sc.transfer, sc.camera, cache=cache)
         edge = np.union1d(silhouette_pixels(tets, sc.camera), edge_on_pixels(tets, sc.camera))
         ctx.stats["vsbuffer"].update(thin_pieces=n_thin, thin_rays_redone=int(len(pix)),
                                      silhouette_rays_redone=int(len(np.setdiff1d(edge, pix))))
@@ -194,6 +201,7 @@ class VsbSweep(Stage):
         if len(pix):
             h, w = sc.camera.height_px, sc.camera.width_px
             out = np.array(img, dtype=np.float32).reshape(h * w, 4)
+            ctx.mesh_setup(tets, *redo_mesh_properties(sc.camera))
             out[pix] = redo_pixels_float64(tets, sc.transfer, sc.camera, pix)
             img = out.reshape(h, w, 4)
             ctx.progress(f"{self.name}: {len(pix)} rays that may cross pieces thinner than float32 resolves, or "
