@@ -37,13 +37,24 @@ ctx.Module._compile = counted
 wp.init()
 import warpvol
 
-scene = warpvol.builtin_scene("sphere").with_camera(width_px=32, height_px=32)
-warpvol.render(scene, pipeline=sys.argv[2], reference=False)
+if sys.argv[2] == "unnamed":  # launch_blocks given no modules: the loader lets one thread compile
+    from warpvol.kernels import vertex
+    from warpvol.parallel import launch_blocks
+
+    pts = wp.zeros(64, dtype=wp.vec3, device="cpu")
+    outs = [wp.zeros(64, dtype=wp.vec4, device="cpu") for _ in range(3)]
+    m = wp.mat44(*[float(i % 5 == 0) for i in range(16)])
+    launch_blocks("cpu", 8, lambda b: wp.launch(vertex.k_transform, dim=64, inputs=[pts, m, m, m, *outs],
+                                                device="cpu"), threads=4)
+else:
+    scene = warpvol.builtin_scene("sphere").with_camera(width_px=32, height_px=32)
+    warpvol.render(scene, pipeline=sys.argv[2], reference=False)
 print(json.dumps(compiles))
 """
 
 
-def test_threaded_launches_compile_each_module_once(tmp_path):
+def count_compiles(tmp_path, what: str) -> dict[str, int]:
+    """Compilations per module of ``what`` (a preset, or ``unnamed``) on a fresh kernel cache."""
     from warp._src import context as ctx
 
     if not hasattr(ctx.Module, "_compile"):
@@ -52,12 +63,22 @@ def test_threaded_launches_compile_each_module_once(tmp_path):
         pytest.skip("one core: launch_blocks launches in order on the calling thread, nothing runs concurrently")
     script = tmp_path / "count_compiles.py"
     script.write_text(COUNT_SCRIPT)
-    p = subprocess.run([sys.executable, str(script), str(tmp_path / "kernel-cache"), "westermann1997"],
+    p = subprocess.run([sys.executable, str(script), str(tmp_path / "kernel-cache"), what],
                        capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr[-3000:]
-    compiles = json.loads(p.stdout.strip().splitlines()[-1])
+    return json.loads(p.stdout.strip().splitlines()[-1])
+
+
+def test_threaded_launches_compile_each_module_once(tmp_path):
+    compiles = count_compiles(tmp_path, "westermann1997")
     # the modules the host threads launch were compiled in this process (a fresh cache) ...
     for m in ("warpvol.kernels.raster", "warpvol.kernels.raster_draw", "warpvol.kernels.vsbuffer"):
         assert m in compiles, compiles
     # ... and each exactly once
     assert {m: n for m, n in compiles.items() if n != 1} == {}, compiles
+
+
+def test_unnamed_module_compiles_once(tmp_path):
+    """Four host threads launch a module nobody loaded first (``launch_blocks`` without ``modules``):
+    one compiles it, the others wait and load the result."""
+    assert count_compiles(tmp_path, "unnamed") == {"warpvol.kernels.vertex": 1}

@@ -34,7 +34,9 @@ def launch_blocks(device: str, n_blocks: int, launch: Callable[[int], None], thr
 
     ``modules`` names what the launches run (Warp kernels, Warp modules or Python modules of kernels):
     they are compiled or loaded here, on the calling thread, before any block starts (:func:`preload`),
-    so that no two host threads compile the same module at once.
+    so that no two host threads compile the same module at once. A module not named still compiles
+    once: before the threads start, Warp's loader is wrapped to let one thread at a time into a
+    module's load (:func:`warpvol.timing.install_loader`); the others wait for it.
 
     An exception in the calling thread while it waits (``KeyboardInterrupt`` from Ctrl-C) or in a block
     cancels the blocks not yet started; a CPU launch in flight cannot be interrupted, so the wait is
@@ -48,6 +50,9 @@ def launch_blocks(device: str, n_blocks: int, launch: Callable[[int], None], thr
         order = order[::-1] if mode == "reversed" else random.Random(n_blocks).sample(order, n_blocks)
         threads = max(2, threads)
     if str(device).startswith("cpu") and threads > 1 and n_blocks > 1:
+        from warpvol.timing import install_loader
+
+        install_loader()
         failed = threading.Event()  # set by the first block that raises: queued blocks then do nothing
 
         def guarded(b: int) -> None:

@@ -6,9 +6,12 @@ reported as the time of a frame. :class:`CompileClock` measures the wall time sp
 module loader while it is active; :class:`~warpvol.pipeline.Pipeline` wraps each stage in one and
 reports ``compile_s`` apart from the per-mesh set-up (``setup_s``) and the frame (``render_s``).
 
-The loader is wrapped the first time a clock is used (never at import), and the wrapper costs a few
-microseconds per launch: Warp calls the loader on every launch, which returns at once when the module
-is already loaded. Calls shorter than :data:`MIN_LOAD_S` are such fast paths and are not counted.
+The loader is wrapped the first time a clock is used or blocks are launched from host threads
+(:func:`install_loader`; never at import), and the wrapper costs a few microseconds per launch: Warp
+calls the loader on every launch, which returns at once when the module is already loaded. Calls
+shorter than :data:`MIN_LOAD_S` are such fast paths and are not counted. The wrapper also lets one
+thread at a time into a module's loader: a thread launching a module another thread is compiling
+waits for that compilation and then loads the result, instead of compiling the module a second time.
 
 Examples
 --------
@@ -34,6 +37,7 @@ ANNOUNCE_AFTER_S = 0.5
 _lock = threading.Lock()
 _active: list["CompileClock"] = []
 _local = threading.local()
+_load_locks: dict[tuple[int, str], threading.RLock] = {}  # see _module_lock
 _installed = False
 
 
@@ -49,6 +53,19 @@ def _module_class():
     return getattr(ctx, "Module", None)
 
 
+def _module_lock(module, device) -> threading.RLock:
+    """The lock of one Warp module's loader on one device (made on first use; ``dict.setdefault`` is
+    atomic). Loads on different devices, or of different modules, do not wait for each other."""
+    key = (id(module), str(device))
+    return _load_locks.get(key) or _load_locks.setdefault(key, threading.RLock())
+
+
+def install_loader() -> bool:
+    """Wrap Warp's module loader (:func:`_install`): before blocks are launched from host threads, so
+    that two threads never compile one module at once."""
+    return _install()
+
+
 def _install() -> bool:
     """Wrap ``Module.load`` once per process; ``False`` when this Warp has no such method."""
     global _installed
@@ -61,6 +78,10 @@ def _install() -> bool:
             return False
 
         def load(self, device, *args, **kwargs):
+            with _module_lock(self, device):  # one thread at a time: a module compiles once
+                return timed_load(self, device, *args, **kwargs)
+
+        def timed_load(self, device, *args, **kwargs):
             if getattr(_local, "depth", 0) or not _active:
                 return orig(self, device, *args, **kwargs)
             _local.depth = 1
