@@ -24,7 +24,9 @@ CAM = Camera(eye=[2.2, 1.7, 2.9], target=[0.5, 0.5, 0.5], width_px=24, height_px
 
 
 @pytest.mark.parametrize("dims,tets,n_pieces,layers,axis", [
-    ((7, 5, 5), False, 2, 1, 0), ((6, 6, 4), True, 2, 2, 1), ((5, 7, 6), False, 3, 1, 2)])
+    ((7, 5, 5), False, 2, 1, 0), ((6, 6, 4), True, 2, 2, 1), ((5, 7, 6), False, 3, 1, 2),
+    ((9, 7, 6), False, 2, 1, 0), ((9, 6, 6), False, 3, 1, 0),  # pieces that each own their interface points
+    ((11, 5, 4), False, 2, 1, 0)])
 def test_pvtu_ghost_cells_are_dropped_and_counted(tmp_path, dims, tets, n_pieces, layers, axis):
     g = ghost_grid(dims, tets)
     path, ghosts = write_pvtu(tmp_path, g, n_pieces, layers, axis)
@@ -61,6 +63,25 @@ def test_a_ghost_cell_whose_copy_is_absent_is_kept(tmp_path, dims, tets):
     whole = TetMesh.from_pyvista(g, "s")
     assert whole.load_notes == {"ghost_cells_kept": g.n_cells // 4}
     assert signed_volumes(whole.points, whole.tets).sum() / 6 == pytest.approx(1.0)
+
+
+def test_pieces_own_copies_of_a_point_join_where_their_data_agree():
+    import pyvista as pv
+
+    from warpvol.scene.interop import _join_piece_points
+
+    # two hexahedra on the unit cube's face x = 1, each with its own copy of the face's four points
+    a = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
+    pts = np.concatenate([a, a + [1, 0, 0]])
+    g = pv.UnstructuredGrid(np.array([8, *range(8), 8, *range(8, 16)]), np.array([12, 12]), pts)
+    for jump, joined in ((0.0, 4), (0.5, 0)):  # the field continuous across the face, or not
+        g.point_data["s"] = pts[:, 0] + np.where(np.arange(16) >= 8, jump, 0.0)
+        notes = {}
+        weld = _join_piece_points(g, notes, pieces=True)
+        assert int((weld != np.arange(16)).sum()) == joined and notes.get("piece_points_joined", 0) == joined
+        if joined:
+            assert np.array_equal(pts[weld], pts)  # each onto a point at its own position
+    assert (_join_piece_points(g, {}, pieces=False) == np.arange(16)).all()  # not from pieces: left as they are
 
 
 def _without_flags(ds):

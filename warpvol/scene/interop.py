@@ -171,7 +171,8 @@ def drop_ghosts(ds, notes: dict, name: str = "mesh"):
     owns, as the pieces of a ``.pvtu`` written with ghost levels carry them) and without cells that use a
     hidden point; ``weld`` maps each point of the result to the point it stands for (a ghost point onto
     the owned point at the same position), or is ``None`` when nothing was dropped. ``notes`` gets
-    ``ghost_cells_dropped`` and ``hidden_cells_dropped`` (when not 0) and ``ghost_points_joined``.
+    ``ghost_cells_dropped`` and ``hidden_cells_dropped`` (when not 0), ``ghost_points_joined`` and
+    ``piece_points_joined`` (:func:`_join_piece_points`).
 
     A ghost cell is dropped only where the data set holds the cell it copies (a cell of the same type on
     points at the same positions, not itself a ghost): a piece read on its own keeps its ghost layer,
@@ -203,22 +204,46 @@ def drop_ghosts(ds, notes: dict, name: str = "mesh"):
     if drop.all():
         raise MeshError(f"{name}: every cell is a ghost or hidden cell ({int(drop.sum())} cells)")
     out = ds.extract_cells(np.flatnonzero(~drop))
-    pts = np.asarray(out.points, dtype=np.float64)
+    return out, _join_piece_points(out, notes, pieces=bool(ghost.any()))
+
+
+def _join_piece_points(out, notes: dict, pieces: bool) -> np.ndarray:
+    """``weld`` of :func:`drop_ghosts`: each point of ``out`` mapped to the point it stands for. A ghost
+    point (``DUPLICATEPOINT``) joins the first owned point at its position (``ghost_points_joined``);
+    with ``pieces`` (ghost cells of other pieces were dropped: the data set was assembled from pieces)
+    an owned point joins the first owned point at its position too where every point-data array agrees
+    (each piece owns its copy of the points on its interface; ``piece_points_joined``). Coincident points
+    whose data differ (a field discontinuous across an internal surface) stay apart."""
     weld = np.arange(out.n_points)
-    if _GHOSTS in out.point_data:
-        dup = (np.asarray(out.point_data[_GHOSTS]) & _DUPLICATEPOINT) != 0
-        if dup.any() and (~dup).any():
-            _, key = np.unique(pts, axis=0, return_inverse=True)
-            key = key.ravel()
-            owner = np.full(key.max() + 1, -1, dtype=np.int64)
-            own = np.flatnonzero(~dup)
-            owner[key[own]] = own
-            target = owner[key[dup]]
-            found = target >= 0
-            weld[np.flatnonzero(dup)[found]] = target[found]
-            if found.any():
-                notes["ghost_points_joined"] = int(found.sum())
-    return out, weld
+    if out.n_points == 0:
+        return weld
+    pts = np.asarray(out.points, dtype=np.float64)
+    pg = np.asarray(out.point_data[_GHOSTS]) if _GHOSTS in out.point_data else np.zeros(out.n_points, np.uint8)
+    dup = (pg & _DUPLICATEPOINT) != 0
+    own = np.flatnonzero(~dup)
+    if len(own) == 0 or not (dup.any() or pieces):
+        return weld
+    _, key = np.unique(pts, axis=0, return_inverse=True)
+    key = key.ravel()
+    owner = np.full(key.max() + 1, -1, dtype=np.int64)
+    owner[key[own[::-1]]] = own[::-1]  # the first owned point at each position
+    target = owner[key[dup]]
+    found = target >= 0
+    weld[np.flatnonzero(dup)[found]] = target[found]
+    if found.any():
+        notes["ghost_points_joined"] = int(found.sum())
+    if pieces:
+        rep = owner[key[own]]
+        other = rep != own
+        same = other.copy()
+        for name in out.point_data.keys():
+            if name != _GHOSTS and not name.startswith("vtkOriginal"):  # (extract_cells' own ids)
+                a = np.asarray(out.point_data[name])
+                same &= (a[own] == a[rep]).reshape(len(own), -1).all(axis=1)
+        weld[own[same]] = rep[same]
+        if same.any():
+            notes["piece_points_joined"] = int(same.sum())
+    return weld
 
 
 def _has_copy(ds, ghost: np.ndarray) -> np.ndarray:

@@ -30,7 +30,8 @@ How cells become tets
   :attr:`TetMesh.load_notes`.
 * Ghost cells of unstructured grids (``vtkGhostType``: the layer a ``.pvtu`` piece carries from its
   neighbours) whose owning copy is in the file, and cells using a hidden point, are dropped and
-  counted; the pieces' copies of each other's points are joined
+  counted; the pieces' copies of each other's points (ghost points, and each piece's own copy of the
+  points on its interface where their point data agree) are joined
   (:func:`warpvol.scene.interop.drop_ghosts`).
 * Any other cell type (polyhedra, higher-order cells) goes through VTK's
   ``vtkDataSetTriangleFilter`` (tets only). Faces that do not conform after that are counted by
