@@ -3,8 +3,11 @@
 
 import json
 
+import pytest
+
 from test_visibility import _scene
 from warpvol.cli import main
+from warpvol.errors import ConfigError
 from warpvol.pipeline import Pipeline
 
 
@@ -54,3 +57,20 @@ def test_cli_plan_measures_with_the_switch(capsys):
     assert main(["plan", "builtin:box", "--pipeline", "pt_best", "--no-skip"] + size) == 0
     out = capsys.readouterr().out
     assert "leaves out:" not in out and "left out:" not in out and "skipping off" in out
+
+
+def test_sweep_option_skip_false(tmp_path):
+    from warpvol.tools.sweep import load_config, run_sweep
+
+    cfg = tmp_path / "s.toml"
+    cfg.write_text('scenes = ["builtin:box"]\npresets = ["pt_best"]\n[[views]]\nname = "tiny"\nwidth_px = 8\n'
+                   'height_px = 8\n[[options]]\nname = "default"\n[[options]]\nname = "no-skip"\nskip = false\n')
+    res = run_sweep(load_config(cfg), tmp_path / "o", serial=True, quiet=True)
+    rows = {r["options"]: r for r in res.rows}
+    assert rows["default"]["status"] == rows["no-skip"]["status"] == "ok"
+    assert rows["default"]["skip"] is True and rows["default"]["left_out"]
+    assert rows["no-skip"]["skip"] is False and rows["no-skip"]["left_out"] == {}
+    bad = tmp_path / "b.toml"
+    bad.write_text(cfg.read_text().replace("skip = false", 'skip = "no"'))
+    with pytest.raises(ConfigError, match=r"skip: expected true or false"):
+        load_config(bad)

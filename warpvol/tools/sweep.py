@@ -16,6 +16,9 @@ A sweep config (TOML)::
     [[options]]
     name = "no-early-termination"
     overrides = { "raycast.t_min" = 0.0 }
+    [[options]]
+    name = "no-skip"                 # skip = false: every render does all the work (render --no-skip)
+    skip = false
 
 Every (scene, view, preset, option) is one task. An option that sets a parameter of a stage the
 preset does not have is *not applicable* to it: a row says so, no task runs. The exact reference of
@@ -110,12 +113,15 @@ def _named(where: str, items: Any, allowed_extra: tuple[str, ...] | None) -> lis
         if it["name"] in seen:
             raise ConfigError(f"{w}.name: {it['name']!r} used twice")
         seen.add(it["name"])
-        if allowed_extra is None:  # options: name + overrides
-            check_keys(w, it, ["name", "overrides"])
+        if allowed_extra is None:  # options: name + overrides (+ skip = false)
+            check_keys(w, it, ["name", "overrides", "skip"])
             ov = it.get("overrides", {})
             if not isinstance(ov, dict) or any("." not in str(k2) for k2 in ov):
                 raise ConfigError(f"{w}.overrides: expected a table of \"stage.param\" = value")
-            out.append((it["name"], tuple(sorted(ov.items()))))
+            if not isinstance(it.get("skip", True), bool):
+                raise ConfigError(f"{w}.skip: expected true or false, got {it['skip']!r}")
+            # (name, overrides), and skip only where it is off: the task keys of other options stay as they were
+            out.append((it["name"], tuple(sorted(ov.items()))) + (() if it.get("skip", True) else (False,)))
         else:  # views: name + Camera fields
             rest = {k2: (tuple(v) if isinstance(v, list) else v) for k2, v in it.items() if k2 != "name"}
             check_keys(w, rest, list(allowed_extra))
@@ -259,7 +265,8 @@ def run_task(task: Task, ref_path: str, outdir: str, kernel_cache_dir: str | Non
     try:
         scene = _view_scene(task.scene, task.view, task.scene_sha)
         pipe = Pipeline.from_config(pipeline_config(task.preset, task.option[1]), where=f"preset {task.preset!r}")
-        res = bench_pipeline(pipe, scene, np.load(ref_path), repeats=task.repeats, audit=False)
+        res = bench_pipeline(pipe, scene, np.load(ref_path), repeats=task.repeats, audit=False,
+                             skip=task.option[2] if len(task.option) > 2 else True)
     except Exception as e:  # noqa: BLE001 - reported with its error; the other tasks go on
         return {**row, "status": "failed", "message": f"{type(e).__name__}: {e}"}
     img = res.pop("_image")
