@@ -74,3 +74,18 @@ def test_sweep_option_skip_false(tmp_path):
     bad.write_text(cfg.read_text().replace("skip = false", 'skip = "no"'))
     with pytest.raises(ConfigError, match=r"skip: expected true or false"):
         load_config(bad)
+
+
+def test_stress_no_skip(tmp_path):
+    from warpvol.tools.stress import Case, run_case
+
+    sc = _scene(px=12)
+    n = sc.mesh.n_tets
+    case, pipes = Case("layers", sc, ""), [Pipeline.load("pt_best")]
+    on, off = run_case(case, pipes)[1], run_case(case, pipes, skip=False)[1]
+    assert on["status"] == off["status"] == "ok"
+    assert f"sort: cells_culled {n - n // 5}" in on["left_out"] and off["left_out"] == ""
+    out = tmp_path / "st"
+    assert main(["stress", "--quick", "--cases", "one_tet", "--pipelines", "pt_best", "--no-skip", "-o", str(out),
+                 "--quiet"]) == 0
+    assert json.loads(next((out / "cases").glob("*.json")).read_text())["skip"] is False

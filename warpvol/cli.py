@@ -361,7 +361,8 @@ def cmd_stress(args) -> int:
         owned.check(rels)
         if not args.resume:
             owned.remove(owned.owned_in(CASE_DIR))
-        saved, save = case_store(outdir, args.quick, pipe_names, owned=owned, note=_note(args.quiet),
+        saved, save = case_store(outdir, args.quick, pipe_names, skip=not args.no_skip, owned=owned,
+                                 note=_note(args.quiet),
                                  digests={n: pipeline_digest(n) for n in pipe_names})
     else:
         outdir = None
@@ -369,7 +370,8 @@ def cmd_stress(args) -> int:
             print(f"warpvol: stress: resuming, {len(saved)} case(s) read from {outdir / CASE_DIR}", file=sys.stderr)
     try:
         rows = run_stress(quick=args.quick, cases=names, pipelines=pipe_names, device=args.device,
-                          quiet=args.quiet, done=saved, on_case=save, progress=args.progress)
+                          quiet=args.quiet, done=saved, on_case=save, progress=args.progress,
+                          skip=not args.no_skip)
     except KeyboardInterrupt:
         if outdir is not None:
             print(f"warpvol: stress: the finished cases are saved in {outdir / CASE_DIR}; run the same command "
@@ -546,6 +548,8 @@ def build_parser() -> argparse.ArgumentParser:
                     "terminal (lines for a log; --quiet wins)")
     st.add_argument("--resume", action="store_true", help="reuse the cases already saved in -o's cases/ (an "
                     "interrupted run; same --quick and pipelines) and run the rest")
+    st.add_argument("--no-skip", action="store_true", help="every render does all the work (render --no-skip): "
+                    "no culling of invisible cells, no empty-space skipping, no early ray termination")
     common(st)
     st.set_defaults(func=cmd_stress)
 

@@ -217,9 +217,10 @@ def report_warnings(report: dict) -> list[str]:
 
 
 def run_case(case: Case, pipes: list[Any], device: str = "cpu",
-             on_step: Callable[[str], None] | None = None) -> list[dict]:
+             on_step: Callable[[str], None] | None = None, skip: bool = True) -> list[dict]:
     """Rows for one case: the reference's row, then one per pipeline (never raises, but for Ctrl-C).
-    ``on_step(what)`` is told what starts next (the reference, each pipeline): progress."""
+    ``on_step(what)`` is told what starts next (the reference, each pipeline): progress. ``skip=False``:
+    every render does all the work (``--no-skip``); a row's ``left_out`` says what a render left out."""
     step = on_step or (lambda _what: None)
     from warpvol.metrics import image_error
     from warpvol.progress import detail
@@ -254,8 +255,10 @@ def run_case(case: Case, pipes: list[Any], device: str = "cpu",
         row = {"case": case.name, "pipeline": pipe.name, "finite": None, "rmse": None, "max_abs": None, "message": ""}
         t0 = time.perf_counter()
         try:
-            res = pipe.render(case.scene, quiet=True, device=device)
+            res = pipe.render(case.scene, quiet=True, device=device, **({} if skip else {"skip": False}))
             row["time_s"] = res.report["total_s"]
+            row["left_out"] = "; ".join(f"{k}: " + ", ".join(f"{c} {n}" for c, n in v.items() if c != "why")
+                                        for k, v in res.report.get("left_out", {}).items())
             row.update({k: res.report.get(k) for k in ("render_s", "setup_s", "compile_s")})
             row["finite"] = bool(np.isfinite(res.image).all())
             row["status"] = "ok" if row["finite"] else "failed"
@@ -277,12 +280,14 @@ def run_case(case: Case, pipes: list[Any], device: str = "cpu",
 
 def run_stress(quick: bool = False, cases: list[str] | None = None, pipelines: Any = "all", device: str = "cpu",
                quiet: bool = True, done: dict[str, list[dict]] | None = None,
-               on_case: Callable[[str, list[dict]], None] | None = None, progress: bool = False) -> list[dict]:
+               on_case: Callable[[str, list[dict]], None] | None = None, progress: bool = False,
+               skip: bool = True) -> list[dict]:
     """Every case x every pipeline; a case that cannot even be built is a failed row. ``quick``: the
     reduced sizes of each case and :func:`warpvol.tools.bench.quick_pipeline`. ``done``: rows of cases
     already run (a resumed suite: they are not run again); ``on_case(name, rows)`` is called after
     each case that runs (e.g. to save it at once). Progress (a unit per reference and per render, with the
-    time left) goes to stderr on a terminal (``progress``: also elsewhere, as lines; ``quiet``: never)."""
+    time left) goes to stderr on a terminal (``progress``: also elsewhere, as lines; ``quiet``: never).
+    ``skip=False``: every render does all the work (``--no-skip``)."""
     from warpvol.progress import ProgressBar
     from warpvol.tools.bench import load_pipelines
 
@@ -315,7 +320,7 @@ def run_stress(quick: bool = False, cases: list[str] | None = None, pipelines: A
                 prog.advance(1 if steps[0] else 0, f"{n}: {what}")
                 steps[0] += 1
 
-            rows += run_case(case, pipes, device, on_step=step)
+            rows += run_case(case, pipes, device, on_step=step, **({} if skip else {"skip": False}))
             if on_case is not None:
                 on_case(n, rows[start:])
             prog.set((k + 1) * per, f"{n}: done")
@@ -337,7 +342,7 @@ CASE_DIR = "cases"  # per-case rows under the output folder, written as each cas
 STRESS_FILES = ("stress.json", "stress.csv", "stress.md", "stress.html")
 
 
-def case_store(outdir, quick: bool, pipelines: list[str], *, digests: dict[str, str] | None = None,
+def case_store(outdir, quick: bool, pipelines: list[str], *, skip: bool = True, digests: dict[str, str] | None = None,
                owned: Any = None, note: Callable[[str], None] | None = None):
     """``(saved, save)`` for ``outdir/cases``: the rows of the cases saved there by an earlier run with
     the same ``quick`` flag and pipeline names (a different run's files are an error naming the
@@ -356,15 +361,17 @@ def case_store(outdir, quick: bool, pipelines: list[str], *, digests: dict[str, 
 
     note = note or (lambda _text: None)
     d = Path(outdir) / CASE_DIR
-    key = {"quick": bool(quick), "pipelines": sorted(pipelines)}
+    key = {"quick": bool(quick), "pipelines": sorted(pipelines), "skip": bool(skip)}
     saved: dict[str, list[dict]] = {}
     for f, rec in saved_records(outdir, CASE_DIR, owned):
         if rec is None or not isinstance(rec.get("case"), str) or not isinstance(rec.get("rows"), list):
             note(f"{f} cannot be read (cut short or edited): its case runs again")
             continue
-        if {k: rec.get(k) for k in key} != key:
-            raise ConfigError(f"--resume: {f} is from a run with quick={rec.get('quick')} and pipelines "
-                              f"{rec.get('pipelines')}, this one has quick={key['quick']} and {key['pipelines']}")
+        # a record saved before skip was recorded came from a run with skipping on (the default)
+        if {k: rec.get(k, True if k == "skip" else None) for k in key} != key:
+            raise ConfigError(f"--resume: {f} is from a run with quick={rec.get('quick')}, skip={rec.get('skip', True)} "
+                              f"and pipelines {rec.get('pipelines')}, this one has quick={key['quick']}, "
+                              f"skip={key['skip']} and {key['pipelines']}")
         if digests is not None and rec.get("pipeline_sha") != digests:
             old = rec.get("pipeline_sha") if isinstance(rec.get("pipeline_sha"), dict) else {}
             changed = [n for n in sorted(digests) if old.get(n) != digests[n]]
