@@ -12,8 +12,8 @@ import warp as wp
 
 from .integrate import exp_neg, integrate_piece, integrate_segment_tf
 from .tf import tf_eval_upper, tf_upper, tf_upper_from
-from .walk import (STALL_STEPS, Face, Ray, boundary_face, face_hit, grazing_unresolved, monotone_exit, next_face_from,
-                   thin_at_exit, thin_start, thin_step)
+from .walk import (STALL_STEPS, STEEP_ERR, Face, Ray, boundary_face, face_hit, grazing_unresolved, monotone_exit,
+                   next_face_from, scalar_error, scalar_step, thin_at_exit, thin_start, thin_step)
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -115,10 +115,11 @@ def exact_walk(cell: int, face_in: int, fc: Face, t_in: float, s_in: float, acc:
     compositing front to back into ``acc``: one cell per step (:func:`~warpvol.kernels.walk.next_face_from`,
     the neighbour's new vertex taken from ``nbr_vertex``), the TF value carried from face to face (one TF
     evaluation per face, one linear piece unless a control point is crossed), the thin-layer check of
-    ``raycast``'s march and its check of entries and exits through faces seen nearly edge-on. Stops when
+    ``raycast``'s march, its check of entries and exits through faces seen nearly edge-on and its bound on the
+    crossings' scalar errors (:func:`~warpvol.kernels.walk.scalar_step`). Stops when
     ``1 - A < t_stop``, at the mesh boundary, after ``max_steps`` cells, or
     on a ray it cannot resolve (no exit face, :data:`~warpvol.kernels.walk.STALL_STEPS` steps without
-    progress, a thin layer).
+    progress, a thin layer, crossing scalars too uncertain for the transfer function).
 
     Returns ``(acc, t_in, cell, steps, cells, failed, exited, thin)``: the composited colour, the last exit's
     ray parameter, the last cell, integrated segments, cells visited, failed (1: redo in float64), left the
@@ -134,6 +135,8 @@ def exact_walk(cell: int, face_in: int, fc: Face, t_in: float, s_in: float, acc:
     v_in = tf_eval_upper(s_in, k_in, tf_s, tf_v)
     if grazing_unresolved(1.0 - acc[3], v_in, model, fc, r, t_in, scale):
         failed = 1  # entering through a face seen nearly edge-on: the chord's float32 start is too uncertain
+    ds_in = scalar_error(fc, r)  # the entry crossing's scalar error
+    scal_err = float(0.0)  # bound on the pixel's error from the crossings' scalar errors so far
     gn = tets[cell][face_in]
     while cells < max_steps and failed == 0:
         cells += 1
@@ -159,6 +162,14 @@ def exact_walk(cell: int, face_in: int, fc: Face, t_in: float, s_in: float, acc:
         if thin == 1:
             failed = 1
             break
+        # the crossings' float32 scalars, too uncertain where the transfer function is that steep
+        ds_out = scalar_error(fc, r)
+        scal_err = scalar_step(scal_err, 1.0 - acc[3], t_out - t_in, seg[3], s_in, s_out, v_in, v_out, k_in, k_out, ds_in, ds_out,
+                               tf_s, tf_v, model)
+        if scal_err > STEEP_ERR:
+            failed = 1
+            break
+        ds_in = ds_out
         acc = composite(acc, wp.vec4(seg[0], seg[1], seg[2], 1.0 - exp_neg(seg[3])))
         steps += 1
         k_in = k_out

@@ -10,8 +10,10 @@ integrating each segment exactly for the piecewise-linear transfer function
 resolve -- a cell with no exit face (float32 signs no real ray can produce), no progress in depth
 for :data:`~warpvol.kernels.walk.STALL_STEPS` steps, a segment too short for float32 to know its length beside a density
 contrast that makes the difference visible (a thin layer carrying the image, :func:`~warpvol.kernels.walk.thin_unresolved`),
-or an entry or exit through a face seen so nearly edge-on that the chord's float32 length is visibly uncertain
-(:func:`~warpvol.kernels.walk.grazing_unresolved`) --
+an entry or exit through a face seen so nearly edge-on that the chord's float32 length is visibly uncertain
+(:func:`~warpvol.kernels.walk.grazing_unresolved`), or crossings whose float32 scalars are too uncertain for a
+transfer function that steep (the bound of :func:`~warpvol.kernels.walk.scalar_step` over
+:data:`~warpvol.kernels.walk.STEEP_ERR`) --
 is marked ``STATUS_FAILED`` and redone on the host in float64; it is counted, never silently wrong.
 
 Per-pixel state (radiance, transmittance, ray parameter, status) lives in device arrays so passes
@@ -25,8 +27,8 @@ import warp as wp
 
 from .integrate import exp_neg, integrate_piece, integrate_segment_tf
 from .tf import tf_eval, tf_eval_upper, tf_upper, tf_upper_from
-from .walk import (STALL_STEPS, Face, Ray, boundary_face, face_hit, grazing_unresolved, monotone_exit, next_face_from,
-                   pixel_ray, thin_at_exit, thin_start, thin_step)
+from .walk import (STALL_STEPS, STEEP_ERR, Face, Ray, boundary_face, face_hit, grazing_unresolved, monotone_exit,
+                   next_face_from, pixel_ray, scalar_error, scalar_step, thin_at_exit, thin_start, thin_step)
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -177,6 +179,8 @@ def march(
     thin_mem = thin_start()  # the thin-layer check's memory of the previous segment
     if t_in >= t_clip and grazing_unresolved(tr, v_in, model, fc, r, t_in, scale):
         failed = 1  # entering through a face seen nearly edge-on: the chord's float32 start is too uncertain
+    ds_in = scalar_error(fc, r)  # the entry crossing's scalar error
+    scal_err = float(0.0)  # bound on the pixel's error from the crossings' scalar errors so far
     gn = tets[cell][face_in]
     while steps < max_steps and failed == 0:
         steps += 1
@@ -209,6 +213,14 @@ def march(
             if thin == 1:
                 failed = 1
                 break
+            # the crossings' float32 scalars, too uncertain where the transfer function is that steep
+            ds_out = scalar_error(fc, r)
+            scal_err = scalar_step(scal_err, tr, ln, seg[3], s_in, s_out, v_in, v_out, k_in, k_out, ds_in, ds_out,
+                                   tf_s, tf_v, model)
+            if scal_err > STEEP_ERR:
+                failed = 1
+                break
+            ds_in = ds_out
             acc += tr * wp.vec3(seg[0], seg[1], seg[2])
             tr = tr * exp_neg(seg[3])
         nb = nrow[f_out]

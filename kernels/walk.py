@@ -30,6 +30,10 @@ through a tet, and the thin-layer check of integrated segments (``@wp.func`` onl
 * :func:`thin_step`, :class:`ThinPrev` -- a segment too short for float32 to know its length beside a
   density contrast that makes the difference visible (a thin layer carrying the image,
   :func:`thin_unresolved`): the walker gives the ray up (redone in float64), never a silently wrong pixel.
+* :func:`scalar_error`, :func:`scalar_step` -- a crossing's scalar is known only as well as float32 knows
+  the point (about ``EPS32`` times its distance from the ray origin: a sizeable fraction of a small cell
+  far from it); a transfer function steep on that scale (a narrow peak) makes the pixel uncertain. The
+  walk sums a bound on that error over its segments; past :data:`STEEP_ERR` the ray is redone in float64.
 """
 
 import warp as wp
@@ -53,6 +57,9 @@ THIN_ERR = wp.constant(2.0e-5)
 #: a boundary crossing whose estimated ``t`` error exceeds this many float32 units of ``t`` is grazing (a face
 #: seen nearly edge-on); oblique faces stay below it
 GRAZE_ULPS = wp.constant(32.0)
+#: bound on a walk's pixel error from its crossings' scalar errors (:func:`scalar_step`) above which the ray
+#: is unresolved (redone in float64)
+STEEP_ERR = wp.constant(1.0e-4)
 
 
 @wp.func
@@ -367,23 +374,37 @@ def t_unit(t: float, scale: float) -> float:
 
 
 @wp.func
-def crossing_error(fc: Face, r: Ray) -> float:
-    """How far off in ``t`` the float32 crossing of face ``fc`` can be: each edge value ``w`` rounds by
-    about ``EPS32 |e| |q|`` (edge length times the vertex's distance from the ray origin), and ``t`` is
-    the ``w``-weighted mean of the vertices' ``h``, so it moves by the spread of ``h`` times that over the
-    sum of the ``w`` (the face's projected size). A few :func:`t_unit` for a face the ray crosses
-    head-on or obliquely; far more for a face seen nearly edge-on (``h`` spread wide, the sum of ``w``
-    small), where a ray enters or leaves the mesh at a grazing angle."""
+def weight_error(fc: Face, r: Ray) -> float:
+    """Relative error of the float32 barycentric weights of the crossing of face ``fc``: each edge value
+    ``w`` rounds by about ``EPS32 |e| |q|`` (edge length times the vertex's distance from the ray
+    origin), over the sum of the ``w`` (the face's projected size); 1e30 where that sum is not positive.
+    A few ``EPS32`` for a face the ray crosses head-on or obliquely, far more for one seen nearly edge-on."""
     qa = fc.pa - r.o
     qb = fc.pb - r.o
     qc = fc.pc - r.o
     werr = EPS32 * (wp.length(fc.pb - fc.pa) * wp.length(qa) + wp.length(fc.pc - fc.pb) * wp.length(qb)
                     + wp.length(fc.pa - fc.pc) * wp.length(qc))
-    spread = wp.max(fc.h[0], wp.max(fc.h[1], fc.h[2])) - wp.min(fc.h[0], wp.min(fc.h[1], fc.h[2]))
     ssum = fc.w[0] + fc.w[1] + fc.w[2]
     if not (ssum > 0.0):
-        return spread
-    return wp.min(spread, spread * werr / ssum)
+        return 1.0e30
+    return werr / ssum
+
+
+@wp.func
+def spread_error(a: wp.vec3, rel: float) -> float:
+    """A barycentric mean of ``a`` off by up to the spread of ``a`` times the weights' relative error
+    ``rel`` (at most the spread)."""
+    spread = wp.max(a[0], wp.max(a[1], a[2])) - wp.min(a[0], wp.min(a[1], a[2]))
+    return wp.min(spread, spread * rel)
+
+
+@wp.func
+def crossing_error(fc: Face, r: Ray) -> float:
+    """How far off in ``t`` the float32 crossing of face ``fc`` can be: ``t`` is the weighted mean of the
+    vertices' ``h``, so it moves by the spread of ``h`` times :func:`weight_error`. A few :func:`t_unit`
+    for a face the ray crosses head-on or obliquely; far more for a face seen nearly edge-on (``h``
+    spread wide, the weights small), where a ray enters or leaves the mesh at a grazing angle."""
+    return spread_error(fc.h, weight_error(fc, r))
 
 
 @wp.func
@@ -395,6 +416,36 @@ def grazing_unresolved(tr: float, v: wp.vec4, model: int, fc: Face, r: Ray, t: f
     the chord's float32 length is off by more than the image can take."""
     err = crossing_error(fc, r)
     return err > GRAZE_ULPS * t_unit(t, scale) and tr * density(v, model) * err > THIN_ERR
+
+
+@wp.func
+def scalar_error(fc: Face, r: Ray) -> float:
+    """How far off the float32 scalar at the crossing of face ``fc`` can be: the spread of the face's
+    scalars times :func:`weight_error` (float32 resolves a point on the ray only to about ``EPS32`` times
+    its distance from the ray's origin, a large fraction of a small cell far from it)."""
+    return spread_error(fc.s, weight_error(fc, r))
+
+
+@wp.func
+def scalar_step(err: float, tr: float, ln: float, tau: float, s_in: float, s_out: float, v_in: wp.vec4,
+                v_out: wp.vec4, k_in: int, k_out: int, ds_in: float, ds_out: float,
+                tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp.vec4), model: int) -> float:
+    """The walk's bound ``err`` on its pixel's error from its crossings' scalar errors, plus this
+    segment's: the segment (length ``ln``, optical depth ``tau``, behind transmittance ``tr``) has its end
+    scalars off by up to ``ds_in``, ``ds_out`` (:func:`scalar_error`); its integrated :func:`density`
+    ``D`` moves by ``dD/ds_end`` times that. Within one linear transfer function piece (slope ``g``)
+    ``dD/ds_end = ln g / 2``; across control points ``|ln density(v_end) - D| / |s_out - s_in|`` (a narrow
+    peak inside the segment moves along it). Past :data:`STEEP_ERR` the ray is unresolved (redone in
+    float64): a transfer function steep on the scale of float32's resolution of a point there."""
+    if k_in == k_out:
+        if k_in <= 0 or k_in >= tf_s.shape[0]:
+            return err
+        g = wp.abs(density(tf_v[k_in], model) - density(tf_v[k_in - 1], model)) / (tf_s[k_in] - tf_s[k_in - 1])
+        return err + tr * ln * 0.5 * g * (ds_in + ds_out)
+    dd = density(v_in, model) + density(v_out, model) - v_in[3] - v_out[3]
+    big_d = tau + 0.5 * ln * dd
+    return err + tr * (wp.abs(ln * density(v_in, model) - big_d) * ds_in
+                       + wp.abs(ln * density(v_out, model) - big_d) * ds_out) / wp.abs(s_out - s_in)
 
 
 @wp.func

@@ -13,7 +13,10 @@ raycast/fp32           2e-6         1e-4         float32 points relative to the 
                                                  entry); segment integrals to ~1e-7. Seen: rmse <=
                                                  9.1e-8, max_abs <= 2.1e-6 on the issue-7 cases
                                                  (Delaunay slivers, caps/kites to 1e-12, eyes at
-                                                 1e6 sizes); Blunt Fin 6.8e-8 / 6.4e-6
+                                                 1e6 sizes); Blunt Fin 6.8e-8 / 6.4e-6; Blunt Fin
+                                                 close view 512^2, narrow shell TF (crossing scalars'
+                                                 float32 error bounded, rays over it redone in
+                                                 float64): 9.9e-7 / 2.7e-5
 segment/fp32           (rel) 2e-5   --           one segment integral in float32 vs float64 closed form
 planner/skip           1e-6         1e-5         a render with a stage the planner left out forced back
                                                  on vs the render without it (same pipeline, same
