@@ -67,7 +67,8 @@ class VsbSetup(Stage):
         # as their tets: the VSBUFFER's two passes find the cross-sections of convex cells only
         nonconvex = int(cm.nonconvex.sum())
         cm = cm.drawable
-        _ = cm.boundary, cm.cell_bounds, cm.nonconvex  # derived data built here, not in the timed sweep
+        # derived data built here, not in the timed sweep (the pieces' planes and gradients: the walk's cells)
+        _ = cm.boundary, cm.cell_bounds, cm.nonconvex, cm.pieces.face_planes, cm.pieces.gradients
         # cell kinds by boundary triangles: tet 4, pyramid 6, wedge 8, hexahedron 12 (else "other")
         nf = np.bincount(cm.face_cell, minlength=cm.n_cells)
         kinds = {k: int((nf == f).sum()) for k, f in (("tet", 4), ("pyramid", 6), ("wedge", 8), ("hex", 12))}
