@@ -351,18 +351,20 @@ def _mark_boxes(cover: np.ndarray, col: np.ndarray, row: np.ndarray) -> None:
     cover |= diff.cumsum(axis=0).cumsum(axis=1)[:h, :w] > 0
 
 
-def _mark_near_edges(cover: np.ndarray, col: np.ndarray, row: np.ndarray, delta: float) -> None:
-    """Mark in ``cover`` (H, W) the pixels whose centres lie within ``delta`` (< 0.35) pixels of an edge of
-    the projected triangle of each row of window points ``col``, ``row`` (n, 3) (a sliver narrower than
-    ``2 delta`` lies wholly within that band). Each edge is stepped along its major axis: per pixel
-    column (row) of its span, the one row (column) whose centre is nearest the edge there is tested."""
-    h, w = cover.shape
-    a = np.stack([np.column_stack([col[:, i], row[:, i]]) for i in (0, 1, 2)], axis=1)  # (n, 3, 2)
-    p = a.reshape(-1, 2)
-    d = a[:, [1, 2, 0]].reshape(-1, 2) - p
+def near_segment_pixels(ax, ay, bx, by, w: int, h: int, delta: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(flat pixel index, segment index)`` pairs of the pixel centres of a ``w`` x ``h`` window within
+    ``delta`` (< 0.35) pixels of the window-space segments ``a b`` (non-finite segments are left out). Each
+    segment is stepped along its major axis: per pixel column (row) of its span, the one row (column) whose
+    centre is nearest the segment there is tested -- with ``delta`` < 0.35 no other centre can be within
+    ``delta``."""
+    ax, ay, bx, by = (np.asarray(v, dtype=np.float64) for v in (ax, ay, bx, by))
+    ids = np.flatnonzero(np.isfinite(ax) & np.isfinite(ay) & np.isfinite(bx) & np.isfinite(by))
+    p = np.column_stack([ax[ids], ay[ids]])
+    d = np.column_stack([bx[ids], by[ids]]) - p
     flat = np.abs(d[:, 0]) >= np.abs(d[:, 1])  # closer to horizontal: stepped by column, the others by row
+    pix, seg = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
     for major, sel in ((0, flat), (1, ~flat)):
-        pp, dd = p[sel], d[sel]
+        pp, dd, ss = p[sel], d[sel], ids[sel]
         if len(pp) == 0:
             continue
         lim = float(w if major == 0 else h)
@@ -387,7 +389,19 @@ def _mark_near_edges(cover: np.ndarray, col: np.ndarray, row: np.ndarray, delta:
         near = np.hypot(rx - t * ex, ry - t * ey) <= delta
         jj, ii = (c, other) if major == 0 else (other, c)
         near &= (jj >= 0) & (jj < w) & (ii >= 0) & (ii < h)
-        cover[ii[near], jj[near]] = True
+        pix.append(ii[near] * w + jj[near])
+        seg.append(ss[e[near]])
+    return np.concatenate(pix), np.concatenate(seg)
+
+
+def _mark_near_edges(cover: np.ndarray, col: np.ndarray, row: np.ndarray, delta: float) -> None:
+    """Mark in ``cover`` (H, W) the pixels whose centres lie within ``delta`` (< 0.35) pixels of an edge of
+    the projected triangle of each row of window points ``col``, ``row`` (n, 3) (a sliver narrower than
+    ``2 delta`` lies wholly within that band), by :func:`near_segment_pixels`."""
+    h, w = cover.shape
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        pix, _ = near_segment_pixels(col[:, a], row[:, a], col[:, b], row[:, b], w, h, delta)
+        cover[pix // w, pix % w] = True
 
 
 def _segment_samples(col: np.ndarray, row: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

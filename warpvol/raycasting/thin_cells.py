@@ -289,43 +289,12 @@ def edge_pixels(mesh, camera, tris: np.ndarray, nbr: np.ndarray, delta: float = 
 
 
 def _near_segments(ax, ay, bx, by, ids, w: int, h: int, delta: float):
-    """``(pixel, id)`` pairs: pixel centres within ``delta`` of the window-space segments ``a b``. Each segment
-    is walked along its major axis, one pixel column (row) at a time, testing the three pixels across it."""
-    ok = np.isfinite(ax) & np.isfinite(ay) & np.isfinite(bx) & np.isfinite(by)
-    ax, ay, bx, by, ids = ax[ok], ay[ok], bx[ok], by[ok], ids[ok]
-    xmaj = np.abs(bx - ax) >= np.abs(by - ay)
-    # major axis u (x for x-major), minor v; n the pixel count along u
-    ua, va, ub, vb = np.where(xmaj, ax, ay), np.where(xmaj, ay, ax), np.where(xmaj, bx, by), np.where(xmaj, by, bx)
-    nu = np.where(xmaj, w, h)
-    i0 = np.clip(np.ceil(np.minimum(ua, ub) - delta - 0.5), 0, nu).astype(np.int64)
-    i1 = np.clip(np.floor(np.maximum(ua, ub) + delta - 0.5), -1, nu - 1).astype(np.int64)
-    cnt = np.maximum(i1 - i0 + 1, 0)
-    seg = np.repeat(np.arange(len(ua)), cnt)
-    i = i0[seg] + np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    du, dv = (ub - ua)[seg], (vb - va)[seg]
-    uc = i + 0.5
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.clip(np.where(du != 0, (uc - ua[seg]) / du, 0.0), 0.0, 1.0)
-    vline = va[seg] + t * dv
-    pix, face = [], []
-    nv = np.where(xmaj, h, w)[seg]
-    xm = xmaj[seg]
-    j0 = np.rint(vline - 0.5).astype(np.int64)  # the nearest pixel row (column) to the line
-    for dj in (-1, 0, 1):
-        j = j0 + dj
-        vc = j + 0.5
-        # distance from the pixel centre (uc, vc) to the segment, in window pixels
-        px_u, px_v = uc - ua[seg], vc - va[seg]
-        ll = du * du + dv * dv
-        with np.errstate(divide="ignore", invalid="ignore"):
-            s = np.clip(np.where(ll > 0, (px_u * du + px_v * dv) / ll, 0.0), 0.0, 1.0)
-        d2 = (px_u - s * du) ** 2 + (px_v - s * dv) ** 2
-        hit = (d2 <= delta * delta) & (j >= 0) & (j < nv)
-        col = np.where(xm, i, j)[hit]
-        row = np.where(xm, j, i)[hit]
-        pix.append(row * w + col)
-        face.append(ids[seg[hit]])
-    return np.concatenate(pix), np.concatenate(face)
+    """``(pixel, id)`` pairs: pixel centres within ``delta`` of the window-space segments ``a b``
+    (:func:`warpvol.projection.pt_thin.near_segment_pixels`), each with its segment's entry of ``ids``."""
+    from warpvol.projection.pt_thin import near_segment_pixels
+
+    pix, k = near_segment_pixels(ax, ay, bx, by, w, h, delta)
+    return pix, np.asarray(ids)[k]
 
 
 def silhouette_pixels(mesh, camera) -> np.ndarray:
