@@ -166,27 +166,48 @@ def test_perspective_eye_inside_mesh_starts_in_its_cell(eye):
     np.testing.assert_allclose(res.image, ref, atol=TOL["max_abs"])
 
 
-@pytest.mark.parametrize("preset, tol_key", [("raycast", "raycast/fp32"), ("harc_best", "harc_best")])
-def test_steep_transfer_function_on_small_cells_far_from_the_ray_origin(preset, tol_key):
-    # A cluster of small cells (random scalars, cell 6.7e-3) at the near end of a mesh whose bounding sphere
-    # (radius 5.5) puts the float32 ray origin ~5.5 away: float32 resolves a point there to ~1e-6, a barycentric
-    # weight to ~1e-4, and a transfer function peak 6e-3 wide in the scalar with extinction 300 turns those
-    # crossing scalars' errors into pixel errors of 1.5e-4 (the class of the Blunt Fin close view with a
-    # narrow shell TF). The walk (shared by raycast and harc_best) bounds that error per ray and redoes in
-    # float64 the rays it cannot keep under the tolerance. The eye lies outside the bounding sphere, so
-    # harc_best walks the rays itself.
-    from warpvol.reference.numpy_render import render_reference
-
+def steep_small_cells_case():
+    """A cluster of small cells (random scalars, cell 6.7e-3) at the near end of a mesh whose bounding sphere
+    (radius 5.5) puts the float32 ray origin ~5.5 away, a transfer function peak 6e-3 wide with extinction 300,
+    the eye outside the bounding sphere: ``(mesh, tf, camera)``."""
     rng = np.random.default_rng(2)
     h = 0.02
     small = box_mesh((-h, -h, -h), (h, h, h), (7, 7, 7), scalar=lambda p: 1.0 + 0.02 * rng.standard_normal(len(p)))
     far = box_mesh((10, -1, -1), (11, 1, 1), (2, 2, 2), scalar=lambda p: np.ones(len(p)))
-    m = merge(small, far)
     tf = TransferFunction([[-1, 1, 0.8, 0.5, 0], [0.997, 1, 0.8, 0.5, 0], [1.0, 1, 0.8, 0.5, 300],
                            [1.003, 1, 0.8, 0.5, 0], [3, 1, 0.8, 0.5, 0]])
     cam = Camera(eye=[0.3 * h, 0.2 * h, 8.0], target=[0, 0, 0], fov_y_deg=0.35, width_px=32, height_px=32)
+    return merge(small, far), tf, cam
+
+
+@pytest.mark.parametrize("preset, tol_key", [("raycast", "raycast/fp32"), ("harc_best", "harc_best")])
+def test_steep_transfer_function_on_small_cells_far_from_the_ray_origin(preset, tol_key):
+    # float32 resolves a point ~5.5 from the ray origin to ~1e-6, a barycentric weight of a small cell there to
+    # ~1e-4, and the narrow transfer function peak turns those crossing scalars' errors into pixel errors of
+    # 1.5e-4 (the class of the Blunt Fin close view with a narrow shell TF). The walk (shared by raycast and
+    # harc_best) bounds that error per ray and redoes in float64 the rays it cannot keep under the tolerance.
+    # The eye lies outside the bounding sphere, so harc_best walks the rays itself.
+    from warpvol.reference.numpy_render import render_reference
+
+    m, tf, cam = steep_small_cells_case()
     ref = render_reference(m, tf, cam)
     assert ref[..., 3].max() > 0.9
     res = Pipeline.load(preset, device="cpu").render(scene(m, tf, cam), quiet=True)
     err = np.abs(res.image - ref).max()
     assert err <= TOLERANCES[tol_key]["max_abs"], err
+
+
+def test_harc_note_names_the_eye_inside_only_when_that_is_the_reason():
+    # harc_best hands every ray starting inside the mesh's bounding sphere to the float64 redo and says so in a
+    # note; rays redone for another reason (here: the steep transfer function on small cells, eye outside the
+    # sphere) are not put down to the eye.
+    m, tf, cam = steep_small_cells_case()
+    st = Pipeline.load("harc_best", device="cpu").render(scene(m, tf, cam), quiet=True).report["stats"]["harc"]
+    assert st["unresolved_rays"] > 0.25 * cam.width_px * cam.height_px  # redone, but not for the eye
+    assert st["eye_inside_rays"] == 0 and "note" not in st
+    box = box_mesh(dims=(3, 3, 3), scalar=lambda p: p[:, 0])
+    inside = Camera(eye=[0.1, 0.2, 0.3], target=[1, 0.3, -2], fov_y_deg=60, width_px=12, height_px=10)
+    st = Pipeline.load("harc_best", device="cpu").render(
+        scene(box, TransferFunction([[-2, 1, 0.5, 0.2, 0.6], [2, 0.2, 0.5, 1, 1.4]]), inside),
+        quiet=True).report["stats"]["harc"]
+    assert st["eye_inside_rays"] == 120 and st["note"].startswith("120 of 120 rays")

@@ -382,13 +382,13 @@ class HarcState:
         return self.rgba.numpy().reshape(height, width, 4).astype(np.float32)
 
 
-N_COUNTERS = 12
+N_COUNTERS = 13
 #: the peel test "beyond the last exit" accepts a boundary face from ``PEEL_TOL`` times the mesh radius
 #: before the last exit on (in every set-up; the paper's depth test compared depths plainly)
 PEEL_TOL = 1e-6
 COUNTER_NAMES = ("entries", "steps", "cells", "failed", "step_bound", "iso_missed", "texture_fetches",
                  "entry_searches", "thin_layer_rays", "backward_rays", "edge_entries",
-                 "terminated_early")
+                 "terminated_early", "eye_inside_rays")
 
 
 def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, fb_format: str, t_stop: float,

@@ -220,9 +220,9 @@ class Harc(Stage):
         report_left_out(ctx, self.early_termination if t_stop > 0 else 0.0, c["terminated_early"], missed)
         if redone:
             ctx.progress(f"harc: {redone} rays the float32 walk could not resolve were redone in float64")
-        if not paper and redone - thin_rays > 0.25 * state.n:  # correct, but at the float64 tracer's speed: say why
+        if not paper and c["eye_inside_rays"] > 0.25 * state.n:  # correct, but at the float64 tracer's speed: say why
             ctx.stats["harc"]["note"] = (
-                f"{redone} of {state.n} rays were redone in float64 on the host: the eye lies inside the mesh's "
+                f"{c['eye_inside_rays']} of {state.n} rays were redone in float64 on the host: the eye lies inside the mesh's "
                 "bounding sphere, where a rasterised ray start cannot tell rays that begin inside a cell; "
                 "raycast renders such views in float32")
         ctx.image = state.image(cam.height_px, cam.width_px)
