@@ -127,8 +127,9 @@ def integrate_piece(h: float, front: wp.vec4, back: wp.vec4, model: int) -> wp.v
         s += _piece_term(x + GL_X3 * dx, a, b, r0, dr, c0, dc, model) * GL_W0
         acc += s * (dx * h)
         x = x + dx
-        if wp.exp(-(a * x + 0.5 * b * x * x)) < T_CUTOFF:
-            break
+        if x < 1.0:  # (the piece's end ends the loop anyway: no transmittance test there)
+            if wp.exp(-(a * x + 0.5 * b * x * x)) < T_CUTOFF:
+                break
     return wp.vec4(acc[0], acc[1], acc[2], tau_total)
 
 
