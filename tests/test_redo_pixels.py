@@ -36,17 +36,22 @@ def test_redo_warp_matches_numpy_tracer():
 
 def test_pixel_lists_reuse_the_set_up_and_stay_exact():
     """A renderer's float64 redo (a pixel list, once or twice per frame) keeps the mesh's set-up for the
-    view: a second list is computed from it, bit-identical to the whole image; another view rebuilds it."""
+    view: later lists are computed from it (a list over most of the view keeps every entry of the view for
+    the next ones), bit-identical to the whole image; another view rebuilds it."""
     from warpvol.reference import warp_render as wr
 
     sc = builtin_scene("concave")
     cam = sc.camera.replace(width_px=24, height_px=20)
     full = render_reference_warp(sc.mesh, sc.transfer, cam, device="cpu", show_progress=False)
-    for px in (np.array([5, 77, 301, 450]), np.array([3 * 24 + 11, 19 * 24 + 23])):
+    seen = set()
+    for px in (np.array([5, 77, 301, 450]), np.array([3 * 24 + 11, 19 * 24 + 23]), np.arange(0, 480, 2),
+               np.array([7, 8])):
         got = render_reference_warp(sc.mesh, sc.transfer, cam, device="cpu", pixels=px, show_progress=False)
         assert np.array_equal(got, full.reshape(-1, 4)[px])
-        hit = wr._PIXEL_SETUP[id(sc.mesh)]
-        assert hit[0]() is sc.mesh
+        key = next(reversed(wr._PIXEL_SETUP[sc.mesh]))  # the last used
+        seen.add(key)
+    assert len(seen) == 1
+    assert "cpu" in wr._PIXEL_SETUP[sc.mesh][key].tables  # the every-other-pixel list kept the view's entries
     moved = cam.replace(width_px=25)
     render_reference_warp(sc.mesh, sc.transfer, moved, device="cpu", pixels=np.array([0]), show_progress=False)
-    assert wr._PIXEL_SETUP[id(sc.mesh)][1] != hit[1]
+    assert next(reversed(wr._PIXEL_SETUP[sc.mesh])) != key

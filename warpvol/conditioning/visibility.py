@@ -123,6 +123,23 @@ def per_cell(tet_visible: np.ndarray, cell_start: np.ndarray | None) -> np.ndarr
     return np.logical_or.reduceat(tet_visible, cs[:-1]) if len(cs) > 1 else np.zeros(0, dtype=bool)
 
 
+def cut_at_invisible(adjacency: np.ndarray, visible: np.ndarray) -> np.ndarray:
+    """The adjacency ``(M, 4)`` (neighbour across each face, ``< 0`` at the boundary) of the visible
+    sub-mesh: every face into an invisible tet made a boundary face (-1), so a walk through visible tets
+    ends there. The visible sub-mesh's boundary faces are then the faces of visible tets with a
+    neighbour ``< 0``.
+
+    Examples
+    --------
+    >>> cut_at_invisible(np.array([[1, -1, 2, -1], [0, -1, -1, -1], [0, -1, -1, -1]]),
+    ...                  np.array([True, False, True])).tolist()
+    [[-1, -1, 2, -1], [0, -1, -1, -1], [0, -1, -1, -1]]
+    """
+    adj = np.asarray(adjacency)
+    vis = np.asarray(visible, dtype=bool)
+    return np.where((adj >= 0) & ~vis[np.maximum(adj, 0)], -1, adj)
+
+
 def radiance_bound(tf: TransferFunction, length: float) -> float:
     """The most any one channel of a pixel can still change, per unit of the ray's remaining
     transmittance, whatever lies behind: alpha changes by at most the transmittance itself (1); the

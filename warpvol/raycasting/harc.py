@@ -432,10 +432,12 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
 
 def resolve_failed(ctx, state: HarcState) -> int:
     """Redo the rays marked failed in float64 on the host (whole ray, the reference's watertight
-    tracer: :func:`warpvol.reference.pixels.redo_pixels_float64`); returns how many."""
+    tracer: :func:`warpvol.reference.pixels.redo_pixels_float64`; with skipping on, through the visible
+    cells only, as the float32 walk); returns how many."""
     import warp as wp
 
     from warpvol.kernels import raycast as kr
+    from warpvol.raycasting.visible import skipping
     from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
 
     status = state.status.numpy()
@@ -444,7 +446,7 @@ def resolve_failed(ctx, state: HarcState) -> int:
         return 0
     sc = ctx.scene
     ctx.mesh_setup(sc.mesh, *redo_mesh_properties(sc.camera))
-    val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, failed)
+    val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, failed, visible=skipping(ctx)[0])
     rgba = state.rgba.numpy()
     rgba[failed] = val
     status[failed] = int(kr.STATUS_DONE)

@@ -13,7 +13,9 @@ no visible cell costs only its entry search; a run of invisible cells between tw
 re-entry search instead of one walk step per cell.
 
 The image is the full walk's up to float32 rounding of the re-entry point (the ray parameter of a face
-crossing, computed from the face instead of carried through the invisible cells).
+crossing, computed from the face instead of carried through the invisible cells). The rays the float32 walk
+cannot resolve are redone in float64 through the same visible sub-mesh
+(:func:`warpvol.reference.pixels.redo_pixels_float64` with the mask), bit for bit the whole walk's pixels.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import weakref
 
 import numpy as np
 
+from warpvol.conditioning.visibility import cut_at_invisible
 from warpvol.scene.mesh import FACE_VERTS
 
 
@@ -29,10 +32,8 @@ def visible_boundary(adjacency: np.ndarray, visible: np.ndarray) -> np.ndarray:
     """``(B, 2)`` int64 rows ``(tet, local face)``: the faces of visible tets whose neighbour is invisible
     or absent (the boundary of the visible sub-mesh, each face oriented outward from its visible tet).
     With every tet visible these are the mesh's boundary faces, in the same order."""
-    adj = np.asarray(adjacency)
     vis = np.asarray(visible, dtype=bool)
-    nb_vis = np.where(adj >= 0, vis[np.maximum(adj, 0)], False)
-    return np.argwhere(vis[:, None] & ~nb_vis).astype(np.int64)
+    return np.argwhere(vis[:, None] & (cut_at_invisible(adjacency, vis) < 0)).astype(np.int64)
 
 
 def face_triangles(tets: np.ndarray, faces: np.ndarray) -> np.ndarray:

@@ -31,10 +31,12 @@ import sys
 import threading
 import time
 import weakref
+from collections import OrderedDict
 from typing import Callable
 
 import numpy as np
 
+from warpvol.conditioning.visibility import cut_at_invisible
 from warpvol.errors import ConfigError, check_choice
 from warpvol.parallel import blocks, cpu_threads, launch_blocks, preload
 from warpvol.scene.camera import Camera
@@ -116,13 +118,17 @@ class _View:
         return box, valid
 
 
-def _mesh_data(mesh: TetMesh, view: _View) -> dict:
-    """Per-mesh arrays of the walk, in camera coordinates (NumPy)."""
+def _mesh_data(mesh: TetMesh, view: _View, visible: np.ndarray | None = None) -> dict:
+    """Per-mesh arrays of the walk, in camera coordinates (NumPy); with ``visible``, of the visible
+    sub-mesh: faces into invisible tets are boundary faces (walks end there, entries start there) and
+    only visible tets can hold the eye's chord."""
     Pc = view.camera_coords(np.asarray(mesh.points, dtype=np.float64))
     T, parity, perm = mesh.sorted_tets  # per mesh, kept by it
     hand = 1.0 if np.linalg.det(view.basis) > 0 else -1.0
     orient = parity * hand
     adj = np.take_along_axis(np.asarray(mesh.adjacency, dtype=np.int64), perm, axis=1)  # across face opposite T[:, f]
+    if visible is not None:
+        adj = cut_at_invisible(adj, visible)
     s_eye = (mesh.gradients @ view.eye + mesh.offsets) if view.persp else np.zeros(1)
     near = np.zeros(0, dtype=np.int64)
     tol = 1e-9 * max(1.0, float(np.abs(Pc).max())) if len(Pc) else 0.0
@@ -131,39 +137,117 @@ def _mesh_data(mesh: TetMesh, view: _View) -> dict:
     if view.persp and len(Pc) and ((Pc.min(axis=0) <= tol) & (Pc.max(axis=0) >= -tol)).all():
         tp = Pc[T]
         lo, hi = tp.min(axis=1), tp.max(axis=1)
-        near = np.flatnonzero(((lo <= tol) & (hi >= -tol)).all(axis=1))
-    return dict(Pc=Pc, T=T, orient=orient, adj=adj, s_eye=s_eye, near=near)
+        near = np.flatnonzero(((lo <= tol) & (hi >= -tol)).all(axis=1) & (True if visible is None else visible))
+    return dict(Pc=Pc, T=T, orient=orient, adj=adj, s_eye=s_eye, near=near, visible=visible)
 
 
-#: the set-up of the last pixel-list redos, per mesh: (weak mesh, view key, mesh data, entry faces of all rows)
-_PIXEL_SETUP: dict = {}
+#: the set-up of the pixel-list redos per mesh (kept while the mesh lives, as its cached properties):
+#: (view key, mask key) -> :class:`_Setup`, the :data:`_PIXEL_SETUP_KEEP` last used of each mesh
+_PIXEL_SETUP: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_PIXEL_SETUP_KEEP = 4
 _PIXEL_SETUP_LOCK = threading.Lock()
 #: devices the reference kernels are loaded on (a load that finds them loaded still costs ~50 ms of hashing)
 _LOADED: set = set()
 
 
-def _pixel_setup(mesh: TetMesh, view: _View) -> tuple[dict, tuple]:
-    """:func:`_mesh_data` and :func:`_entry_faces` over all rows, kept for the last view of each of a few
-    meshes: a renderer redoes a few pixels in float64 once or twice per frame, and the set-up (~0.15 s on
-    a 224k-tet mesh) would otherwise cost more than the walk."""
-    key = (view.persp, view.W, view.H, view.eye.tobytes(), view.basis.tobytes(), float(view.sx), float(view.sy))
+class _Setup:
+    """A pixel-list redo's set-up for one (mesh, view, visibility mask): :func:`_mesh_data`, the entry
+    faces of all rows (:func:`_entry_faces`), the walk's arrays per device (:func:`_walk_arrays`) and the
+    view's entry table per device once a list needed most of it (:func:`_list_entries`)."""
+
+    def __init__(self, md: dict, ent: tuple):
+        self.md, self.ent = md, ent
+        self.arrays: dict = {}
+        self.tables: dict = {}
+
+
+def _view_key(view: _View) -> tuple:
+    return (view.persp, view.W, view.H, view.eye.tobytes(), view.basis.tobytes(), float(view.sx), float(view.sy))
+
+
+def _mask_key(visible: np.ndarray | None):
+    """The mask by content (a renderer's mask is a new array after a TF change; two equal masks share)."""
+    return None if visible is None else (len(visible), np.packbits(visible).tobytes())
+
+
+def _pixel_setup(mesh: TetMesh, view: _View, visible: np.ndarray | None = None) -> _Setup:
+    """:class:`_Setup` of (mesh, view, mask), kept with the mesh for its last few (view, mask) pairs: a
+    renderer redoes a few pixels in float64 once or twice per frame, and the set-up (~0.15 s on a 224k-tet
+    mesh) would otherwise cost more than the walk."""
+    key = (_view_key(view), _mask_key(visible))
     with _PIXEL_SETUP_LOCK:
-        hit = _PIXEL_SETUP.get(id(mesh))
-        if hit is not None and hit[0]() is mesh and hit[1] == key:
-            return hit[2], hit[3]
-    md = _mesh_data(mesh, view)
-    ent = _entry_faces(md, view, 0, view.H - 1)
+        kept = _PIXEL_SETUP.setdefault(mesh, OrderedDict())
+        hit = kept.get(key)
+        if hit is not None:
+            kept.move_to_end(key)
+            return hit
+    md = _mesh_data(mesh, view, visible)
+    setup = _Setup(md, _entry_faces(md, view, 0, view.H - 1))
     with _PIXEL_SETUP_LOCK:
-        if len(_PIXEL_SETUP) >= 4:
-            _PIXEL_SETUP.clear()
-        _PIXEL_SETUP[id(mesh)] = (weakref.ref(mesh), key, md, ent)
-    return md, ent
+        kept[key] = setup
+        while len(kept) > _PIXEL_SETUP_KEEP:
+            kept.popitem(last=False)
+    return setup
+
+
+def _visible_mask(mesh: TetMesh, visible) -> np.ndarray | None:
+    """``visible`` as a bool array over the tets (``None`` when absent or when every tet is visible)."""
+    if visible is None:
+        return None
+    vis = np.asarray(visible)
+    if vis.dtype != bool or vis.shape != (int(mesh.n_tets),):
+        raise ConfigError(f"visible: expected a bool array of shape ({int(mesh.n_tets)},), got {vis.dtype} "
+                          f"{vis.shape}")
+    return None if vis.all() else vis
+
+
+#: (mesh id, mask key, TF hash) of the masks checked against a transfer function, the last few
+_CHECKED: OrderedDict = OrderedDict()
+
+
+def _check_visible(mesh: TetMesh, tf: TransferFunction, visible: np.ndarray) -> None:
+    """Refuse a mask that leaves out a tet the transfer function can make visible (one from another
+    transfer function): its pixels would be silently wrong. Once per (mesh, mask, transfer function)."""
+    from warpvol.conditioning.visibility import cell_visibility
+
+    key = (id(mesh), _mask_key(visible), tf.hash)
+    with _PIXEL_SETUP_LOCK:
+        if key in _CHECKED and _CHECKED[key]() is mesh:
+            return
+    n = int(np.count_nonzero(cell_visibility(mesh, tf, pad=0.0) & ~visible))
+    if n:
+        raise ConfigError(f"visible: the mask leaves out {n:,} tets whose scalar range the transfer function maps "
+                          "above zero (a mask made for another transfer function?)")
+    with _PIXEL_SETUP_LOCK:
+        _CHECKED[key] = weakref.ref(mesh)
+        while len(_CHECKED) > 16:
+            _CHECKED.popitem(last=False)
+
+
+def _uploader(device: str) -> Callable:
+    """``arr(a, dtype)``: a NumPy array as a Warp array on ``device``."""
+    import warp as wp
+
+    return lambda a, dtype: wp.array(np.ascontiguousarray(a), dtype=dtype, device=device)
+
+
+def _walk_arrays(mesh: TetMesh, md: dict, view: _View, device: str) -> dict:
+    """The walk's per-mesh arrays on ``device``."""
+    import warp as wp
+
+    arr = _uploader(device)
+    f64 = wp.float64
+    return dict(P=arr(md["Pc"], wp.vec3d), S=arr(np.asarray(mesh.scalars, dtype=np.float64), f64),
+                T=arr(md["T"].astype(np.int32), wp.int32), adj=arr(md["adj"].astype(np.int32), wp.int32),
+                orient=arr(md["orient"], f64), s_eye=arr(md["s_eye"], f64),
+                near=arr(md["near"].astype(np.int32), wp.int32), cxs=arr(view.cx, f64), cys=arr(view.cy, f64))
 
 
 def _entry_faces(md: dict, view: _View, first: int, last: int):
     """Boundary faces that can be an entry: ``(tet, face)`` and their pixel boxes within rows
     ``first..last``."""
-    bt, bf = np.nonzero(md["adj"] < 0)
+    edge = md["adj"] < 0
+    bt, bf = np.nonzero(edge if md["visible"] is None else edge & md["visible"][:, None])
     loc = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])[bf]
     tri = md["T"][bt[:, None], loc]
     p = md["Pc"][tri]  # (B, 3, 3)
@@ -180,6 +264,93 @@ def _entry_faces(md: dict, view: _View, first: int, last: int):
     box[:, 1] = np.minimum(box[:, 1], last)
     keep &= valid & (box[:, 0] <= box[:, 1])
     return bt[keep].astype(np.int32), bf[keep].astype(np.int32), box[keep]
+
+
+#: a pixel list whose entry faces' boxes cover more than this share of all entry faces' boxes of the view
+#: gets every entry of the view (about the same work), kept for the next lists on the same view
+_WHOLE_VIEW_SHARE = 0.5
+
+
+def _box_area(fbox: np.ndarray) -> int:
+    return int(((fbox[:, 1] - fbox[:, 0] + 1).astype(np.int64) * (fbox[:, 3] - fbox[:, 2] + 1)).sum())
+
+
+def _list_entries(setup: _Setup, plist: np.ndarray, first: int, last: int, wa: dict, view: _View, device: str,
+                  threads: int) -> tuple[dict, bool]:
+    """The entry table a pixel list needs (rows ``first..last``) and whether it is the whole view's: the
+    walk reads only the listed pixels' entries, so only faces whose box holds one (counted on a summed-area
+    table of the listed pixels over the rows) are searched, unless they cover most of the view's boxes."""
+    W = view.W
+    ftet, floc, fbox = setup.ent  # the kept faces of all rows
+    if not len(ftet):
+        return _entry_table(setup.ent, wa, view, device, threads), True
+    sat = np.zeros((last - first + 2, W + 1), np.int64)
+    np.add.at(sat, (plist // W - first + 1, plist % W + 1), 1)
+    sat = sat.cumsum(axis=0).cumsum(axis=1)
+    # boxes clipped to these rows as _entry_faces(first, last) clips them
+    i0 = np.minimum(np.maximum(fbox[:, 0], first).astype(np.int64) - first, last - first + 1)
+    i1 = np.minimum(fbox[:, 1], last).astype(np.int64) - first + 1
+    i1 = np.maximum(i1, i0)  # a box outside the rows: empty
+    j0, j1 = fbox[:, 2].astype(np.int64), fbox[:, 3].astype(np.int64) + 1
+    keep = sat[i1, j1] - sat[i0, j1] - sat[i1, j0] + sat[i0, j0] > 0
+    if _box_area(fbox[keep]) > _WHOLE_VIEW_SHARE * _box_area(fbox):
+        return _entry_table(setup.ent, wa, view, device, threads), True
+    box = fbox[keep].copy()
+    box[:, 0] = np.maximum(box[:, 0], first)
+    box[:, 1] = np.minimum(box[:, 1], last)
+    return _entry_table((ftet[keep], floc[keep], box), wa, view, device, threads), False
+
+
+def _entry_table(faces: tuple, wa: dict, view: _View, device: str, threads: int) -> dict:
+    """Every pixel's boundary entries through the faces ``(tet, face, box)`` (count pass, then write pass of
+    :func:`warpvol.kernels.reference.boundary_entries`), grouped by pixel: ``ent_start`` (``W * H + 1``
+    offsets; ``start`` on the host), ``ent_t``, ``ent_tet``, and ``n_ent``, ``n_box`` (pixels tested),
+    ``n_exact``."""
+    import warp as wp
+
+    from warpvol.kernels import reference as K
+
+    arr = _uploader(device)
+    ftet, floc, fbox = faces
+    W, H = view.W, view.H
+    f64 = wp.float64
+    nf = len(ftet)
+    fblocks = blocks(nf, max(1, -(-nf // (4 * threads)))) if device.startswith("cpu") else [(0, nf)]
+    d_ftet, d_floc = arr(ftet, wp.int32), arr(floc, wp.int32)
+    d_box = arr(fbox.reshape(-1, 4) if nf else np.zeros((0, 4), np.int32), wp.vec4i)
+    count = wp.zeros(max(nf, 1), dtype=wp.int64, device=device)
+    fexact = wp.zeros(max(nf, 1), dtype=wp.int64, device=device)
+    offset = wp.zeros(max(nf, 1), dtype=wp.int64, device=device)
+    out = [wp.zeros(1, dtype=wp.int64, device=device), wp.zeros(1, dtype=f64, device=device),
+           wp.zeros(1, dtype=wp.int32, device=device)]
+    geo = [wa[k] for k in ("P", "S", "T", "orient", "s_eye", "cxs", "cys")]
+
+    def entries(write: int):
+        def launch(b: int) -> None:
+            f0, nb = fblocks[b]
+            if nb:
+                wp.launch(K.boundary_entries, dim=nb, device=device,
+                          inputs=[d_ftet, d_floc, d_box, offset, f0] + geo + [int(view.persp), W, write, count,
+                                                                              out[0], out[1], out[2], fexact])
+        launch_blocks(device, len(fblocks), launch, threads)
+
+    entries(0)
+    cnt = count.numpy()[:nf]
+    n_ent = int(cnt.sum())
+    if n_ent:
+        offset = arr(np.cumsum(cnt) - cnt, wp.int64)
+        out = [wp.zeros(n_ent, dtype=wp.int64, device=device), wp.zeros(n_ent, dtype=f64, device=device),
+               wp.zeros(n_ent, dtype=wp.int32, device=device)]
+        entries(1)
+        pix = out[0].numpy()
+        order = np.argsort(pix, kind="stable")
+        ent_t, ent_tet = arr(out[1].numpy()[order], f64), arr(out[2].numpy()[order], wp.int32)
+        start = np.concatenate([[0], np.cumsum(np.bincount(pix, minlength=W * H))])
+    else:
+        ent_t, ent_tet = wp.zeros(1, dtype=f64, device=device), wp.zeros(1, dtype=wp.int32, device=device)
+        start = np.zeros(W * H + 1, dtype=np.int64)
+    return dict(ent_start=arr(start.astype(np.int64), wp.int64), ent_t=ent_t, ent_tet=ent_tet, start=start,
+                n_ent=n_ent, n_box=_box_area(fbox) if nf else 0, n_exact=int(fexact.numpy()[:nf].sum()))
 
 
 def _progress_bar(show: bool | None, total: int):
@@ -203,7 +374,7 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
                           progress: Callable[[float], None] | None = None, stats: dict | None = None,
                           show_progress: bool | None = None, threads: int = 0,
                           rows_per_block: int = 0, rows: tuple[int, int] | None = None,
-                          pixels: np.ndarray | None = None) -> np.ndarray:
+                          pixels: np.ndarray | None = None, visible: np.ndarray | None = None) -> np.ndarray:
     """Exact float64 reference image, Warp kernels (same contract as the NumPy
     :func:`warpvol.reference.numpy_render.render_reference`).
 
@@ -236,6 +407,17 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     pixels : array of int, optional
         Flat pixel indices (row * width + column) to render instead of whole rows (the rays a float32
         renderer could not resolve); each the same value as in the whole image. Overrides ``rows``.
+    visible : bool array (n_tets,), optional
+        The tets the transfer function can make visible (the ``visibility`` stage's ``visible_cells``):
+        only these are walked, rays entering and re-entering at the visible sub-mesh's boundary faces
+        (faces of visible tets whose neighbour is invisible or absent). Each tet's segment is computed
+        from the tet alone, and one the transfer function maps to zero over its (padded) scalar range
+        integrates to exactly zero colour and optical depth (``0 * finite``, ``exp(-0) = 1``), so the image
+        is the one without the mask, bit for bit, as long as the float64 crossing scalars (convex
+        combinations of vertex scalars) stay within the pad (the ``visibility`` stage pads by 8 float32
+        ulps; not so for a ray in a face plane through a perspective eye, which takes the eye's
+        scalar). A mask that leaves out a tet the transfer function can make visible is refused
+        (``ConfigError``).
 
     Returns
     -------
@@ -269,80 +451,43 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     if not 0 <= first <= last < H:
         raise ConfigError(f"rows: expected (first, last) with 0 <= first <= last < {H}, got {rows!r}")
     nrows = last - first + 1
-    md = _mesh_data(mesh, view) if plist is None else _pixel_setup(mesh, view)[0]
+    visible = _visible_mask(mesh, visible)
+    if visible is not None:
+        _check_visible(mesh, tf, visible)
+    if plist is None:
+        md = _mesh_data(mesh, view, visible)
+        wa = _walk_arrays(mesh, md, view, device)
+    else:  # per (mesh, view, mask), kept
+        setup = _pixel_setup(mesh, view, visible)
+        md = setup.md
+        wa = setup.arrays.get(device)
+        if wa is None:
+            wa = setup.arrays[device] = _walk_arrays(mesh, md, view, device)
     if device not in _LOADED:
         preload(device, K)
         _LOADED.add(device)
 
-    def arr(a, dtype):
-        return wp.array(np.ascontiguousarray(a), dtype=dtype, device=device)
+    arr = _uploader(device)
 
     f64 = wp.float64
-    P = arr(md["Pc"], wp.vec3d)
-    S = arr(np.asarray(mesh.scalars, dtype=np.float64), f64)
-    T = arr(md["T"].astype(np.int32), wp.int32)
-    adj = arr(md["adj"].astype(np.int32), wp.int32)
-    orient = arr(md["orient"], f64)
-    s_eye = arr(md["s_eye"], f64)
-    near = arr(md["near"].astype(np.int32), wp.int32)
-    cxs, cys = arr(view.cx, f64), arr(view.cy, f64)
+    P, S, T, adj, orient, s_eye, near, cxs, cys = (wa[k] for k in ("P", "S", "T", "adj", "orient", "s_eye", "near",
+                                                                   "cxs", "cys"))
     persp = int(view.persp)
 
     # -- boundary entries per pixel ------------------------------------------------------------------
     if plist is None:
-        ftet, floc, fbox = _entry_faces(md, view, first, last)
-    else:  # the kept faces of all rows, boxes clipped to these rows as _entry_faces(first, last) clips them
-        ftet, floc, fbox = _pixel_setup(mesh, view)[1]
-        fbox = fbox.copy()
-        fbox[:, 0] = np.maximum(fbox[:, 0], first)
-        fbox[:, 1] = np.minimum(fbox[:, 1], last)
-        on = fbox[:, 0] <= fbox[:, 1]
-        ftet, floc, fbox = ftet[on], floc[on], fbox[on]
-    if plist is not None and len(ftet):
-        # a pixel list: the walk reads only the listed pixels' entries, so only faces whose box holds one
-        # (counted on a summed-area table of the listed pixels over the rows) are searched
-        sat = np.zeros((nrows + 1, W + 1), np.int64)
-        np.add.at(sat, (plist // W - first + 1, plist % W + 1), 1)
-        sat = sat.cumsum(axis=0).cumsum(axis=1)
-        i0, i1 = fbox[:, 0].astype(np.int64) - first, fbox[:, 1].astype(np.int64) - first + 1
-        j0, j1 = fbox[:, 2].astype(np.int64), fbox[:, 3].astype(np.int64) + 1
-        keep = sat[i1, j1] - sat[i0, j1] - sat[i1, j0] + sat[i0, j0] > 0
-        ftet, floc, fbox = ftet[keep], floc[keep], fbox[keep]
-    nf = len(ftet)
-    fblocks = blocks(nf, max(1, -(-nf // (4 * threads)))) if on_cpu else [(0, nf)]
-    d_ftet, d_floc = arr(ftet, wp.int32), arr(floc, wp.int32)
-    d_box = arr(fbox.reshape(-1, 4) if nf else np.zeros((0, 4), np.int32), wp.vec4i)
-    count = wp.zeros(max(nf, 1), dtype=wp.int64, device=device)
-    fexact = wp.zeros(max(nf, 1), dtype=wp.int64, device=device)
-    offset = wp.zeros(max(nf, 1), dtype=wp.int64, device=device)
-    out = [wp.zeros(1, dtype=wp.int64, device=device), wp.zeros(1, dtype=f64, device=device),
-           wp.zeros(1, dtype=wp.int32, device=device)]
-
-    def entries(write: int):
-        def launch(b: int) -> None:
-            f0, nb = fblocks[b]
-            if nb:
-                wp.launch(K.boundary_entries, dim=nb, device=device,
-                          inputs=[d_ftet, d_floc, d_box, offset, f0, P, S, T, orient, s_eye, cxs, cys, persp, W,
-                                  write, count, out[0], out[1], out[2], fexact])
-        launch_blocks(device, len(fblocks), launch, threads)
-
-    entries(0)
-    cnt = count.numpy()[:nf]
-    n_ent = int(cnt.sum())
-    if n_ent:
-        offset = arr(np.cumsum(cnt) - cnt, wp.int64)
-        out = [wp.zeros(n_ent, dtype=wp.int64, device=device), wp.zeros(n_ent, dtype=f64, device=device),
-               wp.zeros(n_ent, dtype=wp.int32, device=device)]
-        entries(1)
-        pix = out[0].numpy()
-        order = np.argsort(pix, kind="stable")
-        ent_t, ent_tet = arr(out[1].numpy()[order], f64), arr(out[2].numpy()[order], wp.int32)
-        start = np.concatenate([[0], np.cumsum(np.bincount(pix, minlength=W * H))])
+        tab = _entry_table(_entry_faces(md, view, first, last), wa, view, device, threads)
     else:
-        ent_t, ent_tet = wp.zeros(1, dtype=f64, device=device), wp.zeros(1, dtype=wp.int32, device=device)
-        start = np.zeros(W * H + 1, dtype=np.int64)
-    ent_start = arr(start.astype(np.int64), wp.int64)
+        tab = setup.tables.get(device)
+        n_box = 0
+        if tab is None:
+            tab, whole = _list_entries(setup, plist, first, last, wa, view, device, threads)
+            n_box = tab["n_box"]
+            if whole:  # every entry of the view: kept for the next lists on it
+                setup.tables[device] = tab
+        cnt = tab["start"][plist + 1] - tab["start"][plist]
+        tab = dict(tab, n_ent=int(cnt.sum()), n_box=n_box, n_exact=tab["n_exact"] if n_box else 0)
+    ent_start, ent_t, ent_tet = tab["ent_start"], tab["ent_t"], tab["ent_tet"]
 
     # -- transfer function, quadrature, termination bound ---------------------------------------------
     pts = np.asarray(tf.points, dtype=np.float64)
@@ -398,9 +543,9 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     render_s = time.perf_counter() - t1
     if stats is not None:
         c = counters.numpy().sum(axis=0)
-        n_box = int(((fbox[:, 1] - fbox[:, 0] + 1).astype(np.int64) * (fbox[:, 3] - fbox[:, 2] + 1)).sum()) if nf else 0
-        stats.update(n_pairs=int(c[1]) + n_box + len(md["near"]) * W * nrows, n_segments=int(c[0]), n_steps=int(c[1]), n_exact=int(c[2] + fexact.numpy()[:nf].sum()),
-                     n_failed=int(c[3]), n_entries=n_ent, n_bands=len(rblocks), setup_s=setup_s, render_s=render_s)
+        stats.update(n_pairs=int(c[1]) + tab["n_box"] + len(md["near"]) * W * nrows, n_segments=int(c[0]),
+                     n_steps=int(c[1]), n_exact=int(c[2]) + tab["n_exact"], n_failed=int(c[3]),
+                     n_entries=tab["n_ent"], n_bands=len(rblocks), setup_s=setup_s, render_s=render_s)
         if c[3]:  # flat positions in the output (pixel list: positions in the list)
             stats["failed_at"] = np.flatnonzero(counters.numpy()[:, 3] > 0)
         if c[3]:

@@ -139,6 +139,7 @@ class PTIntegrate(Stage):
         its artifact) counted and reported as a warning."""
 
         from warpvol.projection.pt_thin import missing_parts, prepare_parts, unresolved_pixels
+        from warpvol.raycasting.visible import skipping
         from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
 
         sc = ctx.scene
@@ -154,7 +155,7 @@ class PTIntegrate(Stage):
               "silhouette_edges": u["silhouette_edges"], "rough_tets": u["rough_tets"], "float64_pixels": 0}
         if len(px) and self.config["format"] == "fp32":
             ctx.mesh_setup(sc.mesh, *redo_mesh_properties(sc.camera))
-            val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, px)
+            val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, px, visible=skipping(ctx)[0])
             img = ctx.image.reshape(-1, 4)
             img[px] = val.astype(img.dtype)
             ctx.image = img.reshape(ctx.image.shape)

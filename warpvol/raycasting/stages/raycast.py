@@ -125,11 +125,12 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
 
 
 def resolve_failed(ctx: Context, state: MarchState) -> int:
-    """Redo the rays marked ``STATUS_FAILED`` in float64 on the host (whole ray), store them as done;
-    returns how many."""
+    """Redo the rays marked ``STATUS_FAILED`` in float64 on the host (whole ray; with skipping on, through
+    the visible cells only, as the float32 walk), store them as done; returns how many."""
     import warp as wp
 
     from warpvol.kernels import raycast as k
+    from warpvol.raycasting.visible import skipping
 
     status = state.status.numpy()
     failed = np.flatnonzero(status == int(k.STATUS_FAILED))
@@ -137,7 +138,7 @@ def resolve_failed(ctx: Context, state: MarchState) -> int:
         return 0
     sc = ctx.scene
     ctx.mesh_setup(sc.mesh, *redo_mesh_properties(sc.camera))
-    val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, failed)
+    val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, failed, visible=skipping(ctx)[0])
     rgb, trans = state.rgb.numpy(), state.trans.numpy()
     rgb[failed] = val[:, :3]
     trans[failed] = 1.0 - val[:, 3]

@@ -183,6 +183,7 @@ class VsbSweep(Stage):
 
         from warpvol.raycasting.stages.entry_bins import ENTRY_MESH_PROPERTIES
         from warpvol.raycasting.thin_cells import _shape, edge_on_pixels, silhouette_pixels, unresolved_pixels
+        from warpvol.raycasting.visible import skipping
         from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
 
         sc = ctx.scene
@@ -202,7 +203,7 @@ class VsbSweep(Stage):
             h, w = sc.camera.height_px, sc.camera.width_px
             out = np.array(img, dtype=np.float32).reshape(h * w, 4)
             ctx.mesh_setup(tets, *redo_mesh_properties(sc.camera))
-            out[pix] = redo_pixels_float64(tets, sc.transfer, sc.camera, pix)
+            out[pix] = redo_pixels_float64(tets, sc.transfer, sc.camera, pix, visible=skipping(ctx)[0])
             img = out.reshape(h, w, 4)
             ctx.progress(f"{self.name}: {len(pix)} rays that may cross pieces thinner than float32 resolves, or "
                          "graze a silhouette or a face seen edge-on, were redone in float64")
