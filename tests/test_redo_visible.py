@@ -120,7 +120,7 @@ def test_mask_of_another_transfer_function_is_refused():
         redo(mesh, zero_below(0.0, 1.5), cam, np.arange(10), vis[:-1])
 
 
-@pytest.mark.parametrize("preset", ["raycast", "harc_best", "pt_best"])
+@pytest.mark.parametrize("preset", ["raycast", "harc_best", "pt_best", "vsbuffer_best"])
 def test_presets_redo_through_the_visible_cells(preset, monkeypatch):
     """A shell transfer function on the non-convex mesh: the rays each preset redoes in float64 go through
     the visible cells only, with the same count and the same image as a redo through every cell, within the
