@@ -31,8 +31,15 @@ block of tiles from ``tile0`` (blocks of tiles may run concurrently: they own di
 Early termination (``t_min > 0``): the tile's triangles are taken in reverse, front to back, and the
 caller blends with "under" (``one_minus_dst_alpha, one``); a pixel whose remaining transmittance
 ``1 - alpha`` is at most ``t_min`` takes no more fragments (not walked through the program), and once
-every pixel of the tile has, the tile's remaining triangles are left. ``skipped[tile]``: (fragments
-left out, bin entries left out).
+every pixel of the tile has, the tile's remaining triangles are left. Each tile keeps one 64-bit row
+mask per pixel row (``done_rows``, bit ``j - j0`` set once pixel ``j`` terminated; tiles of at most 64
+pixels): a triangle whose bounding box within the tile is all terminated is left before its set-up
+(``occluded[tile]`` counts these bin entries), and a row whose covered run is all terminated is stepped
+over. The order is front to back, so a pixel's termination is final. ``skipped[tile]``: (fragments left
+out at terminated pixels, bin entries left out once the whole tile terminated); ``term_at[i, j]``: the
+draw position (``tet0`` + batch triangle / 4) of the cell whose fragment terminated the pixel (left as
+it was where none did); ``binned[c]`` / ``walked[c]`` set to 1 for every cell ``c`` (draw position) with a
+bin entry here / with a triangle walked here (all three written only with ``t_min > 0``).
 """
 
 import warp as wp
@@ -152,12 +159,27 @@ def sfsbl_ray(a: vec8f, mode: int, ortho: int, ray_factor: float) -> wp.vec3:
     return wp.vec3(a[0] * wf, a[1] * wb, l)
 
 
+@wp.func
+def span_done(done_rows: wp.array(dtype=wp.uint64), r0: int, r1: int, b0: int, b1: int) -> bool:
+    """Whether bits ``b0 .. b1`` (0 <= b0 <= b1 < 64) are set in every row ``r0 .. r1`` of ``done_rows``."""
+    w = b1 - b0 + 1
+    bits = ~wp.uint64(0)
+    if w < 64:
+        bits = ((wp.uint64(1) << wp.uint64(w)) - wp.uint64(1)) << wp.uint64(b0)
+    for r in range(r0, r1 + 1):
+        if (done_rows[r] & bits) != bits:
+            return False
+    return True
+
+
 @wp.kernel
 def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array(dtype=vec8f),
                      mode: int, ortho: int, ray_len: wp.array2d(dtype=float), tf_s: wp.array(dtype=float),
                      tf_v: wp.array(dtype=wp.vec4), model: int,
                      bs: BlendState, fb: wp.array2d(dtype=wp.vec4), tile0: int, counts: wp.array(dtype=wp.vec2i),
-                     t_min: float, skipped: wp.array(dtype=wp.vec2i)):
+                     t_min: float, skipped: wp.array(dtype=wp.vec2i), tet0: int, done_rows: wp.array(dtype=wp.uint64),
+                     term_at: wp.array2d(dtype=wp.int32), binned: wp.array(dtype=wp.int32),
+                     walked: wp.array(dtype=wp.int32), occluded: wp.array(dtype=wp.int32)):
     tile = tile0 + wp.tid()
     nfrag = int(0)
     nclamp = int(0)
@@ -170,11 +192,18 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
     done = int(0)
     nskip = int(0)
     ntail = int(0)
+    nocc = int(0)
+    rows0 = tile * s.tile_size  # this tile's rows of done_rows: bit j - rect[0] set once pixel j terminated
+    if term:
+        for r in range(s.tile_size):
+            done_rows[rows0 + r] = wp.uint64(0)
     e0 = s.tile_start[tile]
     ne = s.tile_end[tile] - e0
     for q in range(ne):
         if term and done >= area:
             ntail = ne - q
+            for q2 in range(q, ne):  # the tail's cells were binned here too
+                binned[tet0 + s.tri_of[e0 + ne - 1 - q2] / 4] = 1
             break
         e = e0 + q
         if term:  # front to back: the tile's triangles (submitted back to front) in reverse
@@ -185,8 +214,16 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
         i0 = span[1]
         j1 = span[2]
         i1 = span[3]
+        if term:
+            binned[tet0 + t / 4] = 1
         if j0 > j1 or i0 > i1:
             continue
+        if term and done > 0:  # the triangle's box within the tile all terminated: nothing to walk
+            if span_done(done_rows, rows0 + i0 - rect[1], rows0 + i1 - rect[1], j0 - rect[0], j1 - rect[0]):
+                nocc += 1
+                continue
+        if term:
+            walked[tet0 + t / 4] = 1
         v = s.vidx[t]
         pa = pos[v[0]]
         pb = pos[v[1]]
@@ -206,6 +243,12 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
         for i in range(i0, i1 + 1):
             ry = gy * (float(i) + 0.5 - pa[1])  # the row's term, as the sum below adds it last
             run = row_span(row, sj, j1 - j0 + 1)  # the row's covered pixels: one run
+            row = row + si
+            if term and run[0] <= run[1]:  # the run all terminated: skipped without a fragment
+                r = rows0 + i - rect[1]
+                if span_done(done_rows, r, r, j0 + run[0] - rect[0], j0 + run[1] - rect[0]):
+                    nskip += run[1] - run[0] + 1
+                    continue
             for j in range(j0 + run[0], j0 + run[1] + 1):
                 d = fb[i, j]
                 if term and 1.0 - d[3] <= t_min:
@@ -224,6 +267,9 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
                 fb[i, j] = d
                 if term and 1.0 - d[3] <= t_min:
                     done += 1
-            row = row + si
+                    r = rows0 + i - rect[1]
+                    done_rows[r] = done_rows[r] | (wp.uint64(1) << wp.uint64(j - rect[0]))
+                    term_at[i, j] = tet0 + t / 4
     counts[tile] = wp.vec2i(nfrag, nclamp)
     skipped[tile] = wp.vec2i(nskip, ntail)
+    occluded[tile] = nocc

@@ -103,3 +103,49 @@ def test_early_termination_only_in_the_fused_fp32_draw():
     assert "pt_integrate" not in r.report.get("left_out", {})
     r = preset("pt_best", pt_integrate={"walk": "triangle"}).render(sc, quiet=True)
     assert "pt_integrate" not in r.report.get("left_out", {})
+
+
+def _slab_behind_opaque_tet(px=16, height=2.0):
+    """A flat tet (base z = 1, apex z = 1.5) and behind it a separate box (the builtin box grid squeezed
+    into [-0.5, 0.5]^2 x [-1, 0.5], 384 tets, sides seen edge-on), seen along -z in an orthographic view
+    ``height`` high: at 2 the tet's projection holds the whole image (optical depth over 40 on every
+    pixel: every pixel terminates on it), at 12 the whole tet (pixels beside it never terminate)."""
+    from warpvol.scene.builtin import _box_grid
+    from warpvol.scene.camera import Camera
+    from warpvol.scene.mesh import TetMesh
+
+    pts, tets = _box_grid()
+    pts = pts * [0.5, 0.5, 0.75] + [0.0, 0.0, -0.25]
+    cap = np.array([[-4.0, -3.0, 1.0], [4.0, -3.0, 1.0], [0.0, 5.0, 1.0], [0.0, 0.0, 1.5]])
+    mesh = TetMesh(np.concatenate([pts, cap]), np.concatenate([tets, len(pts) + np.array([[0, 1, 3, 2]])]),
+                   np.ones(len(pts) + 4), name="tet over a box")
+    cam = Camera(projection="orthographic", eye=[0, 0, 5], target=[0, 0, 0], ortho_height=height,
+                 width_px=px, height_px=px)
+    tf = TransferFunction([[0.0, 0.8, 0.6, 0.4, 300.0], [2.0, 0.8, 0.6, 0.4, 300.0]])
+    return Scene(mesh=mesh, transfer=tf, camera=cam, name="tet over a box"), len(tets)
+
+
+@pytest.mark.parametrize("px,height", [(16, 2.0), (48, 12.0)])
+def test_pt_best_cells_behind_an_opaque_front_are_occluded(px, height):
+    """The front tet is drawn first: each cell of the box behind it is binned and none of its triangles is
+    walked (``cells_occluded`` = the box's cells): left with the bin once every pixel of the image has
+    terminated (height 2), else by the test of each triangle's box against the terminated pixels (height 12,
+    ``triangles_occluded``). The box's silhouette pixels (its sides seen edge-on), redone in float64 in the
+    full draw, are left out (``float64_pixels_occluded``)."""
+    sc, n_box = _slab_behind_opaque_tet(px, height)
+    pipe = Pipeline.load("pt_best")
+    on, off = pipe.render(sc, quiet=True), pipe.render(sc, quiet=True, skip=False)
+    lo = on.report["left_out"]["pt_integrate"]
+    assert lo["cells_occluded"] == n_box
+    if height == 2.0:
+        assert lo["pixels_terminated"] == px * px and lo["bins_terminated"] > 0
+    else:
+        assert 0 < lo["pixels_terminated"] < px * px and lo["triangles_occluded"] > 0
+    st_on, st_off = on.report["stats"]["pt_integrate"], off.report["stats"]["pt_integrate"]
+    assert st_off["silhouette_edges"] > 0 and lo["float64_pixels_occluded"] > 0
+    assert st_on["float64_pixels"] + lo["float64_pixels_occluded"] == st_off["float64_pixels"]
+    ok, d = _within(on.image, off.image, TOLERANCES["skip/on_off"])
+    assert ok, d
+    ref = render_reference(sc.mesh, sc.transfer, sc.camera)
+    ok, d = _within(on.image, ref, TOLERANCES["pt_best"])
+    assert ok, d

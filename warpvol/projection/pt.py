@@ -260,7 +260,10 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
     program and blends in registers, :mod:`warpvol.kernels.pt_draw`: the same fragments in the same
     order, attributes from plane equations, values equal to float32 rounding). ``t_min > 0`` (fused
     only, ``blend`` "under"): front to back with early termination at remaining transmittance ``t_min``
-    (:mod:`warpvol.kernels.pt_draw`), counted as ``fragments_terminated`` and ``bins_terminated``.
+    (:mod:`warpvol.kernels.pt_draw`), counted as ``fragments_terminated``, ``bins_terminated``,
+    ``triangles_occluded`` (bin entries whose box in the bin was all terminated) and ``cells_occluded``
+    (cells with bin entries none of whose triangles was walked), with ``term_at`` ((H, W) int32: the
+    draw position of the cell that terminated each pixel, -1 where none did).
     Returns counts (``fragments``, ``batches``, ``attrs_clamped``).
     """
     if walk not in DRAW_WALKS:
@@ -332,9 +335,13 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
                       **RASTER_RULES)
     st = blend.state(fb)
     cpu = str(device).startswith("cpu")
-    n_frag = n_clamped = n_batch = n_skip = n_tail = 0
+    n_frag = n_clamped = n_batch = n_skip = n_tail = n_occ = 0
     m = geo.n_tets
     starts = list(range(0, m, batch_tets))
+    term = t_min > 0
+    # early termination: where each pixel terminated (draw position of the cell), which cells were binned / walked
+    term_at = wp.full((fb.height, fb.width) if term else (1, 1), -1, dtype=wp.int32, device=device)
+    binned, walked = (wp.zeros(max(m, 1) if term else 1, dtype=wp.int32, device=device) for _ in range(2))
     for k0 in starts[::-1] if t_min > 0 else starts:  # early termination: front to back
         k1 = min(m, k0 + batch_tets)
         detail("pt draw", n_batch * batch_tets / m, f"batch {n_batch + 1} of {len(starts)}")  # an open progress bar
@@ -342,20 +349,25 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
         n_batch += 1
         counts = wp.zeros(tr.n_tiles, dtype=wp.vec2i, device=device)
         skipped = wp.zeros(tr.n_tiles, dtype=wp.vec2i, device=device)
+        occluded = wp.zeros(tr.n_tiles, dtype=wp.int32, device=device)
+        done_rows = wp.empty(tr.n_tiles * tr.struct.tile_size if term else 1, dtype=wp.uint64, device=device)
         # 8 blocks per thread: the mesh covers the tiles unevenly
         tile_blocks = blocks(tr.n_tiles, -(-tr.n_tiles // (8 * threads))) if cpu and threads > 1 else [(0, tr.n_tiles)]
 
-        def run(b, tr=tr, counts=counts, skipped=skipped, tile_blocks=tile_blocks):
+        def run(b, tr=tr, counts=counts, skipped=skipped, tile_blocks=tile_blocks, k0=k0, occluded=occluded,
+                done_rows=done_rows):
             t0, n = tile_blocks[b]
             wp.launch(pt_draw.k_pt_exact_tiles, dim=n,
                       inputs=[tr.struct, apos, va, fused["mode"], fused["ortho"], ray_len, fused["tf_s"],
-                              fused["tf_v"], fused["model"], st, fb.array, t0, counts, float(t_min), skipped],
+                              fused["tf_v"], fused["model"], st, fb.array, t0, counts, float(t_min), skipped,
+                              k0, done_rows, term_at, binned, walked, occluded],
                       device=device)
 
         launch_blocks(device, len(tile_blocks), run, threads=threads)
         nf, nc = (int(x) for x in counts.numpy().astype(np.int64).sum(axis=0))
         ns, nt = (int(x) for x in skipped.numpy().astype(np.int64).sum(axis=0))
         n_skip, n_tail = n_skip + ns, n_tail + nt
+        n_occ += int(occluded.numpy().astype(np.int64).sum()) if term else 0
         n_frag += nf
         n_clamped += nc
         c = cnt.active()
@@ -363,8 +375,10 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
             c.add(fragments=nf, fragments_passed=nf)
         blend.count(fb, nf)
     out = {"fragments": n_frag, "batches": n_batch, "attrs_clamped": n_clamped}
-    if t_min > 0:
-        out.update(fragments_terminated=n_skip, bins_terminated=n_tail)
+    if term:
+        b, wk = binned.numpy()[:m], walked.numpy()[:m]
+        out.update(fragments_terminated=n_skip, bins_terminated=n_tail, triangles_occluded=n_occ,
+                   cells_occluded=int(np.count_nonzero((b > 0) & (wk == 0))), term_at=term_at.numpy())
     if threads > 1 and cpu:
         out["threads"] = threads
     return out

@@ -79,12 +79,11 @@ def _geometry(mesh, tf) -> dict:
     return out
 
 
-def _window(mesh, camera, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Window columns, rows (float64, pixel centres at +0.5) and eye depths of the vertices of
-    ``tets``, each (n, 4)."""
+def project_points(mesh, camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Window columns, rows (float64, pixel centres at +0.5) and eye depths of every point of ``mesh``:
+    one projection per frame, gathered by :func:`_window` for each set of tets or faces."""
     w, h = camera.width_px, camera.height_px
-    pts = np.asarray(mesh.points, dtype=np.float64)[np.asarray(mesh.tets)[tets]].reshape(-1, 3)
-    rel = pts - np.asarray(camera.eye, dtype=np.float64)
+    rel = np.asarray(mesh.points, dtype=np.float64) - np.asarray(camera.eye, dtype=np.float64)
     x, y, d = rel @ camera.right, rel @ camera.true_up, rel @ camera.forward
     if camera.projection == "perspective":
         th = np.tan(np.radians(camera.fov_y_deg) / 2.0)
@@ -93,21 +92,33 @@ def _window(mesh, camera, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
     else:
         hh = camera.ortho_height / 2.0
         xn, yn = x / (hh * camera.aspect), y / hh
-    return ((xn + 1.0) * 0.5 * w).reshape(-1, 4), ((1.0 - yn) * 0.5 * h).reshape(-1, 4), d.reshape(-1, 4)
+    return (xn + 1.0) * 0.5 * w, (1.0 - yn) * 0.5 * h, d
 
 
-def thin_tets(mesh, tf, camera, tau: float = THIN_TAU) -> np.ndarray:
+def _window(mesh, camera, tets: np.ndarray, proj=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Window columns, rows (float64, pixel centres at +0.5) and eye depths of the vertices of
+    ``tets``, each (n, 4), gathered from ``proj`` (:func:`project_points` of the mesh's points; computed
+    here when not given)."""
+    col, row, d = project_points(mesh, camera) if proj is None else proj
+    idx = np.asarray(mesh.tets)[tets]
+    return col[idx], row[idx], d[idx]
+
+
+def thin_tets(mesh, tf, camera, tau: float = THIN_TAU, proj=None, drawn=None) -> np.ndarray:
     """Indices of the tets thinner than float32 resolves (smallest height below :data:`THIN_ULPS`
     float32 units of the mesh radius) whose fragments may be visibly wrong: largest density over the
     tet's scalar range times the thickness error -- float32 depth resolution (4 units of the radius)
     plus, for a tet whose projection is narrower than the rasteriser's 1/256-pixel snapping, its
     largest thickness along the view (3 V / projected area) scaled by how much the snapping moves it
-    -- above ``tau`` (:data:`THIN_TAU` by default)."""
+    -- above ``tau`` (:data:`THIN_TAU` by default). ``drawn`` (bool per tet): only among these;
+    ``proj``: :func:`project_points`, when the caller has it."""
     g = _geometry(mesh, tf)
-    cand = g["cand"]
+    keep = np.ones(len(g["cand"]), bool) if drawn is None else drawn[g["cand"]]
+    cand = g["cand"][keep]
     if len(cand) == 0:
         return cand
-    col, row, depth = _window(mesh, camera, cand)
+    g = {k: (v[keep] if k in ("vol", "diam", "dens") else v) for k, v in g.items()}
+    col, row, depth = _window(mesh, camera, cand, proj)
     tri = [(0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)]
     area_px = 0.25 * sum(np.abs((col[:, b] - col[:, a]) * (row[:, c] - row[:, a])
                                 - (col[:, c] - col[:, a]) * (row[:, b] - row[:, a])) for a, b, c in tri)
@@ -147,18 +158,19 @@ def _slopes(mesh, tf) -> dict:
     return out
 
 
-def rough_tets(mesh, tf, camera, tau: float = ROUGH_TAU) -> np.ndarray:
+def rough_tets(mesh, tf, camera, tau: float = ROUGH_TAU, proj=None, drawn=None) -> np.ndarray:
     """Indices of the tets whose colour may be off by more than ``tau`` where the rasteriser's snapped
     coverage and the exact attribute planes part (within :data:`SNAP_FLIP_PX` of the projected
     edges): the transfer function's steepest rate over the tet's scalar range (:func:`_slopes`) times
     the scalar's screen gradient (range over projected width) times that distance. A smooth transfer
-    function flags few; one of thousands of rough control points flags most tets."""
+    function flags few; one of thousands of rough control points flags most tets. ``drawn``, ``proj``: as
+    :func:`thin_tets`."""
     g = _slopes(mesh, tf)
     change = g["rate"] * (g["smax"] - g["smin"])  # the largest value change across the tet
-    cand = np.flatnonzero(change > tau)  # the bound below is at most the change itself
-    if len(cand) == 0:
+    cand = np.flatnonzero((change > tau) if drawn is None else (change > tau) & drawn)  # the bound below is
+    if len(cand) == 0:  # at most the change itself
         return cand
-    col, row, _ = _window(mesh, camera, cand)
+    col, row, _ = _window(mesh, camera, cand, proj)
     area_px = 0.25 * sum(np.abs((col[:, b] - col[:, a]) * (row[:, c] - row[:, a])
                                 - (col[:, c] - col[:, a]) * (row[:, b] - row[:, a]))
                          for a, b, c in ((0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)))
@@ -181,7 +193,8 @@ def rounding_bound(mesh, tf) -> tuple[float, int]:
 
 
 def _face_planes(mesh) -> dict:
-    """Every face of the mesh once (sorted vertex triples), its unnormalised normal ``n`` and offset
+    """Every face of the mesh once (sorted vertex triples) with the tets on either side (``owners``, -1:
+    none), its unnormalised normal ``n`` and offset
     ``c = n . p0`` in float64 (cached on the mesh): the plane test of :func:`edge_on_faces` is then one
     dot product per face and frame."""
     cache = mesh.__dict__.setdefault("_pt_face_planes", {})
@@ -189,34 +202,61 @@ def _face_planes(mesh) -> dict:
         return cache
     pts = np.asarray(mesh.points, dtype=np.float64)
     tets = np.asarray(mesh.tets)
-    faces = np.unique(np.sort(tets[:, [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]]].reshape(-1, 3), axis=1), axis=0)
+    faces, inv = np.unique(np.sort(tets[:, [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]]].reshape(-1, 3), axis=1),
+                           axis=0, return_inverse=True)
+    inv = inv.ravel()
+    o = np.argsort(inv, kind="stable")  # the tets on either side of each face (-1: none)
+    first = np.r_[True, inv[o][1:] != inv[o][:-1]]
+    owners = np.full((len(faces), 2), -1, dtype=np.int64)
+    owners[inv[o][first], 0], owners[inv[o][~first], 1] = o[first] // 4, o[~first] // 4
     p0, p1, p2 = pts[faces[:, 0]], pts[faces[:, 1]], pts[faces[:, 2]]
     n = np.cross(p1 - p0, p2 - p0)
     nn = np.linalg.norm(n, axis=1)
     longest = np.max([np.linalg.norm(p1 - p0, axis=1), np.linalg.norm(p2 - p0, axis=1), np.linalg.norm(p2 - p1, axis=1)],
                      axis=0)
-    cache.update(faces=faces, n=n, c=np.einsum("ij,ij->i", n, p0), nn=nn, p0=p0,
+    cache.update(faces=faces, owners=owners, n=n, c=np.einsum("ij,ij->i", n, p0), nn=nn, p0=p0,
                  height=nn / np.maximum(longest, 1e-300))
     return cache
 
 
-def edge_on_faces(mesh, camera) -> np.ndarray:
+def drawn_faces(mesh, drawn: np.ndarray | None, cached_only: bool = False):
+    """``(rows, planes)``: the rows of :func:`_face_planes` with a ``drawn`` tet on either side and those
+    rows of it (``rows`` ``None``: every face, when every tet is drawn), kept on the mesh for the last
+    ``drawn`` set (per transfer function: set-up); ``cached_only``: ``None`` when not kept yet."""
+    fp = _face_planes(mesh)
+    if drawn is None or drawn.all():
+        return None, fp
+    key = np.packbits(drawn).tobytes()
+    cache = mesh.__dict__.setdefault("_pt_drawn_faces", {})
+    if key not in cache:
+        if cached_only:
+            return None
+        rows = np.flatnonzero(np.r_[drawn, False][fp["owners"]].any(axis=1))  # owner -1: none
+        cache.clear()
+        cache[key] = rows, {k: fp[k][rows] for k in ("faces", "n", "c", "nn", "p0", "height")}
+    return cache[key]
+
+
+def edge_on_faces(mesh, camera, ids: bool = False, drawn=None) -> np.ndarray:
     """The faces ``(n, 3)`` vertex indices) whose plane passes within float32 resolution of a
     perspective eye: each projects to a segment and the tets on either side are classified by
-    rounding. Empty for orthographic cameras (no eye point)."""
+    rounding. Empty for orthographic cameras (no eye point). ``ids``: their rows of :func:`_face_planes`;
+    ``drawn`` (bool per tet): only faces of these tets (:func:`drawn_faces`)."""
     if camera.projection != "perspective":
-        return np.zeros((0, 3), dtype=np.int64)
+        return np.zeros(0 if ids else (0, 3), dtype=np.int64)
     pts = np.asarray(mesh.points, dtype=np.float64)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     centre, radius = 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
     eye = np.asarray(camera.eye, dtype=np.float64)
     tol = EDGE_ON_ULPS * EPS32 * (float(np.linalg.norm(eye - centre)) + radius)
-    fp = _face_planes(mesh)
+    rows, fp = drawn_faces(mesh, drawn)
     dist = np.abs(fp["n"] @ eye - fp["c"]) / np.maximum(fp["nn"], 1e-300)  # eye to each face's plane
-    return fp["faces"][(dist < tol) & (fp["nn"] > 0)]
+    hit = np.flatnonzero((dist < tol) & (fp["nn"] > 0))
+    return (hit if rows is None else rows[hit]) if ids else fp["faces"][hit]
 
 
-def snap_edge_on_faces(mesh, tf, camera, tau: float = THIN_TAU) -> np.ndarray:
+def snap_edge_on_faces(mesh, tf, camera, tau: float = THIN_TAU, ids: bool = False, proj=None,
+                       drawn=None) -> np.ndarray:
     """Faces ``(n, 3)`` whose projection is narrower than the rasteriser's snapping can keep apart: snapping
     moves each vertex by up to 1/512 pixel, so a projected triangle less than 1/256 pixel high (here, with
     margin, 2/256) can lose or flip its orientation, and the tets on either side are then cut into
@@ -228,14 +268,13 @@ def snap_edge_on_faces(mesh, tf, camera, tau: float = THIN_TAU) -> np.ndarray:
 
     Only faces that can be that narrow are projected: the projected height of a triangle is at least its
     height in its plane times ``|cos|`` (normal against the view ray) over twice the pixel size (per-mesh
-    heights)."""
-    fp = _face_planes(mesh)
+    heights). ``ids``, ``drawn``: as :func:`edge_on_faces`; ``proj``: :func:`project_points`."""
+    rows, fp = drawn_faces(mesh, drawn)
     faces = fp["faces"]
-    if len(faces) == 0:
-        return np.zeros((0, 3), dtype=np.int64)
+    none = np.zeros(0 if ids else (0, 3), dtype=np.int64)
     dens_all = density_bound(tf)  # a bound for every face
-    if dens_all <= 0.0:
-        return np.zeros((0, 3), dtype=np.int64)
+    if len(faces) == 0 or dens_all <= 0.0:
+        return none
     eye = np.asarray(camera.eye, dtype=np.float64)
     wide = SNAP_FLIP_PX
     if camera.projection == "perspective":
@@ -252,8 +291,8 @@ def snap_edge_on_faces(mesh, tf, camera, tau: float = THIN_TAU) -> np.ndarray:
         narrow = fp["height"] * np.abs(fp["n"] @ np.asarray(camera.forward, np.float64)) < wide * 2.0 * px * fp["nn"]
     cand = np.flatnonzero(narrow & (dens_all * fp["height"] > tau) & (fp["nn"] > 0))
     if len(cand) == 0:
-        return np.zeros((0, 3), dtype=np.int64)
-    col, row, depth = _window(TetMeshFaces(mesh, faces[cand]), camera, np.arange(len(cand)))
+        return none
+    col, row, depth = _window(TetMeshFaces(mesh, faces[cand]), camera, np.arange(len(cand)), proj)
     col, row, depth = col[:, :3], row[:, :3], depth[:, :3]
     area2 = np.abs((col[:, 1] - col[:, 0]) * (row[:, 2] - row[:, 0]) - (col[:, 2] - col[:, 0]) * (row[:, 1] - row[:, 0]))
     longest = np.max([np.hypot(col[:, a] - col[:, b], row[:, a] - row[:, b]) for a, b in ((0, 1), (0, 2), (1, 2))],
@@ -265,10 +304,11 @@ def snap_edge_on_faces(mesh, tf, camera, tau: float = THIN_TAU) -> np.ndarray:
     keep = (width < wide) & (dens_all * span > tau)
     cand, span = cand[keep], span[keep]
     if len(cand) == 0:
-        return np.zeros((0, 3), dtype=np.int64)
+        return none
     sc = np.asarray(mesh.scalars, dtype=np.float64)[faces[cand]]
     dens = density_max(tf, sc.min(axis=1), sc.max(axis=1))
-    return faces[cand[dens * span > tau]]
+    hit = cand[dens * span > tau]
+    return (hit if rows is None else rows[hit]) if ids else faces[hit]
 
 
 def _boundary_edges(mesh, tf) -> dict:
@@ -303,16 +343,16 @@ def _boundary_edges(mesh, tf) -> dict:
     return out
 
 
-def silhouette_edges(mesh, tf, camera) -> np.ndarray:
+def silhouette_edges(mesh, tf, camera, ids: bool = False) -> np.ndarray:
     """Boundary edges on the silhouette (one of their two boundary triangles faces the eye, the other
     faces away) where a shift of the rasteriser's 1/256-pixel snapping changes the thickness of the
     fragments beside the edge by more than :data:`THIN_TAU` of optical depth: density times the snap's
     world size times the grazing factors ``1 / |cos|`` of the two faces to the view ray. Inside the mesh a
     neighbour's fragment makes up what one cell's snapped edge loses; at the silhouette nothing does.
-    Returns ``(n, 2)`` vertex indices."""
+    Returns ``(n, 2)`` vertex indices (``ids``: their rows of :func:`_boundary_edges`)."""
     g = _boundary_edges(mesh, tf)
     if len(g["a"]) == 0:
-        return np.zeros((0, 2), dtype=np.int64)
+        return np.zeros(0 if ids else (0, 2), dtype=np.int64)
     eye = np.asarray(camera.eye, dtype=np.float64)
     nrm = g["normals"] / np.maximum(np.linalg.norm(g["normals"], axis=1, keepdims=True), 1e-300)
     if camera.projection == "perspective":
@@ -329,26 +369,63 @@ def silhouette_edges(mesh, tf, camera) -> np.ndarray:
     grazing = 1.0 / np.maximum(np.abs(cos[f1]), 1e-6) + 1.0 / np.maximum(np.abs(cos[f2]), 1e-6)
     err = g["dens"] * (0.5 * (px[f1] + px[f2]) / 256.0) * grazing
     hit = sil & (err > THIN_TAU)
-    return np.column_stack([g["a"][hit], g["b"][hit]])
+    return np.flatnonzero(hit) if ids else np.column_stack([g["a"][hit], g["b"][hit]])
 
 
-def _mark_boxes(cover: np.ndarray, col: np.ndarray, row: np.ndarray) -> None:
-    """Mark in ``cover`` (H, W) the pixels whose centres lie within one pixel of the bounding box of
-    each row of window points ``col``, ``row`` (n, k)."""
-    h, w = cover.shape
+def _box_ranges(col: np.ndarray, row: np.ndarray, h: int, w: int):
+    """Per row of window points ``col``, ``row`` (n, k): the pixel columns ``j0 .. j1 - 1`` and rows
+    ``i0 .. i1 - 1`` (clipped to the window) whose centres lie within one pixel of their bounding box."""
     big = 4.0 * (w + h) + 4.0  # clamp before the int casts (off-screen boxes)
     j0 = np.ceil(np.clip(col.min(axis=1) - 0.5, -big, big)).astype(np.int64) - 1
     j1 = np.floor(np.clip(col.max(axis=1) - 0.5, -big, big)).astype(np.int64) + 1
     i0 = np.ceil(np.clip(row.min(axis=1) - 0.5, -big, big)).astype(np.int64) - 1
     i1 = np.floor(np.clip(row.max(axis=1) - 0.5, -big, big)).astype(np.int64) + 1
-    j0, j1, i0, i1 = np.clip(j0, 0, w), np.clip(j1 + 1, 0, w), np.clip(i0, 0, h), np.clip(i1 + 1, 0, h)
-    ok = (j1 > j0) & (i1 > i0)
+    return np.clip(j0, 0, w), np.clip(j1 + 1, 0, w), np.clip(i0, 0, h), np.clip(i1 + 1, 0, h)
+
+
+#: :func:`_mark_boxes` lists at most this many (pixel, box) pairs to test each against the termination
+#: (beyond: every pixel of every box is marked, as without it)
+BOX_PAIRS_MAX = 1 << 22
+
+
+def _mark_boxes(cover: np.ndarray, col: np.ndarray, row: np.ndarray, front=None, rank=None) -> None:
+    """Mark in ``cover`` (H, W) the pixels whose centres lie within one pixel of the bounding box of
+    each row of window points ``col``, ``row`` (n, k); with ``front`` (:class:`InFront`) only those where
+    the box's source (draw position ``rank``, per row) was drawn."""
+    h, w = cover.shape
+    j0, j1, i0, i1 = _box_ranges(col, row, h, w)
+    area = np.maximum(j1 - j0, 0) * np.maximum(i1 - i0, 0)
+    if front is not None and 0 < area.sum() <= BOX_PAIRS_MAX:  # each (pixel, box) pair tested
+        src = np.repeat(np.arange(len(area)), area)
+        k = np.arange(len(src)) - np.repeat(np.cumsum(area) - area, area)
+        wd = (j1 - j0)[src]
+        pix = (i0[src] + k // wd) * w + j0[src] + k % wd
+        cover.ravel()[pix[front(pix, rank[src])]] = True
+        return
+    ok = area > 0
     diff = np.zeros((h + 1, w + 1), dtype=np.int64)  # boxes summed by a 2D difference array
     np.add.at(diff, (i0[ok], j0[ok]), 1)
     np.add.at(diff, (i0[ok], j1[ok]), -1)
     np.add.at(diff, (i1[ok], j0[ok]), -1)
     np.add.at(diff, (i1[ok], j1[ok]), 1)
     cover |= diff.cumsum(axis=0).cumsum(axis=1)[:h, :w] > 0
+
+
+class InFront:
+    """The (pixel, source) pairs whose source was drawn at the pixel, with ``term_at`` ((H, W): the draw
+    position of the cell whose fragment terminated each pixel, drawn front to back, positions falling;
+    -1 where none did): the pixel did not terminate, or terminated at a position at most the source's (its
+    fragment came first). ``dropped`` marks the pixels a pair was left out at."""
+
+    def __init__(self, term_at: np.ndarray):
+        self.term = np.asarray(term_at).ravel()
+        self.dropped = np.zeros(self.term.size, dtype=bool)
+
+    def __call__(self, pix: np.ndarray, rank: np.ndarray) -> np.ndarray:
+        t = self.term[pix]
+        keep = (t < 0) | (rank >= t)
+        self.dropped[pix[~keep]] = True
+        return keep
 
 
 def near_segment_pixels(ax, ay, bx, by, w: int, h: int, delta: float) -> tuple[np.ndarray, np.ndarray]:
@@ -394,27 +471,32 @@ def near_segment_pixels(ax, ay, bx, by, w: int, h: int, delta: float) -> tuple[n
     return np.concatenate(pix), np.concatenate(seg)
 
 
-def _mark_near_edges(cover: np.ndarray, col: np.ndarray, row: np.ndarray, delta: float) -> None:
+def _mark_near_edges(cover: np.ndarray, col: np.ndarray, row: np.ndarray, delta: float, front=None,
+                     rank=None) -> None:
     """Mark in ``cover`` (H, W) the pixels whose centres lie within ``delta`` (< 0.35) pixels of an edge of
     the projected triangle of each row of window points ``col``, ``row`` (n, 3) (a sliver narrower than
-    ``2 delta`` lies wholly within that band), by :func:`near_segment_pixels`."""
+    ``2 delta`` lies wholly within that band), by :func:`near_segment_pixels`; ``front``, ``rank``: as
+    :func:`_mark_boxes`."""
     h, w = cover.shape
     for a, b in ((0, 1), (1, 2), (2, 0)):
-        pix, _ = near_segment_pixels(col[:, a], row[:, a], col[:, b], row[:, b], w, h, delta)
+        pix, seg = near_segment_pixels(col[:, a], row[:, a], col[:, b], row[:, b], w, h, delta)
+        if front is not None:
+            pix = pix[front(pix, rank[seg])]
         cover[pix // w, pix % w] = True
 
 
-def _segment_samples(col: np.ndarray, row: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _segment_samples(col: np.ndarray, row: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Points every half pixel along each row's projected face (three collinear window points): the
-    segment between its two farthest vertices, as (m, 1) columns and rows."""
-    cs, rs = [], []
+    segment between its two farthest vertices, as (m, 1) columns and rows, and the row each came from."""
+    cs, rs = [np.zeros(0)], [np.zeros(0)]
     for c, r in zip(col, row):
         a, b = max(((0, 1), (0, 2), (1, 2)), key=lambda e: np.hypot(c[e[0]] - c[e[1]], r[e[0]] - r[e[1]]))
         n = int(min(np.hypot(c[a] - c[b], r[a] - r[b]), 1e5) * 2.0) + 2
         u = np.linspace(0.0, 1.0, n)
         cs.append(c[a] + (c[b] - c[a]) * u)
         rs.append(r[a] + (r[b] - r[a]) * u)
-    return np.concatenate(cs)[:, None], np.concatenate(rs)[:, None]
+    n = np.array([len(c) for c in cs[1:]], dtype=np.int64)
+    return np.concatenate(cs)[:, None], np.concatenate(rs)[:, None], np.repeat(np.arange(len(n)), n)
 
 
 def _view_independent_parts(edge_on: bool = True, silhouettes: bool = True, rough: bool = False) -> dict:
@@ -450,37 +532,69 @@ def prepare_parts(mesh, tf, names: list[str]) -> None:
 
 
 def unresolved_pixels(mesh, tf, camera, tau: float = THIN_TAU, silhouettes: bool = True,
-                      edge_on: bool = True, rough: bool = False) -> dict:
+                      edge_on: bool = True, rough: bool = False, rank: np.ndarray | None = None,
+                      term_at: np.ndarray | None = None) -> dict:
     """The thin tets (:func:`thin_tets`), the faces seen edge-on from the eye (:func:`edge_on_faces`) or
     narrower than the snapping resolves (:func:`snap_edge_on_faces`, ``sliver_faces``), the silhouette
     edges snapping makes visible (:func:`silhouette_edges`) and the pixels they may make wrong
     (``pixels``, flat indices): within one pixel of a thin tet's projected bounding box or of an edge-on
     face's or a silhouette edge's projected segment, within :data:`SLIVER_PX` of a sliver face's
     projected edges; with ``rough`` also within :data:`SNAP_FLIP_PX` of the projected edges of the tets
-    :func:`rough_tets` finds (``rough_tets``)."""
-    cover = np.zeros((camera.height_px, camera.width_px), dtype=bool)
-    thin = thin_tets(mesh, tf, camera, tau)
+    :func:`rough_tets` finds (``rough_tets``).
+
+    ``rank`` (per tet: its draw position, -1 for a tet not drawn) leaves out what no drawn tet carries (a
+    face or edge counts with the front-most drawn tet beside it); ``term_at`` (:class:`InFront`) also the
+    pixels that terminated before the tet's fragment came (``occluded_pixels`` counts those, pixels no
+    other source marks)."""
+    h, w = camera.height_px, camera.width_px
+    cover = np.zeros((h, w), dtype=bool)
+    proj = project_points(mesh, camera)
+    drawn = None if rank is None else rank >= 0
+    front = None if term_at is None or rank is None else InFront(term_at)
+
+    def ranks(cells):  # the front-most drawn cell of each row of ``cells`` (-1: none, or outside the mesh)
+        if rank is None:
+            return np.zeros(len(cells), np.int64)
+        return np.where(cells >= 0, rank[np.maximum(cells, 0)], -1).max(axis=1, initial=-1)
+
+    thin = thin_tets(mesh, tf, camera, tau, proj=proj, drawn=drawn)
     if len(thin):
-        col, row, _ = _window(mesh, camera, thin)
-        _mark_boxes(cover, col, row)
-    faces = edge_on_faces(mesh, camera) if edge_on else np.zeros((0, 3), dtype=np.int64)
-    slivers = snap_edge_on_faces(mesh, tf, camera, tau) if edge_on else np.zeros((0, 3), dtype=np.int64)
-    if len(slivers):
-        col, row, _ = _window(TetMeshFaces(mesh, slivers), camera, np.arange(len(slivers)))
-        _mark_near_edges(cover, col[:, :3], row[:, :3], SLIVER_PX)
-    sil = silhouette_edges(mesh, tf, camera) if silhouettes else np.zeros((0, 2), dtype=np.int64)
-    segs = np.concatenate([faces, np.column_stack([sil, sil[:, 1]])])
+        col, row, _ = _window(mesh, camera, thin, proj)
+        _mark_boxes(cover, col, row, front, ranks(thin[:, None]))
+    fp = _face_planes(mesh) if edge_on else {"faces": np.zeros((0, 3), np.int64), "owners": np.zeros((0, 2), int)}
+    fids = edge_on_faces(mesh, camera, ids=True, drawn=drawn) if edge_on else np.zeros(0, dtype=np.int64)
+    sids = snap_edge_on_faces(mesh, tf, camera, tau, True, proj, drawn) if edge_on else np.zeros(0, np.int64)
+    frank, srank = ranks(fp["owners"][fids]), ranks(fp["owners"][sids])
+    fids, frank, sids, srank = fids[frank >= 0], frank[frank >= 0], sids[srank >= 0], srank[srank >= 0]
+    if len(sids):
+        col, row, _ = _window(TetMeshFaces(mesh, fp["faces"][sids]), camera, np.arange(len(sids)), proj)
+        _mark_near_edges(cover, col[:, :3], row[:, :3], SLIVER_PX, front, srank)
+    sil = silhouette_edges(mesh, tf, camera, ids=True) if silhouettes else np.zeros(0, dtype=np.int64)
+    if len(sil):
+        g, cells = _boundary_edges(mesh, tf), np.asarray(mesh.boundary_faces)[:, 0]
+        erank = ranks(np.column_stack([cells[g["f1"][sil]], cells[g["f2"][sil]]]))
+        sil, erank = np.column_stack([g["a"][sil], g["b"][sil]])[erank >= 0], erank[erank >= 0]
+    else:
+        sil, erank = np.zeros((0, 2), dtype=np.int64), np.zeros(0, np.int64)
+    segs = np.concatenate([fp["faces"][fids], np.column_stack([sil, sil[:, 1]])])
     if len(segs):
-        tmp = TetMeshFaces(mesh, segs)
-        col, row, _ = _window(tmp, camera, np.arange(len(segs)))
-        _mark_boxes(cover, *_segment_samples(col[:, :3], row[:, :3]))
-    rtets = rough_tets(mesh, tf, camera) if rough else np.zeros(0, dtype=np.int64)
-    if len(rtets):  # every edge of the tet: its four faces as triangles
-        rfaces = np.asarray(mesh.tets)[rtets][:, [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]]].reshape(-1, 3)
-        col, row, _ = _window(TetMeshFaces(mesh, rfaces), camera, np.arange(len(rfaces)))
-        _mark_near_edges(cover, col[:, :3], row[:, :3], SNAP_FLIP_PX)
-    return {"thin_tets": int(len(thin)), "edge_on_faces": int(len(faces)), "sliver_faces": int(len(slivers)),
-            "silhouette_edges": int(len(sil)), "rough_tets": int(len(rtets)), "pixels": np.flatnonzero(cover.ravel())}
+        col, row, _ = _window(TetMeshFaces(mesh, segs), camera, np.arange(len(segs)), proj)
+        sc, sr, src = _segment_samples(col[:, :3], row[:, :3])
+        _mark_boxes(cover, sc, sr, front, np.concatenate([frank, erank])[src])
+    rtets = rough_tets(mesh, tf, camera, proj=proj, drawn=drawn) if rough else np.zeros(0, dtype=np.int64)
+    if len(rtets):  # every edge of the tets once, with the front-most rank of the tets it bounds
+        e = np.sort(np.asarray(mesh.tets)[rtets][:, [[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]]], axis=2)
+        key, inv = np.unique(e[..., 0] * np.int64(len(proj[0])) + e[..., 1], return_inverse=True)
+        er = np.full(len(key), -1, np.int64)
+        np.maximum.at(er, inv.ravel(), np.repeat(ranks(rtets[:, None]), 6))
+        a, b = key // len(proj[0]), key % len(proj[0])
+        (ca, cb), (ra, rb) = ((q[a], q[b]) for q in proj[:2])
+        pix, seg = near_segment_pixels(ca, ra, cb, rb, w, h, SNAP_FLIP_PX)
+        cover.ravel()[pix if front is None else pix[front(pix, er[seg])]] = True
+    occluded = 0 if front is None else int(np.count_nonzero(front.dropped & ~cover.ravel()))
+    return {"thin_tets": int(len(thin)), "edge_on_faces": int(len(fids)), "sliver_faces": int(len(sids)),
+            "silhouette_edges": int(len(sil)), "rough_tets": int(len(rtets)), "occluded_pixels": occluded,
+            "pixels": np.flatnonzero(cover.ravel())}
 
 
 class TetMeshFaces:

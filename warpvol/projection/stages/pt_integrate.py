@@ -126,19 +126,26 @@ class PTIntegrate(Stage):
         if t_min > 0:
             opaque = int(np.count_nonzero(1.0 - ctx.image[..., 3] <= t_min))
             ctx.left_out(why=f"fragments behind an opaque front (drawn front to back; a pixel stops at remaining "
-                         f"transmittance {t_min:.3g}, so no channel changes by more than {eps:g})",
+                         f"transmittance {t_min:.3g}, so no channel changes by more than {eps:g}; a triangle whose "
+                         "box in a bin is all terminated is not set up, a cell none of whose triangles is is "
+                         "occluded; pixels float32 cannot resolve are redone in float64 only where the cell "
+                         "concerned came before the pixel terminated)",
                          fragments_terminated=info["fragments_terminated"], bins_terminated=info["bins_terminated"],
+                         triangles_occluded=info["triangles_occluded"], cells_occluded=info["cells_occluded"],
                          pixels_terminated=opaque)
-        self.redo_unresolved(ctx)
+        self.redo_unresolved(ctx, info.get("term_at"))
 
-    def redo_unresolved(self, ctx: Context) -> None:
+    def redo_unresolved(self, ctx: Context, term_at: np.ndarray | None = None) -> None:
         """Pixels covered by tets float32 cannot draw right (thin cells that carry the image, faces seen
         edge-on from the eye or narrower than the rasteriser's snapping resolves;
         :func:`warpvol.projection.pt_thin.unresolved_pixels`): redone with the float64 ray
         tracer in an fp32 frame buffer, counted; in a lower-precision buffer (a format's rounding is
-        its artifact) counted and reported as a warning."""
+        its artifact) counted and reported as a warning. Only tets in the draw order count, and with
+        ``term_at`` (the fused draw's early termination: the draw position that terminated each pixel) only
+        the pixels that had not terminated when their fragments came (``occluded_pixels`` counts those left
+        out, reported under ``left_out``)."""
 
-        from warpvol.projection.pt_thin import missing_parts, prepare_parts, unresolved_pixels
+        from warpvol.projection.pt_thin import drawn_faces, missing_parts, prepare_parts, unresolved_pixels
         from warpvol.raycasting.visible import skipping
         from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
 
@@ -149,7 +156,15 @@ class PTIntegrate(Stage):
         if missing:  # per mesh and TF, kept on the mesh: set-up, not frame time
             with ctx.setup_work(f"thin-cell {', '.join(missing)}"):
                 prepare_parts(sc.mesh, sc.transfer, missing)
-        u = unresolved_pixels(sc.mesh, sc.transfer, sc.camera, rough=rough)
+        order = ctx.buffers["order"]
+        rank = np.full(sc.mesh.n_tets, -1, dtype=np.int64)
+        rank[order] = np.arange(len(order))
+        if drawn_faces(sc.mesh, rank >= 0, cached_only=True) is None:  # per mesh and TF: set-up
+            with ctx.setup_work("faces of the drawn cells"):
+                drawn_faces(sc.mesh, rank >= 0)
+        u = unresolved_pixels(sc.mesh, sc.transfer, sc.camera, rough=rough, rank=rank, term_at=term_at)
+        if u["occluded_pixels"]:
+            ctx.left_out(why=None, float64_pixels_occluded=u["occluded_pixels"])
         px = u["pixels"]
         st = {"thin_tets": u["thin_tets"], "edge_on_faces": u["edge_on_faces"], "sliver_faces": u["sliver_faces"],
               "silhouette_edges": u["silhouette_edges"], "rough_tets": u["rough_tets"], "float64_pixels": 0}
