@@ -30,7 +30,9 @@ SUB_DEPTH = wp.constant(wp.float64(1.0))
 MAX_DEPTH = wp.constant(wp.float64(42.0))
 N_MAIN = wp.constant(42)
 THIN_DEPTH = wp.constant(wp.float64(0.03))
-TERMINATE = wp.constant(wp.float64(1e-17))  # early ray termination: bound on what is left out
+#: the reference image's early ray termination: bound on what a pixel's channel leaves out (a float64 redo of
+#: a renderer's rays may pass that renderer's own, looser bound: ``render_rows``' ``terminate``)
+TERMINATE = 1e-17
 
 
 # ------------------------------------------------------------------------------------------------
@@ -289,7 +291,7 @@ def render_rows(row0: int, first: int, W: int, pix_list: wp.array(dtype=wp.int32
                 s_eye: wp.array(dtype=wp.float64), near: wp.array(dtype=wp.int32),
                 ent_start: wp.array(dtype=wp.int64), ent_t: wp.array(dtype=wp.float64),
                 ent_tet: wp.array(dtype=wp.int32), cxs: wp.array(dtype=wp.float64), cys: wp.array(dtype=wp.float64),
-                persp: int, max_steps: int, c_bound: wp.float64, tf_s: wp.array(dtype=wp.float64),
+                persp: int, max_steps: int, c_bound: wp.float64, terminate: wp.float64, tf_s: wp.array(dtype=wp.float64),
                 tf_c: wp.array(dtype=wp.vec4d), gx10: wp.array(dtype=wp.float64), gw10: wp.array(dtype=wp.float64),
                 gx5: wp.array(dtype=wp.float64), gw5: wp.array(dtype=wp.float64), ed: int,
                 img: wp.array(dtype=wp.vec4d), counters: wp.array2d(dtype=wp.int64)):
@@ -402,7 +404,7 @@ def render_rows(row0: int, first: int, W: int, pix_list: wp.array(dtype=wp.int32
                     trans = wp.exp(-tau)
                     n_seg = n_seg + 1
                     # what is left is at most exp(-tau) * c_bound (radiance) and exp(-tau) (alpha)
-                    if trans * c_bound < TERMINATE:
+                    if trans * c_bound < terminate:
                         done = 1
                         break
             if steps > max_steps:

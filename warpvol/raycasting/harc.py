@@ -430,10 +430,11 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     return dict(zip(COUNTER_NAMES, (int(x) for x in counters.numpy().sum(axis=0))))
 
 
-def resolve_failed(ctx, state: HarcState) -> int:
+def resolve_failed(ctx, state: HarcState, terminate: float = 0.0) -> int:
     """Redo the rays marked failed in float64 on the host (whole ray, the reference's watertight
     tracer: :func:`warpvol.reference.pixels.redo_pixels_float64`; with skipping on, through the visible
-    cells only, as the float32 walk); returns how many."""
+    cells only, as the float32 walk); returns how many. ``terminate`` > 0: the redo stops a ray once no
+    channel can change by more than that (the walk's stated early-termination bound)."""
     import warp as wp
 
     from warpvol.kernels import raycast as kr
@@ -446,7 +447,8 @@ def resolve_failed(ctx, state: HarcState) -> int:
         return 0
     sc = ctx.scene
     ctx.mesh_setup(sc.mesh, *redo_mesh_properties(sc.camera))
-    val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, failed, visible=skipping(ctx)[0])
+    val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, failed, visible=skipping(ctx)[0],
+                              terminate=terminate or None)
     rgba = state.rgba.numpy()
     rgba[failed] = val
     status[failed] = int(kr.STATUS_DONE)

@@ -17,7 +17,8 @@ def redo_mesh_properties(camera) -> tuple[str, ...]:
 
 
 def redo_pixels_float64(mesh, tf, camera, pixels: np.ndarray, max_pairs: int = 1_000_000,
-                        method: str = "warp", visible: np.ndarray | None = None) -> np.ndarray:
+                        method: str = "warp", visible: np.ndarray | None = None,
+                        terminate: float | None = None) -> np.ndarray:
     """Exact float64 colours (n, 4) of the pixels ``pixels`` (flat indices), for rays the float32
     walk could not resolve.
 
@@ -31,7 +32,11 @@ def redo_pixels_float64(mesh, tf, camera, pixels: np.ndarray, max_pairs: int = 1
     ``visible`` (bool per tet, optional: the ``visibility`` stage's ``visible_cells``): the ``"warp"`` walk
     goes through the visible tets only, entering and re-entering at the visible sub-mesh's boundary; the
     colours are those of the whole walk (a tet the transfer function maps to zero composites as the
-    identity: see ``render_reference_warp``)."""
+    identity: see ``render_reference_warp``).
+
+    ``terminate`` (optional): the ``"warp"`` walk's early ray termination, the most a channel may change by
+    it (default: the reference's 1e-17); a renderer passes its own stated bound, so a redone pixel leaves
+    out no more than its float32 pixels do."""
     pixels = np.asarray(pixels, dtype=np.int64)
     out = np.zeros((len(pixels), 4))
     if len(pixels) == 0:
@@ -41,7 +46,8 @@ def redo_pixels_float64(mesh, tf, camera, pixels: np.ndarray, max_pairs: int = 1
 
         st: dict = {}
         out = np.asarray(render_reference_warp(mesh, tf, camera, device="cpu", pixels=pixels, stats=st,
-                                               show_progress=False, visible=visible), dtype=np.float64)
+                                               show_progress=False, visible=visible,
+                                               terminate=terminate), dtype=np.float64)
         bad = st.get("failed_at", np.zeros(0, dtype=np.int64))
         if len(bad):
             out[bad] = redo_pixels_float64(mesh, tf, camera, pixels[bad], max_pairs, method="numpy")

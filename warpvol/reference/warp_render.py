@@ -18,7 +18,8 @@ computed by its own float64 kernels (:mod:`warpvol.kernels.reference`):
    both tets, so the walk neither skips nor repeats a tet; a tet without a single exit face ends the
    walk and is counted (``n_failed``).
 4. **Integration and compositing** per segment as in the NumPy reference; a ray stops once what is
-   left can change no channel by more than 1e-17.
+   left can change no channel by more than 1e-17 (``terminate``; a float64 redo of a renderer's rays
+   passes that renderer's own bound).
 
 The image is rendered in row blocks, launched concurrently from host threads on the CPU
 (:mod:`warpvol.parallel`); ``progress`` gets the fraction of rows done, and a progress bar with the
@@ -374,7 +375,8 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
                           progress: Callable[[float], None] | None = None, stats: dict | None = None,
                           show_progress: bool | None = None, threads: int = 0,
                           rows_per_block: int = 0, rows: tuple[int, int] | None = None,
-                          pixels: np.ndarray | None = None, visible: np.ndarray | None = None) -> np.ndarray:
+                          pixels: np.ndarray | None = None, visible: np.ndarray | None = None,
+                          terminate: float | None = None) -> np.ndarray:
     """Exact float64 reference image, Warp kernels (same contract as the NumPy
     :func:`warpvol.reference.numpy_render.render_reference`).
 
@@ -418,6 +420,11 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
         ulps; not so for a ray in a face plane through a perspective eye, which takes the eye's
         scalar). A mask that leaves out a tet the transfer function can make visible is refused
         (``ConfigError``).
+    terminate : float, optional
+        Early ray termination: a ray stops once what lies behind can change no channel by more than this
+        (default 1e-17: the reference image). A float64 redo of a renderer's rays passes that renderer's
+        own bound (``raycast``'s ``t_min``), so the redone pixels leave out no more than its other pixels.
+        In ``(0, 1]``.
 
     Returns
     -------
@@ -430,6 +437,9 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     from warpvol.kernels import reference as K
 
     check_choice("tf.emission", tf.emission, EMISSION_MODELS)
+    terminate = K.TERMINATE if terminate is None else float(terminate)
+    if not 0.0 < terminate <= 1.0:
+        raise ConfigError(f"render_reference_warp: terminate must lie in (0, 1], got {terminate!r}")
     if int(threads) < 0:
         raise ConfigError(f"render_reference_warp: threads must be >= 0, got {threads}")
     t0 = time.perf_counter()
@@ -512,7 +522,7 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
         rblocks = blocks(len(plist), max(1, -(-len(plist) // (8 * threads))) if on_cpu else len(plist))
         show_progress = False
     common = [P, S, T, adj, orient, s_eye, near, ent_start, ent_t, ent_tet, cxs, cys, persp,
-              int(mesh.n_tets) + 1, f64(c_bound), tf_s, tf_c, arr(x10, f64), arr(w10, f64), arr(x5, f64),
+              int(mesh.n_tets) + 1, f64(c_bound), f64(terminate), tf_s, tf_c, arr(x10, f64), arr(w10, f64), arr(x5, f64),
               arr(w5, f64), ed, img, counters]
     # a caller's own progress callback (the command line's bar, bench, stress) replaces the default bar
     bar = _progress_bar(show_progress if show_progress is not None or progress is None else False, len(rblocks))

@@ -170,7 +170,9 @@ class PTIntegrate(Stage):
               "silhouette_edges": u["silhouette_edges"], "rough_tets": u["rough_tets"], "float64_pixels": 0}
         if len(px) and self.config["format"] == "fp32":
             ctx.mesh_setup(sc.mesh, *redo_mesh_properties(sc.camera))
-            val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, px, visible=skipping(ctx)[0])
+            eps = self.config["early_termination"] if ctx.skip and self._terminates() else 0.0
+            val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, px, visible=skipping(ctx)[0],
+                                      terminate=eps or None)  # the draw's own termination bound
             img = ctx.image.reshape(-1, 4)
             img[px] = val.astype(img.dtype)
             ctx.image = img.reshape(ctx.image.shape)

@@ -201,11 +201,11 @@ class Harc(Stage):
         ctx.buffers["harc_state"] = {"state": state, "run_pass": run_pass, "keep": (keep, keep_st), "eps": self.early_termination if t_stop > 0 else 0.0,
                                      "count": lambda c: count_pass(ctx, c, keep, self.walk, self.integration,
                                                                    self.format, lambda: px_work(state, cam)),
-                                     "resolve": lambda: resolve_failed(ctx, state),
+                                     "resolve": lambda: resolve_failed(ctx, state, self.early_termination if t_stop > 0 else 0.0),
                                      "lost": (lambda: lost_rays(state)) if paper else None}
         # robust: failed rays are redone whole in float64 now (and then done: later peel passes skip
         # them); paper: none are marked failed, lost rays keep their partial result
-        redone = resolve_failed(ctx, state)
+        redone = resolve_failed(ctx, state, self.early_termination if t_stop > 0 else 0.0)
         t2 = time.perf_counter()
         count_pass(ctx, c, keep, self.walk, self.integration, self.format, lambda: px_work(state, cam))
         ctx.count(rays=state.n)

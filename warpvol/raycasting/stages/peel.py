@@ -71,7 +71,7 @@ class Peel(Stage):
             from warpvol.raycasting.visible import unfinished_to_float64
 
             unfinished = unfinished_to_float64(state, int(k.STATUS_ACTIVE), int(k.STATUS_FAILED))
-        redone = resolve_failed(ctx, state)
+        redone = resolve_failed(ctx, state, self.t_min if t_min > 0 else 0.0)
         ctx.count(float64_rays=redone)
         report_left_out(ctx, self.t_min if t_min > 0 else 0.0, early)
         mesh = ctx.scene.mesh  # interior faces without a neighbour: rays re-enter at the coincident face

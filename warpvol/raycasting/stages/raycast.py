@@ -124,9 +124,10 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
     return c
 
 
-def resolve_failed(ctx: Context, state: MarchState) -> int:
+def resolve_failed(ctx: Context, state: MarchState, terminate: float = 0.0) -> int:
     """Redo the rays marked ``STATUS_FAILED`` in float64 on the host (whole ray; with skipping on, through
-    the visible cells only, as the float32 walk), store them as done; returns how many."""
+    the visible cells only, as the float32 walk), store them as done; returns how many. ``terminate`` > 0:
+    the redo stops a ray once no channel can change by more than that (the walk's stated bound, ``t_min``)."""
     import warp as wp
 
     from warpvol.kernels import raycast as k
@@ -138,7 +139,8 @@ def resolve_failed(ctx: Context, state: MarchState) -> int:
         return 0
     sc = ctx.scene
     ctx.mesh_setup(sc.mesh, *redo_mesh_properties(sc.camera))
-    val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, failed, visible=skipping(ctx)[0])
+    val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, failed, visible=skipping(ctx)[0],
+                              terminate=terminate or None)
     rgb, trans = state.rgb.numpy(), state.trans.numpy()
     rgb[failed] = val[:, :3]
     trans[failed] = 1.0 - val[:, 3]
@@ -270,7 +272,7 @@ class Raycast(Stage):
         c = march_pass(ctx, state, max_steps=self.max_steps, t_min=t_min, threads=threads)
 
         missed = rays_without_cell(state.last, state.status, int(k.STATUS_FAILED))
-        redone = resolve_failed(ctx, state)
+        redone = resolve_failed(ctx, state, self.t_min if t_min > 0 else 0.0)
         ctx.count(rays=cam.width_px * cam.height_px, entries=int(c[0]), cell_steps=int(c[1]),
                   float64_rays=redone)
         ctx.stats["raycast"] = {"entries": int(c[0]), "cell_steps": int(c[1]), "unfinished_rays": int(c[2]),
