@@ -216,6 +216,7 @@ def make_march(walk: int, setup: int, mode: int):
         fb: NumFmt,
         t_stop: float,
         max_steps: int,
+        scalar_check: int,
         t_tol: float,
         first: int,
         ids: wp.array(dtype=wp.int32),
@@ -366,7 +367,7 @@ def make_march(walk: int, setup: int, mode: int):
         if wp.static(fused):
             acc, t_in, cell, steps, cells_visited, failed, exited, thin = exact_walk(
                 cell, face_in, fc, t_in, s_in, rgba[idx], r, verts, tets, nbr, nbr_vertex, ig.tf_s, ig.tf_v,
-                ig.model, t_stop, max_steps, float(radius))
+                ig.model, t_stop, max_steps, float(radius), scalar_check)
         else:
             acc = rgba[idx]
             steps = int(0)

@@ -13,7 +13,8 @@ contrast that makes the difference visible (a thin layer carrying the image, :fu
 an entry or exit through a face seen so nearly edge-on that the chord's float32 length is visibly uncertain
 (:func:`~warpvol.kernels.walk.grazing_unresolved`), or crossings whose float32 scalars are too uncertain for a
 transfer function that steep (the bound of :func:`~warpvol.kernels.walk.scalar_step` over
-:data:`~warpvol.kernels.walk.STEEP_ERR`) --
+:data:`~warpvol.kernels.walk.STEEP_ERR`; with ``scalar_check`` 0 that bound is skipped where it provably stays
+below it: :func:`warpvol.raycasting.stages.cell_setup.scalar_check_needed`) --
 is marked ``STATUS_FAILED`` and redone on the host in float64; it is counted, never silently wrong.
 
 Per-pixel state (radiance, transmittance, ray parameter, status) lives in device arrays so passes
@@ -28,7 +29,7 @@ import warp as wp
 from .integrate import exp_neg, integrate_piece, integrate_segment_tf
 from .tf import tf_eval, tf_eval_upper, tf_upper, tf_upper_from
 from .walk import (STALL_STEPS, STEEP_ERR, Face, Ray, boundary_face, face_hit, grazing_unresolved, monotone_exit,
-                   next_face_from, pixel_ray, scalar_error, scalar_step, thin_at_exit, thin_start, thin_step)
+                   next_face_from, pixel_ray, scalar_error_if, scalar_step, thin_at_exit, thin_start, thin_step)
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -118,6 +119,7 @@ def march(
     tf_s: wp.array(dtype=float),
     tf_v: wp.array(dtype=wp.vec4),
     model: int,
+    scalar_check: int,
     max_steps: int,
     t_min: float,
     t_tol: float,
@@ -179,7 +181,7 @@ def march(
     thin_mem = thin_start()  # the thin-layer check's memory of the previous segment
     if t_in >= t_clip and grazing_unresolved(tr, v_in, model, fc, r, t_in, scale):
         failed = 1  # entering through a face seen nearly edge-on: the chord's float32 start is too uncertain
-    ds_in = scalar_error(fc, r)  # the entry crossing's scalar error
+    ds_in = scalar_error_if(scalar_check, fc, r)  # the entry crossing's scalar error
     scal_err = float(0.0)  # bound on the pixel's error from the crossings' scalar errors so far
     gn = tets[cell][face_in]
     while steps < max_steps and failed == 0:
@@ -187,12 +189,9 @@ def march(
         nrow = nbr[cell]  # this cell's neighbour records, fetched while the step computes
         vrow = nbr_vertex[cell]
         fc, f_out, t_out, s_out = next_face_from(tets[cell], gn, fc, verts, r)
-        if f_out < 0:
-            failed = 1
-            break
         t_out, stall = monotone_exit(t_in, t_out, stall)
-        if stall > STALL_STEPS:
-            failed = 1
+        if f_out < 0 or stall > STALL_STEPS:
+            failed = 1  # no exit face, or no progress in t for STALL_STEPS steps
             break
         k_out = tf_upper_from(s_out, k_in, tf_s)
         v_out = tf_eval_upper(s_out, k_out, tf_s, tf_v)
@@ -210,19 +209,18 @@ def march(
                                            model)
             # a segment too short for its float32 length next to a density contrast: unresolved
             thin, thin_mem = thin_step(thin_mem, ln, seg[3], t_out, scale, tr, v_in, v_out, k_in, k_out, tf_v, model)
-            if thin == 1:
-                failed = 1
-                break
-            # the crossings' float32 scalars, too uncertain where the transfer function is that steep
-            ds_out = scalar_error(fc, r)
+            # the crossings' float32 scalars, too uncertain where the transfer function is that steep (a check
+            # that provably cannot fire for this TF and mesh is off: scalar_check_needed)
+            ds_out = scalar_error_if(scalar_check, fc, r)
             scal_err = scalar_step(scal_err, tr, ln, seg[3], s_in, s_out, v_in, v_out, k_in, k_out, ds_in, ds_out,
                                    tf_s, tf_v, model)
-            if scal_err > STEEP_ERR:
+            if thin == 1 or scal_err > STEEP_ERR:
                 failed = 1
-                break
             ds_in = ds_out
             acc += tr * wp.vec3(seg[0], seg[1], seg[2])
             tr = tr * exp_neg(seg[3])
+        if failed == 1:
+            break  # (one break after the block, not one per check inside it: a failed ray's colour is dropped)
         nb = nrow[f_out]
         t_in = t_out
         s_in = s_out

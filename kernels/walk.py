@@ -427,6 +427,18 @@ def scalar_error(fc: Face, r: Ray) -> float:
 
 
 @wp.func
+def scalar_error_if(check: int, fc: Face, r: Ray) -> float:
+    """:func:`scalar_error` where ``check`` is 1; 0 where the walk's bound on the crossings' scalar errors is
+    off (it provably cannot fire: :func:`warpvol.raycasting.stages.cell_setup.scalar_check_needed`), so that
+    :func:`scalar_step` adds nothing. (A function rather than an ``if`` block in the walk loop: Warp turns
+    every variable an ``if`` block with a ``break`` in a loop assigns, the walk's :class:`Face` among them,
+    into a select after it.)"""
+    if check == 0:
+        return 0.0
+    return scalar_error(fc, r)
+
+
+@wp.func
 def scalar_step(err: float, tr: float, ln: float, tau: float, s_in: float, s_out: float, v_in: wp.vec4,
                 v_out: wp.vec4, k_in: int, k_out: int, ds_in: float, ds_out: float,
                 tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp.vec4), model: int) -> float:
@@ -435,8 +447,13 @@ def scalar_step(err: float, tr: float, ln: float, tau: float, s_in: float, s_out
     scalars off by up to ``ds_in``, ``ds_out`` (:func:`scalar_error`); its integrated :func:`density`
     ``D`` moves by ``dD/ds_end`` times that. Within one linear transfer function piece (slope ``g``)
     ``dD/ds_end = ln g / 2``; across control points ``|ln density(v_end) - D| / |s_out - s_in|`` (a narrow
-    peak inside the segment moves along it). Past :data:`STEEP_ERR` the ray is unresolved (redone in
-    float64): a transfer function steep on the scale of float32's resolution of a point there."""
+    peak inside the segment moves along it), at most ``ln`` times the steepest :func:`density_slope` of the
+    pieces crossed (its exact value is; the cap keeps the float32 rounding of the difference, divided by a
+    small ``|s_out - s_in|``, from counting as an error). Past :data:`STEEP_ERR` the ray is unresolved (redone
+    in float64): a transfer function steep on the scale of float32's resolution of a point there. Nothing to
+    add where both ends' scalars are exact (``ds_in = ds_out = 0``)."""
+    if ds_in == 0.0 and ds_out == 0.0:
+        return err
     if k_in == k_out:
         if k_in <= 0 or k_in >= tf_s.shape[0]:
             return err
@@ -444,8 +461,27 @@ def scalar_step(err: float, tr: float, ln: float, tau: float, s_in: float, s_out
         return err + tr * ln * 0.5 * g * (ds_in + ds_out)
     dd = density(v_in, model) + density(v_out, model) - v_in[3] - v_out[3]
     big_d = tau + 0.5 * ln * dd
-    return err + tr * (wp.abs(ln * density(v_in, model) - big_d) * ds_in
-                       + wp.abs(ln * density(v_out, model) - big_d) * ds_out) / wp.abs(s_out - s_in)
+    cap = float(0.0)  # ln x the steepest density slope of the pieces crossed (pieces 1 .. K - 1; flat outside)
+    for k in range(wp.max(wp.min(k_in, k_out), 1), wp.min(wp.max(k_in, k_out), tf_s.shape[0] - 1) + 1):
+        cap = wp.max(cap, density_slope(k, tf_s, tf_v, model))
+    cap = cap * ln
+    ds = wp.abs(s_out - s_in)
+    return err + tr * (wp.min(wp.abs(ln * density(v_in, model) - big_d) / ds, cap) * ds_in
+                       + wp.min(wp.abs(ln * density(v_out, model) - big_d) / ds, cap) * ds_out)
+
+
+@wp.func
+def density_slope(k: int, tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp.vec4), model: int) -> float:
+    """A bound on the slope of :func:`density` in the scalar on transfer function piece ``k`` (control points
+    ``k - 1`` to ``k``): the extinction's slope plus, for ``emission_density``, the steepest colour channel's
+    (the largest channel can switch inside the piece). The host's per-TF maximum of it is
+    :func:`warpvol.raycasting.stages.cell_setup.scalar_check_needed`'s ``G``."""
+    a = tf_v[k - 1]
+    b = tf_v[k]
+    d = wp.abs(b[3] - a[3])
+    if model == 1:
+        d = d + wp.max(wp.abs(b[0] - a[0]), wp.max(wp.abs(b[1] - a[1]), wp.abs(b[2] - a[2])))
+    return d / (tf_s[k] - tf_s[k - 1])
 
 
 @wp.func

@@ -81,11 +81,16 @@ def run_pass(k, ctx, status0, kw):
     last = wp.array(np.full(n, -1, np.int32), device=dev)
     counters = wp.zeros((1, 7), dtype=wp.int32, device=dev)
     ids = wp.zeros(0, dtype=wp.int32, device=dev)
-    inputs = camera_launch_args(ctx) + [
-        cells["verts"], cells["tets"], cells["nbr"], cells["nbr_vertex"], bins["bface_tet"], bins["bface_local"],
-        bins["bface_box"], bins["tile_start"], bins["tile_items"], bins["tile"], bins["tiles_x"], cells["tf_s"],
-        cells["tf_v"], cells["model"], kw["max_steps"], kw["t_min"], 1e-6 * cells["radius"], 0, ids, rgb, trans, tcur,
-        status, last, counters, 0]
+    # by argument name, so kernels of another signature (a git ref's) take what they name
+    named = dict(zip(("width", "height", "eye", "fwd", "right", "up", "ortho", "half_h", "aspect", "radius"),
+                     camera_launch_args(ctx)))
+    named.update({name: cells[name] for name in ("verts", "tets", "nbr", "nbr_vertex", "tf_s", "tf_v", "model",
+                                                 "scalar_check")})
+    named.update({name: bins[name] for name in ("bface_tet", "bface_local", "bface_box", "tile_start", "tile_items",
+                                                "tile", "tiles_x")})
+    named.update(max_steps=kw["max_steps"], t_min=kw["t_min"], t_tol=1e-6 * cells["radius"], first=0, ids=ids, rgb=rgb,
+                 trans=trans, tcur=tcur, status=status, last=last, counters=counters, chunk=0)
+    inputs = [named[a.label] for a in k.march.adj.args]
     wp.synchronize_device(dev)
     t0 = time.perf_counter()
     wp.launch(k.march, dim=n, device=dev, inputs=inputs)

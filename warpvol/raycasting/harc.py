@@ -404,10 +404,13 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     from warpvol.gpu.formats import get_format
     from warpvol.kernels import harc as kh
     from warpvol.parallel import launch_blocks
+    from warpvol.raycasting.stages.cell_setup import scalar_check_needed
     from warpvol.raycasting.stages.raycast import camera_launch_args, ray_blocks
 
     cells = ctx.buffers["cells"]
     cam_args = camera_launch_args(ctx)
+    # the exact walk's bound on the crossings' scalar errors, off where it provably cannot fire
+    scalar_check = scalar_check_needed(ig.tf_s, ig.tf_v, ig.model, cells["s_span"], cells["radius"])
     state.px_work.zero_()
     ids, parts = ray_blocks(ctx, state.status.numpy() == int(kh.STATUS_ACTIVE), threads, rows_per_block)
     if not parts:
@@ -417,7 +420,7 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     common = cam_args + [eye_w, mesh_tex, cells["verts"], cells["tets"], cells["nbr"], cells["nbr_vertex"],
                          entry["frag_start"], entry["frag_bf"], entry["bf_tet"], entry["bf_face"], entry["bf_nbr"],
                          entry["far"], entry["edge_start"], entry["edge_bf"], ig, get_format(fb_format).kernel_params(),
-                         float(t_stop), int(max_steps), PEEL_TOL * cells["radius"]]
+                         float(t_stop), int(max_steps), scalar_check, PEEL_TOL * cells["radius"]]
     kernel = kh.march_kernel(WALKS[walk], SETUPS[setup], ig.mode)  # this configuration's kernel
 
     def launch(b: int) -> None:

@@ -46,6 +46,40 @@ def neighbour_vertices(nbr: np.ndarray, tets: np.ndarray) -> np.ndarray:
     return out
 
 
+def scalar_check_needed(tf_s, tf_v, model: int, s_span: float, radius: float) -> int:
+    """Whether a walk needs its per-step bound on the crossings' scalar errors
+    (:func:`warpvol.kernels.walk.scalar_step`, 6 square roots and a division per cell step): 0 where that
+    bound provably stays below :data:`~warpvol.kernels.walk.STEEP_ERR` for every ray, else 1.
+
+    ``tf_s``, ``tf_v``: the transfer function as the kernel reads it (float32 control points; numpy or Warp
+    arrays), ``model``: 0 ``color_extinction``, 1 ``emission_density``; ``s_span``: the mesh's scalar range
+    (largest minus smallest point scalar, as uploaded); ``radius``: the mesh's bounding radius about the cells'
+    origin. The inequality: every piece's :func:`~warpvol.kernels.walk.density_slope` is at most
+    ``G = max_k (|extinction_k - extinction_(k-1)| + model max_channel |colour_k - colour_(k-1)|) / (s_k - s_(k-1))``
+    (0 outside the control points), and ``scalar_step`` adds per segment at most ``tr length G (ds_in + ds_out)``
+    (within a piece ``length g / 2`` per unit of an end's scalar with ``g <= G``; across control points its
+    term is capped at ``length`` times the steepest slope crossed); every crossing's scalar error is at most its
+    face's scalar spread (:func:`~warpvol.kernels.walk.spread_error`), at most ``s_span``; the transmittance
+    ``tr`` is at most 1; and a pass's segments lie on the ray inside the bounding sphere, whose chord is at most
+    ``2 radius`` (taken as ``2.1 radius``). So a walk's sum is at most ``G 2 s_span 2.1 radius``; where that is
+    at most ``STEEP_ERR / 2`` (the factor 2: room for the float32 rounding of the sum over up to millions of
+    steps) the check cannot fire and is skipped, the image and the rays redone in float64 the same. A transfer
+    function of constant extinction under ``color_extinction`` (an opaque one) has ``G = 0``."""
+    from warpvol.kernels.walk import STEEP_ERR
+
+    s = np.asarray(tf_s.numpy() if hasattr(tf_s, "numpy") else tf_s, np.float64)
+    v = np.asarray(tf_v.numpy() if hasattr(tf_v, "numpy") else tf_v, np.float64).reshape(len(s), 4)
+    if len(s) < 2:
+        return 0
+    dv = np.abs(np.diff(v, axis=0))
+    dd = dv[:, 3] + (dv[:, :3].max(axis=1) if model == 1 else 0.0)
+    ds = np.diff(s)
+    if not np.all(np.isfinite(dd)) or not np.all(ds > 0):
+        return 1
+    g = float(np.max(np.where(dd > 0, dd / ds, 0.0)))
+    return int(not (g * 2.0 * float(s_span) * 2.1 * float(radius) <= 0.5 * float(STEEP_ERR)))
+
+
 def mesh_arrays(mesh, device: str) -> dict:
     """Device arrays of the per-mesh cell layout (plain function for tests and other walkers)."""
     import warp as wp
@@ -59,6 +93,7 @@ def mesh_arrays(mesh, device: str) -> dict:
         "origin": origin,
         "radius": float(np.sqrt((rel * rel).sum(axis=1).max())),
         "diameter": float(np.linalg.norm(hi - lo)),
+        "s_span": float(np.ptp(np.asarray(mesh.scalars, np.float32))) if len(mesh.scalars) else 0.0,
         "verts": wp.array(np.ascontiguousarray(np.c_[rel, mesh.scalars], dtype=np.float32), dtype=wp.vec4,
                           device=device),
         "tets": wp.array(tets, dtype=wp.vec4i, device=device),
@@ -82,7 +117,9 @@ def cell_arrays(mesh, tf, device: str, cache: dict | None = None) -> dict:
         cells = dict(arrays)
         cells["cached"] = False
     tf_s, tf_v = tf.to_warp(device)
-    cells.update(tf_s=tf_s, tf_v=tf_v, model=0 if tf.emission == "color_extinction" else 1)
+    model = 0 if tf.emission == "color_extinction" else 1
+    cells.update(tf_s=tf_s, tf_v=tf_v, model=model,
+                 scalar_check=scalar_check_needed(tf_s, tf_v, model, cells["s_span"], cells["radius"]))
     return cells
 
 
