@@ -51,7 +51,9 @@ def _cyclic_case(seed, drop, method):
     return Scene(mesh=mesh, transfer=tf, camera=cam, name=f"jittered-{method}")
 
 
-@pytest.mark.parametrize("seed,drop,method", [(7, 0.0, "mpvo"), (1, 0.3, "xmpvo")])
+# (42, 0.1): a cycle XMPVO breaks with 14 of 2,880 ray pairs misordered (a cycle of the cells themselves;
+# the cycles of seed 1 came from float32 depth ties at hull faces, which XMPVO no longer rasterises)
+@pytest.mark.parametrize("seed,drop,method", [(7, 0.0, "mpvo"), (42, 0.1, "xmpvo")])
 def test_pt_best_subsequence_of_a_cyclic_order_draws_the_same_image(seed, drop, method):
     """The order with broken cycles is approximate; dropping the invisible cells from it draws what the
     whole order draws (they composite as the identity)."""

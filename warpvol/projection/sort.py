@@ -20,7 +20,8 @@ Three orders, all *back to front* (draw ``order[0]`` first):
   boundary faces are rasterised into fragment lists; along each pixel's ray, a back-facing boundary
   face (the ray leaves the mesh) followed by a front-facing one (it re-enters) makes the re-entered
   cell precede the left one. Exact at the pixel centres of the camera for any mesh whose visibility
-  relation is acyclic.
+  relation is acyclic. Faces on the mesh's convex hull cannot be either side of such a pair and are
+  not rasterised (:func:`hull_faces`, per mesh).
 
 Cycles (possible in non-Delaunay meshes) are detected by the sort running out of ready cells: the
 farthest remaining cell is drawn next, the break is counted (``cycles_broken``) and the order is
@@ -69,9 +70,12 @@ class SortResult:
 
 
 def _frame(mesh, camera):
-    """Origin (mesh centre), eye relative to it, unit view direction, perspective flag."""
+    """Origin (mesh centre), eye relative to it, unit view direction, perspective flag (``camera`` None:
+    the origin alone)."""
     lo, hi = mesh.bounds
     origin = 0.5 * (lo + hi)
+    if camera is None:
+        return origin, None, None, None
     return origin, np.asarray(camera.eye, np.float64) - origin, np.asarray(camera.forward, np.float64), \
         camera.projection == "perspective"
 
@@ -81,12 +85,20 @@ def centroid_keys(mesh, camera, metric: str = "distance") -> np.ndarray:
     (``distance``) or its depth along the view direction (``view``; the only choice for orthographic)."""
     metric = check_choice("metric", metric, METRICS)
     origin, eye, fwd, persp = _frame(mesh, camera)
-    p, t = mesh.points - origin, mesh.tets
-    c = 0.25 * (p[t[:, 0]] + p[t[:, 1]] + p[t[:, 2]] + p[t[:, 3]])
+    c = centroids(mesh)
     if metric == "distance" and persp:
         d = c - eye
         return np.einsum("ij,ij->i", d, d)
     return (c - eye) @ fwd
+
+
+def centroids(mesh) -> np.ndarray:
+    """(M, 3) float64 cell centroids relative to the mesh centre (:func:`_frame`'s origin), kept on the mesh."""
+    c = mesh.__dict__.get("_sort_centroids")
+    if c is None:
+        p, t = mesh.points - _frame(mesh, None)[0], mesh.tets
+        c = mesh.__dict__["_sort_centroids"] = 0.25 * (p[t[:, 0]] + p[t[:, 1]] + p[t[:, 2]] + p[t[:, 3]])
+    return c
 
 
 def centroid_order(mesh, camera, metric: str = "distance") -> SortResult:
@@ -165,9 +177,58 @@ def topological_order(mesh, dirs: np.ndarray, key: np.ndarray,
     return order.numpy(), int(st[0])
 
 
-def boundary_ray_constraints(mesh, camera, device: str = "cpu") -> tuple[np.ndarray, np.ndarray, int]:
+#: a boundary face is on the hull when no point of the mesh lies farther than this fraction of the
+#: mesh's diameter beyond its plane (flat sides of many coplanar faces count as hull)
+HULL_TOL = 1e-9
+HULL_BLOCK = 64  # boundary points per block of :func:`hull_faces`' bounding-box test
+
+
+def hull_faces(mesh) -> np.ndarray:
+    """Bool per row of ``mesh.boundary_faces``: the face's plane supports the mesh (no point beyond it, to
+    :data:`HULL_TOL` of the diameter), so a pixel ray crosses it first (entering) or last (leaving) and
+    never beside a gap: XMPVO need not rasterise it. Per mesh, kept on it (``missing`` when asked with
+    ``cached_only`` and not computed yet).
+
+    The boundary points (the hull's vertices are among them) are grouped in blocks of
+    :data:`HULL_BLOCK` in a spatial order; a face is tested against one point per block first (most faces
+    off the hull fail there), then against the blocks whose bounding box reaches beyond its plane, point
+    by point."""
+    cache = mesh.__dict__.get("_hull_faces")
+    if cache is not None:
+        return cache
+    from warpvol.scene.mesh import FACE_VERTS
+
+    bf = mesh.boundary_faces
+    pts = np.asarray(mesh.points, np.float64)
+    tri = mesh.tets[bf[:, 0][:, None], FACE_VERTS[bf[:, 1]]]
+    n = np.cross(pts[tri[:, 1]] - pts[tri[:, 0]], pts[tri[:, 2]] - pts[tri[:, 0]])  # outward
+    bp = pts[np.unique(tri)] if len(tri) else np.zeros((1, 3))
+    lo, hi = bp.min(axis=0), bp.max(axis=0)
+    lim = np.einsum("ij,ij->i", n, pts[tri[:, 0]]) + HULL_TOL * float(np.linalg.norm(hi - lo)) * np.linalg.norm(n, axis=1)
+    cell = np.floor((bp - lo) / np.maximum((hi - lo) / 16.0, 1e-300)).clip(0, 15).astype(np.int64)
+    bp = bp[np.argsort((cell[:, 0] * 16 + cell[:, 1]) * 16 + cell[:, 2], kind="stable")]
+    nb = -(-len(bp) // HULL_BLOCK)
+    blk = np.concatenate([bp, np.repeat(bp[-1:], nb * HULL_BLOCK - len(bp), axis=0)]).reshape(nb, HULL_BLOCK, 3)
+    centre, half = 0.5 * (blk.max(axis=1) + blk.min(axis=1)), 0.5 * (blk.max(axis=1) - blk.min(axis=1))
+    on = np.zeros(len(tri), dtype=bool)
+    for f0 in range(0, len(tri), 1024):
+        f = np.arange(f0, min(f0 + 1024, len(tri)))
+        f = f[(n[f] @ blk[:, 0].T <= lim[f, None]).all(axis=1)]  # one point per block
+        reach = n[f] @ centre.T + np.abs(n[f]) @ half.T > lim[f, None]
+        fi, bi = np.nonzero(reach)
+        beyond = (np.einsum("pk,pjk->pj", n[f][fi], blk[bi]) > lim[f][fi, None]).any(axis=1)
+        ok = np.ones(len(f), dtype=bool)
+        ok[fi[beyond]] = False
+        on[f[ok]] = True
+    mesh.__dict__["_hull_faces"] = on
+    return on
+
+
+def boundary_ray_constraints(mesh, camera, device: str = "cpu", hull: bool = False) -> tuple[np.ndarray, np.ndarray, int]:
     """XMPVO's extra edges ``(src, dst)`` (``src`` drawn before ``dst``, deduplicated) from the boundary
-    faces consecutive along the camera's pixel rays, and the number of boundary fragments rasterised."""
+    faces consecutive along the camera's pixel rays, and the number of boundary fragments rasterised.
+    Faces on the hull (:func:`hull_faces`) are left out (``hull``: rasterised too): along a ray an exit
+    followed by an entry has neither on the hull."""
     import warp as wp
 
     from warpvol.gpu.raster import Rasterizer
@@ -177,7 +238,7 @@ def boundary_ray_constraints(mesh, camera, device: str = "cpu") -> tuple[np.ndar
     from warpvol.projection.pt import RASTER_RULES
     from warpvol.scene.mesh import FACE_VERTS
 
-    bf = mesh.boundary_faces
+    bf = mesh.boundary_faces if hull else mesh.boundary_faces[~hull_faces(mesh)]
     empty = np.zeros(0, np.int64)
     if len(bf) == 0:
         return empty, empty, 0
@@ -220,14 +281,15 @@ def mpvo_order(mesh, camera, nonconvex: bool | None = None, metric: str = "dista
         from warpvol.kernels import raster, raster_draw, sort, vertex
         from warpvol.parallel import preload
 
-        _ = (mesh.boundary_faces, mesh.adjacency)  # derived data built once, before the threads share the mesh
+        _ = (mesh.boundary_faces, mesh.adjacency, hull_faces(mesh), centroids(mesh))  # built before the threads
         preload("cpu", raster, raster_draw, sort, vertex)  # each thread's kernels compiled here, not concurrently
-        with ThreadPoolExecutor(max_workers=1) as pool:
+        with ThreadPoolExecutor(max_workers=2) as pool:
             rays = pool.submit(boundary_ray_constraints, mesh, camera)
-            dirs = face_directions(mesh, camera)
             key = centroid_keys(mesh, camera, metric)
-            by_key = cells_by_key(key)  # in case of a cycle; sorted while the rays are being found
+            by_key = pool.submit(cells_by_key, key)  # in case of a cycle; sorted while the faces are decided
+            dirs = face_directions(mesh, camera)
             src, dst, nfrag = rays.result()
+            by_key = by_key.result()
         extra, info = (src, dst), {"boundary_fragments": nfrag, "ray_constraints": len(src)}
     else:
         dirs = face_directions(mesh, camera)

@@ -80,6 +80,14 @@ class SortCells(Stage):
 
     def run(self, ctx: Context) -> None:
         mesh = ctx.scene.mesh
+        xmpvo = self.config["method"] == "xmpvo"
+        if "_sort_centroids" not in vars(mesh) or (xmpvo and "_hull_faces" not in vars(mesh)):  # per mesh: set-up
+            from warpvol.projection.sort import centroids, hull_faces
+
+            with ctx.setup_work("cell centroids" + (", boundary faces on the hull" if xmpvo else "")):
+                centroids(mesh)
+                if xmpvo:
+                    hull_faces(mesh)
         r = visibility_order(mesh, ctx.scene.camera, self.config["method"], self.config["metric"])
         ctx.buffers["order"] = r.order
         vis = ctx.buffers.get("visible_cells")
