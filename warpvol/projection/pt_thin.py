@@ -174,10 +174,11 @@ def rough_tets(mesh, tf, camera, tau: float = ROUGH_TAU, proj=None, drawn=None) 
     area_px = 0.25 * sum(np.abs((col[:, b] - col[:, a]) * (row[:, c] - row[:, a])
                                 - (col[:, c] - col[:, a]) * (row[:, b] - row[:, a]))
                          for a, b, c in ((0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)))
-    longest = np.max([np.hypot(col[:, a] - col[:, b], row[:, a] - row[:, b])
-                      for a, b in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))], axis=0)
-    width_px = area_px / np.maximum(longest, 1e-300)  # hull area / longest projected edge
-    return cand[change[cand] * SNAP_FLIP_PX / np.maximum(width_px, SNAP_FLIP_PX) > tau]
+    longest2 = np.max([(col[:, a] - col[:, b]) ** 2 + (row[:, a] - row[:, b]) ** 2
+                       for a, b in ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))], axis=0)
+    # change SNAP_FLIP_PX / max(width, SNAP_FLIP_PX) > tau with width = area / longest edge (change > tau
+    # here): width < change SNAP_FLIP_PX / tau, squared
+    return cand[area_px * area_px < longest2 * (change[cand] * (SNAP_FLIP_PX / tau)) ** 2]
 
 
 def rounding_bound(mesh, tf) -> tuple[float, int]:
@@ -250,8 +251,10 @@ def edge_on_faces(mesh, camera, ids: bool = False, drawn=None) -> np.ndarray:
     eye = np.asarray(camera.eye, dtype=np.float64)
     tol = EDGE_ON_ULPS * EPS32 * (float(np.linalg.norm(eye - centre)) + radius)
     rows, fp = drawn_faces(mesh, drawn)
-    dist = np.abs(fp["n"] @ eye - fp["c"]) / np.maximum(fp["nn"], 1e-300)  # eye to each face's plane
-    hit = np.flatnonzero((dist < tol) & (fp["nn"] > 0))
+    dist = fp["n"] @ eye  # times |n|: the eye's distance to each face's plane
+    dist -= fp["c"]
+    np.abs(dist, out=dist)
+    hit = np.flatnonzero(dist < tol * fp["nn"])  # never where |n| = 0
     return (hit if rows is None else rows[hit]) if ids else fp["faces"][hit]
 
 
@@ -280,16 +283,23 @@ def snap_edge_on_faces(mesh, tf, camera, tau: float = THIN_TAU, ids: bool = Fals
     if camera.projection == "perspective":
         # width >= h |cos| / (2 px), px = 2 tan depth / H, |cos| = |n . rel| / (|n| |rel|); inside the view
         # frustum |rel| <= corner depth: a face with h |n . rel| >= wide 4 tan corner depth^2 |n| / H is wider
-        rel = fp["p0"] - eye
-        depth = np.abs(rel @ camera.forward)
+        fwd = np.asarray(camera.forward, np.float64)
+        rhs = fp["p0"] @ fwd  # in place from here: one pass per operation over every face
+        rhs -= eye @ fwd
+        rhs *= rhs
         th = np.tan(np.radians(camera.fov_y_deg) / 2.0)
         corner = np.sqrt(1.0 + th * th * (1.0 + camera.aspect * camera.aspect))
-        narrow = fp["height"] * np.abs(fp["n"] @ eye - fp["c"]) < \
-            wide * 4.0 * th * corner / camera.height_px * depth * depth * fp["nn"]
+        rhs *= fp["nn"]
+        rhs *= wide * 4.0 * th * corner / camera.height_px
+        lhs = fp["n"] @ eye
+        lhs -= fp["c"]
     else:
         px = camera.ortho_height / camera.height_px
-        narrow = fp["height"] * np.abs(fp["n"] @ np.asarray(camera.forward, np.float64)) < wide * 2.0 * px * fp["nn"]
-    cand = np.flatnonzero(narrow & (dens_all * fp["height"] > tau) & (fp["nn"] > 0))
+        lhs, rhs = fp["n"] @ np.asarray(camera.forward, np.float64), wide * 2.0 * px * fp["nn"]
+    np.abs(lhs, out=lhs)
+    lhs *= fp["height"]
+    cand = np.flatnonzero(lhs < rhs)
+    cand = cand[(dens_all * fp["height"][cand] > tau) & (fp["nn"][cand] > 0)]
     if len(cand) == 0:
         return none
     col, row, depth = _window(TetMeshFaces(mesh, faces[cand]), camera, np.arange(len(cand)), proj)
