@@ -110,6 +110,23 @@ def test_compile_clock_counts_a_module_load():
     assert again.seconds == 0 and again.modules == []
 
 
+def test_compile_clock_starts_no_thread_for_a_loaded_module(monkeypatch):
+    """Warp calls its loader on every launch; for a module already loaded the wrapped loader returns
+    without starting the timer that announces a slow compilation (a thread per launch otherwise)."""
+    import warp as wp
+
+    import warpvol.timing as timing
+    from warpvol.kernels import blend
+
+    wp.load_module(blend, device="cpu")
+    started = []
+    monkeypatch.setattr(timing.threading, "Timer", lambda *a, **k: started.append(a) or pytest.fail("timer"))
+    with CompileClock() as clock:
+        for _ in range(3):
+            wp.load_module(blend, device="cpu")
+    assert clock.available and started == [] and clock.modules == []
+
+
 def test_split_times_adds_up():
     rows = {"a": {"s": 1.0, "compile_s": 0.5, "setup": True}, "b": {"s": 0.25, "compile_s": 0.0, "setup": False}}
     out = split_times(rows, 1.5)
