@@ -1,17 +1,19 @@
-"""Micro-benchmark: the ``raycast`` first pass's march kernel alone, this tree's kernels against a git ref's.
+"""Micro-benchmark: a ray caster's first-pass march kernel alone, this tree's kernels against a git ref's.
 
-Renders the view once with the ``raycast`` preset to capture the first pass's inputs (cells, entry bins,
-the rays marked for float64 before the walk), then times :func:`warpvol.kernels.raycast.march` over the whole
-image in one launch on one host thread, for this tree's ``kernels/`` and for a copy of ``--base``'s
-(``git archive``, imported as a package of its own, so both are compiled side by side), interleaved round by
-round in one process so load from other processes hits both alike. Prints per kernel set the median time,
-the cell steps and the nanoseconds per step (one thread), and whether the two produce the same pass
-bit for bit (radiance, transmittance, ray parameter, status, counters: the same float64 redo counts).
+Renders the view once with ``--preset`` (``raycast``: :func:`warpvol.kernels.raycast.march`; ``harc_best``:
+HARC's march kernel with :func:`warpvol.kernels.harc_walk.exact_walk`) and records the first pass's launches
+with their inputs (cells, entry search data, the rays marked for float64 before the walk), then replays them
+one after the other on one host thread, for this tree's ``kernels/`` and for a copy of ``--base``'s
+(``git archive``, imported as a package of its own, so both are compiled side by side; inputs matched by
+argument name, Warp structs converted field by field), interleaved round by round in one process so load from
+other processes hits both alike. Prints per kernel set the median time, the cell steps and the nanoseconds per
+step (one thread), and whether the two produce the same pass bit for bit (colour, transmittance, ray
+parameter, status, counters: the same float64 redo counts).
 
 Usage::
 
     ./run.sh python scripts/bench_march.py scenes/bluntfin_close.toml --tf opaque [--size 512] [--repeat 5]
-        [--base main]
+        [--base main] [--preset raycast|harc_best]
 """
 
 from __future__ import annotations
@@ -43,61 +45,92 @@ def base_kernels(ref: str, where: Path):
     return importlib.import_module("base_kernels.raycast")
 
 
-def capture(scene):
-    """Render ``scene`` with ``raycast`` once; the first pass's context, its status before the walk, its
-    ``t_min`` and ``max_steps``."""
-    from warpvol.pipeline import Pipeline
-    from warpvol.raycasting.stages import raycast as stage
-
-    got = {}
-    orig = stage.march_pass
-
-    def spy(ctx, state, **kw):
-        if "ctx" not in got:
-            got.update(ctx=ctx, status=state.status.numpy().copy(), kw=kw)
-        return orig(ctx, state, **kw)
-
-    stage.march_pass = spy
-    try:
-        Pipeline.load("raycast", device="cpu").render(scene, quiet=True)
-    finally:
-        stage.march_pass = orig
-    return got
-
-
-def run_pass(k, ctx, status0, kw):
-    """One launch of ``k.march`` over the whole image; ``(seconds, outputs)``."""
+def capture(scene, preset: str) -> list:
+    """Render ``scene`` with ``preset`` (``raycast`` or ``harc_best``) once; the first pass's launches of its
+    march kernel, each ``(kernel, dim, inputs)`` with the arrays as they were before the launch."""
     import warp as wp
 
-    from warpvol.raycasting.stages.raycast import camera_launch_args
+    from warpvol.pipeline import Pipeline
 
-    cells, bins = ctx.buffers["cells"], ctx.buffers["entry_bins"]
-    n = len(status0)
-    dev = ctx.device
-    rgb = wp.zeros(n, dtype=wp.vec3, device=dev)
-    trans = wp.array(np.ones(n, np.float32), device=dev)
-    tcur = wp.zeros(n, dtype=wp.float32, device=dev)
-    status = wp.array(status0, dtype=wp.int32, device=dev)
-    last = wp.array(np.full(n, -1, np.int32), device=dev)
-    counters = wp.zeros((1, 7), dtype=wp.int32, device=dev)
-    ids = wp.zeros(0, dtype=wp.int32, device=dev)
-    # by argument name, so kernels of another signature (a git ref's) take what they name
-    named = dict(zip(("width", "height", "eye", "fwd", "right", "up", "ortho", "half_h", "aspect", "radius"),
-                     camera_launch_args(ctx)))
-    named.update({name: cells[name] for name in ("verts", "tets", "nbr", "nbr_vertex", "tf_s", "tf_v", "model",
-                                                 "scalar_check")})
-    named.update({name: bins[name] for name in ("bface_tet", "bface_local", "bface_box", "tile_start", "tile_items",
-                                                "tile", "tiles_x")})
-    named.update(max_steps=kw["max_steps"], t_min=kw["t_min"], t_tol=1e-6 * cells["radius"], first=0, ids=ids, rgb=rgb,
-                 trans=trans, tcur=tcur, status=status, last=last, counters=counters, chunk=0)
-    inputs = [named[a.label] for a in k.march.adj.args]
-    wp.synchronize_device(dev)
-    t0 = time.perf_counter()
-    wp.launch(k.march, dim=n, device=dev, inputs=inputs)
-    wp.synchronize_device(dev)
-    dt = time.perf_counter() - t0
-    return dt, {"rgb": rgb.numpy(), "trans": trans.numpy(), "tcur": tcur.numpy(), "status": status.numpy(),
-                "counters": counters.numpy()[0]}
+    if preset == "raycast":
+        from warpvol.raycasting.stages import raycast as where
+    else:
+        from warpvol.raycasting import harc as where
+    rec, on = [], {"now": False, "done": False}
+    orig_pass, orig_launch = where.march_pass, wp.launch
+
+    def launch(kernel, *a, **kw):
+        if on["now"]:
+            rec.append((kernel, kw["dim"], [wp.clone(x) if isinstance(x, wp.array) else x for x in kw["inputs"]]))
+        return orig_launch(kernel, *a, **kw)
+
+    def first_pass(*a, **kw):
+        on["now"] = not on["done"]
+        try:
+            return orig_pass(*a, **kw)
+        finally:
+            on["now"], on["done"] = False, True
+
+    where.march_pass, wp.launch = first_pass, launch
+    try:
+        Pipeline.load(preset, device="cpu").render(scene, quiet=True)
+    finally:
+        where.march_pass, wp.launch = orig_pass, orig_launch
+    return rec
+
+
+def as_package(x, pkg: str):
+    """A Warp struct value of ``warpvol.kernels`` as the same struct of the kernel package ``pkg`` (field by
+    field); anything else as it is."""
+    if not hasattr(x, "_cls"):
+        return x
+    mod = importlib.import_module(x._cls.module.name.replace("warpvol.kernels", pkg, 1))
+    out = getattr(mod, x._cls.key)()
+    for name in x._cls.vars:
+        setattr(out, name, as_package(getattr(x, name), pkg))
+    return out
+
+
+def kernel_of(pkg: str, kernel):
+    """``kernel`` (a march kernel of ``warpvol.kernels``) in the kernel package ``pkg``."""
+    new = importlib.import_module("warpvol.kernels.harc")
+    if kernel.key.startswith("march"):
+        return importlib.import_module(f"{pkg}.raycast").march
+    mod = importlib.import_module(f"{pkg}.harc")
+    for walk in (new.WALK_PLANES, new.WALK_PLUCKER):
+        for setup in (new.SETUP_ROBUST, new.SETUP_PAPER):
+            for mode in (0, 1, 2):
+                try:
+                    if new.march_kernel(walk, setup, mode) is kernel:
+                        return mod.march_kernel(walk, setup, mode)
+                except ValueError:
+                    pass
+    raise LookupError(kernel.key)
+
+
+def run_pass(pkg: str, launches: list):
+    """The recorded launches with ``pkg``'s kernels, one after the other on this thread, each on fresh copies of
+    its arrays, its inputs taken by argument name (a kernel of another signature takes what it names);
+    ``(seconds, outputs)``: the arrays after the launches and the counters summed."""
+    import warp as wp
+
+    total, outs = 0.0, []
+    for kernel, dim, inputs in launches:
+        k = kernel if pkg == "warpvol.kernels" else kernel_of(pkg, kernel)
+        named = {a.label: x for a, x in zip(kernel.adj.args, inputs)}
+        args = [wp.clone(named[a.label]) if isinstance(named[a.label], wp.array) else as_package(named[a.label], pkg)
+                for a in k.adj.args]
+        wp.synchronize_device("cpu")
+        t0 = time.perf_counter()
+        wp.launch(k, dim=dim, device="cpu", inputs=args)
+        wp.synchronize_device("cpu")
+        total += time.perf_counter() - t0
+        outs.append({a.label: x.numpy() for a, x in zip(k.adj.args, args) if isinstance(x, wp.array)})
+        outs[-1]["counters"] = outs[-1]["counters"][named["chunk"]]  # this launch's row
+    keys = ("rgb", "rgba", "trans", "tcur", "status", "last", "px_work")
+    out = {key: np.concatenate([o[key].ravel() for o in outs]) for key in keys if key in outs[0]}
+    out["counters"] = sum(o["counters"] for o in outs)
+    return total, out
 
 
 def main(argv=None) -> int:
@@ -107,12 +140,12 @@ def main(argv=None) -> int:
     ap.add_argument("--size", type=int, default=512)
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--base", default="main", help="git ref whose kernels/ to compare against ('' : none)")
+    ap.add_argument("--preset", default="raycast", choices=("raycast", "harc_best"))
     a = ap.parse_args(argv)
 
     from bench_raycast import load_average
     from bench_skip import variant
 
-    from warpvol.kernels import raycast as k_new
     from warpvol.pipeline import quiet_warp
     from warpvol.scene.scene_file import load_scene
 
@@ -120,33 +153,37 @@ def main(argv=None) -> int:
     base = load_scene(a.scene)
     base.camera = base.camera.replace(width_px=a.size, height_px=a.size)
     scene, _ = variant(base, a.tf)
-    got = capture(scene)
-    kinds = {"this tree": k_new}
+    launches = capture(scene, a.preset)
+    kinds = {"this tree": "warpvol.kernels"}
     with tempfile.TemporaryDirectory() as tmp:
         if a.base:
-            kinds = {f"base {a.base}": base_kernels(a.base, Path(tmp)), **kinds}
+            base_kernels(a.base, Path(tmp))
+            kinds = {f"base {a.base}": "base_kernels", **kinds}
         times = {name: [] for name in kinds}
         outs = {}
         load0 = load_average()
         for r in range(a.repeat + 1):  # round 0: compile and warm up
-            for name, k in kinds.items():
-                dt, outs[name] = run_pass(k, got["ctx"], got["status"], got["kw"])
+            for name, pkg in kinds.items():
+                dt, outs[name] = run_pass(pkg, launches)
                 if r:
                     times[name].append(dt)
         load1 = load_average()
-    print(f"{scene.name} {a.size}^2: march alone, one launch on one host thread, {a.repeat} interleaved rounds; "
-          f"{load0} (start), {load1} (end)")
+    print(f"{scene.name} {a.size}^2, {a.preset}: the first pass's march launches on one host thread, {a.repeat} "
+          f"interleaved rounds; {load0} (start), {load1} (end)")
+    # counter columns (kernels/raycast.py, warpvol/raycasting/harc.py COUNTER_NAMES): steps, failed, thin, terminated
+    col = (1, 3, 5, 6) if a.preset == "raycast" else (2, 3, 8, 11)
     for name in kinds:
-        c = outs[name]["counters"]
+        c = [int(outs[name]["counters"][i]) for i in col]
         t = statistics.median(times[name])
-        print(f"  {name:<14} {t:8.4f} s  (min {min(times[name]):.4f})  steps {int(c[1]):,}  {1e9 * t / max(1, c[1]):6.1f} "
-              f"ns/step  failed {int(c[3]):,} (thin {int(c[5]):,})  terminated {int(c[6]):,}")
+        print(f"  {name:<14} {t:8.4f} s  (min {min(times[name]):.4f})  steps {c[0]:,}  {1e9 * t / max(1, c[0]):6.1f} "
+              f"ns/step  failed {c[1]:,} (thin {c[2]:,})  terminated {c[3]:,}")
     if len(kinds) == 2:
         o_base, o_new = outs.values()
         same = {key: bool(np.array_equal(o_base[key], o_new[key])) for key in o_base}
         print("  identical to base:", ", ".join(f"{key} {'yes' if v else 'NO'}" for key, v in same.items()))
-        if not same["rgb"]:
-            print(f"  largest radiance difference {np.abs(o_base['rgb'] - o_new['rgb']).max():.3e}")
+        colour = "rgb" if "rgb" in o_base else "rgba"
+        if not same[colour]:
+            print(f"  largest colour difference {np.abs(o_base[colour] - o_new[colour]).max():.3e}")
         tb, tn = times.values()
         print(f"  base / this tree: {statistics.median(tb) / statistics.median(tn):.3f}")
     return 0
