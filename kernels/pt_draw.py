@@ -160,6 +160,31 @@ def sfsbl_ray(a: vec8f, mode: int, ortho: int, ray_factor: float) -> wp.vec3:
 
 
 @wp.func
+def zero_segments(lo: vec8f, hi: vec8f, mode: int, zero_lo: float, zero_hi: float) -> bool:
+    """Whether every fragment of a triangle whose attributes are clamped into ``[lo, hi]`` (its vertices'
+    range, :func:`clamp8`) has both ends of its segment at or below ``zero_lo`` or both at or above
+    ``zero_hi``: ``(sf, sb)`` are the attributes themselves (``PERSP_OFF``) or ``a[0] (1 / a[2])``,
+    ``a[1] (1 / a[3])`` as :func:`sfsbl_ray` rounds them, monotone in each factor, so their extremes over
+    the box are at its corners (``1 / w`` > 0; else no decision)."""
+    sf0 = lo[0]
+    sf1 = hi[0]
+    sb0 = lo[1]
+    sb1 = hi[1]
+    if mode != PERSP_OFF:
+        if not (lo[2] > 0.0 and lo[3] > 0.0):
+            return False
+        wf0 = 1.0 / hi[2]
+        wf1 = 1.0 / lo[2]
+        wb0 = 1.0 / hi[3]
+        wb1 = 1.0 / lo[3]
+        sf0 = wp.min(wp.min(lo[0] * wf0, lo[0] * wf1), wp.min(hi[0] * wf0, hi[0] * wf1))
+        sf1 = wp.max(wp.max(lo[0] * wf0, lo[0] * wf1), wp.max(hi[0] * wf0, hi[0] * wf1))
+        sb0 = wp.min(wp.min(lo[1] * wb0, lo[1] * wb1), wp.min(hi[1] * wb0, hi[1] * wb1))
+        sb1 = wp.max(wp.max(lo[1] * wb0, lo[1] * wb1), wp.max(hi[1] * wb0, hi[1] * wb1))
+    return (sf1 <= zero_lo and sb1 <= zero_lo) or (sf0 >= zero_hi and sb0 >= zero_hi)
+
+
+@wp.func
 def span_done(done_rows: wp.array(dtype=wp.uint64), r0: int, r1: int, b0: int, b1: int) -> bool:
     """Whether bits ``b0 .. b1`` (0 <= b0 <= b1 < 64) are set in every row ``r0 .. r1`` of ``done_rows``."""
     w = b1 - b0 + 1
@@ -179,7 +204,8 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
                      bs: BlendState, fb: wp.array2d(dtype=wp.vec4), tile0: int, counts: wp.array(dtype=wp.vec2i),
                      t_min: float, skipped: wp.array(dtype=wp.vec2i), tet0: int, done_rows: wp.array(dtype=wp.uint64),
                      term_at: wp.array2d(dtype=wp.int32), binned: wp.array(dtype=wp.int32),
-                     walked: wp.array(dtype=wp.int32), occluded: wp.array(dtype=wp.int32)):
+                     walked: wp.array(dtype=wp.int32), occluded: wp.array(dtype=wp.vec3i), zero_lo: float,
+                     zero_hi: float):
     tile = tile0 + wp.tid()
     nfrag = int(0)
     nclamp = int(0)
@@ -193,6 +219,8 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
     nskip = int(0)
     ntail = int(0)
     nocc = int(0)
+    nzero = int(0)  # fragments whose segment lies where the TF adds nothing
+    nzt = int(0)  # bin entries all of whose fragments do
     rows0 = tile * s.tile_size  # this tile's rows of done_rows: bit j - rect[0] set once pixel j terminated
     if term:
         for r in range(s.tile_size):
@@ -225,17 +253,20 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
         if term:
             walked[tet0 + t / 4] = 1
         v = s.vidx[t]
-        pa = pos[v[0]]
-        pb = pos[v[1]]
-        pc = pos[v[2]]
         a0 = vattrs[v[0]]
         a1 = vattrs[v[1]]
         a2 = vattrs[v[2]]
+        lo = wp.min(a0, wp.min(a1, a2))
+        hi = wp.max(a0, wp.max(a1, a2))
+        if zero_segments(lo, hi, mode, zero_lo, zero_hi):  # every fragment's (sf, sb) where the TF adds nothing
+            nzt += 1
+            continue
+        pa = pos[v[0]]
+        pb = pos[v[1]]
+        pc = pos[v[2]]
         g = attribute_planes(pa, pb, pc, a0, a1, a2)
         gx = g[0]
         gy = g[1]
-        lo = wp.min(a0, wp.min(a1, a2))
-        hi = wp.max(a0, wp.max(a1, a2))
         tol = CLAMP_REL * (hi - lo)
         row = edges_at(s, t, j0, i0)
         sj = edge_step_j(s, t)
@@ -257,12 +288,16 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
                 x = nearest_on_triangle(pa, pb, pc, a0, a1, a2, float(j) + 0.5, float(i) + 0.5,
                                         a0 + gx * (float(j) + 0.5 - pa[0]) + ry)
                 a, moved = clamp8(x, lo, hi, tol)
-                nfrag += 1
-                nclamp += moved
                 factor = float(1.0)
                 if per_ray:
                     factor = ray_len[i, j]
-                c = exact_color(sfsbl_ray(a, mode, ortho, factor), tf_s, tf_v, model)
+                seg = sfsbl_ray(a, mode, ortho, factor)
+                if (seg[0] <= zero_lo and seg[1] <= zero_lo) or (seg[0] >= zero_hi and seg[1] >= zero_hi):
+                    nzero += 1  # integrates to exact zeros: blending it changes nothing
+                    continue
+                nfrag += 1
+                nclamp += moved
+                c = exact_color(seg, tf_s, tf_v, model)
                 d = blend(bs, c, d, j, i, t)
                 fb[i, j] = d
                 if term and 1.0 - d[3] <= t_min:
@@ -272,4 +307,4 @@ def k_pt_exact_tiles(s: TriSetup, pos: wp.array(dtype=wp.vec4), vattrs: wp.array
                     term_at[i, j] = tet0 + t / 4
     counts[tile] = wp.vec2i(nfrag, nclamp)
     skipped[tile] = wp.vec2i(nskip, ntail)
-    occluded[tile] = nocc
+    occluded[tile] = wp.vec3i(nocc, nzero, nzt)

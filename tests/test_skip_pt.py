@@ -151,3 +151,31 @@ def test_pt_best_cells_behind_an_opaque_front_are_occluded(px, height):
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
     ok, d = _within(on.image, ref, TOLERANCES["pt_best"])
     assert ok, d
+
+
+@pytest.mark.parametrize("side", [False, True])
+def test_pt_best_leaves_out_fragments_the_transfer_function_maps_to_zero(side, monkeypatch):
+    """The layered cube (scalar z, a hat TF on (-0.15, 0.15)): the visible layers' fragments whose segment
+    has both ends at or below -0.15 or both at or above 0.15 integrate to exact zeros, and are left out
+    (``fragments_zero``; whole triangles ``triangles_zero``): the image is the same bits as with every
+    fragment integrated, and each fragment is either integrated or counted as left out."""
+    from warpvol.projection.stages.pt_integrate import PTIntegrate
+    from warpvol.scene.camera import Camera
+
+    sc = _scene(px=32)
+    if side:  # rays along 4 layers 0.5 thick: each pixel row at one scalar, whole triangles beside the hat
+        sc = Scene(mesh=_layered_mesh(4), transfer=sc.transfer, name="layers from the side",
+                   camera=Camera(eye=(4.0, 0.7, 0.3), target=(0, 0, 0), up=(0, 0, 1), fov_y_deg=40.0,
+                                 width_px=32, height_px=32))
+    pipe = Pipeline.load("pt_best")
+    on = pipe.render(sc, quiet=True)
+    monkeypatch.setattr(PTIntegrate, "_skips_zero", lambda self: False)
+    off = pipe.render(sc, quiet=True)
+    lo = on.report["left_out"]["pt_integrate"]
+    assert "pt_integrate" not in off.report["left_out"] or "fragments_zero" not in off.report["left_out"]["pt_integrate"]
+    assert np.array_equal(on.image, off.image) and on.image[..., 3].max() > 0.2
+    n_on, n_off = (r.report["counters"]["pt_integrate"]["segment_integrals"] for r in (on, off))
+    assert lo["fragments_zero"] > 0 and n_on + lo["fragments_zero"] <= n_off
+    assert (n_on + lo["fragments_zero"] == n_off) == (lo["triangles_zero"] == 0)
+    if side:
+        assert lo["triangles_zero"] > 0

@@ -15,7 +15,7 @@ import numpy as np
 import warp as wp
 
 from warpvol.errors import ConfigError
-from warpvol.projection.pt import PERSPECTIVE_MODES, PTGeometry
+from warpvol.projection.pt import NO_ZERO, PERSPECTIVE_MODES, PTGeometry
 
 
 def vertex_colors(geo: PTGeometry, tf, device: str = "cpu") -> np.ndarray:
@@ -153,8 +153,31 @@ def exact_program(tf, *, mode: str = "off", ortho: bool = False, device: str = "
         return out
 
     run.fused = {"mode": flags[0], "ortho": flags[1], "camera": camera, "tf_s": tf_s, "tf_v": tf_v,
-                 "model": model_id(tf), "tile": int(tile)}
+                 "model": model_id(tf), "tile": int(tile), "zero": zero_interval(tf)}
     return run
+
+
+def zero_interval(tf) -> tuple[float, float]:
+    """``(lo, hi)``: the control points the device sees (:meth:`TransferFunction.to_warp`) add nothing at
+    every scalar ``<= lo`` and every scalar ``>= hi`` (no extinction; with ``emission_density`` no colour
+    either), so a segment whose two ends lie there integrates to exact zeros; ``-NO_ZERO`` / ``NO_ZERO``
+    where no such run of control points begins or ends the function (``(NO_ZERO, -NO_ZERO)``: zero
+    everywhere). The values are the device's float32 control scalars.
+
+    >>> from warpvol.scene.transfer import TransferFunction
+    >>> zero_interval(TransferFunction([[0, 1, 1, 1, 0], [0.25, 1, 1, 1, 0], [0.5, 1, 1, 1, 2], [1, 1, 1, 1, 0]]))
+    (0.25, 1.0)
+    """
+    from warpvol.kernels.tf import device_points
+
+    p = device_points(tf.points)
+    v = p[:, 1:5].astype(np.float32)
+    zero = (v[:, 3] == 0) if tf.emission == "color_extinction" else (v == 0).all(axis=1)
+    s = p[:, 0].astype(np.float32)
+    if zero.all():
+        return NO_ZERO, -NO_ZERO
+    first, last = int(np.argmin(zero)), len(zero) - 1 - int(np.argmin(zero[::-1]))  # first / last contributing
+    return (float(s[first - 1]) if first > 0 else -NO_ZERO), (float(s[last + 1]) if last < len(s) - 1 else NO_ZERO)
 
 
 def table3d_program(table, texel_format: str = "auto", filter: str = "linear", weight_bits: int | None = 8,

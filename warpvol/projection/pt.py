@@ -59,6 +59,10 @@ def fused_tile(device: str, tile: int = 0) -> int:
         return int(tile)
     return FUSED_TILE if str(device).startswith("cpu") else FUSED_TILE_CUDA
 
+#: "no such scalar" in :func:`~warpvol.projection.programs.zero_interval` (float32 range: the fused draw
+#: compares float32 scalars with it)
+NO_ZERO = 3.0e38
+
 #: rasteriser rules the decomposition snaps with and :func:`draw` rasterises with (they must agree)
 RASTER_RULES = {"snap_ties": "even", "depth_clip": False}
 
@@ -244,7 +248,8 @@ def decompose(mesh, vertices, order, device: str = "cpu", exact_attrs: bool = Fa
 
 
 def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend, *, batch_tets: int = 65536,
-         device: str = "cpu", bands: int = 1, walk: str = "pixel", t_min: float = 0.0) -> dict:
+         device: str = "cpu", bands: int = 1, walk: str = "pixel", t_min: float = 0.0,
+         skip_zero: bool = False) -> dict:
     """Rasterise ``geo`` in batches of ``batch_tets`` tets, run ``program(fragments, tris) -> colours``
     (a ``wp.array`` of vec4, premultiplied RGBA; ``tris`` the batch's triangles on the device, indexed
     by ``fragments.prim``) on each batch and blend into ``fb`` in order.
@@ -263,8 +268,11 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
     (:mod:`warpvol.kernels.pt_draw`), counted as ``fragments_terminated``, ``bins_terminated``,
     ``triangles_occluded`` (bin entries whose box in the bin was all terminated) and ``cells_occluded``
     (cells with bin entries none of whose triangles was walked), with ``term_at`` ((H, W) int32: the
-    draw position of the cell that terminated each pixel, -1 where none did).
-    Returns counts (``fragments``, ``batches``, ``attrs_clamped``).
+    draw position of the cell that terminated each pixel, -1 where none did). ``skip_zero`` (fused only):
+    fragments whose segment has both ends where the transfer function adds nothing
+    (:func:`~warpvol.projection.programs.zero_interval`) integrate to exact zeros and are left out, and
+    triangles all of whose fragments do are not walked (``fragments_zero``, ``triangles_zero``).
+    Returns counts (``fragments``: those integrated and blended, ``batches``, ``attrs_clamped``).
     """
     if walk not in DRAW_WALKS:
         raise ConfigError(f"walk: {walk!r} not allowed; allowed: {', '.join(DRAW_WALKS)}")
@@ -274,7 +282,7 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
     if walk == "fused" and not np.isfinite(vertex_attrs).all():
         raise ConfigError("attrs: holds NaN or Inf")
     if walk == "fused":
-        return _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, bands, t_min)
+        return _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, bands, t_min, skip_zero)
     if t_min > 0:
         raise ConfigError("early termination: only the fused draw (walk = 'fused') terminates early")
     if bands > 1 and fb.height > 1 and not getattr(blend, "dither", False):
@@ -304,7 +312,7 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
     return {"fragments": n_frag, "batches": n_batch, "attrs_clamped": int(clamped.numpy()[0])}
 
 
-def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads, t_min=0.0) -> dict:
+def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads, t_min=0.0, skip_zero=False) -> dict:
     """:func:`draw` with ``walk="fused"``: per batch, triangle setup and binning, then one kernel thread
     per tile walks, interpolates, clamps, integrates and blends (:mod:`warpvol.kernels.pt_draw`). Tiles
     own disjoint pixels, so on the CPU blocks of tiles are launched from ``threads`` host threads
@@ -335,7 +343,8 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
                       **RASTER_RULES)
     st = blend.state(fb)
     cpu = str(device).startswith("cpu")
-    n_frag = n_clamped = n_batch = n_skip = n_tail = n_occ = 0
+    n_frag = n_clamped = n_batch = n_skip = n_tail = n_occ = n_zero = n_zt = 0
+    zero_lo, zero_hi = fused["zero"] if skip_zero else (-NO_ZERO, NO_ZERO)
     m = geo.n_tets
     starts = list(range(0, m, batch_tets))
     term = t_min > 0
@@ -349,7 +358,7 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
         n_batch += 1
         counts = wp.zeros(tr.n_tiles, dtype=wp.vec2i, device=device)
         skipped = wp.zeros(tr.n_tiles, dtype=wp.vec2i, device=device)
-        occluded = wp.zeros(tr.n_tiles, dtype=wp.int32, device=device)
+        occluded = wp.zeros(tr.n_tiles, dtype=wp.vec3i, device=device)
         done_rows = wp.empty(tr.n_tiles * tr.struct.tile_size if term else 1, dtype=wp.uint64, device=device)
         # 8 blocks per thread: the mesh covers the tiles unevenly
         tile_blocks = blocks(tr.n_tiles, -(-tr.n_tiles // (8 * threads))) if cpu and threads > 1 else [(0, tr.n_tiles)]
@@ -360,14 +369,16 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
             wp.launch(pt_draw.k_pt_exact_tiles, dim=n,
                       inputs=[tr.struct, apos, va, fused["mode"], fused["ortho"], ray_len, fused["tf_s"],
                               fused["tf_v"], fused["model"], st, fb.array, t0, counts, float(t_min), skipped,
-                              k0, done_rows, term_at, binned, walked, occluded],
+                              k0, done_rows, term_at, binned, walked, occluded, zero_lo, zero_hi],
                       device=device)
 
         launch_blocks(device, len(tile_blocks), run, threads=threads)
         nf, nc = (int(x) for x in counts.numpy().astype(np.int64).sum(axis=0))
         ns, nt = (int(x) for x in skipped.numpy().astype(np.int64).sum(axis=0))
         n_skip, n_tail = n_skip + ns, n_tail + nt
-        n_occ += int(occluded.numpy().astype(np.int64).sum()) if term else 0
+        if term or skip_zero:
+            no, nz, nzt = (int(x) for x in occluded.numpy().astype(np.int64).sum(axis=0))
+            n_occ, n_zero, n_zt = n_occ + no, n_zero + nz, n_zt + nzt
         n_frag += nf
         n_clamped += nc
         c = cnt.active()
@@ -375,6 +386,8 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
             c.add(fragments=nf, fragments_passed=nf)
         blend.count(fb, nf)
     out = {"fragments": n_frag, "batches": n_batch, "attrs_clamped": n_clamped}
+    if skip_zero:
+        out.update(fragments_zero=n_zero, triangles_zero=n_zt)
     if term:
         b, wk = binned.numpy()[:m], walked.numpy()[:m]
         out.update(fragments_terminated=n_skip, bins_terminated=n_tail, triangles_occluded=n_occ,

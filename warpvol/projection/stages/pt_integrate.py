@@ -30,6 +30,10 @@ from warpvol.stage import Context, Param, Stage, register_stage
 #: pt_best's stated largest error against the float64 reference (README; tests/tolerances.py row pt_best)
 PT_BEST_MAX_ABS = 4e-3
 
+#: what the fused draw leaves out where the transfer function adds nothing (``fragments_zero``, ``triangles_zero``)
+ZERO_WHY = ("fragments whose segment has both ends where the transfer function adds nothing (exact zeros: blending "
+            "them changes nothing), and the triangles all of whose fragments are such (not walked)")
+
 
 @register_stage
 class PTIntegrate(Stage):
@@ -95,12 +99,17 @@ class PTIntegrate(Stage):
         """Early termination applies to the fused draw into an fp32 buffer (front to back, "under")."""
         return self.config["early_termination"] > 0 and self.config["walk"] == "fused" and self.config["format"] == "fp32"
 
+    def _skips_zero(self) -> bool:
+        """Fragments the transfer function maps to zero are left out of the fused draw into an fp32 buffer."""
+        return self.config["walk"] == "fused" and self.config["format"] == "fp32" and not self.config["dither"]
+
     def leaves_out(self, ctx: Context) -> str | None:
-        if not self._terminates():
-            return None
-        return (f"fragments behind an opaque front: drawn front to back, a pixel stops once its remaining "
-                f"transmittance times the brightest radiance behind is at most {self.config['early_termination']:g} "
-                "(the largest change of any channel it allows)")
+        parts = [ZERO_WHY] if self._skips_zero() else []
+        if self._terminates():
+            parts.append(f"fragments behind an opaque front: drawn front to back, a pixel stops once its remaining "
+                         f"transmittance times the brightest radiance behind is at most "
+                         f"{self.config['early_termination']:g} (the largest change of any channel it allows)")
+        return "; ".join(parts) or None
     provides = ("image",)
 
     def run(self, ctx: Context) -> None:
@@ -121,18 +130,22 @@ class PTIntegrate(Stage):
 
             lo, hi = (np.asarray(b, dtype=np.float64) for b in ctx.scene.mesh.bounds)
             t_min = termination_threshold(ctx.scene.transfer, float(np.linalg.norm(hi - lo)), eps)
-        info = composite(self, ctx, attrs, program, bands=bands, walk=self.config["walk"], t_min=t_min)
+        skip_zero = ctx.skip and self._skips_zero()
+        info = composite(self, ctx, attrs, program, bands=bands, walk=self.config["walk"], t_min=t_min,
+                         skip_zero=skip_zero)
         ctx.count(segment_integrals=info["fragments"])
+        why, counts = ([ZERO_WHY], {k: info[k] for k in ("fragments_zero", "triangles_zero")}) if skip_zero else ([], {})
         if t_min > 0:
-            opaque = int(np.count_nonzero(1.0 - ctx.image[..., 3] <= t_min))
-            ctx.left_out(why=f"fragments behind an opaque front (drawn front to back; a pixel stops at remaining "
-                         f"transmittance {t_min:.3g}, so no channel changes by more than {eps:g}; a triangle whose "
-                         "box in a bin is all terminated is not set up, a cell none of whose triangles is is "
-                         "occluded; pixels float32 cannot resolve are redone in float64 only where the cell "
-                         "concerned came before the pixel terminated)",
-                         fragments_terminated=info["fragments_terminated"], bins_terminated=info["bins_terminated"],
-                         triangles_occluded=info["triangles_occluded"], cells_occluded=info["cells_occluded"],
-                         pixels_terminated=opaque)
+            why.append(f"fragments behind an opaque front (drawn front to back; a pixel stops at remaining "
+                       f"transmittance {t_min:.3g}, so no channel changes by more than {eps:g}; a triangle whose "
+                       "box in a bin is all terminated is not set up, a cell none of whose triangles is is "
+                       "occluded; pixels float32 cannot resolve are redone in float64 only where the cell "
+                       "concerned came before the pixel terminated)")
+            counts.update(fragments_terminated=info["fragments_terminated"], bins_terminated=info["bins_terminated"],
+                          triangles_occluded=info["triangles_occluded"], cells_occluded=info["cells_occluded"],
+                          pixels_terminated=int(np.count_nonzero(1.0 - ctx.image[..., 3] <= t_min)))
+        if why:
+            ctx.left_out(why="; ".join(why), **counts)
         self.redo_unresolved(ctx, info.get("term_at"))
 
     def redo_unresolved(self, ctx: Context, term_at: np.ndarray | None = None) -> None:

@@ -36,11 +36,12 @@ def texel_param(choices: tuple) -> Param:
 
 
 def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1, walk: str = "pixel",
-              blend_unit=None, t_min: float = 0.0) -> dict:
+              blend_unit=None, t_min: float = 0.0, skip_zero: bool = False) -> dict:
     """Draw ``pt_geometry`` with per-vertex ``attrs`` and ``program`` into a cleared buffer of the
     stage's format (in ``bands`` concurrent row bands, :func:`warpvol.projection.pt.draw`); set ``ctx.image``
     and count (shared by the ``pt_*`` fragment stages). ``t_min > 0``: front to back ("under") with early
-    termination at that remaining transmittance (fused draw only)."""
+    termination at that remaining transmittance (fused draw only); ``skip_zero``: fragments the transfer
+    function maps to zero left out (fused draw only, :func:`warpvol.projection.pt.draw`)."""
     from warpvol.errors import ConfigError
     from warpvol.gpu.blend import BlendUnit, FrameBuffer
     from warpvol.projection.pt import draw
@@ -55,7 +56,8 @@ def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1, walk: 
     if t_min > 0:
         unit = BlendUnit.under()
     info = draw(ctx.buffers["pt_geometry"], attrs, program, fb, unit,
-                batch_tets=stage.config["batch_tets"], device=ctx.device, bands=bands, walk=walk, t_min=t_min)
+                batch_tets=stage.config["batch_tets"], device=ctx.device, bands=bands, walk=walk, t_min=t_min,
+                skip_zero=skip_zero)
     ctx.image = fb.readback()
     # fragments and blends are counted by the rasteriser and blending unit themselves; the draw sends each
     # drawn tet as a triangle fan (triangles + 2 vertices) with its position and attributes over the bus
