@@ -179,3 +179,23 @@ def test_pt_best_leaves_out_fragments_the_transfer_function_maps_to_zero(side, m
     assert (n_on + lo["fragments_zero"] == n_off) == (lo["triangles_zero"] == 0)
     if side:
         assert lo["triangles_zero"] > 0
+
+
+def test_pt_best_draws_with_the_eye_inside_invisible_cells():
+    """The eye inside the layered cube's top layer, which the hat TF makes invisible, looking down at the
+    visible layers around z = 0: only the cells drawn must lie in front of the eye plane, so pt_best draws
+    the view (within its tolerance of the reference); with skip=False every cell counts and it declines."""
+    from warpvol.errors import ConfigError
+    from warpvol.scene.camera import Camera
+
+    base = _scene(px=24)
+    sc = Scene(mesh=base.mesh, transfer=base.transfer, name="eye in the top layer",
+               camera=Camera(eye=(0.05, 0.1, 0.9), target=(0.0, 0.0, -1.0), fov_y_deg=60.0, width_px=24, height_px=24))
+    pipe = Pipeline.load("pt_best")
+    on = pipe.render(sc, quiet=True)
+    ref = render_reference(sc.mesh, sc.transfer, sc.camera)
+    ok, d = _within(on.image, ref, TOLERANCES["pt_best"])
+    assert ok, d
+    assert on.image[..., 3].max() > 0.2
+    with pytest.raises(ConfigError, match="eye plane"):
+        pipe.render(sc, quiet=True, skip=False)

@@ -126,7 +126,7 @@ class EyePlane:
     message: str
 
 
-def eye_plane_check(mesh, camera) -> EyePlane:
+def eye_plane_check(mesh, camera, cells: np.ndarray | None = None) -> EyePlane:
     """Can projected tetrahedra draw ``mesh`` as seen by ``camera``?
 
     Cell projection draws a tet as the projection of its four vertices, which is only right when the
@@ -137,6 +137,7 @@ def eye_plane_check(mesh, camera) -> EyePlane:
     volume: the image is transparent), ``"refuse"`` when some tet is visible and some tet crosses or
     lies behind the eye plane, else ``"draw"`` with ``near`` = 0.99 x the smallest vertex depth (or
     the bounds' near plane, :meth:`~warpvol.scene.camera.Camera.depth_range`, when that is smaller).
+    ``cells``: only these tets count (the ones drawn; the others draw nothing wherever they lie).
 
     Examples
     --------
@@ -150,7 +151,7 @@ def eye_plane_check(mesh, camera) -> EyePlane:
     >>> r.status, r.crossing > 0
     ('refuse', True)
     """
-    tets = np.asarray(mesh.tets)
+    tets = np.asarray(mesh.tets) if cells is None else np.asarray(mesh.tets)[cells]
     rel = np.asarray(mesh.points, dtype=np.float64) - camera.eye  # per vertex, then gathered per tet
     d, x, y = (rel @ axis for axis in (camera.forward, camera.right, camera.true_up))
 

@@ -1,6 +1,7 @@
 """Stage ``vertex``: the vertex stage of the emulated GPU (model-view / projection / viewport).
 
-First decides with :func:`warpvol.projection.pt.eye_plane_check` whether cell projection can draw the view:
+First decides with :func:`warpvol.projection.pt.eye_plane_check` whether cell projection can draw the view
+(with the ``visibility`` stage before it and skipping on, from the cells the transfer function makes visible):
 a tet crossing (or behind) the eye plane while others are seen is an error naming what to use
 instead; a mesh entirely behind the eye or outside the view gives a transparent image at once
 (``stats.pt.note``; the later stages are skipped). Else transforms the mesh's points with the scene
@@ -67,7 +68,8 @@ class Vertex(Stage):
         from warpvol.projection.pt import eye_plane_check
 
         cam, mesh = ctx.scene.camera, ctx.scene.mesh
-        view = eye_plane_check(mesh, cam)
+        vis = ctx.buffers.get("visible_cells") if ctx.skip else None  # the cells the later stages draw
+        view = eye_plane_check(mesh, cam, None if vis is None or vis.all() else np.flatnonzero(vis))
         if view.status == "refuse":
             raise ConfigError(f"{self.where}: {view.message}")
         if view.status == "empty":  # nothing in view: a transparent image, the later stages skipped
