@@ -34,6 +34,9 @@ through a tet, and the thin-layer check of integrated segments (``@wp.func`` onl
   the point (about ``EPS32`` times its distance from the ray origin: a sizeable fraction of a small cell
   far from it); a transfer function steep on that scale (a narrow peak) makes the pixel uncertain. The
   walk sums a bound on that error over its segments; past :data:`STEEP_ERR` the ray is redone in float64.
+  :func:`scalar_error_if` leaves the bound out (0) where the host has shown it cannot pass
+  :data:`STEEP_ERR` for the transfer function and mesh (:func:`density_slope`, and
+  :func:`warpvol.raycasting.stages.cell_setup.scalar_check_needed`: an opaque, constant-extinction TF).
 """
 
 import warp as wp
