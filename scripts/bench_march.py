@@ -108,16 +108,18 @@ def kernel_of(pkg: str, kernel):
     raise LookupError(kernel.key)
 
 
-def run_pass(pkg: str, launches: list):
+def run_pass(pkg: str, launches: list, reentries: int = 0):
     """The recorded launches with ``pkg``'s kernels, one after the other on this thread, each on fresh copies of
     its arrays, its inputs taken by argument name (a kernel of another signature takes what it names);
-    ``(seconds, outputs)``: the arrays after the launches and the counters summed."""
+    ``(seconds, outputs)``: the arrays after the launches and the counters summed. A kernel that takes
+    ``reentries`` (raycast's re-entries in a ray's thread) gets ``reentries``."""
     import warp as wp
 
     total, outs = 0.0, []
     for kernel, dim, inputs in launches:
         k = kernel if pkg == "warpvol.kernels" else kernel_of(pkg, kernel)
         named = {a.label: x for a, x in zip(kernel.adj.args, inputs)}
+        named["reentries"] = reentries
         args = [wp.clone(named[a.label]) if isinstance(named[a.label], wp.array) else as_package(named[a.label], pkg)
                 for a in k.adj.args]
         wp.synchronize_device("cpu")
@@ -141,6 +143,8 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--base", default="main", help="git ref whose kernels/ to compare against ('' : none)")
     ap.add_argument("--preset", default="raycast", choices=("raycast", "harc_best"))
+    ap.add_argument("--reentries", type=int, default=0, help="raycast: re-entries per ray in the pass's threads "
+                    "(0: one entry per ray, as kernels without them)")
     a = ap.parse_args(argv)
 
     from bench_raycast import load_average
@@ -164,7 +168,7 @@ def main(argv=None) -> int:
         load0 = load_average()
         for r in range(a.repeat + 1):  # round 0: compile and warm up
             for name, pkg in kinds.items():
-                dt, outs[name] = run_pass(pkg, launches)
+                dt, outs[name] = run_pass(pkg, launches, a.reentries)
                 if r:
                     times[name].append(dt)
         load1 = load_average()

@@ -38,6 +38,27 @@ def scene(mesh, tf, camera, name="test"):
     return SimpleNamespace(mesh=mesh, transfer=tf, camera=camera, name=name)
 
 
+def noisy_shell(seed: int, size: int = 96, **camera):
+    """Long thin cells (4 x 24 x 24 points over [-1, 1]^3), a noisy field and a TF showing one shell of it,
+    seen from a random direction (perspective, 40 degrees, ``size`` pixels square; ``camera`` overrides):
+    rays leave and re-enter the visible cells many times, the visible boundary has slivers."""
+    from warpvol.scene.camera import Camera
+    from warpvol.scene.transfer import TransferFunction
+
+    rng = np.random.default_rng(seed)
+    dims = (4, 24, 24)
+    pts = box_points((-1, -1, -1), (1, 1, 1), dims)
+    s = np.sin(3 * pts[:, 0]) * np.cos(2 * pts[:, 1]) + 0.5 * pts[:, 2] + 0.3 * rng.standard_normal(len(pts))
+    m = TetMesh(pts, structured_to_tets(dims), s)
+    tf = TransferFunction([[-3, 0, 0, 0, 0], [0.2, 0, 0, 0, 0], [0.3, 1, 0.7, 0.3, 4.0], [0.4, 0, 0, 0, 0],
+                           [3, 0, 0, 0, 0]])
+    eye = rng.normal(size=3)
+    args = dict(eye=list(3.5 * eye / np.linalg.norm(eye)), target=[0, 0, 0], fov_y_deg=40, width_px=size,
+                height_px=size)
+    args.update(camera)
+    return scene(m, tf, Camera(**args))
+
+
 def restore_sigint() -> None:
     """``preexec_fn`` of a child process that must see Ctrl-C: a suite started in the background of a
     non-interactive shell inherits SIGINT ignored, and Python then installs no KeyboardInterrupt

@@ -187,20 +187,9 @@ def test_harc_reentry_finds_slivers_of_the_visible_boundary(seed):
     """Long thin cells and a noisy field: the visible cells' boundary has slivers a pixel's rasterised list
     leaves out on re-entry, with the face beside them listed instead (rejected by the exact edge test) and
     no pixel around listing the sliver; the rejected face's surface rings hold it."""
-    from helpers import box_points
-    from warpvol.scene.grids import structured_to_tets
-    from warpvol.scene.mesh import TetMesh
+    from helpers import noisy_shell
 
-    rng = np.random.default_rng(seed)
-    dims = (4, 24, 24)
-    pts = box_points((-1, -1, -1), (1, 1, 1), dims)
-    s = np.sin(3 * pts[:, 0]) * np.cos(2 * pts[:, 1]) + 0.5 * pts[:, 2] + 0.3 * rng.standard_normal(len(pts))
-    m = TetMesh(pts, structured_to_tets(dims), s)
-    tf = TransferFunction([[-3, 0, 0, 0, 0], [0.2, 0, 0, 0, 0], [0.3, 1, 0.7, 0.3, 4.0], [0.4, 0, 0, 0, 0],
-                           [3, 0, 0, 0, 0]])
-    eye = rng.normal(size=3)
-    cam = Camera(eye=list(3.5 * eye / np.linalg.norm(eye)), target=[0, 0, 0], fov_y_deg=40, width_px=96, height_px=96)
-    sc = scene(m, tf, cam)
+    sc = noisy_shell(seed)
     want = render("raycast", sc, skip=False).image
     got = render("harc_best", sc)
     assert got.report["stats"]["harc_peel"]["reentries"] > 0

@@ -6,6 +6,12 @@ boundary face a ray may enter through (:func:`entry_face_mask`) is projected alo
 by one pixel) is mapped to ``tile x tile`` screen tiles, and the (tile, face) pairs are sorted into a
 CSR list. A ray then only tests the faces of its tile. Faces straddling the eye plane cover every
 tile (conservative).
+
+Within a tile the faces are sorted by their nearest depth along the view direction, and each item
+carries its face's depth range and the farthest depth of the tile's faces from it on
+(:func:`item_depths`): a search skips the faces that lie wholly behind its start and stops at the first
+face whose nearest depth lies beyond the best crossing found (no face after it can be nearer), which
+gives the same entry as testing every face of the tile.
 """
 
 from __future__ import annotations
@@ -63,13 +69,42 @@ def window_xy(camera, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return wx, wy, bad, z
 
 
+#: relative float32 padding of the stored depths (outward), on top of the search's own margin
+DEPTH_PAD = 1e-6
+
+
+def item_depths(tid: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Sort the (tile, face) items ``tid`` (tile of each item; faces' vertex depths ``z`` (items, 3), float64)
+    by tile, then by the face's nearest depth; returns ``(order, depth)``: the permutation and per sorted item
+    ``(nearest, farthest, farthest of this and every later item of its tile)`` as float32 rounded outward.
+    A ray's crossing with a face lies between its vertices' depths (depth is linear over a triangle and grows
+    along every ray), so a search over a tile's items in this order may stop at the first whose nearest depth
+    is beyond the best crossing found."""
+    if len(tid) == 0:
+        return np.zeros(0, np.int64), np.zeros((0, 3), np.float32)
+    lo, hi = z.min(axis=1), z.max(axis=1)
+    order = np.lexsort((lo, tid))
+    lo, hi, t = lo[order], hi[order], tid[order]
+    # suffix maximum of ``hi`` within each tile: a running maximum over the reversed items, each tile lifted
+    # above every tile before it in that order so that no maximum leaks across tiles
+    span = float(hi.max() - hi.min()) + 1.0
+    rev_rank = np.cumsum(np.r_[0, t[::-1][1:] != t[::-1][:-1]])
+    lifted = hi[::-1] - hi.min() + rev_rank * (2.0 * span)
+    far = (np.maximum.accumulate(lifted) - rev_rank * (2.0 * span) + hi.min())[::-1]
+    far = np.maximum(far, hi)  # (rounding of the lift)
+    pad = DEPTH_PAD * (np.abs(lo) + np.abs(hi) + span)
+    depth = np.stack([lo - pad, hi + pad, far + pad], axis=1).astype(np.float32)
+    return order, np.ascontiguousarray(depth)
+
+
 def bin_boundary_faces(mesh, camera, tile: int, faces: np.ndarray | None = None) -> dict:
     """CSR bins of the boundary faces rays may enter through, over screen tiles (plain NumPy); ``faces``
     as :func:`entry_face_mask` (``None``: the mesh's boundary).
 
-    Returns ``dict(bface_tet, bface_local, bface_box, tile_start, tile_items, tiles_x, tiles_y, tile)``;
-    ``bface_box`` (int32, 4 per face: first column, first row, last column, last row) bounds the
-    pixels whose rays may cross the face (its projected box grown by one pixel, plus one).
+    Returns ``dict(bface_tet, bface_local, bface_box, tile_start, tile_items, item_depth, tiles_x, tiles_y,
+    tile)``; ``bface_box`` (int32, 4 per face: first column, first row, last column, last row) bounds the
+    pixels whose rays may cross the face (its projected box grown by one pixel, plus one); a tile's items are
+    in the order of :func:`item_depths`, ``item_depth`` (float32, 3 per item) its depth bounds.
     """
     from warpvol.raycasting.visible import face_triangles
 
@@ -83,7 +118,7 @@ def bin_boundary_faces(mesh, camera, tile: int, faces: np.ndarray | None = None)
         return dict(bface_tet=np.zeros(0, np.int32), bface_local=np.zeros(0, np.int32),
                     bface_box=np.zeros(0, np.int32),
                     tile_start=np.zeros(n_tiles + 1, np.int32), tile_items=np.zeros(0, np.int32),
-                    tiles_x=tiles_x, tiles_y=tiles_y, tile=tile)
+                    item_depth=np.zeros((0, 3), np.float32), tiles_x=tiles_x, tiles_y=tiles_y, tile=tile)
     wx, wy, bad, z = window_xy(camera, mesh.points[tris.reshape(-1)])
     win = np.stack([wx, wy], axis=-1).reshape(-1, 3, 2)
     # a triangle whose vertices are not all on one side of the eye plane has an unbounded projection
@@ -110,7 +145,7 @@ def bin_boundary_faces(mesh, camera, tile: int, faces: np.ndarray | None = None)
     tx = tx0[face] + k % nx[face]
     ty = ty0[face] + k // nx[face]
     tid = ty * tiles_x + tx
-    order = np.argsort(tid, kind="stable")
+    order, depth = item_depths(tid, z.reshape(-1, 3)[face])
     start = np.zeros(n_tiles + 1, np.int64)
     np.cumsum(np.bincount(tid, minlength=n_tiles), out=start[1:])
     # per face, the pixel columns / rows whose centres its grown box may contain (one more pixel of
@@ -119,7 +154,7 @@ def bin_boundary_faces(mesh, camera, tile: int, faces: np.ndarray | None = None)
     box[~np.isfinite(box).all(axis=1)] = [-1, -1, w, h]
     return dict(bface_tet=bf[:, 0].astype(np.int32), bface_local=bf[:, 1].astype(np.int32),
                 bface_box=np.ascontiguousarray(box, dtype=np.int32).reshape(-1),
-                tile_start=start.astype(np.int32), tile_items=face[order].astype(np.int32),
+                tile_start=start.astype(np.int32), tile_items=face[order].astype(np.int32), item_depth=depth,
                 tiles_x=tiles_x, tiles_y=tiles_y, tile=tile)
 
 
@@ -151,6 +186,7 @@ class EntryBins(Stage):
         ctx.stats["entry_faces"] = int(len(b["bface_tet"]))
         ctx.stats["entry_bin_items"] = int(len(b["tile_items"]))
         ctx.buffers["entry_bins"] = {
-            k: (wp.array(v, dtype=wp.int32, device=ctx.device) if isinstance(v, np.ndarray) else v)
+            k: (wp.array(v, dtype=wp.vec3 if k == "item_depth" else wp.int32, device=ctx.device)
+                if isinstance(v, np.ndarray) else v)
             for k, v in b.items()
         }

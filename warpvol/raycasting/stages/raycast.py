@@ -110,7 +110,7 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
         return np.zeros(7, np.int64)
     counters = wp.zeros((len(parts), 7), dtype=wp.int32, device=ctx.device)
     common = cam_args + [cells["verts"], cells["tets"], cells["nbr"], cells["nbr_vertex"], bins["bface_tet"], bins["bface_local"],
-                         bins["bface_box"], bins["tile_start"], bins["tile_items"], bins["tile"], bins["tiles_x"],
+                         bins["bface_box"], bins["tile_start"], bins["tile_items"], bins["item_depth"], bins["tile"], bins["tiles_x"],
                          cells["tf_s"], cells["tf_v"], cells["model"], cells["scalar_check"], max_steps, t_min,
                          1e-6 * cells["radius"]]
 
