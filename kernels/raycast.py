@@ -3,7 +3,7 @@
 One thread per pixel; the walk's building blocks (float64 ray set-up, Plücker edge tests, face crossings,
 one step through a tet, the thin-layer check) are :mod:`warpvol.kernels.walk`, shared with HARC.
 
-A pass (kernel :func:`march`) finds the ray's next entry among the front-facing boundary faces binned
+An entry (:func:`march_ray`) finds the ray's next entry among the front-facing boundary faces binned
 to the pixel's screen tile (nearest crossing beyond the current parameter), then walks cell to cell,
 integrating each segment exactly for the piecewise-linear transfer function
 (:mod:`warpvol.kernels.integrate`) and compositing front to back. A ray the float32 walk cannot
@@ -17,11 +17,13 @@ transfer function that steep (the bound of :func:`~warpvol.kernels.walk.scalar_s
 below it: :func:`warpvol.raycasting.stages.cell_setup.scalar_check_needed`) --
 is marked ``STATUS_FAILED`` and redone on the host in float64; it is counted, never silently wrong.
 
+A pass (kernel :func:`march`) makes a ray's entries one after the other in its thread: after the walk leaves
+the (visible) mesh it searches the next entry beyond the exit and walks on, up to ``reentries`` times.
 Per-pixel state (radiance, transmittance, ray parameter, status) lives in device arrays so passes
 can be separate launches; a pass launches one thread per active ray: pixels ``first ..`` while every
 ray is active, else the pixels ``ids[first ..]`` of the rays still active (a list made by the host).
-``counters[chunk]`` (entries, steps, unfinished, failed, left active, failed on a thin layer, terminated
-early) has one row per concurrently launched block.
+``counters[chunk]`` (first entries, steps, unfinished, failed, left active, failed on a thin layer, terminated
+early, re-entries) has one row per concurrently launched block.
 """
 
 import warp as wp
@@ -134,8 +136,9 @@ def tile_entry(px: int, py: int, t_start: float, prev: int, r: Ray, t_tol: float
     return cell, face_in, fc, best_t, best_s, far_t
 
 
-@wp.kernel
-def march(
+@wp.func
+def march_ray(
+    idx: int,
     width: int,
     height: int,
     eye: wp.vec3d,
@@ -165,8 +168,6 @@ def march(
     max_steps: int,
     t_min: float,
     t_tol: float,
-    first: int,
-    ids: wp.array(dtype=wp.int32),
     rgb: wp.array(dtype=wp.vec3),
     trans: wp.array(dtype=float),
     tcur: wp.array(dtype=float),
@@ -174,11 +175,11 @@ def march(
     last: wp.array(dtype=wp.int32),
     counters: wp.array2d(dtype=wp.int32),
     chunk: int,
+    entry_col: int,
 ):
-    tid = wp.tid()
-    idx = first + tid  # the pixels first .. (all rays of the image active)
-    if ids.shape[0] > 0:
-        idx = ids[first + tid]  # the active rays' pixels ids[first ..] (a re-entry pass)
+    """One entry of pixel ``idx``'s ray: the search for its next entry beyond ``tcur[idx]``, the walk from
+    there to where it leaves the (visible) mesh, the state written back (see :func:`march`). The entry is
+    counted in ``counters[chunk, entry_col]``."""
     st = status[idx]
     if (st & 3) != STATUS_ACTIVE:
         return
@@ -206,7 +207,7 @@ def march(
         status[idx] = STATUS_FAILED  # re-entering without progress: unresolved, redone in float64
         wp.atomic_add(counters, chunk, 3, 1)
         return
-    wp.atomic_add(counters, chunk, 0, 1)  # entries made in this pass
+    wp.atomic_add(counters, chunk, entry_col, 1)  # entries made in this pass
 
     # ---- walk through the cell adjacency ----
     acc = rgb[idx]
@@ -296,23 +297,82 @@ def march(
     if t_in > best_t:
         flat = 0  # the walk advanced: only consecutive re-entries without progress count
     status[idx] = STATUS_ACTIVE + 4 * flat
-    active = int(1)
     if exited == 0:
         status[idx] = STATUS_DONE
         if tr >= t_min:
             wp.atomic_add(counters, chunk, 2, 1)  # rays stopped by max_steps
         else:
             wp.atomic_add(counters, chunk, 6, 1)  # early ray termination: transmittance below t_min
-        active = 0
     elif t_in >= t_end:
         status[idx] = STATUS_DONE  # left the bounding sphere: no further entry possible
-        active = 0
     elif not (far_t > t_in - t_tol):
-        # the next pass would test exactly these faces with the same float32 numbers and find none
-        # beyond t_in - t_tol (it also skips the cell just left): no re-entry, skip that search
+        # the next search would test these faces (or faces bounded in depth before t_in) with the same
+        # float32 numbers and find none beyond t_in - t_tol (it also skips the cell just left): skip it
         status[idx] = STATUS_DONE
-        active = 0
-    if active == 1:
+
+
+@wp.kernel
+def march(
+    width: int,
+    height: int,
+    eye: wp.vec3d,
+    fwd: wp.vec3d,
+    right: wp.vec3d,
+    up: wp.vec3d,
+    ortho: int,
+    half_h: wp.float64,
+    aspect: wp.float64,
+    radius: wp.float64,
+    verts: wp.array(dtype=wp.vec4),
+    tets: wp.array(dtype=wp.vec4i),
+    nbr: wp.array(dtype=wp.vec4i),
+    nbr_vertex: wp.array(dtype=wp.vec4i),
+    bface_tet: wp.array(dtype=wp.int32),
+    bface_local: wp.array(dtype=wp.int32),
+    bface_box: wp.array(dtype=wp.int32),
+    tile_start: wp.array(dtype=wp.int32),
+    tile_items: wp.array(dtype=wp.int32),
+    item_depth: wp.array(dtype=wp.vec3),
+    tile: int,
+    tiles_x: int,
+    tf_s: wp.array(dtype=float),
+    tf_v: wp.array(dtype=wp.vec4),
+    model: int,
+    scalar_check: int,
+    max_steps: int,
+    t_min: float,
+    t_tol: float,
+    first: int,
+    ids: wp.array(dtype=wp.int32),
+    rgb: wp.array(dtype=wp.vec3),
+    trans: wp.array(dtype=float),
+    tcur: wp.array(dtype=float),
+    status: wp.array(dtype=wp.int32),
+    last: wp.array(dtype=wp.int32),
+    reentries: int,
+    counters: wp.array2d(dtype=wp.int32),
+    chunk: int,
+):
+    """A pass: one thread per ray (pixels ``first ..``, or ``ids[first ..]``), each entering and walking
+    (:func:`march_ray`) and then re-entering in the same thread, up to ``reentries`` times, while its ray
+    may enter again (``STATUS_ACTIVE``): the same walk as one entry per pass, without a pass per
+    re-entry. Counts first entries in ``counters[chunk, 0]``, re-entries in ``counters[chunk, 7]`` and
+    the rays still active at the end (a further pass must search them) in ``counters[chunk, 4]``."""
+    tid = wp.tid()
+    idx = first + tid  # the pixels first .. (all rays of the image active)
+    if ids.shape[0] > 0:
+        idx = ids[first + tid]  # the active rays' pixels ids[first ..] (a re-entry pass)
+    march_ray(idx, width, height, eye, fwd, right, up, ortho, half_h, aspect, radius, verts, tets, nbr, nbr_vertex,
+              bface_tet, bface_local, bface_box, tile_start, tile_items, item_depth, tile, tiles_x, tf_s, tf_v, model,
+              scalar_check, max_steps, t_min, t_tol, rgb, trans, tcur, status, last, counters, chunk, 0)
+    k = int(0)
+    while k < reentries and (status[idx] & 3) == STATUS_ACTIVE:
+        k += 1
+        march_ray(idx, width, height, eye, fwd, right, up, ortho, half_h, aspect, radius, verts, tets, nbr,
+                  nbr_vertex, bface_tet, bface_local, bface_box, tile_start, tile_items, item_depth, tile, tiles_x,
+                  tf_s, tf_v, model, scalar_check, max_steps, t_min, t_tol, rgb, trans, tcur, status, last, counters,
+                  chunk, 7)
+    if (status[idx] & 3) == STATUS_ACTIVE:
         wp.atomic_add(counters, chunk, 4, 1)  # rays a further pass must search
 
 

@@ -10,6 +10,7 @@ from warpvol.pipeline import Pipeline
 from warpvol.raycasting.stages import entry_bins
 from warpvol.scene.builtin import builtin_scene
 from warpvol.scene.camera import Camera
+from warpvol.scene.transfer import TransferFunction
 
 
 def test_item_depths_sorts_each_tile_by_nearest_depth_with_suffix_maxima():
@@ -75,3 +76,81 @@ def test_depth_ordered_search_finds_the_entries_of_the_full_search(name, tile, m
     assert want.report["stats"]["peel"]["reentries"] > 0 or name == "eye_inside"
     assert np.array_equal(got.image, want.image)
     assert counts(got.report) == counts(want.report)
+
+
+def configured(preset_stages: dict, **by_stage):
+    """The ``raycast`` preset with ``by_stage[stage]`` merged into that stage's parameters."""
+    p = Pipeline.load("raycast")
+    cfg = {"name": "t", "stages": [dict(st.config, stage=st.name) for st in p.stages]}
+    for st in cfg["stages"]:
+        st.update(by_stage.get(st["stage"], {}))
+    return Pipeline.from_config(cfg)
+
+
+def totals(report):
+    """Entries (first and re-entries), cell steps and float64 rays over all of raycast's passes."""
+    cnt, st = report["counters"], report["stats"]
+    return {"entries": sum(int(c.get("entries", 0)) for c in cnt.values()),
+            "cell_steps": sum(int(c.get("cell_steps", 0)) for c in cnt.values()),
+            "first_entries": st["raycast"]["entries"], "reentries": st["peel"]["reentries"],
+            "float64_rays": st["raycast"]["float64_rays"] + st["peel"]["float64_rays"],
+            "terminated_early": st["raycast"]["terminated_early"] + st["peel"]["terminated_early"]}
+
+
+@pytest.mark.parametrize("name", list(SCENES))
+def test_reentries_in_the_thread_walk_as_pass_by_pass(name):
+    """A ray re-entering in its own thread (``reentries``) gives the pixel of one entry per pass, bit for
+    bit, with the same entries, steps and float64 rays; the passes it saves are not run."""
+    sc = SCENES[name]()
+    per_pass = configured({}, raycast={"reentries": 0}, peel={"reentries": 0}).render(sc, quiet=True)
+    bounded = configured({}, raycast={"reentries": 2}, peel={"reentries": 2}).render(sc, quiet=True)
+    in_thread = configured({}).render(sc, quiet=True)
+    want = totals(per_pass.report)
+    assert want["reentries"] > 0
+    for res in (bounded, in_thread):
+        assert np.array_equal(res.image, per_pass.image)
+        assert totals(res.report) == want
+    passes = [r.report["stats"]["peel"]["passes"] for r in (per_pass, bounded, in_thread)]
+    assert passes[0] > passes[1] > 0 and passes[2] == 0, passes
+    assert in_thread.report["stats"]["raycast"]["reentries"] == want["reentries"]
+    assert per_pass.report["stats"]["raycast"]["reentries"] == 0
+
+
+def banded_slab(layers=17):
+    """Box [-1, 1]^2 x [-1, 1], ``layers - 1`` cell layers in z, scalar z, and a TF visible only in every
+    other layer (a peak inside each even layer, zero around every odd one); returns the mesh, the TF and the
+    number of visible layers a ray down z enters one after the other."""
+    from helpers import box_mesh
+
+    m = box_mesh(dims=(3, 3, layers), scalar=lambda p: p[:, 2].copy())
+    z = np.linspace(-1, 1, layers)
+    gap = 0.1 * (z[1] - z[0])  # zero a little beyond each odd layer (cell_visibility pads scalar ranges)
+    pts = [[z[0] - 1, 0, 0, 0, 0]]
+    for k in range(0, layers - 1, 2):
+        pts += [[z[k] + gap, 0, 0, 0, 0], [0.5 * (z[k] + z[k + 1]), 0.9, 0.6, 0.3, 4.0], [z[k + 1] - gap, 0, 0, 0, 0]]
+    pts.append([z[-1] + 1, 0, 0, 0, 0])
+    return m, TransferFunction(pts), len(range(0, layers - 1, 2))
+
+
+def test_a_ray_re_enters_every_visible_layer_in_its_thread():
+    from helpers import scene
+    from tolerances import TOLERANCES
+    from warpvol.metrics import image_error
+    from warpvol.reference.numpy_render import render_reference
+
+    m, tf, visible_layers = banded_slab()
+    cam = Camera(projection="orthographic", eye=[0.013, 0.021, 6.0], target=[0.013, 0.021, 0], ortho_height=1.6,
+                 width_px=12, height_px=12)
+    sc = scene(m, tf, cam)
+    res = configured({}).render(sc, quiet=True)
+    st = res.report["stats"]
+    n = cam.width_px * cam.height_px  # every ray crosses the slab from top to bottom
+    assert st["visibility"]["visible"] == m.n_tets // 2
+    assert st["raycast"]["entries"] == n and st["raycast"]["reentries"] == (visible_layers - 1) * n
+    assert st["peel"]["passes"] == 0 and st["peel"]["reentries"] == (visible_layers - 1) * n
+    per_pass = configured({}, raycast={"reentries": 0}, peel={"reentries": 0}).render(sc, quiet=True)
+    assert per_pass.report["stats"]["peel"]["passes"] == visible_layers - 1
+    assert np.array_equal(res.image, per_pass.image)
+    tol = TOLERANCES["raycast/fp32"]
+    err = image_error(res.image, render_reference(m, tf, cam))
+    assert err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"], err

@@ -53,15 +53,24 @@ def test_disconnected_boxes_need_peeling(device):
     o, _ = cam.rays()
     inside = (np.abs(o[..., 0]) < 0.95) & (np.abs(o[..., 1]) < 0.95)
     np.testing.assert_allclose(res.image[inside][:, 3], 1 - np.exp(-rho * 1.5), atol=1e-6)
-    assert res.report["stats"]["peel"]["reentries"] >= inside.sum()
-    # one re-entry pass, and no further pass over all pixels to find nothing: after it no ray is left
-    # with an entry face beyond its exit
-    assert res.report["stats"]["peel"]["passes"] == 1
+    st = res.report["stats"]
+    assert st["peel"]["reentries"] >= inside.sum()
+    # the rays re-enter in their own threads, in the first pass: no re-entry pass
+    assert st["raycast"]["reentries"] == st["peel"]["reentries"] and st["peel"]["passes"] == 0
+    # one entry per pass: one re-entry pass, and no further pass over all pixels to find nothing (after it
+    # no ray is left with an entry face beyond its exit); the same image and re-entries
+    one = render(scene(m, tf, cam), device=device, reentries=0)
+    assert one.report["stats"]["peel"]["passes"] == 1 and one.report["stats"]["raycast"]["reentries"] == 0
+    assert one.report["stats"]["peel"]["reentries"] == st["peel"]["reentries"]
+    assert np.array_equal(one.image, res.image)
     assert "peel" in res.report["stages"]
-    # without the peel stage only the nearest box is seen
-    one = Pipeline.from_config({"stages": [{"stage": "cell_setup"}, {"stage": "entry_bins"}, {"stage": "raycast"}]})
-    img1 = one.render(scene(m, tf, cam), quiet=True).image
-    np.testing.assert_allclose(img1[inside][:, 3], 1 - np.exp(-rho * 1.0), atol=1e-6)
+    # without the peel stage, one entry per pass sees only the nearest box; the re-entries in the first pass's
+    # threads both
+    for reentries, depth in ((0, 1.0), (256, 1.5)):
+        alone = Pipeline.from_config({"stages": [{"stage": "cell_setup"}, {"stage": "entry_bins"},
+                                                 {"stage": "raycast", "reentries": reentries}]})
+        img1 = alone.render(scene(m, tf, cam), quiet=True).image
+        np.testing.assert_allclose(img1[inside][:, 3], 1 - np.exp(-rho * depth), atol=1e-6)
 
 
 def test_neighbour_vertex_is_the_vertex_beyond_each_face():

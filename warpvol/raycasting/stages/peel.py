@@ -1,8 +1,10 @@
 """Stage ``peel``: further ray passes for non-convex meshes (depth peeling of the boundary).
 
 After ``raycast`` a ray that left the mesh through a boundary face may enter it again further on
-(concave or disconnected meshes). Each pass searches the next front-facing boundary face beyond the
-ray's current parameter and walks on; passes repeat until no ray re-enters. The planner skips the
+(concave or disconnected meshes); ``raycast``'s threads re-enter up to ``reentries`` times themselves, and
+this stage takes the rays still re-entering after that. Each pass searches the next front-facing boundary
+face beyond the ray's current parameter and walks on (again up to ``reentries`` times per ray); passes
+repeat until no ray re-enters. The planner skips the
 stage when the mesh boundary is convex (every ray enters at most once), unless the walk is confined to
 the cells the transfer function makes visible (their boundary is rarely convex).
 """
@@ -24,10 +26,14 @@ class Peel(Stage):
     ==========  =====  =========  =============================================================
     max_passes  int    256        upper bound on re-entry passes (>= 1); rays still
                                   re-entering after it are redone in float64
-    max_steps   int    1000000    cell steps per ray and pass before giving up
+    max_steps   int    1000000    cell steps per ray and entry before giving up
     t_min       float  1e-6       early termination: the most a channel may change (0: off)
     threads     int    0          host threads launching CPU row blocks (0: all cores)
+    reentries   int    256        re-entries per ray within a pass (>= 0; 0: one entry per pass)
     ==========  =====  =========  =============================================================
+
+    The stats' ``reentries`` count every re-entry of the frame, those the ``raycast`` pass made in its
+    threads (``raycast``'s ``reentries``) and this stage's; ``passes`` this stage's passes.
     """
 
     name = "peel"
@@ -56,14 +62,15 @@ class Peel(Stage):
         for _ in range(self.max_passes):
             if state.active == 0:
                 break  # the last pass left no ray that could re-enter: a pass would find nothing
-            c = march_pass(ctx, state, max_steps=self.max_steps, t_min=t_min, threads=threads)
+            c = march_pass(ctx, state, max_steps=self.max_steps, t_min=t_min, threads=threads,
+                           reentries=self.reentries)
             passes += 1
             thin += int(c[5])
             early += int(c[6])
-            ctx.count(passes=1, entries=int(c[0]), cell_steps=int(c[1]))
+            ctx.count(passes=1, entries=int(c[0] + c[7]), cell_steps=int(c[1]))
             if c[0] == 0:
                 break
-            entries += int(c[0])
+            entries += int(c[0] + c[7])
             ctx.progress(f"peel pass {passes}: {int(c[0])} rays re-entered")
         unfinished = 0
         if state.active and passes == self.max_passes:  # rays that may re-enter further: redone whole
@@ -75,6 +82,7 @@ class Peel(Stage):
         ctx.count(float64_rays=redone)
         report_left_out(ctx, self.t_min if t_min > 0 else 0.0, early)
         mesh = ctx.scene.mesh  # interior faces without a neighbour: rays re-enter at the coincident face
+        entries += ctx.stats.get("raycast", {}).get("reentries", 0)  # made in the first pass's threads
         ctx.stats["peel"] = {"passes": passes, "reentries": entries, "float64_rays": redone, "thin_layer_rays": thin,
                              "terminated_early": early, "passes_exhausted_rays": unfinished,
                              "crack_faces": len(mesh.crack_faces), "nonconforming_faces": len(mesh.nonconforming_faces)}

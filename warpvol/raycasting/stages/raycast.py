@@ -3,8 +3,9 @@
 Each pixel's ray (origin moved to the mesh in float64) enters at the nearest boundary face of its
 screen tile (from ``entry_bins``) and walks cell to cell with consistent Plücker edge tests (see
 :mod:`warpvol.kernels.raycast`), integrates each segment exactly for the piecewise-linear transfer
-function and composites front to back. The pass ends where the ray leaves the mesh; for non-convex
-meshes the ``peel`` stage continues from there. Rays the float32 walk cannot resolve are redone in
+function and composites front to back. Where the ray leaves the (visible) mesh its thread searches the
+next entry beyond the exit and walks on, up to ``reentries`` times; for non-convex meshes the ``peel``
+stage continues the rays still re-entering after that. Rays the float32 walk cannot resolve are redone in
 float64 on the host (:func:`redo_pixels_float64`) and counted.
 
 On the CPU a Warp launch runs its threads serially, so the image is cut into row blocks that a pool
@@ -91,12 +92,17 @@ def ray_blocks(ctx: Context, active: np.ndarray, threads: int, rows_per_block: i
     return ids, blocks(len(act), size)
 
 
-def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float, threads: int,
+#: counters of a pass (columns of :func:`march_pass`'s result)
+PASS_COUNTERS = ("entries", "steps", "unfinished", "failed", "left active", "failed on a thin layer",
+                 "terminated early", "re-entries")
+
+
+def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float, threads: int, reentries: int = 0,
                rows_per_block: int = 16) -> np.ndarray:
-    """One propagation pass over all active rays (one thread per active ray: :func:`ray_blocks`); returns
-    summed counters ``(entries, steps, unfinished, failed, left active, failed on a thin layer, terminated
-    early)`` and sets
-    ``state.active`` to the last (rays that may re-enter: 0 means a further pass would find nothing).
+    """One propagation pass over all active rays (one thread per active ray: :func:`ray_blocks`), each ray
+    re-entering up to ``reentries`` times within it; returns summed counters :data:`PASS_COUNTERS`
+    (entries: the rays' first entries in the pass; re-entries: those after it in the same thread) and sets
+    ``state.active`` to the rays left active (they may re-enter: 0 means a further pass would find nothing).
     Failed rays keep ``STATUS_FAILED`` for :func:`resolve_failed`."""
     import warp as wp
 
@@ -107,8 +113,8 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
     ids, parts = ray_blocks(ctx, (state.status.numpy() & 3) == int(k.STATUS_ACTIVE), threads, rows_per_block)
     if not parts:
         state.active = 0
-        return np.zeros(7, np.int64)
-    counters = wp.zeros((len(parts), 7), dtype=wp.int32, device=ctx.device)
+        return np.zeros(len(PASS_COUNTERS), np.int64)
+    counters = wp.zeros((len(parts), len(PASS_COUNTERS)), dtype=wp.int32, device=ctx.device)
     common = cam_args + [cells["verts"], cells["tets"], cells["nbr"], cells["nbr_vertex"], bins["bface_tet"], bins["bface_local"],
                          bins["bface_box"], bins["tile_start"], bins["tile_items"], bins["item_depth"], bins["tile"], bins["tiles_x"],
                          cells["tf_s"], cells["tf_v"], cells["model"], cells["scalar_check"], max_steps, t_min,
@@ -117,7 +123,8 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
     def launch(b: int) -> None:
         first, count = parts[b]
         wp.launch(k.march, dim=count, device=ctx.device,
-                  inputs=common + [first, ids, state.rgb, state.trans, state.tcur, state.status, state.last, counters, b])
+                  inputs=common + [first, ids, state.rgb, state.trans, state.tcur, state.status, state.last, reentries,
+                                   counters, b])
 
     launch_blocks(ctx.device, len(parts), launch, threads, modules=[k])
     c = counters.numpy().sum(axis=0)
@@ -211,10 +218,12 @@ def report_left_out(ctx: Context, t_min: float, early: int, missed: int | None =
 
 
 RAY_PARAMS = (
-    Param("max_steps", int, 1_000_000, "cell steps per ray and pass before giving up", lo=1),
+    Param("max_steps", int, 1_000_000, "cell steps per ray and entry before giving up", lo=1),
     Param("t_min", float, 1e-6, "early ray termination: the most any channel of a pixel may change by it (the "
           "transmittance times the brightest radiance behind; 0: off)", lo=0.0, hi=1.0),
     Param("threads", int, 0, "host threads launching row blocks on the CPU (0: all cores)", lo=0, hi=256),
+    Param("reentries", int, 256, "re-entries of a ray within one pass, in its thread (0: one entry per pass, each "
+          "further entry a peel pass)", lo=0),
 )
 
 
@@ -235,10 +244,16 @@ class Raycast(Stage):
     ==========  =====  =========  =============================================================
     parameter   type   default    meaning
     ==========  =====  =========  =============================================================
-    max_steps   int    1000000    cell steps per ray and pass before giving up (>= 1)
+    max_steps   int    1000000    cell steps per ray and entry before giving up (>= 1)
     t_min       float  1e-6       early termination: the most a channel may change, [0, 1] (0: off)
     threads     int    0          host threads launching CPU row blocks (0: all cores)
+    reentries   int    256        re-entries per ray within the pass (>= 0; 0: one entry per pass)
     ==========  =====  =========  =============================================================
+
+    A ray that leaves the (visible) mesh searches its next entry beyond the exit and walks on in the same
+    thread, up to ``reentries`` times (``reentries`` in the stats; ``entries`` counts the first entries):
+    the walk of one entry per pass without a pass per re-entry. The ``peel`` stage's passes take the rays
+    still re-entering after that.
 
     Early ray termination with a stated bound: a ray stops once no channel of its pixel can change by more
     than ``t_min`` = 1e-6 (:func:`stop_transmittance`: at transmittance ``t_min`` with colours in [0, 1]
@@ -270,13 +285,14 @@ class Raycast(Stage):
 
         thin_rays, thin_tets = mark_unresolved(ctx, state.status, int(k.STATUS_FAILED))  # traced in float64
         t_min = stop_transmittance(ctx, self.t_min)
-        c = march_pass(ctx, state, max_steps=self.max_steps, t_min=t_min, threads=threads)
+        c = march_pass(ctx, state, max_steps=self.max_steps, t_min=t_min, threads=threads, reentries=self.reentries)
 
         missed = rays_without_cell(state.last, state.status, int(k.STATUS_FAILED))
         redone = resolve_failed(ctx, state, self.t_min if t_min > 0 else 0.0)
-        ctx.count(rays=cam.width_px * cam.height_px, entries=int(c[0]), cell_steps=int(c[1]),
+        ctx.count(rays=cam.width_px * cam.height_px, entries=int(c[0] + c[7]), cell_steps=int(c[1]),
                   float64_rays=redone)
-        ctx.stats["raycast"] = {"entries": int(c[0]), "cell_steps": int(c[1]), "unfinished_rays": int(c[2]),
+        ctx.stats["raycast"] = {"entries": int(c[0]), "reentries": int(c[7]), "cell_steps": int(c[1]),
+                                "unfinished_rays": int(c[2]),
                                 "float64_rays": redone, "thin_layer_rays": int(c[5]), "terminated_early": int(c[6]),
                                 "thin_cell_rays": thin_rays, "thin_cells": thin_tets}
         report_left_out(ctx, self.t_min if t_min > 0 else 0.0, int(c[6]), missed)
