@@ -283,20 +283,18 @@ def mpvo_order(mesh, camera, nonconvex: bool | None = None, metric: str = "dista
 
         _ = (mesh.boundary_faces, mesh.adjacency, hull_faces(mesh), centroids(mesh))  # built before the threads
         preload("cpu", raster, raster_draw, sort, vertex)  # each thread's kernels compiled here, not concurrently
-        with ThreadPoolExecutor(max_workers=2) as pool:
+        with ThreadPoolExecutor(max_workers=1) as pool:
             rays = pool.submit(boundary_ray_constraints, mesh, camera)
             key = centroid_keys(mesh, camera, metric)
-            by_key = pool.submit(cells_by_key, key)  # in case of a cycle; sorted while the faces are decided
             dirs = face_directions(mesh, camera)
             src, dst, nfrag = rays.result()
-            by_key = by_key.result()
         extra, info = (src, dst), {"boundary_fragments": nfrag, "ray_constraints": len(src)}
     else:
         dirs = face_directions(mesh, camera)
         key = centroid_keys(mesh, camera, metric)
-        by_key = None
-    # MPVONC needs its depth priority; MPVO (convex) and XMPVO orders are exact: a queue is enough
-    order, cycles = topological_order(mesh, dirs, key, extra, priority=nonconvex and not exact_rays, by_key=by_key)
+    # MPVONC needs its depth priority; MPVO (convex) and XMPVO orders are exact: a queue is enough. The cells
+    # by depth key, where a cycle is broken, are sorted only when the sort meets one
+    order, cycles = topological_order(mesh, dirs, key, extra, priority=nonconvex and not exact_rays)
     method = "xmpvo" if exact_rays else "mpvonc" if nonconvex else "mpvo"
     notes = []
     if cycles:
