@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 import random
 import threading
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 from typing import Callable, Iterable
 
 
@@ -27,6 +27,35 @@ def blocks(n: int, size: int) -> list[tuple[int, int]]:
     return [(s, min(size, n - s)) for s in range(0, n, max(1, size))]
 
 
+_pools: dict[int, ThreadPoolExecutor] = {}  # by thread count, for this process (see _shared_pool)
+_pools_pid = os.getpid()
+_pools_lock = threading.Lock()
+_worker = threading.local()
+
+
+def _mark_worker() -> None:
+    _worker.shared = True
+
+
+def _shared_pool(threads: int) -> ThreadPoolExecutor | None:
+    """The process's pool of ``threads`` host threads for :func:`launch_blocks`, kept between calls (a
+    pool per call started its threads again: about a millisecond per call on a loaded 2-core machine);
+    ``None`` on one of its own threads (blocks launching blocks get a pool of their own instead of waiting
+    on the one they run in). A forked child starts new pools (threads do not survive a fork)."""
+    global _pools_pid
+    if getattr(_worker, "shared", False):
+        return None
+    with _pools_lock:
+        if _pools_pid != os.getpid():
+            _pools.clear()
+            _pools_pid = os.getpid()
+        pool = _pools.get(threads)
+        if pool is None:
+            pool = _pools[threads] = ThreadPoolExecutor(max_workers=threads, initializer=_mark_worker,
+                                                        thread_name_prefix=f"warpvol-blocks-{threads}")
+        return pool
+
+
 def launch_blocks(device: str, n_blocks: int, launch: Callable[[int], None], threads: int = 0, *,
                   modules: Iterable = ()) -> None:
     """Call ``launch(b)`` for every block ``b``; concurrently from ``threads`` host threads on the CPU
@@ -38,9 +67,9 @@ def launch_blocks(device: str, n_blocks: int, launch: Callable[[int], None], thr
     once: before the threads start, Warp's loader is wrapped to let one thread at a time into a
     module's load (:func:`warpvol.timing.install_loader`); the others wait for it.
 
-    An exception in the calling thread while it waits (``KeyboardInterrupt`` from Ctrl-C) or in a block
-    cancels the blocks not yet started; a CPU launch in flight cannot be interrupted, so the wait is
-    one block's time. With :func:`launch_order` ``reversed`` or ``shuffled`` (a debug mode) the CPU
+    The host threads are kept for the next call (:func:`_shared_pool`). An exception in the calling thread
+    while it waits (``KeyboardInterrupt`` from Ctrl-C) or in a block cancels the blocks not yet started; a
+    CPU launch in flight cannot be interrupted, so the wait is one block's time. With :func:`launch_order` ``reversed`` or ``shuffled`` (a debug mode) the CPU
     blocks start in that order, from at least two host threads."""
     threads = threads or cpu_threads()
     if n_blocks > 0:
@@ -64,16 +93,23 @@ def launch_blocks(device: str, n_blocks: int, launch: Callable[[int], None], thr
                 failed.set()
                 raise
 
-        pool = ThreadPoolExecutor(max_workers=min(threads, n_blocks))
+        shared = _shared_pool(threads)
+        pool = shared or ThreadPoolExecutor(max_workers=min(threads, n_blocks))
+        futures = []
         try:
-            for f in [pool.submit(guarded, b) for b in order]:
+            futures = [pool.submit(guarded, b) for b in order]
+            for f in futures:
                 f.result()
         except BaseException:
             # Ctrl-C (or a failed block): drop the queued blocks; only launches in flight finish
             failed.set()
-            pool.shutdown(wait=True, cancel_futures=True)
+            for f in futures:
+                f.cancel()
+            wait(futures)
             raise
-        pool.shutdown(wait=True)
+        finally:
+            if shared is None:
+                pool.shutdown(wait=True, cancel_futures=True)
     else:
         for b in order:
             launch(b)
