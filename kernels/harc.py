@@ -60,7 +60,7 @@ from .formats import NumFmt, fmt_quantize
 from .harc_integ import INTEG_EXACT, Integ, integrate_sub, segment, segments_kernel  # noqa: F401 (re-exported)
 from .harc_walk import composite, exact_walk, nearest_in_rings, nearest_listed, ring_search  # noqa: F401 (composite: re-exported)
 from .integrate import exp_neg, integrate_piece, integrate_segment_tf
-from .raycast import STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED
+from .raycast import STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, depth_before
 from .texture import Tex2D, tex2d_texel
 from .tf import tf_eval_upper, tf_upper
 from .walk import STALL_STEPS, Face, boundary_face, face_hit, monotone_exit, next_face, pixel_ray
@@ -210,6 +210,7 @@ def make_march(walk: int, setup: int, mode: int):
         bf_face: wp.array(dtype=wp.int32),
         bf_nbr: wp.array(dtype=wp.vec3i),
         far: wp.array(dtype=float),
+        bf_depth: wp.array(dtype=wp.vec2),
         edge_start: wp.array(dtype=wp.int32),
         edge_bf: wp.array(dtype=wp.int32),
         ig: Integ,
@@ -313,6 +314,9 @@ def make_march(walk: int, setup: int, mode: int):
                         entry_failed = 1  # no face around crosses either: resolved in float64 on the host
                     break
         if wp.static(not planes):
+            # faces wholly before the search's start are left untested (their crossings lie before it)
+            z_lo = depth_before(r, wp.vec3(float(fwd[0]), float(fwd[1]), float(fwd[2])), t_start - t_tol,
+                                float(radius))
             if cell < 0 and entry_failed == 0:
                 # no face of this pixel's list is crossed beyond the last exit: where the snapped coverage of a
                 # layer leaves a hole at the pixel centre (an inner silhouette within 1/256 pixel) the crossed
@@ -325,8 +329,8 @@ def make_march(walk: int, setup: int, mode: int):
                     if (nb != 4 or rescan == 1) and qx >= 0 and qy >= 0 and qx < width and qy < height:
                         q = qy * width + qx
                         cell, face_in, t_in, s_in, fc = nearest_listed(
-                            frag_start[q], frag_start[q + 1], frag_bf, bf_tet, bf_face, tets, verts, r, prev, t_start,
-                            t_tol, cell, face_in, t_in, s_in, fc)
+                            frag_start[q], frag_start[q + 1], frag_bf, bf_tet, bf_face, bf_depth, z_lo, tets, verts, r,
+                            prev, t_start, t_tol, cell, face_in, t_in, s_in, fc)
                 if rejected >= 0:
                     # a sliver beside the rejected face (the boundary of the visible cells has many) may be listed
                     # at no pixel around: its surface rings
@@ -340,8 +344,8 @@ def make_march(walk: int, setup: int, mode: int):
                 c0 = cell
                 t0 = t_in
                 cell, face_in, t_in, s_in, fc = nearest_listed(
-                    edge_start[idx], edge_start[idx + 1], edge_bf, bf_tet, bf_face, tets, verts, r, prev, t_start, t_tol,
-                    cell, face_in, t_in, s_in, fc)
+                    edge_start[idx], edge_start[idx + 1], edge_bf, bf_tet, bf_face, bf_depth, z_lo, tets, verts, r,
+                    prev, t_start, t_tol, cell, face_in, t_in, s_in, fc)
                 if cell != c0 or t_in != t0:
                     edge_entry = 1
         if wp.static(paper):

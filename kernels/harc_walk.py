@@ -46,14 +46,18 @@ def ring_search(b: int, bf_tet: wp.array(dtype=wp.int32), bf_face: wp.array(dtyp
 
 @wp.func
 def nearest_listed(lo: int, hi: int, items: wp.array(dtype=wp.int32), bf_tet: wp.array(dtype=wp.int32),
-                   bf_face: wp.array(dtype=wp.int32), tets: wp.array(dtype=wp.vec4i), verts: wp.array(dtype=wp.vec4),
-                   r: Ray, prev: int, t_start: float, t_tol: float, cell: int, face_in: int, t_in: float, s_in: float,
-                   fc: Face):
+                   bf_face: wp.array(dtype=wp.int32), bf_depth: wp.array(dtype=wp.vec2), z_lo: float,
+                   tets: wp.array(dtype=wp.vec4i), verts: wp.array(dtype=wp.vec4), r: Ray, prev: int, t_start: float,
+                   t_tol: float, cell: int, face_in: int, t_in: float, s_in: float, fc: Face):
     """The nearer of the entry ``(cell, face_in, t_in, s_in, fc)`` (``cell < 0``: none yet) and the first crossing
     beyond ``t_start - t_tol`` of the front faces ``items[lo:hi]`` (consistent edge test), faces of ``prev`` (the
-    cell just left) skipped; the ray parameter is clamped to ``t_start``."""
+    cell just left) skipped; the ray parameter is clamped to ``t_start``. A face whose farthest depth
+    (``bf_depth[b][1]``) is below ``z_lo`` (:func:`warpvol.kernels.raycast.depth_before` of ``t_start - t_tol``)
+    is crossed, if at all, before that: skipped untested."""
     for it in range(lo, hi):
         b = int(items[it])
+        if bf_depth[b][1] < z_lo:
+            continue
         c = int(bf_tet[b])
         f = int(bf_face[b])
         if c != prev:

@@ -66,6 +66,19 @@ def depth_slack(zo: float, cz: float, t: float, scale: float) -> float:
 
 
 @wp.func
+def depth_before(r: Ray, fwd: wp.vec3, t: float, scale: float) -> float:
+    """A depth along the view direction ``fwd`` (from the eye) that every point of ray ``r`` at parameter ``t`` or
+    beyond lies past, by :func:`depth_slack`: a face whose farthest depth is below it is crossed, if at all,
+    before ``t``. ``-1e30`` (nothing ruled out) for a ray more than 84 degrees off ``fwd``. ``scale``: the mesh
+    radius."""
+    zo = wp.dot(r.back, fwd)  # the ray's depth at t = 0 (r.back = origin - eye) and its growth per unit t
+    cz = wp.dot(r.d, fwd)
+    if cz > 0.1:
+        return zo + cz * t - depth_slack(zo, cz, t, scale)
+    return float(-1.0e30)
+
+
+@wp.func
 def tile_entry(px: int, py: int, t_start: float, prev: int, r: Ray, t_tol: float, fwd: wp.vec3, scale: float,
                verts: wp.array(dtype=wp.vec4), tets: wp.array(dtype=wp.vec4i), bface_tet: wp.array(dtype=wp.int32),
                bface_local: wp.array(dtype=wp.int32), bface_box: wp.array(dtype=wp.int32),
@@ -102,7 +115,7 @@ def tile_entry(px: int, py: int, t_start: float, prev: int, r: Ray, t_tol: float
     cz = wp.dot(r.d, fwd)
     cull = cz > 0.1  # (a ray within 84 degrees of the view direction: every ray of a camera's image)
     t_lo = t_start - t_tol
-    z_lo = zo + cz * t_lo - depth_slack(zo, cz, t_lo, scale)  # faces wholly before it: crossed before t_lo
+    z_lo = depth_before(r, fwd, t_lo, scale)  # faces wholly before it: crossed before t_lo
     z_best = float(1.0e30)  # faces wholly beyond it: crossed beyond best_t
     tile_id = (py // tile) * tiles_x + (px // tile)
     for it in range(tile_start[tile_id], tile_start[tile_id + 1]):

@@ -13,29 +13,30 @@ from warpvol.scene.camera import Camera
 from warpvol.scene.transfer import TransferFunction
 
 
-def test_item_depths_sorts_each_tile_by_nearest_depth_with_suffix_maxima():
-    rng = np.random.default_rng(1)
-    tid = rng.integers(0, 7, 200)
-    z = rng.normal(10.0, 3.0, (200, 3))
-    order, depth = entry_bins.item_depths(tid, z)
-    t, lo, hi = tid[order], z.min(axis=1)[order], z.max(axis=1)[order]
-    assert np.all(np.diff(t) >= 0)
-    for k in np.unique(t):
-        sel = t == k
-        assert np.all(np.diff(lo[sel]) >= 0)  # nearest depth ascending within the tile
-        # the farthest depth from each item on, over this tile only (no leak from the tiles after it)
-        assert np.allclose(depth[sel, 2], np.maximum.accumulate(hi[sel][::-1])[::-1], rtol=1e-5, atol=1e-4)
-    assert np.all(depth[:, 0] <= lo) and np.all(depth[:, 1] >= hi)  # rounded outward to float32
-    assert np.all(depth[:, 2] >= hi)
-    empty_order, empty = entry_bins.item_depths(np.zeros(0, np.int64), np.zeros((0, 3)))
-    assert len(empty_order) == 0 and empty.shape == (0, 3)
+def test_bins_list_each_tile_by_nearest_depth_with_its_depth_bounds():
+    from helpers import noisy_shell
+    from warpvol.raycasting.visible import face_triangles
+
+    sc = noisy_shell(0, 48)
+    b = entry_bins.bin_boundary_faces(sc.mesh, sc.camera, 8)
+    tris = face_triangles(sc.mesh.tets, np.c_[b["bface_tet"], b["bface_local"]])
+    z = (sc.mesh.points[tris] - sc.camera.eye) @ sc.camera.forward  # (faces, 3) vertex depths
+    start, items, depth = b["tile_start"], b["tile_items"], b["item_depth"].astype(np.float64)
+    assert len(items) > 3 * (len(start) - 1)  # several faces per tile
+    for k in range(len(start) - 1):
+        sel = slice(start[k], start[k + 1])
+        lo, hi = z[items[sel]].min(axis=1), z[items[sel]].max(axis=1)
+        assert np.all(np.diff(lo) >= 0)  # nearest depth ascending within the tile
+        assert np.all(depth[sel, 0] <= lo) and np.all(depth[sel, 1] >= hi)  # rounded outward
+        # the farthest depth from each item on, over this tile only
+        far = np.maximum.accumulate(hi[::-1])[::-1]
+        assert np.all(depth[sel, 2] >= far) and np.allclose(depth[sel, 2], far, rtol=1e-5)
+    assert entry_bins.item_depths(np.zeros(0, np.int64), np.zeros(0), np.zeros(0)).shape == (0, 3)
 
 
-def every_face(tid, z):
-    """The bins as tested before depth ordering: a tile's faces in index order, no depth bound."""
-    order = np.argsort(tid, kind="stable")
-    depth = np.tile(np.array([-np.inf, np.inf, np.inf], np.float32), (len(tid), 1))
-    return order, depth
+def every_face(tid, lo, hi):
+    """Depth bounds that leave no face of a tile untested (the full search)."""
+    return np.tile(np.array([-np.inf, np.inf, np.inf], np.float32), (len(tid), 1))
 
 
 def eye_between_shells():
@@ -154,3 +155,39 @@ def test_a_ray_re_enters_every_visible_layer_in_its_thread():
     tol = TOLERANCES["raycast/fp32"]
     err = image_error(res.image, render_reference(m, tf, cam))
     assert err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"], err
+
+
+def test_face_depths_bound_each_triangle_outward():
+    from helpers import noisy_shell
+
+    sc = noisy_shell(3, 16)
+    tris = sc.mesh.tets[:, [0, 1, 2]]  # triangles at every depth of the mesh
+    d = entry_bins.face_depths(sc.mesh, sc.camera, tris).astype(np.float64)
+    z = (sc.mesh.points[tris] - sc.camera.eye) @ sc.camera.forward
+    assert np.all(d[:, 0] <= z.min(axis=1)) and np.all(d[:, 1] >= z.max(axis=1))
+    assert np.allclose(d[:, 0], z.min(axis=1), rtol=1e-5) and np.allclose(d[:, 1], z.max(axis=1), rtol=1e-5)
+
+
+def no_face_depths(mesh, camera, tris):
+    """Depth bounds that leave no face untested."""
+    return np.tile(np.array([-np.inf, np.inf], np.float32), (len(tris), 1))
+
+
+def harc_counts(report):
+    st = report["stats"]
+    drop = ("pass_s", "float64_s")
+    return [{k: v for k, v in st[key].items() if k not in drop} for key in ("harc", "harc_peel")]
+
+
+@pytest.mark.parametrize("name", ["perspective", "orthographic"])  # (an eye inside: harc_best traces in float64)
+def test_harc_reentry_search_leaves_out_only_faces_before_its_start(name, monkeypatch):
+    """harc_best's re-entry search over the 8 neighbouring pixels' lists and the open-edge faces skips the faces
+    wholly before its start untested: the same pass, bit for bit, as testing them all."""
+    sc = SCENES[name]()
+    got = Pipeline.load("harc_best").render(sc, quiet=True)
+    with monkeypatch.context() as mp:
+        mp.setattr(entry_bins, "face_depths", no_face_depths)
+        want = Pipeline.load("harc_best").render(sc, quiet=True)
+    assert want.report["stats"]["harc_peel"]["reentries"] > 0
+    assert np.array_equal(got.image, want.image)
+    assert harc_counts(got.report) == harc_counts(want.report)

@@ -146,10 +146,12 @@ def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None 
     local face)`` to rasterise instead of the mesh's boundary (the visible sub-mesh's boundary,
     :func:`warpvol.raycasting.visible.visible_boundary`).
 
-    Returns ``dict(frag_start (H*W+1), frag_bf, bf_tet, bf_face, bf_nbr, fragments, faces,
-    max_layers)``: per fragment the index of its face in the front-face list; per front face its tet,
-    local face and the three front faces sharing its edges (-1: none; the consistent walk searches
-    them when the rasteriser's snapped coverage and its edge test disagree near an edge);
+    Returns ``dict(frag_start (H*W+1), frag_bf, bf_tet, bf_face, bf_nbr, far, bf_depth, edge_start, edge_bf,
+    edge_pairs, fragments, faces, max_layers)``: per fragment the index of its face in the front-face list; per
+    front face its tet, local face, the three front faces sharing its edges (-1: none; the consistent walk
+    searches them when the rasteriser's snapped coverage and its edge test disagree near an edge) and its
+    depth bounds (:func:`~warpvol.raycasting.stages.entry_bins.face_depths`: the re-entry search leaves the faces
+    wholly before its start untested);
     ``max_layers`` is the most fragments any pixel has (the boundary layers depth peeling goes
     through).
     """
@@ -158,7 +160,7 @@ def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None 
     from warpvol.gpu.raster import GUARD_PX, Rasterizer, depth_order, guard_band_overflow
     from warpvol.gpu.vertex import VertexStage
     from warpvol.raycasting.thin_cells import edge_pixels, surface_neighbours
-    from warpvol.raycasting.stages.entry_bins import entry_face_mask
+    from warpvol.raycasting.stages.entry_bins import entry_face_mask, face_depths
     from warpvol.raycasting.visible import face_triangles
 
     front = entry_face_mask(mesh, camera, faces)
@@ -205,8 +207,10 @@ def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None 
     edge_start, edge_bf = edge_pixels(mesh, camera, tris, nbr) if len(bf) and in_front else (
         np.zeros(npx + 1, np.int64), np.zeros(0, np.int64))
     far = reentry_bound(mesh, camera, tris, nbr, start, frag_bf, edge_start, edge_bf)
+    depth = face_depths(mesh, camera, tris)
     return {"frag_start": arr(start), "frag_bf": arr(frag_bf), "bf_tet": arr(bf[:, 0]), "bf_face": arr(bf[:, 1]),
             "bf_nbr": arr(nbr, wp.vec3i), "far": wp.array(far, dtype=wp.float32, device=device),
+            "bf_depth": wp.array(depth if len(depth) else np.zeros((1, 2), np.float32), dtype=wp.vec2, device=device),
             "edge_start": arr(edge_start), "edge_bf": arr(edge_bf), "edge_pairs": int(len(edge_bf)),
             "fragments": int(count), "faces": int(len(bf)), "max_layers": layers}
 
@@ -419,7 +423,7 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     eye_w = wp.vec3(*np.asarray(ctx.scene.camera.eye, np.float64).astype(np.float32))
     common = cam_args + [eye_w, mesh_tex, cells["verts"], cells["tets"], cells["nbr"], cells["nbr_vertex"],
                          entry["frag_start"], entry["frag_bf"], entry["bf_tet"], entry["bf_face"], entry["bf_nbr"],
-                         entry["far"], entry["edge_start"], entry["edge_bf"], ig, get_format(fb_format).kernel_params(),
+                         entry["far"], entry["bf_depth"], entry["edge_start"], entry["edge_bf"], ig, get_format(fb_format).kernel_params(),
                          float(t_stop), int(max_steps), scalar_check, PEEL_TOL * cells["radius"]]
     kernel = kh.march_kernel(WALKS[walk], SETUPS[setup], ig.mode)  # this configuration's kernel
 

@@ -73,28 +73,42 @@ def window_xy(camera, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 DEPTH_PAD = 1e-6
 
 
-def item_depths(tid: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Sort the (tile, face) items ``tid`` (tile of each item; faces' vertex depths ``z`` (items, 3), float64)
-    by tile, then by the face's nearest depth; returns ``(order, depth)``: the permutation and per sorted item
-    ``(nearest, farthest, farthest of this and every later item of its tile)`` as float32 rounded outward.
-    A ray's crossing with a face lies between its vertices' depths (depth is linear over a triangle and grows
-    along every ray), so a search over a tile's items in this order may stop at the first whose nearest depth
-    is beyond the best crossing found."""
-    if len(tid) == 0:
-        return np.zeros(0, np.int64), np.zeros((0, 3), np.float32)
+def depth_pad(lo: np.ndarray, hi: np.ndarray, span: float) -> np.ndarray:
+    """The outward padding of stored depth bounds ``lo`` / ``hi`` (float64) before their float32 cast: relative
+    :data:`DEPTH_PAD` of their magnitudes and of ``span`` (the depth range they belong to)."""
+    return DEPTH_PAD * (np.abs(lo) + np.abs(hi) + span)
+
+
+def face_depths(mesh, camera, tris: np.ndarray) -> np.ndarray:
+    """``(F, 2)`` float32: per triangle (point indices ``tris``) the nearest and farthest depth of its vertices
+    along the view direction, from the eye, rounded outward (a ray's crossing with the triangle lies between)."""
+    if len(tris) == 0:
+        return np.zeros((0, 2), np.float32)
+    z = (np.asarray(mesh.points, np.float64)[tris] - np.asarray(camera.eye, np.float64)) @ camera.forward
     lo, hi = z.min(axis=1), z.max(axis=1)
-    order = np.lexsort((lo, tid))
-    lo, hi, t = lo[order], hi[order], tid[order]
+    pad = depth_pad(lo, hi, float(hi.max() - lo.min()) + 1.0)
+    return np.ascontiguousarray(np.stack([lo - pad, hi + pad], axis=1).astype(np.float32))
+
+
+def item_depths(tid: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Depth bounds of the (tile, face) items of the bins: ``tid`` the tile of each item (items grouped by tile),
+    ``lo`` / ``hi`` (float64) the nearest and farthest vertex depth of its face. Returns per item ``(nearest,
+    farthest, farthest of this and every later item of its tile)``, float32 rounded outward. A ray's crossing
+    with a face lies between its vertices' depths (depth is linear over a triangle and grows along every ray),
+    so a search over a tile's items in the order of nearest depth may stop at the first whose nearest depth is
+    beyond the best crossing found; the third column bounds the crossings of the items it leaves untested."""
+    if len(tid) == 0:
+        return np.zeros((0, 3), np.float32)
     # suffix maximum of ``hi`` within each tile: a running maximum over the reversed items, each tile lifted
     # above every tile before it in that order so that no maximum leaks across tiles
     span = float(hi.max() - hi.min()) + 1.0
-    rev_rank = np.cumsum(np.r_[0, t[::-1][1:] != t[::-1][:-1]])
+    t = tid[::-1]
+    rev_rank = np.cumsum(np.r_[0, t[1:] != t[:-1]])
     lifted = hi[::-1] - hi.min() + rev_rank * (2.0 * span)
     far = (np.maximum.accumulate(lifted) - rev_rank * (2.0 * span) + hi.min())[::-1]
     far = np.maximum(far, hi)  # (rounding of the lift)
-    pad = DEPTH_PAD * (np.abs(lo) + np.abs(hi) + span)
-    depth = np.stack([lo - pad, hi + pad, far + pad], axis=1).astype(np.float32)
-    return order, np.ascontiguousarray(depth)
+    pad = depth_pad(lo, hi, span)
+    return np.ascontiguousarray(np.stack([lo - pad, hi + pad, far + pad], axis=1).astype(np.float32))
 
 
 def bin_boundary_faces(mesh, camera, tile: int, faces: np.ndarray | None = None) -> dict:
@@ -140,12 +154,18 @@ def bin_boundary_faces(mesh, camera, tile: int, faces: np.ndarray | None = None)
     nx = np.where(offscreen, 0, tx1 - tx0 + 1)
     ny = np.where(offscreen, 0, ty1 - ty0 + 1)
     cnt = nx * ny
-    face = np.repeat(np.arange(len(bf)), cnt)
-    k = np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    # the items face by face in the order of the faces' nearest depth, then sorted (stably) by tile: within a
+    # tile by nearest depth
+    z_lo, z_hi = zt.min(axis=1), zt.max(axis=1)
+    by_depth = np.argsort(z_lo, kind="stable")
+    cnt_d = cnt[by_depth]
+    face = np.repeat(by_depth, cnt_d)
+    k = np.arange(cnt_d.sum()) - np.repeat(np.cumsum(cnt_d) - cnt_d, cnt_d)
     tx = tx0[face] + k % nx[face]
     ty = ty0[face] + k // nx[face]
     tid = ty * tiles_x + tx
-    order, depth = item_depths(tid, z.reshape(-1, 3)[face])
+    order = np.argsort(tid, kind="stable")
+    depth = item_depths(tid[order], z_lo[face[order]], z_hi[face[order]])
     start = np.zeros(n_tiles + 1, np.int64)
     np.cumsum(np.bincount(tid, minlength=n_tiles), out=start[1:])
     # per face, the pixel columns / rows whose centres its grown box may contain (one more pixel of
