@@ -224,6 +224,48 @@ def hull_faces(mesh) -> np.ndarray:
     return on
 
 
+def visible_submesh(mesh, visible: np.ndarray, cached_only: bool = False):
+    """``(sub, cells)``: the cells ``visible`` (bool per tet) as a mesh of their own (the same points; its
+    adjacency, boundary, hull faces and centroids built) and their indices in ``mesh``, kept on the mesh for
+    the last visible set (per transfer function: set-up); ``cached_only``: ``None`` when not kept yet.
+    ``sub`` is ``None`` where the cells do not make a mesh of their own cell for cell.
+
+    XMPVO on ``sub`` orders the visible cells exactly at the pixel centres wherever its relation is
+    acyclic: along a ray two consecutive visible cells share a face (an MPVO edge of ``sub``) or are apart
+    (a gap of ``sub``'s boundary along that ray: a ray constraint)."""
+    key = np.packbits(visible).tobytes()
+    cache = mesh.__dict__.setdefault("_visible_submesh", {})
+    if key not in cache:
+        if cached_only:
+            return None
+        from warpvol.scene.mesh import TetMesh
+
+        cells = np.flatnonzero(visible)
+        sub = TetMesh(mesh.points, np.asarray(mesh.tets)[cells], mesh.scalars, name=f"{mesh.name} (visible cells)")
+        if sub.n_tets == len(cells) and np.array_equal(sub.tets, np.asarray(mesh.tets)[cells]):
+            _ = (sub.adjacency, sub.boundary_faces, hull_faces(sub), centroids(sub))
+        else:  # pragma: no cover - a mesh's own cells never change on the way
+            sub = None
+        cache.clear()
+        cache[key] = (sub, cells)
+    return cache[key]
+
+
+def xmpvo_cost(mesh, camera) -> float:
+    """XMPVO's work on ``mesh`` for ``camera`` in fragment units: the projected area in pixels of its
+    boundary faces off the hull (the fragments its boundary rasterisation makes; faces beyond the image
+    counted whole) plus two per cell (the face directions and the topological sort)."""
+    from warpvol.projection.pt_thin import project_points
+    from warpvol.scene.mesh import FACE_VERTS
+
+    bf = mesh.boundary_faces[~hull_faces(mesh)]
+    col, row, _ = project_points(mesh, camera)
+    t = np.asarray(mesh.tets)[bf[:, 0][:, None], FACE_VERTS[bf[:, 1]]]
+    c, r = col[t], row[t]
+    area = 0.5 * np.abs((c[:, 1] - c[:, 0]) * (r[:, 2] - r[:, 0]) - (c[:, 2] - c[:, 0]) * (r[:, 1] - r[:, 0]))
+    return float(area.sum()) + 2.0 * mesh.n_tets
+
+
 def boundary_ray_constraints(mesh, camera, device: str = "cpu", hull: bool = False) -> tuple[np.ndarray, np.ndarray, int]:
     """XMPVO's extra edges ``(src, dst)`` (``src`` drawn before ``dst``, deduplicated) from the boundary
     faces consecutive along the camera's pixel rays, and the number of boundary fragments rasterised.
