@@ -73,6 +73,29 @@ def window_xy(camera, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 DEPTH_PAD = 1e-6
 
 
+#: pixels by which a face's projected box is grown before the pixel centres in it are listed (on top of the
+#: float32 ray's uncertainty, :data:`RAY_REL`)
+BOX_MARGIN_PX = 0.05
+#: how far (relative to the mesh's half diagonal) a float32 ray and its crossings may stray from the float64 ray
+#: through the pixel centre: about 1e-7 of the mesh's size (the origin is moved to the mesh); taken 100 times
+RAY_REL = 1e-5
+
+
+def box_margin_px(mesh, camera, z: np.ndarray) -> np.ndarray:
+    """Per triangle (vertex depths ``z`` (F, 3) from the eye), the margin in pixels by which its projected box is
+    grown: :data:`BOX_MARGIN_PX` plus :data:`RAY_REL` times the mesh's half diagonal over the size of a pixel at
+    the triangle's nearest vertex (perspective; the orthographic pixel size is the same at every depth), so a
+    float32 ray that may cross the face keeps it among its pixel's candidates; the consistent edge test
+    decides."""
+    lo, hi = mesh.bounds
+    half = 0.5 * float(np.linalg.norm(np.asarray(hi, np.float64) - np.asarray(lo, np.float64)))
+    if camera.projection == "perspective":
+        pix = 2.0 * np.abs(z).min(axis=1) * np.tan(np.radians(camera.fov_y_deg) / 2.0) / camera.height_px
+    else:
+        pix = np.full(len(z), camera.ortho_height / camera.height_px)
+    return BOX_MARGIN_PX + RAY_REL * half / pix
+
+
 def depth_pad(lo: np.ndarray, hi: np.ndarray, span: float) -> np.ndarray:
     """The outward padding of stored depth bounds ``lo`` / ``hi`` (float64) before their float32 cast: relative
     :data:`DEPTH_PAD` of their magnitudes and of ``span`` (the depth range they belong to)."""
@@ -117,8 +140,8 @@ def bin_boundary_faces(mesh, camera, tile: int, faces: np.ndarray | None = None)
 
     Returns ``dict(bface_tet, bface_local, bface_box, tile_start, tile_items, item_depth, tiles_x, tiles_y,
     tile)``; ``bface_box`` (int32, 4 per face: first column, first row, last column, last row) bounds the
-    pixels whose rays may cross the face (its projected box grown by one pixel, plus one); a tile's items are
-    in the order of :func:`item_depths`, ``item_depth`` (float32, 3 per item) its depth bounds.
+    pixels whose rays may cross the face (centres in its projected box grown by :func:`box_margin_px`; a face
+    between the pixel centres is listed nowhere); a tile's items are in the order of :func:`item_depths`, ``item_depth`` (float32, 3 per item) its depth bounds.
     """
     from warpvol.raycasting.visible import face_triangles
 
@@ -138,11 +161,15 @@ def bin_boundary_faces(mesh, camera, tile: int, faces: np.ndarray | None = None)
     # a triangle whose vertices are not all on one side of the eye plane has an unbounded projection
     zt = z.reshape(-1, 3)
     straddle = bad.reshape(-1, 3).any(axis=1) | ((zt > 0).any(axis=1) & (zt < 0).any(axis=1))
-    with np.errstate(invalid="ignore"):
-        lo = np.floor(win.min(axis=1) - 1.0)
-        hi = np.ceil(win.max(axis=1) + 1.0)
-    lo[straddle] = 0
-    hi[straddle] = [w, h]
+    # the pixels whose centres lie within the projected triangle's box grown by box_margin_px (columns lo[:, 0] ..
+    # hi[:, 0], rows lo[:, 1] .. hi[:, 1]; none where lo > hi)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        m = box_margin_px(mesh, camera, zt)[:, None]
+        lo = np.ceil(win.min(axis=1) - 0.5 - m)
+        hi = np.floor(win.max(axis=1) - 0.5 + m)
+    whole = straddle | ~(np.isfinite(lo).all(axis=1) & np.isfinite(hi).all(axis=1))
+    lo[whole] = 0
+    hi[whole] = [w - 1, h - 1]
     lo = np.clip(lo, -1.0, float(max(w, h)) + 1.0)
     hi = np.clip(hi, -1.0, float(max(w, h)) + 1.0)
     # pixel index ranges -> tile ranges (clipped to the screen)
@@ -150,7 +177,8 @@ def bin_boundary_faces(mesh, camera, tile: int, faces: np.ndarray | None = None)
     tx1 = np.clip(hi[:, 0] // tile, 0, tiles_x - 1).astype(np.int64)
     ty0 = np.clip(lo[:, 1] // tile, 0, tiles_y - 1).astype(np.int64)
     ty1 = np.clip(hi[:, 1] // tile, 0, tiles_y - 1).astype(np.int64)
-    offscreen = (hi[:, 0] < 0) | (hi[:, 1] < 0) | (lo[:, 0] > w) | (lo[:, 1] > h)
+    offscreen = (hi[:, 0] < 0) | (hi[:, 1] < 0) | (lo[:, 0] > w - 1) | (lo[:, 1] > h - 1) | (lo[:, 0] > hi[:, 0]) | \
+        (lo[:, 1] > hi[:, 1])
     nx = np.where(offscreen, 0, tx1 - tx0 + 1)
     ny = np.where(offscreen, 0, ty1 - ty0 + 1)
     cnt = nx * ny
@@ -168,10 +196,9 @@ def bin_boundary_faces(mesh, camera, tile: int, faces: np.ndarray | None = None)
     depth = item_depths(tid[order], z_lo[face[order]], z_hi[face[order]])
     start = np.zeros(n_tiles + 1, np.int64)
     np.cumsum(np.bincount(tid, minlength=n_tiles), out=start[1:])
-    # per face, the pixel columns / rows whose centres its grown box may contain (one more pixel of
-    # margin): the kernel skips a face's ray test outside it, as the binning does per tile
-    box = np.stack([lo[:, 0] - 1, lo[:, 1] - 1, hi[:, 0], hi[:, 1]], axis=1)
-    box[~np.isfinite(box).all(axis=1)] = [-1, -1, w, h]
+    # per face, the pixel columns / rows whose centres its grown box may contain: the kernel skips a face's ray
+    # test outside it, as the binning does per tile
+    box = np.stack([lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1]], axis=1)
     return dict(bface_tet=bf[:, 0].astype(np.int32), bface_local=bf[:, 1].astype(np.int32),
                 bface_box=np.ascontiguousarray(box, dtype=np.int32).reshape(-1),
                 tile_start=start.astype(np.int32), tile_items=face[order].astype(np.int32), item_depth=depth,
