@@ -290,8 +290,8 @@ def edge_pixels(mesh, camera, tris: np.ndarray, nbr: np.ndarray, delta: float = 
 
 def _near_segments(ax, ay, bx, by, ids, w: int, h: int, delta: float):
     """``(pixel, id)`` pairs: pixel centres within ``delta`` of the window-space segments ``a b``
-    (:func:`warpvol.projection.pt_thin.near_segment_pixels`), each with its segment's entry of ``ids``."""
-    from warpvol.projection.pt_thin import near_segment_pixels
+    (:func:`warpvol.projection.pixel_marks.near_segment_pixels`), each with its segment's entry of ``ids``."""
+    from warpvol.projection.pixel_marks import near_segment_pixels
 
     pix, k = near_segment_pixels(ax, ay, bx, by, w, h, delta)
     return pix, np.asarray(ids)[k]
