@@ -7,7 +7,7 @@ composites as the identity. The ray casters (``raycast``, ``harc_best``) therefo
 *visible sub-mesh*: its boundary is every face of a visible cell whose neighbour is invisible or absent
 (:func:`visible_boundary`), rays enter and re-enter there exactly as they enter and re-enter a
 non-convex mesh at its own boundary (``entry_bins`` bins these faces, ``harc_raster`` rasterises them,
-the ``peel`` / ``harc_peel`` passes re-enter further on), and the walk's neighbour records
+``raycast``'s threads and the ``peel`` / ``harc_peel`` passes re-enter further on), and the walk's neighbour records
 (:func:`walk_neighbours`) end at an invisible neighbour as at the mesh boundary. A pixel whose ray meets
 no visible cell costs only its entry search; a run of invisible cells between two visible ones costs a
 re-entry search instead of one walk step per cell.
