@@ -157,6 +157,25 @@ def paper_ray(px: int, py: int, width: int, height: int, eye: wp.vec3, fwd: wp.v
 
 
 @wp.func
+def no_face_around(px: int, py: int, width: int, height: int, frag_start: wp.array(dtype=wp.int32),
+                   edge_start: wp.array(dtype=wp.int32)) -> bool:
+    """Whether no front face is listed at pixel (px, py), at its 8 neighbours or among its open-edge faces: then
+    no entry search of the pixel (its list, its neighbours', the rings of a face listed there, its open-edge
+    faces) has a face to test."""
+    idx = py * width + px
+    if edge_start[idx] < edge_start[idx + 1]:
+        return False
+    y0 = wp.max(py - 1, 0)
+    y1 = wp.min(py + 1, height - 1)
+    x0 = wp.max(px - 1, 0)
+    x1 = wp.min(px + 1, width - 1)
+    for y in range(y0, y1 + 1):
+        if frag_start[y * width + x0] < frag_start[y * width + x1 + 1]:
+            return False
+    return True
+
+
+@wp.func
 def grad_scalar(g: wp.vec4, x: wp.vec3) -> float:
     return wp.dot(wp.vec3(g[0], g[1], g[2]), x) + g[3]
 
@@ -250,6 +269,15 @@ def make_march(walk: int, setup: int, mode: int):
                 return
         t_start = tcur[idx]
         prev = last[idx]
+        if no_face_around(px, py, width, height, frag_start, edge_start):
+            # no face listed at this pixel, its 8 neighbours or its open edges: the search below finds no entry
+            if t_clip > 0.0:
+                status[idx] = STATUS_FAILED  # (as below: an eye inside the mesh is traced in float64)
+                wp.atomic_add(counters, chunk, 3, 1)
+                wp.atomic_add(counters, chunk, 12, 1)
+            else:
+                status[idx] = STATUS_DONE
+            return
 
         # ---- ray start: the first rasterised front boundary face beyond the last exit (peel test) ----
         cell = int(-1)
@@ -326,8 +354,9 @@ def make_march(walk: int, setup: int, mode: int):
                     qx = px + (nb % 3) - 1
                     qy = py + (nb // 3) - 1
                     # (this pixel's own list too after a rejected face: its later faces were not tested)
-                    if (nb != 4 or rescan == 1) and qx >= 0 and qy >= 0 and qx < width and qy < height:
-                        q = qy * width + qx
+                    q = qy * width + qx
+                    if (nb != 4 or rescan == 1) and qx >= 0 and qy >= 0 and qx < width and qy < height and \
+                            frag_start[q] < frag_start[q + 1]:  # (an empty list: no call)
                         cell, face_in, t_in, s_in, fc = nearest_listed(
                             frag_start[q], frag_start[q + 1], frag_bf, bf_tet, bf_face, bf_depth, z_lo, tets, verts, r,
                             prev, t_start, t_tol, cell, face_in, t_in, s_in, fc)
@@ -337,7 +366,7 @@ def make_march(walk: int, setup: int, mode: int):
                     cell, face_in, t_in, s_in, fc = nearest_in_rings(
                         rejected, bf_tet, bf_face, bf_nbr, tets, verts, r, prev, t_start, t_tol, cell, face_in, t_in,
                         s_in, fc)
-            if entry_failed == 0:
+            if entry_failed == 0 and edge_start[idx] < edge_start[idx + 1]:
                 # the faces whose open edge (silhouette, outline of a part) passes within 1/64 pixel of the centre,
                 # tested exactly: the snapped coverage can leave such a face out with a deeper layer (or nothing)
                 # listed in its place -- a cell smaller than the snapping, a face seen edge-on

@@ -4,8 +4,10 @@ face beyond the best crossing -- the same entries, bit for bit, as testing every
 
 import numpy as np
 import pytest
+import warp as wp
 
 from helpers import noisy_shell
+from warpvol.kernels import harc as kh
 from warpvol.pipeline import Pipeline
 from warpvol.raycasting.stages import entry_bins
 from warpvol.scene.builtin import builtin_scene
@@ -234,3 +236,33 @@ def test_tight_face_boxes_keep_every_face_a_ray_may_cross(name, monkeypatch):
     assert counts(got.report) == counts(want.report)
     if name != "grazing_box":  # (there the uncertainty margin spans the whole window)
         assert len(tight["tile_items"]) < len(loose["tile_items"])
+
+
+@wp.kernel
+def k_no_face_around(width: int, height: int, frag_start: wp.array(dtype=wp.int32),
+                     edge_start: wp.array(dtype=wp.int32), out: wp.array(dtype=wp.int32)):
+    i = wp.tid()
+    py = i // width
+    out[i] = wp.where(kh.no_face_around(i - py * width, py, width, height, frag_start, edge_start), 1, 0)
+
+
+def test_harc_rays_with_no_face_listed_around_stop_before_the_search():
+    """harc_best's march ends a ray at once where no front face is listed at its pixel, its 8 neighbours or its
+    open edges (no search has a face to test there): the pixels so found are those the fragment lists say."""
+    from helpers import noisy_shell
+    from warpvol.raycasting.harc import entry_fragments
+
+    sc = noisy_shell(0, 40)
+    e = entry_fragments(sc.mesh, sc.camera)
+    w, h = sc.camera.width_px, sc.camera.height_px
+    out = wp.zeros(w * h, dtype=wp.int32, device="cpu")
+    wp.launch(k_no_face_around, dim=w * h, inputs=[w, h, e["frag_start"], e["edge_start"], out], device="cpu")
+    listed = np.pad((np.diff(e["frag_start"].numpy()) > 0).reshape(h, w), 1)
+    around = np.zeros((h, w), bool)
+    for dy in range(3):
+        for dx in range(3):
+            around |= listed[dy:dy + h, dx:dx + w]
+    around |= (np.diff(e["edge_start"].numpy()) > 0).reshape(h, w)
+    got = out.numpy().reshape(h, w).astype(bool)
+    assert np.array_equal(got, ~around)
+    assert 0 < got.sum() < w * h  # both cases occur
