@@ -375,6 +375,13 @@ def march(
     idx = first + tid  # the pixels first .. (all rays of the image active)
     if ids.shape[0] > 0:
         idx = ids[first + tid]  # the active rays' pixels ids[first ..] (a re-entry pass)
+    py = idx // width
+    tile_id = (py // tile) * tiles_x + (idx - py * width) // tile
+    if tile_start[tile_id] == tile_start[tile_id + 1]:
+        # no entry face binned to the pixel's tile: the search finds none, the ray is done (as march_ray decides)
+        if (status[idx] & 3) == STATUS_ACTIVE:
+            status[idx] = STATUS_DONE
+        return
     march_ray(idx, width, height, eye, fwd, right, up, ortho, half_h, aspect, radius, verts, tets, nbr, nbr_vertex,
               bface_tet, bface_local, bface_box, tile_start, tile_items, item_depth, tile, tiles_x, tf_s, tf_v, model,
               scalar_check, max_steps, t_min, t_tol, rgb, trans, tcur, status, last, counters, chunk, 0)
