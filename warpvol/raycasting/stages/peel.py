@@ -86,5 +86,6 @@ class Peel(Stage):
         ctx.stats["peel"] = {"passes": passes, "reentries": entries, "float64_rays": redone, "thin_layer_rays": thin,
                              "terminated_early": early, "passes_exhausted_rays": unfinished,
                              "crack_faces": len(mesh.crack_faces), "nonconforming_faces": len(mesh.nonconforming_faces)}
-        cam = ctx.scene.camera
-        ctx.image = state.image(cam.height_px, cam.width_px)
+        if passes or redone or ctx.image is None:  # (no pass and no redo: the raycast stage's image stands)
+            cam = ctx.scene.camera
+            ctx.image = state.image(cam.height_px, cam.width_px)
