@@ -44,3 +44,39 @@ def test_ordinary_meshes_have_no_unresolved_cells(name):
     sc = builtin_scene(name).with_camera(width_px=48, height_px=48)
     pix, tets = unresolved_pixels(sc.mesh, sc.transfer, sc.camera, face_on=False)
     assert len(pix) == 0 and tets == 0
+
+
+def test_view_free_part_kept_per_mesh_and_transfer_function():
+    """What the view does not change is kept in the cache for the next frame (no per-frame scan of the
+    mesh's thin tets): the same pixels as without a cache, for a moved camera (the view-dependent part is
+    redone) and for another transfer function (compared by value: the kept part is not reused)."""
+    from warpvol.raycasting import thin_cells as tc
+    from warpvol.scene.transfer import TransferFunction
+
+    sc = CASES["slabs_1e-6_block_persp"]()
+    cache: dict = {}
+    first = tc.unresolved_pixels(sc.mesh, sc.transfer, sc.camera, face_on=False, cache=cache)
+    assert len(first[0]) > 0 and "view_free" in cache
+    kept = cache["view_free"]
+    moved = sc.camera.replace(width_px=sc.camera.width_px + 7)
+    got = tc.unresolved_pixels(sc.mesh, sc.transfer, moved, face_on=False, cache=cache)
+    assert cache["view_free"] is kept  # reused
+    want = tc.unresolved_pixels(sc.mesh, sc.transfer, moved, face_on=False)
+    assert got[1] == want[1] and (got[0] == want[0]).all()
+    clear = TransferFunction([[p[0], *p[1:4], 0.0] for p in sc.transfer.points], sc.transfer.emission)
+    got = tc.unresolved_pixels(sc.mesh, clear, sc.camera, face_on=False, cache=cache)
+    assert cache["view_free"] is not kept and got[1] == 0 and len(got[0]) == 0
+    for face_on in (True, False):
+        got = tc.unresolved_pixels(sc.mesh, sc.transfer, sc.camera, face_on=face_on, cache=cache)
+        want = tc.unresolved_pixels(sc.mesh, sc.transfer, sc.camera, face_on=face_on)
+        assert got[1] == want[1] and (got[0] == want[0]).all()
+
+
+def test_thin_cell_candidates_are_set_up_of_the_first_frame():
+    sc = CASES["slabs_1e-6_block_persp"]()
+    pipe = Pipeline.load("raycast")
+    first = pipe.render(sc, quiet=True)
+    assert "thin-cell candidates" in first.report.get("first_use", {}).get("raycast", {}), first.report.get("first_use")
+    second = pipe.render(sc, quiet=True)
+    assert "first_use" not in second.report
+    assert second.report["stats"]["raycast"]["thin_cell_rays"] == first.report["stats"]["raycast"]["thin_cell_rays"] > 0

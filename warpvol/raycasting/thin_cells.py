@@ -143,14 +143,15 @@ def pixels_under(pieces: np.ndarray, camera) -> np.ndarray:
     return np.flatnonzero(diff.cumsum(axis=0).cumsum(axis=1)[:h, :w] > 0)
 
 
-def unresolved_pixels(mesh, transfer, camera, face_on: bool = True, cache: dict | None = None) -> tuple[np.ndarray, int]:
-    """``(pixels, tets)``: the flat indices of the pixels whose rays may cross a tet a float32 walk cannot
-    resolve -- too thin at its extinction (:func:`thin_tets`), or of optical depth over 1e-5 along its
-    diameter and either thinner than :data:`EDGE_ON_THIN` of the radius and seen edge-on (window footprint
-    under :data:`EDGE_ON_PX`) or a slender needle along the rays (:data:`NEEDLE_PX`, :data:`NEEDLE_RATIO`) --
-    and how many such tets. ``face_on = False``: the tets seen edge-on only (for walks whose own
-    thin-layer check resolves segments too short for float32). ``cache``: a dict kept between calls (the
-    tets' altitudes, per mesh)."""
+def _view_free_part(mesh, transfer, face_on: bool, cache: dict | None = None):
+    """What :func:`unresolved_pixels` finds without the camera: ``(thin, thin_pieces, maybe, pieces, thin_maybe)``
+    -- the tets unresolved whatever the view (indices, their corners (T, 4, 3)), the candidates the view decides on (seen edge-on or
+    needles, of optical depth over 1e-5 along their diameter: indices, their corners (M, 4, 3), and whether
+    each is thinner than :data:`EDGE_ON_THIN`). Per mesh and transfer function: kept in ``cache`` for the next
+    frame with both unchanged (the transfer function compared by value)."""
+    kept = _kept_view_free(mesh, transfer, face_on, cache)
+    if kept is not None:
+        return kept
     geom, ext, radius, altitude = _thin_geometry(mesh, transfer, cache)
     thin = geom & (ext * 2.0 ** -20 * radius > 1e-5) & face_on
     # seen edge-on: thinner than EDGE_ON_THIN; a needle along the rays: any slender tet
@@ -161,12 +162,40 @@ def unresolved_pixels(mesh, transfer, camera, face_on: bool = True, cache: dict 
     pieces = np.asarray(mesh.points, np.float64)[np.asarray(mesh.tets)[maybe]]
     diameter = np.max([np.linalg.norm(pieces[:, a] - pieces[:, b], axis=1) for a, b in _EDGES], axis=0) \
         if len(maybe) else np.zeros(0)
+    deep = ext_m * diameter > 1e-5
+    k = np.flatnonzero(thin)
+    part = (k, np.asarray(mesh.points, np.float64)[np.asarray(mesh.tets)[k]], maybe[deep], pieces[deep],
+            altitude[maybe[deep]] < EDGE_ON_THIN * radius)
+    if cache is not None:
+        cache["view_free"] = (mesh, _view_free_key(transfer, face_on), part)
+    return part
+
+
+def _view_free_key(transfer, face_on: bool) -> tuple:
+    return (transfer.emission, np.asarray(transfer.points).tobytes(), bool(face_on))
+
+
+def _kept_view_free(mesh, transfer, face_on: bool, cache: dict | None):
+    """:func:`_view_free_part`'s result kept in ``cache`` for this mesh and transfer function, else None."""
+    kept = cache.get("view_free") if cache is not None else None
+    if kept is not None and kept[0] is mesh and kept[1] == _view_free_key(transfer, face_on):
+        return kept[2]
+    return None
+
+
+def unresolved_pixels(mesh, transfer, camera, face_on: bool = True, cache: dict | None = None) -> tuple[np.ndarray, int]:
+    """``(pixels, tets)``: the flat indices of the pixels whose rays may cross a tet a float32 walk cannot
+    resolve -- too thin at its extinction (:func:`thin_tets`), or of optical depth over 1e-5 along its
+    diameter and either thinner than :data:`EDGE_ON_THIN` of the radius and seen edge-on (window footprint
+    under :data:`EDGE_ON_PX`) or a slender needle along the rays (:data:`NEEDLE_PX`, :data:`NEEDLE_RATIO`) --
+    and how many such tets. ``face_on = False``: the tets seen edge-on only (for walks whose own
+    thin-layer check resolves segments too short for float32). ``cache``: a dict kept between calls (the
+    tets' altitudes, per mesh; what the view does not change, per mesh and transfer function)."""
+    thin, thin_pieces, maybe, pieces, thin_maybe = _view_free_part(mesh, transfer, face_on, cache)
     width, longest, along = footprint(pieces, camera)
-    edge_on = (altitude[maybe] < EDGE_ON_THIN * radius) & (width < EDGE_ON_PX)
-    needle = (longest < NEEDLE_PX) & (along > NEEDLE_RATIO)
-    keep = (ext_m * diameter > 1e-5) & (edge_on | needle)
-    thin[maybe[keep]] = True
-    return pixels_under(np.asarray(mesh.points, np.float64)[np.asarray(mesh.tets)[thin]], camera), int(thin.sum())
+    keep = (thin_maybe & (width < EDGE_ON_PX)) | ((longest < NEEDLE_PX) & (along > NEEDLE_RATIO))
+    # the candidates are not among the view-free thin tets: the two lists add up
+    return pixels_under(np.concatenate([thin_pieces, pieces[keep]]), camera), int(len(thin) + keep.sum())
 
 
 def mark_unresolved(ctx, status, failed: int) -> tuple[int, int]:
@@ -181,6 +210,9 @@ def mark_unresolved(ctx, status, failed: int) -> tuple[int, int]:
     if cache.get("mesh") is not sc.mesh:  # per mesh, kept: set-up, not frame time
         with ctx.setup_work("thin-cell shapes"):
             _shape(sc.mesh, cache)
+    if _kept_view_free(sc.mesh, sc.transfer, False, cache) is None:  # per mesh and TF, kept: set-up
+        with ctx.setup_work("thin-cell candidates"):
+            _view_free_part(sc.mesh, sc.transfer, False, cache)
     pix, n_thin = unresolved_pixels(sc.mesh, sc.transfer, sc.camera, face_on=False, cache=cache)
     if len(pix):
         st = status.numpy()
