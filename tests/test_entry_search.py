@@ -266,3 +266,26 @@ def test_harc_rays_with_no_face_listed_around_stop_before_the_search():
     got = out.numpy().reshape(h, w).astype(bool)
     assert np.array_equal(got, ~around)
     assert 0 < got.sum() < w * h  # both cases occur
+
+
+def test_entry_faces_of_an_eye_near_the_mesh_use_its_kept_bounding_radius():
+    """Perspective: an eye within the mesh's bounding sphere (about the centre of its bounds, over every point)
+    lists every boundary face; the radius is the mesh's own, computed once (``bounding_radius``, set-up of the
+    first frame), not per frame."""
+    from warpvol.scene.mesh import TetMesh
+
+    sc = builtin_scene("concave")
+    m = sc.mesh
+    lo, hi = m.bounds
+    c = 0.5 * (lo + hi)
+    r = float(np.sqrt(((np.asarray(m.points, np.float64) - c) ** 2).sum(axis=1).max()))
+    assert m.bounding_radius == r and "bounding_radius" in vars(m)  # cached
+    assert "bounding_radius" in entry_bins.ENTRY_MESH_PROPERTIES
+    d = np.asarray(sc.camera.forward, np.float64)
+    inside = sc.camera.replace(eye=c - 0.99 * r * d, target=c)
+    outside = sc.camera.replace(eye=c - 1.01 * r * d, target=c)
+    assert entry_bins.entry_face_mask(m, inside).all()
+    assert not entry_bins.entry_face_mask(m, outside).all()
+    # an unused point far out widens the sphere (every point counts)
+    far = TetMesh(np.vstack([m.points, c + [0.0, 0.0, 40.0 * r]]), m.tets, np.append(m.scalars, 0.0), strict=False)
+    assert far.bounding_radius > 10 * r

@@ -166,6 +166,13 @@ class TetMesh:
         return p.min(axis=0), p.max(axis=0)
 
     @cached_property
+    def bounding_radius(self) -> float:
+        """Largest distance of a point from the centre of :attr:`bounds` (every point, used or not: the sphere
+        about that centre holds the whole point set)."""
+        lo, hi = self.bounds
+        return float(np.sqrt(((self.points - 0.5 * (lo + hi)) ** 2).sum(axis=1).max()))
+
+    @cached_property
     def scalar_range(self) -> tuple[float, float]:
         """Smallest and largest scalar of the points the tets use."""
         s = self.scalars if self.point_used is None else self.scalars[self.point_used]

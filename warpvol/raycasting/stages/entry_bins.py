@@ -22,7 +22,7 @@ from warpvol.stage import Context, Param, Stage, register_stage
 
 
 #: the per-mesh properties (cached on the mesh) :func:`entry_face_mask` reads: set-up on first use
-ENTRY_MESH_PROPERTIES = ("boundary_faces", "face_planes", "bounds")
+ENTRY_MESH_PROPERTIES = ("boundary_faces", "face_planes", "bounds", "bounding_radius")
 
 
 def entry_face_mask(mesh, camera, faces: np.ndarray | None = None) -> np.ndarray:
@@ -38,10 +38,8 @@ def entry_face_mask(mesh, camera, faces: np.ndarray | None = None) -> np.ndarray
     planes = mesh.face_planes[bf[:, 0], bf[:, 1]]  # (B,4)
     lo, hi = mesh.bounds
     diam = float(np.linalg.norm(hi - lo))
-    centre = 0.5 * (lo + hi)
-    radius = float(np.sqrt(((mesh.points - centre) ** 2).sum(axis=1).max()))
     if camera.projection == "perspective":
-        if np.linalg.norm(camera.eye - centre) <= 1.001 * radius:
+        if np.linalg.norm(camera.eye - 0.5 * (lo + hi)) <= 1.001 * mesh.bounding_radius:
             return np.ones(len(bf), dtype=bool)
         return planes[:, :3] @ camera.eye + planes[:, 3] > -1e-9 * diam
     return planes[:, :3] @ camera.forward < 1e-9
