@@ -240,13 +240,13 @@ def reentry_bound(mesh, camera, tris: np.ndarray, nbr: np.ndarray, start: np.nda
             kn = np.where(nbr >= 0, k[np.maximum(nbr, 0)], -np.inf)
             k = np.maximum(k, kn.max(axis=1))
         near = _list_max(out, start, frag_bf, k).reshape(h, w)
-        if len(frag_bf):
+        if len(frag_bf):  # the 3 x 3 maximum, as a row pass and a column pass
             img = np.pad(near, 1, constant_values=-np.inf)
-            for dy in (0, 1, 2):
-                for dx in (0, 1, 2):
-                    np.maximum(near, img[dy:dy + h, dx:dx + w], out=near)
-        if n_edge:
-            np.maximum(near, _list_max(out, edge_start, edge_bf, k0).reshape(h, w), out=near)
+            row = np.maximum(np.maximum(img[:, :-2], img[:, 1:-1]), img[:, 2:])
+            near = np.maximum(np.maximum(row[:-2], row[1:-1]), row[2:])
+        if n_edge:  # few pixels have open-edge faces: their items, each to its pixel
+            pix = np.searchsorted(edge_start, np.arange(n_edge), side="right") - 1
+            np.maximum.at(near.reshape(-1), pix, k0[edge_bf])
         ext = float(np.abs(rel).max()) + float((mesh.bounds[1] - mesh.bounds[0]).max())
         out = near.reshape(-1) + 1e-4 * ext
     return out.astype(np.float32)
