@@ -396,25 +396,25 @@ COUNTER_NAMES = ("entries", "steps", "cells", "failed", "step_bound", "iso_misse
 
 
 def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, fb_format: str, t_stop: float,
-               max_steps: int, threads: int, rows_per_block: int = 16, setup: str = "robust") -> dict:
+               max_steps: int, threads: int, scalar_check: int = 1, rows_per_block: int = 16,
+               setup: str = "robust") -> dict:
     """One propagation pass over all active rays (the kernel of this walk, set-up and integration:
     :func:`warpvol.kernels.harc.march_kernel`, one thread per active ray:
     :func:`warpvol.raycasting.stages.raycast.ray_blocks`); returns the summed counters by name (all zero,
     nothing launched, when no ray is active). ``setup``:
     ``robust`` (float64 ray set-up from the mesh, :func:`warpvol.kernels.walk.pixel_ray`) or
-    ``paper`` (the ray from the eye in fp32, in the frame of ``fp32`` mesh textures)."""
+    ``paper`` (the ray from the eye in fp32, in the frame of ``fp32`` mesh textures). ``scalar_check``: the
+    exact walk's bound on the crossings' scalar errors on (1) or off where it provably cannot fire (0: the
+    frame's :func:`~warpvol.raycasting.stages.cell_setup.scalar_check_needed`)."""
     import warp as wp
 
     from warpvol.gpu.formats import get_format
     from warpvol.kernels import harc as kh
     from warpvol.parallel import launch_blocks
-    from warpvol.raycasting.stages.cell_setup import scalar_check_needed
     from warpvol.raycasting.stages.raycast import camera_launch_args, ray_blocks
 
     cells = ctx.buffers["cells"]
     cam_args = camera_launch_args(ctx)
-    # the exact walk's bound on the crossings' scalar errors, off where it provably cannot fire
-    scalar_check = scalar_check_needed(ig.tf_s, ig.tf_v, ig.model, cells["s_span"], cells["radius"])
     state.px_work.zero_()
     ids, parts = ray_blocks(ctx, state.status.numpy() == int(kh.STATUS_ACTIVE), threads, rows_per_block)
     if not parts:

@@ -172,7 +172,7 @@ def _view_free_part(mesh, transfer, face_on: bool, cache: dict | None = None):
 
 
 def _view_free_key(transfer, face_on: bool) -> tuple:
-    return (transfer.emission, np.asarray(transfer.points).tobytes(), bool(face_on))
+    return (transfer.hash, bool(face_on))
 
 
 def _kept_view_free(mesh, transfer, face_on: bool, cache: dict | None):

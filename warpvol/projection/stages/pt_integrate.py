@@ -146,9 +146,9 @@ class PTIntegrate(Stage):
                           pixels_terminated=int(np.count_nonzero(1.0 - ctx.image[..., 3] <= t_min)))
         if why:
             ctx.left_out(why="; ".join(why), **counts)
-        self.redo_unresolved(ctx, info.get("term_at"))
+        self.redo_unresolved(ctx, info.get("term_at"), eps)
 
-    def redo_unresolved(self, ctx: Context, term_at: np.ndarray | None = None) -> None:
+    def redo_unresolved(self, ctx: Context, term_at: np.ndarray | None = None, eps: float = 0.0) -> None:
         """Pixels covered by tets float32 cannot draw right (thin cells that carry the image, faces seen
         edge-on from the eye or narrower than the rasteriser's snapping resolves;
         :func:`warpvol.projection.pt_thin.unresolved_pixels`): redone with the float64 ray
@@ -156,7 +156,8 @@ class PTIntegrate(Stage):
         its artifact) counted and reported as a warning. Only tets in the draw order count, and with
         ``term_at`` (the fused draw's early termination: the draw position that terminated each pixel) only
         the pixels that had not terminated when their fragments came (``occluded_pixels`` counts those left
-        out, reported under ``left_out``)."""
+        out, reported under ``left_out``). ``eps`` > 0: the draw's early-termination bound, which the float64
+        redo stops at too."""
 
         from warpvol.projection.pt_thin import drawn_faces, missing_parts, prepare_parts, unresolved_pixels
         from warpvol.raycasting.visible import skipping
@@ -183,7 +184,6 @@ class PTIntegrate(Stage):
               "silhouette_edges": u["silhouette_edges"], "rough_tets": u["rough_tets"], "float64_pixels": 0}
         if len(px) and self.config["format"] == "fp32":
             ctx.mesh_setup(sc.mesh, *redo_mesh_properties(sc.camera))
-            eps = self.config["early_termination"] if ctx.skip and self._terminates() else 0.0
             val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, px, visible=skipping(ctx)[0],
                                       terminate=eps or None)  # the draw's own termination bound
             img = ctx.image.reshape(-1, 4)

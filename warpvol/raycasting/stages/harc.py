@@ -142,6 +142,7 @@ class Harc(Stage):
     def run(self, ctx: Context) -> None:
         from warpvol.kernels.raycast import STATUS_FAILED
         from warpvol.raycasting.harc import HarcState, integ_setup, lost_rays, lost_warning, march_pass, resolve_failed
+        from warpvol.raycasting.stages.cell_setup import scalar_check_needed
         from warpvol.raycasting.stages.raycast import rays_without_cell, report_left_out, stop_transmittance
 
         mt = ctx.buffers["harc_mesh"]
@@ -181,10 +182,15 @@ class Harc(Stage):
         entry = ctx.buffers["harc_entry"]
         threads = self.threads or cpu_threads()
         t_stop = stop_transmittance(ctx, self.early_termination)
+        bound = self.early_termination if t_stop > 0 else 0.0  # the stated termination bound (0: none)
+        # the exact walk's bound on the crossings' scalar errors, off where it provably cannot fire (per frame)
+        cells = ctx.buffers["cells"]
+        scalar_check = scalar_check_needed(ig.tf_s, ig.tf_v, ig.model, cells["s_span"], cells["radius"])
 
         def run_pass(max_steps=self.max_steps):
             return march_pass(ctx, state, walk=self.walk, mesh_tex=st, entry=entry, ig=ig, fb_format=self.format,
-                              t_stop=t_stop, max_steps=max_steps, threads=threads, setup=self.ray_setup)
+                              t_stop=t_stop, max_steps=max_steps, threads=threads, scalar_check=scalar_check,
+                              setup=self.ray_setup)
 
         import time
 
@@ -198,14 +204,14 @@ class Harc(Stage):
         c = run_pass()
         t1 = time.perf_counter()
         missed = rays_without_cell(state.last, state.status, int(STATUS_FAILED))
-        ctx.buffers["harc_state"] = {"state": state, "run_pass": run_pass, "keep": (keep, keep_st), "eps": self.early_termination if t_stop > 0 else 0.0,
+        ctx.buffers["harc_state"] = {"state": state, "run_pass": run_pass, "keep": (keep, keep_st), "eps": bound,
                                      "count": lambda c: count_pass(ctx, c, keep, self.walk, self.integration,
                                                                    self.format, lambda: px_work(state, cam)),
-                                     "resolve": lambda: resolve_failed(ctx, state, self.early_termination if t_stop > 0 else 0.0),
+                                     "resolve": lambda: resolve_failed(ctx, state, bound),
                                      "lost": (lambda: lost_rays(state)) if paper else None}
         # robust: failed rays are redone whole in float64 now (and then done: later peel passes skip
         # them); paper: none are marked failed, lost rays keep their partial result
-        redone = resolve_failed(ctx, state, self.early_termination if t_stop > 0 else 0.0)
+        redone = resolve_failed(ctx, state, bound)
         t2 = time.perf_counter()
         count_pass(ctx, c, keep, self.walk, self.integration, self.format, lambda: px_work(state, cam))
         ctx.count(rays=state.n)
@@ -217,7 +223,7 @@ class Harc(Stage):
             ctx.stats["harc"]["lost_rays"] = lost
             if lost or c["backward_rays"]:
                 ctx.stats["harc"]["warning"] = lost_warning(lost, state.n, c["backward_rays"])
-        report_left_out(ctx, self.early_termination if t_stop > 0 else 0.0, c["terminated_early"], missed)
+        report_left_out(ctx, bound, c["terminated_early"], missed)
         if redone:
             ctx.progress(f"harc: {redone} rays the float32 walk could not resolve were redone in float64")
         if not paper and c["eye_inside_rays"] > 0.25 * state.n:  # correct, but at the float64 tracer's speed: say why

@@ -56,6 +56,7 @@ class Peel(Stage):
             raise RuntimeError("stage 'peel' needs the 'raycast' stage before it")
         threads = self.threads or cpu_threads()
         t_min = stop_transmittance(ctx, self.t_min)
+        bound = self.t_min if t_min > 0 else 0.0  # the stated termination bound (0: none)
         passes, entries = 0, 0
         ctx.count(passes=0)
         thin, early = 0, 0
@@ -78,9 +79,9 @@ class Peel(Stage):
             from warpvol.raycasting.visible import unfinished_to_float64
 
             unfinished = unfinished_to_float64(state, int(k.STATUS_ACTIVE), int(k.STATUS_FAILED))
-        redone = resolve_failed(ctx, state, self.t_min if t_min > 0 else 0.0)
+        redone = resolve_failed(ctx, state, bound)
         ctx.count(float64_rays=redone)
-        report_left_out(ctx, self.t_min if t_min > 0 else 0.0, early)
+        report_left_out(ctx, bound, early)
         mesh = ctx.scene.mesh  # interior faces without a neighbour: rays re-enter at the coincident face
         entries += ctx.stats.get("raycast", {}).get("reentries", 0)  # made in the first pass's threads
         ctx.stats["peel"] = {"passes": passes, "reentries": entries, "float64_rays": redone, "thin_layer_rays": thin,

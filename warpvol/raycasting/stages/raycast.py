@@ -285,17 +285,18 @@ class Raycast(Stage):
 
         thin_rays, thin_tets = mark_unresolved(ctx, state.status, int(k.STATUS_FAILED))  # traced in float64
         t_min = stop_transmittance(ctx, self.t_min)
+        bound = self.t_min if t_min > 0 else 0.0  # the stated termination bound (0: none)
         c = march_pass(ctx, state, max_steps=self.max_steps, t_min=t_min, threads=threads, reentries=self.reentries)
 
         missed = rays_without_cell(state.last, state.status, int(k.STATUS_FAILED))
-        redone = resolve_failed(ctx, state, self.t_min if t_min > 0 else 0.0)
+        redone = resolve_failed(ctx, state, bound)
         ctx.count(rays=cam.width_px * cam.height_px, entries=int(c[0] + c[7]), cell_steps=int(c[1]),
                   float64_rays=redone)
         ctx.stats["raycast"] = {"entries": int(c[0]), "reentries": int(c[7]), "cell_steps": int(c[1]),
                                 "unfinished_rays": int(c[2]),
                                 "float64_rays": redone, "thin_layer_rays": int(c[5]), "terminated_early": int(c[6]),
                                 "thin_cell_rays": thin_rays, "thin_cells": thin_tets}
-        report_left_out(ctx, self.t_min if t_min > 0 else 0.0, int(c[6]), missed)
+        report_left_out(ctx, bound, int(c[6]), missed)
         if redone:
             ctx.progress(f"raycast: {redone} rays the float32 walk could not resolve were redone in float64")
         ctx.image = state.image(cam.height_px, cam.width_px)
