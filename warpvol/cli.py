@@ -41,7 +41,7 @@ def _load_scene(spec: str, args) -> "object":
 
     try:
         scene = scene_from_spec(spec, scalars=getattr(args, "scalars", None), colormap=getattr(args, "colormap", None),
-                                strict=getattr(args, "strict", False), where="scene")
+                                strict=getattr(args, "strict", False), where="scene", scalars_key="--scalars")
     except MemoryError:
         if not spec.startswith("builtin:"):
             raise

@@ -215,12 +215,13 @@ def _short_name(name: str) -> str:
 
 
 def scene_from_spec(spec: Any, *, scalars: str | None = None, split: int | None = None, colormap: str | None = None,
-                    size: Any = None, strict: bool = False, where: str = "scene") -> Scene:
+                    size: Any = None, strict: bool = False, where: str = "scene", scalars_key: str = "scalars") -> Scene:
     """A scene named by a string or path: ``"builtin:NAME"``, a scene ``.toml`` file (Contract 1), or
     any other file a mesh pyvista reads (``.vtu``, ``.vtk``, ...), which gets :func:`default_scene`.
     ``colormap`` replaces the transfer function by :func:`default_transfer` in that colour map;
     ``size`` (pixels or ``(width_px, height_px)``) replaces the image size; ``scalars`` and
-    ``split`` apply to a mesh file.
+    ``split`` apply to a mesh file; ``scalars_key`` is how the caller names the scalars in messages
+    (the command line's ``--scalars``).
 
     Examples
     --------
@@ -252,5 +253,6 @@ def scene_from_spec(spec: Any, *, scalars: str | None = None, split: int | None 
     if not p.is_file():
         raise ConfigError(f"{where}: file not found: {p} (expected 'builtin:NAME', a scene .toml file or a mesh "
                           "file pyvista reads)")
-    mesh = read_mesh_file(p, scalars, strict=strict, where="mesh file", split=split, active_scalars=True)
+    mesh = read_mesh_file(p, scalars, strict=strict, where="mesh file", split=split, active_scalars=True,
+                          scalars_key=scalars_key)
     return default_scene(mesh, colormap, size, name=p.stem, source=p)

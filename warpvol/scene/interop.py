@@ -42,9 +42,9 @@ def as_pyvista_dataset(obj: Any, arg: str = "dataset"):
     import pyvista as pv
 
     if isinstance(obj, pv.MultiBlock):
-        blocks = [b for b in obj if b is not None]
+        blocks = data_blocks(obj)
         if len(blocks) != 1:
-            raise ConfigError(f"{arg}: a MultiBlock with {len(blocks)} blocks; pass a single data set "
+            raise ConfigError(f"{arg}: a MultiBlock with {len(blocks)} blocks of cells; pass a single data set "
                               f"({_DATASET_TYPES}), e.g. multiblock.combine(merge_points=True)")
         obj = blocks[0]
     if not isinstance(obj, pv.DataSet):
@@ -58,6 +58,80 @@ def as_pyvista_dataset(obj: Any, arg: str = "dataset"):
     if not isinstance(obj, (pv.UnstructuredGrid, pv.StructuredGrid, pv.ImageData, pv.RectilinearGrid)):
         raise ConfigError(f"{arg}: expected a {_DATASET_TYPES}, got {type(obj).__name__}, which has no volume cells")
     return obj
+
+
+def data_blocks(mb) -> list:
+    """The data sets of a (possibly nested) ``pyvista.MultiBlock`` that hold cells, in order: nested
+    MultiBlocks are opened, ``None`` blocks, empty MultiBlocks and data sets without cells (an Exodus
+    file's empty element blocks) left out. A MultiBlock without any cells gives its first data set (so
+    that its emptiness is reported as a data set's), or nothing."""
+    import pyvista as pv
+
+    leaves: list = []
+
+    def walk(b):
+        if b is None:
+            return
+        if isinstance(b, pv.MultiBlock):
+            for child in b:
+                walk(child)
+        else:
+            leaves.append(b)
+
+    walk(mb)
+    full = [b for b in leaves if getattr(b, "n_cells", 0) > 0]
+    return full if full or not leaves else leaves[:1]
+
+
+#: arrays VTK and its readers reserve for their own bookkeeping (ghost and blanking flags, ids of the
+#: cells and points a filter started from, validity masks, block and process ids, Exodus' global and
+#: pedigree ids): never data, so never chosen as the scalars (:func:`reserved_array`)
+RESERVED_ARRAYS = ("vtkGhostType", "vtkGhostLevels", "vtkOriginalCellIds", "vtkOriginalPointIds",
+                   "vtkOriginalIndices", "vtkValidPointMask", "vtkCompositeIndex", "vtkBlockColors",
+                   "vtkProcessId", "vtkDomainId", "vtkInsidedness", "GlobalNodeId", "GlobalElementId",
+                   "PedigreeNodeId", "PedigreeElementId", "ObjectId", "warpvol_source_cell")
+
+
+def reserved_array(ds, name: str, point: bool = True) -> bool:
+    """Whether point (or cell) array ``name`` of ``ds`` is VTK bookkeeping rather than data: a name of
+    :data:`RESERVED_ARRAYS`, or the data set's global or pedigree ids."""
+    if name in RESERVED_ARRAYS:
+        return True
+    attrs = ds.GetPointData() if point else ds.GetCellData()
+    ids = [a.GetName() for a in (attrs.GetGlobalIds(), attrs.GetPedigreeIds()) if a is not None]
+    return name in ids
+
+
+def data_arrays(ds, point: bool = True) -> list[str]:
+    """Names of the point (or cell) arrays of ``ds`` that hold data (not :func:`reserved_array`)."""
+    data = ds.point_data if point else ds.cell_data
+    return [k for k in data.keys() if not reserved_array(ds, k, point)]
+
+
+def default_scalars(ds) -> str | None:
+    """The point array a data set given without ``scalars`` is rendered with: its active point scalars,
+    else its only point array, VTK's reserved arrays (:data:`RESERVED_ARRAYS`) never; ``None`` where
+    there is no such array."""
+    active = ds.point_data.active_scalars_name
+    if active is not None and not reserved_array(ds, active):
+        return active
+    keys = data_arrays(ds)
+    return keys[0] if len(keys) == 1 else None
+
+
+def _one_component(ds) -> list[str]:
+    return [k for k in data_arrays(ds) if np.asarray(ds.point_data[k]).ndim == 1
+            or np.asarray(ds.point_data[k]).shape[1] == 1]
+
+
+def pick_hint(scalars_key: str) -> str:
+    """How a user names the scalars through ``scalars_key``: ``--scalars NAME`` on the command line,
+    ``mesh.scalars = "NAME"`` in a scene file, ``scalars="NAME"`` in Python."""
+    if scalars_key.startswith("--"):
+        return f"{scalars_key} NAME"
+    if "." in scalars_key:
+        return f'{scalars_key} = "NAME" in the scene file'
+    return f'{scalars_key}="NAME"'
 
 
 #: how to turn cell data into the point data warpvol needs (said in every cell-data error)
@@ -92,15 +166,16 @@ def structured_arrays(dims, points, scalars, *, name: str, weld: bool, split: in
 
 def dataset_arrays(ds, scalars: str | None, *, name: str = "mesh",
                       source: str | None = None, split: int | None = None, scalars_key: str = "scalars",
-                      dataset_key: str = "mesh", split_key: str = "split", notes: dict | None = None
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+                      dataset_key: str = "mesh", split_key: str = "split", notes: dict | None = None,
+                      pick: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
     """``(points, tets, scalars, cell_start)`` of an in-memory pyvista data set: tet-only grids as they
     are, other cells split into tets (see :mod:`warpvol.scene.loaders`).
 
     ``scalars`` names a point-data array (one component). ``split`` (structured grids only) is the
     number of tets per hex cell: 6 (Kuhn split, the default) or 5 (alternating 5-tet split).
     ``source`` names the data set in messages (default: its type); ``scalars_key`` and
-    ``dataset_key`` are the argument or key names errors start with. Ghost cells of an unstructured grid
+    ``dataset_key`` are the argument or key names errors start with; with ``pick``, ``scalars=None``
+    takes :func:`default_scalars`. Ghost cells of an unstructured grid
     are dropped (:func:`drop_ghosts`); ``notes`` (a dict, if given) gets the counts of what was dropped.
     """
     import pyvista as pv
@@ -114,29 +189,44 @@ def dataset_arrays(ds, scalars: str | None, *, name: str = "mesh",
                           f"{p} is a {type(ds).__name__}, whose non-tet cells are split conforming")
 
     # scalars first: the error lists what the file has
-    pkeys = list(ds.point_data.keys())
-    ckeys = list(ds.cell_data.keys())
+    pkeys = data_arrays(ds)
+    ckeys = data_arrays(ds, point=False)
+    hint = pick_hint(scalars_key)
+    picked = scalars is None and pick
+    # where the scalars were not named, the message starts with the data set, not a key nobody wrote
+    lead, it = (f"{p}: the data set", "the data set") if picked else (f"{scalars_key}: {p}", p)
+    if picked:
+        scalars = default_scalars(ds)
     if scalars is None:
         if not pkeys and ckeys:
-            raise ConfigError(f"{scalars_key}: {p} has cell data only ({', '.join(map(repr, ckeys))}); "
+            raise ConfigError(f"{lead} has cell data only ({', '.join(map(repr, ckeys))}); "
                               f"warpvol needs a point-data array (values at the vertices); {CELL_TO_POINT}")
+        if picked:
+            raise ConfigError(f"{lead} has no active point scalars; name one of its point arrays {pkeys} "
+                              f"with {hint}")
         raise ConfigError(f"{scalars_key}: required{' with ' + repr('path') if source else ''} (name of a "
                           f"point-data array); available point arrays in {p}: {pkeys}")
     if not isinstance(scalars, str):
         raise ConfigError(f"{scalars_key}: expected an array name, got {scalars!r}")
+    if scalars in ds.point_data.keys() and reserved_array(ds, scalars):
+        raise ConfigError(f"{scalars_key}: {scalars!r} in {p} is an array VTK reserves for its own bookkeeping "
+                          f"(ghost flags, ids, masks), not data; point arrays with data: {pkeys}")
     if scalars not in pkeys:
         if not pkeys and ckeys:
             raise ConfigError(f"{scalars_key}: {p} has cell data only ({', '.join(map(repr, ckeys))}); "
                               f"warpvol needs {scalars!r} as a point-data array (values at the vertices); "
                               f"{CELL_TO_POINT}")
-        hint = (f" ({scalars!r} is a cell-data array; warpvol needs point data: {CELL_TO_POINT})"
-                if scalars in ckeys else "")
-        raise ConfigError(f"{scalars_key}: point-data array {scalars!r} not found in {p}{hint}; "
+        why = (f" ({scalars!r} is a cell-data array; warpvol needs point data: {CELL_TO_POINT})"
+               if scalars in ckeys else "")
+        raise ConfigError(f"{scalars_key}: point-data array {scalars!r} not found in {p}{why}; "
                           f"available point arrays: {pkeys}")
     arr = np.asarray(ds.point_data[scalars])
     if arr.ndim > 1 and arr.shape[1] != 1:
-        raise ConfigError(f"{scalars_key}: array {scalars!r} in {p} has {arr.shape[1]} components; "
-                          "expected a scalar (1 component)")
+        ones = _one_component(ds)
+        what = f"{p}: its active scalars {scalars!r} have" if picked else f"{scalars_key}: array {scalars!r} in {p} has"
+        pick_one = (f"one-component point arrays in {it}: {', '.join(map(repr, ones))}; pick one with {hint}"
+                    if ones else f"{it} has no one-component point array (compute one, then name it with {hint})")
+        raise ConfigError(f"{what} {arr.shape[1]} components; warpvol renders a scalar (1 component): {pick_one}")
 
     if structured:
         points = np.asarray(ds.points, dtype=np.float64)
@@ -317,13 +407,9 @@ def pyvista_arrays(dataset: Any, scalars: str | None = None, split: int | None =
     """``(points, tets, scalars, cell_start, name)`` of a pyvista (or VTK) data set, converted as scene
     files are (see :meth:`warpvol.TetMesh.from_pyvista`)."""
     ds = as_pyvista_dataset(dataset, arg)
-    if scalars is None:
-        scalars = ds.point_data.active_scalars_name
-        if scalars is None and len(ds.point_data.keys()) == 1:
-            scalars = ds.point_data.keys()[0]
     name = name or f"pyvista {type(ds).__name__}"
     return (*dataset_arrays(ds, scalars, split=split, name=name, scalars_key="scalars", dataset_key=arg,
-                            notes=notes), name)
+                            notes=notes, pick=True), name)
 
 
 def mesh_to_pyvista(mesh, scalars_name: str = "scalars"):

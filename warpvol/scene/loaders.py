@@ -120,13 +120,17 @@ def _read_quietly(p: Path):
 
 
 def read_mesh_file(path: Path | str, scalars: str | None, *, strict: bool = False,
-                   where: str = "mesh", split: int | None = None, active_scalars: bool = False) -> TetMesh:
+                   where: str = "mesh", split: int | None = None, active_scalars: bool = False,
+                   scalars_key: str | None = None) -> TetMesh:
     """Read any data set pyvista can read and turn it into a :class:`TetMesh`.
 
     ``scalars`` names a point-data array (one component); with ``active_scalars``, ``None`` takes
-    the file's active point scalars or its only point array, as pyvista does. Structured grids use the 6-tet split,
+    the file's active point scalars or its only point array, as pyvista does (VTK's reserved arrays,
+    such as ``vtkGhostType``, never). Structured grids use the 6-tet split,
     tet-only unstructured grids are taken as they are, other cells are split conforming (see the
-    module docstring).
+    module docstring). A multi-block file (``.vtm``, Exodus II, ...) must hold one data set with cells,
+    at any depth of nesting. ``scalars_key`` is how the user names the scalars, for messages
+    (default ``{where}.scalars``; the command line's ``--scalars``).
     """
     import pyvista as pv
 
@@ -139,29 +143,28 @@ def read_mesh_file(path: Path | str, scalars: str | None, *, strict: bool = Fals
         raise ConfigError(f"{where}.path: cannot read {p}: the file is corrupt or truncated "
                           f"(VTK: {errors[0]})")
     if isinstance(ds, pv.MultiBlock):
-        blocks = [b for b in ds if b is not None]
+        blocks = interop.data_blocks(ds)
         if len(blocks) != 1:
-            raise ConfigError(f"{where}.path: {p} holds {len(blocks)} blocks; warpvol needs a single data set: "
+            what = f"{len(blocks)} blocks with cells" if blocks else "no data set"
+            raise ConfigError(f"{where}.path: {p} holds {what}; warpvol needs a single data set: "
                               "combine the blocks into one file, e.g. python -c \"import pyvista as pv; "
                               f"pv.read('{p}').combine(merge_points=True).save('{p.with_suffix('.vtu').name}')\" "
                               "(ParaView: the Merge Blocks filter, then save as .vtu)")
         ds = blocks[0]
-    if scalars is None and active_scalars:
-        keys = list(ds.point_data.keys())
-        scalars = ds.point_data.active_scalars_name or (keys[0] if len(keys) == 1 else None)
     return mesh_from_dataset(ds, scalars, strict=strict, name=str(p), source=str(p), split=split,
-                             scalars_key=f"{where}.scalars", dataset_key=f"{where}.path", split_key=f"{where}.split")
+                             scalars_key=scalars_key or f"{where}.scalars", dataset_key=f"{where}.path",
+                             split_key=f"{where}.split", pick=active_scalars)
 
 
 def mesh_from_dataset(ds, scalars: str | None, *, strict: bool = False, name: str = "mesh",
                       source: str | None = None, split: int | None = None, scalars_key: str = "scalars",
-                      dataset_key: str = "mesh", split_key: str = "split") -> TetMesh:
+                      dataset_key: str = "mesh", split_key: str = "split", pick: bool = False) -> TetMesh:
     """Turn an in-memory pyvista data set into a :class:`TetMesh` (see the module docstring and
     :func:`warpvol.scene.interop.dataset_arrays`)."""
     notes: dict = {}
     points, tets, values, cell_start = interop.dataset_arrays(
         ds, scalars, name=name, source=source, split=split, scalars_key=scalars_key, dataset_key=dataset_key,
-        split_key=split_key, notes=notes)
+        split_key=split_key, notes=notes, pick=pick)
     return TetMesh(points, tets, values, name=name, strict=strict, cell_start=cell_start, load_notes=notes)
 
 
