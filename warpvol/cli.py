@@ -8,7 +8,7 @@
     warpvol gpus                                      # GPU profiles for render --gpu NAME (modelled time)
     warpvol demo                                      # built-in scene, default pipeline, image + report
     warpvol bench SCENE [--pipelines all|NAME...] [--gpu NAME] -o OUTDIR   # table, plots, HTML
-    warpvol plan SCENE... [--pipeline NAME...]        # stages each preset leaves out, why, time saved
+    warpvol plan SCENE... [--pipeline NAME...|all]    # stages a preset leaves out, why, time saved
     warpvol stress [--quick]                          # stiff and extreme cases x every preset
     warpvol sweep CONFIG.toml [--scheduler tcp://HOST:PORT] -o OUTDIR   # Dask, resumable
 
@@ -300,7 +300,8 @@ def cmd_bench(args) -> int:
 
 
 def cmd_plan(args) -> int:
-    from warpvol.tools.bench import bench_pipeline, load_pipelines
+    from warpvol.tools.bench import load_pipelines
+    from warpvol.tools.plan import run_plan
 
     check_sizes(args)
     check_number("--repeats", args.repeats, lo=1, integer=True)
@@ -308,30 +309,9 @@ def cmd_plan(args) -> int:
     scenes = [_load_scene(s, args) for s in args.scene]
     for scene in scenes:
         check_image_memory(scene.camera, ["render"], _available_memory())
-    for scene, pipe in ((sc, p) for sc in scenes for p in pipes):
-        print(f"{pipe.name} on {scene.name}:")
-        for s in pipe.plan(scene, skip=not args.no_skip):
-            state = {True: "runs", False: "skipped", None: "decided at render time"}[s["run"]]
-            print(f"  {s['stage']:<20} {state}" + (f": {s['reason']}" if s["reason"] else ""))
-            if s.get("leaves_out"):
-                print(f"  {'':<20} leaves out: {s['leaves_out']}")
-        if args.no_measure:
-            continue
-        row = bench_pipeline(pipe, scene, None, repeats=args.repeats, skip=not args.no_skip)
-        print(f"  render: {row['total_s']:.4f} s (median of {row['repeats']})"
-              + ("" if row["skip"] else ", skipping off"))
-        for key, lo in row["left_out"].items():
-            counts = ", ".join(f"{k} {v}" for k, v in lo.items() if k != "why")
-            print(f"  {key} left out: {counts} ({lo.get('why', '')})")
-        for a in row["planner"]:
-            if a.get("saved_s") is None:
-                print(f"  {a['stage']}: {a['note']}")
-            else:
-                warm = a.get("warmup_stage_s")
-                print(f"  {a['stage']} forced on: render {a['forced_total_s']:.4f} s ({a['total_diff_s']:+.4f} s); "
-                      f"leaving it out saves {a['saved_s']:.4f} s (its own time); images differ by max "
-                      f"{a['diff_max_abs']:.2e}" + ("" if warm is None else
-                                                   f"; it ran in the warm-up render: {warm:.4f} s"))
+    # one preset that declines the scene ends with the error; with several the declines are listed
+    run_plan(pipes, scenes, repeats=args.repeats, measure=not args.no_measure, skip=not args.no_skip,
+             note=_note(args.quiet))
     return 0
 
 
@@ -529,7 +509,9 @@ def build_parser() -> argparse.ArgumentParser:
     b.set_defaults(func=cmd_bench)
 
     pl = sub.add_parser("plan", help="which stages a preset leaves out for a scene, why, and the time saved")
-    pl.add_argument("--pipeline", nargs="+", default=["all"], help="preset(s), space- or comma-separated, or 'all'")
+    pl.add_argument("--pipeline", nargs="+", default=["raycast"], help="preset(s), space- or comma-separated, or "
+                    "'all' (every preset, one after the other: minutes; the expected time is announced; presets "
+                    "that decline the scene are listed with the reason) (default: raycast)")
     pl.add_argument("--repeats", type=int, default=3)
     pl.add_argument("--no-measure", action="store_true", help="dry run only: no renders")
     pl.add_argument("--no-skip", action="store_true", help="plan with skipping off (render --no-skip): no stage "
