@@ -148,3 +148,118 @@ def test_exodus_like_empty_element_blocks_do_not_count(tmp_path):
     m = load_mesh({"path": "e.vtm", "scalars": "s"}, tmp_path)
     assert m.n_tets == whole.n_tets and np.isclose(m.scalars.sum(), whole.scalars.sum())
     assert TetMesh.from_pyvista(mb, "s").n_tets == whole.n_tets
+
+
+# -- blanked structured grids: hidden cells and points dropped -------------------------------------------
+def _write_structured(g, kind, folder):
+    """``g`` (an ImageData) written as ``kind``: .vti, .vts, .vtr, or in 2 pieces as .pvti / .pvts."""
+    import pyvista as pv
+    import vtk
+
+    path = folder / f"m.{kind}"
+    if kind == "vti":
+        g.save(path)
+    elif kind in ("vts", "pvts"):
+        sg = g.cast_to_structured_grid()
+        if kind == "vts":
+            sg.save(path)
+        else:
+            w = vtk.vtkXMLPStructuredGridWriter()
+            w.SetInputData(sg)
+    elif kind == "vtr":
+        x, y, z = (g.origin[a] + g.spacing[a] * np.arange(g.dimensions[a]) for a in range(3))
+        r = pv.RectilinearGrid(x, y, z)
+        r.point_data.update(g.point_data)
+        r.cell_data.update(g.cell_data)
+        r.save(path)
+    if kind == "pvti":
+        w = vtk.vtkXMLPImageDataWriter()
+        w.SetInputData(g)
+    if kind.startswith("p"):
+        w.SetFileName(str(path))
+        w.SetNumberOfPieces(2)
+        w.SetStartPiece(0)
+        w.SetEndPiece(1)
+        w.SetGhostLevel(1)
+        w.Write()
+    return path
+
+
+def _blanked(flag):
+    """A 7 x 6 x 5 image over [0, 1.2] x [0, 1] x [0, 0.8] whose cells with centre x > 0.7 (``flag``
+    'cell': HIDDENCELL) or whose points with x > 0.75 (``flag`` 'point': HIDDENPOINT, their values NaN, as
+    a blanked solver writes them) are hidden; and the (C,) bool of the cells hidden."""
+    g = _grid((7, 6, 5))
+    g.spacing = (0.2, 0.2, 0.2)
+    g.point_data["s"] = np.sin(3 * g.points[:, 0]) * 0.4 + g.points[:, 1] * g.points[:, 2] * 0.5 + 0.2
+    clean = g.copy()
+    if flag == "cell":
+        hidden = g.cell_centers().points[:, 0] > 0.7  # two columns of cells
+        g.cell_data["vtkGhostType"] = np.where(hidden, 32, 0).astype(np.uint8)
+    else:
+        hp = g.points[:, 0] > 0.75
+        g.point_data["vtkGhostType"] = np.where(hp, 2, 0).astype(np.uint8)
+        g.point_data["s"] = np.where(hp, np.nan, g.point_data["s"])
+        hidden = np.repeat([[False, False, False, True, True, True]], 4 * 5, axis=0).ravel()  # corner x >= 0.8
+    return g, clean, hidden
+
+
+@pytest.mark.parametrize("kind", ["vti", "vts", "vtr", "pvts", "pvti"])
+@pytest.mark.parametrize("flag", ["cell", "point"])
+def test_hidden_cells_of_structured_grids_are_dropped_and_counted(tmp_path, kind, flag):
+    from tolerances import preset_tolerance
+
+    from helpers import scene
+    from warpvol.pipeline import Pipeline
+    from warpvol.reference.numpy_render import render_reference
+    from warpvol.scene.camera import Camera
+    from warpvol.scene.transfer import TransferFunction
+
+    g, clean, hidden = _blanked(flag)
+    m = load_mesh({"path": _write_structured(g, kind, tmp_path).name, "scalars": "s"}, tmp_path)
+    assert m.load_notes == {"hidden_cells_dropped": int(hidden.sum())}
+    full = TetMesh.from_pyvista(clean, "s")  # the same data with the hidden cells' tets taken out
+    keep = np.repeat(~hidden, 6)
+    expect = TetMesh(full.points, full.tets[keep], full.scalars)
+    assert m.n_tets == expect.n_tets and np.isclose(np.abs(m.face_planes).sum(), np.abs(expect.face_planes).sum())
+    tf = TransferFunction([[0.0, 0.2, 0.4, 1.0, 0.8], [0.5, 1.0, 0.5, 0.2, 1.6], [1.0, 1.0, 1.0, 1.0, 0.4]])
+    cam = Camera(eye=[2.4, 1.9, 2.6], target=[0.6, 0.5, 0.4], width_px=20, height_px=20)
+    ref = render_reference(expect, tf, cam)
+    np.testing.assert_allclose(render_reference(m, tf, cam), ref, atol=1e-9)
+    if kind == "vts" and flag == "point":
+        res = Pipeline.load("raycast").render(scene(m, tf, cam), quiet=True)
+        assert np.abs(res.image - ref).max() <= preset_tolerance("raycast")["max_abs"]
+        assert res.report["mesh_notes"] == {"hidden_cells_dropped": int(hidden.sum())}
+
+
+def test_blanked_image_says_what_was_dropped(tmp_path, capfd):
+    g, _, hidden = _blanked("cell")
+    rc, err = _cli(_render(_write_structured(g, "vti", tmp_path), tmp_path), capfd)
+    assert rc == 0 and f"warpvol: mesh: hidden cells dropped: {int(hidden.sum())}" in err
+    g.cell_data["vtkGhostType"] = np.full(g.n_cells, 32, np.uint8)
+    rc, err = _cli(_render(_write_structured(g, "vti", tmp_path), tmp_path), capfd)
+    assert rc == 2 and "every cell is hidden" in err and err.count("\n") == 1
+
+
+def test_resample_to_image_outside_its_source_is_dropped():
+    """ParaView's Resample To Image on a box larger than its source: the points outside it are invalid
+    (vtkValidPointMask 0) and hidden; the cells with such a corner go, every point left is valid."""
+    import pyvista as pv
+    from vtkmodules.vtkFiltersCore import vtkResampleToImage
+
+    src = pv.ImageData(dimensions=(5, 5, 5), spacing=(0.5, 0.5, 0.5), origin=(-1, -1, -1)).cast_to_unstructured_grid()
+    src.point_data["s"] = src.points[:, 0] + 2.0
+    r = vtkResampleToImage()
+    r.SetInputDataObject(src)
+    r.SetSamplingDimensions(9, 9, 9)
+    r.SetUseInputBounds(False)
+    r.SetSamplingBounds(-1.3, 1.3, -1.3, 1.3, -1.3, 1.3)
+    r.Update()
+    img = pv.wrap(r.GetOutput())
+    valid = np.asarray(img.point_data["vtkValidPointMask"]).astype(bool)
+    assert not valid.all()
+    m = TetMesh.from_pyvista(img, "s")
+    from warpvol.scene.grids import cell_corners
+    bad = ~valid[cell_corners(img.dimensions)].all(axis=1)
+    assert m.load_notes == {"hidden_cells_dropped": int(bad.sum())}
+    assert m.n_tets == 6 * int((~bad).sum()) and (m.scalars > 0.5).all()  # no outside point's 0 is left

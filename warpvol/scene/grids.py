@@ -58,7 +58,9 @@ def grid_points(xs, ys, zs) -> np.ndarray:
     return np.column_stack([xx.ravel(), yy.ravel(), zz.ravel()])
 
 
-def _cell_corners(dims) -> np.ndarray:
+def cell_corners(dims) -> np.ndarray:
+    """(C, 8) point indices of the hex cells of a structured grid of ``dims`` points, cells in VTK's
+    order (``i`` fastest), corner ``i + 2j + 4k``."""
     ni, nj, nk = (int(d) for d in dims)
     i, j, k = np.meshgrid(np.arange(ni - 1), np.arange(nj - 1), np.arange(nk - 1), indexing="ij")
     base = (i + ni * (j + nj * k)).transpose(2, 1, 0).ravel()
@@ -75,7 +77,7 @@ def structured_to_tets5(dims, *, alternate: bool = True) -> np.ndarray:
     ni, nj, nk = (int(d) for d in dims)
     if min(ni, nj, nk) < 2:
         raise MeshError(f"structured grid dims {dims}: need at least 2 points along each axis")
-    corners = _cell_corners((ni, nj, nk))
+    corners = cell_corners((ni, nj, nk))
     i, j, k = np.meshgrid(np.arange(ni - 1), np.arange(nj - 1), np.arange(nk - 1), indexing="ij")
     odd = ((i + j + k) % 2).transpose(2, 1, 0).ravel().astype(bool) if alternate else np.zeros(len(corners), bool)
     out = np.where(odd[:, None, None], corners[:, _FIVE_ODD], corners[:, _FIVE_EVEN])

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from warpvol.errors import ConfigError, MeshError
-from warpvol.scene.grids import structured_to_tets, structured_to_tets5, weld_coincident_points
+from warpvol.scene.grids import cell_corners, structured_to_tets, structured_to_tets5, weld_coincident_points
 from warpvol.scene.split_cells import FLAT_TYPES, SPLIT_TYPES, split_cells
 
 _VTK_TETRA = 10
@@ -146,10 +146,11 @@ _CELL_TAG = "warpvol_source_cell"  # cell-data array naming each tet's source ce
 
 
 
-def structured_arrays(dims, points, scalars, *, name: str, weld: bool, split: int = 6
-                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(tets, scalars, cell_start)`` of a structured grid of ``dims`` points (``split`` tets per hex
-    cell; ``weld`` joins bit-identical points), the tets of each hex consecutive."""
+def structured_arrays(dims, points, scalars, *, name: str, weld: bool, split: int = 6, keep=None
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(points, tets, scalars, cell_start)`` of a structured grid of ``dims`` points (``split`` tets per
+    hex cell; ``weld`` joins bit-identical points), the tets of each hex consecutive. ``keep`` (a bool per
+    cell, VTK's cell order) leaves the other cells out, and the points only they use."""
     dims = tuple(int(d) for d in dims)
     if min(dims) < 2:
         raise MeshError(f"{name}: structured grid dims {list(dims)} have an axis with fewer than 2 points; "
@@ -158,10 +159,37 @@ def structured_arrays(dims, points, scalars, *, name: str, weld: bool, split: in
         tets = structured_to_tets5(dims)
     else:
         tets = structured_to_tets(dims)
+    if keep is not None:
+        tets = tets.reshape(-1, split, 4)[keep].reshape(-1, 4)
+        used = np.unique(tets)
+        remap = np.full(len(points), -1, dtype=np.int64)
+        remap[used] = np.arange(len(used))
+        points, scalars, tets = points[used], scalars[used], remap[tets]
     if weld:
         tets, scalars, _ = weld_coincident_points(points, tets, scalars)
     # the hex cells' tets are consecutive: remember the grouping (the VSBUFFER draws hexes whole)
-    return tets, scalars, np.arange(0, len(tets) + 1, split, dtype=np.int64)
+    return points, tets, scalars, np.arange(0, len(tets) + 1, split, dtype=np.int64)
+
+
+def hidden_structured_cells(ds, name: str = "mesh") -> np.ndarray | None:
+    """(C,) bool: the cells of a structured grid (image, rectilinear or curvilinear) that ``vtkGhostType``
+    hides -- flagged ``HIDDENCELL``, or with a corner flagged ``HIDDENPOINT`` (VTK's convention: a hidden
+    point hides every cell that uses it), as blanked overset grids and ParaView's Resample To Image
+    outside its source write them -- or ``None`` where none is hidden."""
+    dims = tuple(int(d) for d in ds.dimensions)
+    hidden = np.zeros(ds.n_cells, dtype=bool)
+    if _GHOSTS in ds.cell_data:
+        hidden |= (np.asarray(ds.cell_data[_GHOSTS]) & _HIDDENCELL) != 0
+    if _GHOSTS in ds.point_data:
+        hp = (np.asarray(ds.point_data[_GHOSTS]) & _HIDDENPOINT) != 0
+        if hp.any() and min(dims) >= 2:
+            hidden |= hp[cell_corners(dims)].any(axis=1)
+    if not hidden.any():
+        return None
+    if hidden.all():
+        raise MeshError(f"{name}: every cell is hidden (vtkGhostType HIDDENCELL / HIDDENPOINT on all "
+                        f"{len(hidden)} cells): nothing to render")
+    return hidden
 
 
 def dataset_arrays(ds, scalars: str | None, *, name: str = "mesh",
@@ -176,7 +204,8 @@ def dataset_arrays(ds, scalars: str | None, *, name: str = "mesh",
     ``source`` names the data set in messages (default: its type); ``scalars_key`` and
     ``dataset_key`` are the argument or key names errors start with; with ``pick``, ``scalars=None``
     takes :func:`default_scalars`. Ghost cells of an unstructured grid
-    are dropped (:func:`drop_ghosts`); ``notes`` (a dict, if given) gets the counts of what was dropped.
+    are dropped (:func:`drop_ghosts`), and the hidden cells of every grid (:func:`hidden_structured_cells`);
+    ``notes`` (a dict, if given) gets the counts of what was dropped.
     """
     import pyvista as pv
 
@@ -228,17 +257,19 @@ def dataset_arrays(ds, scalars: str | None, *, name: str = "mesh",
                     if ones else f"{it} has no one-component point array (compute one, then name it with {hint})")
         raise ConfigError(f"{what} {arr.shape[1]} components; warpvol renders a scalar (1 component): {pick_one}")
 
+    notes = {} if notes is None else notes
     if structured:
-        points = np.asarray(ds.points, dtype=np.float64)
-        tets, values, cell_start = structured_arrays(ds.dimensions, points, arr.reshape(-1).astype(np.float64),
-                                                     name=name, weld=isinstance(ds, pv.StructuredGrid),
-                                                     split=split or 6)
-        return points, tets, values, cell_start
+        hidden = hidden_structured_cells(ds, name) if min(ds.dimensions) >= 2 else None
+        if hidden is not None:
+            notes["hidden_cells_dropped"] = int(hidden.sum())
+        return structured_arrays(ds.dimensions, np.asarray(ds.points, dtype=np.float64),
+                                 arr.reshape(-1).astype(np.float64), name=name,
+                                 weld=isinstance(ds, pv.StructuredGrid), split=split or 6,
+                                 keep=None if hidden is None else ~hidden)
     if not isinstance(ds, pv.UnstructuredGrid):
         raise ConfigError(f"{dataset_key}: {p} is a {type(ds).__name__}, which has no volume cells; "
                           "expected an unstructured, structured, image or rectilinear grid")
 
-    notes = {} if notes is None else notes
     ds, weld = drop_ghosts(ds, notes, name)
     points, tets, values, cell_start = _unstructured_arrays(ds, scalars, name, notes)
     if weld is not None:  # the ghost points left (copies of a neighbour piece's points) join their owners

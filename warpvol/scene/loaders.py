@@ -29,10 +29,12 @@ How cells become tets
   O-grid axis is a wedge) loses the pieces that have no volume or cancel, counted in
   :attr:`TetMesh.load_notes`.
 * Ghost cells of unstructured grids (``vtkGhostType``: the layer a ``.pvtu`` piece carries from its
-  neighbours) whose owning copy is in the file, and cells using a hidden point, are dropped and
-  counted; the pieces' copies of each other's points (ghost points, and each piece's own copy of the
-  points on its interface where their point data agree) are joined
-  (:func:`warpvol.scene.interop.drop_ghosts`).
+  neighbours) whose owning copy is in the file are dropped and counted; the pieces' copies of each
+  other's points (ghost points, and each piece's own copy of the points on its interface where their
+  point data agree) are joined (:func:`warpvol.scene.interop.drop_ghosts`).
+* Hidden cells (``HIDDENCELL``, and cells using a ``HIDDENPOINT``) are dropped and counted in every
+  kind of grid (:func:`warpvol.scene.interop.hidden_structured_cells` for the structured ones).
+  ``.pvts`` files are read with VTK's ``vtkXMLPStructuredGridReader`` (pyvista has no reader for them).
 * Any other cell type (polyhedra, higher-order cells) goes through VTK's
   ``vtkDataSetTriangleFilter`` (tets only). Faces that do not conform after that are counted by
   :class:`~warpvol.scene.mesh.TetMesh` (``crack_faces``, ``nonconforming_faces``) and walked by the
@@ -94,7 +96,8 @@ def _bool(value: Any, key: str) -> bool:
 
 
 def _structured_mesh(dims, points, scalars, *, name: str, strict: bool, weld: bool, split: int = 6) -> TetMesh:
-    tets, scalars, cell_start = interop.structured_arrays(dims, points, scalars, name=name, weld=weld, split=split)
+    points, tets, scalars, cell_start = interop.structured_arrays(dims, points, scalars, name=name, weld=weld,
+                                                                  split=split)
     return TetMesh(points, tets, scalars, name=name, strict=strict, cell_start=cell_start)
 
 
@@ -113,10 +116,25 @@ def _read_quietly(p: Path):
         with pv.vtk_verbosity("off"), pv.VtkErrorCatcher(send_to_logging=False) as caught, \
                 warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            ds = pv.read(p)
+            ds = _read_pvts(p) if p.suffix.lower() == ".pvts" else pv.read(p)
     finally:
         logging.disable(disabled)
     return ds, [" ".join(e.alert.split()) for e in caught.events if e.kind == "ERROR"]
+
+
+def _read_pvts(p: Path):
+    """A ``.pvts`` (ParaView's parallel structured grid: a list of ``.vts`` pieces) read whole, as pyvista
+    reads ``.pvtu`` and ``.pvti``: pyvista has no reader for it, VTK's ``vtkXMLPStructuredGridReader``
+    assembles the pieces into one grid (each cell once)."""
+    import pyvista as pv
+    from vtkmodules.vtkIOXML import vtkXMLPStructuredGridReader
+
+    if not p.is_file():
+        raise FileNotFoundError(f"no such file: {p}")
+    r = vtkXMLPStructuredGridReader()
+    r.SetFileName(str(p))
+    r.Update()
+    return pv.wrap(r.GetOutput())
 
 
 def read_mesh_file(path: Path | str, scalars: str | None, *, strict: bool = False,
