@@ -11,6 +11,7 @@
     warpvol plan SCENE... [--pipeline NAME...|all]    # stages a preset leaves out, why, time saved
     warpvol stress [--quick]                          # stiff and extreme cases x every preset
     warpvol sweep CONFIG.toml [--scheduler tcp://HOST:PORT] -o OUTDIR   # Dask, resumable
+    warpvol data [list] | fetch NAME...|all           # the real data sets of scenes/, into a cache
 
 ``SCENE`` is a scene file, ``builtin:NAME`` or a mesh file pyvista reads (``.vtu``, ``.vtk``, ...;
 its point scalars under a default colour map and opacity ramp, the camera fitted to it: see
@@ -545,6 +546,9 @@ def build_parser() -> argparse.ArgumentParser:
     sw.add_argument("--progress", action="store_true", help="progress on stderr also when it is not a "
                     "terminal (lines for a log; --quiet wins)")
     sw.set_defaults(func=cmd_sweep, device="cpu")
+    from warpvol.cli_data import add_data_parser
+
+    add_data_parser(sub)  # warpvol data [list] | fetch NAME...|all
     return p
 
 

@@ -54,7 +54,7 @@ from typing import Any
 import numpy as np
 
 from warpvol.errors import ConfigError, MeshError, check_keys, check_number, check_vec3
-from warpvol.scene import interop
+from warpvol.scene import datasets, interop
 from warpvol.scene.builtin import BUILTIN_SCENES, builtin_mesh
 from warpvol.scene.interop import SPLITS
 from warpvol.scene.mesh import TetMesh
@@ -78,15 +78,20 @@ RAW_DTYPES = {"uint8": "u1", "uint16": "u2", "int16": "i2", "float32": "f4", "fl
 
 # -- helpers ------------------------------------------------------------------------------------
 def _file(base_dir: Path | str, value: Any, key: str) -> Path:
-    """Resolve a file name relative to ``base_dir``; ``key`` names the field in errors."""
+    """Resolve a file name relative to ``base_dir``; ``key`` names the field in errors. A data-set file
+    named in ``shared/data`` that is not there is taken from the data cache
+    (:func:`warpvol.scene.datasets.cached_copy`)."""
     if not isinstance(value, (str, Path)) or str(value) == "":
         raise ConfigError(f"{key}: expected a file name, got {value!r}")
     p = Path(value).expanduser()
     if not p.is_absolute():
         p = Path(base_dir) / p
-    if not p.is_file():
-        raise ConfigError(f"{key}: file not found: {p}")
-    return p
+    if p.is_file():
+        return p
+    cached = datasets.cached_copy(p)  # a data-set file of shared/data that `warpvol data fetch` downloaded
+    if cached is not None:
+        return cached
+    raise ConfigError(f"{key}: file not found: {datasets.normal(p)}{datasets.missing_hint(p)}")
 
 
 def _bool(value: Any, key: str) -> bool:

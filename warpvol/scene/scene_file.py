@@ -21,6 +21,7 @@ from typing import Any
 
 from warpvol.errors import ConfigError, check_keys
 from warpvol.io import toml_nesting
+from warpvol.scene import datasets
 from warpvol.scene.builtin import builtin_camera, builtin_scene, builtin_transfer
 from warpvol.scene.camera import Camera
 from warpvol.scene.loaders import _file, check_raw_size, load_mesh, raw_dtype
@@ -183,10 +184,11 @@ def _input_files(cfg: dict, base_dir: Path) -> list[tuple[Path, str]]:
             f = Path(v).expanduser()
             f = f if f.is_absolute() else base_dir / f
             try:
-                if f.is_file():
-                    out.append((f, key))
-            except OSError:  # a name too long for the file system is no file
-                pass
+                r = datasets.resolve(f)  # a data-set file missing from shared/data: the data cache's copy
+                if r is not None:
+                    out.append((r, key))
+            except (OSError, ConfigError):  # a name too long for the file system is no file; the loader names a
+                pass                        # damaged cached copy
     return sorted(out)
 
 
