@@ -7,7 +7,7 @@ import pytest
 
 from warpvol.cli import main
 from warpvol.errors import ConfigError
-from warpvol.scene.defaults import scene_from_spec
+from warpvol.scene.spec import scene_from_spec
 from warpvol.scene.loaders import load_mesh
 from warpvol.scene.mesh import TetMesh
 

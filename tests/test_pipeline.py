@@ -19,7 +19,7 @@ def test_unknown_stage_names_it_and_lists_allowed():
 
 
 def test_unknown_key_is_an_error_naming_it():
-    with pytest.raises(ConfigError, match=r"unknown key\(s\) 'max_step'; allowed: 'max_steps'"):
+    with pytest.raises(ConfigError, match=r"unknown key\(s\) 'max_step' \(did you mean 'max_steps'\?\); allowed: 'max_steps'"):
         Pipeline.from_config({"stages": [{"stage": "raycast", "max_step": 3}]})
     with pytest.raises(ConfigError, match=r"pipeline: unknown key\(s\) 'stage'"):
         Pipeline.from_config({"stage": []})

@@ -572,10 +572,6 @@ def test_scene_file_errors(tmp_path):
     p = write_scene(tmp_path, '[mesh]\nbuiltin = "box"\ncolour = 1\n', "meshkey.toml")
     with pytest.raises(ConfigError, match=r"meshkey\.toml: mesh: unknown key\(s\) 'colour'"):
         load_scene(p)
-    write_vtu(tmp_path / "m.vtu", UNIT_TET, [[0, 1, 2, 3]], point_data={"s": np.zeros(4)})
-    p = write_scene(tmp_path, '[mesh]\npath = "m.vtu"\nscalars = "s"\n' + GOOD_CAM, "notf.toml")
-    with pytest.raises(ConfigError, match=r"notf\.toml: missing \[transfer\]"):
-        load_scene(p)
     p = write_scene(tmp_path, '[mesh]\npath = "gone.vtu"\nscalars = "s"\n' + GOOD_TF + GOOD_CAM, "gone.toml")
     with pytest.raises(ConfigError, match=r"gone\.toml: mesh\.path: file not found: .*gone\.vtu"):
         load_scene(p)

@@ -27,7 +27,7 @@ from warpvol.figures import comparison_figure, draw_pair
 from warpvol.pipeline import DEFAULT_PIPELINE, Pipeline, RenderResult, check_device, list_presets, quiet_warp
 from warpvol.scene.camera import Camera
 from warpvol.scene.defaults import colormap_transfer, default_extinction, default_transfer, pixel_size, scalar_window
-from warpvol.scene.defaults import scene_from_spec
+from warpvol.scene.spec import scene_from_spec
 from warpvol.scene.loaders import mesh_from_pyvista
 from warpvol.scene.mesh import TetMesh
 from warpvol.scene.scene import Scene
@@ -125,7 +125,7 @@ def _as_camera(camera: Any) -> Camera:
 def as_scene(mesh: Any, transfer: Any = None, camera: Any = None, *, scalars: str | None = None,
              split: int | None = None, size: Any = None) -> Scene:
     """A :class:`Scene` from parts. ``mesh`` may also be a whole Scene, ``"builtin:NAME"``, a scene
-    ``.toml`` file or a mesh file pyvista reads (:func:`~warpvol.scene.defaults.scene_from_spec`);
+    ``.toml`` file or a mesh file pyvista reads (:func:`~warpvol.scene.spec.scene_from_spec`);
     ``transfer`` and ``camera``, when given, replace the scene's own. Left out for a bare mesh, the
     transfer function is the default colour map over its scalars and the camera frames it
     (:mod:`warpvol.scene.defaults`). ``size`` replaces the image size in pixels."""

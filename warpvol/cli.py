@@ -38,7 +38,7 @@ from warpvol.timing import process_age_s, time_summary, wall_fields, wall_summar
 
 
 def _load_scene(spec: str, args) -> "object":
-    from warpvol.scene.defaults import scene_from_spec
+    from warpvol.scene.spec import scene_from_spec
 
     try:
         scene = scene_from_spec(spec, scalars=getattr(args, "scalars", None), colormap=getattr(args, "colormap", None),

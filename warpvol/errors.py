@@ -90,11 +90,56 @@ def check_vec3(name: str, value: Any) -> np.ndarray:
     return arr
 
 
-def check_keys(where: str, given: Iterable[str], allowed: Iterable[str]) -> None:
-    """Raise naming every unknown key in ``given`` and listing what ``where`` allows."""
+def close_key(key: Any, allowed: Iterable[str]) -> str | None:
+    """The allowed key ``key`` was most likely meant as (:func:`difflib.get_close_matches`, or an allowed
+    key that starts with it, ``fov`` for ``fov_y_deg``), or ``None``.
+
+    Examples
+    --------
+    >>> close_key("trasnfer", ["mesh", "transfer", "camera"]), close_key("fov", ["eye", "fov_y_deg"])
+    ('transfer', 'fov_y_deg')
+    >>> close_key("lights", ["mesh", "transfer", "camera"]) is None
+    True
+    """
+    import difflib
+
+    allowed = [str(a) for a in allowed]
+    if not isinstance(key, str) or not key:
+        return None
+    folded = {a.casefold(): a for a in allowed}
+    hit = difflib.get_close_matches(key.casefold(), list(folded), n=1, cutoff=0.6)
+    if hit:
+        return folded[hit[0]]
+    starts = [a for a in allowed if len(key) >= 2 and a.casefold().startswith(key.casefold())]
+    return starts[0] if len(starts) == 1 else None
+
+
+def unknown_keys(given: Iterable[str], allowed: Iterable[str]) -> str | None:
+    """``unknown key(s) 'a' (did you mean 'b'?), 'c'; allowed: ...`` for the keys of ``given`` not in
+    ``allowed``, each with the allowed key it most likely meant (:func:`close_key`); ``None`` when every key
+    is allowed."""
     allowed = list(allowed)
     unknown = [k for k in given if k not in allowed]
-    if unknown:
-        raise ConfigError(
-            f"{where}: unknown key(s) {', '.join(map(repr, unknown))}; allowed: {', '.join(map(repr, allowed))}"
-        )
+    if not unknown:
+        return None
+    named = []
+    for k in unknown:
+        near = close_key(k, allowed)
+        named.append(repr(k) + (f" (did you mean {near!r}?)" if near else ""))
+    return f"unknown key(s) {', '.join(named)}; allowed: {', '.join(map(repr, allowed))}"
+
+
+def check_keys(where: str, given: Iterable[str], allowed: Iterable[str]) -> None:
+    """Raise naming every unknown key in ``given``, with a did-you-mean where one is close, and listing
+    what ``where`` allows.
+
+    Examples
+    --------
+    >>> check_keys("camera", {"fov": 30, "eyes": [0, 0, 1]}, ["eye", "fov_y_deg"])
+    Traceback (most recent call last):
+    ...
+    warpvol.errors.ConfigError: camera: unknown key(s) 'fov' (did you mean 'fov_y_deg'?), 'eyes' (did you mean 'eye'?); allowed: 'eye', 'fov_y_deg'
+    """
+    msg = unknown_keys(given, allowed)
+    if msg:
+        raise ConfigError(f"{where}: {msg}")

@@ -31,6 +31,10 @@ def _frozen_vec3(name: str, value: Any) -> np.ndarray:
     return v
 
 
+#: the keys of a scene file's ``[camera]`` table (``height`` is Contract 1's name of ``ortho_height``)
+CAMERA_KEYS = ("projection", "eye", "target", "up", "fov_y_deg", "height", "ortho_height", "width_px", "height_px")
+
+
 @dataclass
 class Camera:
     """Pinhole (perspective) or orthographic camera.
@@ -101,8 +105,7 @@ class Camera:
     def from_config(cls, cfg: dict, where: str = "camera") -> "Camera":
         if not isinstance(cfg, dict):
             raise ConfigError(f"{where}: expected a table")
-        keys = ["projection", "eye", "target", "up", "fov_y_deg", "height", "ortho_height", "width_px", "height_px"]
-        check_keys(where, cfg, keys)
+        check_keys(where, cfg, CAMERA_KEYS)
         cfg = dict(cfg)
         if "height" in cfg:  # Contract 1's key: the world-space image height
             if "ortho_height" in cfg:

@@ -61,6 +61,9 @@ from warpvol.scene.mesh import TetMesh
 
 MESH_KEYS = ("path", "plot3d", "raw", "builtin", "scalars", "strict", "split")
 SOURCE_KEYS = ("path", "plot3d", "raw", "builtin")
+#: the keys of ``mesh.plot3d`` and ``mesh.raw``
+PLOT3D_KEYS = ("xyz", "q", "function")
+RAW_KEYS = ("path", "dims", "dtype", "spacing", "origin")
 
 #: PLOT3D function numbers (VTK's numbering) -> description.
 PLOT3D_FUNCTIONS = {
@@ -388,7 +391,7 @@ def load_mesh(cfg: dict, base_dir: Path | str = ".", where: str = "mesh", strict
         w = f"{where}.plot3d"
         if not isinstance(t, dict):
             raise ConfigError(f"{w}: expected {{ xyz = FILE, q = FILE, function = N }}, got {t!r}")
-        check_keys(w, t, ["xyz", "q", "function"])
+        check_keys(w, t, PLOT3D_KEYS)
         for k in ("xyz", "q"):
             if k not in t:
                 raise ConfigError(f"{w}: missing key {k!r}")
@@ -402,7 +405,7 @@ def load_mesh(cfg: dict, base_dir: Path | str = ".", where: str = "mesh", strict
         if not isinstance(t, dict):
             raise ConfigError(f"{w}: expected {{ path = FILE, dims = [nx, ny, nz], dtype = ..., spacing = [...] }}, "
                               f"got {t!r}")
-        check_keys(w, t, ["path", "dims", "dtype", "spacing", "origin"])
+        check_keys(w, t, RAW_KEYS)
         for k in ("path", "dims", "dtype", "spacing"):
             if k not in t:
                 raise ConfigError(f"{w}: missing key {k!r}")

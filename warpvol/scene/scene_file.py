@@ -5,9 +5,15 @@ Top-level keys: ``[mesh]`` (required, see :func:`warpvol.scene.loaders.load_mesh
 ``[transfer]`` takes ``points``, ``table`` or a ParaView preset, ``paraview = "preset.json"`` or
 ``paraview = { file = "preset.json", name = "...", range = [smin, smax], unit_distance = 1.0 }``
 (see :meth:`TransferFunction.from_paraview`; an addition to Contract 1, older files read as before).
-With ``[mesh] builtin = "NAME"``, ``[transfer]`` and ``[camera]`` may be omitted and the built-in
-scene's defaults are used; a ``[camera]`` that is given replaces the default camera entirely (keys
-it leaves out take :class:`Camera`'s defaults, not the built-in's).
+``[transfer]`` and ``[camera]`` may be omitted: with ``[mesh] builtin = "NAME"`` the built-in scene's
+are used, with any other mesh the defaults of a mesh given on the command line
+(:func:`warpvol.scene.defaults.default_transfer`: viridis over the point scalars with ParaView's opacity
+ramp; :meth:`Camera.fit` at 512 x 512; an extension of Contract 1, which shows both tables). A
+``[camera]`` that is given replaces the default camera entirely (keys it leaves out take
+:class:`Camera`'s defaults, not the built-in's or the fitted one's).
+
+Unknown keys are found in every table before anything is read, and named all in one message, each
+with the key it most likely meant (``did you mean 'fov_y_deg'?``).
 
 Errors name the scene file and the key, e.g. ``scene.toml: camera.fov_y_deg: 200.0 is outside the
 allowed range (0, 180)``.
@@ -19,17 +25,45 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from warpvol.errors import ConfigError, check_keys
+from warpvol.errors import ConfigError, unknown_keys
 from warpvol.io import toml_nesting
 from warpvol.scene import datasets
 from warpvol.scene.builtin import builtin_camera, builtin_scene, builtin_transfer
-from warpvol.scene.camera import Camera
-from warpvol.scene.loaders import _file, check_raw_size, load_mesh, raw_dtype
+from warpvol.scene.camera import CAMERA_KEYS, Camera
+from warpvol.scene.defaults import DEFAULT_SIZE, default_transfer
+from warpvol.scene.loaders import MESH_KEYS, PLOT3D_KEYS, RAW_KEYS, _file, check_raw_size, load_mesh, raw_dtype
 from warpvol.scene.mesh import TetMesh
 from warpvol.scene.scene import Scene
-from warpvol.scene.transfer import TransferFunction
+from warpvol.scene.transfer import TRANSFER_KEYS, TRANSFER_PARAVIEW_KEYS, TRANSFER_TABLE_KEYS, TransferFunction
 
 SCENE_KEYS = ("mesh", "transfer", "camera", "name")
+#: the tables of a scene file and the keys each allows (``""``: the top level)
+SCENE_TABLES = {"": SCENE_KEYS, "mesh": MESH_KEYS, "mesh.plot3d": PLOT3D_KEYS, "mesh.raw": RAW_KEYS,
+                "transfer": TRANSFER_KEYS, "transfer.table": TRANSFER_TABLE_KEYS,
+                "transfer.paraview": TRANSFER_PARAVIEW_KEYS, "camera": CAMERA_KEYS}
+
+
+def check_scene_keys(cfg: dict, where: str = "scene") -> None:
+    """Every unknown key of every table of a scene file (:data:`SCENE_TABLES`) in one error, each with
+    the key it most likely meant; tables that are not tables are left to the readers, which say so.
+
+    Examples
+    --------
+    >>> check_scene_keys({"mesh": {"builtin": "box", "scalar": "s"}, "trasnfer": {}, "camera": {"fov": 30}}, "s.toml")
+    Traceback (most recent call last):
+    ...
+    warpvol.errors.ConfigError: s.toml: unknown key(s) 'trasnfer' (did you mean 'transfer'?); allowed: 'mesh', 'transfer', 'camera', 'name'. mesh: unknown key(s) 'scalar' (did you mean 'scalars'?); allowed: 'path', 'plot3d', 'raw', 'builtin', 'scalars', 'strict', 'split'. camera: unknown key(s) 'fov' (did you mean 'fov_y_deg'?); allowed: 'projection', 'eye', 'target', 'up', 'fov_y_deg', 'height', 'ortho_height', 'width_px', 'height_px'
+    """
+    parts = []
+    for table, allowed in SCENE_TABLES.items():
+        t = cfg
+        for k in table.split(".") if table else []:
+            t = t.get(k) if isinstance(t, dict) else None
+        msg = unknown_keys(t, allowed) if isinstance(t, dict) else None
+        if msg:
+            parts.append(f"{table}: {msg}" if table else msg)
+    if parts:
+        raise ConfigError(f"{where}: " + ". ".join(parts))
 
 
 def scene_from_config(cfg: dict, base_dir: Path | str = ".", where: str = "scene", *, strict: bool = False,
@@ -38,7 +72,7 @@ def scene_from_config(cfg: dict, base_dir: Path | str = ".", where: str = "scene
     file names are relative to ``base_dir``; ``name`` is the fallback when ``cfg`` has no ``name``."""
     if not isinstance(cfg, dict):
         raise ConfigError(f"{where}: expected a table, got {cfg!r}")
-    check_keys(where, cfg, SCENE_KEYS)
+    check_scene_keys(cfg, where)
     if "mesh" not in cfg:
         raise ConfigError(f"{where}: missing [mesh] table")
     mesh_cfg = cfg["mesh"]
@@ -49,14 +83,14 @@ def scene_from_config(cfg: dict, base_dir: Path | str = ".", where: str = "scene
         tf = TransferFunction.from_config(cfg["transfer"], base_dir, where=f"{where}: transfer")
     elif builtin is not None:
         tf = builtin_transfer(builtin)
-    else:
-        raise ConfigError(f"{where}: missing [transfer] table (only built-in meshes have a default)")
+    else:  # as for a mesh file given on its own: viridis over its scalars, ParaView's opacity ramp
+        tf = default_transfer(mesh, where=f"{where}: transfer (default)")
     if "camera" in cfg:
         cam = Camera.from_config(cfg["camera"], where=f"{where}: camera")
     elif builtin is not None:
         cam = builtin_camera(builtin)
-    else:
-        raise ConfigError(f"{where}: missing [camera] table (only built-in meshes have a default)")
+    else:  # as for a mesh file given on its own: fitted to the mesh
+        cam = Camera.fit(mesh, width_px=DEFAULT_SIZE[0], height_px=DEFAULT_SIZE[1])
 
     scene_name = cfg.get("name", name if name is not None else (builtin or "scene"))
     if not isinstance(scene_name, str) or not scene_name:

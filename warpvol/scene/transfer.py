@@ -55,6 +55,12 @@ def extinction_to_opacity(extinction: Any, unit_distance: float) -> np.ndarray:
     return np.where(tau >= cap * (1.0 - 1e-12), 1.0, -np.expm1(-tau))
 
 
+#: the keys of a scene file's ``[transfer]`` table, its ``table`` and its ``paraview`` table
+TRANSFER_KEYS = ("emission", "points", "table", "paraview")
+TRANSFER_TABLE_KEYS = ("file", "range")
+TRANSFER_PARAVIEW_KEYS = ("file", "name", "range", "unit_distance", "opacity")
+
+
 class TransferFunction:
     """Piecewise-linear transfer function.
 
@@ -128,7 +134,7 @@ class TransferFunction:
         unit_distance, opacity }`` as in :meth:`from_paraview`)."""
         if not isinstance(cfg, dict):
             raise ConfigError(f"{where}: expected a table")
-        check_keys(where, cfg, ["emission", "points", "table", "paraview"])
+        check_keys(where, cfg, TRANSFER_KEYS)
         emission = cfg.get("emission", "color_extinction")
         if sum(k in cfg for k in ("points", "table", "paraview")) != 1:
             raise ConfigError(f"{where}: give exactly one of 'points', 'table' or 'paraview'")
@@ -139,7 +145,7 @@ class TransferFunction:
         tab = cfg["table"]
         if not isinstance(tab, dict):
             raise ConfigError(f"{where}.table: expected {{ file = ..., range = [smin, smax] }}")
-        check_keys(f"{where}.table", tab, ["file", "range"])
+        check_keys(f"{where}.table", tab, TRANSFER_TABLE_KEYS)
         if "file" not in tab or "range" not in tab:
             raise ConfigError(f"{where}.table: needs both 'file' and 'range'")
         path = Path(base_dir) / tab["file"]
@@ -171,7 +177,7 @@ class TransferFunction:
         if not isinstance(pv_cfg, dict):
             raise ConfigError(f"{where}: expected a file name or {{ file = ..., name = ..., range = [smin, smax], "
                               f"unit_distance = ... }}, got {pv_cfg!r}")
-        check_keys(where, pv_cfg, ["file", "name", "range", "unit_distance", "opacity"])
+        check_keys(where, pv_cfg, TRANSFER_PARAVIEW_KEYS)
         if not isinstance(pv_cfg.get("file"), str) or not pv_cfg["file"]:
             raise ConfigError(f"{where}.file: expected a file name, got {pv_cfg.get('file')!r}")
         path = Path(base_dir) / Path(pv_cfg["file"]).expanduser()
