@@ -51,6 +51,8 @@ from pathlib import Path
 
 import numpy as np
 
+from warpvol.tools import provenance
+
 ROOT = Path(__file__).resolve().parents[1]
 RENDERERS = ("raycast", "harc_best", "pt_best", "reference", "vtk_pt", "vsbuffer_best")
 #: the default run's renderers (``vsbuffer_best``, seconds per frame from 10^6 tets on, is run on request)
@@ -338,6 +340,7 @@ def main(argv=None) -> int:
         print(json.dumps(child(json.loads(args.child))))
         return 0
 
+    prov = provenance.start(provenance.command_line("scripts/bench_scaling.py", argv), timing=True)
     renderers = [r for r in args.renderers.split(",") if r]
     bad = [r for r in renderers if r not in RENDERERS]
     if bad:
@@ -351,7 +354,7 @@ def main(argv=None) -> int:
     if args.tf == "shell":
         for s in specs:
             s["tf"] = "shell"
-        return shell_sweep(specs, args, argv)
+        return shell_sweep(specs, args, argv, prov)
     img_mesh = str(mesh_file(cache, "structured", args.image_tets))
     for size in args.sizes:
         specs += [{"sweep": "image", "kind": "structured", "mesh": img_mesh, "size": size, "renderer": r,
@@ -374,6 +377,7 @@ def main(argv=None) -> int:
                   f"{res['bytes_per_tet']:>8.0f}{res.get('kept_bytes_per_tet', float('nan')):>8.0f}  {res['load'][0]:.2f}",
                   flush=True)
     data = ROOT / "docs" / "data" / "scaling.json"
+    prov = provenance.with_loads(prov, [p["load"][0] for p in points if "error" not in p])
     if args.merge and data.exists():
         old = json.loads(data.read_text())
         kept = [p for p in points_of_table(old["tables"]["points"]) if point_key(p) not in {point_key(q) for q in points}]
@@ -385,6 +389,9 @@ def main(argv=None) -> int:
         runs = [p.get("run") for p in points]
         earlier = old.get("sources", [old.get("source", "")]) if None in runs else []
         sources = list(dict.fromkeys(earlier + [r for r in runs if r]))
+        if len(sources) > 1:
+            prov["note"] = ("This run merged its points with those of earlier runs (each point names its run and "
+                            "its load in the points table); commit, date and load here are this run's.")
     fit_rows = fits(points, renderers, img_mesh)
     print("\nfitted exponents (least squares in log-log)")
     for row in fit_rows:
@@ -420,14 +427,13 @@ def main(argv=None) -> int:
                                        + "; ".join(sources) + ".")},
                "points": {"title": "Every point (median of the warm renders)", "columns": cols, "rows": rows,
                           "notes": "Failed or timed-out points show '-'; run: the command that measured the point."}}}
-    data.parent.mkdir(parents=True, exist_ok=True)
-    data.write_text(json.dumps(doc, indent=1))
+    provenance.write_json(data, doc, prov)
     plot(points, renderers, ROOT / "docs" / "img" / "scaling.png")
     print(f"wrote {data} and {ROOT / 'docs' / 'img' / 'scaling.png'}")
     return 0
 
 
-def shell_sweep(specs: list[dict], args, argv) -> int:
+def shell_sweep(specs: list[dict], args, argv, prov: dict) -> int:
     """``--tf shell``: the mesh sweep with the shell TF; time ~ tets^a and visible ~ tets^v per renderer
     and mesh kind, written to ``docs/data/scaling_shell.json`` unless ``--no-docs``."""
     source = "python scripts/bench_scaling.py " + " ".join(argv if argv is not None else sys.argv[1:])
@@ -470,7 +476,7 @@ def shell_sweep(specs: list[dict], args, argv) -> int:
                              None if "error" in p else round(p["load"][0], 2)] for p in points],
                    "notes": "Failed or timed-out points show '-'."}}}
     data = ROOT / "docs" / "data" / "scaling_shell.json"
-    data.write_text(json.dumps(doc, indent=1))
+    provenance.write_json(data, doc, provenance.with_loads(prov, [p["load"][0] for p in ok]))
     print(f"wrote {data}")
     return 0
 

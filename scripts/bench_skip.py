@@ -51,6 +51,8 @@ sys.path.insert(0, str(ROOT / "scripts"))
 
 from bench_raycast import FILL_SCENES, cached_reference, load_average, tolerance_row, vtk_renderer  # noqa: E402
 
+from warpvol.tools import provenance  # noqa: E402
+
 PRESETS = ("raycast", "harc_best", "pt_best", "vsbuffer_best")
 TFS = ("dense", "sparse", "opaque")
 SLOW = ("vsbuffer_best",)
@@ -214,8 +216,14 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.docs_from:
         saved = json.loads(Path(args.docs_from).read_text())
-        write_docs(saved["views"], saved["source"])
+        prov = provenance.of(saved)
+        if prov is None:  # a result written before runs were stamped: say what is not known
+            prov = dict(provenance.start(saved["source"], timing=True), commit="unknown", dirty=None, load=None,
+                        date="unknown", note=f"Written by --docs-from {args.docs_from}, a run that recorded no "
+                                             "commit, date or machine load of its own.")
+        write_docs(saved["views"], saved["source"], prov)
         return 0
+    prov = provenance.start(provenance.command_line("scripts/bench_skip.py", argv), timing=True)
     from warpvol.pipeline import quiet_warp
 
     quiet_warp()
@@ -235,14 +243,15 @@ def main(argv=None) -> int:
     print(f"\ntotal {time.perf_counter() - t0:.0f} s; {load_average()}")
     out.mkdir(parents=True, exist_ok=True)
     source = "python scripts/bench_skip.py " + " ".join(argv if argv is not None else sys.argv[1:])
-    (out / "skip_result.json").write_text(json.dumps({"source": source, "views": result}, indent=1, default=float))
+    prov = provenance.finish(prov)
+    provenance.write_json(out / "skip_result.json", {"source": source, "views": result}, prov)
     print(f"wrote {out / 'skip_result.json'}")
     if args.docs:
-        write_docs(result, source)
+        write_docs(result, source, prov)
     return 0
 
 
-def write_docs(views: dict, source: str) -> None:
+def write_docs(views: dict, source: str, prov: dict) -> None:
     """``docs/data/skip.json``: ``summary`` (per view and TF, VTK PT's median over each preset's, with
     skipping and, in parentheses, without) and ``rows`` (every renderer: time, ratio, error, left out)."""
     import os
@@ -286,7 +295,7 @@ def write_docs(views: dict, source: str) -> None:
                  "columns": ["view", "TF", "size", "renderer", "median [s]", "VTK PT / this", "RMSE", "max abs",
                              "tolerance", "left out"], "rows": rows}}}
     path = ROOT / "docs" / "data" / "skip.json"
-    path.write_text(json.dumps(doc, indent=1))
+    provenance.write_json(path, doc, provenance.with_loads(prov, [float(s["load"]) for s in summary.values()]))
     print(f"wrote {path}")
 
 

@@ -19,6 +19,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+from warpvol.tools import provenance
+
 ROOT = Path(__file__).resolve().parent.parent
 #: paper -> (the paper's figure this sets beside, presets left to right; the exact one last)
 PAPERS = {
@@ -74,6 +76,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=str(ROOT / "docs" / "img" / "papers"))
     ap.add_argument("--json", default=str(ROOT / "docs" / "data" / "paper_figures.json"))
     args = ap.parse_args(argv)
+    prov = provenance.start(provenance.command_line("scripts/docs_paper_figures.py", argv), timing=True)
     import warpvol
 
     papers = args.only.split(",") if args.only else list(PAPERS)
@@ -92,7 +95,7 @@ def main(argv=None) -> int:
                        "rows": [{k: r[k] for k in ("pipeline", "status", "cold_s", "rmse", "max_abs", "reason")}
                                 for r in cmp.table]}
         print(f"{paper}: " + ", ".join(f"{r['pipeline']} {r['status']} rmse={r['rmse']}" for r in cmp.table))
-    path.write_text(json.dumps(data, indent=1, allow_nan=False) + "\n")
+    provenance.write_json(path, data, prov, parts=papers, all_parts=[k for k in data if k != provenance.KEY])
     return 0
 
 

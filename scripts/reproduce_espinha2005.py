@@ -29,6 +29,7 @@ from pathlib import Path
 
 from warpvol.reproduce import espinha2005 as e
 from warpvol.reproduce.common import add_json_option, format_table, write_tables_json
+from warpvol.tools import provenance
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -49,6 +50,7 @@ def main(argv=None) -> int:
     ap.add_argument("--device", default="cpu")
     add_json_option(ap)
     args = ap.parse_args(argv)
+    prov = provenance.start(provenance.command_line("scripts/reproduce_espinha2005.py", argv), timing=True)
     from warpvol.pipeline import quiet_warp
 
     quiet_warp()
@@ -76,7 +78,7 @@ def main(argv=None) -> int:
         print(format_table(t), flush=True)
     if args.json:
         cmd = " ".join(["python scripts/reproduce_espinha2005.py", *(argv if argv is not None else sys.argv[1:])])
-        write_tables_json(args.json, cmd, tables)
+        write_tables_json(args.json, cmd, tables, prov)
     return 0
 
 

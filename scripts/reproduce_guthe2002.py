@@ -20,6 +20,7 @@ import sys
 
 from warpvol.reproduce import guthe2002 as g
 from warpvol.reproduce.common import add_json_option, format_table, write_tables_json
+from warpvol.tools import provenance
 
 
 def main(argv=None):
@@ -33,6 +34,7 @@ def main(argv=None):
     ap.add_argument("--height", type=int, default=960)
     add_json_option(ap)
     a = ap.parse_args(argv)
+    prov = provenance.start(provenance.command_line("scripts/reproduce_guthe2002.py", argv), timing=True)
     skip = set(filter(None, a.skip.split(",")))
     os.makedirs(a.out, exist_ok=True)
     from warpvol.pipeline import quiet_warp
@@ -54,7 +56,7 @@ def main(argv=None):
         print(format_table(tables["table5"]), flush=True)
     if a.json:
         cmd = " ".join(["python scripts/reproduce_guthe2002.py", *(argv if argv is not None else sys.argv[1:])])
-        write_tables_json(a.json, cmd, tables)
+        write_tables_json(a.json, cmd, tables, prov)
 
 
 if __name__ == "__main__":

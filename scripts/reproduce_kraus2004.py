@@ -31,6 +31,7 @@ from pathlib import Path
 
 from warpvol.reproduce import kraus2004 as k
 from warpvol.reproduce.common import add_json_option, format_table, write_tables_json
+from warpvol.tools import provenance
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -54,6 +55,7 @@ def main(argv=None) -> int:
     ap.add_argument("--device", default="cpu")
     add_json_option(ap)
     a = ap.parse_args(argv)
+    prov = provenance.start(provenance.command_line("scripts/reproduce_kraus2004.py", argv), timing=True)
     from warpvol.pipeline import quiet_warp
 
     quiet_warp()
@@ -73,7 +75,7 @@ def main(argv=None) -> int:
         print(format_table(tables["artifacts"]), flush=True)
     if a.json:
         cmd = " ".join(["python scripts/reproduce_kraus2004.py", *(argv if argv is not None else sys.argv[1:])])
-        write_tables_json(a.json, cmd, tables)
+        write_tables_json(a.json, cmd, tables, prov)
     return 0
 
 

@@ -34,6 +34,7 @@ import numpy as np
 
 from warpvol.reproduce.common import add_json_option, table, write_tables_json
 from warpvol.reproduce.roettger2002 import fig4_tf, fig9_tf, roettger_t2_model
+from warpvol.tools import provenance
 
 PAPER_T1 = {12: {32: (0.1348, 13.9828), 64: (0.1515, 13.9661), 128: (0.2445, 13.8732), 256: (0.4565, 14.4455),
                  512: (0.9102, 19.8741), 1024: (1.8131, 24.0693)},
@@ -242,12 +243,13 @@ def main(argv=None):
     ap.add_argument("--fig8-only", action="store_true", help="only Fig. 8")
     add_json_option(ap)
     a = ap.parse_args(argv)
+    prov = provenance.start(provenance.command_line("scripts/reproduce_roettger2002.py", argv), timing=True)
     tables = {}
 
     def write_json():
         if a.json:
             cmd = " ".join(["python scripts/reproduce_roettger2002.py", *(argv if argv is not None else sys.argv[1:])])
-            write_tables_json(a.json, cmd, tables)
+            write_tables_json(a.json, cmd, tables, prov)
 
     os.makedirs(a.out, exist_ok=True)
     from warpvol.pipeline import quiet_warp

@@ -28,6 +28,7 @@ import sys
 
 from warpvol.reproduce.common import add_json_option, format_table, write_tables_json
 from warpvol.reproduce.westermann1997 import dataset, table1
+from warpvol.tools import provenance
 
 
 def main(argv=None):
@@ -39,6 +40,7 @@ def main(argv=None):
     ap.add_argument("--device", default="cpu")
     add_json_option(ap)
     a = ap.parse_args(argv)
+    prov = provenance.start(provenance.command_line("scripts/reproduce_westermann1997.py", argv), timing=True)
     from warpvol.pipeline import quiet_warp
 
     quiet_warp()
@@ -50,7 +52,7 @@ def main(argv=None):
     print(format_table(t))
     if a.json:
         cmd = " ".join(["python scripts/reproduce_westermann1997.py", *(argv if argv is not None else sys.argv[1:])])
-        write_tables_json(a.json, cmd, {"table1": t})
+        write_tables_json(a.json, cmd, {"table1": t}, prov)
 
 
 if __name__ == "__main__":

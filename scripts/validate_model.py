@@ -32,7 +32,6 @@ counters give its own modelled value again.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 
@@ -43,6 +42,7 @@ from warpvol.reproduce.agreement import fmt_ratio as _r
 from warpvol.reproduce.guthe2002 import GUTHE_T4, guthe_steps_per_pass_speedup, guthe_t4_model
 from warpvol.reproduce.roettger2002 import ROETTGER_T2, roettger_combiner_speedup, roettger_t2_model
 from warpvol.reproduce.westermann1997 import PAPER as WESTERMANN
+from warpvol.tools import provenance
 
 def _mid(lo: float, hi: float) -> float:
     return math.sqrt(lo * hi)
@@ -490,6 +490,7 @@ def main(argv=None) -> int:
                     "the rows resting on one estimated constant from the counter cache (no renders)")
     ap.add_argument("--json", metavar="PATH", help="write the tables as JSON (docs/hooks.py renders it)")
     a = ap.parse_args(argv)
+    prov = provenance.start(provenance.command_line("scripts/validate_model.py", argv))
     if a.absolute_from:
         absolute, notes_abs, src, view = absolute_from(a.absolute_from)
         if a.sensitivity:
@@ -512,8 +513,7 @@ def main(argv=None) -> int:
         out = to_json(absolute, relative, m.skipped)
     print_tables(absolute, relative)
     if a.json:
-        with open(a.json, "w") as f:
-            json.dump(out, f, indent=1)
+        provenance.write_json(a.json, out, prov)
         print(f"wrote {a.json}", file=sys.stderr)
     return 0
 

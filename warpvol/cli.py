@@ -22,6 +22,7 @@ file / key / value, exit status 2, and no output file.
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 import time
 from pathlib import Path
@@ -288,7 +289,8 @@ def cmd_bench(args) -> int:
     try:
         res = run_bench(scene, names, repeats=args.repeats, gpu=args.gpu, device=args.device, quiet=args.quiet,
                         progress=args.progress, cache_dir=cache_dir,
-                        audit=args.audit, quick=args.quick, done=saved, on_row=save, skip=not args.no_skip)
+                        audit=args.audit, quick=args.quick, done=saved, on_row=save, skip=not args.no_skip,
+                        command=getattr(args, "command_line", None))
     except KeyboardInterrupt:
         print(f"warpvol: bench: the finished pipelines are saved in {outdir / ROW_DIR}; run the same command with "
               "--resume to go on", file=sys.stderr)
@@ -558,6 +560,7 @@ def main(argv: list[str] | None = None) -> int:
     t_start = time.perf_counter() - ((process_age_s() or 0.0) if argv is None else 0.0)
     args = build_parser().parse_args(argv)
     args.t_start = t_start
+    args.command_line = shlex.join(["warpvol", *(sys.argv[1:] if argv is None else argv)])
     try:
         if args.cmd in ("render", "reference", "demo", "bench", "plan", "stress", "sweep"):
             from warpvol.pipeline import quiet_warp

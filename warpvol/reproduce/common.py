@@ -51,23 +51,29 @@ def format_table(t: dict) -> str:
     return "\n".join(lines)
 
 
-def write_tables_json(path, source: str, tables: dict) -> None:
-    """``{"source": ..., "tables": {name: table}}``, the layout docs/hooks.py reads (``<!-- table: PAPER/NAME -->``).
-    A file that exists is updated: tables of the same name are replaced, others kept (a run of part of a
-    script keeps the rest)."""
+def write_tables_json(path, source: str, tables: dict, prov: dict | None = None) -> None:
+    """``{"source": ..., "tables": {name: table}, "_provenance": ...}``, the layout docs/hooks.py reads
+    (``<!-- table: PAPER/NAME -->``). A file that exists is updated: tables of the same name are replaced,
+    others kept (a run of part of a script keeps the rest), each with its own provenance block
+    (:mod:`warpvol.tools.provenance`). ``prov``: the block the run started with
+    (:func:`~warpvol.tools.provenance.start`; default: one started now, a timing)."""
     import json
     from pathlib import Path
 
+    from warpvol.tools import provenance
+
+    if prov is None:
+        prov = provenance.start(source, timing=True)
     path = Path(path)
     data = json.loads(path.read_text()) if path.is_file() else {}
     old = data.get("tables") or {}
+    earlier = list(old)
     for name, t in tables.items():
         t = dict(t, rows=[_plain(list(r)) for r in t["rows"]], source=source)
         old[name] = t
     data["source"] = source
     data["tables"] = old
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(data, indent=1, allow_nan=False) + "\n")
+    provenance.write_json(path, data, prov, parts=list(tables), all_parts=earlier)
 
 
 def calibrations(*profiles: str) -> str:

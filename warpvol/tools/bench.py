@@ -341,10 +341,18 @@ class BenchResult:
     notes: list[str] = field(default_factory=list)
     #: where and when it ran: commit, versions, CPU, load, date (:func:`warpvol.tools.machine.run_metadata`)
     meta: dict = field(default_factory=dict)
+    #: commit, command, date, load at the start and end (:mod:`warpvol.tools.provenance`), as every file
+    #: under docs/data/ carries it
+    provenance: dict | None = None
 
     def as_json(self) -> dict:
-        return {"scene": self.scene, "gpu": self.gpu, "notes": self.notes, "reference_s": self.reference_s,
-                "reference_cached": self.reference_cached, "meta": self.meta, "rows": self.rows}
+        doc = {"scene": self.scene, "gpu": self.gpu, "notes": self.notes, "reference_s": self.reference_s,
+               "reference_cached": self.reference_cached, "meta": self.meta, "rows": self.rows}
+        if self.provenance is not None:
+            from warpvol.tools.provenance import stamp
+
+            stamp(doc, self.provenance)
+        return doc
 
 
 def describe_scene(scene: Any) -> dict:
@@ -382,6 +390,7 @@ def run_bench(scene: Any, pipelines: Any = "all", *, repeats: int = 3, gpu: str 
     (:class:`warpvol.progress.ProgressBar`; ``progress``: also elsewhere, as lines; ``quiet``: never).
     ``command``: the command line, kept in the metadata. ``skip=False``: every render does all the work
     (no culling, empty-space skipping or early ray termination; ``--no-skip``), noted in the result."""
+    from warpvol.tools import provenance
     from warpvol.tools.machine import load_average, run_metadata
 
     pipes = load_pipelines(pipelines, device, quick=quick)  # unknown names fail before any work
@@ -393,6 +402,7 @@ def run_bench(scene: Any, pipelines: Any = "all", *, repeats: int = 3, gpu: str 
         notes.append("--no-skip: every render does all the work (no culling of invisible cells, no empty-space "
                      "skipping, no early ray termination)")
     meta = run_metadata(device, command)
+    prov = provenance.start(command or "warpvol.tools.bench.run_bench (from Python)", timing=True)
     rows, images = [], {}
     done = done or {}
     # units: the reference, then per pipeline its warm-up and timed renders (audit renders added when known)
@@ -435,7 +445,8 @@ def run_bench(scene: Any, pipelines: Any = "all", *, repeats: int = 3, gpu: str 
             prog.set(start + per + extra[0], f"{key}: {row['status']}")
     meta["load average at the end"] = load_average()
     mark_pareto(rows)
-    return BenchResult(describe_scene(scene), rows, ref, ref_s, hit, images, gpu, notes, meta)
+    return BenchResult(describe_scene(scene), rows, ref, ref_s, hit, images, gpu, notes, meta,
+                       provenance.finish(prov))
 
 
 def pipeline_keys(pipes: list[Any]) -> list[str]:

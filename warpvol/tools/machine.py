@@ -16,11 +16,9 @@ from __future__ import annotations
 import datetime
 import os
 import platform
-import subprocess
 import sys
 import time
 from importlib import metadata
-from pathlib import Path
 
 
 def timer_resolution() -> float:
@@ -37,18 +35,15 @@ def load_average() -> str:
 
 
 def git_commit() -> str:
-    """The commit of the checkout warpvol runs from, ``+ local changes`` when files differ from it;
-    ``unknown (...)`` for an installed copy or without git."""
-    here = Path(__file__).resolve().parent
-    try:
-        run = dict(cwd=here, capture_output=True, text=True, timeout=10)
-        head = subprocess.run(["git", "rev-parse", "HEAD"], **run)
-        if head.returncode != 0:
-            return "unknown (not a git checkout)"
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], **run)
-        return head.stdout.strip() + (" + local changes" if dirty.stdout.strip() else "")
-    except (OSError, subprocess.SubprocessError):
-        return "unknown (git not available)"
+    """The commit of the checkout warpvol runs from, ``+ local changes`` when tracked files outside
+    ``docs/`` differ from it (:func:`warpvol.tools.provenance.git_state`); ``unknown (...)`` for an
+    installed copy or without git."""
+    from warpvol.tools.provenance import git_state
+
+    commit, dirty = git_state()
+    if commit is None:
+        return "unknown (not a git checkout, or git not available)"
+    return commit + (" + local changes" if dirty else "")
 
 
 def _version(dist: str) -> str:
