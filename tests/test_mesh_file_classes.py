@@ -263,3 +263,66 @@ def test_resample_to_image_outside_its_source_is_dropped():
     bad = ~valid[cell_corners(img.dimensions)].all(axis=1)
     assert m.load_notes == {"hidden_cells_dropped": int(bad.sum())}
     assert m.n_tets == 6 * int((~bad).sum()) and (m.scalars > 0.5).all()  # no outside point's 0 is left
+
+
+# -- zero-volume cells (cohesive layers) -----------------------------------------------------------------
+def _cohesive(kind):
+    """Two slabs of hexahedra (``kind`` 'hex') or wedges ('wedge') on separate points, z in [0, 0.5] and
+    [0.5, 1], joined by a layer of zero-thickness cells of the same kind on the two slabs' points at
+    z = 0.5 (a cohesive layer, as fracture codes write it). Returns the grid with the layer, the grid
+    without it and the layer's cell count."""
+    import pyvista as pv
+
+    a = pv.ImageData(dimensions=(4, 4, 3), spacing=(1 / 3, 1 / 3, 0.25))
+    pa = np.asarray(a.points)
+    hexes = np.asarray(a.cast_to_unstructured_grid().cells).reshape(-1, 9)[:, 1:]
+    n = a.n_points
+    pts = np.concatenate([pa, pa + [0, 0, 0.5]])
+    cells = np.concatenate([hexes, hexes + n])
+    top = hexes[np.isclose(pa[hexes[:, 4], 2], 0.5)][:, 4:]  # slab a's top faces (z = 0.5)
+    layer = np.concatenate([top, top - 32 + n], axis=1)      # ... and slab b's bottom faces (z = 0.5)
+    cells = np.concatenate([cells, layer])
+    ctype = 12
+    if kind == "wedge":
+        cells = np.concatenate([cells[:, [0, 1, 2, 4, 5, 6]], cells[:, [0, 2, 3, 4, 6, 7]]])
+        ctype, n_layer = 13, 2 * len(layer)
+        order = np.argsort(np.concatenate([np.arange(len(cells) // 2)] * 2), kind="stable")
+        cells = cells[order]
+    else:
+        n_layer = len(layer)
+    width = cells.shape[1]
+
+    def grid(c):
+        g = pv.UnstructuredGrid(np.hstack([np.full((len(c), 1), width), c]).ravel(),
+                                np.full(len(c), ctype, np.uint8), pts)
+        g.point_data["s"] = np.sin(3 * pts[:, 0]) * 0.4 + pts[:, 1] * pts[:, 2] * 0.5 + 0.2
+        return g
+    flat = np.zeros(len(cells), bool)
+    flat[-n_layer:] = True
+    return grid(cells), grid(cells[~flat]), n_layer
+
+
+@pytest.mark.parametrize("kind", ["hex", "wedge"])
+def test_zero_volume_cells_are_counted_as_file_cells_without_a_warning(tmp_path, capfd, kind):
+    import warnings
+
+    from warpvol.reference.numpy_render import render_reference
+    from warpvol.scene.camera import Camera
+    from warpvol.scene.transfer import TransferFunction
+
+    g, without, n_layer = _cohesive(kind)
+    g.save(tmp_path / "c.vtu")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        m = load_mesh({"path": "c.vtu", "scalars": "s"}, tmp_path)
+        bare = TetMesh.from_pyvista(without, "s")
+    assert m.load_notes == {"zero_volume_cells_dropped": n_layer}
+    assert m.n_tets == bare.n_tets
+    tf = TransferFunction([[0.0, 0.2, 0.4, 1.0, 0.8], [0.5, 1.0, 0.5, 0.2, 1.6], [1.0, 1.0, 1.0, 1.0, 0.4]])
+    cam = Camera(eye=[2.2, 1.7, 2.9], target=[0.5, 0.5, 0.5], width_px=16, height_px=16)
+    np.testing.assert_allclose(render_reference(m, tf, cam), render_reference(bare, tf, cam), atol=1e-9)
+    rc, err = _cli(_render(tmp_path / "c.vtu", tmp_path), capfd)
+    assert rc == 0 and f"warpvol: mesh: zero volume cells dropped: {n_layer}\n" in err
+    assert "Warning" not in err and "zero-volume tet" not in err
+    rc, err = _cli(_render(tmp_path / "c.vtu", tmp_path, "--strict"), capfd)
+    assert rc == 2 and "zero-volume" in err and "strict" in err

@@ -70,7 +70,10 @@ class TetMesh:
     load_notes : dict, optional
         What the loader left out of the data set it read, as counts (ghost cells of other pieces,
         zero-volume pieces of collapsed cells, ...); every render's report repeats them under
-        ``"mesh_notes"``.
+        ``"mesh_notes"``. Given (even empty), it also takes the zero-volume tets dropped here, counted
+        in the source cells (``cell_start``) instead of a warning: ``zero_volume_cells_dropped``
+        (cells without volume, as a cohesive layer's), and ``collapsed_cells`` /
+        ``collapsed_pieces_dropped`` (cells that keep a volume and lose their flat pieces).
 
     Examples
     --------
@@ -116,7 +119,10 @@ class TetMesh:
             msg = f"{name}: {int(zero.sum())} zero-volume tet(s) (first: tets[{int(np.argmax(zero))}])"
             if strict:
                 raise MeshError(msg + "; strict mode forbids them")
-            warnings.warn(msg + " dropped", stacklevel=2)
+            if load_notes is None:
+                warnings.warn(msg + " dropped", stacklevel=2)
+            else:  # a reader's mesh: counted in the file's cells among its load notes
+                _count_zero_volume(self.load_notes, zero, cell_start)
             self.dropped_tets = tets[zero]
             tets, vol6 = tets[~zero], vol6[~zero]
             if len(tets) == 0:
@@ -502,6 +508,25 @@ def derived_mesh(mesh: TetMesh, keep_cached: tuple[str, ...]) -> TetMesh:
         elif not key.startswith("_"):
             out.__dict__[key] = value
     return out
+
+
+def _count_zero_volume(notes: dict, zero: np.ndarray, cell_start) -> None:
+    """Add the zero-volume tets ``zero`` (bool per input tet) to ``notes`` counted in source cells
+    (``cell_start``; without it each tet is its own cell)."""
+    cs = None if cell_start is None else np.asarray(cell_start)
+    if cs is None or cs.ndim != 1 or len(cs) < 2 or cs[0] != 0 or cs[-1] != len(zero) or (np.diff(cs) < 1).any():
+        flat, part, pieces = int(zero.sum()), np.zeros(0, dtype=bool), 0  # (a bad cell_start is refused later)
+    else:
+        cs = cs.astype(np.int64)
+        n_zero = np.add.reduceat(zero.astype(np.int64), cs[:-1])
+        whole = n_zero == np.diff(cs)
+        flat = int(whole.sum())
+        part = (n_zero > 0) & ~whole
+        pieces = int(n_zero[part].sum())
+    for key, n in (("zero_volume_cells_dropped", flat), ("collapsed_cells", int(part.sum())),
+                   ("collapsed_pieces_dropped", pieces)):
+        if n:
+            notes[key] = notes.get(key, 0) + n
 
 
 def _cell_groups(name: str, cell_start, dropped: np.ndarray) -> np.ndarray:
