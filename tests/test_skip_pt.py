@@ -52,7 +52,7 @@ def _cyclic_case(seed, drop, method):
 
 
 # (42, 0.1): a cycle XMPVO breaks with 14 of 2,880 ray pairs misordered (a cycle of the cells themselves;
-# the cycles of seed 1 came from float32 depth ties at hull faces, which XMPVO no longer rasterises)
+# the cycles of seed 1 came from float32 depth ties at hull faces, which pt_best's XMPVO does not rasterise)
 @pytest.mark.parametrize("seed,drop,method", [(7, 0.0, "mpvo"), (42, 0.1, "xmpvo")])
 def test_pt_best_subsequence_of_a_cyclic_order_draws_the_same_image(seed, drop, method):
     """The order with broken cycles is approximate; dropping the invisible cells from it draws what the
@@ -211,9 +211,9 @@ def test_xmpvo_on_the_visible_cells_alone_draws_the_same_image(seed, drop, monke
 
     sc = _cyclic_case(seed, drop, "xmpvo")
     pipe = Pipeline.load("pt_best")
-    monkeypatch.setattr(S, "xmpvo_cost", lambda mesh, cam: float(mesh.n_tets))  # the visible cells cheaper
+    monkeypatch.setattr(S, "xmpvo_cost", lambda mesh, cam, **k: float(mesh.n_tets))  # the visible cells cheaper
     sub = pipe.render(sc, quiet=True)
-    monkeypatch.setattr(S, "xmpvo_cost", lambda mesh, cam: -float(mesh.n_tets))  # the whole mesh cheaper
+    monkeypatch.setattr(S, "xmpvo_cost", lambda mesh, cam, **k: -float(mesh.n_tets))  # the whole mesh cheaper
     whole = pipe.render(sc, quiet=True)
     ss, sw = sub.report["stats"]["sort"], whole.report["stats"]["sort"]
     assert (ss["sorted"], sw["sorted"]) == ("visible cells", "whole mesh") and ss["exact"] and sw["exact"]

@@ -170,7 +170,7 @@ def test_xmpvo_leaves_the_hull_faces_out_and_keeps_every_ray_constraint():
         np.testing.assert_array_equal(on, beyond <= HULL_TOL * diam * np.linalg.norm(n, axis=1))
         assert 0 < on.sum() < len(on)
         s0, d0, f0 = boundary_ray_constraints(mesh, cam, hull=True)
-        s1, d1, f1 = boundary_ray_constraints(mesh, cam)
+        s1, d1, f1 = boundary_ray_constraints(mesh, cam, hull=False)
         assert set(zip(s0.tolist(), d0.tolist())) == set(zip(s1.tolist(), d1.tolist()))
         fewer += f1 < f0
     assert fewer == len(cases)
@@ -253,3 +253,39 @@ def test_ray_gaps_kernel_matches_a_sort_of_all_fragments():
     got = sorted(zip(s[s >= 0].tolist(), d[s >= 0].tolist()))
     assert len(want) > 100
     assert got == want
+
+
+def test_xmpvo_rasterises_its_whole_boundary_unless_a_best_preset_asks():
+    """XMPVO as published (Silva et al. 1998, run by Guthe et al. 2002) rasterises every boundary face: the
+    sort stage's default counts the fragments of the whole boundary; ``boundary = "off_hull"`` (fewer
+    fragments, same constraints here) and ``visible_alone`` are options that only ``*_best`` presets turn
+    on, refused for the other methods with the field named."""
+    import tomllib
+
+    from warpvol.errors import ConfigError
+    from warpvol.pipeline import _preset_files
+    from warpvol.projection.sort import boundary_ray_constraints
+
+    sc = builtin_scene("concave").with_camera(width_px=32, height_px=32)
+    got = {}
+    for boundary in ("all", "off_hull"):
+        ctx = Context(scene=sc, quiet=True)
+        ctx.stage_key = "sort"
+        SortCells(method="xmpvo", boundary=boundary).run(ctx)
+        got[boundary] = ctx.counters["sort"]
+    whole = boundary_ray_constraints(sc.mesh, sc.camera, hull=True)
+    assert got["all"]["boundary_fragments"] == whole[2] == 1466
+    assert got["off_hull"]["boundary_fragments"] < got["all"]["boundary_fragments"]
+    assert got["off_hull"]["ray_constraints"] == got["all"]["ray_constraints"] == len(whole[0]) > 0
+    for bad in ({"boundary": "off_hull"}, {"visible_alone": True}):
+        with pytest.raises(ConfigError, match=f"{next(iter(bad))}: applies to method = 'xmpvo' only"):
+            SortCells(method="mpvonc", **bad)
+    with pytest.raises(ConfigError, match="boundary"):
+        SortCells(method="xmpvo", boundary="hull")
+    for name, path in _preset_files().items():
+        opts = {(k, s[k]) for s in tomllib.loads(path.read_text())["stages"] if s["stage"] == "sort"
+                for k in ("boundary", "visible_alone") if k in s}
+        if name == "pt_best":
+            assert opts == {("boundary", "off_hull"), ("visible_alone", True)}
+        elif not name.endswith("_best"):
+            assert not opts, name

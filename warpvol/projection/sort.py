@@ -20,8 +20,10 @@ Three orders, all *back to front* (draw ``order[0]`` first):
   boundary faces are rasterised into fragment lists; along each pixel's ray, a back-facing boundary
   face (the ray leaves the mesh) followed by a front-facing one (it re-enters) makes the re-entered
   cell precede the left one. Exact at the pixel centres of the camera for any mesh whose visibility
-  relation is acyclic. Faces on the mesh's convex hull cannot be either side of such a pair and are
-  not rasterised (:func:`hull_faces`, per mesh).
+  relation is acyclic. As published, the whole boundary is rasterised; ``off_hull=True`` (``pt_best``)
+  leaves out the faces on the mesh's convex hull (:func:`hull_faces`, per mesh), which cannot be either
+  side of such a pair: fewer fragments, the same constraints but where a float32 depth tie at a hull
+  face made one.
 
 Cycles (possible in non-Delaunay meshes) are detected by the sort running out of ready cells: the
 farthest remaining cell is drawn next, the break is counted (``cycles_broken``) and the order is
@@ -44,7 +46,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from warpvol.errors import check_choice
+from warpvol.errors import ConfigError, check_choice
 
 METHODS = ("centroid", "mpvo", "mpvonc", "xmpvo", "auto")
 METRICS = ("distance", "view")
@@ -224,10 +226,10 @@ def hull_faces(mesh) -> np.ndarray:
     return on
 
 
-def visible_submesh(mesh, visible: np.ndarray, cached_only: bool = False):
+def visible_submesh(mesh, visible: np.ndarray, cached_only: bool = False, off_hull: bool = True):
     """``(sub, cells)``: the cells ``visible`` (bool per tet) as a mesh of their own (the same points; its
-    adjacency, boundary, hull faces and centroids built) and their indices in ``mesh``, kept on the mesh for
-    the last visible set (per transfer function: set-up); ``cached_only``: ``None`` when not kept yet.
+    adjacency, boundary, centroids and (``off_hull``) hull faces built) and their indices in ``mesh``, kept on
+    the mesh for the last visible set (per transfer function: set-up); ``cached_only``: ``None`` when not kept yet.
     ``sub`` is ``None`` where the cells do not make a mesh of their own cell for cell.
 
     XMPVO on ``sub`` orders the visible cells exactly at the pixel centres wherever its relation is
@@ -243,7 +245,7 @@ def visible_submesh(mesh, visible: np.ndarray, cached_only: bool = False):
         cells = np.flatnonzero(visible)
         sub = TetMesh(mesh.points, np.asarray(mesh.tets)[cells], mesh.scalars, name=f"{mesh.name} (visible cells)")
         if sub.n_tets == len(cells) and np.array_equal(sub.tets, np.asarray(mesh.tets)[cells]):
-            _ = (sub.adjacency, sub.boundary_faces, hull_faces(sub), centroids(sub))
+            _ = (sub.adjacency, sub.boundary_faces, centroids(sub), off_hull and hull_faces(sub))
         else:  # pragma: no cover - a mesh's own cells never change on the way
             sub = None
         cache.clear()
@@ -251,14 +253,14 @@ def visible_submesh(mesh, visible: np.ndarray, cached_only: bool = False):
     return cache[key]
 
 
-def xmpvo_cost(mesh, camera) -> float:
-    """XMPVO's work on ``mesh`` for ``camera`` in fragment units: the projected area in pixels of its
-    boundary faces off the hull (the fragments its boundary rasterisation makes; faces beyond the image
+def xmpvo_cost(mesh, camera, off_hull: bool = True) -> float:
+    """XMPVO's work on ``mesh`` for ``camera`` in fragment units: the projected area in pixels of the
+    boundary faces it rasterises (``off_hull``: those off the hull; else all; faces beyond the image
     counted whole) plus two per cell (the face directions and the topological sort)."""
     from warpvol.projection.pt_thin import project_points
     from warpvol.scene.mesh import FACE_VERTS
 
-    bf = mesh.boundary_faces[~hull_faces(mesh)]
+    bf = mesh.boundary_faces[~hull_faces(mesh)] if off_hull else mesh.boundary_faces
     col, row, _ = project_points(mesh, camera)
     t = np.asarray(mesh.tets)[bf[:, 0][:, None], FACE_VERTS[bf[:, 1]]]
     c, r = col[t], row[t]
@@ -266,11 +268,11 @@ def xmpvo_cost(mesh, camera) -> float:
     return float(area.sum()) + 2.0 * mesh.n_tets
 
 
-def boundary_ray_constraints(mesh, camera, device: str = "cpu", hull: bool = False) -> tuple[np.ndarray, np.ndarray, int]:
+def boundary_ray_constraints(mesh, camera, device: str = "cpu", hull: bool = True) -> tuple[np.ndarray, np.ndarray, int]:
     """XMPVO's extra edges ``(src, dst)`` (``src`` drawn before ``dst``, deduplicated) from the boundary
     faces consecutive along the camera's pixel rays, and the number of boundary fragments rasterised.
-    Faces on the hull (:func:`hull_faces`) are left out (``hull``: rasterised too): along a ray an exit
-    followed by an entry has neither on the hull."""
+    ``hull``: every boundary face is rasterised (Silva et al. 1998); ``False``: the faces on the hull
+    (:func:`hull_faces`) are left out (along a ray an exit followed by an entry has neither on the hull)."""
     import warp as wp
 
     from warpvol.gpu.raster import Rasterizer
@@ -311,9 +313,9 @@ def boundary_ray_constraints(mesh, camera, device: str = "cpu", hull: bool = Fal
 
 
 def mpvo_order(mesh, camera, nonconvex: bool | None = None, metric: str = "distance",
-               exact_rays: bool = False) -> SortResult:
+               exact_rays: bool = False, off_hull: bool = False) -> SortResult:
     """MPVO (``nonconvex=False``), MPVONC (``True``; default: ``not mesh.is_convex``) or, with
-    ``exact_rays``, XMPVO order."""
+    ``exact_rays``, XMPVO order (``off_hull``: its boundary rasterised without the hull faces)."""
     if nonconvex is None:
         nonconvex = not mesh.is_convex
     extra, info = None, {}
@@ -323,10 +325,12 @@ def mpvo_order(mesh, camera, nonconvex: bool | None = None, metric: str = "dista
         from warpvol.kernels import raster, raster_draw, sort, vertex
         from warpvol.parallel import preload
 
-        _ = (mesh.boundary_faces, mesh.adjacency, hull_faces(mesh), centroids(mesh))  # built before the threads
+        _ = (mesh.boundary_faces, mesh.adjacency, centroids(mesh))  # built before the threads
+        if off_hull:
+            hull_faces(mesh)
         preload("cpu", raster, raster_draw, sort, vertex)  # each thread's kernels compiled here, not concurrently
         with ThreadPoolExecutor(max_workers=1) as pool:
-            rays = pool.submit(boundary_ray_constraints, mesh, camera)
+            rays = pool.submit(boundary_ray_constraints, mesh, camera, hull=not off_hull)
             key = centroid_keys(mesh, camera, metric)
             dirs = face_directions(mesh, camera)
             src, dst, nfrag = rays.result()
@@ -348,17 +352,21 @@ def mpvo_order(mesh, camera, nonconvex: bool | None = None, metric: str = "dista
     return SortResult(order, method, not notes, cycles, edges, "; ".join(notes), info)
 
 
-def visibility_order(mesh, camera, method: str = "auto", metric: str = "distance") -> SortResult:
+def visibility_order(mesh, camera, method: str = "auto", metric: str = "distance",
+                     off_hull: bool = False) -> SortResult:
     """Back-to-front order by ``method``: ``centroid`` | ``mpvo`` | ``mpvonc`` | ``xmpvo`` |
     ``auto`` (MPVO for convex meshes, MPVONC otherwise). XMPVO's order is exact at the camera's
-    pixel centres."""
+    pixel centres; it rasterises the whole boundary as published (``off_hull``: the faces on the convex
+    hull left out, :func:`boundary_ray_constraints`)."""
     method = check_choice("method", method, METHODS)
+    if off_hull and method != "xmpvo":
+        raise ConfigError(f"off_hull: applies to method 'xmpvo' only, not {method!r}")
     if method == "centroid":
         return centroid_order(mesh, camera, metric)
     if method == "auto":
         return mpvo_order(mesh, camera, None, metric)
     if method == "xmpvo":
-        return mpvo_order(mesh, camera, True, metric, exact_rays=True)
+        return mpvo_order(mesh, camera, True, metric, exact_rays=True, off_hull=off_hull)
     return mpvo_order(mesh, camera, method == "mpvonc", metric)
 
 
