@@ -326,3 +326,83 @@ def test_zero_volume_cells_are_counted_as_file_cells_without_a_warning(tmp_path,
     assert "Warning" not in err and "zero-volume tet" not in err
     rc, err = _cli(_render(tmp_path / "c.vtu", tmp_path, "--strict"), capfd)
     assert rc == 2 and "zero-volume" in err and "strict" in err
+
+
+# -- time series: which step, and the user's pick ----------------------------------------------------------
+def _series(tmp_path, times=(0.0, 0.5, 1.0)):
+    """A .pvd of ``len(times)`` steps of one grid, the field at step ``i`` scaled by ``i + 1``."""
+    entries = []
+    for i, t in enumerate(times):
+        g = _grid()
+        g.point_data["s"] = g.point_data["s"] * (i + 1) + 2.0
+        g.save(tmp_path / f"t{i}.vti")
+        entries.append(f'<DataSet timestep="{t}" part="0" file="t{i}.vti"/>')
+    path = tmp_path / "series.pvd"
+    path.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1"><Collection>'
+                    + "".join(entries) + "</Collection></VTKFile>")
+    return path
+
+
+def _step_mesh(tmp_path, i):
+    g = _grid()
+    g.point_data["s"] = g.point_data["s"] * (i + 1) + 2.0
+    return TetMesh.from_pyvista(g, "s")
+
+
+def test_time_series_says_which_step_and_takes_the_users_pick(tmp_path, capfd):
+    import warpvol
+    from warpvol.scene.scene_file import load_scene
+
+    path = _series(tmp_path)
+    m = load_mesh({"path": path.name, "scalars": "s"}, tmp_path)
+    _same(m, _step_mesh(tmp_path, 0))
+    assert m.load_notes == {"time_step": "0 of 3 (time 0; steps 0 to 2, times 0 to 1)"}
+    for cfg, i in (({"step": 2}, 2), ({"time": 0.5}, 1), ({"time": 1}, 2), ({"step": 0}, 0)):
+        m = load_mesh({"path": path.name, "scalars": "s", **cfg}, tmp_path)
+        _same(m, _step_mesh(tmp_path, i))
+        assert m.load_notes["time_step"].startswith(f"{i} of 3 ")
+    rc, err = _cli(_render(path, tmp_path), capfd)
+    assert rc == 0 and "warpvol: mesh: time step: 0 of 3 (time 0; steps 0 to 2, times 0 to 1)\n" in err
+    rc, err = _cli(_render(path, tmp_path, "--step", "1", "--report", str(tmp_path / "r.json")), capfd)
+    assert rc == 0 and "time step: 1 of 3 (time 0.5;" in err
+    import json
+    assert json.loads((tmp_path / "r.json").read_text())["mesh_notes"]["time_step"].startswith("1 of 3")
+    assert _cli(_render(path, tmp_path, "--time", "1.0"), capfd)[0] == 0
+    scene = tmp_path / "s.toml"
+    scene.write_text(f'[mesh]\npath = "{path.name}"\nscalars = "s"\ntime = 0.5\n')
+    _same(load_scene(scene).mesh, _step_mesh(tmp_path, 1))
+    r = warpvol.render(path, size=8, step=2)
+    assert r.report["mesh_notes"]["time_step"].startswith("2 of 3")
+
+
+@pytest.mark.parametrize("args,words", [
+    (["--step", "3"], "--step: 3 is outside the time steps of {p}: 0 to 2 (3 steps, times 0 to 1)"),
+    (["--step", "-1"], "--step: -1 is outside the time steps of {p}: 0 to 2 (3 steps, times 0 to 1)"),
+    (["--time", "0.3"], "--time: {p} has no step at time 0.3; its 3 times run from 0 to 1: 0, 0.5, 1 (or name a "
+                        "step with --step, 0 to 2)"),
+    (["--step", "1", "--time", "0.5"], "--step/--time: give one of them, not both"),
+])
+def test_a_time_step_outside_the_series_is_refused_naming_the_range(tmp_path, capfd, args, words):
+    path = _series(tmp_path)
+    rc, err = _cli(_render(path, tmp_path, *args), capfd)
+    assert rc == 2 and err == f"warpvol: error: {words.format(p=path)}\n"
+    assert not (tmp_path / "o.png").exists()
+
+
+def test_step_and_time_belong_to_time_series_files(tmp_path, capfd):
+    path = _series(tmp_path)
+    with pytest.raises(ConfigError, match=r"mesh\.step: 7 is outside the time steps of .*series\.pvd: 0 to 2"):
+        load_mesh({"path": path.name, "scalars": "s", "step": 7}, tmp_path)
+    with pytest.raises(ConfigError, match=r"mesh\.step: expected a whole number .* got 1\.5"):
+        load_mesh({"path": path.name, "scalars": "s", "step": 1.5}, tmp_path)
+    with pytest.raises(ConfigError, match=r"mesh\.time: .*has no step at time 2"):
+        load_mesh({"path": path.name, "scalars": "s", "time": 2.0}, tmp_path)
+    with pytest.raises(ConfigError, match=r"mesh\.step: .*t1\.vti is not a time series .*leave mesh\.step out"):
+        load_mesh({"path": "t1.vti", "scalars": "s", "step": 1}, tmp_path)
+    with pytest.raises(ConfigError, match=r"mesh\.time: only used with 'path'"):
+        load_mesh({"builtin": "box", "time": 1.0}, tmp_path)
+    rc, err = _cli(["render", "builtin:box", "--step", "1", "-o", str(tmp_path / "o.png")], capfd)
+    assert rc == 2 and "--step: only used with a mesh file" in err
+    with pytest.raises(ConfigError, match=r"^step/time: only used when mesh is a mesh file"):
+        from warpvol.api import as_scene
+        as_scene(_grid(), scalars="s", step=1)

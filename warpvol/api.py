@@ -13,7 +13,7 @@ from __future__ import annotations
 import base64
 import html
 import tempfile
-import time
+from time import perf_counter
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -123,14 +123,17 @@ def _as_camera(camera: Any) -> Camera:
 
 
 def as_scene(mesh: Any, transfer: Any = None, camera: Any = None, *, scalars: str | None = None,
-             split: int | None = None, size: Any = None) -> Scene:
+             split: int | None = None, size: Any = None, step: int | None = None, time: float | None = None) -> Scene:
     """A :class:`Scene` from parts. ``mesh`` may also be a whole Scene, ``"builtin:NAME"``, a scene
     ``.toml`` file or a mesh file pyvista reads (:func:`~warpvol.scene.spec.scene_from_spec`);
     ``transfer`` and ``camera``, when given, replace the scene's own. Left out for a bare mesh, the
     transfer function is the default colour map over its scalars and the camera frames it
-    (:mod:`warpvol.scene.defaults`). ``size`` replaces the image size in pixels."""
+    (:mod:`warpvol.scene.defaults`). ``size`` replaces the image size in pixels; ``step`` or ``time``
+    picks the step of a time-series mesh file (``.pvd``, ...; default its first)."""
     if isinstance(mesh, (str, Path)):
-        mesh = scene_from_spec(mesh, scalars=scalars, split=split, where="mesh")
+        mesh = scene_from_spec(mesh, scalars=scalars, split=split, where="mesh", step=step, time=time)
+    elif step is not None or time is not None:
+        raise ConfigError("step/time: only used when mesh is a mesh file (a time series such as a .pvd)")
     elif isinstance(mesh, Scene) and (scalars is not None or split is not None):
         raise ConfigError("scalars/split: only used when mesh is a pyvista data set or a mesh file, not a Scene")
     if isinstance(mesh, Scene):
@@ -220,13 +223,13 @@ def _reference(reference: Any, scene: Scene, fn: str = "render",
         from warpvol.progress import ProgressBar
         from warpvol.reference.numpy_render import render_reference
 
-        t0 = time.perf_counter()
+        t0 = perf_counter()
         # stderr only; none with quiet. Its kernels compile on first use: said before the wait
         with ProgressBar("exact reference", enabled=not quiet) as bar, \
                 CompileClock(None if quiet else announce_compile):
             img, hit = cache.reference(scene, lambda: render_reference(scene.mesh, scene.transfer, scene.camera,
                                                                        progress=bar.fraction))
-        return img, (0.0 if hit else time.perf_counter() - t0)
+        return img, (0.0 if hit else perf_counter() - t0)
     arg = f"{fn}(reference)"
     accepted = ("expected True (compute the exact reference), False or None (no reference), the name of an "
                 "existing EXR image file or an (H, W, 4) image array")
@@ -333,7 +336,8 @@ class Rendering(RenderResult):
 
 def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = DEFAULT_PIPELINE,
            reference: Any = False, device: str = "cpu", gpu: Any = None, *, scalars: str | None = None,
-           split: int | None = None, size: Any = None, quiet: bool = True, skip: bool = True) -> Rendering:
+           split: int | None = None, size: Any = None, quiet: bool = True, skip: bool = True,
+           step: int | None = None, time: float | None = None) -> Rendering:
     """Render a mesh in one call.
 
     Parameters
@@ -371,6 +375,9 @@ def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = 
         Point-data array of a pyvista ``mesh`` or mesh file (default: its active scalars).
     split : {None, 6, 5}, optional
         Tets per hex cell of a structured pyvista ``mesh``.
+    step, time : int or float, optional
+        The step of a time-series mesh file (``.pvd``, ...) to render: its index from 0, or its time
+        value (default: the first step; the report's ``mesh_notes`` says which of how many).
     size : int or (int, int), optional
         Image size in pixels, ``(width_px, height_px)``; replaces the camera's (default 512 x 512
         for a fitted camera).
@@ -399,17 +406,18 @@ def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = 
     >>> warpvol.render(scene.mesh, size=16).image.shape  # default transfer function and camera
     (16, 16, 4)
     """
-    t_call = time.perf_counter()
+    t_call = perf_counter()
     _quiet(quiet, device)
     device = _device(device)  # Warp starts here at the latest
     gpu = gpu_profile(gpu)
-    t_scene = time.perf_counter()
-    scene = _interned(as_scene(mesh, transfer, camera, scalars=scalars, split=split, size=size))
-    t_pipe = time.perf_counter()
+    t_scene = perf_counter()
+    scene = _interned(as_scene(mesh, transfer, camera, scalars=scalars, split=split, size=size, step=step,
+                               time=time))
+    t_pipe = perf_counter()
     pipe, key = _pipeline(pipeline, device)  # unknown pipelines fail before the reference spends time
-    t_ref = time.perf_counter()
+    t_ref = perf_counter()
     ref, ref_s = _reference(reference, scene, quiet=quiet)
-    t_render = time.perf_counter()
+    t_render = perf_counter()
     res = pipe.render(scene, reference=ref, quiet=quiet, device=device, gpu=gpu, skip=skip)
     if key is not None:
         cache.pipeline_used(key)
@@ -419,7 +427,7 @@ def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = 
     # a reference read from a file or given as an array, or found in the cache, counts as input conversion
     wall_fields(res.report, startup_s=(t_scene - t_call) + (t_ref - t_pipe),
                 conversion_s=(t_pipe - t_scene) + max(0.0, t_render - t_ref - (ref_s or 0.0)),
-                wall_s=time.perf_counter() - t_call)
+                wall_s=perf_counter() - t_call)
     return Rendering(res.image, res.report, scene=scene, reference=ref)
 
 

@@ -43,7 +43,8 @@ def _load_scene(spec: str, args) -> "object":
 
     try:
         scene = scene_from_spec(spec, scalars=getattr(args, "scalars", None), colormap=getattr(args, "colormap", None),
-                                strict=getattr(args, "strict", False), where="scene", scalars_key="--scalars")
+                                strict=getattr(args, "strict", False), where="scene",
+                                step=getattr(args, "step", None), time=getattr(args, "time", None), option_prefix="--")
     except MemoryError:
         if not spec.startswith("builtin:"):
             raise
@@ -430,6 +431,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "scalars)")
         sp.add_argument("--colormap", help="transfer function: this matplotlib colour map or ParaView preset over the "
                         "scalars' range with ParaView's opacity ramp (the default for a mesh file: viridis)")
+        sp.add_argument("--step", type=int, help="time step of a time series given as SCENE (.pvd, ...), "
+                        "counted from 0 (default: the first)")
+        sp.add_argument("--time", type=float, help="the step at this time value of a time series given as SCENE")
 
     r = sub.add_parser("render", help="render a scene with a pipeline")
     r.add_argument("scene", help="scene TOML file, builtin:NAME or a mesh file (.vtu, .vtk, ...)")

@@ -59,7 +59,7 @@ from warpvol.scene.builtin import BUILTIN_SCENES, builtin_mesh
 from warpvol.scene.interop import SPLITS
 from warpvol.scene.mesh import TetMesh
 
-MESH_KEYS = ("path", "plot3d", "raw", "builtin", "scalars", "strict", "split")
+MESH_KEYS = ("path", "plot3d", "raw", "builtin", "scalars", "strict", "split", "step", "time")
 SOURCE_KEYS = ("path", "plot3d", "raw", "builtin")
 #: the keys of ``mesh.plot3d`` and ``mesh.raw``
 PLOT3D_KEYS = ("xyz", "q", "function")
@@ -110,9 +110,10 @@ def _structured_mesh(dims, points, scalars, *, name: str, strict: bool, weld: bo
 
 
 # -- files pyvista reads --------------------------------------------------------------------------
-def _read_quietly(p: Path):
-    """``pyvista.read(p)`` and the VTK errors it raised, with VTK's logger, pyvista's logging and
-    warnings kept off the terminal (the caller reports the errors in one line)."""
+def _read_quietly(p: Path, step: Any = None, time: Any = None, keys: tuple[str, str] = ("step", "time")):
+    """``pyvista.read(p)`` (a time series: the step ``step`` or ``time`` names, else its first, see
+    :func:`_read_step`), the VTK errors it raised and the load notes of the reading, with VTK's logger,
+    pyvista's logging and warnings kept off the terminal (the caller reports the errors in one line)."""
     import logging
     import warnings
 
@@ -120,14 +121,83 @@ def _read_quietly(p: Path):
 
     disabled = logging.root.manager.disable
     logging.disable(logging.CRITICAL)
+    notes: dict = {}
     try:
         with pv.vtk_verbosity("off"), pv.VtkErrorCatcher(send_to_logging=False) as caught, \
                 warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            ds = _read_pvts(p) if p.suffix.lower() == ".pvts" else pv.read(p)
+            if p.suffix.lower() == ".pvts":
+                for key, v in zip(keys, (step, time)):
+                    if v is not None and not (key == keys[0] and v == 0 and not isinstance(v, bool)):
+                        raise ConfigError(f"{key}: {p} is not a time series (it holds one data set); leave "
+                                          f"{key} out")
+                ds = _read_pvts(p)
+            else:
+                ds = _read_step(p, step, time, keys, notes)
+                if ds is None:
+                    ds = pv.read(p)
     finally:
         logging.disable(disabled)
-    return ds, [" ".join(e.alert.split()) for e in caught.events if e.kind == "ERROR"]
+    return ds, [" ".join(e.alert.split()) for e in caught.events if e.kind == "ERROR"], notes
+
+
+def _time_reader(p: Path):
+    """pyvista's reader of ``p`` where it reads a time series (``.pvd``, Exodus II, ``.series``, ...),
+    else ``None``."""
+    import pyvista as pv
+    from pyvista.core.utilities.reader import TimeReader
+
+    try:
+        r = pv.get_reader(str(p))
+    except Exception:  # not a file pyvista has a reader class for: pyvista.read says why
+        return None
+    return r if isinstance(r, TimeReader) else None
+
+
+def _read_step(p: Path, step: Any, time: Any, keys: tuple[str, str], notes: dict):
+    """One step of a time series: ``step`` (index from 0) or ``time`` (one of the file's time values),
+    by default the first; ``notes['time_step']`` says which of how many where there are several.
+    ``None`` (read the file as a whole) where it is no time series and neither is given."""
+    skey, tkey = keys
+    if step is not None and time is not None:
+        raise ConfigError(f"{skey}/{tkey}: give one of them, not both")
+    reader = _time_reader(p) if p.is_file() else None
+    n = int(reader.number_time_points) if reader is not None else 0
+    if n <= 1 and step is None and time is None:
+        return None
+    times = [float(t) for t in reader.time_values] if n else []
+    span = f"{times[0]:g} to {times[-1]:g}" if times else ""
+    if step is not None:
+        if isinstance(step, bool) or not isinstance(step, (int, np.integer)):
+            raise ConfigError(f"{skey}: expected a whole number (the time step, counted from 0), got {step!r}")
+        if n == 0 and step == 0:
+            return None  # one data set: its only step
+        if n == 0:
+            raise ConfigError(f"{skey}: {p} is not a time series (it holds one data set); leave {skey} out")
+        if not 0 <= step < n:
+            raise ConfigError(f"{skey}: {step} is outside the time steps of {p}: 0 to {n - 1} ({n} steps, "
+                              f"times {span})")
+        i = int(step)
+    elif time is not None:
+        if isinstance(time, bool) or not isinstance(time, (int, float, np.integer, np.floating)) \
+                or not np.isfinite(time):
+            raise ConfigError(f"{tkey}: expected a number (one of the file's time values), got {time!r}")
+        if n == 0:
+            raise ConfigError(f"{tkey}: {p} is not a time series (it holds one data set); leave {tkey} out")
+        t = np.asarray(times)
+        gap = np.abs(t - float(time))
+        i = int(np.argmin(gap))
+        if gap[i] > 1e-9 * max(1.0, float(np.abs(t).max())):
+            listed = ", ".join(f"{v:g}" for v in times) if n <= 8 else \
+                f"{', '.join(f'{v:g}' for v in times[:3])}, ..., {times[-1]:g}"
+            raise ConfigError(f"{tkey}: {p} has no step at time {float(time):g}; its {n} times run from {span}: "
+                              f"{listed} (or name a step with {skey}, 0 to {n - 1})")
+    else:
+        i = 0
+    reader.set_active_time_point(i)
+    if n > 1:
+        notes["time_step"] = f"{i} of {n} (time {times[i]:g}; steps 0 to {n - 1}, times {span})"
+    return reader.read()
 
 
 def _read_pvts(p: Path):
@@ -147,7 +217,8 @@ def _read_pvts(p: Path):
 
 def read_mesh_file(path: Path | str, scalars: str | None, *, strict: bool = False,
                    where: str = "mesh", split: int | None = None, active_scalars: bool = False,
-                   scalars_key: str | None = None) -> TetMesh:
+                   scalars_key: str | None = None, step: Any = None, time: Any = None,
+                   option_prefix: str | None = None) -> TetMesh:
     """Read any data set pyvista can read and turn it into a :class:`TetMesh`.
 
     ``scalars`` names a point-data array (one component); with ``active_scalars``, ``None`` takes
@@ -155,14 +226,19 @@ def read_mesh_file(path: Path | str, scalars: str | None, *, strict: bool = Fals
     such as ``vtkGhostType``, never). Structured grids use the 6-tet split,
     tet-only unstructured grids are taken as they are, other cells are split conforming (see the
     module docstring). A multi-block file (``.vtm``, Exodus II, ...) must hold one data set with cells,
-    at any depth of nesting. ``scalars_key`` is how the user names the scalars, for messages
-    (default ``{where}.scalars``; the command line's ``--scalars``).
+    at any depth of nesting. A time series (``.pvd``, ...) gives its step ``step`` (from 0) or the step
+    at ``time``, by default its first, and says which in the load notes (``time_step``).
+    ``option_prefix`` names the options in messages (``--`` on the command line: ``--scalars``,
+    ``--step``; default ``{where}.``); ``scalars_key`` overrides the scalars' name alone.
     """
     import pyvista as pv
 
     p = Path(path)
+    prefix = f"{where}." if option_prefix is None else option_prefix
     try:
-        ds, errors = _read_quietly(p)
+        ds, errors, notes = _read_quietly(p, step, time, (f"{prefix}step", f"{prefix}time"))
+    except ConfigError:
+        raise
     except Exception as e:  # pyvista raises assorted types for unknown or corrupt files
         raise ConfigError(f"{where}.path: cannot read {p}: {e}") from None
     if errors:  # VTK readers report a corrupt or truncated file as errors and return an empty data set
@@ -178,16 +254,18 @@ def read_mesh_file(path: Path | str, scalars: str | None, *, strict: bool = Fals
                               "(ParaView: the Merge Blocks filter, then save as .vtu)")
         ds = blocks[0]
     return mesh_from_dataset(ds, scalars, strict=strict, name=str(p), source=str(p), split=split,
-                             scalars_key=scalars_key or f"{where}.scalars", dataset_key=f"{where}.path",
-                             split_key=f"{where}.split", pick=active_scalars)
+                             scalars_key=scalars_key or f"{prefix}scalars", dataset_key=f"{where}.path",
+                             split_key=f"{prefix}split", pick=active_scalars, notes=notes)
 
 
 def mesh_from_dataset(ds, scalars: str | None, *, strict: bool = False, name: str = "mesh",
                       source: str | None = None, split: int | None = None, scalars_key: str = "scalars",
-                      dataset_key: str = "mesh", split_key: str = "split", pick: bool = False) -> TetMesh:
+                      dataset_key: str = "mesh", split_key: str = "split", pick: bool = False,
+                      notes: dict | None = None) -> TetMesh:
     """Turn an in-memory pyvista data set into a :class:`TetMesh` (see the module docstring and
-    :func:`warpvol.scene.interop.dataset_arrays`)."""
-    notes: dict = {}
+    :func:`warpvol.scene.interop.dataset_arrays`); ``notes`` are load notes of the reading that
+    come first."""
+    notes = dict(notes or {})
     points, tets, values, cell_start = interop.dataset_arrays(
         ds, scalars, name=name, source=source, split=split, scalars_key=scalars_key, dataset_key=dataset_key,
         split_key=split_key, notes=notes, pick=pick)
@@ -381,10 +459,14 @@ def load_mesh(cfg: dict, base_dir: Path | str = ".", where: str = "mesh", strict
             raise ConfigError(f"{where}.split: not used with 'builtin' (a built-in scene fixes its mesh)")
     if "scalars" in cfg and src != "path":
         raise ConfigError(f"{where}.scalars: only used with 'path' (the {src!r} source defines its own scalars)")
+    for k in ("step", "time"):
+        if k in cfg and src != "path":
+            raise ConfigError(f"{where}.{k}: only used with 'path' (a time step of a time series such as a .pvd)")
 
     if src == "path":
         p = _file(base_dir, cfg["path"], f"{where}.path")
-        return read_mesh_file(p, cfg.get("scalars"), strict=strict, where=where, split=split)
+        return read_mesh_file(p, cfg.get("scalars"), strict=strict, where=where, split=split,
+                              step=cfg.get("step"), time=cfg.get("time"))
 
     if src == "plot3d":
         t = cfg["plot3d"]

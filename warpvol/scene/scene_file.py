@@ -52,7 +52,7 @@ def check_scene_keys(cfg: dict, where: str = "scene") -> None:
     >>> check_scene_keys({"mesh": {"builtin": "box", "scalar": "s"}, "trasnfer": {}, "camera": {"fov": 30}}, "s.toml")
     Traceback (most recent call last):
     ...
-    warpvol.errors.ConfigError: s.toml: unknown key(s) 'trasnfer' (did you mean 'transfer'?); allowed: 'mesh', 'transfer', 'camera', 'name'. mesh: unknown key(s) 'scalar' (did you mean 'scalars'?); allowed: 'path', 'plot3d', 'raw', 'builtin', 'scalars', 'strict', 'split'. camera: unknown key(s) 'fov' (did you mean 'fov_y_deg'?); allowed: 'projection', 'eye', 'target', 'up', 'fov_y_deg', 'height', 'ortho_height', 'width_px', 'height_px'
+    warpvol.errors.ConfigError: s.toml: unknown key(s) 'trasnfer' (did you mean 'transfer'?); allowed: 'mesh', 'transfer', 'camera', 'name'. mesh: unknown key(s) 'scalar' (did you mean 'scalars'?); allowed: 'path', 'plot3d', 'raw', 'builtin', 'scalars', 'strict', 'split', 'step', 'time'. camera: unknown key(s) 'fov' (did you mean 'fov_y_deg'?); allowed: 'projection', 'eye', 'target', 'up', 'fov_y_deg', 'height', 'ortho_height', 'width_px', 'height_px'
     """
     parts = []
     for table, allowed in SCENE_TABLES.items():

@@ -15,13 +15,14 @@ from warpvol.scene.scene_file import load_scene
 
 
 def scene_from_spec(spec: Any, *, scalars: str | None = None, split: int | None = None, colormap: str | None = None,
-                    size: Any = None, strict: bool = False, where: str = "scene", scalars_key: str = "scalars") -> Scene:
+                    size: Any = None, strict: bool = False, where: str = "scene", step: Any = None, time: Any = None,
+                    option_prefix: str = "") -> Scene:
     """A scene named by a string or path: ``"builtin:NAME"``, a scene ``.toml`` file (Contract 1), or
     any other file a mesh pyvista reads (``.vtu``, ``.vtk``, ...), which gets :func:`default_scene`.
     ``colormap`` replaces the transfer function by :func:`default_transfer` in that colour map;
-    ``size`` (pixels or ``(width_px, height_px)``) replaces the image size; ``scalars`` and
-    ``split`` apply to a mesh file; ``scalars_key`` is how the caller names the scalars in messages
-    (the command line's ``--scalars``).
+    ``size`` (pixels or ``(width_px, height_px)``) replaces the image size; ``scalars``,
+    ``split``, and ``step`` or ``time`` (the step of a time series such as a ``.pvd``) apply to a mesh
+    file; messages name them with ``option_prefix`` (the command line's ``--``: ``--scalars``).
 
     Examples
     --------
@@ -34,9 +35,11 @@ def scene_from_spec(spec: Any, *, scalars: str | None = None, split: int | None 
     p = Path(spec)
     is_mesh_file = not (isinstance(spec, str) and spec.startswith("builtin:")) and p.suffix.lower() != ".toml"
     if not is_mesh_file:
-        if scalars is not None or split is not None:
-            raise ConfigError(f"scalars/split: only used with a mesh file; {str(spec)!r} is a scene (its [mesh] "
-                              "table names the scalars)")
+        given = [k for k, v in (("scalars", scalars), ("split", split), ("step", step), ("time", time)) if v is not None]
+        if given:
+            names = "/".join(option_prefix + k for k in given)
+            raise ConfigError(f"{names}: only used with a mesh file; {str(spec)!r} is a scene (its [mesh] table "
+                              f"takes {', '.join(given)})")
         scene = load_scene(spec, strict=strict)
         if colormap is not None:
             scene = Scene(mesh=scene.mesh, transfer=default_transfer(scene.mesh, colormap, where="colormap"),
@@ -49,5 +52,5 @@ def scene_from_spec(spec: Any, *, scalars: str | None = None, split: int | None 
         raise ConfigError(f"{where}: file not found: {p} (expected 'builtin:NAME', a scene .toml file or a mesh "
                           "file pyvista reads)")
     mesh = read_mesh_file(p, scalars, strict=strict, where="mesh file", split=split, active_scalars=True,
-                          scalars_key=scalars_key)
+                          step=step, time=time, option_prefix=option_prefix)
     return default_scene(mesh, colormap, size, name=p.stem, source=p)
