@@ -32,6 +32,9 @@ THIN_TAU = 2e-3  # half of pt_best's max_abs tolerance (tests/tolerances.py)
 #: radius) of the perspective eye is seen edge-on
 EDGE_ON_ULPS = 64.0
 EPS32 = float(np.finfo(np.float32).eps)
+#: window coordinates beyond this magnitude are infinite (:func:`project_points`): a point at or behind
+#: the eye plane, or so far to the side that float64 could not hold its window position
+WINDOW_LIMIT = 1e300
 #: pixel centres within this many pixels of a sliver face's projection (:func:`snap_edge_on_faces`) may
 #: be cut on the wrong side of it: four times the rasteriser's 1/256-pixel snapping
 SLIVER_PX = 4.0 / 256.0
@@ -87,14 +90,29 @@ def project_points(mesh, camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     w, h = camera.width_px, camera.height_px
     rel = np.asarray(mesh.points, dtype=np.float64) - np.asarray(camera.eye, dtype=np.float64)
     x, y, d = rel @ camera.right, rel @ camera.true_up, rel @ camera.forward
+    lim = WINDOW_LIMIT / (max(w, h) + 1.0)  # |ndc| up to this keeps the window coordinates below WINDOW_LIMIT
     if camera.projection == "perspective":
         th = np.tan(np.radians(camera.fov_y_deg) / 2.0)
         dd = np.maximum(d, 1e-300)
-        xn, yn = x / (dd * th * camera.aspect), y / (dd * th)
+        xn, yn = _ratio(x, dd * th * camera.aspect, lim), _ratio(y, dd * th, lim)
     else:
         hh = camera.ortho_height / 2.0
-        xn, yn = x / (hh * camera.aspect), y / hh
+        xn, yn = _ratio(x, np.full_like(x, hh * camera.aspect), lim), _ratio(y, np.full_like(y, hh), lim)
     return (xn + 1.0) * 0.5 * w, (1.0 - yn) * 0.5 * h, d
+
+
+
+def _ratio(num: np.ndarray, den: np.ndarray, lim: float) -> np.ndarray:
+    """``num / den`` (``den`` > 0), ``+-inf`` where its magnitude would exceed ``lim``: what the plain
+    division and the window transform gave through float64 overflow, computed without overflowing.
+
+    Examples
+    --------
+    >>> _ratio(np.array([1.0, -1e10, 0.0, 1e308]), np.array([2.0, 1e-300, 1e-300, 1e-10]), 1e200).tolist()
+    [0.5, -inf, 0.0, inf]
+    """
+    far = np.abs(num) / lim > den
+    return np.divide(num, den, out=np.copysign(np.full(num.shape, np.inf), num), where=~far)
 
 
 def _window(mesh, camera, tets: np.ndarray, proj=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
