@@ -273,9 +273,11 @@ def _cohesive(kind):
     without it and the layer's cell count."""
     import pyvista as pv
 
+    from warpvol.scene.split_cells import VOXEL_TO_HEX
+
     a = pv.ImageData(dimensions=(4, 4, 3), spacing=(1 / 3, 1 / 3, 0.25))
     pa = np.asarray(a.points)
-    hexes = np.asarray(a.cast_to_unstructured_grid().cells).reshape(-1, 9)[:, 1:]
+    hexes = np.asarray(a.cast_to_unstructured_grid().cells).reshape(-1, 9)[:, 1:][:, VOXEL_TO_HEX]
     n = a.n_points
     pts = np.concatenate([pa, pa + [0, 0, 0.5]])
     cells = np.concatenate([hexes, hexes + n])
@@ -406,3 +408,24 @@ def test_step_and_time_belong_to_time_series_files(tmp_path, capfd):
     with pytest.raises(ConfigError, match=r"^step/time: only used when mesh is a mesh file"):
         from warpvol.api import as_scene
         as_scene(_grid(), scalars="s", step=1)
+
+
+# -- the stress suite's file classes ------------------------------------------------------------------
+FILE_CLASS_CASES = {"hidden_cells_resampled": "hidden_cells_dropped", "hidden_cells_overset": "hidden_cells_dropped",
+                    "pvts_pieces": None, "nested_multiblock": None, "empty_element_blocks": None,
+                    "time_series_step": "time_step", "cohesive_layer": "zero_volume_cells_dropped"}
+
+
+@pytest.mark.parametrize("case", sorted(FILE_CLASS_CASES))
+def test_stress_cases_of_file_classes_have_no_silently_wrong_row(case):
+    from test_mesh_files import EXACT, check_exact_rows
+    from warpvol.tools.bench import load_pipelines
+    from warpvol.tools.stress import CASES, build_case, run_case
+
+    assert case in CASES
+    c = build_case(case, quick=True)
+    if FILE_CLASS_CASES[case]:
+        assert FILE_CLASS_CASES[case] in c.scene.mesh.load_notes
+    rows = run_case(c, load_pipelines(list(EXACT), "cpu", quick=True))
+    assert rows[0]["status"] == "ok"
+    check_exact_rows(rows[1:])

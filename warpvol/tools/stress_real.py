@@ -252,7 +252,8 @@ def sweep_cases(simple, with_ref, sc) -> None:
 
 
 def add_real_data_cases(simple, with_ref, sc) -> None:
+    from warpvol.tools.stress_file_classes import file_class_cases
     from warpvol.tools.stress_files import file_cases
 
-    for group in (conditioning_cases, topology_cases, thin_layer_cases, sweep_cases, file_cases):
+    for group in (conditioning_cases, topology_cases, thin_layer_cases, sweep_cases, file_cases, file_class_cases):
         group(simple, with_ref, sc)
