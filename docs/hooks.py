@@ -49,7 +49,7 @@ DOCS = Path(__file__).resolve().parent
 DATA = DOCS / "data"
 ROOT = DOCS.parent
 
-MARKER = re.compile(r"(?<!`)<!--\s*(table|bench|presets|preset|cli|architecture-link|error-time|paper-figure)\b\s*:?\s*([^>]*?)\s*-->")
+MARKER = re.compile(r"(?<!`)<!--\s*(table|bench|presets|preset|cli|architecture-link|error-time|paper-figure|value)\b\s*:?\s*([^>]*?)\s*-->")
 
 
 # -- formatting -----------------------------------------------------------------------------------
@@ -333,7 +333,55 @@ def paper_figure(arg: str) -> str:
             f"compilation and set-up): {rows}.*\n\n{provenance_line(json.loads(path.read_text()), 'paper_figures', arg)}\n")
 
 
-HANDLERS = {"paper-figure": paper_figure, "table": paper_table, "bench": bench_table, "preset": preset_stages, "presets": presets_list,
+def _rows_of(doc: dict, table: str) -> tuple[list[str], list[dict]]:
+    t = (doc.get("tables") or {}).get(table)
+    if t is None:
+        raise ValueError(f"docs: no table {table!r}")
+    rows = t.get("rows") or []
+    cols = t.get("columns") or (list(rows[0]) if rows and isinstance(rows[0], dict) else [])
+    return cols, [r if isinstance(r, dict) else dict(zip(cols, r)) for r in rows]
+
+
+def select_rows(doc: dict, table: str, conditions: dict[str, str]) -> list[dict]:
+    """The rows of ``table`` whose column values (as text) are those of ``conditions`` (a comma list: any
+    of them)."""
+    cols, rows = _rows_of(doc, table)
+    bad = [c for c in conditions if c not in cols]
+    if bad:
+        raise ValueError(f"docs: table {table!r} has no column {bad[0]!r} (columns: {cols})")
+    return [r for r in rows if all(_plain(r[c]) in v.split(",") for c, v in conditions.items())]
+
+
+def _plain(v) -> str:
+    return str(v) if not isinstance(v, float) or not v.is_integer() else str(int(v))
+
+
+def quoted_value(arg: str) -> str:
+    """``<!-- value: FILE/TABLE COLUMN=VALUE ... | COLUMN | FORMAT -->``: a number of a generated table
+    quoted in prose, so the sentence says what the data say. The conditions (shell words; ``A,B``: any of
+    them) must pick one row, or with ``FORMAT`` starting ``range `` any number of rows, shown as
+    ``lowest-highest``. ``FORMAT`` is a Python format spec (default ``.3g``); ``,`` in it groups digits."""
+    import shlex
+
+    head, column, *fmt = [x.strip() for x in arg.split("|")]
+    fmt = fmt[0] if fmt else ".3g"
+    spread = fmt.startswith("range ")
+    fmt = fmt.removeprefix("range ").strip()
+    words = shlex.split(head)
+    name, _, table = words[0].partition("/")
+    doc = json.loads((DATA / f"{name}.json").read_text())
+    conds = dict(w.split("=", 1) for w in words[1:])
+    rows = select_rows(doc, table, conds)
+    if not rows or (len(rows) > 1 and not spread):
+        raise ValueError(f"docs: value marker {arg!r} picks {len(rows)} rows of {name}/{table}, not one")
+    vals = [r[column] for r in rows]
+    if any(not isinstance(v, (int, float)) for v in vals):
+        raise ValueError(f"docs: value marker {arg!r}: {column!r} is not a number in every row: {vals}")
+    lo, hi = format(min(vals), fmt), format(max(vals), fmt)
+    return lo if lo == hi else f"{lo}-{hi}"
+
+
+HANDLERS = {"value": quoted_value, "paper-figure": paper_figure, "table": paper_table, "bench": bench_table, "preset": preset_stages, "presets": presets_list,
             "cli": cli_help, "architecture-link": architecture_link, "error-time": error_time_plot}
 
 

@@ -7,6 +7,7 @@ says the new number.
 """
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -146,6 +147,26 @@ CLAIMS = [
 ]
 
 
+def _radeon_fragment_rate() -> dict:
+    """Roettger Fig. 8 on the Radeon 8500: the paper's frame rates times the fragments of our view (from the
+    rows' note) against the profile's fill rate."""
+    import tomllib
+
+    from warpvol.profiles import __path__ as profile_dirs
+
+    note = next(r[6] for r in VM["rows"]["rows"] if "M fragments" in str(r[6]) and r[1].startswith("Fig. 8"))
+    frags = float(re.search(r"([\d.]+) M fragments", note).group(1))
+    f3 = absolute("Fig. 8 Radeon 8500 3D texture [fps]", "paper")
+    f2 = absolute("Fig. 8 Radeon 8500 2D planes [fps]", "paper")
+    fill = tomllib.loads((Path(profile_dirs[0]) / "radeon8500.toml").read_text())["rates"]["pixel_fill"]["value"] / 1e9
+    lo, hi = sorted((frags * f3, frags * f2))
+    return dict(f3=f3, f2=f2, lo=lo, hi=hi, plo=lo / fill / 10, phi=hi / fill / 10, fill=fill)
+
+
+CLAIMS.append(("performance.md", "the Radeon 8500's {f3:.1f} and {f2:.1f} fps are {lo:.0f}-{hi:.0f} M fragments/s, "
+               "{plo:.0f}-{phi:.0f} % of its {fill:.1f} Gpixels/s", _radeon_fragment_rate()))
+
+
 @pytest.mark.parametrize("page, sentence, values", CLAIMS, ids=[f"{c[0]}:{i}" for i, c in enumerate(CLAIMS)])
 def test_quoted_number_is_the_datas(page, sentence, values):
     text = (DOCS / page).read_text()
@@ -176,3 +197,252 @@ def test_espinha_page_says_what_the_paper_presets_do_with_unresolved_rays():
         assert next(s for s in cfg["stages"] if s["stage"] == "harc")["ray_setup"] == "paper"
     flat = " ".join((DOCS / "papers" / "espinha2005.md").read_text().split())
     assert "`stats.harc.lost_rays`" in flat and "are redone whole in float64 and counted" not in flat
+
+
+# -- the generated files agree with themselves -----------------------------------------------------------------
+#: (file, table, ratio column, numerator column, denominator column): a ratio a table shows is the quotient
+#: of the two columns it names
+RATIOS = [
+    ("kraus2004", "table1", "emulated / paper", "emulated [s]", "paper [s]"),
+    ("kraus2004", "table1", "modelled / paper", "modelled [s]", "paper [s]"),
+    ("kraus2004", "table2", "emulated / paper (tets/s)", "emulated tets/s", "paper tets/s"),
+    ("kraus2004", "table2", "modelled / paper (tets/s)", "modelled tets/s", "paper tets/s"),
+    ("guthe2002", "table4", "paper ratio", "paper software [s]", "paper hardware [s]"),
+    ("guthe2002", "table4", "ours ratio", "ours software (exact) [s]", "ours hardware emulated (ping-pong) [s]"),
+    ("guthe2002", "table4", "modelled hardware / paper", "modelled hardware [s]", "paper hardware [s]"),
+    ("guthe2002", "table4", "paper software / modelled hardware", "paper software [s]", "modelled hardware [s]"),
+    ("guthe2002", "table5", "emulated / paper", "emulated fps", "paper fps"),
+    ("guthe2002", "table5", "modelled / paper", "modelled fps", "paper fps"),
+    ("roettger2002", "table2", "modelled hardware / paper", "modelled hardware [s]", "paper hardware [s]"),
+    ("roettger2002", "table2", "paper software / modelled hardware", "paper software [s]", "modelled hardware [s]"),
+    ("roettger2002", "fig8", "paper 2D / 3D", "paper 2D fps", "paper 3D fps"),
+    ("roettger2002", "fig8", "modelled 2D / 3D", "modelled 2D fps", "modelled 3D fps"),
+    ("roettger2002", "fig8", "modelled / paper (3D)", "modelled 3D fps", "paper 3D fps"),
+    ("roettger2002", "fig8", "modelled / paper (2D)", "modelled 2D fps", "paper 2D fps"),
+    ("westermann1997", "table1", "modelled GrOps / paper", "modelled GrOps [s]", "paper GrOps [s]"),
+    ("westermann1997", "table1", "modelled Int / paper", "modelled Int [s]", "paper Int [s]"),
+    ("validate_model", "rows", "ratio", "modelled", "paper value"),
+]
+
+
+def _table_rows(name: str, table: str) -> list[dict]:
+    t = _tables(name)[table]
+    return [r if isinstance(r, dict) else dict(zip(t["columns"], r)) for r in t["rows"]]
+
+
+@pytest.mark.parametrize("name, table, ratio, num, den", RATIOS, ids=[f"{r[0]}/{r[1]}/{r[2]}" for r in RATIOS])
+def test_a_tables_ratio_is_the_quotient_of_its_columns(name, table, ratio, num, den):
+    checked = 0
+    for r in _table_rows(name, table):
+        vals = (r[ratio], r[num], r[den])
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals) or not r[den]:
+            continue
+        assert r[ratio] == pytest.approx(r[num] / r[den], rel=2e-3), (name, table, r)
+        checked += 1
+    assert checked, f"no numeric row of {name}/{table} to check"
+
+
+def test_validate_model_relative_ratios_are_modelled_over_paper():
+    rel = VM["relative"]
+    for r in rel["rows"]:
+        paper, modelled, ratio = r[4:7]
+        if all(isinstance(v, (int, float)) for v in (paper, modelled, ratio)):
+            assert ratio == pytest.approx(modelled / paper, rel=1e-9), r[:4]
+
+
+def test_skip_json_ratios_are_the_quotients_of_its_times():
+    """docs/data/skip.json: each row's VTK PT / this is VTK's median over the row's (both rounded in the
+    file), and the summary's cells are the rows' ratios (skip=False in parentheses)."""
+    rows = _table_rows("skip", "rows")
+    vtk = {(r["view"], r["TF"], r["size"]): r["median [s]"] for r in rows if r["renderer"] == "VTK PT"}
+    for r in rows:
+        v, t = vtk[(r["view"], r["TF"], r["size"])], r["median [s]"]
+        # times are rounded to 1 ms and ratios to 0.01: the quotient of the rounded times within that
+        slack = 0.005 + (v / t) * (0.0005 / t + 0.0005 / v)
+        assert abs(r["VTK PT / this"] - v / t) <= slack, r
+        assert r["tolerance"] in ("ok", "-"), r
+    by = {(r["view"], r["TF"], r["renderer"]): r for r in rows}
+    for s in _table_rows("skip", "summary"):
+        for col, val in s.items():
+            name = col.split(" (")[0]
+            if name not in ("raycast", "harc_best", "pt_best", "vsbuffer_best") or val == "-":
+                continue
+            on = by[(s["view"], s["TF"], name)]["VTK PT / this"]
+            want = f"{on:.2f}"
+            if (s["view"], s["TF"], f"{name} no-skip") in by:
+                want += f" ({by[(s['view'], s['TF'], name + ' no-skip')]['VTK PT / this']:.2f})"
+            assert val == want, (s["view"], s["TF"], col)
+        vtk_cell = ", ".join(f"{vtk[(s['view'], s['TF'], size)]:.3f} ({size}^2)" for size in (512, 128)
+                             if (s["view"], s["TF"], size) in vtk)
+        assert s["VTK PT [s]"] == vtk_cell
+
+
+def test_skip_json_supports_the_pages_reading_of_it():
+    """The sentences of performance.md that read the skip table without quoting a number."""
+    r = {(x["view"], x["TF"], x["renderer"]): x["VTK PT / this"] for x in _table_rows("skip", "rows")}
+    views = ("bluntfin_close", "spx_fill")
+    assert all(r[(v, "sparse", "raycast")] >= 2 for v in views)  # twice VTK's speed: raycast on both sparse
+    assert r[("bluntfin_close", "sparse", "pt_best")] >= 2 and r[("spx_fill", "sparse", "pt_best")] < 2
+    assert all(r[(v, "sparse", "harc_best")] < 2 for v in views)  # not harc_best
+    assert all(r[(v, tf, p)] < 2 for v in views for tf in ("opaque", "dense")
+               for p in ("raycast", "harc_best", "pt_best"))  # nor on the opaque or dense views
+    for v in views:  # on the dense views skipping on and off agree to the run's noise (within 10 %)
+        for p in ("raycast", "harc_best", "pt_best"):
+            assert r[(v, "dense", p)] == pytest.approx(r[(v, "dense", f"{p} no-skip")], rel=0.1)
+
+
+def test_scaling_shell_exponents_are_the_slopes_of_its_points():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("bench_scaling_for_docs", DOCS.parent / "scripts" / "bench_scaling.py")
+    bs = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bs)
+    pts = [p for p in _table_rows("scaling_shell", "points") if p["time [s]"] is not None]
+    for e in _table_rows("scaling_shell", "exponents"):
+        mine = [p for p in pts if p["renderer"] == e["renderer"]]
+        a = bs.slope([p["tets"] for p in mine], [p["time [s]"] for p in mine])
+        v = bs.slope([p["tets"] for p in mine], [p["visible cells [%]"] / 100 * p["tets"] for p in mine])
+        assert e["time ~ tets^a"] == pytest.approx(a, abs=0.006), e
+        assert e["visible cells ~ tets^v"] == pytest.approx(v, abs=0.006), e
+
+
+def test_bench_table_marks_and_spreads_follow_from_its_rows():
+    """docs/data/bench_concave.json: the Pareto marks are those warpvol.tools.bench.mark_pareto gives the
+    rows, and each median lies between the fastest and slowest timed render."""
+    import copy
+
+    from warpvol.tools.bench import mark_pareto
+
+    doc = json.loads((DOCS / "data" / "bench_concave.json").read_text())
+    rows = copy.deepcopy(doc["rows"])
+    for r in rows:
+        r.pop("pareto", None)
+    mark_pareto(rows)
+    assert [r.get("pareto") for r in rows] == [r.get("pareto") for r in doc["rows"]]
+    for r in doc["rows"]:
+        if r.get("status") == "ok" and "min_s" in r:
+            assert r["min_s"] <= r["total_s"] <= r["max_s"], r["pipeline"]
+
+
+# -- performance.md: every number in its prose is accounted for ----------------------------------------------
+PERF = "performance.md"
+#: the section of performance.md that quotes the throughput model: its numbers come from these files
+MODEL_SECTION, MODEL_FILES = "## Modelled time against the papers", ("validate_model", "roettger2002")
+#: numbers in performance.md's prose that are not measurements: (phrase as written, what it is)
+NOT_MEASURED = [
+    ("3.9e-3", "one 8-bit step, 1/255"),
+    ("with 4- and 64-pixel bins beside its CUDA default of 8", "parameters of scripts/check_cuda.py"),
+    ("the cube [-1, 1]", "the scene's definition"), ("(6 tets per cube)", "the grid's definition"),
+    ("more than 4,096 cell records apart", "reorder = 'auto''s threshold"),
+    ("constant extinction of 100 over the mesh", "the opaque TF's definition in bench_skip.py"),
+    ("then 3 rounds", "--repeat 3"), ("Below 1.0 a preset", "the ratio's meaning"),
+    ("its 8 neighbours", "the pixel's neighbourhood"), ("the 8 neighbouring pixels", "the pixel's neighbourhood"),
+    ("about 1.2e-7 times its distance", "float32's relative precision"),
+    ("bound passes 1e-4", "the redo threshold"), ("steepest density slope 0", "a property of a constant"),
+    ("within 1e-12 of the reference's quadrature", "tests/test_redo_closed_form.py's tolerance"),
+    ("under 2/256 px", "a rasteriser snapping parameter"), ("exceeds 2e-3", "the redo criterion"),
+    ("(1e-4 instead of the preset's 1e-6)", "early_termination values"),
+    ("optimisation level 3", "a Warp option"), ("by more than 1e-6", "the termination bound"),
+    ("transmittance 1e-6", "the termination bound"), ("up to 256 per ray", "the reentries parameter"),
+    ("grown by 0.05 px", "a search parameter"), ("half-width is 0.75 cell", "the shell TF's definition"),
+    ("last four (view, mask) pairs", "a cache size"), ("the presets state 1e-6", "early_termination"),
+]
+FENCE = re.compile(r"^```.*?^```", re.S | re.M)
+COMMENT = re.compile(r"<!--.*?-->", re.S)  # markers: generated from the JSON when the site is built
+CODE = re.compile(r"`[^`\n]*`")
+LINK = re.compile(r"\]\([^)]*\)|\{[^}]*\}")
+#: sizes and powers (512^2, 128x128, 10^7, n^(1/3)): parameters of a run, not measurements
+SIZE = re.compile(r"\d+(?:\^\d+|x\d+(?:x\d+)?)(?![\d.])|\^\(?[\d/]+\)?")
+NUMBER = re.compile(r"(?<![\w.^/+-])\+?\d{1,3}(?:,\d{3})*(?:\.\d+)?(?:e-?\d+)?(?![\w^]|-[A-Za-z]|\.\d)"
+                    r"|(?<![\w.^/+-])\+?\d+(?:\.\d+)?(?:e-?\d+)?(?=x\b)")
+#: names with digits (GeForce3, Radeon 8500, Fig. 8, 2D, fp16, ...) are not numbers
+NAMES = re.compile(r"\b(?:Radeon|Rage128|Fig\.|Table|Tables|Octane MXI|Ertl|al\.|Celes|paper's own Table|§)\s*\d+|\b\d{4}\b")
+
+
+def _prose(text: str) -> str:
+    for rx in (FENCE, COMMENT, CODE, LINK):
+        text = rx.sub(" ", text)
+    return " ".join(text.split())
+
+
+def _json_numbers(name: str) -> set[str]:
+    """Every number of ``docs/data/NAME.json`` as text: those written inside its strings (notes) as
+    they are written, and its numeric values as written and at 1 to 3 decimals."""
+    out: set[str] = set()
+
+    def walk(v):
+        if isinstance(v, dict):
+            for x in v.values():
+                walk(x)
+        elif isinstance(v, list):
+            for x in v:
+                walk(x)
+        elif isinstance(v, str):
+            out.update(re.findall(r"\d{1,3}(?:,\d{3})+(?:\.\d+)?|\d+(?:\.\d+)?(?:e-?\d+)?", v))
+        elif isinstance(v, (int, float)) and not isinstance(v, bool):
+            out.update({repr(v), f"{v:.1f}", f"{v:.2f}", f"{v:.3f}"})
+
+    walk(json.loads((DOCS / "data" / f"{name}.json").read_text()))
+    return out
+
+
+def unaccounted_numbers(page: str = PERF, text: str | None = None) -> list[str]:
+    """The numbers of ``page``'s prose that no check accounts for: not generated by a marker, not in a
+    sentence of :data:`CLAIMS` (checked against its JSON), not a parameter of :data:`NOT_MEASURED`, and,
+    in the model section, not found in the JSON files that section quotes."""
+    text = (DOCS / page).read_text() if text is None else text
+    head, _, rest = text.partition(MODEL_SECTION)
+    model, _, tail = rest.partition("\n## ")
+    sections = [(head + " ## " + tail, None), (model, MODEL_FILES)]
+    claims = [" ".join(s.format(**v).split()) for p, s, v in CLAIMS if p == page]
+    missing = []
+    for body, files in sections:
+        flat = _prose(body)
+        for c in claims:
+            flat = flat.replace(c, " ")
+        for phrase, _why in NOT_MEASURED:
+            flat = flat.replace(phrase, " ")
+        flat = NAMES.sub(" ", SIZE.sub(" ", flat))
+        found = set().union(*(_json_numbers(f) for f in files)) if files else set()
+        for m in NUMBER.finditer(flat):
+            tok = m.group(0).lstrip("+")
+            if tok in found:
+                continue
+            missing.append(f"{tok!r} in ...{flat[max(0, m.start() - 50):m.end() + 20]}...")
+    return missing
+
+
+def test_every_number_on_the_performance_page_comes_from_its_data():
+    """Every number in performance.md's prose is generated from a docs/data JSON (``<!-- value: ... -->``,
+    tables), checked against one (CLAIMS; in the model section, found in the JSON it quotes), or a stated
+    parameter (NOT_MEASURED); a measurement typed into the page fails here."""
+    missing = unaccounted_numbers()
+    assert not missing, "numbers on performance.md that no JSON accounts for:\n" + "\n".join(missing)
+
+
+def test_a_measurement_typed_into_the_page_is_caught():
+    page = (DOCS / PERF).read_text()
+    typed = page.replace("### Leaving out what the scene does not need",
+                         "A `raycast` frame took 0.42 s (1.9x VTK) here.\n\n### Leaving out what the scene does not need")
+    assert [m.split()[0] for m in unaccounted_numbers(text=typed)] == ["'0.42'", "'1.9'"]
+    marked = page.replace("### Leaving out", "It took <!-- value: skip/rows view=spx_fill TF=sparse size=512 "
+                          "renderer=raycast | median [s] | .3f --> s.\n\n### Leaving out")
+    assert unaccounted_numbers(text=marked) == []
+
+
+def test_the_performance_page_quotes_are_generated_from_the_json():
+    """The page's value markers expand (each picks one row, or a range) and the expanded page keeps no
+    marker; the quoted ranges are the data's."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("docs_hooks_numbers", DOCS / "hooks.py")
+    hooks = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(hooks)
+    page = hooks.expand((DOCS / PERF).read_text())
+    assert "<!-- value" not in page
+    rows = _table_rows("skip", "rows")
+    dense = [r["VTK PT / this"] for r in rows if r["view"] == "bluntfin_close" and r["TF"] == "dense"
+             and r["renderer"] in ("raycast", "harc_best", "pt_best")]
+    assert f"on the dense views {min(dense):.2f}-{max(dense):.2f}x" in " ".join(page.split())
+    for stale in ("0.45-0.48x", "within the noise", "no time difference above the noise"):
+        assert stale not in " ".join(page.split()), stale
