@@ -124,3 +124,17 @@ def test_pages_show_the_provenance_beside_each_table(marker, name):
     assert block["date"][:10] in text and block["command"] in text
     if block["timing"]:
         assert "load (1 min)" in text or "machine load not recorded" in text
+
+
+def test_the_regenerate_script_runs_a_producer_and_checks_its_stamp(tmp_path, monkeypatch, capsys):
+    regen = _module(ROOT / "scripts" / "regenerate_docs_data.py", "regenerate_docs_data_for_run")
+    monkeypatch.setattr(regen, "DATA", tmp_path)
+    writes = ("from warpvol.tools import provenance as p; import sys; "
+              "p.write_json(sys.argv[1], {'rows': []}, p.start('fake', timing=True))")
+    stamped = regen.Producer("fake", (f'python -c "{writes}" {tmp_path / "fake.json"}',), "a second")
+    assert regen.run(stamped, 1, 2) is True
+    out = capsys.readouterr().out
+    assert "[1/2] fake: expected a second" in out and "done in" in out and "load (1 min)" in out
+    unstamped = regen.Producer("bare", (f'python -c "open(\'{tmp_path / "bare.json"}\', \'w\').write(\'{{}}\')"',), "?")
+    assert regen.run(unstamped, 2, 2) is False
+    assert "carries no provenance of this run" in capsys.readouterr().out
