@@ -415,6 +415,8 @@ def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = 
                                time=time))
     t_pipe = perf_counter()
     pipe, key = _pipeline(pipeline, device)  # unknown pipelines fail before the reference spends time
+    if reference is True:  # what the pipeline declines is declined before the reference spends time
+        pipe.check_scene(scene)
     t_ref = perf_counter()
     ref, ref_s = _reference(reference, scene, quiet=quiet)
     t_render = perf_counter()

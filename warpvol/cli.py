@@ -94,6 +94,7 @@ def cmd_render(args) -> int:
     check_image_memory(scene.camera, ["render"] + (["png"] if args.png else [])
                        + (["reference"] if ref is not None or args.compute_reference else [])
                        + (["error_image"] if args.error_image else []), _available_memory())
+    pipe.check_scene(scene)  # overlapping parts, inputs the pipeline cannot hold: declined before the reference
     if ref is not None:
         want = (scene.camera.height_px, scene.camera.width_px, 4)
         if ref.shape != want:
@@ -162,6 +163,8 @@ def cmd_reference(args) -> int:
     check_bands(args)
     scene = _load_scene(args.scene, args)
     check_image_memory(scene.camera, ["reference"], _available_memory())
+    if hasattr(scene.mesh, "check_overlap"):  # parts overlapping in space: declined before the reference
+        scene.mesh.check_overlap()
     try:
         img, dt = compute_reference(scene, args.quiet, args.scheduler, args.bands, args.workers or 2)
     except MemoryError:

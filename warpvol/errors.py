@@ -25,6 +25,22 @@ class MeshError(WarpvolError):
     """A mesh is malformed (indices, NaN, non-manifold faces, ...)."""
 
 
+class NonFiniteImage(WarpvolError):
+    """An image holds NaN or Inf pixels: it is not written (no command writes a non-finite pixel)."""
+
+
+def check_finite_image(path, image) -> None:
+    """Raise :class:`NonFiniteImage` naming ``path`` and the count of pixels with a NaN or Inf channel."""
+    img = np.asarray(image)
+    if img.dtype.kind not in "fc":
+        return
+    fin = np.isfinite(img)
+    if not fin.all():
+        bad = ~(fin.all(axis=-1) if img.ndim == 3 else fin)
+        raise NonFiniteImage(f"{path}: {int(bad.sum()):,} of {bad.size:,} pixels are not finite (NaN or Inf); the "
+                             "image is not written")
+
+
 def check_finite_array(name: str, arr: np.ndarray) -> None:
     """Raise if ``arr`` holds NaN or Inf; the message names ``name`` and the first bad index."""
     arr = np.asarray(arr)

@@ -17,7 +17,7 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from warpvol.errors import ConfigError
+from warpvol.errors import ConfigError, check_finite_image
 
 
 def _umask() -> int:
@@ -103,6 +103,7 @@ class Outputs:
         img = np.ascontiguousarray(image, dtype=np.float32)
         if img.ndim != 3 or img.shape[2] not in (1, 3, 4):
             raise ValueError(f"write_exr: expected (H, W, 1|3|4) image, got shape {img.shape}")
+        check_finite_image(path, img)  # never a NaN or Inf pixel written (float32: values beyond it too)
         self._stage(path, lambda tmp, shown: _write_oiio(tmp, img, oiio.FLOAT, shown))
 
     def png(self, path: str | Path, image: np.ndarray, background=(0.0, 0.0, 0.0), exposure: float = 1.0) -> None:
@@ -110,6 +111,7 @@ class Outputs:
         import OpenImageIO as oiio
 
         img = np.asarray(image, dtype=np.float64)
+        check_finite_image(path, img)  # a NaN would become an ordinary 8-bit code
         if img.ndim == 2:
             img = np.repeat(img[..., None], 3, axis=2)
         rgb = composite_over(img, background) if img.shape[2] == 4 else img[..., :3]

@@ -282,6 +282,23 @@ class Pipeline:
                 ctx.planned.update(st.provides)
         return out
 
+    def check_scene(self, scene: Any) -> None:
+        """The checks of a scene that need no rendering, made before any costly work (a command calls it
+        before the reference of ``--compute-reference``, :meth:`render` first of all): parts of the mesh
+        that overlap in space (:meth:`warpvol.scene.mesh.TetMesh.check_overlap`, cached per mesh) and inputs
+        this pipeline's float32 formats cannot hold (what the ``condition`` stage refuses, or, without
+        it, :func:`warpvol.conditioning.conditioning.check_float32_ranges`). Raises a
+        :class:`~warpvol.errors.WarpvolError` naming the field."""
+        from warpvol.conditioning.conditioning import check_conditionable, check_float32_ranges
+
+        mesh = getattr(scene.mesh, "pieces", scene.mesh)
+        if hasattr(mesh, "check_overlap"):
+            mesh.check_overlap()
+        if any(st.name == "condition" for st in self.stages):
+            check_conditionable(scene)
+        else:
+            check_float32_ranges(scene)
+
     def render(self, scene: Any, *, reference: np.ndarray | None = None, quiet: bool = False,
                device: str | None = None, gpu: str | None = None, force: Any = (), skip: bool = True) -> RenderResult:
         """Run the stages; ``gpu``: a GPU profile name (:mod:`warpvol.model`): checks every stage's
@@ -314,6 +331,13 @@ class Pipeline:
             for st in self.stages:
                 model.check_caps(profile, st.where, st.requires_caps())
         ctx = Context(scene=scene, device=device, quiet=quiet, persistent=self.persistent, skip=bool(skip))
+        t_checks = time.perf_counter()
+        mesh = getattr(scene.mesh, "pieces", scene.mesh)
+        if "overlapping_parts" in vars(mesh) or not hasattr(mesh, "check_overlap"):
+            self.check_scene(scene)
+        else:  # the mesh's parts searched for overlaps once per mesh: set-up of the first stage
+            with ctx.setup_work("mesh parts overlap"):
+                self.check_scene(scene)
         if not any(st.name == "condition" for st in self.stages):  # input cast to float32 as it is: say what it loses
             from warpvol.conditioning.conditioning import precision_warnings
 
@@ -328,12 +352,14 @@ class Pipeline:
             report["mesh_notes"] = dict(scene.mesh.load_notes)
         rows: dict[str, dict] = {}  # per stage: seconds, of which kernel compilation, set-up or frame, reused
         reads: dict[str, int] = {}  # per stage: wp.array.numpy() calls (timing.ReadCounter)
-        t_all = time.perf_counter()
+        t_all = t_checks
         for key, st in zip(self.stage_keys(), self.stages):
             if ctx.finished:
                 report["skipped"].append({"stage": key, "reason": ctx.finished})
                 continue
-            t0 = time.perf_counter()
+            if t_checks is not None and st.setup:  # a set-up stage's row is set-up as a whole, the checks with it
+                ctx.first_use.clear()
+            t0, t_checks = (time.perf_counter() if t_checks is None else t_checks), None  # checks: the first row's
             with CompileClock(None if quiet else announce_compile) as clock:
                 reason = st.skip_reason(ctx)  # a reused table is fetched here
             if reason and (key in force or st.name in force):

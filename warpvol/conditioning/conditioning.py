@@ -54,6 +54,12 @@ FLOAT32_MAX = float(np.finfo(np.float32).max)
 #: bound on optical depths and scaled inputs: kernels form sums and products of a few of them
 #: (e.g. ``rho_a l + rho_b l``, ``(rho_b - rho_a) l^2 / 2``) before the exponential
 FLOAT32_SAFE = FLOAT32_MAX / 1024.0
+#: smallest normal float32
+FLOAT32_TINY = float(np.finfo(np.float32).tiny)
+#: smallest span of scalars (or extent of a mesh) a pipeline that casts it to float32 as it is takes:
+#: float32's smallest normal number with the same headroom as :data:`FLOAT32_SAFE` (differences and
+#: products of such values stay normal)
+FLOAT32_TINY_SAFE = FLOAT32_TINY * 1024.0
 #: float32 significand bits (implicit bit included)
 FLOAT32_BITS = 24
 #: precision warnings are given from this many lost bits on
@@ -284,6 +290,19 @@ def check_float32_ranges(scene) -> None:
             raise ConfigError(f"{field}: |value| up to {m:.3g} is beyond float32's range (+-{FLOAT32_SAFE:.3g} "
                               "with headroom); this pipeline casts it to float32 as it is (the exact presets "
                               "'raycast', 'harc_best', 'pt_best', 'vsbuffer_best' condition it first)")
+    exact = "the exact presets 'raycast', 'harc_best', 'pt_best', 'vsbuffer_best' condition it first"
+    lo, hi = mesh.scalar_range
+    mid, half = scalar_frame(tf, (lo, hi))
+    if 0 < 2.0 * half < FLOAT32_TINY_SAFE:
+        raise ConfigError(f"{name}: scalars: the scalars that matter span only {2.0 * half:.3g} ({mid - half:.6g} .. "
+                          f"{mid + half:.6g}), below float32's smallest normal number {FLOAT32_TINY:.3g} (with headroom "
+                          f"{FLOAT32_TINY_SAFE:.3g}); this pipeline casts them to float32 as they are, which flushes "
+                          f"them towards zero ({exact}; or scale the data)")
+    extent = float(np.max(np.asarray(mesh.bounds[1], np.float64) - np.asarray(mesh.bounds[0], np.float64)))
+    if extent < FLOAT32_TINY_SAFE:
+        raise ConfigError(f"{name}: points: the mesh is only {extent:.3g} across, below float32's smallest normal "
+                          f"number {FLOAT32_TINY:.3g} (with headroom {FLOAT32_TINY_SAFE:.3g}); this pipeline casts the "
+                          f"points to float32 as they are ({exact}; or scale the mesh)")
     if mesh.point_used is not None:  # points no tet uses are cast too (their values never reach a pixel)
         m = float(np.abs(mesh.points).max())
         if not m <= FLOAT32_SAFE:
@@ -291,6 +310,17 @@ def check_float32_ranges(scene) -> None:
                               f"the origin, beyond float32's range; this pipeline casts every point as it is: drop "
                               "the unused points (pyvista: clean()) or use an exact preset ('raycast', 'harc_best', "
                               "'pt_best', 'vsbuffer_best')")
+
+
+def check_conditionable(scene) -> None:
+    """What :func:`condition_scene` refuses (a transfer function float32 cannot resolve over the data,
+    an optical depth or colour beyond float32), checked without conditioning the mesh: cheap, so that
+    a command declines before any costly work."""
+    mesh, tf = _tets_of(scene.mesh), scene.transfer
+    where = getattr(tf, "where", "transfer")
+    scalar_mapping(tf, mesh.scalars, mesh.scalar_range, where)
+    s, vals = _segments(tf, mesh.scalar_range)
+    _check_values(vals, s, tf.emission, _diagonal(mesh), where)
 
 
 def condition_scene(scene, cache: dict | None = None, reorder: str = "none") -> tuple[object, dict]:

@@ -48,6 +48,7 @@ from typing import Callable
 import numpy as np
 
 from warpvol.errors import ConfigError, check_choice
+from warpvol.reference.scalars import normal_scalars
 from warpvol.reference.exact import _FILTER, _STATS, _certify, _exact_sum_of_products, _sign_det2  # noqa: F401
 from warpvol.scene.camera import Camera
 from warpvol.scene.mesh import TetMesh
@@ -492,6 +493,9 @@ def render_reference(mesh: TetMesh, tf: TransferFunction, camera: Camera, *, chu
         raise ConfigError(f"render_reference: chunk_tets must be >= 1, got {chunk_tets}")
     W, H = int(camera.width_px), int(camera.height_px)
     first, last = check_rows(rows, H)
+    if hasattr(mesh, "check_overlap"):  # parts overlapping in space: no one reading of the image (cached)
+        mesh.check_overlap()
+    mesh, tf = normal_scalars(mesh, tf)  # scalars scaled into float64's normal range (exact)
     if method == "warp":
         from warpvol.reference.warp_render import render_reference_warp
 

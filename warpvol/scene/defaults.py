@@ -146,6 +146,10 @@ def colormap_transfer(name: str, srange: Any, extinction_max: float, *, points: 
     t = np.linspace(0.0, 1.0, n)
     s = lo + t * (hi - lo)
     s[-1] = hi
+    # a range of a few float64 steps (subnormal scalars) holds fewer distinct points: each once, both ends kept
+    keep = (np.diff(s, prepend=-np.inf) > 0) & (s < hi)
+    keep[-1] = True
+    s, t = s[keep], t[keep]
     return TransferFunction(np.column_stack([s, colormap_rgb(name, t, where), rho * t]), where=where)
 
 

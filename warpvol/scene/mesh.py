@@ -21,6 +21,7 @@ import numpy as np
 from warpvol.errors import MeshError, check_finite_array
 from warpvol.scene import interop
 from warpvol.scene.face_overlap import row_keys, overlapping_opposite_faces
+from warpvol.scene.overlap import overlap_message, overlapping_parts
 
 # face i is opposite vertex i; the order gives an outward normal for positively oriented tets
 FACE_VERTS = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]], dtype=np.int64)
@@ -417,6 +418,29 @@ class TetMesh:
             skip = np.isin(bf[:, 0] * 4 + bf[:, 1], self.crack_faces[:, 0] * 4 + self.crack_faces[:, 1])
         hit = overlapping_opposite_faces(self.points, self.boundary_triangles(), skip)
         return bf[hit]
+
+    @cached_property
+    def overlapping_parts(self) -> dict | None:
+        """What of the mesh's parts (cells connected through shared points, or glued on duplicated points)
+        overlaps in space, ``None`` when nothing does (:func:`warpvol.scene.overlap.overlapping_parts`):
+        a part written twice, overset grids without blanking. Parts that only touch (non-conforming
+        interfaces) do not count. :meth:`check_overlap` declines such a mesh.
+
+        Examples
+        --------
+        >>> p = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
+        >>> m = TetMesh(p + [[x + 0.2 for x in q] for q in p], [[0, 1, 2, 3], [4, 5, 6, 7]], np.zeros(8))
+        >>> m.overlapping_parts["parts"], m.overlapping_parts["pairs"]
+        ([1, 1], 1)
+        """
+        return overlapping_parts(self.points, self.tets, self.boundary_triangles())
+
+    def check_overlap(self) -> None:
+        """Raise :class:`MeshError` naming the parts and the overlap's size when parts of the mesh overlap
+        (:attr:`overlapping_parts`)."""
+        info = self.overlapping_parts
+        if info is not None:
+            raise MeshError(overlap_message(self.name, info, self.cell_start))
 
     def __repr__(self) -> str:
         return f"TetMesh({self.name!r}, {self.n_points} points, {self.n_tets} tets)"

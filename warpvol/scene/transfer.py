@@ -400,7 +400,18 @@ class TransferFunction:
         out = np.empty(s.shape + (4,), dtype=np.float64)
         for c in range(4):
             out[..., c] = np.interp(s, self.points[:, 0], self.points[:, c + 1])
+        bad = ~np.isfinite(out).all(axis=-1)
+        if bad.any():  # np.interp's slope overflows on segments narrower than ~1e-308 (subnormal scalars)
+            out[bad] = self._interpolate(s[bad])
         return out
+
+    def _interpolate(self, s: np.ndarray) -> np.ndarray:
+        """``evaluate`` through the weight ``(s - s0) / (s1 - s0)`` of each segment, which no segment width
+        overflows (float64 subnormal scalars)."""
+        xs, v = self.points[:, 0], self.points[:, 1:5]
+        k = np.clip(np.searchsorted(xs, s, side="right") - 1, 0, len(xs) - 2)
+        w = np.clip((np.clip(s, xs[0], xs[-1]) - xs[k]) / (xs[k + 1] - xs[k]), 0.0, 1.0)[..., None]
+        return v[k] * (1.0 - w) + v[k + 1] * w
 
     def normalise(self, s: Any) -> np.ndarray:
         """Scalar mapped to [0, 1] over the TF range (table coordinate convention), clamped."""

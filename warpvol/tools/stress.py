@@ -9,8 +9,8 @@ the exact reference would take minutes), the run time and a status:
 ``ok``
     rendered, finite.
 ``declined``
-    the pipeline refused the case with a :class:`~warpvol.WarpvolError` naming why (it cannot
-    handle it and says so); not a failure.
+    the pipeline (or the reference) refused the case with a :class:`~warpvol.WarpvolError` naming why
+    (it cannot handle it and says so); not a failure.
 ``failed``
     any other exception (its message is kept) or a non-finite pixel; the command exits 1.
 
@@ -246,6 +246,9 @@ def run_case(case: Case, pipes: list[Any], device: str = "cpu",
             ref = None
     except KeyboardInterrupt:
         raise
+    except WarpvolError as e:  # a scene no reading renders (e.g. parts overlapping in space): declined in words
+        rows.append({"case": case.name, "pipeline": "reference", "status": "declined", "finite": None,
+                     "time_s": time.perf_counter() - t0, "rmse": None, "max_abs": None, "message": str(e)})
     except Exception as e:  # noqa: BLE001 - reported as the case's failure, the pipelines still run
         rows.append({"case": case.name, "pipeline": "reference", "status": "failed", "finite": None,
                      "time_s": time.perf_counter() - t0, "rmse": None, "max_abs": None,

@@ -80,6 +80,19 @@ def rough_scene(px: int = 32, points: int = 4096, seed: int = 0):
                  name=f"rough_tf_{points}")
 
 
+def subnormal_scene(px: int = 32, scale: float = 1e-311, n: int = 6):
+    """The field of :func:`log_scene`'s box in ``[0, scale]`` (default: float64 subnormal numbers) and a
+    transfer function over that range: the exact presets and the reference render it as the same data
+    scaled into the normal range; the pipelines that cast scalars to float32 as they are decline."""
+    from warpvol.scene.scene import Scene
+    from warpvol.scene.transfer import TransferFunction
+    from warpvol.tools.stress_meshes import _box
+
+    mesh = _box(n, scalar=lambda p: _unit_field(p) * scale, name="subnormal_scalars")
+    tf = TransferFunction([[0.0, 0.1, 0.2, 0.9, 0.2], [0.5 * scale, 0.9, 0.5, 0.1, 1.5], [scale, 1.0, 1.0, 0.9, 0.6]])
+    return Scene(mesh=mesh, transfer=tf, camera=_camera(px), name="subnormal_scalars")
+
+
 def range_cases(simple, with_ref, sc) -> None:
     """Dynamic range by decades, unused points at growing distance, rough transfer functions."""
     def px(q):
@@ -91,6 +104,8 @@ def range_cases(simple, with_ref, sc) -> None:
     for dist in (1e3, 1e7, 1e30):
         simple(f"unused_points_{dist:.0e}", f"a part 2 across keeping 8 points of its parent no cell uses at +-{dist:g}",
                lambda q, dist=dist: unused_points_scene(px(q), distance=dist))
+    simple("subnormal_scalars", "scalars 0 .. 1e-311 (float64 subnormal numbers) and a TF over them: the exact "
+           "presets render them, the float32 pipelines decline", lambda q: subnormal_scene(px(q)))
     for k in (4096, 20000):
         simple(f"rough_tf_{k}", f"the sphere with a TF of {k} control points of random colour and extinction",
                lambda q, k=k: rough_scene(px(q), points=k))

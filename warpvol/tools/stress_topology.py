@@ -7,6 +7,8 @@
   point ids shuffled (a split must pick the same diagonal on a shared quad face from both sides).
 * :func:`explode`: the same grid with every cell on its own copies of its points, as exporters
   that write cell by cell produce (interior faces coincide without being shared).
+* :func:`two_blocks`: two blocks on separate points, overlapping (an assembly whose parts overlap, a
+  part written twice: declined) or touching along a shifted, non-conforming interface (rendered).
 """
 
 from __future__ import annotations
@@ -95,6 +97,17 @@ def explode(grid):
     return out
 
 
+def two_blocks(n: int = 3, shift=(1.0, 0.0, 0.0)) -> TetMesh:
+    """Blocks ``[-1, 0] x [-1, 1]^2`` of ``(n - 1)^3`` Kuhn-split cubes and a copy moved by ``shift``,
+    each on its own points: ``(1, 0, 0)`` touches at ``x = 0``, ``(1, 0.3, 0.2)`` touches on a shifted,
+    non-conforming interface, ``(0.5, 0, 0)`` overlaps by half, ``(0, 0, 0)`` is the part written twice."""
+    axis = np.linspace(-1.0, 1.0, n)
+    pa = grid_points(np.linspace(-1.0, 0.0, n), axis, axis)
+    pts = np.vstack([pa, pa + np.asarray(shift, dtype=np.float64)])
+    t = structured_to_tets((n, n, n))
+    return TetMesh(pts, np.vstack([t, t + len(pa)]), _field(pts), name=f"two_blocks_{n}")
+
+
 #: TF of the topology cases over the field's range (about [-1.7, 2.7]): [s, r, g, b, extinction]
 TOPOLOGY_TF = ((-1.7, 0.9, 0.3, 0.1, 0.7), (0.3, 0.2, 0.8, 0.4, 1.8), (2.7, 0.2, 0.3, 1.0, 0.9))
 
@@ -125,3 +138,10 @@ def add_topology_cases(simple, sc) -> None:
     simple("topology_duplicated_points", "the hexahedron / pyramid / wedge grid with every cell on its own copies "
            "of its points: interior faces coincide without being shared (crack faces)",
            lambda q: sc(hybrid(q, True), tf(), cam(q), "topology_duplicated_points"))
+    for name, shift, doc in (
+            ("topology_overlapping_parts", (0.5, 0.0, 0.0), "two blocks on separate points overlapping by half "
+             "(an assembly whose parts overlap): declined naming the parts, the reference too"),
+            ("topology_part_twice", (0.0, 0.0, 0.0), "a block written twice on separate points: declined"),
+            ("topology_touching_parts", (1.0, 0.3, 0.2), "two blocks on separate points touching on a shifted, "
+             "non-conforming interface: rendered (re-entry at the interface)")):
+        simple(name, doc, lambda q, shift=shift, name=name: sc(two_blocks(3 if q else 7, shift), tf(), cam(q), name))
