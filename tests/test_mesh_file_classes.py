@@ -370,6 +370,9 @@ def test_time_series_says_which_step_and_takes_the_users_pick(tmp_path, capfd):
     import json
     assert json.loads((tmp_path / "r.json").read_text())["mesh_notes"]["time_step"].startswith("1 of 3")
     assert _cli(_render(path, tmp_path, "--time", "1.0"), capfd)[0] == 0
+    rc, err = _cli(["reference", str(path), "-o", str(tmp_path / "ref.exr"), "--width", "8", "--height", "8",
+                    "--quiet", "--step", "2"], capfd)
+    assert rc == 0 and "warpvol: mesh: time step: 2 of 3 (time 1;" in err
     scene = tmp_path / "s.toml"
     scene.write_text(f'[mesh]\npath = "{path.name}"\nscalars = "s"\ntime = 0.5\n')
     _same(load_scene(scene).mesh, _step_mesh(tmp_path, 1))

@@ -375,9 +375,11 @@ def render(mesh: Any, transfer: Any = None, camera: Any = None, pipeline: Any = 
         Point-data array of a pyvista ``mesh`` or mesh file (default: its active scalars).
     split : {None, 6, 5}, optional
         Tets per hex cell of a structured pyvista ``mesh``.
-    step, time : int or float, optional
-        The step of a time-series mesh file (``.pvd``, ...) to render: its index from 0, or its time
-        value (default: the first step; the report's ``mesh_notes`` says which of how many).
+    step : int, optional
+        The step of a time-series mesh file (``.pvd``, ...) to render, counted from 0 (default: the
+        first; the report's ``mesh_notes`` says which of how many).
+    time : float, optional
+        Instead of ``step``: the time value of the step to render.
     size : int or (int, int), optional
         Image size in pixels, ``(width_px, height_px)``; replaces the camera's (default 512 x 512
         for a fitted camera).

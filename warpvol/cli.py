@@ -141,9 +141,13 @@ def _summary(report: dict) -> None:
         t = report["modelled_s"]["total"]
         line += f"  modelled on {report['gpu']}: " + ("-" if t is None else f"{t:.4f} s")
     print(line + wall_summary(report))
-    if report.get("mesh_notes"):  # what the mesh reader left out or changed, counted (also in the report)
-        print("warpvol: mesh: " + ", ".join(f"{k.replace('_', ' ')}: {v}" for k, v in report["mesh_notes"].items()),
-              file=sys.stderr)
+    _mesh_notes(report.get("mesh_notes"))
+
+
+def _mesh_notes(notes) -> None:
+    """What the mesh reader left out or changed, counted (also in the report), in one line on stderr."""
+    if notes:
+        print("warpvol: mesh: " + ", ".join(f"{k.replace('_', ' ')}: {v}" for k, v in notes.items()), file=sys.stderr)
 
 
 def cmd_gpus(args) -> int:
@@ -172,6 +176,7 @@ def cmd_reference(args) -> int:
     with Outputs() as staged:
         _write_image(staged, out, img)
     print(f"reference: {dt:.2f} s, {scene.camera.width_px}x{scene.camera.height_px}, {scene.mesh.n_tets} tets -> {out}")
+    _mesh_notes(getattr(scene.mesh, "load_notes", None))
     return 0
 
 
