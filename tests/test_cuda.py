@@ -1,13 +1,16 @@
-"""The kernels on CUDA without a GPU: every module that defines Warp kernels compiles to PTX for sm_75,
-sm_80 and sm_90 through NVRTC (it ships with warp-lang, so no driver or GPU is needed); a kernel that
-uses a CPU-only construct turns the check red, naming its module and kernel. With a CUDA device, every
-preset's pipeline is built on ``cuda:0`` and renders a small scene there within its tolerance row of
-the CPU image; without one that test is skipped and says why.
+"""The kernels on CUDA without a GPU: every module that defines Warp kernels compiles to PTX through NVRTC
+(it ships with warp-lang, so no driver or GPU is needed); a kernel that uses a CPU-only construct turns
+the check red, naming its module and kernel. With a CUDA device, every preset's pipeline is built on
+``cuda:0`` and renders a small scene there within its tolerance row of the CPU image; without one that
+test is skipped and says why.
 
-The PTX goes to a cache outside the repository (``$WARPVOL_PTX_CACHE``, else
-``~/.cache/warpvol/ptx``), keyed by each module's hash: a warm run only re-compiles changed modules.
-Cold, about 40 s of CPU per architecture on a 2-core machine (2 min 9 s of CPU for all three; the wall
-time grows with the load: 48 / 95 / 115 s were seen with other jobs running), warm about a second each.
+By default each module is compiled once, for sm_75 (Turing; its PTX is JIT-compiled by the driver of
+every later GPU); ``pytest --ptx-archs all`` (or a list such as
+``--ptx-archs 75,90``) compiles for sm_75, sm_80 and sm_90, which a change to what the kernels call
+(intrinsics, native snippets) should get. The PTX goes to a cache outside the repository
+(``$WARPVOL_PTX_CACHE``, else ``~/.cache/warpvol/ptx``), keyed by each module's hash: a warm run only
+re-compiles changed modules. Cold, about 40 s of CPU per architecture on a 2-core machine (the wall time
+grows with the load: 48 / 95 / 115 s were seen with other jobs running), warm about a second each.
 """
 
 from __future__ import annotations
@@ -24,7 +27,34 @@ import warp as wp
 
 from tolerances import preset_tolerance
 
+#: the architectures ``--ptx-archs all`` compiles for; the default run compiles for the first only
 ARCHS = (75, 80, 90)
+
+
+def ptx_archs(option: str | None) -> tuple[int, ...]:
+    """The architectures of ``--ptx-archs``: ``None`` -> ``(75,)``, ``all`` -> :data:`ARCHS`, else a
+    comma list of the numbers of :data:`ARCHS`.
+
+    >>> ptx_archs(None), ptx_archs("all"), ptx_archs("90, 75")
+    ((75,), (75, 80, 90), (90, 75))
+    """
+    if option is None:
+        return ARCHS[:1]
+    if option.strip() == "all":
+        return ARCHS
+    try:
+        archs = tuple(int(a) for a in option.split(","))
+    except ValueError:
+        archs = ()
+    if not archs or not set(archs) <= set(ARCHS):
+        raise pytest.UsageError(f"--ptx-archs: expected 'all' or a comma list of {', '.join(map(str, ARCHS))}, "
+                                f"got {option!r}")
+    return archs
+
+
+def pytest_generate_tests(metafunc):
+    if "arch" in metafunc.fixturenames:
+        metafunc.parametrize("arch", ptx_archs(metafunc.config.getoption("--ptx-archs")))
 
 
 def ptx_cache() -> Path:
@@ -87,7 +117,6 @@ def kernel_modules():
     return mods
 
 
-@pytest.mark.parametrize("arch", ARCHS)
 def test_every_kernel_compiles_to_ptx(kernel_modules, arch):
     failures = [f for m in kernel_modules for f in compile_ptx(m, arch, ptx_cache())]
     assert not failures, "\n".join(failures)
