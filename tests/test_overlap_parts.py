@@ -135,3 +135,20 @@ def test_real_data_has_one_part():
     except Exception as e:  # noqa: BLE001 - the data set lives beside the repository
         pytest.skip(f"SPX data not available: {e}")
     assert sc.mesh.overlapping_parts is None
+
+
+@pytest.mark.parametrize("case", ["topology_overlapping_parts", "topology_part_twice", "topology_touching_parts",
+                                  "subnormal_scalars"])
+def test_stress_cases_of_overlap_and_subnormal_scalars(case):
+    from test_mesh_files import EXACT, check_exact_rows
+    from warpvol.tools.bench import load_pipelines
+    from warpvol.tools.stress import build_case, run_case
+
+    rows = run_case(build_case(case, quick=True), load_pipelines(list(EXACT), "cpu", quick=True))
+    if case in ("topology_overlapping_parts", "topology_part_twice"):  # the reference and every preset decline
+        assert [r["status"] for r in rows] == ["declined"] * (1 + len(EXACT))
+        assert all("parts of the mesh overlap in space: part 0" in r["message"] for r in rows)
+    else:
+        assert rows[0]["status"] == "ok" and rows[0]["finite"]
+        check_exact_rows(rows[1:])
+        assert all(r["status"] == "ok" for r in rows[1:]), rows

@@ -78,7 +78,7 @@ PREFER_RESOLUTION = 2.0 ** -8
 #: cached properties of a :class:`TetMesh` that describe its topology only; a similarity transform
 #: keeps them, so the conditioned mesh takes them over instead of computing them again
 TOPOLOGY_CACHE = ("adjacency", "boundary_faces", "crack_faces", "nonconforming_faces", "is_convex",
-                  "_position_ids", "point_used")
+                  "_position_ids", "point_used", "overlapping_parts")
 
 
 def _shift_scale(x: np.ndarray, centre, scale: float, field: str) -> np.ndarray:

@@ -7,8 +7,10 @@ included) reads one agreed way; the mesh is declined naming the parts and the ov
   boundary faces lie on the same three positions facing opposite ways (cells that meet on duplicated
   points). Parts that only touch (a non-conforming interface, hanging nodes, cells glued on duplicated
   points) are separate parts and pass.
-* Broad phase: a part's tets whose boxes reach into another part's box, then a uniform grid over their
-  boxes (each pair tested in the one grid cell that holds the lower corner of the two boxes' overlap).
+* Broad phase: a part's tets whose boxes reach into another part's box, then, slab by slab along x, a
+  uniform grid over their boxes (each pair tested in the one grid cell that holds the lower corner of the
+  two boxes' overlap). Each slab stops at its share of :data:`MAX_PAIRS` overlapping pairs (its blocks
+  taken in a scattered order); the counts reported are then lower bounds.
 * Narrow phase (:func:`tet_overlap_depth`): the separating-axis test of two tets in float64 (4 + 4 face
   normals, 36 edge cross products); two tets overlap when every axis sees their projections overlap by
   more than ``1e-9`` of the mesh's bounding-box diagonal, so tets sharing a face, an edge or a vertex, or
@@ -27,8 +29,11 @@ import numpy as np
 OVERLAP_RTOL = 1e-9
 #: candidate pairs per block of the narrow phase (memory bound)
 _PAIR_BLOCK = 200_000
-#: the search stops after this many overlapping pairs (the mesh is declined anyway) and estimates the
-#: rest from the share of candidate pairs it tested (in blocks scattered over the overlap)
+#: candidate tets per slab of the broad phase (memory bound; the search may stop after one)
+_SLAB = 250_000
+#: the search stops after about this many overlapping pairs (the mesh is declined anyway), each slab of
+#: the broad phase after its share, its blocks taken in a scattered order: the pairs found spread over
+#: the overlap
 MAX_PAIRS = 5_000
 
 _FACES = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])
@@ -141,33 +146,83 @@ def tet_overlap_depth(a: np.ndarray, b: np.ndarray, tol: float) -> np.ndarray:
 
 
 def _boxes(c: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    p = c[tets]
-    return p.min(axis=1), p.max(axis=1)
+    lo = c[tets[:, 0]]
+    hi = lo.copy()
+    for k in (1, 2, 3):
+        p = c[tets[:, k]]
+        np.minimum(lo, p, out=lo)
+        np.maximum(hi, p, out=hi)
+    return lo, hi
+
+
+def _grid_pairs(sub, clo, chi, cpart, size, tol, x0, x1):
+    """Blocks ``(i, j)`` of pairs of the boxes ``sub`` (indices into ``clo``, ``chi``, ``cpart``) of
+    different parts whose boxes overlap by more than ``tol``, each pair once: in the cell of a uniform
+    grid of spacing ``size`` holding the lower corner of the boxes' overlap, that corner's x in
+    ``[x0, x1)``; in blocks of about :data:`_PAIR_BLOCK` candidate pairs, in a fixed scattered order."""
+    if len(sub) < 2:
+        return
+    blo, bhi = clo[sub], chi[sub]
+    k0 = np.floor(blo / size).astype(np.int64)
+    span = np.floor(bhi / size).astype(np.int64) - k0 + 1
+    count = span.prod(axis=1)
+    ent = np.repeat(np.arange(len(sub)), count)
+    local = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+    sx, sy = span[ent, 0], span[ent, 1]
+    cell = k0[ent] + np.stack([local % sx, (local // sx) % sy, local // (sx * sy)], axis=1)
+    del local, sx, sy
+    base = cell.min(axis=0)
+    dims = cell.max(axis=0) - base + 1
+    key = ((cell[:, 0] - base[0]) * dims[1] + (cell[:, 1] - base[1])) * dims[2] + (cell[:, 2] - base[2])
+    kp = cpart[sub][ent]
+    order = np.lexsort((kp, key))
+    key, ent, cell, kp = key[order], ent[order], cell[order], kp[order]
+    run_end = np.searchsorted(key, key, side="right")
+    # the entries of another part later in the cell: after the run of the entry's own part
+    kk = key * np.int64(int(kp.max()) + 1) + kp
+    own_end = np.searchsorted(kk, kk, side="right")
+    del kk, order
+    per = run_end - own_end
+    cum = np.cumsum(per)
+    total = int(cum[-1]) if len(cum) else 0
+    cuts = np.unique(np.searchsorted(cum, np.arange(_PAIR_BLOCK, total, _PAIR_BLOCK), side="left"))
+    bounds = np.concatenate([[0], cuts + 1, [len(key)]]).clip(0, len(key))
+    blocks = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+    for k in np.random.default_rng(1).permutation(len(blocks)):
+        e = np.arange(*blocks[k])
+        n = per[e]
+        first = np.repeat(e, n)
+        second = np.repeat(own_end[e], n) + np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+        i, j = sub[ent[first]], sub[ent[second]]
+        olo = np.maximum(clo[i], clo[j])
+        keep = ((np.minimum(chi[i], chi[j]) - olo) > tol).all(axis=1)
+        keep &= (np.floor(olo / size).astype(np.int64) == cell[first]).all(axis=1)
+        keep &= (olo[:, 0] >= x0) & (olo[:, 0] < x1)
+        yield i[keep], j[keep]
 
 
 def _candidates(part: np.ndarray, lo: np.ndarray, hi: np.ndarray, tol: float, n_parts: int) -> np.ndarray:
     """Tets whose box reaches more than ``tol`` into the box of another part."""
     if n_parts > 64:
         return np.arange(len(part))
-    plo = np.full((n_parts, 3), np.inf)
-    phi = np.full((n_parts, 3), -np.inf)
-    np.minimum.at(plo, part, lo)
-    np.maximum.at(phi, part, hi)
+    mine = [part == p for p in range(n_parts)]
+    plo = np.array([lo[m].min(axis=0) for m in mine])
+    phi = np.array([hi[m].max(axis=0) for m in mine])
     keep = np.zeros(len(part), dtype=bool)
     for p in range(n_parts):
         for q in range(p + 1, n_parts):
             if (np.minimum(phi[p], phi[q]) - np.maximum(plo[p], plo[q]) > tol).all():
                 for x, y in ((p, q), (q, p)):
-                    mine = part == x
-                    keep[mine] |= ((np.minimum(hi[mine], phi[y]) - np.maximum(lo[mine], plo[y])) > tol).all(axis=1)
+                    m = mine[x]
+                    keep[m] |= ((np.minimum(hi[m], phi[y]) - np.maximum(lo[m], plo[y])) > tol).all(axis=1)
     return np.flatnonzero(keep)
 
 
 def overlapping_parts(points: np.ndarray, tets: np.ndarray, tris: np.ndarray | None = None) -> dict | None:
     """``None`` when the mesh's parts (:func:`mesh_parts`) do not overlap, else what overlaps:
-    ``parts`` (cells per part), ``pairs`` (overlapping tet pairs; ``capped``: the search stopped at
-    :data:`MAX_PAIRS` after testing the share ``searched`` of the candidate pairs, and ``pairs`` and
-    ``by_parts`` are estimated from it, the rest from the pairs found), ``by_parts`` (``{(p, q): pairs}``), ``cells`` (tets of each
+    ``parts`` (tets per part), ``pairs`` (overlapping tet pairs found; ``capped``: the search stopped
+    after about :data:`MAX_PAIRS`, having searched the share ``searched`` of the candidate tets to the end,
+    and every count is a lower bound), ``by_parts`` (``{(p, q): pairs}``), ``cells`` (tets of each
     part in an overlap, ``{p: count}``), ``box`` (lower and upper corner of the overlapping pairs'
     box intersections) and ``depth`` (the deepest pair's separating-axis overlap, in the points'
     units).
@@ -188,7 +243,8 @@ def overlapping_parts(points: np.ndarray, tets: np.ndarray, tris: np.ndarray | N
     n_parts = int(part.max()) + 1
     if n_parts < 2:
         return None
-    used = np.unique(tets)
+    used = np.zeros(len(points), dtype=bool)
+    used[tets.ravel()] = True
     blo, bhi = points[used].min(axis=0), points[used].max(axis=0)
     centre = 0.5 * (blo + bhi)
     c = points - centre
@@ -199,64 +255,47 @@ def overlapping_parts(points: np.ndarray, tets: np.ndarray, tris: np.ndarray | N
     if len(cand) < 2:
         return None
     clo, chi = lo[cand], hi[cand]
+    cpart = part[cand]
     ext = (chi - clo).max(axis=1)
     size = max(float(np.median(ext)), tol, 1e-300)
-    k0 = np.floor(clo / size).astype(np.int64)
-    span = np.floor(chi / size).astype(np.int64) - k0 + 1
-    while span.prod(axis=1).sum() > 8 * len(cand) + 1000:  # a few huge cells: coarser grid
-        size *= 2.0
-        k0 = np.floor(clo / size).astype(np.int64)
-        span = np.floor(chi / size).astype(np.int64) - k0 + 1
-    count = span.prod(axis=1)
-    ent = np.repeat(np.arange(len(cand)), count)
-    local = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
-    sx, sy = span[ent, 0], span[ent, 1]
-    cell = k0[ent] + np.stack([local % sx, (local // sx) % sy, local // (sx * sy)], axis=1)
-    base = cell.min(axis=0)
-    dims = cell.max(axis=0) - base + 1
-    key = ((cell[:, 0] - base[0]) * dims[1] + (cell[:, 1] - base[1])) * dims[2] + (cell[:, 2] - base[2])
-    kp = part[cand][ent]
-    order = np.lexsort((kp, key))
-    key, ent, cell, kp = key[order], ent[order], cell[order], kp[order]
-    del local, sx, sy, order
-    run_end = np.searchsorted(key, key, side="right")
-    # the entries of another part later in the cell: after the run of the entry's own part
-    kk = key * np.int64(n_parts) + kp
-    own_end = np.searchsorted(kk, kk, side="right")
-    del kk
-    per = run_end - own_end  # pairs each entry starts with the other parts' later entries of its cell
-    cum = np.cumsum(per)
-    total = int(cum[-1]) if len(cum) else 0
-    cuts = np.unique(np.searchsorted(cum, np.arange(_PAIR_BLOCK, total, _PAIR_BLOCK), side="left"))
-    bounds = np.concatenate([[0], cuts + 1, [len(key)]]).clip(0, len(key))
-    blocks = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
-    # blocks in a fixed scattered order: a search that stops early has sampled the whole overlap
-    blocks = [blocks[k] for k in np.random.default_rng(0).permutation(len(blocks))]
+    while (np.floor(chi / size) - np.floor(clo / size) + 1).prod(axis=1).sum() > 8 * len(cand) + 1000:
+        size *= 2.0  # a few huge cells: a coarser grid
+    # slabs along x of about _SLAB candidates each (by the boxes' lower x); a slab's search stops at its
+    # share of MAX_PAIRS, so the pairs found spread over the whole overlap
+    order = np.argsort(clo[:, 0], kind="stable")
+    xs = clo[order, 0]
+    n_slabs = max(1, -(-len(cand) // _SLAB))
+    edges = [-np.inf] + [float(xs[k * _SLAB]) for k in range(1, n_slabs)] + [np.inf]
+    reach = float(ext.max())
     found_i, found_j, found_d = [], [], []
-    n_found = done = 0
+    n_found = 0
+    done = 0  # candidates whose slab was searched to its end
     capped = False
-    for start, stop in blocks:
-        e = np.arange(start, stop)
-        n = per[e]
-        first = np.repeat(e, n)
-        second = np.repeat(own_end[e], n) + np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
-        done += len(first)
-        i, j = ent[first], ent[second]
-        olo = np.maximum(clo[i], clo[j])
-        keep = ((np.minimum(chi[i], chi[j]) - olo) > tol).all(axis=1)
-        # each pair once: in the grid cell of the lower corner of the boxes' overlap
-        keep &= (np.floor(olo / size).astype(np.int64) == cell[first]).all(axis=1)
-        ti, tj = cand[i[keep]], cand[j[keep]]
-        if len(ti):
+    per_slab = max(MAX_PAIRS // n_slabs, 200)  # every slab searched, each up to its share of MAX_PAIRS
+    for k in range(n_slabs):
+        x0, x1 = edges[k], edges[k + 1]
+        # the slab's own boxes and those reaching into it from the left
+        a0 = int(np.searchsorted(xs, x0 - reach, side="left")) if np.isfinite(x0) else 0
+        a1 = int(np.searchsorted(xs, x1, side="left")) if np.isfinite(x1) else len(xs)
+        sub = order[a0:a1]
+        if np.isfinite(x0):
+            sub = sub[chi[sub, 0] > x0]
+        own = int(np.sum((clo[sub, 0] >= x0) & (clo[sub, 0] < x1)))
+        in_slab = 0
+        for i, j in _grid_pairs(sub, clo, chi, cpart, size, tol, x0, x1):
+            ti, tj = cand[i], cand[j]
             d = tet_overlap_depth(c[tets[ti]], c[tets[tj]], tol)
             hit = d > tol
             found_i.append(ti[hit])
             found_j.append(tj[hit])
             found_d.append(d[hit])
-            n_found += int(hit.sum())
-            if n_found >= MAX_PAIRS:
-                capped = done < total
+            in_slab += int(hit.sum())
+            if in_slab >= per_slab:  # this slab's share of the pairs: on to the next
+                capped = True
                 break
+        else:
+            done += own
+        n_found += in_slab
     if not n_found:
         return None
     ti, tj, d = np.concatenate(found_i), np.concatenate(found_j), np.concatenate(found_d)
@@ -265,15 +304,13 @@ def overlapping_parts(points: np.ndarray, tets: np.ndarray, tris: np.ndarray | N
     ti, tj = np.where(swap, tj, ti), np.where(swap, ti, tj)
     pi, pj = np.minimum(pi, pj), np.maximum(pi, pj)
     keys, cnt = np.unique(pi * n_parts + pj, return_counts=True)
-    if capped:
-        cnt = np.round(cnt * total / done).astype(np.int64)
+    share = done / len(cand) if capped else 1.0
     olo = np.maximum(lo[ti], lo[tj]).min(axis=0) + centre
     ohi = np.minimum(hi[ti], hi[tj]).max(axis=0) + centre
     cells_p = np.unique(np.concatenate([ti, tj]))
     pc, cc = np.unique(part[cells_p], return_counts=True)
     return {"parts": np.bincount(part, minlength=n_parts).tolist(), "part": part, "found": (ti, tj),
-            "pairs": n_found if not capped else int(round(n_found * total / done)), "capped": capped,
-            "searched": done / total,
+            "pairs": n_found, "capped": capped, "searched": share,
             "by_parts": {(int(k // n_parts), int(k % n_parts)): int(v) for k, v in zip(keys, cnt)},
             "cells": {int(p): int(v) for p, v in zip(pc, cc)},
             "box": ([float(v) for v in olo], [float(v) for v in ohi]), "depth": float(d.max())}
@@ -296,8 +333,7 @@ def overlap_message(name: str, info: dict, cell_start: np.ndarray | None = None)
     box = " .. ".join("(" + ", ".join(f"{v:.4g}" for v in corner) + ")" for corner in (lo, hi))
     more = len(info["by_parts"]) - 1
     others = f" (and {more} other pair(s) of parts)" if more else ""
-    count = (f"about {info['pairs']:,} (estimated from {info['searched']:.0%} of the search)" if info["capped"]
-             else f"{info['pairs']:,}")
+    count = (f"at least {info['pairs']:,} (the search stops there)" if info["capped"] else f"{info['pairs']:,}")
     found = " found" if info["capped"] else ""
     return (f"{name}: parts of the mesh overlap in space: part {p} ({size(p, 0)}) and part {q} ({size(q, 1)})"
             f"{others}, of the mesh's {len(parts)} parts (cells connected through shared points); {count} "
