@@ -152,3 +152,28 @@ def test_stress_cases_of_overlap_and_subnormal_scalars(case):
         assert rows[0]["status"] == "ok" and rows[0]["finite"]
         check_exact_rows(rows[1:])
         assert all(r["status"] == "ok" for r in rows[1:]), rows
+
+
+def test_blanked_overset_blocks_pass(tmp_path):
+    import pyvista as pv
+
+    from warpvol.scene.loaders import read_mesh_file
+
+    grids = []
+    for x0 in (0.0, 2 / 3):
+        g = pv.ImageData(dimensions=(4, 4, 4), spacing=(1 / 3,) * 3, origin=(x0, 0, 0)).cast_to_unstructured_grid()
+        g.point_data["s"] = g.points[:, 0]
+        grids.append(g)
+    both = grids[0].merge(grids[1], merge_points=False)
+    flags = np.zeros(both.n_cells, np.uint8)
+    centres = both.cell_centers().points
+    flags[27:][centres[27:, 0] < 1.0] = 32  # the second block's cells inside the first: HIDDENCELL (iblank 0)
+    both.cell_data["vtkGhostType"] = flags
+    path = tmp_path / "overset.vtu"
+    both.save(path)
+    m = read_mesh_file(path, "s")
+    assert m.load_notes.get("hidden_cells_dropped") == 9 and m.overlapping_parts is None
+    both.cell_data["vtkGhostType"] = np.zeros(both.n_cells, np.uint8)  # without the blanking: declined
+    both.save(path)
+    with pytest.raises(MeshError, match="overlap in space"):
+        read_mesh_file(path, "s").check_overlap()

@@ -113,3 +113,15 @@ def test_the_reference_of_extreme_scalars_is_that_of_the_scaled_scene():
             return render_reference(m, TransferFunction(pts, sc.transfer.emission), sc.camera)
         ref, got = scaled(0), scaled(k)
         assert np.isfinite(got).all() and ref[..., 3].max() > 0.1 and np.abs(got - ref).max() < 1e-12, k
+
+
+def test_a_transfer_function_wider_than_subnormal_data_renders(tmp_path):
+    # control points beyond the data's range: the TF is looked up between them (np.interp's slope was
+    # inf there, and the presets declined naming an "extinction inf" the TF does not have)
+    sub, normal = _scenes(tmp_path)
+    pts = np.array([[0.0, 0.1, 0.2, 0.9, 0.0], [3e-311, 1.0, 0.6, 0.2, 4.0]])
+    scaled = pts.copy()
+    scaled[:, 0] = np.ldexp(pts[:, 0], K)
+    ref = render_reference(normal.mesh, TransferFunction(scaled), normal.camera)
+    img = Pipeline.load("raycast").render(scene(sub.mesh, TransferFunction(pts), sub.camera), quiet=True).image
+    assert ref[..., 3].max() > 0.1 and np.abs(img - ref).max() <= TOLERANCES["raycast/fp32"]["max_abs"]
