@@ -33,4 +33,7 @@ def kernel_modules() -> list:
                 if setup == harc.SETUP_PAPER and walk != harc.WALK_PLANES:
                     continue  # make_march refuses it: the paper's set-up walks the face planes
                 out.append(harc.march_kernel(walk, setup, mode).module)
+    from . import pt_span
+
+    out.append(pt_span.span_kernel_cached(16).module)
     return out

@@ -17,6 +17,9 @@ fragment walk) for an A/B against ``pt_best`` (its fused draw, ``walk = "fused"`
 ``scenes/spx_fill.toml``): ``pt_best`` against VTK's projected-tetrahedra mapper, printing ``VTK PT time /
 pt_best time`` (``bench_raycast.fill_vs_vtk_pt``).
 
+``--spans`` compares ``pt_best`` one fragment at a time and in SIMD spans with VTK's mapper
+(``scripts/bench_pt_spans.py``: ns per fragment, us per cell, VTK PT / this, load average; ``--json``).
+
 Usage::
 
     ./run.sh python scripts/bench_pt.py [--scene scenes/bluntfin.toml] [--size 512] [--repeat 1]
@@ -54,7 +57,14 @@ def main(argv=None) -> int:
     ap.add_argument("--fill", action="store_true",
                     help="only the views filling the image (scenes/bluntfin_close.toml, scenes/spx_fill.toml): "
                          "VTK PT time / pt_best time, medians over interleaved rounds (--repeat, at least 5), errors, load")
+    from bench_pt_spans import add_arguments
+
+    add_arguments(ap)
     args = ap.parse_args(argv)
+    if args.spans:
+        from bench_pt_spans import main as spans
+
+        return spans(args)
     if args.fill:
         from bench_raycast import fill_vs_vtk_pt
 

@@ -176,8 +176,9 @@ BOUNDS_SCRIPT = """
 import sys
 import warp as wp
 wp.config.quiet = True
-from warpvol.kernels import pt_draw
+from warpvol.kernels import pt_draw, pt_span
 wp.set_module_options({"mode": "debug"}, module=pt_draw)  # array indices checked in the fused draw
+pt_span.span_kernel_cached(16).module.options["mode"] = "debug"  # and in its span form (the CPU's default)
 from warpvol.pipeline import Pipeline
 from warpvol.scene.builtin import builtin_scene
 sc = builtin_scene("box").with_camera(width_px=12, height_px=12, projection=sys.argv[1])
@@ -188,7 +189,8 @@ print("fragments", r.report["counters"]["pt_integrate"]["fragments"])
 
 def test_fused_pt_draw_reads_inside_its_arrays():
     """The fused draw reads the per-pixel ray factors only where the exact perspective thickness uses
-    them: with an orthographic camera it gets a 1x1 array, and the bounds-checked kernel runs through."""
+    them: with an orthographic camera it gets a 1x1 array, and the bounds-checked kernels (one fragment at a
+    time and in spans) run through."""
     import subprocess
     import sys
 

@@ -134,12 +134,13 @@ def guthe_lookups(run: Callable, atlas, consts: list, *, mode: str, ortho: bool,
 
 
 def exact_program(tf, *, mode: str = "off", ortho: bool = False, device: str = "cpu", z_off: float = 0.0,
-                  camera=None, tile: int = 0) -> Callable:
+                  camera=None, tile: int = 0, lanes: int = 0) -> Callable:
     """Fragment program without a table: each fragment's segment integrated exactly (fp32). ``z_off``:
     the eye-space depth offset of the perspective attributes (:attr:`PTGeometry.eye_offset`).
     ``camera``: for the fused draw (``draw(walk="fused")``), whose exact thickness takes each pixel's
     :func:`~warpvol.projection.pt.ray_length_factors` (needed with ``mode="exact"`` in perspective); ``tile``: its bin size
-    (:func:`~warpvol.projection.pt.fused_tile`; 0: by device)."""
+    (:func:`~warpvol.projection.pt.fused_tile`; 0: by device); ``lanes``: its fragments per SIMD span
+    (:func:`~warpvol.projection.pt.fused_lanes`; 1: one fragment at a time; 0: by device)."""
     from warpvol.kernels import pt as kpt
     from warpvol.tables.base import model_id
 
@@ -153,7 +154,7 @@ def exact_program(tf, *, mode: str = "off", ortho: bool = False, device: str = "
         return out
 
     run.fused = {"mode": flags[0], "ortho": flags[1], "camera": camera, "tf_s": tf_s, "tf_v": tf_v,
-                 "model": model_id(tf), "tile": int(tile), "zero": zero_interval(tf)}
+                 "model": model_id(tf), "tile": int(tile), "lanes": int(lanes), "zero": zero_interval(tf)}
     return run
 
 

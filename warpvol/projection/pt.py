@@ -59,6 +59,23 @@ def fused_tile(device: str, tile: int = 0) -> int:
         return int(tile)
     return FUSED_TILE if str(device).startswith("cpu") else FUSED_TILE_CUDA
 
+#: fragments per SIMD span of the fused draw (:mod:`warpvol.kernels.pt_span`): 1 is the one-fragment kernel
+#: (:func:`warpvol.kernels.pt_draw.k_pt_exact_tiles`); 0: by device
+FUSED_LANES = (0, 1, 4, 8, 16, 32)
+FUSED_LANES_CPU = 16  # AVX-512 float32 lanes
+
+
+def fused_lanes(device: str, lanes: int = 0) -> int:
+    """The fused draw's fragments per span: ``lanes``, or by device when 0 (:data:`FUSED_LANES_CPU` on the
+    CPU, 1 on CUDA: one fragment per thread, the same source).
+
+    >>> fused_lanes("cpu"), fused_lanes("cuda:0"), fused_lanes("cpu", 1)
+    (16, 1, 1)
+    """
+    if lanes:
+        return int(lanes)
+    return FUSED_LANES_CPU if str(device).startswith("cpu") else 1
+
 #: "no such scalar" in :func:`~warpvol.projection.programs.zero_interval` (float32 range: the fused draw
 #: compares float32 scalars with it)
 NO_ZERO = 3.0e38
@@ -352,6 +369,24 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
     # early termination: where each pixel terminated (draw position of the cell), which cells were binned / walked
     term_at = wp.full((fb.height, fb.width) if term else (1, 1), -1, dtype=wp.int32, device=device)
     binned, walked = (wp.zeros(max(m, 1) if term else 1, dtype=wp.int32, device=device) for _ in range(2))
+    lanes = fused_lanes(device, fused.get("lanes", 0))
+    span = None
+    if lanes > 1:  # the fragments in SIMD spans: same image and counters as the one-fragment kernel
+        from warpvol.kernels import pt_span
+
+        span = pt_span.span_kernel_cached(lanes)
+        preload(device, span)
+        tf_flat = wp.array(fused["tf_v"].numpy().reshape(-1), dtype=wp.float32, device=device)
+
+        def span_inputs(k0, counts, skipped, occluded, done_rows):
+            fi = pt_span.FusedIn()
+            fi.pos, fi.vattrs, fi.mode, fi.ortho, fi.ray_len = apos, va, fused["mode"], fused["ortho"], ray_len
+            fi.tf_s, fi.tf_v, fi.tf_flat, fi.model = fused["tf_s"], fused["tf_v"], tf_flat, fused["model"]
+            fi.t_min, fi.tet0, fi.zero_lo, fi.zero_hi = float(t_min), int(k0), float(zero_lo), float(zero_hi)
+            fo = pt_span.FusedOut()
+            fo.counts, fo.skipped, fo.occluded, fo.done_rows = counts, skipped, occluded, done_rows
+            fo.term_at, fo.binned, fo.walked = term_at, binned, walked
+            return fi, fo
     for k0 in starts[::-1] if t_min > 0 else starts:  # early termination: front to back
         k1 = min(m, k0 + batch_tets)
         detail("pt draw", n_batch * batch_tets / m, f"batch {n_batch + 1} of {len(starts)}")  # an open progress bar
@@ -367,6 +402,10 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
         def run(b, tr=tr, counts=counts, skipped=skipped, tile_blocks=tile_blocks, k0=k0, occluded=occluded,
                 done_rows=done_rows):
             t0, n = tile_blocks[b]
+            if span is not None:
+                fi, fo = span_inputs(k0, counts, skipped, occluded, done_rows)
+                wp.launch(span, dim=n, inputs=[tr.struct, fi, fo, st, fb.array, t0], device=device)
+                return
             wp.launch(pt_draw.k_pt_exact_tiles, dim=n,
                       inputs=[tr.struct, apos, va, fused["mode"], fused["ortho"], ray_len, fused["tf_s"],
                               fused["tf_v"], fused["model"], st, fb.array, t0, counts, float(t_min), skipped,

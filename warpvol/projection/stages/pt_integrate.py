@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from warpvol.projection.pt import DRAW_WALKS, FUSED_TILES
+from warpvol.projection.pt import DRAW_WALKS, FUSED_LANES, FUSED_TILES
 from warpvol.projection.stages.pt_perspective import fragment_inputs
 from warpvol.projection.stages.pt_vertex_color import BATCH, DITHER, composite, fb_param
 from warpvol.stage import Context, Param, Stage, register_stage
@@ -57,6 +57,10 @@ class PTIntegrate(Stage):
     fused_tile         int    0         ``0`` ``4`` ``8`` ``16`` ``32`` ``64``      bin size of the fused walk
                                                                                     (one thread per bin; 0: 64
                                                                                     on the CPU, 8 on CUDA)
+    lanes              int    0         ``0`` ``1`` ``4`` ``8`` ``16`` ``32``       fragments per SIMD span
+                                                                                    of the fused walk (0: 16
+                                                                                    on the CPU, 1 on CUDA;
+                                                                                    same image and counters)
     walk               str    pixel     ``pixel`` ``triangle`` ``fused``            fragment generation:
                                                                                     emulated per-pixel tile
                                                                                     walk, or per-triangle
@@ -92,7 +96,10 @@ class PTIntegrate(Stage):
                     "what could still come from behind changes no channel by more than this (0: off; applies to "
                     "the fused walk into fp32, no termination otherwise)", lo=0.0, hi=0.01),
               Param("fused_tile", int, 0, "bin size of the fused walk, one kernel thread per bin (0: by device, "
-                    "64 px on the CPU, 8 px on CUDA)", choices=FUSED_TILES))
+                    "64 px on the CPU, 8 px on CUDA)", choices=FUSED_TILES),
+              Param("lanes", int, 0, "fragments per SIMD span of the fused walk (0: by device, 16 on the CPU, 1 on "
+                    "CUDA; 1: one fragment at a time); the same image and counters for every value",
+                    choices=FUSED_LANES))
     needs = ("pt_geometry",)
 
     def _terminates(self) -> bool:
@@ -117,7 +124,8 @@ class PTIntegrate(Stage):
 
         attrs, mode, ortho, z_off = fragment_inputs(ctx)
         program = exact_program(ctx.scene.transfer, mode=mode, ortho=ortho, device=ctx.device, z_off=z_off,
-                                camera=ctx.scene.camera, tile=self.config["fused_tile"])
+                                camera=ctx.scene.camera, tile=self.config["fused_tile"],
+                                lanes=self.config["lanes"])
         bands = self.config["row_bands"]
         if bands == 0:
             from warpvol.parallel import cpu_threads
