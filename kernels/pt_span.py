@@ -21,10 +21,11 @@ The pixels a span takes are those the one-fragment kernel would integrate: a row
 terminated is skipped as a whole and a terminated pixel on its own (both counted in ``skipped``, as
 there). Then one pass over the span's fragments, in order, does what stays per fragment: the counters,
 the blend and the termination bookkeeping. A *rare* fragment leaves the span for the one-fragment
-kernel's functions, whole (:func:`~warpvol.kernels.pt_draw.nearest_on_triangle`, ``clamp8``,
-``sfsbl_ray``, :func:`~warpvol.kernels.pt.exact_color`): a pixel centre outside the unsnapped
-triangle, a segment crossing a TF control point, an optically thick piece, a TF of more than
-:data:`TF_COUNTED` points. ``fuse_fp`` is off and every lane value is computed by the same float32
+kernel's functions: a pixel centre outside the unsnapped triangle, whole
+(:func:`~warpvol.kernels.pt_draw.nearest_on_triangle`, ``clamp8``, ``sfsbl_ray``,
+:func:`~warpvol.kernels.pt.exact_color`); a segment crossing a TF control point, an optically thick
+piece or a TF of more than :data:`TF_COUNTED` points, :func:`~warpvol.kernels.pt.exact_color` on the
+span's ``(sf, sb, l)``. ``fuse_fp`` is off and every lane value is computed by the same float32
 operations in the same order as the scalar functions, so the image and the counters are those of
 ``lanes = 1`` (tests/test_pt_spans.py, bit for bit). Lanes past a span's fragments compute on its last
 pixel and are dropped. Each loop over lanes is written without ``if`` (``wp.where``: a uniform ``if``
@@ -409,7 +410,7 @@ def span_kernel(lanes: int):
                     d = fb[ip, jp]
                     fl = flag[l]
                     c = wp.vec4(cr[l], cg[l], cb[l], ca[l])
-                    if (fl & 1) != 0 or slow[l] != 0:  # rare: the one-fragment kernel's functions
+                    if (fl & 1) != 0:  # outside the unsnapped triangle: the one-fragment kernel's functions, whole
                         ry = gy * (float(ip) + 0.5 - pa[1])
                         xx = nearest_on_triangle(pa, pb, pc, a0, a1, a2, float(jp) + 0.5, float(ip) + 0.5,
                                                  a0 + gx * (float(jp) + 0.5 - pa[0]) + ry)
@@ -428,6 +429,8 @@ def span_kernel(lanes: int):
                             nzero += 1
                             continue
                         nclamp += (fl >> 2) & 1
+                        if slow[l] != 0:  # a control point inside, optically thick: exact_color on the lane's segment
+                            c = exact_color(wp.vec3(sfv[l], sbv[l], lv[l]), fi.tf_s, fi.tf_v, model)
                     nfrag += 1
                     d = blend(bs, c, d, jp, ip, t)
                     fb[ip, jp] = d
