@@ -9,6 +9,11 @@ Blending follows the draw order, not the thread order, in every preset, so the i
 to be bit-identical; :data:`NOT_FIXED` lists the presets whose algorithm leaves an order to the threads
 (compared within their tolerance row instead, with the reason).
 
+The presets run with their pre-integration tables capped at :data:`warpvol.tools.bench.QUICK_TABLE_CAPS`
+(16 samples per axis, as ``warpvol stress --quick``): every table kernel still runs, in many shuffled
+blocks of threads, while the full tables took about 85 of the 90 s of renders per pass (Guthe's quartic
+table 20 s, Roettger & Ertl's hardware table 25 s for the two scenes).
+
 The shuffled kernels are compiled into their own Warp cache (``~/.cache/warpvol/warp-order-shuffled``,
 or ``$WARPVOL_ORDER_CACHE``): cold, every module compiles once more (~2-4 min of CPU on this 2-core
 machine); warm, the test costs the renders.
@@ -41,6 +46,7 @@ from warpvol.errors import ConfigError
 from warpvol.parallel import launch_order
 from warpvol.pipeline import Pipeline, list_presets
 from warpvol.scene.builtin import builtin_scene
+from warpvol.tools.bench import quick_pipeline
 
 out, scenes = sys.argv[1], json.loads(sys.argv[2])
 
@@ -58,7 +64,7 @@ for name, size in scenes:
     sc = builtin_scene(name).with_camera(width_px=size, height_px=size)
     for preset, _ in list_presets():
         try:
-            images[f"{name}/{preset}"] = Pipeline.load(preset).render(sc, quiet=True).image
+            images[f"{name}/{preset}"] = quick_pipeline(Pipeline.load(preset)).render(sc, quiet=True).image
         except ConfigError as e:
             declined[f"{name}/{preset}"] = str(e)
 np.savez(out, **images)
