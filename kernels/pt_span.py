@@ -39,6 +39,7 @@ import warp as wp
 from .blend import BlendState, blend
 from .integrate import GL3_W0, GL3_W1, GL3_X0, GL3_X2, THIN_DEPTH, one_minus_exp_neg_thin
 from .pt import CLAMP_ABS, CLAMP_REL, PERSP_EXACT, PERSP_OFF, exact_color, vec8f
+from .tf import tf_upper
 from .pt_draw import attribute_planes, clamp8, nearest_on_triangle, sfsbl_ray, span_done, zero_segments
 from .raster import TriSetup, edge_step_i, edge_step_j, edges_at, row_span, tile_rect, tile_span
 
@@ -108,6 +109,29 @@ def clamp1(x: float, lo: float, hi: float) -> float:
 def moved1(x: float, y: float, tol: float) -> int:
     """:func:`~warpvol.kernels.pt_draw.clamp8`'s test of one attribute (0 where ``y == x``)."""
     return wp.where(wp.abs(y - x) > tol + CLAMP_ABS, 1, 0)
+
+
+@wp.func
+def segment_bounds(lo: vec8f, hi: vec8f, mode: int) -> wp.vec4:
+    """``(min sf, max sf, min sb, max sb)`` over the fragments of a triangle whose attributes are clamped into
+    ``[lo, hi]`` (:func:`~warpvol.kernels.pt_draw.zero_segments`' corners: the rounded products are monotone in
+    each factor); all NaN where there is no such bound (``1 / w`` not positive or not finite)."""
+    if mode == PERSP_OFF:
+        return wp.vec4(lo[0], hi[0], lo[1], hi[1])
+    if not (lo[2] > 0.0 and lo[3] > 0.0):
+        nan = wp.nan
+        return wp.vec4(nan, nan, nan, nan)
+    wf0 = 1.0 / hi[2]
+    wf1 = 1.0 / lo[2]
+    wb0 = 1.0 / hi[3]
+    wb1 = 1.0 / lo[3]
+    if not (wf1 < 3.4e38 and wb1 < 3.4e38):  # an infinite reciprocal: 0 * inf would be NaN, which min / max drop
+        nan = wp.nan
+        return wp.vec4(nan, nan, nan, nan)
+    return wp.vec4(wp.min(wp.min(lo[0] * wf0, lo[0] * wf1), wp.min(hi[0] * wf0, hi[0] * wf1)),
+                   wp.max(wp.max(lo[0] * wf0, lo[0] * wf1), wp.max(hi[0] * wf0, hi[0] * wf1)),
+                   wp.min(wp.min(lo[1] * wb0, lo[1] * wb1), wp.min(hi[1] * wb0, hi[1] * wb1)),
+                   wp.max(wp.max(lo[1] * wb0, lo[1] * wb1), wp.max(hi[1] * wb0, hi[1] * wb1)))
 
 
 def span_kernel(lanes: int):
@@ -190,6 +214,16 @@ def span_kernel(lanes: int):
             gx = g[0]
             gy = g[1]
             tol = CLAMP_REL * (hi - lo)
+            # the control points the triangle's segments can reach: each end's tf_upper lies in [m_lo, m_hi]
+            # (monotone in the scalar), so the lanes count only the points m_lo .. m_hi - 1
+            m_lo = int(0)
+            m_hi = ntf_lanes
+            sbd = segment_bounds(lo, hi, mode)
+            if not many and sbd[0] == sbd[0]:  # (NaN: no bound; every point counted)
+                m_lo = wp.min(tf_upper(sbd[0], fi.tf_s), tf_upper(sbd[2], fi.tf_s))
+                m_hi = wp.max(tf_upper(sbd[1], fi.tf_s), tf_upper(sbd[3], fi.tf_s))
+            p0 = wp.max(m_lo - 1, 0)  # the points below / above a scalar counted at m_lo / m_hi
+            p1 = wp.min(m_hi, ntf - 1)
             # the unsnapped triangle's inside test (nearest_on_triangle's), per lane
             ux = pb[0] - pa[0]
             uy = pb[1] - pa[1]
@@ -284,19 +318,19 @@ def span_kernel(lanes: int):
                     flag[l] = wp.where(outside, 1, 0) | wp.where(zero, 2, 0) | (mv * 4)
                 # 2. the TF interval of each end (tf_upper's result: the points not above the scalar, counted) and
                 #    the control points around it (k - 1 and k, clamped into the TF), selected, not loaded
-                kfv = lanei()
-                kbv = lanei()
-                fs0 = lanef(fi.tf_s[0])
-                fr0 = lanef(fi.tf_flat[0])
-                fg0 = lanef(fi.tf_flat[1])
-                fb0 = lanef(fi.tf_flat[2])
-                fa0 = lanef(fi.tf_flat[3])
-                bs0 = lanef(fi.tf_s[0])
-                br0 = lanef(fi.tf_flat[0])
-                bg0 = lanef(fi.tf_flat[1])
-                bb0 = lanef(fi.tf_flat[2])
-                ba0 = lanef(fi.tf_flat[3])
-                for m in range(ntf_lanes):
+                kfv = lanei(m_lo)
+                kbv = lanei(m_lo)
+                fs0 = lanef(fi.tf_s[p0])
+                fr0 = lanef(fi.tf_flat[4 * p0])
+                fg0 = lanef(fi.tf_flat[4 * p0 + 1])
+                fb0 = lanef(fi.tf_flat[4 * p0 + 2])
+                fa0 = lanef(fi.tf_flat[4 * p0 + 3])
+                bs0 = lanef(fi.tf_s[p0])
+                br0 = lanef(fi.tf_flat[4 * p0])
+                bg0 = lanef(fi.tf_flat[4 * p0 + 1])
+                bb0 = lanef(fi.tf_flat[4 * p0 + 2])
+                ba0 = lanef(fi.tf_flat[4 * p0 + 3])
+                for m in range(m_lo, m_hi):
                     sm = fi.tf_s[m]
                     vr = fi.tf_flat[4 * m]
                     vg = fi.tf_flat[4 * m + 1]
@@ -317,19 +351,18 @@ def span_kernel(lanes: int):
                         bg0[l] = wp.where(bin_, vg, bg0[l])
                         bb0[l] = wp.where(bin_, vb, bb0[l])
                         ba0[l] = wp.where(bin_, va, ba0[l])
-                n1 = ntf - 1
-                fs1 = lanef(fi.tf_s[n1])
-                fr1 = lanef(fi.tf_flat[4 * n1])
-                fg1 = lanef(fi.tf_flat[4 * n1 + 1])
-                fb1 = lanef(fi.tf_flat[4 * n1 + 2])
-                fa1 = lanef(fi.tf_flat[4 * n1 + 3])
-                bs1 = lanef(fi.tf_s[n1])
-                br1 = lanef(fi.tf_flat[4 * n1])
-                bg1 = lanef(fi.tf_flat[4 * n1 + 1])
-                bb1 = lanef(fi.tf_flat[4 * n1 + 2])
-                ba1 = lanef(fi.tf_flat[4 * n1 + 3])
-                for mm in range(ntf_lanes):
-                    m = n1 - mm  # descending: the last above the scalar selected is the first
+                fs1 = lanef(fi.tf_s[p1])
+                fr1 = lanef(fi.tf_flat[4 * p1])
+                fg1 = lanef(fi.tf_flat[4 * p1 + 1])
+                fb1 = lanef(fi.tf_flat[4 * p1 + 2])
+                fa1 = lanef(fi.tf_flat[4 * p1 + 3])
+                bs1 = lanef(fi.tf_s[p1])
+                br1 = lanef(fi.tf_flat[4 * p1])
+                bg1 = lanef(fi.tf_flat[4 * p1 + 1])
+                bb1 = lanef(fi.tf_flat[4 * p1 + 2])
+                ba1 = lanef(fi.tf_flat[4 * p1 + 3])
+                for mm in range(m_hi - m_lo):
+                    m = m_hi - 1 - mm  # descending: the last above the scalar selected is the first
                     sm = fi.tf_s[m]
                     vr = fi.tf_flat[4 * m]
                     vg = fi.tf_flat[4 * m + 1]
