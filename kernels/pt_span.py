@@ -17,10 +17,9 @@ vectorises (8 float32 lanes per AVX-512 instruction with LLVM's preferred 256-bi
    Gauss moments of :func:`~warpvol.kernels.integrate.integrate_piece` and the alpha polynomial of
    :func:`~warpvol.kernels.pt.exact_color`.
 
-The pixels a span takes are those the one-fragment kernel would integrate: a row's covered run all
-terminated is skipped as a whole and a terminated pixel on its own (both counted in ``skipped``, as
-there). Then one pass over the span's fragments, in order, does what stays per fragment: the counters,
-the blend and the termination bookkeeping. A *rare* fragment leaves the span for the one-fragment
+A row's covered run all terminated is skipped as a whole, as there. Then one pass over the span's
+pixels, in order, does what stays per fragment: the early-termination test (a terminated pixel is
+skipped and counted in ``skipped``, as there), the counters, the blend and the termination bookkeeping. A *rare* fragment leaves the span for the one-fragment
 kernel's functions: a pixel centre outside the unsnapped triangle, whole
 (:func:`~warpvol.kernels.pt_draw.nearest_on_triangle`, ``clamp8``, ``sfsbl_ray``,
 :func:`~warpvol.kernels.pt.exact_color`); a segment crossing a TF control point, an optically thick
@@ -258,16 +257,12 @@ def span_kernel(lanes: int):
                                 nskip += ce - cj + 1
                                 cj = ce + 1
                         continue
-                    jc = cj
-                    cj += 1
-                    if term:
-                        dd = fb[ci, jc]
-                        if 1.0 - dd[3] <= t_min:  # terminated: no more fragments
-                            nskip += 1
-                            continue
-                    ii[n] = ci
-                    jj[n] = jc
-                    n += 1
+                    take = wp.min(L - n, ce - cj + 1)  # the run's next pixels (a terminated one: skipped below)
+                    for q in range(take):
+                        ii[n + q] = ci
+                        jj[n + q] = cj + q
+                    n += take
+                    cj += take
                 if n == 0:
                     break
                 for l in range(n, L):  # lanes past the fragments: the last one's pixel (dropped)
@@ -441,6 +436,9 @@ def span_kernel(lanes: int):
                     ip = ii[l]
                     jp = jj[l]
                     d = fb[ip, jp]
+                    if term and 1.0 - d[3] <= t_min:  # terminated: no more fragments
+                        nskip += 1
+                        continue
                     fl = flag[l]
                     c = wp.vec4(cr[l], cg[l], cb[l], ca[l])
                     if (fl & 1) != 0:  # outside the unsnapped triangle: the one-fragment kernel's functions, whole
