@@ -66,3 +66,17 @@ def test_plan_announces_the_expected_time_from_the_first_preset(capsys):
     assert notes[0].startswith("plan: 3 preset x scene pairs")
     assert "the first took 30 s; the other 2 expected to take about 60 s if each costs as much" in notes[1]
     assert notes[-1].endswith("in all")
+
+
+def test_a_dry_run_lists_the_presets_whose_scene_checks_decline(capsys):
+    # scalars beyond float32: the presets without the condition stage decline before rendering
+    from warpvol.tools.stress import build_case
+
+    scene = build_case("scalars_1e39", quick=True).scene
+    notes = []
+    rows = run_plan([Pipeline.load("raycast"), Pipeline.load("pt_vertex_color")], [scene], measure=False,
+                    note=notes.append)
+    assert [(r["pipeline"], r["status"]) for r in rows] == [("raycast", "planned"), ("pt_vertex_color", "declined")]
+    assert "beyond float32's range" in rows[1]["message"]
+    assert "declined: scalars_1e39: scalars:" in capsys.readouterr().out
+    assert notes == [f"plan: 1 declined: pt_vertex_color on scalars_1e39 ({rows[1]['message']})"]

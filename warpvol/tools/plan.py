@@ -64,7 +64,8 @@ def run_plan(pipes: list, scenes: list, *, repeats: int = 3, measure: bool = Tru
              note: Callable[[str], None] | None = None, clock: Callable[[], float] = time.perf_counter) -> list[dict]:
     """Plan (and measure) every preset of ``pipes`` on every scene of ``scenes``, printing as it goes.
 
-    A preset that declines a scene (a :class:`~warpvol.errors.WarpvolError` from its render) is printed as
+    A preset that declines a scene (a :class:`~warpvol.errors.WarpvolError` from its render; in a dry run,
+    ``measure=False``, from the checks that need no rendering, ``Pipeline.check_scene``) is printed as
     declined with the reason and the run goes on (with a single pair the error propagates). ``note(text)`` gets the progress lines (the expected
     time, each preset's time, the declines at the end); ``None``: none. Returns one dict per (scene,
     preset): ``pipeline``, ``scene``, ``status`` (``ok`` / ``declined`` / ``planned``), ``message``, ``s``
@@ -84,17 +85,21 @@ def run_plan(pipes: list, scenes: list, *, repeats: int = 3, measure: bool = Tru
         print(f"{pipe.name} on {scene.name}:")
         print_plan(pipe, scene, skip)
         row = {"pipeline": pipe.name, "scene": scene.name, "status": "planned", "message": ""}
-        if measure:
+        if measure or hasattr(pipe, "check_scene"):
             try:
-                measured = bench_pipeline(pipe, scene, None, repeats=repeats, skip=skip)
+                if measure:
+                    measured = bench_pipeline(pipe, scene, None, repeats=repeats, skip=skip)
+                else:  # a dry run: the checks that need no rendering
+                    pipe.check_scene(scene)
             except WarpvolError as e:  # the preset declines this scene, in words
                 if not many:
                     raise  # one preset asked for: its refusal is the answer (exit 2)
                 row.update(status="declined", message=str(e))
                 print(f"  declined: {e}")
             else:
-                row["status"] = "ok"
-                print_measured(measured)
+                if measure:
+                    row["status"] = "ok"
+                    print_measured(measured)
         row["s"] = clock() - t0
         rows.append(row)
         if many and measure:
