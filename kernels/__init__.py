@@ -10,8 +10,9 @@ apply_launch_order()
 
 def kernel_modules() -> list:
     """Every Warp module (``warp`` ``Module`` objects) that defines kernels: one per file of this package
-    that has kernels, and one per HARC march configuration (:func:`warpvol.kernels.harc.march_kernel`,
-    each a module of its own). Files that define only ``@wp.func`` s are compiled through the kernels that
+    that has kernels, one per HARC march configuration (:func:`warpvol.kernels.harc.march_kernel`,
+    each a module of its own) and one per ``raycast`` march configuration
+    (:func:`warpvol.kernels.raycast.march_kernel`). Files that define only ``@wp.func`` s are compiled through the kernels that
     call them."""
     import importlib
     import pkgutil
@@ -24,7 +25,7 @@ def kernel_modules() -> list:
         wm = wp.get_module(mod.__name__)
         if wm.kernels:
             out.append(wm)
-    from . import harc
+    from . import harc, raycast
     from .harc_integ import INTEG_EXACT, INTEG_FULL, INTEG_PARTIAL
 
     for walk in (harc.WALK_PLANES, harc.WALK_PLUCKER):
@@ -36,4 +37,6 @@ def kernel_modules() -> list:
     from . import pt_span
 
     out.append(pt_span.span_kernel_cached(16).module)
+    for segs in (False, True):
+        out.append(raycast.march_kernel(segs).module)
     return out

@@ -13,8 +13,9 @@ Two walks; the kernel is generated per configuration (walk, ray set-up, integrat
 * ``WALK_PLUCKER`` -- the consistent walk of :mod:`warpvol.kernels.walk` (its ``@wp.func`` s
   :func:`~warpvol.kernels.walk.boundary_face`, :func:`~warpvol.kernels.walk.face_hit`,
   :func:`~warpvol.kernels.walk.next_face`; no second copy): watertight on rays through vertices
-  and edges. With the robust set-up and exact segments (``harc_best``) the loop is
-  :func:`warpvol.kernels.harc_walk.exact_walk`.
+  and edges. With the robust set-up and exact segments (``harc_best``) it is ``raycast``'s walk.
+
+Both are options of the one cell walk, :func:`warpvol.kernels.cellwalk.make_walk`.
 
 Ray set-up (``SETUP_*``): ``SETUP_ROBUST`` takes the ray from :func:`warpvol.kernels.walk.pixel_ray`
 (float64 set-up, origin moved to the mesh; the textures are relative to the cells' origin) and marks
@@ -56,14 +57,13 @@ import threading
 
 import warp as wp
 
+from .cellwalk import (CellMesh, MeshTex, RayCamera, WalkOpts, camera_ray, cell_texel, grad_scalar,  # noqa: F401
+                       make_walk, plane_exit, plane_lambda, plane_of)  # (MeshTex, cell_texel, plane_exit: re-exported)
 from .formats import NumFmt, fmt_quantize
 from .harc_integ import INTEG_EXACT, Integ, integrate_sub, segment, segments_kernel  # noqa: F401 (re-exported)
-from .harc_walk import composite, exact_walk, nearest_in_rings, nearest_listed, ring_search  # noqa: F401 (composite: re-exported)
-from .integrate import exp_neg, integrate_piece, integrate_segment_tf
+from .harc_walk import composite, nearest_in_rings, nearest_listed, ring_search  # noqa: F401 (composite: re-exported)
 from .raycast import STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, depth_before
-from .texture import Tex2D, tex2d_texel
-from .tf import tf_eval_upper, tf_upper
-from .walk import STALL_STEPS, Face, boundary_face, face_hit, monotone_exit, next_face, pixel_ray
+from .walk import Face, boundary_face, face_hit
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -77,60 +77,21 @@ STATUS_LOST = wp.constant(3)
 
 
 @wp.struct
-class MeshTex:
-    """The paper's Table 1: four face planes ``(n, o)``, gradient ``(g, g0)`` and adjacency
-    (``4 * neighbour + face in neighbour``, -1 on the boundary, exact in float32 below 2^24) per
-    tet, each an rgba32f 2D texture of ``width`` texels per row (texel ``t % width, t // width``)."""
+class FragLists:
+    """The rasterised ray start (:mod:`warpvol.raycasting.harc`): per pixel the depth-sorted front boundary
+    faces (``frag_start``, ``frag_bf``), each face's cell, local face, surface neighbours and depth bounds, per
+    pixel the bound ``far`` beyond which no re-entry search finds a face, and the faces whose open edge passes
+    near the pixel centre (``edge_start``, ``edge_bf``)."""
 
-    n0: Tex2D
-    n1: Tex2D
-    n2: Tex2D
-    n3: Tex2D
-    grad: Tex2D
-    adj: Tex2D
-    width: int
-
-
-@wp.func
-def cell_texel(mt: MeshTex, tex: Tex2D, c: int) -> wp.vec4:
-    """Nearest fetch of tet ``c``'s texel from one of the mesh textures."""
-    y = c // mt.width
-    return tex2d_texel(tex, float(c - y * mt.width) + 0.5, float(y) + 0.5)
-
-
-@wp.func
-def plane_of(mt: MeshTex, c: int, i: int) -> wp.vec4:
-    if i == 0:
-        return cell_texel(mt, mt.n0, c)
-    if i == 1:
-        return cell_texel(mt, mt.n1, c)
-    if i == 2:
-        return cell_texel(mt, mt.n2, c)
-    return cell_texel(mt, mt.n3, c)
-
-
-@wp.func
-def plane_lambda(p: wp.vec4, o: wp.vec3, d: wp.vec3) -> float:
-    """Ray parameter where ray ``o + lambda d`` meets plane ``n.x + w = 0``."""
-    n = wp.vec3(p[0], p[1], p[2])
-    return -(wp.dot(o, n) + p[3]) / wp.dot(d, n)
-
-
-@wp.func
-def plane_exit(mt: MeshTex, c: int, o: wp.vec3, d: wp.vec3):
-    """Fig. 6 lines 1-9: ``(lambda', local face)`` of the smallest ``lambda`` among faces with
-    ``d . n > 0``; face -1 when none has."""
-    best = float(1.0e30)
-    f = int(-1)
-    for i in range(4):
-        p = plane_of(mt, c, i)
-        dn = wp.dot(d, wp.vec3(p[0], p[1], p[2]))
-        if dn > 0.0:
-            lam = -(wp.dot(o, wp.vec3(p[0], p[1], p[2])) + p[3]) / dn
-            if lam < best:
-                best = lam
-                f = i
-    return best, f
+    frag_start: wp.array(dtype=wp.int32)
+    frag_bf: wp.array(dtype=wp.int32)
+    bf_tet: wp.array(dtype=wp.int32)
+    bf_face: wp.array(dtype=wp.int32)
+    bf_nbr: wp.array(dtype=wp.vec3i)
+    far: wp.array(dtype=float)
+    bf_depth: wp.array(dtype=wp.vec2)
+    edge_start: wp.array(dtype=wp.int32)
+    edge_bf: wp.array(dtype=wp.int32)
 
 
 @wp.func
@@ -175,11 +136,6 @@ def no_face_around(px: int, py: int, width: int, height: int, frag_start: wp.arr
     return True
 
 
-@wp.func
-def grad_scalar(g: wp.vec4, x: wp.vec3) -> float:
-    return wp.dot(wp.vec3(g[0], g[1], g[2]), x) + g[3]
-
-
 #: the kernels' module options (``fuse_fp`` off: no contraction into fused multiply-adds, the arithmetic as written)
 MARCH_OPTIONS = {"enable_backward": False, "fuse_fp": False}
 
@@ -188,9 +144,9 @@ def make_march(walk: int, setup: int, mode: int):
     """The march kernel of one configuration: ``walk`` (:data:`WALK_PLANES` | :data:`WALK_PLUCKER`),
     ``setup`` (:data:`SETUP_ROBUST` | :data:`SETUP_PAPER`) and integration ``mode`` (``INTEG_*``, the mode
     of the :class:`Integ` it is launched with) are fixed when the kernel is generated (``wp.static``
-    conditions), so the code of the other walks, set-ups and integrations is not in it. The exact robust
-    Plücker case walks in :func:`warpvol.kernels.harc_walk.exact_walk`. Each configuration is a module of
-    its own (compiled on its first launch); use :func:`march_kernel`.
+    conditions), so the code of the other walks, set-ups and integrations is not in it. Every configuration
+    walks in the shared walk of :func:`warpvol.kernels.cellwalk.make_walk` with these options. Each
+    configuration is a module of its own (compiled on its first launch); use :func:`march_kernel`.
 
     One thread per active ray (pixels ``first ..``, or ``ids[first ..]`` when a list of the active rays'
     pixels is given: a re-entry pass): ray set-up, the ray start (entry search), the walk, the
@@ -201,43 +157,22 @@ def make_march(walk: int, setup: int, mode: int):
     exact = mode == INTEG_EXACT
     if paper and not planes:
         raise ValueError("make_march: the paper's set-up walks the face planes (walk = WALK_PLANES)")
-    # the consistent walk with exact segments (and its thin-layer check) is exact_walk; the loop below walks the
-    # planes (any integration) or the consistent walk with a table integration
+    # the consistent walk with exact segments (and its checks) carries (rgb, transmittance) as raycast does; the
+    # other walks composite RGBA "under" (the paper's Fig. 6)
     fused = (not planes) and exact
+
+    walk_cells = make_walk(planes, paper, mode)
 
     @wp.kernel(module="unique", module_options=MARCH_OPTIONS)
     def harc_march(
-        width: int,
-        height: int,
-        eye: wp.vec3d,
-        fwd: wp.vec3d,
-        right: wp.vec3d,
-        up: wp.vec3d,
-        ortho: int,
-        half_h: wp.float64,
-        aspect: wp.float64,
-        radius: wp.float64,
+        cam: RayCamera,
         eye_w: wp.vec3,
         mt: MeshTex,
-        verts: wp.array(dtype=wp.vec4),
-        tets: wp.array(dtype=wp.vec4i),
-        nbr: wp.array(dtype=wp.vec4i),
-        nbr_vertex: wp.array(dtype=wp.vec4i),
-        frag_start: wp.array(dtype=wp.int32),
-        frag_bf: wp.array(dtype=wp.int32),
-        bf_tet: wp.array(dtype=wp.int32),
-        bf_face: wp.array(dtype=wp.int32),
-        bf_nbr: wp.array(dtype=wp.vec3i),
-        far: wp.array(dtype=float),
-        bf_depth: wp.array(dtype=wp.vec2),
-        edge_start: wp.array(dtype=wp.int32),
-        edge_bf: wp.array(dtype=wp.int32),
+        mesh: CellMesh,
+        lists: FragLists,
         ig: Integ,
         fb: NumFmt,
-        t_stop: float,
-        max_steps: int,
-        scalar_check: int,
-        t_tol: float,
+        opts: WalkOpts,
         first: int,
         ids: wp.array(dtype=wp.int32),
         rgba: wp.array(dtype=wp.vec4),
@@ -254,14 +189,15 @@ def make_march(walk: int, setup: int, mode: int):
             idx = ids[first + tid]  # the active rays' pixels ids[first ..] (a re-entry pass)
         if status[idx] != STATUS_ACTIVE:
             return
-        py = idx // width
-        px = idx - py * width
-        r, t_clip, t_end = pixel_ray(px, py, width, height, eye, fwd, right, up, ortho, half_h, aspect, radius)
+        py = idx // cam.width
+        px = idx - py * cam.width
+        r, t_clip, t_end = camera_ray(px, py, cam)
         o = r.o
         d = r.d
         if wp.static(paper):
             # the paper's fragment program: the ray from the eye in fp32, nothing clipped or culled
-            o, d = paper_ray(px, py, width, height, eye_w, fwd, right, up, ortho, half_h, aspect)
+            o, d = paper_ray(px, py, cam.width, cam.height, eye_w, cam.fwd, cam.right, cam.up, cam.ortho, cam.half_h,
+                              cam.aspect)
             t_clip = 0.0
         else:
             if t_end < t_clip:
@@ -269,7 +205,7 @@ def make_march(walk: int, setup: int, mode: int):
                 return
         t_start = tcur[idx]
         prev = last[idx]
-        if no_face_around(px, py, width, height, frag_start, edge_start):
+        if no_face_around(px, py, cam.width, cam.height, lists.frag_start, lists.edge_start):
             # no face listed at this pixel, its 8 neighbours or its open edges: the search below finds no entry
             if t_clip > 0.0:
                 status[idx] = STATUS_FAILED  # (as below: an eye inside the mesh is traced in float64)
@@ -289,10 +225,10 @@ def make_march(walk: int, setup: int, mode: int):
         rescan = int(0)
         rejected = int(-1)
         edge_entry = int(0)
-        for it in range(frag_start[idx], frag_start[idx + 1]):
-            b = int(frag_bf[it])
-            c = int(bf_tet[b])
-            f = int(bf_face[b])
+        for it in range(lists.frag_start[idx], lists.frag_start[idx + 1]):
+            b = int(lists.frag_bf[it])
+            c = int(lists.bf_tet[b])
+            f = int(lists.bf_face[b])
             if c == prev:
                 continue
             if wp.static(planes):
@@ -302,14 +238,14 @@ def make_march(walk: int, setup: int, mode: int):
                     if not wp.isfinite(lam):
                         entry_failed = 1  # the entry face's plane gives no ray parameter: the ray is lost
                         break
-                if lam > t_start - t_tol:
+                if lam > t_start - opts.t_tol:
                     cell = c
                     face_in = f
                     t_in = wp.max(lam, t_start)
                     s_in = grad_scalar(cell_texel(mt, mt.grad, c), o + d * t_in)
                     break
             else:
-                cand = boundary_face(tets[c], f, verts, r)
+                cand = boundary_face(mesh.tets[c], f, mesh.verts, r)
                 ok, t, s = face_hit(cand)
                 if not ok:
                     # the rasteriser's snapped coverage and the edge test disagree (pixel centre within
@@ -324,13 +260,13 @@ def make_march(walk: int, setup: int, mode: int):
                         rescan = 1
                         rejected = b
                     else:
-                        b2, ok, t, s = ring_search(b, bf_tet, bf_face, bf_nbr, tets, verts, r)
+                        b2, ok, t, s = ring_search(b, lists.bf_tet, lists.bf_face, lists.bf_nbr, mesh.tets, mesh.verts, r)
                         if ok:
-                            c = int(bf_tet[b2])
-                            f = int(bf_face[b2])
-                            cand = boundary_face(tets[c], f, verts, r)
+                            c = int(lists.bf_tet[b2])
+                            f = int(lists.bf_face[b2])
+                            cand = boundary_face(mesh.tets[c], f, mesh.verts, r)
                 if ok:
-                    if t > t_start - t_tol and c != prev:
+                    if t > t_start - opts.t_tol and c != prev:
                         cell = c
                         face_in = f
                         t_in = wp.max(t, t_start)
@@ -343,8 +279,8 @@ def make_march(walk: int, setup: int, mode: int):
                     break
         if wp.static(not planes):
             # faces wholly before the search's start are left untested (their crossings lie before it)
-            z_lo = depth_before(r, wp.vec3(float(fwd[0]), float(fwd[1]), float(fwd[2])), t_start - t_tol,
-                                float(radius))
+            z_lo = depth_before(r, wp.vec3(float(cam.fwd[0]), float(cam.fwd[1]), float(cam.fwd[2])), t_start - opts.t_tol,
+                                float(cam.radius))
             if cell < 0 and entry_failed == 0:
                 # no face of this pixel's list is crossed beyond the last exit: where the snapped coverage of a
                 # layer leaves a hole at the pixel centre (an inner silhouette within 1/256 pixel) the crossed
@@ -354,27 +290,27 @@ def make_march(walk: int, setup: int, mode: int):
                     qx = px + (nb % 3) - 1
                     qy = py + (nb // 3) - 1
                     # (this pixel's own list too after a rejected face: its later faces were not tested)
-                    q = qy * width + qx
-                    if (nb != 4 or rescan == 1) and qx >= 0 and qy >= 0 and qx < width and qy < height and \
-                            frag_start[q] < frag_start[q + 1]:  # (an empty list: no call)
+                    q = qy * cam.width + qx
+                    if (nb != 4 or rescan == 1) and qx >= 0 and qy >= 0 and qx < cam.width and qy < cam.height and \
+                            lists.frag_start[q] < lists.frag_start[q + 1]:  # (an empty list: no call)
                         cell, face_in, t_in, s_in, fc = nearest_listed(
-                            frag_start[q], frag_start[q + 1], frag_bf, bf_tet, bf_face, bf_depth, z_lo, tets, verts, r,
-                            prev, t_start, t_tol, cell, face_in, t_in, s_in, fc)
+                            lists.frag_start[q], lists.frag_start[q + 1], lists.frag_bf, lists.bf_tet, lists.bf_face, lists.bf_depth, z_lo, mesh.tets, mesh.verts, r,
+                            prev, t_start, opts.t_tol, cell, face_in, t_in, s_in, fc)
                 if rejected >= 0:
                     # a sliver beside the rejected face (the boundary of the visible cells has many) may be listed
                     # at no pixel around: its surface rings
                     cell, face_in, t_in, s_in, fc = nearest_in_rings(
-                        rejected, bf_tet, bf_face, bf_nbr, tets, verts, r, prev, t_start, t_tol, cell, face_in, t_in,
+                        rejected, lists.bf_tet, lists.bf_face, lists.bf_nbr, mesh.tets, mesh.verts, r, prev, t_start, opts.t_tol, cell, face_in, t_in,
                         s_in, fc)
-            if entry_failed == 0 and edge_start[idx] < edge_start[idx + 1]:
+            if entry_failed == 0 and lists.edge_start[idx] < lists.edge_start[idx + 1]:
                 # the faces whose open edge (silhouette, outline of a part) passes within 1/64 pixel of the centre,
                 # tested exactly: the snapped coverage can leave such a face out with a deeper layer (or nothing)
                 # listed in its place -- a cell smaller than the snapping, a face seen edge-on
                 c0 = cell
                 t0 = t_in
                 cell, face_in, t_in, s_in, fc = nearest_listed(
-                    edge_start[idx], edge_start[idx + 1], edge_bf, bf_tet, bf_face, bf_depth, z_lo, tets, verts, r,
-                    prev, t_start, t_tol, cell, face_in, t_in, s_in, fc)
+                    lists.edge_start[idx], lists.edge_start[idx + 1], lists.edge_bf, lists.bf_tet, lists.bf_face, lists.bf_depth, z_lo, mesh.tets, mesh.verts, r,
+                    prev, t_start, opts.t_tol, cell, face_in, t_in, s_in, fc)
                 if cell != c0 or t_in != t0:
                     edge_entry = 1
         if wp.static(paper):
@@ -395,89 +331,19 @@ def make_march(walk: int, setup: int, mode: int):
         if edge_entry == 1:
             wp.atomic_add(counters, chunk, 10, 1)
 
-        # ---- propagation: one cell per fragment-program step (Fig. 6) ----
-        backward = int(0)
+        # ---- propagation: one cell per fragment-program step (Fig. 6), the shared walk ----
+        acc = rgba[idx]
         if wp.static(fused):
-            acc, t_in, cell, steps, cells_visited, failed, exited, thin = exact_walk(
-                cell, face_in, fc, t_in, s_in, rgba[idx], r, verts, tets, nbr, nbr_vertex, ig.tf_s, ig.tf_v,
-                ig.model, t_stop, max_steps, float(radius), scalar_check)
+            acc = wp.vec4(acc[0], acc[1], acc[2], 1.0 - acc[3])  # the exact Plücker walk carries (rgb, tr)
+        acc, t_in, cell, steps, cells_visited, failed, exited, thin, backward, fetches, own = walk_cells(
+            cell, face_in, fc, t_in, s_in, acc, r, o, d, t_clip, float(cam.radius), mesh, mt, ig, opts, counters,
+            chunk)
+        tr_left = float(0.0)  # the transmittance left (the early-termination test's, as the walk computed it)
+        if wp.static(fused):
+            tr_left = acc[3]
+            acc = wp.vec4(acc[0], acc[1], acc[2], 1.0 - acc[3])
         else:
-            acc = rgba[idx]
-            steps = int(0)
-            cells_visited = int(0)
-            stall = int(0)
-            failed = int(0)
-            exited = int(0)
-            fetches = int(0)
-            thin = int(0)
-            while cells_visited < max_steps:
-                cells_visited += 1
-                t_out = float(0.0)
-                s_out = float(0.0)
-                nb = int(-1)
-                if wp.static(planes):
-                    lam, f_out = plane_exit(mt, cell, o, d)
-                    fetches += 4
-                    if f_out < 0:
-                        failed = 1
-                        break
-                    g = cell_texel(mt, mt.grad, cell)
-                    a = cell_texel(mt, mt.adj, cell)
-                    fetches += 2
-                    t_out = lam
-                    if wp.static(paper):
-                        # Fig. 6: lambda' as computed; a step that does not advance only counts towards
-                        # the stall bound (the hardware's loop would run on to its instruction limit)
-                        stall = stall + 1
-                        if lam > t_in:
-                            stall = int(0)
-                        elif lam < t_in:
-                            backward = 1  # rounding chose an exit behind the entry: the walk is suspect
-                    else:
-                        t_out, stall = monotone_exit(t_in, t_out, stall)
-                    s_in = grad_scalar(g, o + d * t_in)  # Fig. 6 line 10: sf from this cell's gradient
-                    s_out = grad_scalar(g, o + d * t_out)
-                    nb = int(wp.clamp(a[f_out], -1.0, 1.0e8))
-                else:
-                    fc, f_out, t_out, s_out = next_face(tets[cell], face_in, fc, verts, r)
-                    if f_out < 0:
-                        failed = 1
-                        break
-                    t_out, stall = monotone_exit(t_in, t_out, stall)
-                    nb = nbr[cell][f_out]
-                if stall > STALL_STEPS:
-                    failed = 1
-                    break
-                if wp.static(exact):
-                    # the exact integral of the cell's segment (the plane walk: sf from the cell's own gradient,
-                    # so both ends are looked up per cell), one linear piece unless a control point is crossed
-                    k_in = tf_upper(s_in, ig.tf_s)
-                    v_in = tf_eval_upper(s_in, k_in, ig.tf_s, ig.tf_v)
-                    k_out = tf_upper(s_out, ig.tf_s)
-                    v_out = tf_eval_upper(s_out, k_out, ig.tf_s, ig.tf_v)
-                    seg = wp.vec4(0.0, 0.0, 0.0, 0.0)
-                    seg_l = t_out - t_in
-                    if wp.static(paper):
-                        if seg_l < 0.0:
-                            seg_l = 0.0  # lambda' before lambda: nothing to integrate
-                    if k_in == k_out:
-                        seg = integrate_piece(seg_l, v_in, v_out, ig.model)
-                    else:
-                        seg = integrate_segment_tf(s_in, s_out, v_in, v_out, seg_l, ig.tf_s, ig.tf_v, ig.model)
-                    acc = composite(acc, wp.vec4(seg[0], seg[1], seg[2], 1.0 - exp_neg(seg[3])))
-                    steps += 1
-                else:
-                    acc, n_sub = segment(ig, s_in, s_out, t_out - t_in, acc, t_stop, counters, chunk)
-                    steps += n_sub
-                t_in = t_out
-                s_in = s_out
-                if 1.0 - acc[3] < t_stop:
-                    break
-                if nb < 0:
-                    exited = 1
-                    break
-                cell = nb >> 2
-                face_in = nb & 3
+            tr_left = 1.0 - acc[3]
             wp.atomic_add(counters, chunk, 6, fetches)
         wp.atomic_add(counters, chunk, 1, steps)
         wp.atomic_add(counters, chunk, 2, cells_visited)
@@ -507,11 +373,11 @@ def make_march(walk: int, setup: int, mode: int):
             # every face a re-entry search can reach (this pixel's list, its neighbours' lists, their surface
             # rings) lies within `far` of the eye (host bound with a rounding margin): a ray leaving the mesh
             # beyond it cannot re-enter, so it is done now and no further pass launches it
-            if exited == 1 and t_in + wp.dot(r.back, r.d) > far[idx]:
+            if exited == 1 and t_in + wp.dot(r.back, r.d) > lists.far[idx]:
                 status[idx] = STATUS_DONE
         if exited == 0:
             status[idx] = STATUS_DONE
-            if 1.0 - acc[3] >= t_stop:
+            if tr_left >= opts.t_stop:
                 wp.atomic_add(counters, chunk, 4, 1)
                 if wp.static(paper):
                     status[idx] = STATUS_LOST  # the step bound ended it inside the mesh

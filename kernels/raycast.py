@@ -1,9 +1,10 @@
 """Ray propagation through cell adjacency (HARC-style ray caster, float32), consistent by construction.
 
-One thread per pixel; the walk's building blocks (float64 ray set-up, Plücker edge tests, face crossings,
-one step through a tet, the thin-layer check) are :mod:`warpvol.kernels.walk`, shared with HARC.
+One thread per pixel; the walk is the one cell walk of :func:`warpvol.kernels.cellwalk.make_walk` (exact
+Plücker configuration), shared with HARC, on the building blocks of :mod:`warpvol.kernels.walk` (float64 ray
+set-up, Plücker edge tests, face crossings, one step through a tet, the thin-layer check).
 
-An entry (:func:`march_ray`) finds the ray's next entry among the front-facing boundary faces binned
+An entry (``march_ray`` in :func:`make_march`) finds the ray's next entry among the front-facing boundary faces binned
 to the pixel's screen tile (nearest crossing beyond the current parameter), then walks cell to cell,
 integrating each segment exactly for the piecewise-linear transfer function
 (:mod:`warpvol.kernels.integrate`) and compositing front to back. A ray the float32 walk cannot
@@ -17,21 +18,25 @@ transfer function that steep (the bound of :func:`~warpvol.kernels.walk.scalar_s
 below it: :func:`warpvol.raycasting.stages.cell_setup.scalar_check_needed`) --
 is marked ``STATUS_FAILED`` and redone on the host in float64; it is counted, never silently wrong.
 
-A pass (kernel :func:`march`) makes a ray's entries one after the other in its thread: after the walk leaves
+A pass (the kernel of :func:`march_kernel`) makes a ray's entries one after the other in its thread: after the walk leaves
 the (visible) mesh it searches the next entry beyond the exit and walks on, up to ``reentries`` times.
 Per-pixel state (radiance, transmittance, ray parameter, status) lives in device arrays so passes
 can be separate launches; a pass launches one thread per active ray: pixels ``first ..`` while every
 ray is active, else the pixels ``ids[first ..]`` of the rays still active (a list made by the host).
 ``counters[chunk]`` (first entries, steps, unfinished, failed, left active, failed on a thin layer, terminated
-early, re-entries) has one row per concurrently launched block.
+early, re-entries) has one row per concurrently launched block. Inputs travel as structs
+(:class:`~warpvol.kernels.cellwalk.RayCamera`, :class:`~warpvol.kernels.cellwalk.CellMesh`, :class:`EntryBins`,
+the TF as an :class:`~warpvol.kernels.harc_integ.Integ`, :class:`~warpvol.kernels.cellwalk.WalkOpts`); with
+``segs`` each entry's segment goes to a :class:`~warpvol.kernels.cellwalk.Segments`.
 """
+
+import threading
 
 import warp as wp
 
-from .integrate import exp_neg, integrate_piece, integrate_segment_tf
-from .tf import tf_eval, tf_eval_upper, tf_upper, tf_upper_from
-from .walk import (STALL_STEPS, STEEP_ERR, Face, Ray, boundary_face, face_hit, grazing_unresolved, monotone_exit,
-                   next_face_from, pixel_ray, scalar_error_if, scalar_step, thin_at_exit, thin_start, thin_step)
+from .cellwalk import CellMesh, MeshTex, RayCamera, Segments, WalkOpts, camera_ray, make_walk, put_segment
+from .harc_integ import INTEG_EXACT, Integ
+from .walk import Face, Ray, boundary_face, face_hit
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -41,16 +46,6 @@ STATUS_FAILED = wp.constant(2)
 #: consecutive re-entries without progress in ``t`` (cracks, touching pieces) before a ray counts as
 #: unresolved
 MAX_FLAT_REENTRIES = wp.constant(8)
-
-
-@wp.func
-def clipped_segment(t_in: float, t_out: float, s_in: float, s_out: float, t_clip: float):
-    """The part ``t >= t_clip`` of segment ``[t_in, t_out]`` with linear scalar; ``(t0, s0)``."""
-    if t_in >= t_clip:
-        return t_in, s_in
-    if t_out <= t_clip:
-        return t_out, s_out
-    return t_clip, s_in + (s_out - s_in) * ((t_clip - t_in) / (t_out - t_in))
 
 
 #: relative margin by which a face's depth bound must clear a ray's depth (in units of the ray's length scale:
@@ -78,12 +73,25 @@ def depth_before(r: Ray, fwd: wp.vec3, t: float, scale: float) -> float:
     return float(-1.0e30)
 
 
+@wp.struct
+class EntryBins:
+    """The front boundary faces binned to screen tiles (:mod:`warpvol.raycasting.stages.entry_bins`): each
+    face's cell and local face, its grown projected pixel box (4 ints), the tiles' item ranges and items (face
+    indices sorted by nearest depth), each item's depth bounds, the tile size and tiles per row."""
+
+    bface_tet: wp.array(dtype=wp.int32)
+    bface_local: wp.array(dtype=wp.int32)
+    bface_box: wp.array(dtype=wp.int32)
+    tile_start: wp.array(dtype=wp.int32)
+    tile_items: wp.array(dtype=wp.int32)
+    item_depth: wp.array(dtype=wp.vec3)
+    tile: int
+    tiles_x: int
+
+
 @wp.func
 def tile_entry(px: int, py: int, t_start: float, prev: int, r: Ray, t_tol: float, fwd: wp.vec3, scale: float,
-               verts: wp.array(dtype=wp.vec4), tets: wp.array(dtype=wp.vec4i), bface_tet: wp.array(dtype=wp.int32),
-               bface_local: wp.array(dtype=wp.int32), bface_box: wp.array(dtype=wp.int32),
-               tile_start: wp.array(dtype=wp.int32), tile_items: wp.array(dtype=wp.int32),
-               item_depth: wp.array(dtype=wp.vec3), tile: int, tiles_x: int):
+               mesh: CellMesh, bins: EntryBins):
     """The ray's next entry: the nearest boundary face of pixel (px, py)'s screen tile that the ray crosses
     (entering) beyond ``t_start``. A face up to ``t_tol`` before ``t_start`` counts (a crack left by a
     dropped sliver, touching pieces: the exit and the re-entry are at the same depth up to rounding),
@@ -117,10 +125,10 @@ def tile_entry(px: int, py: int, t_start: float, prev: int, r: Ray, t_tol: float
     t_lo = t_start - t_tol
     z_lo = depth_before(r, fwd, t_lo, scale)  # faces wholly before it: crossed before t_lo
     z_best = float(1.0e30)  # faces wholly beyond it: crossed beyond best_t
-    tile_id = (py // tile) * tiles_x + (px // tile)
-    for it in range(tile_start[tile_id], tile_start[tile_id + 1]):
+    tile_id = (py // bins.tile) * bins.tiles_x + (px // bins.tile)
+    for it in range(bins.tile_start[tile_id], bins.tile_start[tile_id + 1]):
         if cull:
-            zr = item_depth[it]
+            zr = bins.item_depth[it]
             if zr[0] > z_best:
                 # this face and every later one lie beyond the best crossing; they are crossed before depth zr[2]
                 t_far = (zr[2] - zo) / cz
@@ -128,13 +136,13 @@ def tile_entry(px: int, py: int, t_start: float, prev: int, r: Ray, t_tol: float
                 break
             if zr[1] < z_lo:
                 continue  # wholly before the search's start: crossed, if at all, before t_start - t_tol
-        bf = tile_items[it]
-        if px < bface_box[4 * bf] or py < bface_box[4 * bf + 1] or px > bface_box[4 * bf + 2] \
-                or py > bface_box[4 * bf + 3]:
+        bf = bins.tile_items[it]
+        if px < bins.bface_box[4 * bf] or py < bins.bface_box[4 * bf + 1] or px > bins.bface_box[4 * bf + 2] \
+                or py > bins.bface_box[4 * bf + 3]:
             continue  # the pixel lies outside the face's grown projected box (as tiles are binned)
-        c = int(bface_tet[bf])
-        f = int(bface_local[bf])
-        cand = boundary_face(tets[c], f, verts, r)
+        c = int(bins.bface_tet[bf])
+        f = int(bins.bface_local[bf])
+        cand = boundary_face(mesh.tets[c], f, mesh.verts, r)
         ok, t, s = face_hit(cand)
         if ok and t > far_t:
             far_t = t
@@ -149,251 +157,132 @@ def tile_entry(px: int, py: int, t_start: float, prev: int, r: Ray, t_tol: float
     return cell, face_in, fc, best_t, best_s, far_t
 
 
-@wp.func
-def march_ray(
-    idx: int,
-    width: int,
-    height: int,
-    eye: wp.vec3d,
-    fwd: wp.vec3d,
-    right: wp.vec3d,
-    up: wp.vec3d,
-    ortho: int,
-    half_h: wp.float64,
-    aspect: wp.float64,
-    radius: wp.float64,
-    verts: wp.array(dtype=wp.vec4),
-    tets: wp.array(dtype=wp.vec4i),
-    nbr: wp.array(dtype=wp.vec4i),
-    nbr_vertex: wp.array(dtype=wp.vec4i),
-    bface_tet: wp.array(dtype=wp.int32),
-    bface_local: wp.array(dtype=wp.int32),
-    bface_box: wp.array(dtype=wp.int32),
-    tile_start: wp.array(dtype=wp.int32),
-    tile_items: wp.array(dtype=wp.int32),
-    item_depth: wp.array(dtype=wp.vec3),
-    tile: int,
-    tiles_x: int,
-    tf_s: wp.array(dtype=float),
-    tf_v: wp.array(dtype=wp.vec4),
-    model: int,
-    scalar_check: int,
-    max_steps: int,
-    t_min: float,
-    t_tol: float,
-    rgb: wp.array(dtype=wp.vec3),
-    trans: wp.array(dtype=float),
-    tcur: wp.array(dtype=float),
-    status: wp.array(dtype=wp.int32),
-    last: wp.array(dtype=wp.int32),
-    counters: wp.array2d(dtype=wp.int32),
-    chunk: int,
-    entry_col: int,
-):
-    """One entry of pixel ``idx``'s ray: the search for its next entry beyond ``tcur[idx]``, the walk from
-    there to where it leaves the (visible) mesh, the state written back (see :func:`march`). The entry is
-    counted in ``counters[chunk, entry_col]``."""
-    st = status[idx]
-    if (st & 3) != STATUS_ACTIVE:
-        return
-    py = idx // width
-    px = idx - py * width
-    r, t_clip, t_end = pixel_ray(px, py, width, height, eye, fwd, right, up, ortho, half_h, aspect, radius)
-    if t_end < t_clip:
-        status[idx] = STATUS_DONE  # the ray misses the mesh's bounding sphere
-        return
-    t_start = tcur[idx]
-
-    # ---- next entry: nearest boundary face crossed (entering) beyond t_start in this tile ----
-    fwd32 = wp.vec3(float(fwd[0]), float(fwd[1]), float(fwd[2]))
-    cell, face_in, fc, best_t, best_s, far_t = tile_entry(px, py, t_start, last[idx], r, t_tol, fwd32, float(radius),
-                                                          verts, tets, bface_tet, bface_local, bface_box, tile_start,
-                                                          tile_items, item_depth, tile, tiles_x)
-    flat = st >> 2
-    if cell >= 0 and best_t <= t_start:
-        flat += 1
-        best_t = t_start
-    if cell < 0:
-        status[idx] = STATUS_DONE
-        return
-    if flat > MAX_FLAT_REENTRIES:
-        status[idx] = STATUS_FAILED  # re-entering without progress: unresolved, redone in float64
-        wp.atomic_add(counters, chunk, 3, 1)
-        return
-    wp.atomic_add(counters, chunk, entry_col, 1)  # entries made in this pass
-
-    # ---- walk through the cell adjacency ----
-    acc = rgb[idx]
-    tr = trans[idx]
-    t_in = best_t
-    s_in = best_s
-    k_in = tf_upper(s_in, tf_s)
-    v_in = tf_eval_upper(s_in, k_in, tf_s, tf_v)
-    steps = int(0)
-    stall = int(0)
-    exited = int(0)
-    failed = int(0)
-    thin = int(0)
-    scale = float(radius)
-    thin_mem = thin_start()  # the thin-layer check's memory of the previous segment
-    if t_in >= t_clip and grazing_unresolved(tr, v_in, model, fc, r, t_in, scale):
-        failed = 1  # entering through a face seen nearly edge-on: the chord's float32 start is too uncertain
-    ds_in = scalar_error_if(scalar_check, fc, r)  # the entry crossing's scalar error
-    scal_err = float(0.0)  # bound on the pixel's error from the crossings' scalar errors so far
-    gn = tets[cell][face_in]
-    while steps < max_steps and failed == 0:
-        steps += 1
-        nrow = nbr[cell]  # this cell's neighbour records, fetched while the step computes
-        vrow = nbr_vertex[cell]
-        fc, f_out, t_out, s_out = next_face_from(tets[cell], gn, fc, verts, r)
-        t_out, stall = monotone_exit(t_in, t_out, stall)
-        if f_out < 0 or stall > STALL_STEPS:
-            failed = 1  # no exit face, or no progress in t for STALL_STEPS steps
-            break
-        k_out = tf_upper_from(s_out, k_in, tf_s)
-        v_out = tf_eval_upper(s_out, k_out, tf_s, tf_v)
-        if t_out > t_clip:
-            ln = t_out - t_in
-            if t_in >= t_clip:
-                if k_in == k_out:  # no control point crossed: one linear piece
-                    seg = integrate_piece(ln, v_in, v_out, model)
-                else:
-                    seg = integrate_segment_tf(s_in, s_out, v_in, v_out, ln, tf_s, tf_v, model)
-            else:
-                ta, sa = clipped_segment(t_in, t_out, s_in, s_out, t_clip)
-                ln = t_out - ta
-                seg = integrate_segment_tf(sa, s_out, tf_eval(sa, tf_s, tf_v), v_out, ln, tf_s, tf_v,
-                                           model)
-            # a segment too short for its float32 length next to a density contrast: unresolved
-            thin, thin_mem = thin_step(thin_mem, ln, seg[3], t_out, scale, tr, v_in, v_out, k_in, k_out, tf_v, model)
-            # the crossings' float32 scalars, too uncertain where the transfer function is that steep (a check
-            # that provably cannot fire for this TF and mesh is off: scalar_check_needed)
-            ds_out = scalar_error_if(scalar_check, fc, r)
-            scal_err = scalar_step(scal_err, tr, ln, seg[3], s_in, s_out, v_in, v_out, k_in, k_out, ds_in, ds_out,
-                                   tf_s, tf_v, model)
-            if thin == 1 or scal_err > STEEP_ERR:
-                failed = 1
-            ds_in = ds_out
-            acc += tr * wp.vec3(seg[0], seg[1], seg[2])
-            tr = tr * exp_neg(seg[3])
-        if failed == 1:
-            break  # (one break after the block, not one per check inside it: a failed ray's colour is dropped)
-        nb = nrow[f_out]
-        t_in = t_out
-        s_in = s_out
-        k_in = k_out
-        v_in = v_out
-        if tr < t_min:
-            break
-        if nb < 0:
-            exited = 1
-            if thin_at_exit(thin_mem):
-                failed = 1
-                thin = 1
-            elif t_in > t_clip and grazing_unresolved(tr, v_in, model, fc, r, t_in, scale):
-                failed = 1  # leaving through a face seen nearly edge-on
-            break
-        gn = vrow[f_out]
-        cell = nb >> 2
-        face_in = nb & 3
-    wp.atomic_add(counters, chunk, 1, steps)
-    if failed == 1:
-        status[idx] = STATUS_FAILED
-        wp.atomic_add(counters, chunk, 3, 1)
-        if thin == 1:
-            wp.atomic_add(counters, chunk, 5, 1)  # of which: a thin layer float32 cannot resolve
-        return
-    rgb[idx] = acc
-    trans[idx] = tr
-    tcur[idx] = t_in
-    last[idx] = cell
-    if t_in > best_t:
-        flat = 0  # the walk advanced: only consecutive re-entries without progress count
-    status[idx] = STATUS_ACTIVE + 4 * flat
-    if exited == 0:
-        status[idx] = STATUS_DONE
-        if tr >= t_min:
-            wp.atomic_add(counters, chunk, 2, 1)  # rays stopped by max_steps
-        else:
-            wp.atomic_add(counters, chunk, 6, 1)  # early ray termination: transmittance below t_min
-    elif t_in >= t_end:
-        status[idx] = STATUS_DONE  # left the bounding sphere: no further entry possible
-    elif not (far_t > t_in - t_tol):
-        # the next search would test these faces (or faces bounded in depth before t_in) with the same
-        # float32 numbers and find none beyond t_in - t_tol (it also skips the cell just left): skip it
-        status[idx] = STATUS_DONE
+#: the march kernels' module options (``fuse_fp`` off: no contraction into fused multiply-adds, the arithmetic as
+#: written)
+MARCH_OPTIONS = {"enable_backward": False, "fuse_fp": False}
 
 
-@wp.kernel
-def march(
-    width: int,
-    height: int,
-    eye: wp.vec3d,
-    fwd: wp.vec3d,
-    right: wp.vec3d,
-    up: wp.vec3d,
-    ortho: int,
-    half_h: wp.float64,
-    aspect: wp.float64,
-    radius: wp.float64,
-    verts: wp.array(dtype=wp.vec4),
-    tets: wp.array(dtype=wp.vec4i),
-    nbr: wp.array(dtype=wp.vec4i),
-    nbr_vertex: wp.array(dtype=wp.vec4i),
-    bface_tet: wp.array(dtype=wp.int32),
-    bface_local: wp.array(dtype=wp.int32),
-    bface_box: wp.array(dtype=wp.int32),
-    tile_start: wp.array(dtype=wp.int32),
-    tile_items: wp.array(dtype=wp.int32),
-    item_depth: wp.array(dtype=wp.vec3),
-    tile: int,
-    tiles_x: int,
-    tf_s: wp.array(dtype=float),
-    tf_v: wp.array(dtype=wp.vec4),
-    model: int,
-    scalar_check: int,
-    max_steps: int,
-    t_min: float,
-    t_tol: float,
-    first: int,
-    ids: wp.array(dtype=wp.int32),
-    rgb: wp.array(dtype=wp.vec3),
-    trans: wp.array(dtype=float),
-    tcur: wp.array(dtype=float),
-    status: wp.array(dtype=wp.int32),
-    last: wp.array(dtype=wp.int32),
-    reentries: int,
-    counters: wp.array2d(dtype=wp.int32),
-    chunk: int,
-):
-    """A pass: one thread per ray (pixels ``first ..``, or ``ids[first ..]``), each entering and walking
-    (:func:`march_ray`) and then re-entering in the same thread, up to ``reentries`` times, while its ray
-    may enter again (``STATUS_ACTIVE``): the same walk as one entry per pass, without a pass per
-    re-entry. Counts first entries in ``counters[chunk, 0]``, re-entries in ``counters[chunk, 7]`` and
-    the rays still active at the end (a further pass must search them) in ``counters[chunk, 4]``."""
-    tid = wp.tid()
-    idx = first + tid  # the pixels first .. (all rays of the image active)
-    if ids.shape[0] > 0:
-        idx = ids[first + tid]  # the active rays' pixels ids[first ..] (a re-entry pass)
-    py = idx // width
-    tile_id = (py // tile) * tiles_x + (idx - py * width) // tile
-    if tile_start[tile_id] == tile_start[tile_id + 1]:
-        # no entry face binned to the pixel's tile: the search finds none, the ray is done (as march_ray decides)
-        if (status[idx] & 3) == STATUS_ACTIVE:
+def make_march(segs: bool = False):
+    """The pass kernel :func:`march` (one ray per thread) on the exact Plücker walk of
+    :func:`~warpvol.kernels.cellwalk.make_walk`; with ``segs`` each entry also writes its segment (front and
+    back ray parameter, its own colour and transmittance) to the :class:`~warpvol.kernels.cellwalk.Segments`
+    it is launched with. A module of its own per configuration; use :func:`march_kernel`."""
+    walk = make_walk(False, False, INTEG_EXACT, segs)
+
+    @wp.func
+    def march_ray(idx: int, cam: RayCamera, mesh: CellMesh, bins: EntryBins, ig: Integ, opts: WalkOpts,
+                  st_rgb: wp.array(dtype=wp.vec3), trans: wp.array(dtype=float), tcur: wp.array(dtype=float),
+                  status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32), counters: wp.array2d(dtype=wp.int32),
+                  chunk: int, entry_col: int, sg: Segments):
+        """One entry of pixel ``idx``'s ray: the search for its next entry beyond ``tcur[idx]``, the walk from
+        there to where it leaves the (visible) mesh, the state written back (see :func:`march`). The entry is
+        counted in ``counters[chunk, entry_col]``."""
+        st = status[idx]
+        if (st & 3) != STATUS_ACTIVE:
+            return
+        py = idx // cam.width
+        px = idx - py * cam.width
+        r, t_clip, t_end = camera_ray(px, py, cam)
+        if t_end < t_clip:
+            status[idx] = STATUS_DONE  # the ray misses the mesh's bounding sphere
+            return
+        t_start = tcur[idx]
+
+        # ---- next entry: nearest boundary face crossed (entering) beyond t_start in this tile ----
+        fwd32 = wp.vec3(float(cam.fwd[0]), float(cam.fwd[1]), float(cam.fwd[2]))
+        cell, face_in, fc, best_t, best_s, far_t = tile_entry(px, py, t_start, last[idx], r, opts.t_tol, fwd32,
+                                                              float(cam.radius), mesh, bins)
+        flat = st >> 2
+        if cell >= 0 and best_t <= t_start:
+            flat += 1
+            best_t = t_start
+        if cell < 0:
             status[idx] = STATUS_DONE
-        return
-    march_ray(idx, width, height, eye, fwd, right, up, ortho, half_h, aspect, radius, verts, tets, nbr, nbr_vertex,
-              bface_tet, bface_local, bface_box, tile_start, tile_items, item_depth, tile, tiles_x, tf_s, tf_v, model,
-              scalar_check, max_steps, t_min, t_tol, rgb, trans, tcur, status, last, counters, chunk, 0)
-    k = int(0)
-    while k < reentries and (status[idx] & 3) == STATUS_ACTIVE:
-        k += 1
-        march_ray(idx, width, height, eye, fwd, right, up, ortho, half_h, aspect, radius, verts, tets, nbr,
-                  nbr_vertex, bface_tet, bface_local, bface_box, tile_start, tile_items, item_depth, tile, tiles_x,
-                  tf_s, tf_v, model, scalar_check, max_steps, t_min, t_tol, rgb, trans, tcur, status, last, counters,
-                  chunk, 7)
-    if (status[idx] & 3) == STATUS_ACTIVE:
-        wp.atomic_add(counters, chunk, 4, 1)  # rays a further pass must search
+            return
+        if flat > MAX_FLAT_REENTRIES:
+            status[idx] = STATUS_FAILED  # re-entering without progress: unresolved, redone in float64
+            wp.atomic_add(counters, chunk, 3, 1)
+            return
+        wp.atomic_add(counters, chunk, entry_col, 1)  # entries made in this pass
+
+        # ---- walk through the cell adjacency ----
+        c = st_rgb[idx]
+        acc, t_in, cell, steps, cells, failed, exited, thin, backward, fetches, own = walk(
+            cell, face_in, fc, best_t, best_s, wp.vec4(c[0], c[1], c[2], trans[idx]), r, r.o, r.d, t_clip,
+            float(cam.radius), mesh, MeshTex(), ig, opts, counters, chunk)
+        tr = acc[3]
+        wp.atomic_add(counters, chunk, 1, cells)
+        if failed == 1:
+            status[idx] = STATUS_FAILED
+            wp.atomic_add(counters, chunk, 3, 1)
+            if thin == 1:
+                wp.atomic_add(counters, chunk, 5, 1)  # of which: a thin layer float32 cannot resolve
+            return
+        if wp.static(segs):
+            put_segment(sg, idx, wp.max(best_t, t_clip), t_in, own)
+        st_rgb[idx] = wp.vec3(acc[0], acc[1], acc[2])
+        trans[idx] = tr
+        tcur[idx] = t_in
+        last[idx] = cell
+        if t_in > best_t:
+            flat = 0  # the walk advanced: only consecutive re-entries without progress count
+        status[idx] = STATUS_ACTIVE + 4 * flat
+        if exited == 0:
+            status[idx] = STATUS_DONE
+            if tr >= opts.t_stop:
+                wp.atomic_add(counters, chunk, 2, 1)  # rays stopped by max_steps
+            else:
+                wp.atomic_add(counters, chunk, 6, 1)  # early ray termination: transmittance below t_stop
+        elif t_in >= t_end:
+            status[idx] = STATUS_DONE  # left the bounding sphere: no further entry possible
+        elif not (far_t > t_in - opts.t_tol):
+            # the next search would test these faces (or faces bounded in depth before t_in) with the same
+            # float32 numbers and find none beyond t_in - t_tol (it also skips the cell just left): skip it
+            status[idx] = STATUS_DONE
+
+    @wp.kernel(module="unique", module_options=MARCH_OPTIONS)
+    def march(cam: RayCamera, mesh: CellMesh, bins: EntryBins, ig: Integ, opts: WalkOpts, first: int,
+              ids: wp.array(dtype=wp.int32), rgb: wp.array(dtype=wp.vec3), trans: wp.array(dtype=float),
+              tcur: wp.array(dtype=float), status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32),
+              reentries: int, counters: wp.array2d(dtype=wp.int32), chunk: int, sg: Segments):
+        """A pass: one thread per ray (pixels ``first ..``, or ``ids[first ..]``), each entering and walking
+        (``march_ray``) and then re-entering in the same thread, up to ``reentries`` times, while its ray
+        may enter again (``STATUS_ACTIVE``): the same walk as one entry per pass, without a pass per
+        re-entry. Counts first entries in ``counters[chunk, 0]``, re-entries in ``counters[chunk, 7]`` and
+        the rays still active at the end (a further pass must search them) in ``counters[chunk, 4]``."""
+        tid = wp.tid()
+        idx = first + tid  # the pixels first .. (all rays of the image active)
+        if ids.shape[0] > 0:
+            idx = ids[first + tid]  # the active rays' pixels ids[first ..] (a re-entry pass)
+        py = idx // cam.width
+        tile_id = (py // bins.tile) * bins.tiles_x + (idx - py * cam.width) // bins.tile
+        if bins.tile_start[tile_id] == bins.tile_start[tile_id + 1]:
+            # no entry face binned to the pixel's tile: the search finds none, the ray is done (as march_ray decides)
+            if (status[idx] & 3) == STATUS_ACTIVE:
+                status[idx] = STATUS_DONE
+            return
+        march_ray(idx, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last, counters, chunk, 0, sg)
+        k = int(0)
+        while k < reentries and (status[idx] & 3) == STATUS_ACTIVE:
+            k += 1
+            march_ray(idx, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last, counters, chunk, 7, sg)
+        if (status[idx] & 3) == STATUS_ACTIVE:
+            wp.atomic_add(counters, chunk, 4, 1)  # rays a further pass must search
+
+    return march
+
+
+_MARCH: dict = {}
+_MARCH_LOCK = threading.Lock()
+
+
+def march_kernel(segs: bool = False):
+    """The :func:`make_march` kernel of ``segs``, made once per configuration."""
+    key = bool(segs)
+    with _MARCH_LOCK:
+        if key not in _MARCH:
+            _MARCH[key] = make_march(key)
+        return _MARCH[key]
 
 
 @wp.kernel

@@ -311,16 +311,34 @@ def boundary_entries(face_tet: wp.array(dtype=wp.int32), face_loc: wp.array(dtyp
         out_nexact[f] = nex
 
 
+@wp.struct
+class RefEntries:
+    """The reference's chord starts: the tets near the eye (``near``) and, per pixel, its entries into the mesh
+    (``ent_start`` ranges of ray parameters ``ent_t`` and tets ``ent_tet``)."""
+
+    near: wp.array(dtype=wp.int32)
+    ent_start: wp.array(dtype=wp.int64)
+    ent_t: wp.array(dtype=wp.float64)
+    ent_tet: wp.array(dtype=wp.int32)
+
+
+@wp.struct
+class RefQuad:
+    """Gauss-Legendre nodes and weights of the reference's quadratures (10 and 5 points)."""
+
+    gx10: wp.array(dtype=wp.float64)
+    gw10: wp.array(dtype=wp.float64)
+    gx5: wp.array(dtype=wp.float64)
+    gw5: wp.array(dtype=wp.float64)
+
+
 @wp.kernel(enable_backward=False)
 def render_rows(row0: int, first: int, W: int, pix_list: wp.array(dtype=wp.int32),
                 P: wp.array(dtype=wp.vec3d), S: wp.array(dtype=wp.float64),
                 T: wp.array2d(dtype=wp.int32), adj: wp.array2d(dtype=wp.int32), orient: wp.array(dtype=wp.float64),
-                s_eye: wp.array(dtype=wp.float64), near: wp.array(dtype=wp.int32),
-                ent_start: wp.array(dtype=wp.int64), ent_t: wp.array(dtype=wp.float64),
-                ent_tet: wp.array(dtype=wp.int32), cxs: wp.array(dtype=wp.float64), cys: wp.array(dtype=wp.float64),
-                persp: int, max_steps: int, c_bound: wp.float64, terminate: wp.float64, tf_s: wp.array(dtype=wp.float64),
-                tf_c: wp.array(dtype=wp.vec4d), gx10: wp.array(dtype=wp.float64), gw10: wp.array(dtype=wp.float64),
-                gx5: wp.array(dtype=wp.float64), gw5: wp.array(dtype=wp.float64), ed: int, closed: int,
+                s_eye: wp.array(dtype=wp.float64), ents: RefEntries, cxs: wp.array(dtype=wp.float64),
+                cys: wp.array(dtype=wp.float64), persp: int, max_steps: int, c_bound: wp.float64, terminate: wp.float64,
+                tf_s: wp.array(dtype=wp.float64), tf_c: wp.array(dtype=wp.vec4d), quad: RefQuad, ed: int, closed: int,
                 img: wp.array(dtype=wp.vec4d), counters: wp.array2d(dtype=wp.int64)):
     """One pixel per thread of rows ``row0 ..``: walk every chord of its line, integrate, composite
     into ``img`` (rows from ``first`` on). With a non-empty ``pix_list`` (flat pixel indices) thread
@@ -353,8 +371,8 @@ def render_rows(row0: int, first: int, W: int, pix_list: wp.array(dtype=wp.int32
     # (earliest entry if rounding leaves several)
     start = int(-1)
     best = wp.float64(0.0)
-    for k in range(near.shape[0]):
-        c = int(near[k])
+    for k in range(ents.near.shape[0]):
+        c = int(ents.near[k])
         sg = tet_segment(c, P, S, T, orient, s_eye, dx, dy, dn, persp)
         n_exact = n_exact + sg.nexact
         t_in = sg.t_in
@@ -369,8 +387,8 @@ def render_rows(row0: int, first: int, W: int, pix_list: wp.array(dtype=wp.int32
     tau = zero
     trans = wp.float64(1.0)  # exp(-tau)
     col = wp.vec3d(zero, zero, zero)
-    e0 = int(ent_start[pix])
-    ne_pix = int(ent_start[pix + 1]) - e0
+    e0 = int(ents.ent_start[pix])
+    ne_pix = int(ents.ent_start[pix + 1]) - e0
     last_t = wp.float64(0.0)
     last_c = int(-1)
     chord = int(0)
@@ -389,8 +407,8 @@ def render_rows(row0: int, first: int, W: int, pix_list: wp.array(dtype=wp.int32
             bt = wp.float64(0.0)
             bc = int(0)
             for q in range(ne_pix):
-                tq = ent_t[e0 + q]
-                cq = int(ent_tet[e0 + q])
+                tq = ents.ent_t[e0 + q]
+                cq = int(ents.ent_tet[e0 + q])
                 after = chord == 0 or tq > last_t or (tq == last_t and cq > last_c)
                 if after and (bq < 0 or tq < bt or (tq == bt and cq < bc)):
                     bq = q
@@ -426,7 +444,7 @@ def render_rows(row0: int, first: int, W: int, pix_list: wp.array(dtype=wp.int32
                     s_in = s_in + (sg.s_out - s_in) * (-t_in / span)
                     t_in = zero
                 if t_out > t_in:
-                    r = integrate_segment(s_in, sg.s_out, t_out - t_in, tf_s, tf_c, gx10, gw10, gx5, gw5, ed,
+                    r = integrate_segment(s_in, sg.s_out, t_out - t_in, tf_s, tf_c, quad.gx10, quad.gw10, quad.gx5, quad.gw5, ed,
                                           closed)
                     col = col + trans * wp.vec3d(r[0], r[1], r[2])
                     tau = tau + r[3]

@@ -1,11 +1,13 @@
 """Micro-benchmark: a ray caster's first-pass march kernel alone, this tree's kernels against a git ref's.
 
-Renders the view once with ``--preset`` (``raycast``: :func:`warpvol.kernels.raycast.march`; ``harc_best``:
-HARC's march kernel with :func:`warpvol.kernels.harc_walk.exact_walk`) and records the first pass's launches
+Renders the view once with ``--preset`` (``raycast``: :func:`warpvol.kernels.raycast.march_kernel`; ``harc_best``:
+HARC's march kernel, :func:`warpvol.kernels.harc.march_kernel`; both walk in
+:func:`warpvol.kernels.cellwalk.make_walk`'s walk) and records the first pass's launches
 with their inputs (cells, entry search data, the rays marked for float64 before the walk), then replays them
 one after the other on one host thread, for this tree's ``kernels/`` and for a copy of ``--base``'s
 (``git archive``, imported as a package of its own, so both are compiled side by side; inputs matched by
-argument name, Warp structs converted field by field), interleaved round by round in one process so load from
+argument name, Warp structs converted field by field or taken apart into their fields for a kernel that takes
+them one by one), interleaved round by round in one process so load from
 other processes hits both alike. Prints per kernel set the median time, the cell steps and the nanoseconds per
 step (one thread), and whether the two produce the same pass bit for bit (colour, transmittance, ray
 parameter, status, counters: the same float64 redo counts).
@@ -94,8 +96,9 @@ def as_package(x, pkg: str):
 def kernel_of(pkg: str, kernel):
     """``kernel`` (a march kernel of ``warpvol.kernels``) in the kernel package ``pkg``."""
     new = importlib.import_module("warpvol.kernels.harc")
-    if kernel.key.startswith("march"):
-        return importlib.import_module(f"{pkg}.raycast").march
+    if "harc_march" not in kernel.key:  # raycast's pass kernel
+        rc = importlib.import_module(f"{pkg}.raycast")
+        return rc.march_kernel() if hasattr(rc, "march_kernel") else rc.march
     mod = importlib.import_module(f"{pkg}.harc")
     for walk in (new.WALK_PLANES, new.WALK_PLUCKER):
         for setup in (new.SETUP_ROBUST, new.SETUP_PAPER):
@@ -119,6 +122,12 @@ def run_pass(pkg: str, launches: list, reentries: int = 0):
     for kernel, dim, inputs in launches:
         k = kernel if pkg == "warpvol.kernels" else kernel_of(pkg, kernel)
         named = {a.label: x for a, x in zip(kernel.adj.args, inputs)}
+        for x in list(named.values()):  # a struct's fields by name, for a kernel that takes them one by one
+            if hasattr(x, "_cls"):
+                for f in x._cls.vars:
+                    named.setdefault(f, getattr(x, f))
+        if "t_stop" in named:
+            named.setdefault("t_min", named["t_stop"])  # (raycast's name of it before the walk options)
         named["reentries"] = reentries
         args = [wp.clone(named[a.label]) if isinstance(named[a.label], wp.array) else as_package(named[a.label], pkg)
                 for a in k.adj.args]

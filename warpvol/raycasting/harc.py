@@ -411,20 +411,21 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     from warpvol.gpu.formats import get_format
     from warpvol.kernels import harc as kh
     from warpvol.parallel import launch_blocks
-    from warpvol.raycasting.stages.raycast import camera_launch_args, ray_blocks
+    from warpvol.raycasting.stages.raycast import camera_struct, cell_mesh_struct, ray_blocks, walk_opts
 
     cells = ctx.buffers["cells"]
-    cam_args = camera_launch_args(ctx)
+    cam = camera_struct(ctx)
     state.px_work.zero_()
     ids, parts = ray_blocks(ctx, state.status.numpy() == int(kh.STATUS_ACTIVE), threads, rows_per_block)
     if not parts:
         return dict.fromkeys(COUNTER_NAMES, 0)
     counters = wp.zeros((len(parts), N_COUNTERS), dtype=wp.int32, device=ctx.device)
     eye_w = wp.vec3(*np.asarray(ctx.scene.camera.eye, np.float64).astype(np.float32))
-    common = cam_args + [eye_w, mesh_tex, cells["verts"], cells["tets"], cells["nbr"], cells["nbr_vertex"],
-                         entry["frag_start"], entry["frag_bf"], entry["bf_tet"], entry["bf_face"], entry["bf_nbr"],
-                         entry["far"], entry["bf_depth"], entry["edge_start"], entry["edge_bf"], ig, get_format(fb_format).kernel_params(),
-                         float(t_stop), int(max_steps), scalar_check, PEEL_TOL * cells["radius"]]
+    lists = kh.FragLists()
+    for name in ("frag_start", "frag_bf", "bf_tet", "bf_face", "bf_nbr", "far", "bf_depth", "edge_start", "edge_bf"):
+        setattr(lists, name, entry[name])
+    common = [cam, eye_w, mesh_tex, cell_mesh_struct(cells), lists, ig, get_format(fb_format).kernel_params(),
+              walk_opts(t_stop, max_steps, scalar_check, PEEL_TOL * cells["radius"])]
     kernel = kh.march_kernel(WALKS[walk], SETUPS[setup], ig.mode)  # this configuration's kernel
 
     def launch(b: int) -> None:

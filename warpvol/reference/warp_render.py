@@ -526,9 +526,12 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
         pix_arr = arr(plist.astype(np.int32), wp.int32)
         rblocks = blocks(len(plist), max(1, -(-len(plist) // (8 * threads))) if on_cpu else len(plist))
         show_progress = False
-    common = [P, S, T, adj, orient, s_eye, near, ent_start, ent_t, ent_tet, cxs, cys, persp,
-              int(mesh.n_tets) + 1, f64(c_bound), f64(terminate), tf_s, tf_c, arr(x10, f64), arr(w10, f64), arr(x5, f64),
-              arr(w5, f64), ed, int(bool(closed_form)), img, counters]
+    ents = K.RefEntries()
+    ents.near, ents.ent_start, ents.ent_t, ents.ent_tet = near, ent_start, ent_t, ent_tet
+    quad = K.RefQuad()
+    quad.gx10, quad.gw10, quad.gx5, quad.gw5 = arr(x10, f64), arr(w10, f64), arr(x5, f64), arr(w5, f64)
+    common = [P, S, T, adj, orient, s_eye, ents, cxs, cys, persp, int(mesh.n_tets) + 1, f64(c_bound), f64(terminate),
+              tf_s, tf_c, quad, ed, int(bool(closed_form)), img, counters]
     # a caller's own progress callback (the command line's bar, bench, stress) replaces the default bar
     bar = _progress_bar(show_progress if show_progress is not None or progress is None else False, len(rblocks))
     task = bar.add_task("reference", total=nrows) if bar is not None else None

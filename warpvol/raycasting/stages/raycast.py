@@ -49,11 +49,14 @@ class MarchState:
         return out.numpy().reshape(height, width, 4)
 
 
-def camera_launch_args(ctx: Context) -> list:
-    """The camera arguments of a per-pixel ray kernel (``march`` and the HARC walker): image size, float64
-    eye relative to the cells' origin (the kernel moves each ray's origin to the mesh) and camera frame,
-    projection, half height, aspect, mesh radius. The launch blocks come from :func:`ray_blocks`."""
+def camera_struct(ctx: Context):
+    """The camera of a per-pixel ray kernel (``raycast``'s march and the HARC walker) as a
+    :class:`warpvol.kernels.cellwalk.RayCamera`: image size, float64 eye relative to the cells' origin (the kernel
+    moves each ray's origin to the mesh) and camera frame, projection, half height, aspect, mesh radius. The
+    launch blocks come from :func:`ray_blocks`."""
     import warp as wp
+
+    from warpvol.kernels.cellwalk import RayCamera
 
     cam = ctx.scene.camera
     cells = ctx.buffers["cells"]
@@ -63,9 +66,46 @@ def camera_launch_args(ctx: Context) -> list:
         half_h = cam.ortho_height / 2.0
     eye = np.asarray(cam.eye, dtype=np.float64) - cells["origin"]
     v3 = wp.vec3d
-    return [cam.width_px, cam.height_px, v3(*eye), v3(*cam.forward), v3(*cam.right), v3(*cam.true_up),
-            int(cam.projection == "orthographic"), wp.float64(half_h), wp.float64(cam.aspect),
-            wp.float64(max(cells["radius"], 1e-30))]
+    rc = RayCamera()
+    rc.width, rc.height = cam.width_px, cam.height_px
+    rc.eye, rc.fwd, rc.right, rc.up = v3(*eye), v3(*cam.forward), v3(*cam.right), v3(*cam.true_up)
+    rc.ortho = int(cam.projection == "orthographic")
+    rc.half_h, rc.aspect = wp.float64(half_h), wp.float64(cam.aspect)
+    rc.radius = wp.float64(max(cells["radius"], 1e-30))
+    return rc
+
+
+def cell_mesh_struct(cells: dict):
+    """The cells (``ctx.buffers["cells"]``) as the walk reads them: a :class:`warpvol.kernels.cellwalk.CellMesh`."""
+    from warpvol.kernels.cellwalk import CellMesh
+
+    m = CellMesh()
+    m.verts, m.tets, m.nbr, m.nbr_vertex = cells["verts"], cells["tets"], cells["nbr"], cells["nbr_vertex"]
+    return m
+
+
+def walk_opts(t_stop: float, max_steps: int, scalar_check: int, t_tol: float):
+    """A :class:`warpvol.kernels.cellwalk.WalkOpts`."""
+    from warpvol.kernels.cellwalk import WalkOpts
+
+    o = WalkOpts()
+    o.t_stop, o.max_steps, o.scalar_check, o.t_tol = float(t_stop), int(max_steps), int(scalar_check), float(t_tol)
+    return o
+
+
+def segments_struct(n: int, cap: int, device):
+    """A :class:`warpvol.kernels.cellwalk.Segments` for ``n`` rays of ``cap`` segments each (``cap`` 0: none
+    kept, the struct the kernels without segments take)."""
+    import warp as wp
+
+    from warpvol.kernels.cellwalk import Segments
+
+    sg = Segments()
+    sg.cap = int(cap)
+    sg.count = wp.zeros(n if cap else 0, dtype=wp.int32, device=device)
+    sg.depth = wp.zeros(n * cap, dtype=wp.vec2, device=device)
+    sg.color = wp.zeros(n * cap, dtype=wp.vec4, device=device)
+    return sg
 
 
 def ray_blocks(ctx: Context, active: np.ndarray, threads: int, rows_per_block: int = 16) -> tuple:
@@ -98,35 +138,43 @@ PASS_COUNTERS = ("entries", "steps", "unfinished", "failed", "left active", "fai
 
 
 def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float, threads: int, reentries: int = 0,
-               rows_per_block: int = 16) -> np.ndarray:
+               rows_per_block: int = 16, segments=None) -> np.ndarray:
     """One propagation pass over all active rays (one thread per active ray: :func:`ray_blocks`), each ray
     re-entering up to ``reentries`` times within it; returns summed counters :data:`PASS_COUNTERS`
     (entries: the rays' first entries in the pass; re-entries: those after it in the same thread) and sets
     ``state.active`` to the rays left active (they may re-enter: 0 means a further pass would find nothing).
-    Failed rays keep ``STATUS_FAILED`` for :func:`resolve_failed`."""
+    Failed rays keep ``STATUS_FAILED`` for :func:`resolve_failed`. ``segments`` (:func:`segments_struct`): each
+    entry's segment is kept there (front and back ray parameter, its own colour and transmittance)."""
     import warp as wp
 
     from warpvol.kernels import raycast as k
+    from warpvol.kernels.harc_integ import Integ
 
     cells, bins = ctx.buffers["cells"], ctx.buffers["entry_bins"]
-    cam_args = camera_launch_args(ctx)
+    cam = camera_struct(ctx)
     ids, parts = ray_blocks(ctx, (state.status.numpy() & 3) == int(k.STATUS_ACTIVE), threads, rows_per_block)
     if not parts:
         state.active = 0
         return np.zeros(len(PASS_COUNTERS), np.int64)
     counters = wp.zeros((len(parts), len(PASS_COUNTERS)), dtype=wp.int32, device=ctx.device)
-    common = cam_args + [cells["verts"], cells["tets"], cells["nbr"], cells["nbr_vertex"], bins["bface_tet"], bins["bface_local"],
-                         bins["bface_box"], bins["tile_start"], bins["tile_items"], bins["item_depth"], bins["tile"], bins["tiles_x"],
-                         cells["tf_s"], cells["tf_v"], cells["model"], cells["scalar_check"], max_steps, t_min,
-                         1e-6 * cells["radius"]]
+    eb = k.EntryBins()
+    for name in ("bface_tet", "bface_local", "bface_box", "tile_start", "tile_items", "item_depth", "tile", "tiles_x"):
+        setattr(eb, name, bins[name])
+    ig = Integ()  # the TF as the exact walk reads it (no tables)
+    ig.mode, ig.model, ig.tf_s, ig.tf_v = 0, int(cells["model"]), cells["tf_s"], cells["tf_v"]
+    opts = walk_opts(t_min, max_steps, cells["scalar_check"], 1e-6 * cells["radius"])
+    if segments is None:
+        segments = segments_struct(0, 0, ctx.device)
+    kernel = k.march_kernel(segments.cap > 0)
+    common = [cam, cell_mesh_struct(cells), eb, ig, opts]
 
     def launch(b: int) -> None:
         first, count = parts[b]
-        wp.launch(k.march, dim=count, device=ctx.device,
+        wp.launch(kernel, dim=count, device=ctx.device,
                   inputs=common + [first, ids, state.rgb, state.trans, state.tcur, state.status, state.last, reentries,
-                                   counters, b])
+                                   counters, b, segments])
 
-    launch_blocks(ctx.device, len(parts), launch, threads, modules=[k])
+    launch_blocks(ctx.device, len(parts), launch, threads, modules=[kernel])
     c = counters.numpy().sum(axis=0)
     state.active = int(c[4])
     return c
