@@ -25,6 +25,8 @@ LAYERS = {
     # 3 emulated GPU units (formats, counters), the exact reference, the performance model, conditioning
     "warpvol.gpu": 3, "warpvol.reference": 3, "warpvol.model": 3, "warpvol.conditioning.conditioning": 3,
     "warpvol.conditioning.reorder": 3, "warpvol.conditioning.visibility": 3,
+    # segments (per-entry ray pieces) and their deep OpenEXR files, beside the reference they come from
+    "warpvol.segments": 3, "warpvol.deep": 3,
     # 4 pre-integration tables
     "warpvol.tables": 4,
     # 5 the stage framework
@@ -36,6 +38,7 @@ LAYERS = {
     "warpvol.stages": 7, "warpvol.pipeline": 7, "warpvol.presets": 7, "warpvol.profiles": 7,
     # 8 the Python API, the session caches, the reference in bands
     "warpvol.api": 8, "warpvol.cache": 8, "warpvol.bands": 8, "warpvol.figures": 8,
+    "warpvol.pieces": 8,
     # 9 tools and the reproduction of the papers
     "warpvol.tools": 9, "warpvol.reproduce": 9,
     # 10 the command line and the package's face
