@@ -12,6 +12,7 @@
     warpvol stress [--quick]                          # stiff and extreme cases x every preset
     warpvol sweep CONFIG.toml [--scheduler tcp://HOST:PORT] -o OUTDIR   # Dask, resumable
     warpvol data [list] | fetch NAME...|all           # the real data sets of scenes/, into a cache
+    warpvol partition MESH -n 8 -o PIECES/            # cut a mesh into a .pvtu of pieces (for --scheduler)
 
 ``SCENE`` is a scene file, ``builtin:NAME`` or a mesh file pyvista reads (``.vtu``, ``.vtk``, ...;
 its point scalars under a default colour map and opacity ramp, the camera fitted to it: see
@@ -72,6 +73,11 @@ def cmd_render(args) -> int:
     from warpvol.metrics import write_error_png
     from warpvol.pipeline import Pipeline, report_json
 
+    from warpvol.cli_pieces import check_deep, cmd_render_pieces, maybe_pieces
+
+    if (info := maybe_pieces(args)) is not None:  # a .pvtu of several pieces on Dask: each piece on a worker
+        return cmd_render_pieces(args, info)
+    check_deep(args)
     # everything a user can get wrong is checked before any costly work
     outs = check_outputs({"-o": args.output, "--report": args.report, "--png": args.png,
                           "--error-image": args.error_image}, IMAGE_OUTPUT)
@@ -159,10 +165,14 @@ def cmd_gpus(args) -> int:
 
 
 def cmd_reference(args) -> int:
+    from warpvol.cli_pieces import DEEP_OUTPUT, cmd_reference_pieces, maybe_pieces
     from warpvol.io import Outputs
 
-    out = check_outputs({"-o": args.output}, IMAGE_OUTPUT)["-o"]
-    check_inputs(scene_inputs(args.scene), {"-o": out})
+    if (info := maybe_pieces(args)) is not None:  # a .pvtu of several pieces on Dask: each piece on a worker
+        return cmd_reference_pieces(args, info)
+    outs = check_outputs({"-o": args.output, "--deep": args.deep}, {**IMAGE_OUTPUT, **DEEP_OUTPUT})
+    out = outs["-o"]
+    check_inputs(scene_inputs(args.scene), outs)
     check_sizes(args)
     check_bands(args)
     scene = _load_scene(args.scene, args)
@@ -175,6 +185,11 @@ def cmd_reference(args) -> int:
         raise out_of_memory(scene, ["reference"], "computing the reference", _available_memory()) from None
     with Outputs() as staged:
         _write_image(staged, out, img)
+    if args.deep:  # the segments, after the image: one per entry of a ray into the mesh
+        from warpvol.deep import write_deep
+        from warpvol.reference.segments import reference_segments
+
+        write_deep(outs["--deep"], reference_segments(scene.mesh, scene.transfer, scene.camera), scene.camera)
     print(f"reference: {dt:.2f} s, {scene.camera.width_px}x{scene.camera.height_px}, {scene.mesh.n_tets} tets -> {out}")
     _mesh_notes(getattr(scene.mesh, "load_notes", None))
     return 0
@@ -465,6 +480,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "the report's left_out section says what is left out otherwise)")
     mesh_args(r)
     band_args(r, "the reference of --compute-reference")
+    r.add_argument("--deep", help="with --scheduler and a .pvtu scene of several pieces: also write the merged segments "
+                   "as an OpenEXR deep image (RGBA, Z, ZBack; Z is view-space depth)")
     common(r)
     r.set_defaults(func=cmd_render)
 
@@ -475,7 +492,9 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--height", type=int)
     f.add_argument("--strict", action="store_true")
     mesh_args(f)
-    band_args(f, "the reference")
+    band_args(f, "the reference (a .pvtu scene of several pieces: each piece on a worker)")
+    f.add_argument("--deep", help="also write the reference's segments (one per entry of a ray into the mesh or a piece) "
+                   "as an OpenEXR deep image (RGBA, Z, ZBack; Z is view-space depth)")
     common(f, device=False)
     f.set_defaults(func=cmd_reference)
 
@@ -549,6 +568,10 @@ def build_parser() -> argparse.ArgumentParser:
                     "no culling of invisible cells, no empty-space skipping, no early ray termination")
     common(st)
     st.set_defaults(func=cmd_stress)
+
+    from warpvol.cli_pieces import add_partition_parser
+
+    add_partition_parser(sub)
 
     sw = sub.add_parser("sweep", help="scenes x views x presets x options as tasks on Dask (resumable)")
     sw.add_argument("config", help="sweep TOML (see warpvol.tools.sweep)")

@@ -45,7 +45,8 @@ def check_bands(args) -> None:
 
 
 #: output flag -> allowed file extensions
-OUTPUT_EXTENSIONS = {"-o": (".exr",), "--report": (".json",), "--png": (".png",), "--error-image": (".png",)}
+OUTPUT_EXTENSIONS = {"-o": (".exr",), "--report": (".json",), "--png": (".png",), "--error-image": (".png",),
+                     "--deep": (".exr",)}
 
 #: ``-o`` of render and reference: an OpenEXR image, or the 8-bit PNG preview as the image
 IMAGE_OUTPUT = {"-o": (".exr", ".png")}

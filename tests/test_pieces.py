@@ -1,0 +1,142 @@
+"""A mesh in pieces on Dask (warpvol.pieces): a .pvtu of pieces interleaved along the rays, each piece's exact
+reference rendered into segments on a worker and merged by depth, equals the reference of the whole mesh; a
+killed worker's piece is done again; a missing or unreadable piece is an error naming it, nothing written."""
+
+import os
+import signal
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from tests.test_segments import slab_pieces
+
+import warpvol
+from warpvol.deep import read_deep
+from warpvol.errors import ConfigError
+from warpvol.io import read_exr
+from warpvol.pieces import partition_mesh, pvtu_pieces, read_piece, render_pieces, scene_pieces
+from warpvol.reference.numpy_render import render_reference
+from warpvol.scene.interop import mesh_to_pyvista
+
+W, H = 24, 20
+
+
+def write_pieces(folder, meshes, name="mesh"):
+    """``meshes`` as piece files and the .pvtu naming them (scalars ``s``)."""
+    for k, m in enumerate(meshes):
+        mesh_to_pyvista(m, "s").save(folder / f"p{k}.vtu")
+    src = "".join(f'<Piece Source="p{k}.vtu"/>' for k in range(len(meshes)))
+    (folder / f"{name}.pvtu").write_text(
+        '<?xml version="1.0"?><VTKFile type="PUnstructuredGrid" version="0.1" byte_order="LittleEndian">'
+        '<PUnstructuredGrid GhostLevel="0"><PPointData Scalars="s"><PDataArray type="Float64" Name="s"/></PPointData>'
+        f'<PPoints><PDataArray type="Float64" NumberOfComponents="3"/></PPoints>{src}</PUnstructuredGrid></VTKFile>')
+    return folder / f"{name}.pvtu"
+
+
+def scene_file(folder, pvtu, s):
+    c = s.camera
+    tf = "\n".join(f"  [{', '.join(repr(float(v)) for v in row)}]," for row in s.transfer.points)
+    (folder / "scene.toml").write_text(f'''[mesh]
+path = "{pvtu.name}"
+scalars = "s"
+[transfer]
+emission = "{s.transfer.emission}"
+points = [
+{tf}
+]
+[camera]
+projection = "perspective"
+eye = {list(map(float, c.eye))}
+target = {list(map(float, c.target))}
+up = {list(map(float, c.up))}
+fov_y_deg = {float(c.fov_y_deg)}
+width_px = {W}
+height_px = {H}
+''')
+    return folder / "scene.toml"
+
+
+@pytest.fixture(scope="module")
+def pieces(tmp_path_factory):
+    d = tmp_path_factory.mktemp("pieces")
+    s = warpvol.builtin_scene("concave").with_camera(width_px=W, height_px=H)
+    pvtu = write_pieces(d, slab_pieces(s.mesh, 2, slabs=7))
+    return s, scene_file(d, pvtu, s), render_reference(s.mesh, s.transfer, s.camera)
+
+
+def test_distributed_equals_single(pieces):
+    from dask.distributed import Client, LocalCluster
+
+    s, scene, ref = pieces
+    info = scene_pieces(scene)
+    assert len(info["pieces"]) == 2 and info["scalars"] == "s"
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as cl, \
+            Client(cl) as client:
+        segs, rep = render_pieces(info["pieces"], "s", info["transfer"], info["camera"], client)
+    np.testing.assert_allclose(segs.flatten(), ref, rtol=0, atol=1e-12)
+    assert [p["piece"] for p in rep["pieces"]] == ["p0.vtu", "p1.vtu"] and rep["workers"] == 2
+    assert sum(p["cells"] for p in rep["pieces"]) == s.mesh.n_tets
+    assert all(p["peak_bytes"] > 0 and p["seconds"] > 0 for p in rep["pieces"]) and rep["compositing_s"] >= 0
+
+
+def test_killed_worker_and_cli_deep(pieces, tmp_path):
+    s, scene, ref = pieces
+    info = scene_pieces(scene)
+    killed = []
+
+    def kill_one(k, client):
+        if not killed:
+            pid = sorted(client.run(os.getpid).values())[0]
+            os.kill(pid, signal.SIGKILL)
+            killed.append(pid)
+
+    # four pieces on two worker processes: the first result kills a worker, its pieces are done again
+    four = pvtu_pieces(write_pieces(tmp_path, slab_pieces(s.mesh, 4, slabs=9), name="four"))
+    segs, _ = render_pieces(four, "s", info["transfer"], info["camera"], "local", workers=2, on_piece=kill_one)
+    assert killed
+    np.testing.assert_allclose(segs.flatten(), ref, rtol=0, atol=1e-12)
+    # the CLI: image and deep file; the deep file flattens to the image
+    out, deep = tmp_path / "ref.exr", tmp_path / "deep.exr"
+    r = subprocess.run([sys.executable, "-m", "warpvol.cli", "reference", str(scene), "--scheduler", "local",
+                        "--workers", "2", "-o", str(out), "--deep", str(deep)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "2 pieces" in r.stdout
+    np.testing.assert_allclose(read_exr(out), ref, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(read_deep(deep, s.camera).flatten(), ref, rtol=0, atol=2e-6)
+
+
+def test_missing_or_unreadable_piece_names_it(pieces, tmp_path):
+    s, _, _ = pieces
+    pvtu = write_pieces(tmp_path, slab_pieces(s.mesh, 2, slabs=3))
+    scene = scene_file(tmp_path, pvtu, s)
+    (tmp_path / "p1.vtu").write_bytes(b"<VTKFile broken")
+    with pytest.raises(ConfigError, match="p1.vtu"):
+        read_piece(tmp_path / "p1.vtu", "s")
+    (tmp_path / "p1.vtu").unlink()
+    with pytest.raises(ConfigError, match=r"piece 1 \(p1.vtu\) not found"):
+        pvtu_pieces(pvtu)
+    out = tmp_path / "img.exr"
+    r = subprocess.run([sys.executable, "-m", "warpvol.cli", "reference", str(scene), "--scheduler", "local", "-o",
+                        str(out)], capture_output=True, text=True)
+    assert r.returncode == 2 and "p1.vtu" in r.stderr and "Traceback" not in r.stderr and not out.exists()
+    # a preset that cannot emit segments refuses a piece-by-piece render in words
+    (tmp_path / "p1.vtu").write_bytes((tmp_path / "p0.vtu").read_bytes())
+    r = subprocess.run([sys.executable, "-m", "warpvol.cli", "render", str(scene), "--pipeline", "pt_best",
+                        "--scheduler", "local", "-o", str(out)], capture_output=True, text=True)
+    assert r.returncode == 2 and "piece by piece" in r.stderr and not out.exists()
+
+
+def test_partition_cuts_into_a_pvtu(tmp_path):
+    s = warpvol.builtin_scene("concave").with_camera(width_px=W, height_px=H)
+    mesh_to_pyvista(s.mesh, "s").save(tmp_path / "whole.vtu")
+    pvtu = partition_mesh(tmp_path / "whole.vtu", 3, tmp_path / "pieces")
+    files = pvtu_pieces(pvtu)
+    meshes = [read_piece(f, "s") for f in files]
+    assert len(files) == 3 and sum(m.n_tets for m in meshes) == s.mesh.n_tets
+    assert max(m.n_tets for m in meshes) - min(m.n_tets for m in meshes) <= 1
+    from warpvol.reference.segments import reference_segments
+    from warpvol.segments import merge
+
+    img = merge([reference_segments(m, s.transfer, s.camera) for m in meshes]).flatten()
+    np.testing.assert_allclose(img, render_reference(s.mesh, s.transfer, s.camera), rtol=0, atol=1e-12)

@@ -1,0 +1,127 @@
+"""Command line for a mesh in pieces (:mod:`warpvol.pieces`): ``render`` and ``reference`` of a multi-piece
+``.pvtu`` scene with ``--scheduler`` (each piece on a Dask worker, segments merged by depth, ``--deep`` for
+the segments as an OpenEXR deep image), and ``partition`` (cut a mesh file into a ``.pvtu`` of pieces)."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from warpvol.cli_checks import IMAGE_OUTPUT, check_bands, check_outputs, check_sizes
+from warpvol.errors import ConfigError
+
+DEEP_OUTPUT = {"--deep": (".exr",)}
+
+
+def check_deep(args) -> None:
+    """``--deep`` is written from segments: a multi-piece ``.pvtu`` scene with ``--scheduler``, or the reference."""
+    if getattr(args, "deep", None) and args.scheduler is None and args.cmd != "reference":
+        raise ConfigError("--deep: the segments of a render come from its pieces: give --scheduler with a scene whose "
+                          "mesh is a .pvtu of several pieces (warpvol reference writes --deep on its own)")
+
+
+def _camera(info: dict, args):
+    over = {k: v for k, v in (("width_px", args.width), ("height_px", args.height)) if v is not None}
+    return info["camera"].replace(**over) if over else info["camera"]
+
+
+def _no_mesh_options(args) -> None:
+    for flag, v in (("--scalars", "scalars"), ("--colormap", "colormap"), ("--step", "step"), ("--time", "time"),
+                    ("--bands", "bands")):
+        if getattr(args, v, None) is not None:
+            raise ConfigError(f"{flag}: not used with a .pvtu scene rendered piece by piece (--scheduler)")
+
+
+def _write(outs: dict, img, segs, camera, args) -> dict:
+    """The image first (all outputs or none), then the deep file off the image's critical path."""
+    import numpy as np
+
+    from warpvol.deep import write_deep
+    from warpvol.io import Outputs
+
+    bg = getattr(args, "background", (0.0, 0.0, 0.0))
+    with Outputs() as out:
+        if outs["-o"].suffix.lower() == ".png":
+            out.png(outs["-o"], img, background=bg)
+        else:
+            out.exr(outs["-o"], np.asarray(img, np.float32))
+        if getattr(args, "png", None):
+            out.png(outs["--png"], img, background=args.background)
+    deep: dict = {}
+    if "--deep" in outs:
+        write_deep(outs["--deep"], segs, camera, stats=deep)
+    return deep
+
+
+def _piece_line(rep: dict) -> str:
+    cells = sum(p["cells"] for p in rep["pieces"])
+    peak = max(p["peak_bytes"] for p in rep["pieces"])
+    return (f"{len(rep['pieces'])} pieces ({cells} tets) on {rep['workers']} workers, worker peak "
+            f"{peak / 2**20:.0f} MiB, compositing {rep['compositing_s']:.3f} s")
+
+
+def cmd_reference_pieces(args, info: dict) -> int:
+    """``warpvol reference PIECES-SCENE --scheduler ...``: the exact reference of each piece on a worker."""
+    from warpvol.pieces import render_pieces
+
+    outs = check_outputs({"-o": args.output, "--deep": args.deep}, {**IMAGE_OUTPUT, **DEEP_OUTPUT})
+    _no_mesh_options(args)
+    check_sizes(args)
+    check_bands(args)
+    cam = _camera(info, args)
+    t0 = time.perf_counter()
+    segs, rep = render_pieces(info["pieces"], info["scalars"], info["transfer"], cam, args.scheduler,
+                              workers=args.workers or 2)
+    img = segs.flatten()
+    dt = time.perf_counter() - t0
+    deep = _write(outs, img, segs, cam, args)
+    extra = f", deep {deep['samples']} samples in {deep['seconds']:.2f} s -> {outs['--deep']}" if deep else ""
+    print(f"reference: {dt:.2f} s, {cam.width_px}x{cam.height_px}, {_piece_line(rep)} -> {outs['-o']}{extra}")
+    return 0
+
+
+def cmd_render_pieces(args, info: dict) -> int:
+    """``warpvol render PIECES-SCENE --scheduler ...``: refused in words for a preset that cannot render a
+    piece into segments (only the reference can today)."""
+    from warpvol.pieces import PIECE_PIPELINES
+
+    if args.pipeline not in PIECE_PIPELINES:
+        can = ", ".join(PIECE_PIPELINES) if PIECE_PIPELINES else "none of the presets yet"
+        raise ConfigError(f"--pipeline {args.pipeline}: cannot render a mesh piece by piece: it emits no segments "
+                          f"(presets that do: {can}). `warpvol reference {args.scene} --scheduler ...` computes the "
+                          "exact reference piece by piece; without --scheduler the whole mesh renders in one process")
+    raise ConfigError(f"--pipeline {args.pipeline}: piece-by-piece rendering is not available")
+
+
+def cmd_partition(args) -> int:
+    from warpvol.pieces import partition_mesh
+
+    t0 = time.perf_counter()
+    out = Path(args.output)
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"-o: {out} is a file; expected a folder (created if missing)")
+    pvtu = partition_mesh(args.mesh, args.n, out, args.scalars)
+    print(f"partition: {args.mesh} -> {args.n} pieces, {pvtu} ({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+def add_partition_parser(sub) -> None:
+    pt = sub.add_parser("partition", help="cut a mesh file spatially into pieces: a .pvtu for --scheduler renders")
+    pt.add_argument("mesh", help="mesh file pyvista reads (.vtu, .vtk, ...)")
+    pt.add_argument("-n", type=int, required=True, help="number of pieces")
+    pt.add_argument("-o", "--output", required=True, help="folder for the pieces (piece0.vtu, ...) and NAME.pvtu")
+    pt.add_argument("--scalars", help="point-data array the pieces keep (default: the active scalars)")
+    pt.set_defaults(func=cmd_partition)
+
+
+def maybe_pieces(args) -> dict | None:
+    """The pieces of ``args.scene`` when ``--scheduler`` is given and it is a multi-piece ``.pvtu`` scene."""
+    from warpvol.pieces import scene_pieces
+
+    if args.scheduler is None:
+        return None
+    return scene_pieces(args.scene)
+
+
+__all__ = ["cmd_reference_pieces", "cmd_render_pieces", "cmd_partition", "add_partition_parser", "maybe_pieces",
+           "check_deep"]

@@ -1,0 +1,283 @@
+"""A mesh in pieces on Dask: each piece of a ``.pvtu`` rendered on a worker into segments, merged by depth.
+
+Along one ray the intervals of disjoint pieces never overlap, so each piece integrates on its own into
+segments (:mod:`warpvol.segments`: one per entry of the ray into the piece) and the segments of all pieces,
+merged by depth front to back, give the whole ray's value exactly, for pieces of any shape. A worker reads
+only its piece's file (its ghost cells, copies of a neighbour's cells, dropped), renders it and sends back
+its segments; the client reads the ``.pvtu`` (a list of file names) and the scene's transfer function and
+camera, never the mesh, and merges. What travels: the scene's transfer function and camera to each worker,
+each piece's segments back (56 bytes per segment).
+
+``scheduler`` is ``"local"`` (a local cluster of worker processes), the address of a running Dask
+scheduler, or a ``dask.distributed.Client``. A worker lost mid-render loses only its piece: Dask's
+scheduler gives it to another worker. A piece file that is missing or unreadable is an error naming it.
+
+:func:`partition_mesh` cuts a mesh file spatially (recursive bisection at the median of the cells'
+centres) into pieces and writes the ``.pvtu`` naming them.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+import warnings
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from warpvol.errors import ConfigError
+
+#: what the pieces can be rendered as (segments): the exact reference
+PIECE_RENDERERS = ("reference",)
+#: presets that render a piece into segments (``warpvol render PIECES --scheduler``)
+PIECE_PIPELINES: tuple[str, ...] = ()
+
+
+def pvtu_pieces(path: Path | str) -> list[Path]:
+    """The piece files a ``.pvtu`` names (relative names are relative to its folder), checked to exist."""
+    p = Path(path)
+    try:
+        root = ET.parse(p).getroot()
+    except (OSError, ET.ParseError) as e:
+        raise ConfigError(f"{p}: cannot read the .pvtu: {e}") from None
+    grid = root.find("PUnstructuredGrid")
+    if root.get("type") != "PUnstructuredGrid" or grid is None:
+        raise ConfigError(f"{p}: not a parallel unstructured grid (.pvtu)")
+    out = []
+    for k, piece in enumerate(grid.findall("Piece")):
+        src = piece.get("Source")
+        if not src:
+            raise ConfigError(f"{p}: piece {k} names no Source file")
+        f = (p.parent / src) if not Path(src).is_absolute() else Path(src)
+        if not f.is_file():
+            raise ConfigError(f"{p}: piece {k} ({src}) not found: {f}")
+        out.append(f)
+    if not out:
+        raise ConfigError(f"{p}: names no pieces")
+    return out
+
+
+def scene_pieces(spec: Any) -> dict | None:
+    """For a scene ``.toml`` whose ``[mesh] path`` is a ``.pvtu`` of several pieces: its pieces, scalars'
+    name, transfer function, camera and name, read without loading the mesh; ``None`` for any other scene."""
+    from warpvol.scene.camera import Camera
+    from warpvol.scene.scene_file import _read_toml
+    from warpvol.scene.transfer import TransferFunction
+
+    if not isinstance(spec, (str, Path)) or Path(spec).suffix.lower() != ".toml" or not Path(spec).is_file():
+        return None
+    p = Path(spec)
+    cfg = _read_toml(p)
+    mesh = cfg.get("mesh")
+    if not isinstance(mesh, dict) or not isinstance(mesh.get("path"), str) or not mesh["path"].lower().endswith(".pvtu"):
+        return None
+    files = pvtu_pieces(p.parent / mesh["path"])
+    if len(files) < 2:
+        return None
+    missing = [k for k in ("transfer", "camera") if k not in cfg]
+    if missing:
+        raise ConfigError(f"{p}: a .pvtu rendered piece by piece needs the scene's {' and '.join(f'[{k}]' for k in missing)} "
+                          "table (the client never loads the mesh, so it cannot fit them to it)")
+    if not isinstance(mesh.get("scalars"), str):
+        raise ConfigError(f"{p}: mesh.scalars: name the point-data array of the pieces")
+    return {"pieces": files, "scalars": mesh["scalars"], "name": cfg.get("name", p.stem),
+            "transfer": TransferFunction.from_config(cfg["transfer"], p.parent, where=f"{p}: transfer"),
+            "camera": Camera.from_config(cfg["camera"], where=f"{p}: camera")}
+
+
+def read_piece(path: Path | str, scalars: str):
+    """One piece file as a :class:`~warpvol.scene.mesh.TetMesh`, its ghost cells (``vtkGhostType`` bit 1:
+    cells another piece owns) dropped and counted (``ghost_cells_dropped``); errors name the piece."""
+    import pyvista as pv
+
+    from warpvol.scene.loaders import mesh_from_dataset
+
+    p = Path(path)
+    if not p.is_file():
+        raise ConfigError(f"piece {p.name}: file not found: {p}")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # pyvista reports a VTK reader's error as a warning
+            ds = pv.read(p)
+    except Exception as e:  # noqa: BLE001 - VTK and pyvista raise assorted types for corrupt files
+        raise ConfigError(f"piece {p.name}: cannot read {p}: {str(e).splitlines()[0]}") from None
+    if ds is None or ds.n_cells == 0:
+        raise ConfigError(f"piece {p.name}: cannot read {p}: no cells (corrupt or truncated file?)")
+    notes = {}
+    if "vtkGhostType" in ds.cell_data:
+        ghost = (np.asarray(ds.cell_data["vtkGhostType"]) & 1) != 0
+        if ghost.any():
+            ds = ds.extract_cells(np.flatnonzero(~ghost))
+            notes["ghost_cells_dropped"] = int(ghost.sum())
+    for data in (ds.point_data, ds.cell_data):
+        for k in [k for k in data.keys() if k.startswith("vtk")]:
+            del data[k]
+    try:
+        return mesh_from_dataset(ds, scalars, name=p.name, source=str(p), scalars_key=f"piece {p.name}: scalars",
+                                 dataset_key=f"piece {p.name}", notes=notes)
+    except ConfigError as e:
+        raise ConfigError(f"piece {p.name}: {e}") from None
+
+
+def _peak_bytes() -> int:
+    import resource
+
+    return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024  # Linux: kilobytes
+
+
+def piece_segments(path: str, scalars: str, tf, camera, what: str = "reference"):
+    """Render one piece into segments (runs on a worker; top-level so it pickles). Returns
+    ``(segments, info)`` with ``info``: piece, cells, seconds, peak_bytes (the worker process's peak
+    resident memory so far), segments."""
+    from warpvol.pipeline import quiet_warp
+    from warpvol.reference.segments import reference_segments
+
+    quiet_warp()
+    t0 = time.perf_counter()
+    mesh = read_piece(path, scalars)
+    if what != "reference":
+        raise ConfigError(f"pieces: cannot render {what!r} into segments; allowed: {', '.join(PIECE_RENDERERS)}")
+    segs = reference_segments(mesh, tf, camera)
+    info = {"piece": Path(path).name, "cells": int(mesh.n_tets), "seconds": time.perf_counter() - t0,
+            "peak_bytes": _peak_bytes(), "segments": len(segs), **mesh.load_notes}
+    return segs, info
+
+
+def _client(scheduler: Any, workers: int):
+    """``(client, owned)``: a Dask client for ``scheduler`` (a Client is used as it is; owned ones are closed)."""
+    from dask.distributed import Client
+
+    from warpvol.bands import _client as band_client
+
+    if isinstance(scheduler, Client):
+        return scheduler, None, False
+    client, cluster = band_client(scheduler, workers)
+    return client, cluster, True
+
+
+def render_pieces(pieces: list[Path], scalars: str, tf, camera, scheduler: Any = "local", *, what: str = "reference",
+                  workers: int = 2, on_piece: Callable[[int, Any], None] | None = None,
+                  stats: dict | None = None):
+    """The segments of all ``pieces`` rendered on a Dask cluster and merged by depth.
+
+    Returns
+    -------
+    (Segments, dict)
+        The merged segments (``.flatten()`` is the image) and the report's piece entries: ``pieces`` (per
+        piece: piece, cells, seconds, peak_bytes, segments), ``workers``, ``compositing_s``, ``seconds``.
+    """
+    from dask.distributed import as_completed
+
+    from warpvol.segments import merge
+
+    if what not in PIECE_RENDERERS:
+        raise ConfigError(f"pieces: cannot render {what!r} into segments; allowed: {', '.join(PIECE_RENDERERS)}")
+    t0 = time.perf_counter()
+    client, cluster, owned = _client(scheduler, workers)
+    try:
+        n_workers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
+        tag = f"{os.getpid()}-{id(pieces)}-{time.monotonic_ns()}"
+        futs = {client.submit(piece_segments, str(p), scalars, tf, camera, what, key=f"piece-{k}-{tag}", pure=False): k
+                for k, p in enumerate(pieces)}
+        parts: list = [None] * len(pieces)
+        for f in as_completed(futs):
+            k = futs[f]
+            parts[k] = f.result()
+            if on_piece is not None:
+                on_piece(k, client)
+    finally:
+        if owned:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    t1 = time.perf_counter()
+    segs = merge([s for s, _ in parts])
+    rep = {"pieces": [i for _, i in parts], "workers": n_workers, "compositing_s": time.perf_counter() - t1,
+           "seconds": time.perf_counter() - t0}
+    if stats is not None:
+        stats.update(rep)
+    return segs, rep
+
+
+# ------------------------------------------------------------------------------------------------
+# cutting a mesh into pieces
+# ------------------------------------------------------------------------------------------------
+def _bisect(centres: np.ndarray, ids: np.ndarray, n: int, out: list) -> None:
+    if n == 1:
+        out.append(np.sort(ids))
+        return
+    c = centres[ids]
+    axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
+    n0 = n // 2
+    order = ids[np.argsort(c[:, axis], kind="stable")]
+    cut = int(round(len(ids) * n0 / n))
+    _bisect(centres, order[:cut], n0, out)
+    _bisect(centres, order[cut:], n - n0, out)
+
+
+def partition_mesh(mesh_path: Path | str, n: int, outdir: Path | str, scalars: str | None = None) -> Path:
+    """Cut the mesh file ``mesh_path`` spatially into ``n`` pieces (recursive bisection of the cells' centres
+    at the median along the longest axis: compact pieces of equal cell counts) and write them as
+    ``outdir/piece{k}.vtu`` with the ``outdir/<name>.pvtu`` naming them; returns the ``.pvtu`` path. Each
+    piece keeps its points in the whole mesh's order (ties break alike on both sides of a piece boundary)
+    and carries their global ids (``GlobalPointIds``)."""
+    import pyvista as pv
+
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise ConfigError(f"-n: expected an integer >= 1, got {n!r}")
+    src = Path(mesh_path)
+    out = Path(outdir)
+    if not src.is_file():
+        raise ConfigError(f"mesh file not found: {src}")
+    try:
+        ds = pv.read(src)
+    except Exception as e:  # noqa: BLE001
+        raise ConfigError(f"cannot read {src}: {e}") from None
+    if isinstance(ds, pv.MultiBlock):
+        ds = ds.combine(merge_points=True)
+    ds = ds.cast_to_unstructured_grid()
+    if ds.n_cells < n:
+        raise ConfigError(f"-n: {n} pieces of a mesh of {ds.n_cells} cells")
+    name = scalars or ds.active_scalars_name or (list(ds.point_data.keys()) or [None])[0]
+    if name is None or name not in ds.point_data:
+        raise ConfigError(f"--scalars: {src} has no point array {name!r}; arrays: {', '.join(ds.point_data.keys())}")
+    out.mkdir(parents=True, exist_ok=True)
+    centres = np.asarray(ds.cell_centers().points, dtype=np.float64)
+    groups: list = []
+    _bisect(centres, np.arange(ds.n_cells), n, groups)
+    gids = np.arange(ds.n_points, dtype=np.int64)
+    arrays = []
+    for k, cells in enumerate(groups):
+        piece = ds.extract_cells(cells)
+        # extract_cells keeps the points in first-use order: put them back in the whole mesh's order
+        orig = np.asarray(piece.point_data["vtkOriginalPointIds"], dtype=np.int64)
+        order = np.argsort(orig, kind="stable")
+        rank = np.empty_like(order)
+        rank[order] = np.arange(len(order))
+        conn = np.asarray(piece.cells).copy()  # VTK's legacy cell array: (count, ids...) per cell
+        ids = np.ones(len(conn), dtype=bool)
+        ids[np.asarray(piece.cell_offsets)[:-1] + np.arange(piece.n_cells)] = False
+        conn[ids] = rank[conn[ids]]
+        ctypes = np.asarray(piece.celltypes)
+        g = pv.UnstructuredGrid(conn, ctypes, np.asarray(piece.points)[order])
+        g.point_data[name] = np.asarray(ds.point_data[name])[orig[order]]
+        g.point_data["GlobalPointIds"] = gids[orig[order]]
+        arrays = [(name, g.point_data[name].dtype), ("GlobalPointIds", np.dtype(np.int64))]
+        g.save(out / f"piece{k}.vtu")
+    vtk_type = {np.dtype(np.float64): "Float64", np.dtype(np.float32): "Float32", np.dtype(np.int64): "Int64",
+                np.dtype(np.int32): "Int32", np.dtype(np.uint8): "UInt8", np.dtype(np.int16): "Int16",
+                np.dtype(np.uint16): "UInt16"}
+    pdata = "".join(f'<PDataArray type="{vtk_type.get(np.dtype(t), "Float64")}" Name="{a}"/>' for a, t in arrays)
+    pieces = "\n".join(f'<Piece Source="piece{k}.vtu"/>' for k in range(len(groups)))
+    pvtu = out / f"{src.stem}.pvtu"
+    pvtu.write_text(f'''<?xml version="1.0"?>
+<VTKFile type="PUnstructuredGrid" version="0.1" byte_order="LittleEndian">
+<PUnstructuredGrid GhostLevel="0">
+<PPointData Scalars="{name}">{pdata}</PPointData>
+<PPoints><PDataArray type="Float64" NumberOfComponents="3"/></PPoints>
+{pieces}
+</PUnstructuredGrid></VTKFile>
+''')
+    return pvtu
