@@ -20,11 +20,7 @@ Usage::
 
 from __future__ import annotations
 
-import datetime
-import json
-import os
 import statistics
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -138,19 +134,38 @@ def run_view(path: str, tf_name: str, size: int, repeat: int) -> dict:
     return row
 
 
+COLUMNS = ["view", "TF", "size", "renderer", "median [s]", "VTK PT / this", "draw [s]", "draw CPU [s]", "fragments",
+           "ns / fragment", "CPU ns / fragment", "us / cell", "load (1 min)"]
+
+
+def rows_table(views: list[dict]) -> dict:
+    """The views as one table (``docs/hooks.py``'s value markers quote it): a row per view and renderer."""
+    out = []
+    for v in views:
+        view = Path(v["scene"]).stem
+        load = float(v["load"][0].split()[2])
+        for name, r in v["renderers"].items():
+            d = lambda k: round(r[k], 4) if k in r else "-"  # noqa: E731
+            out.append([view, v["tf"], v["size"], name, round(r["median_s"], 4), round(r["vtk_pt_over_this"], 3),
+                        d("draw_wall_s"), d("draw_cpu_s"), r.get("fragments", "-"), d("ns_per_fragment"),
+                        d("cpu_ns_per_fragment"), d("us_per_cell"), load])
+    return {"title": "pt_best one fragment at a time (lanes=1) and in SIMD spans (lanes=16) against VTK's PT mapper, "
+                     "interleaved in one process", "columns": COLUMNS, "rows": out}
+
+
 def main(args) -> int:
     from warpvol.pipeline import quiet_warp
+    from warpvol.tools import provenance
 
     quiet_warp()
+    block = provenance.start(provenance.command_line("scripts/bench_pt.py"), timing=True,
+                             note="pt_best lanes=1 vs lanes=16 vs VTK's projected-tetrahedra mapper, interleaved in "
+                                  "one process (scripts/bench_pt_spans.py)")
     rows = [run_view(p, tf, args.size, args.repeat) for p in args.scenes for tf in args.tfs]
     if args.json:
-        commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
-        doc = {"what": "pt_best lanes=1 vs lanes=16 vs VTK PT, interleaved in one process (scripts/bench_pt_spans.py)",
-               "commit": commit, "command": " ".join(["scripts/bench_pt.py", *sys.argv[1:]]),
-               "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-               "cpus": os.cpu_count(), "views": rows}
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(json.dumps(doc, indent=1) + "\n")
+        loads = [float(r["load"][k].split()[2]) for r in rows for k in (0, 1)]
+        doc = {"tables": {"rows": rows_table(rows)}, "views": rows}
+        provenance.write_json(args.json, doc, provenance.with_loads(block, loads))
         print(f"\nwrote {args.json}")
     return 0
 

@@ -68,6 +68,9 @@ PRODUCERS = (
              "57 s at load 5.5-5.7 on 2 cores (1 min 44 s at load 9.5-10)", 60, copy_from="out/bench/table.json"),
     Producer("skip", ("python scripts/bench_skip.py --repeat 3 --docs",),
              "not recorded"),
+    Producer("pt_spans", ("python scripts/bench_pt.py --spans --repeat 3 --json docs/data/pt_spans.json",),
+             "about 12 min at load 5-7 on 2 cores (2 views x 3 transfer functions, 512^2, 4 rounds of 3 renderers)",
+             720),
     Producer("scaling_shell", ("python scripts/bench_scaling.py --tf shell --kinds structured "
                                "--renderers raycast,harc_best,pt_best,vtk_pt",),
              "not recorded"),
