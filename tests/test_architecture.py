@@ -38,7 +38,7 @@ LAYERS = {
     "warpvol.stages": 7, "warpvol.pipeline": 7, "warpvol.presets": 7, "warpvol.profiles": 7,
     # 8 the Python API, the session caches, the reference in bands
     "warpvol.api": 8, "warpvol.cache": 8, "warpvol.bands": 8, "warpvol.figures": 8,
-    "warpvol.pieces": 8,
+    "warpvol.pieces": 8, "warpvol.raycast_segments": 8,
     # 9 tools and the reproduction of the papers
     "warpvol.tools": 9, "warpvol.reproduce": 9,
     # 10 the command line and the package's face

@@ -140,3 +140,35 @@ def test_partition_cuts_into_a_pvtu(tmp_path):
 
     img = merge([reference_segments(m, s.transfer, s.camera) for m in meshes]).flatten()
     np.testing.assert_allclose(img, render_reference(s.mesh, s.transfer, s.camera), rtol=0, atol=1e-12)
+
+
+def test_raycast_pieces_equal_the_single_render(pieces, tmp_path):
+    """raycast into segments: the whole mesh flattens to the preset's image, the pieces merged too (within the
+    preset's float32 row), and the CLI renders the pieces with the reference's error in the report."""
+    import json
+
+    from tests.tolerances import preset_tolerance
+    from warpvol.pipeline import Pipeline
+    from warpvol.raycast_segments import raycast_segments
+    from warpvol.scene.scene import Scene
+    from warpvol.segments import merge
+
+    s, scene, ref = pieces
+    img = Pipeline.load("raycast").render(s, quiet=True).image
+    tol = preset_tolerance("raycast")
+    whole = raycast_segments(s).flatten()
+    parts = merge([raycast_segments(Scene(mesh=p, transfer=s.transfer, camera=s.camera, name="p"))
+                   for p in slab_pieces(s.mesh, 2, slabs=7)]).flatten()
+    for got in (whole, parts):
+        d = got - img
+        assert np.sqrt((d ** 2).mean()) <= 1e-5 and abs(d).max() <= 1e-4
+        assert np.sqrt(((got - ref) ** 2).mean()) <= tol["rmse"] and abs(got - ref).max() <= tol["max_abs"]
+    out, rep = tmp_path / "img.exr", tmp_path / "rep.json"
+    r = subprocess.run([sys.executable, "-m", "warpvol.cli", "render", str(scene), "--pipeline", "raycast",
+                        "--scheduler", "local", "--workers", "2", "--compute-reference", "-o", str(out), "--report",
+                        str(rep)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    report = json.loads(rep.read_text())
+    assert len(report["pieces"]) == 2 and report["workers"] == 2 and report["compositing_s"] >= 0
+    assert report["error"]["max_abs"] <= tol["max_abs"] and report["error"]["rmse"] <= tol["rmse"]
+    np.testing.assert_allclose(read_exr(out), parts, rtol=0, atol=1e-6)

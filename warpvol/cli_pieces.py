@@ -32,8 +32,9 @@ def _no_mesh_options(args) -> None:
             raise ConfigError(f"{flag}: not used with a .pvtu scene rendered piece by piece (--scheduler)")
 
 
-def _write(outs: dict, img, segs, camera, args) -> dict:
-    """The image first (all outputs or none), then the deep file off the image's critical path."""
+def _write(outs: dict, img, segs, camera, args, report: str | None = None) -> dict:
+    """The image, its preview and the report first (all or none), then the deep file, off the image's
+    critical path; returns the deep file's ``samples`` and ``seconds``."""
     import numpy as np
 
     from warpvol.deep import write_deep
@@ -47,6 +48,8 @@ def _write(outs: dict, img, segs, camera, args) -> dict:
             out.exr(outs["-o"], np.asarray(img, np.float32))
         if getattr(args, "png", None):
             out.png(outs["--png"], img, background=args.background)
+        if report is not None:
+            out.text(outs["--report"], report)
     deep: dict = {}
     if "--deep" in outs:
         write_deep(outs["--deep"], segs, camera, stats=deep)
@@ -81,16 +84,64 @@ def cmd_reference_pieces(args, info: dict) -> int:
 
 
 def cmd_render_pieces(args, info: dict) -> int:
-    """``warpvol render PIECES-SCENE --scheduler ...``: refused in words for a preset that cannot render a
-    piece into segments (only the reference can today)."""
-    from warpvol.pieces import PIECE_PIPELINES
+    """``warpvol render PIECES-SCENE --pipeline raycast --scheduler ...``: each piece rendered into segments on a
+    worker, merged by depth; ``--compute-reference`` does the same for the exact reference. A preset that
+    cannot render a piece into segments is refused in words."""
+    from warpvol.io import read_exr
+    from warpvol.metrics import image_error
+    from warpvol.pieces import PIECE_PIPELINES, _client, render_pieces
+    from warpvol.pipeline import report_json
 
     if args.pipeline not in PIECE_PIPELINES:
-        can = ", ".join(PIECE_PIPELINES) if PIECE_PIPELINES else "none of the presets yet"
         raise ConfigError(f"--pipeline {args.pipeline}: cannot render a mesh piece by piece: it emits no segments "
-                          f"(presets that do: {can}). `warpvol reference {args.scene} --scheduler ...` computes the "
-                          "exact reference piece by piece; without --scheduler the whole mesh renders in one process")
-    raise ConfigError(f"--pipeline {args.pipeline}: piece-by-piece rendering is not available")
+                          f"(presets that do: {', '.join(PIECE_PIPELINES)}). Without --scheduler the whole mesh "
+                          "renders in one process")
+    for flag, v in (("--gpu", args.gpu), ("--error-image", args.error_image), ("--no-skip", args.no_skip or None)):
+        if v is not None:
+            raise ConfigError(f"{flag}: not available for a .pvtu scene rendered piece by piece (--scheduler)")
+    if args.reference and args.compute_reference:
+        raise ConfigError("--compute-reference: give either it or --reference, not both")
+    outs = check_outputs({"-o": args.output, "--report": args.report, "--png": args.png, "--deep": args.deep},
+                         {**IMAGE_OUTPUT, **DEEP_OUTPUT})
+    _no_mesh_options(args)
+    check_sizes(args)
+    check_bands(args)
+    cam = _camera(info, args)
+    ref = read_exr(args.reference) if args.reference else None
+    if ref is not None and ref.shape != (cam.height_px, cam.width_px, 4):
+        raise ConfigError(f"--reference: {args.reference} has shape {ref.shape}, expected "
+                          f"{(cam.height_px, cam.width_px, 4)}")
+    t0 = time.perf_counter()
+    client, cluster, owned = _client(args.scheduler, args.workers or 2)
+    try:
+        segs, rep = render_pieces(info["pieces"], info["scalars"], info["transfer"], cam, client, what=args.pipeline)
+        img = segs.flatten()
+        total = time.perf_counter() - t0
+        report = {"pipeline": args.pipeline, "stages": {"pieces": rep["seconds"] - rep["compositing_s"],
+                                                        "compositing": rep["compositing_s"]},
+                  "total_s": total, "pieces": rep["pieces"], "workers": rep["workers"],
+                  "compositing_s": rep["compositing_s"]}
+        if args.compute_reference:
+            rsegs, rrep = render_pieces(info["pieces"], info["scalars"], info["transfer"], cam, client)
+            ref = rsegs.flatten()
+            report["reference_s"] = rrep["seconds"]
+            report["reference_pieces"] = rrep["pieces"]
+    finally:
+        if owned:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    if ref is not None:
+        report["error"] = image_error(img, ref)
+    deep = _write(outs, img, segs, cam, args, report_json(report) if args.report else None)
+    line = f"{args.pipeline}: {total:.2f} s, {_piece_line(rep)}"
+    if "error" in report:
+        e = report["error"]
+        line += f"  rmse={e['rmse']:.3e} max_abs={e['max_abs']:.3e}"
+    if deep:
+        line += f"; deep: {deep['samples']} samples in {deep['seconds']:.2f} s -> {outs['--deep']}"
+    print(line)
+    return 0
 
 
 def cmd_partition(args) -> int:

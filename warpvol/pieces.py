@@ -30,9 +30,9 @@ import numpy as np
 from warpvol.errors import ConfigError
 
 #: what the pieces can be rendered as (segments): the exact reference
-PIECE_RENDERERS = ("reference",)
+PIECE_RENDERERS = ("reference", "raycast")
 #: presets that render a piece into segments (``warpvol render PIECES --scheduler``)
-PIECE_PIPELINES: tuple[str, ...] = ()
+PIECE_PIPELINES: tuple[str, ...] = ("raycast",)
 
 
 def pvtu_pieces(path: Path | str) -> list[Path]:
@@ -136,12 +136,21 @@ def piece_segments(path: str, scalars: str, tf, camera, what: str = "reference")
 
     quiet_warp()
     t0 = time.perf_counter()
-    mesh = read_piece(path, scalars)
-    if what != "reference":
+    if what not in PIECE_RENDERERS:
         raise ConfigError(f"pieces: cannot render {what!r} into segments; allowed: {', '.join(PIECE_RENDERERS)}")
-    segs = reference_segments(mesh, tf, camera)
+    mesh = read_piece(path, scalars)
+    extra: dict = {}
+    if what == "raycast":
+        from warpvol.raycast_segments import raycast_segments
+        from warpvol.scene.scene import Scene
+
+        segs = raycast_segments(Scene(mesh=mesh, transfer=tf, camera=camera, name=mesh.name), stats=extra)
+    else:
+        segs = reference_segments(mesh, tf, camera)
+    peak = _peak_bytes()
     info = {"piece": Path(path).name, "cells": int(mesh.n_tets), "seconds": time.perf_counter() - t0,
-            "peak_bytes": _peak_bytes(), "segments": len(segs), **mesh.load_notes}
+            "peak_bytes": peak, "bytes_per_tet": peak / max(1, mesh.n_tets), "segments": len(segs), **extra,
+            **mesh.load_notes}
     return segs, info
 
 
