@@ -74,6 +74,9 @@ def test_distributed_equals_single(pieces):
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as cl, \
             Client(cl) as client:
         segs, rep = render_pieces(info["pieces"], "s", info["transfer"], info["camera"], client)
+        res = warpvol.render_in_pieces(scene, "reference", client, reference=True)  # the Python API
+    assert res["report"]["error"]["max_abs"] == 0 and len(res["report"]["pieces"]) == 2
+    np.testing.assert_allclose(res["image"], ref, rtol=0, atol=1e-12)
     np.testing.assert_allclose(segs.flatten(), ref, rtol=0, atol=1e-12)
     assert [p["piece"] for p in rep["pieces"]] == ["p0.vtu", "p1.vtu"] and rep["workers"] == 2
     assert sum(p["cells"] for p in rep["pieces"]) == s.mesh.n_tets

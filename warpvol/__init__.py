@@ -23,6 +23,7 @@ from warpvol import presets as _presets_package  # noqa: F401
 from warpvol.api import Comparison, Rendering, compare, presets, render
 from warpvol.cache import cache_info, clear_cache, set_cache_budget
 from warpvol.errors import ConfigError, MeshError, WarpvolError
+from warpvol.pieces import render_in_pieces
 from warpvol.pipeline import Pipeline, list_presets
 from warpvol.scene.builtin import builtin_scene
 from warpvol.scene.camera import Camera
@@ -34,4 +35,4 @@ from warpvol.stage import Stage, register_stage
 
 __all__ = ["Camera", "Comparison", "ConfigError", "MeshError", "Pipeline", "Rendering", "Scene", "Stage",
            "TetMesh", "TransferFunction", "WarpvolError", "builtin_scene", "cache_info", "clear_cache", "compare",
-           "list_presets", "load_scene", "presets", "register_stage", "render", "set_cache_budget"]
+           "list_presets", "load_scene", "presets", "register_stage", "render", "render_in_pieces", "set_cache_budget"]

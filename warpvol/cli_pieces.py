@@ -89,7 +89,7 @@ def cmd_render_pieces(args, info: dict) -> int:
     cannot render a piece into segments is refused in words."""
     from warpvol.io import read_exr
     from warpvol.metrics import image_error
-    from warpvol.pieces import PIECE_PIPELINES, _client, render_pieces
+    from warpvol.pieces import PIECE_PIPELINES, render_in_pieces
     from warpvol.pipeline import report_json
 
     if args.pipeline not in PIECE_PIPELINES:
@@ -111,30 +111,14 @@ def cmd_render_pieces(args, info: dict) -> int:
     if ref is not None and ref.shape != (cam.height_px, cam.width_px, 4):
         raise ConfigError(f"--reference: {args.reference} has shape {ref.shape}, expected "
                           f"{(cam.height_px, cam.width_px, 4)}")
-    t0 = time.perf_counter()
-    client, cluster, owned = _client(args.scheduler, args.workers or 2)
-    try:
-        segs, rep = render_pieces(info["pieces"], info["scalars"], info["transfer"], cam, client, what=args.pipeline)
-        img = segs.flatten()
-        total = time.perf_counter() - t0
-        report = {"pipeline": args.pipeline, "stages": {"pieces": rep["seconds"] - rep["compositing_s"],
-                                                        "compositing": rep["compositing_s"]},
-                  "total_s": total, "pieces": rep["pieces"], "workers": rep["workers"],
-                  "compositing_s": rep["compositing_s"]}
-        if args.compute_reference:
-            rsegs, rrep = render_pieces(info["pieces"], info["scalars"], info["transfer"], cam, client)
-            ref = rsegs.flatten()
-            report["reference_s"] = rrep["seconds"]
-            report["reference_pieces"] = rrep["pieces"]
-    finally:
-        if owned:
-            client.close()
-            if cluster is not None:
-                cluster.close()
-    if ref is not None:
+    res = render_in_pieces(args.scene, args.pipeline, args.scheduler, workers=args.workers or 2,
+                           reference=args.compute_reference, camera=cam)
+    img, segs, report = res["image"], res["segments"], res["report"]
+    total = report["total_s"]
+    if ref is not None:  # --reference (with --compute-reference the report has the error already)
         report["error"] = image_error(img, ref)
     deep = _write(outs, img, segs, cam, args, report_json(report) if args.report else None)
-    line = f"{args.pipeline}: {total:.2f} s, {_piece_line(rep)}"
+    line = f"{args.pipeline}: {total:.2f} s, {_piece_line(report)}"
     if "error" in report:
         e = report["error"]
         line += f"  rmse={e['rmse']:.3e} max_abs={e['max_abs']:.3e}"

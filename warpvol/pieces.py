@@ -290,3 +290,60 @@ def partition_mesh(mesh_path: Path | str, n: int, outdir: Path | str, scalars: s
 </PUnstructuredGrid></VTKFile>
 ''')
     return pvtu
+
+
+def render_in_pieces(scene: Path | str, pipeline: str = "raycast", scheduler: Any = "local", *, workers: int = 2,
+                     reference: bool = False, camera=None) -> dict:
+    """Render a scene file whose mesh is a ``.pvtu`` of several pieces, each piece on a Dask worker.
+
+    Parameters
+    ----------
+    scene : path
+        Scene ``.toml`` with ``[mesh] path = "....pvtu"`` (and ``scalars``), ``[transfer]`` and ``[camera]``.
+    pipeline : str
+        A preset that renders into segments (:data:`PIECE_PIPELINES`) or ``"reference"`` (the exact one).
+    scheduler : str or dask.distributed.Client
+        ``"local"`` (``workers`` worker processes here, closed afterwards), a scheduler address, or a client.
+    reference : bool
+        Also compute the exact reference piece by piece and add the error to the report.
+    camera : Camera, optional
+        Replaces the scene's camera.
+
+    Returns
+    -------
+    dict
+        ``image`` ((H, W, 4) float64), ``segments`` (merged :class:`~warpvol.segments.Segments`), ``reference``
+        (image or ``None``) and ``report`` (``pipeline``, ``stages``, ``total_s``, ``pieces``, ``workers``,
+        ``compositing_s``, with ``reference`` also ``reference_s`` and ``error``).
+    """
+    from warpvol.metrics import image_error
+
+    info = scene_pieces(scene)
+    if info is None:
+        raise ConfigError(f"scene: {scene} is not a scene file whose mesh is a .pvtu of several pieces")
+    if pipeline not in PIECE_PIPELINES + ("reference",):
+        raise ConfigError(f"pipeline {pipeline!r}: cannot render a mesh piece by piece: it emits no segments "
+                          f"(presets that do: {', '.join(PIECE_PIPELINES)}, and the exact reference)")
+    cam = camera if camera is not None else info["camera"]
+    t0 = time.perf_counter()
+    client, cluster, owned = _client(scheduler, workers)
+    try:
+        segs, rep = render_pieces(info["pieces"], info["scalars"], info["transfer"], cam, client, what=pipeline)
+        img = segs.flatten()
+        report = {"pipeline": pipeline, "stages": {"pieces": rep["seconds"] - rep["compositing_s"],
+                                                   "compositing": rep["compositing_s"]},
+                  "total_s": time.perf_counter() - t0, "pieces": rep["pieces"], "workers": rep["workers"],
+                  "compositing_s": rep["compositing_s"]}
+        ref = None
+        if reference:
+            rsegs, rrep = (segs, rep) if pipeline == "reference" else \
+                render_pieces(info["pieces"], info["scalars"], info["transfer"], cam, client)
+            ref = rsegs.flatten()
+            report["reference_s"] = rrep["seconds"]
+            report["error"] = image_error(img, ref)
+    finally:
+        if owned:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    return {"image": img, "segments": segs, "reference": ref, "report": report}
