@@ -35,8 +35,21 @@ from .harc_walk import composite
 from .integrate import exp_neg, integrate_piece, integrate_segment_tf
 from .texture import Tex2D, tex2d_texel
 from .tf import tf_eval, tf_eval_upper, tf_upper, tf_upper_from
-from .walk import (STALL_STEPS, STEEP_ERR, Face, Ray, grazing_unresolved, monotone_exit, next_face_from,
-                   pixel_ray, scalar_error_if, scalar_step, thin_at_exit, thin_start, thin_step)
+from .walk import (
+    STALL_STEPS,
+    STEEP_ERR,
+    Face,
+    Ray,
+    grazing_unresolved,
+    monotone_exit,
+    next_face_from,
+    pixel_ray,
+    scalar_error_if,
+    scalar_step,
+    thin_at_exit,
+    thin_start,
+    thin_step,
+)
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 

@@ -57,8 +57,19 @@ import threading
 
 import warp as wp
 
-from .cellwalk import (CellMesh, MeshTex, RayCamera, WalkOpts, camera_ray, cell_texel, grad_scalar,  # noqa: F401
-                       make_walk, plane_exit, plane_lambda, plane_of)  # (MeshTex, cell_texel, plane_exit: re-exported)
+from .cellwalk import (  # noqa: F401 (MeshTex, cell_texel, plane_exit: re-exported)
+    CellMesh,
+    MeshTex,
+    RayCamera,
+    WalkOpts,
+    camera_ray,
+    cell_texel,
+    grad_scalar,
+    make_walk,
+    plane_exit,
+    plane_lambda,
+    plane_of,
+)
 from .formats import NumFmt, fmt_quantize
 from .harc_integ import INTEG_EXACT, Integ, integrate_sub, segment, segments_kernel  # noqa: F401 (re-exported)
 from .harc_walk import composite, nearest_in_rings, nearest_listed, ring_search  # noqa: F401 (composite: re-exported)

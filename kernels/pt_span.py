@@ -38,9 +38,9 @@ import warp as wp
 from .blend import BlendState, blend
 from .integrate import GL3_W0, GL3_W1, GL3_X0, GL3_X2, THIN_DEPTH, one_minus_exp_neg_thin
 from .pt import CLAMP_ABS, CLAMP_REL, PERSP_EXACT, PERSP_OFF, exact_color, vec8f
-from .tf import tf_upper
 from .pt_draw import attribute_planes, clamp8, nearest_on_triangle, sfsbl_ray, span_done, zero_segments
 from .raster import TriSetup, edge_step_i, edge_step_j, edges_at, row_span, tile_rect, tile_span
+from .tf import tf_upper
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 

@@ -12,10 +12,30 @@
 import warp as wp
 
 from .blend import BlendState, blend
-from .raster import (TriSetup, inside, edges_at, edge_step_j, edge_step_i, tile_rect, tile_span, covers, coverage,
-                     bary_from, screen_bary, persp_bary, llvmpipe_order, plane_value, plane_color, depth_pass,
-                     interp_depth, fragment_weights, fragment_prologue, INTERP_PERSPECTIVE, INTERP_FLAT,
-                     INTERP_RULE_LLVMPIPE)
+from .raster import (
+    INTERP_FLAT,
+    INTERP_PERSPECTIVE,
+    INTERP_RULE_LLVMPIPE,
+    TriSetup,
+    bary_from,
+    coverage,
+    covers,
+    depth_pass,
+    edge_step_i,
+    edge_step_j,
+    edges_at,
+    fragment_prologue,
+    fragment_weights,
+    inside,
+    interp_depth,
+    llvmpipe_order,
+    persp_bary,
+    plane_color,
+    plane_value,
+    screen_bary,
+    tile_rect,
+    tile_span,
+)
 from .texture import Tex1D, tex1d
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})

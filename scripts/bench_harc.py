@@ -32,8 +32,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_raycast import interleaved_times, scene_and_reference, vtk_renderer, warpvol_renderer  # noqa: E402
 
@@ -111,7 +109,7 @@ def main(argv=None) -> int:
         e0 = image_error(best_i(), ref)
         rows = {}
         print(f"\n{scene.name}: {scene.mesh.n_tets} tets, {args.size}x{args.size}, {args.repeat} rounds after a warm-up")
-        print(f"| renderer | median [s] | min [s] | time / harc_best | rmse | max_abs | rmse / harc_best rmse |")
+        print("| renderer | median [s] | min [s] | time / harc_best | rmse | max_abs | rmse / harc_best rmse |")
         print("| --- | --- | --- | --- | --- | --- | --- |")
         for name, _, image in renderers:
             e = image_error(image(), ref)

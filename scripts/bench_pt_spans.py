@@ -80,6 +80,7 @@ def pt_best_renderer(scene, lanes: int, clock: DrawClock, stats: list):
 
 def run_view(path: str, tf_name: str, size: int, repeat: int) -> dict:
     from bench_skip import variant
+
     from warpvol.scene.scene_file import load_scene
 
     base = load_scene(path)

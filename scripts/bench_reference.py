@@ -78,8 +78,8 @@ def main(argv=None) -> int:
         rows.append(row)
         print(f"  {size}^2 done", file=sys.stderr)
 
-    print(f"| size | raycast warm frame (s) | Warp reference (s) [set-up] | Warp ref / raycast | "
-          f"NumPy reference (s) | NumPy ref / raycast | max abs Warp - NumPy | segments | failed walks |")
+    print("| size | raycast warm frame (s) | Warp reference (s) [set-up] | Warp ref / raycast | "
+          "NumPy reference (s) | NumPy ref / raycast | max abs Warp - NumPy | segments | failed walks |")
     print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         np_s = "not run" if r["numpy"] is None else f"{r['numpy']:.1f}"

@@ -145,7 +145,6 @@ def left_out_summary(report: dict) -> str:
 def run_view(path: str, tf_name: str, presets, size: int, repeat: int, slow_repeat: int, no_skip_slow: bool,
              out: Path) -> dict:
     from warpvol.metrics import image_error
-
     from warpvol.scene.scene_file import load_scene
 
     base = load_scene(path)

@@ -171,8 +171,8 @@ def fig8_units(reports: dict) -> list:
     from warpvol import model
 
     units = ("raster", "texture", "shader", "rop", "memory")
-    print(f"\nWhy the modelled speed-up differs per card: fragment stage, ms per unit (bound unit *), "
-          f"+ serial (pass set-up, transfers)")
+    print("\nWhy the modelled speed-up differs per card: fragment stage, ms per unit (bound unit *), "
+          "+ serial (pass set-up, transfers)")
     print(f"{'card':<11} {'path':<8} | " + " ".join(f"{u:>8}" for u in units) + f" | {'serial':>7} {'total':>7}")
     rows = []
     for prof in ("geforce3", "radeon8500"):

@@ -35,14 +35,26 @@ import argparse
 import math
 import sys
 
-from warpvol.reproduce.agreement import (NOTES_ABS, REL_CAL_ONLY, REL_ONE_CAL, REL_PREDICTION,  # noqa: F401
-                                         absolute_counts, absolute_from, count_lines, counts_table, relative_counts,
-                                         relative_role, sensitivity, to_json)
+from warpvol.reproduce.agreement import (  # noqa: F401
+    NOTES_ABS,
+    REL_CAL_ONLY,
+    REL_ONE_CAL,
+    REL_PREDICTION,
+    absolute_counts,
+    absolute_from,
+    count_lines,
+    counts_table,
+    relative_counts,
+    relative_role,
+    sensitivity,
+    to_json,
+)
 from warpvol.reproduce.agreement import fmt_ratio as _r
 from warpvol.reproduce.guthe2002 import GUTHE_T4, guthe_steps_per_pass_speedup, guthe_t4_model
 from warpvol.reproduce.roettger2002 import ROETTGER_T2, roettger_combiner_speedup, roettger_t2_model
 from warpvol.reproduce.westermann1997 import PAPER as WESTERMANN
 from warpvol.tools import provenance
+
 
 def _mid(lo: float, hi: float) -> float:
     return math.sqrt(lo * hi)

@@ -5,8 +5,7 @@ from types import SimpleNamespace
 import numpy as np
 import warp as wp
 
-from warpvol.scene.grids import grid_points
-from warpvol.scene.grids import structured_to_tets
+from warpvol.scene.grids import grid_points, structured_to_tets
 from warpvol.scene.mesh import TetMesh
 
 # every test that launches kernels runs on each of these (CI has no GPU: CPU only there)

@@ -9,10 +9,10 @@ matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 import pyvista as pv  # noqa: E402
-from tolerances import TOLERANCES  # noqa: E402
 
 import warpvol  # noqa: E402
-from warpvol import Camera, ConfigError, Pipeline, TransferFunction  # noqa: E402
+from tolerances import TOLERANCES  # noqa: E402
+from warpvol import ConfigError, Pipeline  # noqa: E402
 from warpvol.io import read_exr, write_exr  # noqa: E402
 from warpvol.metrics import image_error  # noqa: E402
 

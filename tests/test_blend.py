@@ -2,17 +2,14 @@
 
 import numpy as np
 import pytest
-import warp as wp
 
+from helpers import DEVICES
 from warpvol.errors import ConfigError
 from warpvol.gpu.blend import FACTORS, BlendUnit, FrameBuffer, PingPong, blend_sequence
 from warpvol.gpu.dither import dither_codes_np, dither_index_np, dither_table
 from warpvol.gpu.formats import UNorm
 from warpvol.gpu.raster import draw_textured_quads
 from warpvol.gpu.texture import Texture1D
-
-from helpers import DEVICES
-
 
 # ------------------------------------------------------------------------------------------------
 # NumPy references (written independently of the kernels)

@@ -17,7 +17,6 @@ from helpers import box_mesh, scene
 from tolerances import TOLERANCES
 from warpvol.conditioning.conditioning import condition_scene, precision_warnings
 from warpvol.errors import ConfigError
-from warpvol.metrics import image_error
 from warpvol.pipeline import Pipeline
 from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.camera import Camera

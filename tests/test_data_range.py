@@ -22,7 +22,7 @@ from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.camera import Camera
 from warpvol.scene.scene import Scene
 from warpvol.scene.transfer import TransferFunction
-from warpvol.tools.stress import report_warnings, run_case, Case
+from warpvol.tools.stress import Case, report_warnings, run_case
 from warpvol.tools.stress_meshes import _box
 from warpvol.tools.stress_range import log_scene, rough_scene, silent_wrong, unused_points_scene
 

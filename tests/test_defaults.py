@@ -13,9 +13,9 @@ matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 import pyvista as pv  # noqa: E402
-from tolerances import TOLERANCES  # noqa: E402
 
 import warpvol  # noqa: E402
+from tolerances import TOLERANCES  # noqa: E402
 from warpvol import Camera, ConfigError  # noqa: E402
 from warpvol.api import as_scene  # noqa: E402
 from warpvol.cli import main  # noqa: E402

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from warpvol.pipeline import Pipeline
 from warpvol.scene.builtin import builtin_scene

@@ -8,8 +8,8 @@ import dataclasses
 
 import numpy as np
 import pytest
-from tests.tolerances import TOLERANCES
 
+from tests.tolerances import TOLERANCES
 from warpvol.errors import ConfigError
 from warpvol.metrics import image_error
 from warpvol.pipeline import Pipeline

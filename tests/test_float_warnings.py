@@ -39,7 +39,7 @@ def test_window_projection_of_points_far_away_or_behind_the_eye(distance, no_fp_
     col, row, d = project_points(scene.mesh, scene.camera)
     cam = scene.camera
     rel = np.asarray(scene.mesh.points) - cam.eye
-    x, y = rel @ cam.right, rel @ cam.true_up
+    x, _y = rel @ cam.right, rel @ cam.true_up
     th = np.tan(np.radians(cam.fov_y_deg) / 2.0)
     front = d > 1e-3  # the plain formula, where it does not overflow
     want_col = (x[front] / (d[front] * th * cam.aspect) + 1.0) * 0.5 * cam.width_px

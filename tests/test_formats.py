@@ -2,13 +2,22 @@
 
 import numpy as np
 import pytest
-import warp as wp
-
-from warpvol.errors import ConfigError
-from warpvol.gpu.formats import (FP16, FP32, Pair16, SNorm, Split12, UNorm, decode_warp, encode_warp, get_format,
-                             quantize_warp)
 
 from helpers import DEVICES
+from warpvol.errors import ConfigError
+from warpvol.gpu.formats import (
+    FP16,
+    FP32,
+    Pair16,
+    SNorm,
+    Split12,
+    UNorm,
+    decode_warp,
+    encode_warp,
+    get_format,
+    quantize_warp,
+)
+
 BITS = (8, 12, 16)
 
 

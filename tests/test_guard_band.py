@@ -5,11 +5,10 @@ import numpy as np
 import pytest
 
 import warpvol
+from tolerances import TOLERANCES as TOL
 from warpvol.errors import ConfigError
 from warpvol.gpu.raster import GUARD_PX, guard_band_overflow
 from warpvol.reference.numpy_render import render_reference
-
-from tolerances import TOLERANCES as TOL
 
 
 def zoomed(px=12):

@@ -6,7 +6,6 @@ splits against the exact segment integral for a 255-segment TF; mesh textures an
 """
 
 import dataclasses
-
 from pathlib import Path
 
 import numpy as np

@@ -50,8 +50,8 @@ def test_harc_best_enters_faces_the_rasteriser_left_out(case):
 
 
 def test_edge_pixels_are_the_centres_near_open_edges():
-    from warpvol.raycasting.thin_cells import EDGE_PX, edge_pixels, surface_neighbours
     from warpvol.raycasting.stages.entry_bins import entry_face_mask, window_xy
+    from warpvol.raycasting.thin_cells import EDGE_PX, edge_pixels, surface_neighbours
 
     sc = subpixel_scene("needle", 0.3, n=6, px=16, seed=3, block=False)
     mesh, cam = sc.mesh, sc.camera

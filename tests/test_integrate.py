@@ -73,7 +73,7 @@ def linear_rho_closed_form(r0, r1, c, d, emission):
         return c * -math.expm1(-tau), tau
     # emission density: c * int_0^d exp(-(r0 t + k t^2/2)) dt, k = (r1 - r0)/d, via erf for k > 0
     k = (r1 - r0) / d
-    from math import erf, exp, sqrt, pi
+    from math import erf, exp, pi, sqrt
     a = sqrt(k / 2)
     integral = sqrt(pi) / (2 * a) * exp(r0 ** 2 / (2 * k)) * (erf(a * d + r0 / (2 * a)) - erf(r0 / (2 * a)))
     return c * integral, tau

@@ -7,9 +7,9 @@ import pytest
 
 from warpvol.cli import main
 from warpvol.errors import ConfigError
-from warpvol.scene.spec import scene_from_spec
 from warpvol.scene.loaders import load_mesh
 from warpvol.scene.mesh import TetMesh
+from warpvol.scene.spec import scene_from_spec
 
 
 def _grid(dims=(4, 4, 4)):
@@ -129,8 +129,9 @@ def test_nested_multiblock_with_several_data_sets_is_refused_in_words(tmp_path, 
     assert rc == 2 and err.count("\n") == 1
     assert f"{path} holds 2 blocks with cells; warpvol needs a single data set: combine the blocks" in err
     with pytest.raises(ConfigError, match=r"mesh: a MultiBlock with 2 blocks of cells; pass a single data set"):
-        from warpvol.api import as_mesh
         import pyvista as pv
+
+        from warpvol.api import as_mesh
         as_mesh(pv.read(path))
 
 
@@ -207,9 +208,8 @@ def _blanked(flag):
 @pytest.mark.parametrize("kind", ["vti", "vts", "vtr", "pvts", "pvti"])
 @pytest.mark.parametrize("flag", ["cell", "point"])
 def test_hidden_cells_of_structured_grids_are_dropped_and_counted(tmp_path, kind, flag):
-    from tolerances import preset_tolerance
-
     from helpers import scene
+    from tolerances import preset_tolerance
     from warpvol.pipeline import Pipeline
     from warpvol.reference.numpy_render import render_reference
     from warpvol.scene.camera import Camera

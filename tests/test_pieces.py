@@ -9,9 +9,9 @@ import sys
 
 import numpy as np
 import pytest
-from tests.test_segments import slab_pieces
 
 import warpvol
+from tests.test_segments import slab_pieces
 from warpvol.deep import read_deep
 from warpvol.errors import ConfigError
 from warpvol.io import read_exr

@@ -276,8 +276,8 @@ def test_fused_walk_needs_the_exact_program():
     """draw(walk="fused") with a program that has no fused form is an error naming the walk."""
     from warpvol.gpu.blend import BlendUnit, FrameBuffer
     from warpvol.gpu.vertex import VertexStage
-    from warpvol.projection.pt import decompose, draw
     from warpvol.projection.programs import vertex_color_program, vertex_colors
+    from warpvol.projection.pt import decompose, draw
     from warpvol.projection.sort import visibility_order
 
     sc = scene("box", 8)

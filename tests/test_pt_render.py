@@ -10,7 +10,6 @@ from tolerances import TOLERANCES
 from warpvol.pipeline import Pipeline, _read_pipeline_text
 from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.builtin import builtin_scene
-from warpvol.scene.camera import Camera
 
 _REFS = {}
 

@@ -4,14 +4,13 @@ import numpy as np
 import pytest
 import warp as wp
 
+from helpers import DEVICES
 from warpvol.errors import ConfigError
 from warpvol.gpu.blend import BlendUnit, FrameBuffer
 from warpvol.gpu.raster import Rasterizer, rasterize
 from warpvol.gpu.vertex import VertexStage, transform_vertices, viewport_matrix
 from warpvol.kernels.raster import inside, row_span, vec3l
 from warpvol.scene.camera import Camera
-
-from helpers import DEVICES
 
 
 def icosphere(level: int) -> tuple[np.ndarray, np.ndarray]:

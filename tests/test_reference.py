@@ -11,10 +11,6 @@ import numpy as np
 import pytest
 
 from helpers import merge
-from warpvol.scene.camera import Camera
-from warpvol.scene.grids import grid_points
-from warpvol.scene.grids import structured_to_tets
-from warpvol.scene.mesh import TetMesh
 from warpvol.reference.numpy_render import (
     composite_front_to_back,
     integrate_segments,
@@ -22,6 +18,9 @@ from warpvol.reference.numpy_render import (
     segmented_exclusive_cumsum,
     trace_segments,
 )
+from warpvol.scene.camera import Camera
+from warpvol.scene.grids import grid_points, structured_to_tets
+from warpvol.scene.mesh import TetMesh
 from warpvol.scene.transfer import TransferFunction
 
 EMISSIONS = ["color_extinction", "emission_density"]

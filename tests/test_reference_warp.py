@@ -17,8 +17,7 @@ from warpvol.reference.numpy_render import render_reference
 from warpvol.reference.warp_render import render_reference_warp
 from warpvol.scene.builtin import builtin_scene
 from warpvol.scene.camera import Camera
-from warpvol.scene.grids import grid_points
-from warpvol.scene.grids import structured_to_tets
+from warpvol.scene.grids import grid_points, structured_to_tets
 from warpvol.scene.mesh import TetMesh
 from warpvol.scene.transfer import TransferFunction
 from warpvol.tools.stress import build_case

@@ -7,8 +7,13 @@ import numpy as np
 import pytest
 
 from tolerances import TOLERANCES
-from warpvol.conditioning.reorder import (far_neighbour_fraction, morton_codes, morton_permutations,
-                                          needs_reorder, reordered_mesh)
+from warpvol.conditioning.reorder import (
+    far_neighbour_fraction,
+    morton_codes,
+    morton_permutations,
+    needs_reorder,
+    reordered_mesh,
+)
 from warpvol.errors import ConfigError
 from warpvol.metrics import image_error
 from warpvol.pipeline import Pipeline

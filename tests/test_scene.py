@@ -11,10 +11,16 @@ import pytest
 from warpvol.errors import ConfigError, MeshError
 from warpvol.scene.builtin import BUILTIN_SCENES, builtin_mesh, builtin_scene
 from warpvol.scene.camera import Camera
-from warpvol.scene.grids import structured_to_tets5
-from warpvol.scene.loaders import (PLOT3D_FUNCTIONS, load_mesh, plot3d_function, read_plot3d, read_plot3d_grid,
-                             read_plot3d_solution, read_raw)
-from warpvol.scene.grids import structured_to_tets
+from warpvol.scene.grids import structured_to_tets, structured_to_tets5
+from warpvol.scene.loaders import (
+    PLOT3D_FUNCTIONS,
+    load_mesh,
+    plot3d_function,
+    read_plot3d,
+    read_plot3d_grid,
+    read_plot3d_solution,
+    read_raw,
+)
 from warpvol.scene.mesh import TetMesh, signed_volumes
 from warpvol.scene.scene import Scene
 from warpvol.scene.scene_file import load_scene, scene_from_config

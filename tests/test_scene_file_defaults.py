@@ -7,8 +7,8 @@ import pytest
 from test_scene import UNIT_TET, write_scene, write_vtu
 from warpvol.cli import main
 from warpvol.errors import ConfigError
-from warpvol.scene.spec import scene_from_spec
 from warpvol.scene.scene_file import load_scene
+from warpvol.scene.spec import scene_from_spec
 
 CAM = "[camera]\neye = [0.3, 0.2, 4]\ntarget = [0.25, 0.25, 0.25]\nwidth_px = 8\nheight_px = 8\n"
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from test_sort import jittered_box, random_camera
-from test_visibility import _layered_mesh, _scene, _shell_tf
+from test_visibility import _layered_mesh, _scene
 from tolerances import TOLERANCES
 from warpvol.pipeline import Pipeline
 from warpvol.reference.numpy_render import render_reference

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from helpers import box_points, scene
+from helpers import box_points
 from warpvol.projection.sort import centroid_order, face_directions, occlusion_violations, visibility_order
 from warpvol.projection.stages.sort_cells import SortCells
 from warpvol.scene.builtin import builtin_scene

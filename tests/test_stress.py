@@ -3,7 +3,6 @@
 import json
 
 import numpy as np
-import pytest
 
 from warpvol.cli import main
 from warpvol.pipeline import list_presets

@@ -8,10 +8,11 @@ from warpvol.errors import ConfigError
 from warpvol.tables.base import sample3d
 from warpvol.tables.cylindrical import build_cylindrical, from_cylinder, plane_texture, reconstruct, to_cylinder
 from warpvol.tables.exact import build_exact3d
-from warpvol.tables.guthe2d import build_guthe2d, reconstruct as guthe_reconstruct
+from warpvol.tables.guthe2d import build_guthe2d
+from warpvol.tables.guthe2d import reconstruct as guthe_reconstruct
 from warpvol.tables.incremental import LOG2_MAX_N_L, build_incremental
 from warpvol.tables.isocross import build_isocross, lookup_nearest, split_segment
-from warpvol.tables.psi import build_psi, combine, lookup, psi_exact
+from warpvol.tables.psi import build_psi, combine, psi_exact
 
 
 @pytest.mark.parametrize("axis", ["log2", "uniform"])

@@ -13,7 +13,8 @@ from warpvol.scene.transfer import TransferFunction
 from warpvol.tables.base import isfinite_table
 from warpvol.tables.cylindrical import build_cylindrical, to_cylinder
 from warpvol.tables.exact import build_exact3d
-from warpvol.tables.guthe2d import build_guthe2d, reconstruct as guthe_reconstruct
+from warpvol.tables.guthe2d import build_guthe2d
+from warpvol.tables.guthe2d import reconstruct as guthe_reconstruct
 from warpvol.tables.incremental import build_incremental
 from warpvol.tables.isocross import build_isocross
 from warpvol.tables.psi import build_psi, psi_exact

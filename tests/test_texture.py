@@ -2,14 +2,20 @@
 
 import numpy as np
 import pytest
-import warp as wp
-
-from warpvol.errors import ConfigError
-from warpvol.gpu.formats import Pair16, UNorm
-from warpvol.gpu.texture import (TEXEL_FORMATS, Texture1D, Texture2D, Texture3D, TextureAtlas, expand_rgba,
-                                 sample_dependent)
 
 from helpers import DEVICES
+from warpvol.errors import ConfigError
+from warpvol.gpu.formats import Pair16, UNorm
+from warpvol.gpu.texture import (
+    TEXEL_FORMATS,
+    Texture1D,
+    Texture2D,
+    Texture3D,
+    TextureAtlas,
+    expand_rgba,
+    sample_dependent,
+)
+
 FORMATS = sorted(TEXEL_FORMATS)
 
 

@@ -12,8 +12,7 @@ from warpvol.projection.pt_thin import density_max, thin_tets
 from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.builtin import builtin_scene
 from warpvol.scene.camera import Camera
-from warpvol.scene.grids import grid_points
-from warpvol.scene.grids import structured_to_tets
+from warpvol.scene.grids import grid_points, structured_to_tets
 from warpvol.scene.mesh import TetMesh
 from warpvol.scene.scene import Scene
 from warpvol.scene.transfer import TransferFunction

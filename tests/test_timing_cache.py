@@ -4,8 +4,8 @@
 import numpy as np
 import pytest
 
-from warpvol import cache
 import warpvol
+from warpvol import cache
 from warpvol.errors import ConfigError
 from warpvol.timing import CompileClock, split_times
 

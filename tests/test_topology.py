@@ -14,7 +14,7 @@ from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.camera import Camera
 from warpvol.scene.face_overlap import overlapping_opposite_faces
 from warpvol.scene.mesh import TetMesh
-from warpvol.scene.split_cells import VTK_HEXAHEDRON, VTK_PYRAMID, VTK_WEDGE, _REF, quad_bits, split_table
+from warpvol.scene.split_cells import _REF, VTK_HEXAHEDRON, VTK_PYRAMID, VTK_WEDGE, quad_bits, split_table
 from warpvol.scene.transfer import TransferFunction
 from warpvol.tools.stress_topology import explode, glued_blocks, hybrid_grid
 

@@ -6,13 +6,12 @@ import pytest
 import pyvista as pv
 
 import warpvol
+from helpers import box_mesh
+from tolerances import TOLERANCES
 from warpvol.errors import ConfigError
 from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.transfer import TransferFunction
 from warpvol.vsbuffer.vsbuffer import ConvexCellMesh, render_vsbuffer, walk_column
-
-from helpers import box_mesh
-from tolerances import TOLERANCES
 
 SCENES = ["sphere", "box", "linear_box", "concave", "stiff"]  # concave: a U and a disconnected block
 
@@ -106,8 +105,7 @@ def test_thin_cells_found_or_counted():
     # a layer 1/1000 of a buffer row thick: the passes cannot see it; the neighbour check or the
     # entry/exit-face checks find it, or the loss is counted -- never silent
     z = np.array([-1.0, -0.0005, 0.0005, 1.0])
-    from warpvol.scene.grids import grid_points
-    from warpvol.scene.grids import structured_to_tets
+    from warpvol.scene.grids import grid_points, structured_to_tets
     from warpvol.scene.mesh import TetMesh
 
     x = np.linspace(-1, 1, 4)

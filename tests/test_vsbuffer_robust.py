@@ -6,14 +6,13 @@ import numpy as np
 import pytest
 
 import warpvol
+from helpers import box_mesh, merge
+from tolerances import TOLERANCES
 from warpvol.metrics import image_error
 from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.transfer import TransferFunction
 from warpvol.tools.stress_real import jittered_hex_grid
 from warpvol.vsbuffer.vsbuffer import BATCH_PIXELS, ConvexCellMesh, render_vsbuffer
-
-from helpers import box_mesh, merge
-from tolerances import TOLERANCES
 
 TOL = TOLERANCES["vsbuffer/vsbuffer_best"]
 

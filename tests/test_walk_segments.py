@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from tests.helpers import noisy_shell
 
+from tests.helpers import noisy_shell
 from warpvol.pipeline import Pipeline
 from warpvol.scene.builtin import builtin_scene
 from warpvol.stage import Context

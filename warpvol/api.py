@@ -13,10 +13,10 @@ from __future__ import annotations
 import base64
 import html
 import tempfile
-from time import perf_counter
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
+from time import perf_counter
 from typing import Any
 
 import numpy as np
@@ -27,11 +27,11 @@ from warpvol.figures import comparison_figure, draw_pair
 from warpvol.pipeline import DEFAULT_PIPELINE, Pipeline, RenderResult, check_device, list_presets, quiet_warp
 from warpvol.scene.camera import Camera
 from warpvol.scene.defaults import colormap_transfer, default_extinction, default_transfer, pixel_size, scalar_window
-from warpvol.scene.spec import scene_from_spec
 from warpvol.scene.loaders import mesh_from_pyvista
 from warpvol.scene.mesh import TetMesh
 from warpvol.scene.scene import Scene
 from warpvol.scene.scene_file import scene_from_config
+from warpvol.scene.spec import scene_from_spec
 from warpvol.scene.transfer import TransferFunction
 from warpvol.timing import CompileClock, announce_compile, time_summary, wall_fields
 

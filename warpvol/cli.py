@@ -31,9 +31,22 @@ from pathlib import Path
 import numpy as np
 
 from warpvol.bands import compute_reference
-from warpvol.cli_checks import (BYTES_PER_PIXEL, IMAGE_OUTPUT, MAX_PIXELS, OUTPUT_EXTENSIONS,  # noqa: F401
-                                check_bands, check_image_memory, check_outputs, check_sizes, check_writable,
-                                folder_outputs, out_of_memory, output_folder, pipeline_inputs, scene_inputs)
+from warpvol.cli_checks import (  # noqa: F401
+    BYTES_PER_PIXEL,
+    IMAGE_OUTPUT,
+    MAX_PIXELS,
+    OUTPUT_EXTENSIONS,
+    check_bands,
+    check_image_memory,
+    check_outputs,
+    check_sizes,
+    check_writable,
+    folder_outputs,
+    out_of_memory,
+    output_folder,
+    pipeline_inputs,
+    scene_inputs,
+)
 from warpvol.errors import ConfigError, WarpvolError, check_number
 from warpvol.io import check_inputs
 from warpvol.timing import process_age_s, time_summary, wall_fields, wall_summary
@@ -69,11 +82,10 @@ def _available_memory() -> int | None:
 
 
 def cmd_render(args) -> int:
+    from warpvol.cli_pieces import check_deep, cmd_render_pieces, maybe_pieces
     from warpvol.io import Outputs, read_exr
     from warpvol.metrics import write_error_png
     from warpvol.pipeline import Pipeline, report_json
-
-    from warpvol.cli_pieces import check_deep, cmd_render_pieces, maybe_pieces
 
     if (info := maybe_pieces(args)) is not None:  # a .pvtu of several pieces on Dask: each piece on a worker
         return cmd_render_pieces(args, info)
@@ -284,9 +296,16 @@ def cmd_bench(args) -> int:
     pipes = load_pipelines(names, args.device, quick=args.quick)  # bad names fail first
     plan_pipes = dict(zip(names, pipes))
     check_gpu(args.gpu)
-    from warpvol.tools.bench import (BENCH_FILES, BENCH_MODELLED_FILES, ROW_DIR, pipeline_digest, pipeline_keys,
-                                     row_stem, row_store)
     from warpvol.io import OwnedFiles
+    from warpvol.tools.bench import (
+        BENCH_FILES,
+        BENCH_MODELLED_FILES,
+        ROW_DIR,
+        pipeline_digest,
+        pipeline_keys,
+        row_stem,
+        row_store,
+    )
 
     keys = pipeline_keys(pipes)
     rels = [f"{ROW_DIR}/{row_stem(k)}{ext}" for k in keys for ext in (".json", ".npy")] + list(BENCH_FILES) \
@@ -343,14 +362,20 @@ def cmd_plan(args) -> int:
 
 
 def cmd_stress(args) -> int:
-    from warpvol.io import Outputs
+    from warpvol.io import Outputs, OwnedFiles
     from warpvol.pipeline import report_json
-    from warpvol.tools.report_html import table_csv
-    from warpvol.tools.stress import run_stress, stress_markdown, stress_matrix, stress_page
-
-    from warpvol.io import OwnedFiles
     from warpvol.tools.bench import load_pipelines, pipeline_digest, resolve_pipelines
-    from warpvol.tools.stress import CASE_DIR, STRESS_FILES, case_store, check_case_names
+    from warpvol.tools.report_html import table_csv
+    from warpvol.tools.stress import (
+        CASE_DIR,
+        STRESS_FILES,
+        case_store,
+        check_case_names,
+        run_stress,
+        stress_markdown,
+        stress_matrix,
+        stress_page,
+    )
 
     if args.resume and not args.output:
         raise ConfigError("--resume: needs -o, the folder of the run to resume")

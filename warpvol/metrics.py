@@ -97,7 +97,7 @@ def error_png_bytes(err: np.ndarray, *, title: str | None = None, norm=None) -> 
     s = max(1, int(np.ceil(256 / max(h, 1))))
     dpi = 100
     pt = ERROR_PNG_TEXT_PX * 72 / dpi  # font size in points for text that many pixels high
-    W, H, left, bottom, top = w * s + 110, h * s + 80, 10, 16, 64  # figure and margins in pixels
+    W, H, left, bottom, _top = w * s + 110, h * s + 80, 10, 16, 64  # figure and margins in pixels
     fig = Figure(figsize=(W / dpi, H / dpi), dpi=dpi)
     FigureCanvasAgg(fig)
     ax = fig.add_axes((left / W, bottom / H, w * s / W, h * s / H))

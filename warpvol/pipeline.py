@@ -25,14 +25,14 @@ import json
 import sys
 import time
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 
-from warpvol.errors import ConfigError, check_choice, check_keys, check_number
+from warpvol.errors import ConfigError, check_keys
 from warpvol.stage import STAGES, Context, Param, Stage, register_stage  # noqa: F401  (the framework's names)
 from warpvol.timing import CompileClock, ReadCounter, announce_compile, split_times
 

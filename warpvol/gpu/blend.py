@@ -61,12 +61,10 @@ import numpy as np
 import warp as wp
 
 from warpvol.errors import ConfigError, check_choice, check_number
-from warpvol.gpu.formats import NumberFormat, SNorm, UNorm, get_format
-
 from warpvol.gpu import counters as _cnt
-from warpvol.kernels import blend as kblend
-
 from warpvol.gpu.dither import dither_table
+from warpvol.gpu.formats import NumberFormat, SNorm, UNorm, get_format
+from warpvol.kernels import blend as kblend
 
 FACTORS = {
     "zero": 0, "one": 1, "src_color": 2, "one_minus_src_color": 3, "src_alpha": 4, "one_minus_src_alpha": 5,

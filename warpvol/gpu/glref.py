@@ -118,8 +118,8 @@ class GLCanvas:
         (H, W, 4) uint8 codes in GL memory order written first (replace), else a clear to 0.
         Returns the RGBA8 buffer (H, W, 4) uint8, GL memory order (row 0 = bottom).
         """
-        from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
         from vtkmodules.util.numpy_support import vtk_to_numpy
+        from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 
         names = tuple(blend) * (2 if len(blend) == 2 else 1)
         if len(names) != 4 or any(n not in GL_BLEND_FACTORS for n in names):
@@ -136,9 +136,9 @@ class GLCanvas:
         return vtk_to_numpy(arr).reshape(self.height, self.width, 4).copy()
 
     def _render(self, xy: np.ndarray, colors: np.ndarray, blend: tuple) -> None:
+        from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
         from vtkmodules.vtkCommonCore import vtkPoints
         from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
-        from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
 
         t = xy.shape[0]
         pts = np.zeros((3 * t, 3), np.float32)

@@ -72,11 +72,10 @@ import numpy as np
 import warp as wp
 
 from warpvol.errors import ConfigError, check_choice, check_number
+from warpvol.gpu import counters as _cnt
 from warpvol.kernels import raster as kr
 from warpvol.kernels import raster_draw as krd
 from warpvol.parallel import blocks, launch_blocks, preload
-
-from warpvol.gpu import counters as _cnt
 
 CULL_MODES = {"none": 0, "back": 1, "front": 2}
 FRONT_FACES = ("ccw", "cw")
@@ -579,10 +578,9 @@ def draw_textured_quads(fb, blend, texture, corners: Any, modulate: Sequence[flo
     >>> int(fb.codes()[0, 0, 0])                              # 418 -> 793 -> 1130 (12-bit rounding)
     1130
     """
-    from warpvol.kernels import raster_draw as _krd
-
     from warpvol.gpu.blend import FrameBuffer
     from warpvol.gpu.texture import Texture1D
+    from warpvol.kernels import raster_draw as _krd
 
     if not isinstance(fb, FrameBuffer):
         raise ConfigError(f"fb: expected a FrameBuffer, got {type(fb).__name__}")

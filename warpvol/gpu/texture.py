@@ -35,10 +35,9 @@ import numpy as np
 import warp as wp
 
 from warpvol.errors import ConfigError, check_choice, check_number
+from warpvol.gpu import counters as _cnt
 from warpvol.gpu.formats import FP16, FP32, SNORM8, UNORM8, UNORM12, UNORM16, NumberFormat
 from warpvol.kernels import texture as ktex
-
-from warpvol.gpu import counters as _cnt
 
 FILTERS = ("nearest", "linear")
 

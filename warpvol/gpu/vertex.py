@@ -19,9 +19,8 @@ import numpy as np
 import warp as wp
 
 from warpvol.errors import ConfigError, check_number
-from warpvol.kernels import vertex as kv
-
 from warpvol.gpu import counters as _cnt
+from warpvol.kernels import vertex as kv
 
 
 @dataclass

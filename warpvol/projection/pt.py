@@ -306,7 +306,6 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
     if bands > 1 and fb.height > 1 and not getattr(blend, "dither", False):
         return _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands, walk)
     from warpvol.gpu.raster import Rasterizer
-
     from warpvol.kernels import pt as kpt
 
     rast = Rasterizer(fb.width, fb.height, device=device, **RASTER_RULES)

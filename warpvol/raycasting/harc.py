@@ -159,8 +159,8 @@ def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None 
 
     from warpvol.gpu.raster import GUARD_PX, Rasterizer, depth_order, guard_band_overflow
     from warpvol.gpu.vertex import VertexStage
-    from warpvol.raycasting.thin_cells import edge_pixels, surface_neighbours
     from warpvol.raycasting.stages.entry_bins import entry_face_mask, face_depths
+    from warpvol.raycasting.thin_cells import edge_pixels, surface_neighbours
     from warpvol.raycasting.visible import face_triangles
 
     front = entry_face_mask(mesh, camera, faces)

@@ -48,12 +48,18 @@ from typing import Callable
 import numpy as np
 
 from warpvol.errors import ConfigError, check_choice
-from warpvol.reference.scalars import normal_scalars
 from warpvol.reference.exact import _FILTER, _STATS, _certify, _exact_sum_of_products, _sign_det2  # noqa: F401
+from warpvol.reference.integrate import (  # noqa: F401
+    GL_NODES,
+    MAX_DEPTH,
+    SUB_DEPTH,
+    composite_front_to_back,
+    integrate_segments,
+    segmented_exclusive_cumsum,
+)
+from warpvol.reference.scalars import normal_scalars
 from warpvol.scene.camera import Camera
 from warpvol.scene.mesh import TetMesh
-from warpvol.reference.integrate import (GL_NODES, MAX_DEPTH, SUB_DEPTH, composite_front_to_back,  # noqa: F401
-                                  integrate_segments, segmented_exclusive_cumsum)
 from warpvol.scene.transfer import EMISSION_MODELS, TransferFunction
 
 #: the files the reference image depends on (the bench's reference cache hashes them)

@@ -360,8 +360,14 @@ def _progress_bar(show: bool | None, total: int):
     if not show:
         return None
     from rich.console import Console
-    from rich.progress import (BarColumn, Progress, TaskProgressColumn, TextColumn, TimeElapsedColumn,
-                               TimeRemainingColumn)
+    from rich.progress import (
+        BarColumn,
+        Progress,
+        TaskProgressColumn,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
 
     # stderr: stdout stays the caller's (a notebook cell's output, a command's summary)
     bar = Progress(TextColumn("exact reference"), BarColumn(), TaskProgressColumn(), TimeElapsedColumn(),

@@ -57,7 +57,7 @@ def absolute_counts(absolute: list[dict]) -> tuple[int, int, int]:
 def count_lines(absolute: list[dict], relative: list[dict]) -> list[str]:
     inside, pred, cal = absolute_counts(absolute)
     rc = relative_counts(relative)
-    (a, n), (a1, n1), (a2, n2) = rc[REL_PREDICTION], rc[REL_ONE_CAL], rc[REL_CAL_ONLY]
+    (a, n), (a1, n1), (_a2, n2) = rc[REL_PREDICTION], rc[REL_ONE_CAL], rc[REL_CAL_ONLY]
     return [f"Absolute predictions within [0.5, 2]: {inside} of {pred} ({cal} calibration rows not counted).",
             f"Relative predictions (both rows predicted) with the paper's sign and ratio in [0.5, 2]: {a} of {n}.",
             f"Counted apart: relative rows with one calibration row agree {a1} of {n1}; rows made only of "

@@ -7,7 +7,6 @@ import os
 
 import numpy as np
 
-
 # Table 1 of the paper: tets, drawn tets, GrOps [s], Int [s], total [s]
 PAPER = {
     "ell64": (44689, 954317, 9.2, 36.6, 46.9),

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from warpvol.errors import ConfigError, MeshError
+from warpvol.errors import ConfigError
 from warpvol.scene.camera import Camera
 from warpvol.scene.grids import grid_points, structured_to_tets, structured_to_tets5
 from warpvol.scene.mesh import TetMesh

@@ -20,7 +20,7 @@ import numpy as np
 
 from warpvol.errors import MeshError, check_finite_array
 from warpvol.scene import interop
-from warpvol.scene.face_overlap import row_keys, overlapping_opposite_faces
+from warpvol.scene.face_overlap import overlapping_opposite_faces, row_keys
 from warpvol.scene.overlap import overlap_message, overlapping_parts
 
 # face i is opposite vertex i; the order gives an outward normal for positively oriented tets

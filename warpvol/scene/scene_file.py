@@ -32,7 +32,6 @@ from warpvol.scene.builtin import builtin_camera, builtin_scene, builtin_transfe
 from warpvol.scene.camera import CAMERA_KEYS, Camera
 from warpvol.scene.defaults import DEFAULT_SIZE, default_transfer
 from warpvol.scene.loaders import MESH_KEYS, PLOT3D_KEYS, RAW_KEYS, _file, check_raw_size, load_mesh, raw_dtype
-from warpvol.scene.mesh import TetMesh
 from warpvol.scene.scene import Scene
 from warpvol.scene.transfer import TRANSFER_KEYS, TRANSFER_PARAVIEW_KEYS, TRANSFER_TABLE_KEYS, TransferFunction
 

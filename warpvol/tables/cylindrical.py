@@ -51,8 +51,22 @@ import math
 import numpy as np
 
 from warpvol.tables.base import TABLE_FORMATS, Axis, Table
-from warpvol.tables.common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_bands,
-                     linear_index_map, model_id, table_key, tf_arrays, tf_pieces, timed)
+from warpvol.tables.common import (
+    check_choice,
+    check_lmax,
+    check_res,
+    check_tf,
+    farr,
+    finish,
+    kernels,
+    launch_bands,
+    linear_index_map,
+    model_id,
+    table_key,
+    tf_arrays,
+    tf_pieces,
+    timed,
+)
 from warpvol.tables.exact import build_exact3d
 
 PLANE_FACTORS = {"4x": 4, "2x": 2, "1x": 1}

@@ -7,9 +7,24 @@ segment as a piece boundary and each piece integrated by the project's float32 s
 
 from __future__ import annotations
 
-from warpvol.tables.common import (Axis, check_choice, check_lmax, check_res, check_tf, farr, finish, kernels,
-                                   launch_bands, model_id, scalar_axis, table_key, tf_arrays, tf_pieces, timed)
-from warpvol.tables.base import AXIS_KINDS, TABLE_FORMATS
+from warpvol.tables.base import AXIS_KINDS, TABLE_FORMATS, Table
+from warpvol.tables.common import (
+    Axis,
+    check_choice,
+    check_lmax,
+    check_res,
+    check_tf,
+    farr,
+    finish,
+    kernels,
+    launch_bands,
+    model_id,
+    scalar_axis,
+    table_key,
+    tf_arrays,
+    tf_pieces,
+    timed,
+)
 
 
 def length_axis(n_l: int, lmax: float, kind: str) -> Axis:

@@ -31,8 +31,22 @@ import numpy as np
 
 from warpvol.errors import ConfigError
 from warpvol.tables.base import Axis, Table, quantise
-from warpvol.tables.common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels,
-                                   launch_bands, model_id, scalar_axis, table_key, tf_arrays, tf_pieces, timed)
+from warpvol.tables.common import (
+    check_choice,
+    check_lmax,
+    check_res,
+    check_tf,
+    farr,
+    finish,
+    kernels,
+    launch_bands,
+    model_id,
+    scalar_axis,
+    table_key,
+    tf_arrays,
+    tf_pieces,
+    timed,
+)
 
 COEF_FORMATS = ("snorm8", "fp16", "fp32")
 #: coefficient scale factors the fragment arithmetic can apply (``None``: any float constant)

@@ -31,8 +31,23 @@ import numpy as np
 
 from warpvol.errors import ConfigError, check_number
 from warpvol.tables.base import TABLE_FORMATS, Axis
-from warpvol.tables.common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels, launch_bands,
-                     linear_index_map, model_id, scalar_axis, table_key, tf_arrays, tf_pieces, timed)
+from warpvol.tables.common import (
+    check_choice,
+    check_lmax,
+    check_res,
+    check_tf,
+    farr,
+    finish,
+    kernels,
+    launch_bands,
+    linear_index_map,
+    model_id,
+    scalar_axis,
+    table_key,
+    tf_arrays,
+    tf_pieces,
+    timed,
+)
 
 THICKNESS_AXES = {"uniform": "endpoint", "log2": "log2"}
 #: largest n_l on the log2 axis: the doublings' float32 rounding, up to 2^(n_l - 26) in optical

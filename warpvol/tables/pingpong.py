@@ -21,8 +21,18 @@ import numpy as np
 from warpvol.errors import ConfigError, check_number
 from warpvol.parallel import launch_blocks, row_blocks
 from warpvol.tables.base import TABLE_FORMATS, Axis
-from warpvol.tables.common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels,
-                                   scalar_axis, table_key, timed)
+from warpvol.tables.common import (
+    check_choice,
+    check_lmax,
+    check_res,
+    check_tf,
+    farr,
+    finish,
+    kernels,
+    scalar_axis,
+    table_key,
+    timed,
+)
 
 OVERFLOW = {"radeon8500": "wrap", "geforce4": "saturate"}
 

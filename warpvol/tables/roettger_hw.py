@@ -35,8 +35,18 @@ import numpy as np
 from warpvol.errors import check_number
 from warpvol.parallel import launch_blocks, row_blocks
 from warpvol.tables.base import AXIS_KINDS, TABLE_FORMATS
-from warpvol.tables.common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels,
-                                   scalar_axis, table_key, timed)
+from warpvol.tables.common import (
+    check_choice,
+    check_lmax,
+    check_res,
+    check_tf,
+    farr,
+    finish,
+    kernels,
+    scalar_axis,
+    table_key,
+    timed,
+)
 from warpvol.tables.exact import length_axis
 
 VARIANTS = ("blend", "geforce3")
@@ -160,9 +170,10 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
     Table
         ``data[l, sb, sf] = (C, alpha)``, values of the frame buffer read back (then stored in ``format``).
     """
+    import warp as wp
+
     from warpvol.gpu.blend import BlendUnit, FrameBuffer
     from warpvol.gpu.formats import UNORM12
-    import warp as wp
 
     check_tf(tf)
     n_s = check_res("n_s", n_s, 2)

@@ -20,12 +20,24 @@ from __future__ import annotations
 
 import numpy as np
 
-from warpvol.tables.base import AXIS_KINDS, TABLE_FORMATS
-from warpvol.tables.common import (check_choice, check_lmax, check_res, check_tf, farr, finish, kernels,
-                                   launch_bands, model_id, scalar_axis, table_key, tf_arrays, timed)
 from warpvol.errors import check_number
+from warpvol.tables.base import AXIS_KINDS, TABLE_FORMATS
+from warpvol.tables.common import (
+    check_choice,
+    check_lmax,
+    check_res,
+    check_tf,
+    farr,
+    finish,
+    kernels,
+    launch_bands,
+    model_id,
+    scalar_axis,
+    table_key,
+    tf_arrays,
+    timed,
+)
 from warpvol.tables.exact import length_axis
-
 
 #: the step of eqs. 5-7: eq. 6 as printed (the paper's build) or Stein et al.'s bounded step
 SW_STEPS = ("eq6", "stein")

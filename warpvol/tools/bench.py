@@ -31,7 +31,6 @@ import hashlib
 import inspect
 import os
 import statistics
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path

@@ -42,7 +42,6 @@ from warpvol.errors import WarpvolError
 from warpvol.scene.builtin import builtin_mesh
 from warpvol.scene.camera import Camera
 from warpvol.scene.grids import grid_points
-from warpvol.scene.grids import structured_to_tets
 from warpvol.scene.mesh import TetMesh
 from warpvol.scene.scene import Scene
 from warpvol.scene.transfer import TransferFunction

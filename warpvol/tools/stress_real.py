@@ -39,8 +39,7 @@ def offset_scene(px: int = 32, *, scalar_offset: float = 0.0, scalar_span: float
     import numpy as np
 
     from warpvol.scene.camera import Camera
-    from warpvol.scene.grids import grid_points
-    from warpvol.scene.grids import structured_to_tets
+    from warpvol.scene.grids import grid_points, structured_to_tets
     from warpvol.scene.mesh import TetMesh
     from warpvol.scene.scene import Scene
     from warpvol.scene.transfer import TransferFunction
@@ -133,8 +132,7 @@ def thin_layer_scene(thick: float, depth: float, camera, z0: float = -0.2, name:
     with optical depth ``depth`` along z. Returns ``(mesh, tf)``."""
     import numpy as np
 
-    from warpvol.scene.grids import grid_points
-    from warpvol.scene.grids import structured_to_tets
+    from warpvol.scene.grids import grid_points, structured_to_tets
     from warpvol.scene.mesh import TetMesh
     from warpvol.scene.transfer import TransferFunction
 
@@ -204,8 +202,7 @@ def sweep_cases(simple, with_ref, sc) -> None:
     import numpy as np
 
     from warpvol.scene.camera import Camera
-    from warpvol.scene.grids import grid_points
-    from warpvol.scene.grids import structured_to_tets
+    from warpvol.scene.grids import grid_points, structured_to_tets
     from warpvol.scene.mesh import TetMesh
     from warpvol.scene.transfer import TransferFunction
 

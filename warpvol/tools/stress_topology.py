@@ -15,8 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from warpvol.scene.grids import grid_points
-from warpvol.scene.grids import structured_to_tets
+from warpvol.scene.grids import grid_points, structured_to_tets
 from warpvol.scene.mesh import TetMesh
 
 

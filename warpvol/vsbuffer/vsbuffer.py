@@ -41,14 +41,14 @@ from __future__ import annotations
 
 import time
 from contextlib import contextmanager
+
 import numpy as np
 
 from warpvol.conditioning.visibility import per_cell
 from warpvol.errors import ConfigError
 from warpvol.parallel import blocks, cpu_threads, launch_blocks
 from warpvol.vsbuffer.cells import ConvexCellMesh
-from warpvol.vsbuffer.octree import (Octree, _expand, box_corners_yz, build_octree,  # noqa: F401 (re-exported)
-                                     plane_box_cut, plane_node_hits)
+from warpvol.vsbuffer.octree import Octree, _expand, box_corners_yz, build_octree, plane_box_cut, plane_node_hits  # noqa: F401 (re-exported)
 
 __all__ = ["ConvexCellMesh", "Octree", "build_octree", "ray_space", "render_vsbuffer", "walk_column",
            "INTEGRATIONS", "ADJACENCY_MODES"]
@@ -231,9 +231,8 @@ def _walk_inputs(cells: ConvexCellMesh, transfer, camera, device: str, rows: int
     frame; ``textures``: the 3D table's texture (``"table"``; kept alive, its fetches counted) or none."""
     import warp as wp
 
-    from warpvol.raycasting.harc import integ_setup
-
     from warpvol.kernels import vsbuffer as kv
+    from warpvol.raycasting.harc import integ_setup
 
     origin = 0.5 * (cells.bounds[0] + cells.bounds[1]) if ORIGIN_SHIFT else np.zeros(3)
     dc = _device_cells(cells, origin, device, camera if ties else None, visible)

@@ -111,8 +111,8 @@ def fixed_program(stage: Stage, ctx: Context, table, arith: str, *, mode: str, o
 
     from warpvol.gpu.texture import Texture1D, TextureAtlas
     from warpvol.kernels import combiners as kc
-    from warpvol.projection.pt import PERSPECTIVE_MODES
     from warpvol.projection.programs import _scalar_consts, guthe_lookups
+    from warpvol.projection.pt import PERSPECTIVE_MODES
     from warpvol.tables.guthe2d import arith_constants
 
     try:

@@ -26,7 +26,6 @@ from warpvol.projection.stages.pt_perspective import fragment_inputs
 from warpvol.projection.stages.pt_vertex_color import BATCH, DITHER, composite, fb_param
 from warpvol.stage import Context, Param, Stage, register_stage
 
-
 #: pt_best's stated largest error against the float64 reference (README; tests/tolerances.py row pt_best)
 PT_BEST_MAX_ABS = 4e-3
 

@@ -20,8 +20,17 @@ the rasteriser and blending unit count fragments and blends.
 from __future__ import annotations
 
 from warpvol.projection.stages.pt_perspective import fragment_inputs
-from warpvol.projection.stages.pt_vertex_color import (BATCH, DITHER, FILTER, TABLE3D, WEIGHT_BITS, composite,
-                                                       fb_param, table_from, texel_param)
+from warpvol.projection.stages.pt_vertex_color import (
+    BATCH,
+    DITHER,
+    FILTER,
+    TABLE3D,
+    WEIGHT_BITS,
+    composite,
+    fb_param,
+    table_from,
+    texel_param,
+)
 from warpvol.stage import Context, Param, Stage, register_stage
 
 TEXELS = ("auto", "rgba8", "rgba12", "rgba16", "rgba16f", "rgba32f")

@@ -61,10 +61,9 @@ class Vertex(Stage):
             raise ConfigError(f"{self.where}.far: {self.config['far']} must exceed near ({self.config['near']})")
 
     def run(self, ctx: Context) -> None:
+        from warpvol.errors import ConfigError
         from warpvol.gpu.raster import GUARD_PX, guard_band_overflow
         from warpvol.gpu.vertex import VertexStage
-
-        from warpvol.errors import ConfigError
         from warpvol.projection.pt import eye_plane_check
 
         cam, mesh = ctx.scene.camera, ctx.scene.mesh

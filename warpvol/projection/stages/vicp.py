@@ -34,8 +34,15 @@ import weakref
 
 import numpy as np
 
-from warpvol.projection.stages.pt_vertex_color import (BATCH, FILTER, TABLE3D, WEIGHT_BITS, fb_param, table_from,
-                                                       texel_param)
+from warpvol.projection.stages.pt_vertex_color import (
+    BATCH,
+    FILTER,
+    TABLE3D,
+    WEIGHT_BITS,
+    fb_param,
+    table_from,
+    texel_param,
+)
 from warpvol.stage import Context, Param, Stage, register_stage
 
 #: fp32 values sent per vertex with ``geometry = "upload"``: position (3), four face planes (16),
@@ -137,9 +144,9 @@ class VICP(Stage):
 
     def _texture(self, ctx: Context, table):
         """The table as a 3D texture, made resident once per table object (a redraw uploads nothing)."""
+        from warpvol.errors import ConfigError
         from warpvol.gpu.texture import Texture3D
         from warpvol.projection.programs import TEXEL_FOR_TABLE
-        from warpvol.errors import ConfigError
 
         fmt = self.config["texel_format"]
         if fmt == "auto":
@@ -165,8 +172,8 @@ class VICP(Stage):
         from warpvol.gpu.blend import BlendUnit, FrameBuffer
         from warpvol.gpu.raster import Rasterizer
         from warpvol.kernels import vicp as kv
-        from warpvol.projection.pt import RASTER_RULES
         from warpvol.projection.programs import _axis_affine, _scalar_consts
+        from warpvol.projection.pt import RASTER_RULES
 
         table = table_from(self, ctx, "table_exact")
         if table.data.ndim != 4 or table.data.shape[-1] != 4 or len(table.axes) != 3:

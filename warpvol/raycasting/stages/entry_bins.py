@@ -20,7 +20,6 @@ import numpy as np
 
 from warpvol.stage import Context, Param, Stage, register_stage
 
-
 #: the per-mesh properties (cached on the mesh) :func:`entry_face_mask` reads: set-up on first use
 ENTRY_MESH_PROPERTIES = ("boundary_faces", "face_planes", "bounds", "bounding_radius")
 

@@ -22,6 +22,7 @@ from warpvol.errors import ConfigError
 from warpvol.parallel import cpu_threads
 from warpvol.stage import Context, Param, Stage, register_stage
 
+
 def count_pass(ctx: Context, c: dict, textures: list, walk: str, integration: str, fmt: str,
                work=None) -> None:
     """Count one propagation pass for the throughput model: the pass, its fragment-program steps

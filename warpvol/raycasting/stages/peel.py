@@ -12,8 +12,13 @@ the cells the transfer function makes visible (their boundary is rarely convex).
 from __future__ import annotations
 
 from warpvol.parallel import cpu_threads
-from warpvol.raycasting.stages.raycast import (RAY_PARAMS, march_pass, report_left_out, resolve_failed,
-                                               stop_transmittance)
+from warpvol.raycasting.stages.raycast import (
+    RAY_PARAMS,
+    march_pass,
+    report_left_out,
+    resolve_failed,
+    stop_transmittance,
+)
 from warpvol.stage import Context, Param, Stage, register_stage
 
 
