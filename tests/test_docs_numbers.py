@@ -491,3 +491,21 @@ def test_guthe_table4_models_are_the_codes(quiet):
         m = guthe_t4_model(r["n"])
         assert r["modelled hardware [s]"] == pytest.approx(m, rel=1e-9), r["n"]
         assert _vm_row(f"T4 Radeon 8500 set-up n = {r['n']} [s]")["modelled"] == pytest.approx(m, rel=1e-9)
+
+
+def test_pt_spans_json_ratios_and_per_fragment_costs_are_its_quotients():
+    """docs/data/pt_spans.json: VTK PT / this is VTK's median over the row's, and the per-fragment costs are
+    the draw's times over its fragments (all as rounded in the file)."""
+    rows = _table_rows("pt_spans", "rows")
+    vtk = {(r["view"], r["TF"], r["size"]): r["median [s]"] for r in rows if r["renderer"] == "VTK PT"}
+    checked = 0
+    for r in rows:
+        v, t = vtk[(r["view"], r["TF"], r["size"])], r["median [s]"]
+        # times rounded to 0.1 ms, ratios to 0.001: the quotient of the rounded times within that
+        assert abs(r["VTK PT / this"] - v / t) <= 0.0005 + (v / t) * (0.00005 / t + 0.00005 / v), r
+        n = r["fragments"]
+        if isinstance(n, int) and n:
+            for per, total in (("ns / fragment", "draw [s]"), ("CPU ns / fragment", "draw CPU [s]")):
+                assert abs(r[per] - r[total] / n * 1e9) <= 0.00005 / n * 1e9 + 1e-3 * r[per], (per, r)
+            checked += 1
+    assert checked
