@@ -41,6 +41,10 @@ def thin_tets(mesh, transfer, length=None) -> np.ndarray:
     return thin & (ext * (2.0 ** -20 * radius if length is None else length) > 1e-5)
 
 
+#: tets per chunk of the shape measures
+_CHUNK = 1 << 16
+
+
 def _shape(mesh, cache: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Per tet, its smallest altitude (the distance from a vertex to the plane of its opposite face, from
     ``mesh.face_planes``) and the indices of the needles: tets narrow across two directions, their largest
@@ -49,15 +53,23 @@ def _shape(mesh, cache: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     if cache is not None and cache.get("mesh") is mesh:
         return cache["altitude"], cache["slender"]
     planes = mesh.face_planes  # face i is opposite vertex i
-    p = np.asarray(mesh.points, np.float64)[mesh.tets]
-    altitude = np.abs(np.einsum("mfk,mfk->mf", planes[..., :3], p) + planes[..., 3]).min(axis=1)
-    edge2 = np.max([((p[:, a] - p[:, b]) ** 2).sum(axis=1) for a, b in _EDGES], axis=0)
-    # the largest face area from the altitudes: 3 V = h_i A_i, so A_max = 3 V / h_min
-    a, b, c = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0], p[:, 3] - p[:, 0]
-    vol6 = np.abs(np.einsum("tk,tk->t", np.cross(a, b), c))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        area_max = vol6 / (2.0 * altitude)
-    slender = np.flatnonzero(area_max * NEEDLE_RATIO < edge2)  # A_max / D < D / NEEDLE_RATIO
+    pts, tets = np.asarray(mesh.points, np.float64), mesh.tets
+    m = len(tets)
+    altitude = np.empty(m, dtype=np.float64)
+    slender = []
+    for s in range(0, m, _CHUNK):  # in chunks: the per-vertex temporaries stay small
+        p = pts[tets[s:s + _CHUNK]]
+        pl = planes[s:s + _CHUNK]
+        alt = np.abs(np.einsum("mfk,mfk->mf", pl[..., :3], p) + pl[..., 3]).min(axis=1)
+        altitude[s:s + _CHUNK] = alt
+        edge2 = np.max([((p[:, a] - p[:, b]) ** 2).sum(axis=1) for a, b in _EDGES], axis=0)
+        # the largest face area from the altitudes: 3 V = h_i A_i, so A_max = 3 V / h_min
+        a, b, c = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0], p[:, 3] - p[:, 0]
+        vol6 = np.abs(np.einsum("tk,tk->t", np.cross(a, b), c))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            area_max = vol6 / (2.0 * alt)
+        slender.append(s + np.flatnonzero(area_max * NEEDLE_RATIO < edge2))  # A_max / D < D / NEEDLE_RATIO
+    slender = np.concatenate(slender) if slender else np.zeros(0, dtype=np.int64)
     if cache is not None:
         cache.update(mesh=mesh, altitude=altitude, slender=slender)
     return altitude, slender

@@ -25,6 +25,25 @@ from warpvol.scene.overlap import overlap_message, overlapping_parts
 
 # face i is opposite vertex i; the order gives an outward normal for positively oriented tets
 FACE_VERTS = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]], dtype=np.int64)
+#: tets per chunk of the per-tet geometry (face planes): bounds its temporaries
+_CHUNK_TETS = 1 << 16
+
+
+def _face_planes(points: np.ndarray, tets: np.ndarray) -> np.ndarray:
+    """``(len(tets), 4, 4)`` face planes (:attr:`TetMesh.face_planes`) of ``tets``."""
+    p = points[tets]  # (M,4,3)
+    tri = p[:, FACE_VERTS]  # (M,4,3,3)
+    n = np.cross(tri[:, :, 1] - tri[:, :, 0], tri[:, :, 2] - tri[:, :, 0])
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    o = -np.einsum("mfk,mfk->mf", n, tri[:, :, 0])
+    # orient outward: the opposite vertex must be on the negative side
+    side = np.einsum("mfk,mfk->mf", n, p) + o
+    flip = side > 0
+    n[flip] *= -1
+    o[flip] *= -1
+    return np.concatenate([n, o[..., None]], axis=-1)
+
+
 EDGE_VERTS = np.array([[0, 1], [0, 2], [0, 3], [1, 2], [1, 3], [2, 3]], dtype=np.int64)
 
 
@@ -204,28 +223,41 @@ class TetMesh:
     def adjacency(self) -> np.ndarray:
         """(M, 4) int32: tet across local face i, -1 on the boundary."""
         m = self.n_tets
-        faces = np.sort(self.tets[:, FACE_VERTS].reshape(-1, 3), axis=1)  # (4M, 3)
         n = np.int64(self.n_points)
-        key = (faces[:, 0] * n + faces[:, 1]) * n + faces[:, 2] if n < 2_000_000 else None
-        if key is None:
-            _, inv, counts = np.unique(faces, axis=0, return_inverse=True, return_counts=True)
+        # one key per (tet, local face) at 4 tet + face, built a face at a time: the build holds about 120
+        # bytes per tet at its peak (a (4M, 3) table of the faces' points and np.unique held three times that)
+        if n < 2_000_000:
+            key = np.empty((m, 4), dtype=np.int64)
+            for f in range(4):
+                tri = np.sort(self.tets[:, FACE_VERTS[f]], axis=1)
+                key[:, f] = (tri[:, 0] * n + tri[:, 1]) * n + tri[:, 2]
+            key = key.reshape(-1)
+            order = np.argsort(key, kind="stable")
+            sk = key[order]
+            del key
+            same = sk[1:] == sk[:-1]
         else:
-            _, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
-        inv = inv.ravel()
-        if (counts > 2).any():
-            g = int(np.argmax(counts > 2))
-            who = np.nonzero(inv == g)[0] // 4
+            faces = np.sort(self.tets[:, FACE_VERTS].reshape(-1, 3), axis=1)  # (4M, 3)
+            order = np.lexsort((faces[:, 2], faces[:, 1], faces[:, 0]))
+            sk = faces[order]
+            same = (sk[1:] == sk[:-1]).all(axis=1)
+        three = same[1:] & same[:-1]
+        if three.any():
+            g = int(np.argmax(three))
+            run = g + 1
+            while run < len(same) and same[run]:
+                run += 1
+            who = np.sort(order[g:run + 1]) // 4
+            face = np.sort(self.tets[who[0], FACE_VERTS[int(np.sort(order[g:run + 1])[0] % 4)]])
             raise MeshError(
-                f"{self.name}: face {faces[np.nonzero(inv == g)[0][0]].tolist()} is shared by "
-                f"{int(counts[g])} tets ({who.tolist()[:6]}); a face may be shared by at most 2"
+                f"{self.name}: face {face.tolist()} is shared by "
+                f"{run + 1 - g} tets ({who.tolist()[:6]}); a face may be shared by at most 2"
             )
-        order = np.argsort(inv, kind="stable")
-        sorted_inv = inv[order]
-        adj = np.full(4 * m, -1, dtype=np.int64)
-        pair = np.nonzero(sorted_inv[1:] == sorted_inv[:-1])[0]
+        pair = np.flatnonzero(same)
         a, b = order[pair], order[pair + 1]
+        adj = np.full(4 * m, -1, dtype=np.int32)
         adj[a], adj[b] = b // 4, a // 4
-        return adj.reshape(m, 4).astype(np.int32)
+        return adj.reshape(m, 4)
 
     @cached_property
     def boundary_faces(self) -> np.ndarray:
@@ -241,17 +273,10 @@ class TetMesh:
     @cached_property
     def face_planes(self) -> np.ndarray:
         """(M, 4, 4) float64: ``(nx, ny, nz, o)`` per local face, unit outward normal."""
-        p = self.points[self.tets]  # (M,4,3)
-        tri = p[:, FACE_VERTS]  # (M,4,3,3)
-        n = np.cross(tri[:, :, 1] - tri[:, :, 0], tri[:, :, 2] - tri[:, :, 0])
-        n /= np.linalg.norm(n, axis=-1, keepdims=True)
-        o = -np.einsum("mfk,mfk->mf", n, tri[:, :, 0])
-        # orient outward: the opposite vertex must be on the negative side
-        side = np.einsum("mfk,mfk->mf", n, p) + o
-        flip = side > 0
-        n[flip] *= -1
-        o[flip] *= -1
-        return np.concatenate([n, o[..., None]], axis=-1)
+        out = np.empty((self.n_tets, 4, 4), dtype=np.float64)
+        for a in range(0, self.n_tets, _CHUNK_TETS):  # in chunks: the temporaries stay small
+            out[a:a + _CHUNK_TETS] = _face_planes(self.points, self.tets[a:a + _CHUNK_TETS])
+        return out
 
     @cached_property
     def _gradient_and_offset(self) -> tuple[np.ndarray, np.ndarray]:

@@ -25,14 +25,14 @@ from warpvol.stage import Context, Stage, register_stage
 def neighbour_faces(adjacency: np.ndarray) -> np.ndarray:
     """``(M, 4)`` int32: ``4 * n + j`` for the neighbour ``n`` across each local face and the local
     index ``j`` of the same face in ``n``; ``-1`` on the boundary."""
-    adj = np.asarray(adjacency, dtype=np.int64)
-    m = len(adj)
-    c, i = np.nonzero(adj >= 0)
-    n = adj[c, i]
-    j = np.argmax(adj[n] == c[:, None], axis=1)
-    out = np.full((m, 4), -1, dtype=np.int64)
-    out[c, i] = 4 * n + j
-    return out.astype(np.int32)
+    adj = np.asarray(adjacency)
+    out = np.full(adj.shape, -1, dtype=np.int32)
+    for i in range(adj.shape[1] if adj.ndim == 2 else 0):  # a face at a time: small temporaries
+        c = np.flatnonzero(adj[:, i] >= 0)
+        n = adj[c, i].astype(np.int64)
+        j = np.argmax(adj[n] == c[:, None], axis=1)
+        out[c, i] = 4 * n + j
+    return out
 
 
 def neighbour_vertices(nbr: np.ndarray, tets: np.ndarray) -> np.ndarray:
