@@ -211,3 +211,38 @@ def test_committed_docs_data_cover_the_markers():
             t = data["tables"][name]
             assert all(len(r) == len(t["columns"]) for r in t["rows"])
             assert all(not (isinstance(v, float) and not math.isfinite(v)) for r in t["rows"] for v in r)
+
+
+def test_model_counter_cache_is_keyed_by_the_code_that_counts(tmp_path, monkeypatch, request):
+    """warpvol.reproduce.model_rows keeps each configuration's counters with the hash of the code that
+    counts: a counted file is read back while that code is the same, is stale (counted again) after any
+    counting module, kernel, preset or scene file changes, and stays valid when only a file that prices or
+    shows counters (NOT_COUNTING: the model, the profiles, the CLI) changes."""
+    from warpvol.reproduce import model_rows as M
+
+    root = tmp_path / "repo"
+    for rel in ("warpvol/projection/sort.py", "kernels/sort.py", "warpvol/presets/p.toml", "scenes/s.toml",
+                "warpvol/model.py", "warpvol/profiles/g.toml", "warpvol/cli.py"):
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        (root / rel).write_text(f"# {rel}\n")
+    monkeypatch.setattr(M, "ROOT", root)
+    monkeypatch.setattr(M, "CACHE", root / "out" / "counters")
+    request.addfinalizer(M.code_key.cache_clear)  # the real repository's key again for later tests
+
+    def key():
+        M.code_key.cache_clear()
+        return M.code_key()
+
+    k0 = key()
+    M._write("guthe/bluntfin/sort_xmpvo", {"counters": {"sort": {"boundary_fragments": 1}}, "tets": 1})
+    assert M.cached("guthe/bluntfin/sort_xmpvo")["counters"] == {"sort": {"boundary_fragments": 1}}
+    for rel in ("warpvol/model.py", "warpvol/profiles/g.toml", "warpvol/cli.py"):  # prices / shows counters
+        (root / rel).write_text("# edited\n")
+        assert key() == k0 and M.cached("guthe/bluntfin/sort_xmpvo") is not None, rel
+    for rel in ("warpvol/projection/sort.py", "kernels/sort.py", "warpvol/presets/p.toml", "scenes/s.toml"):
+        before = key()
+        (root / rel).write_text((root / rel).read_text() + "# changed\n")
+        assert key() != before and M.cached("guthe/bluntfin/sort_xmpvo") is None, rel
+    before = key()
+    (root / "kernels" / "new.py").write_text("")  # a new module counts too
+    assert key() != before

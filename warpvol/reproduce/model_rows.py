@@ -3,13 +3,19 @@
 Each configuration is rendered once at the paper's image size and its per-frame counters are kept
 (stages that build tables or per-mesh textures are left out: the papers' frame rates exclude them).
 Counters are cached as JSON under ``out/validate_model/counters/`` (``refresh=True`` re-renders), so
-the model can be re-run in seconds. Scenes come from ``scenes/*.toml`` and ``../shared/data``; a
-configuration whose data are absent raises, and the caller lists its rows as skipped.
+the model can be re-run in seconds. Each file carries :func:`code_key`, a hash of the code that counts
+(every module of ``warpvol`` and ``warpvol.kernels``, the presets, ``scenes/*.toml`` and this module's
+configurations, but those listed in :data:`NOT_COUNTING`) and Warp's version: a file counted by other
+code is stale and counted again, so a cache cannot hide a change. Scenes come from ``scenes/*.toml`` and
+``../shared/data``; a configuration whose data are absent raises, and the caller lists its rows as
+skipped.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
+import hashlib
 import json
 import os
 import warnings
@@ -19,6 +25,49 @@ ROOT = Path(__file__).resolve().parents[2]
 CACHE = ROOT / "out" / "validate_model" / "counters"
 #: stages whose work the papers' frame rates exclude (tables, per-mesh textures and cell set-up)
 SETUP_PREFIXES = ("table_", "harc_mesh", "cell_setup", "entry_bins")
+#: files (paths relative to the repository, prefixes of them) that price, compare or show counters and
+#: never change one: left out of :func:`code_key`, so editing them keeps the cache
+NOT_COUNTING = ("warpvol/model.py", "warpvol/profiles/", "warpvol/reproduce/agreement.py", "warpvol/cli",
+                "warpvol/tools/", "warpvol/figures.py", "warpvol/demo.py", "warpvol/progress.py")
+
+
+@functools.cache
+def code_key() -> str:
+    """SHA-256 (16 hex digits) of the code that counts: every ``*.py`` and ``*.toml`` under ``warpvol/``
+    and ``kernels/`` and ``scenes/*.toml``, by path and content, but :data:`NOT_COUNTING`, and Warp's
+    version. This module is part of it (its configurations define what is counted)."""
+    import warp as wp
+
+    h = hashlib.sha256(f"warp {wp.config.version}".encode())
+    files = [*(ROOT / "warpvol").rglob("*.py"), *(ROOT / "warpvol").rglob("*.toml"),
+             *(ROOT / "kernels").rglob("*.py"), *(ROOT / "scenes").glob("*.toml")]
+    for f in sorted(files):
+        rel = f.relative_to(ROOT).as_posix()
+        if "__pycache__" in rel or rel.startswith(NOT_COUNTING):
+            continue
+        h.update(f"\0{rel}\0".encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def _cache_path(key: str, suffix: str = "") -> Path:
+    return CACHE / (key.replace("/", "__") + suffix + ".json")
+
+
+def cached(key: str, suffix: str = "") -> dict | None:
+    """The cache file of configuration ``key`` when it was counted by the code at hand (:func:`code_key`),
+    else ``None`` (absent or stale)."""
+    path = _cache_path(key, suffix)
+    if not path.is_file():
+        return None
+    d = json.loads(path.read_text())
+    return d if d.get("code") == code_key() else None
+
+
+def _write(key: str, data: dict, suffix: str = "") -> None:
+    path = _cache_path(key, suffix)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps({**data, "code": code_key()}, indent=1, default=str))
 
 
 def _frame_counters(report: dict) -> dict:
@@ -133,14 +182,12 @@ def _with_texcache(key: str, c: dict, make, device: str = "cpu", warm=None) -> d
     stages = [s for s in TEXCACHE.get(key.split("/")[0], ()) if s in c]
     if not stages:
         return c
-    path = CACHE / (key.replace("/", "__") + "__texcache.json")
-    tc = json.loads(path.read_text()) if path.is_file() else None
-    if tc is None or "miss_bytes_by_block" not in tc:  # (a file from before the block sensitivity: recount)
+    tc = cached(key, "__texcache")
+    if tc is None:
         from warpvol.reproduce.texcache import table_misses
 
         tc = table_misses(warm or _pipeline(key, device), make(), warm=warm is not None)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(tc, indent=1))
+        _write(key, tc, "__texcache")
     g = dict(c[stages[0]])
     g["tex_miss_bytes"] = int(tc["miss_bytes"])
     return {**c, stages[0]: g}
@@ -151,10 +198,10 @@ def texcache_at(key: str, c: dict, block: int) -> dict:
     term counted for memory blocks of ``block`` x ``block`` texels (one of
     :data:`warpvol.reproduce.texcache.SENSITIVITY_BLOCKS`); unchanged where the term is not counted."""
     stages = [s for s in TEXCACHE.get(key.split("/")[0], ()) if s in c and "tex_miss_bytes" in c[s]]
-    path = CACHE / (key.replace("/", "__") + "__texcache.json")
-    if not stages or not path.is_file():
+    tc = cached(key, "__texcache")
+    if not stages or tc is None:
         return c
-    by = json.loads(path.read_text())["miss_bytes_by_block"]
+    by = tc["miss_bytes_by_block"]
     return {**c, stages[0]: {**c[stages[0]], "tex_miss_bytes": int(by[str(block)])}}
 
 
@@ -191,12 +238,26 @@ def _configs() -> dict:
 CONFIGS = _configs()
 
 
+def is_cached(key: str) -> bool:
+    """Whether configuration ``key``'s counters (and its texture-cache term, where it has one) are in the
+    cache, counted by the code at hand."""
+    d = cached(key)
+    if d is None:
+        return False
+    return not any(s in d["counters"] for s in TEXCACHE.get(key.split("/")[0], ())) or \
+        cached(key, "__texcache") is not None
+
+
 def counters(key: str, device: str = "cpu", refresh: bool = False) -> dict:
-    """Per-frame counters of configuration ``key`` (cached; see the module docstring)."""
-    path = CACHE / (key.replace("/", "__") + ".json")
+    """Per-frame counters of configuration ``key`` (cached, keyed by :func:`code_key`; see the module
+    docstring)."""
+    import time
+
     make, pipe = CONFIGS[key]
-    if path.is_file() and not refresh:
-        return _with_texcache(key, json.loads(path.read_text())["counters"], make, device)
+    d = None if refresh else cached(key)
+    if d is not None:
+        return _with_texcache(key, d["counters"], make, device)
+    t0 = time.perf_counter()
     sc = make()
     if isinstance(pipe, tuple):  # the host visibility sort alone, counted as the sort stage counts it
         from warpvol.projection.sort import visibility_order
@@ -204,27 +265,71 @@ def counters(key: str, device: str = "cpu", refresh: bool = False) -> dict:
         r = visibility_order(sc.mesh, sc.camera, pipe[1])
         c = {"sort": {"cells_sorted": len(r.order), "graph_edges": int(r.edges), "cycles_broken": int(r.cycles_broken),
                       **{k: int(v) for k, v in r.extra.items()}}}
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps({"key": key, "tets": int(sc.mesh.n_tets), "counters": c,
-                                    "stats": {"sort": {"method": r.method, "exact": bool(r.exact)}}}, indent=1))
+        _write(key, {"key": key, "tets": int(sc.mesh.n_tets), "counters": c, "seconds": time.perf_counter() - t0,
+                     "stats": {"sort": {"method": r.method, "exact": bool(r.exact)}}})
         return c
+    from contextlib import nullcontext
+
+    from warpvol.reproduce.texcache import misses, observe_draws
+
     p = _pipeline(key, device)
+    seen: list = []
+    tex = bool(TEXCACHE.get(key.split("/")[0]))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        p.render(sc, quiet=True)  # tables, per-mesh textures and kernels: the redraw below is the frame
-        res = p.render(sc, quiet=True)
+        p.render(sc, quiet=True)  # tables, per-mesh textures (uploads) and kernels: the redraw below is the frame
+        with observe_draws(seen) if tex else nullcontext():  # its lookups also give the texture-cache term
+            res = p.render(sc, quiet=True)
     c = _frame_counters(res.report)
     stats = {k: v for k, v in (res.report.get("stats") or {}).items() if k in ("sort", "harc", "vicp")}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps({"key": key, "tets": int(sc.mesh.n_tets), "counters": c, "stats": stats},
-                               indent=1, default=str))
-    (CACHE / (key.replace("/", "__") + "__texcache.json")).unlink(missing_ok=True)
+    if tex and any(s in c for s in TEXCACHE[key.split("/")[0]]):
+        _write(key, misses(seen), "__texcache")
+    else:
+        _cache_path(key, "__texcache").unlink(missing_ok=True)
+    del seen
+    _write(key, {"key": key, "tets": int(sc.mesh.n_tets), "counters": c, "stats": stats,
+                 "seconds": time.perf_counter() - t0})
     return _with_texcache(key, c, lambda: sc, device, warm=p)
 
 
+#: seconds a configuration's count is expected to take when no earlier count says (progress weights)
+GUESS_S = 30.0
+
+
+def fill(keys, device: str = "cpu", refresh: bool = False, force_lines: bool = True) -> dict:
+    """Count the configurations ``keys`` not in the cache (all with ``refresh``) in this process, with a
+    progress bar weighted by each one's time in its last count (a stale file keeps it); returns
+    ``{"counted": {key: seconds}, "cached": n, "failed": {key: error}}`` (a failure is left to the caller,
+    which lists its rows as skipped)."""
+    import time
+
+    from warpvol.progress import ProgressBar
+
+    todo = [k for k in keys if refresh or not is_cached(k)]
+    weight = {}
+    for k in todo:
+        p = _cache_path(k)
+        old = json.loads(p.read_text()).get("seconds") if p.is_file() else None
+        weight[k] = float(old) if old else GUESS_S
+    out = {"counted": {}, "cached": len(keys) - len(todo), "failed": {}}
+    if not todo:
+        return out
+    with ProgressBar(f"counting {len(todo)} configuration(s)", sum(weight.values()), force=force_lines) as bar:
+        for k in todo:
+            bar.describe(k)
+            t0 = time.perf_counter()
+            try:
+                counters(k, device, refresh=True)
+                out["counted"][k] = time.perf_counter() - t0
+            except Exception as e:  # noqa: BLE001 - data absent or a stage failed: the caller skips the rows
+                out["failed"][k] = f"{type(e).__name__}: {e}"
+            bar.advance(weight[k], f"{k} done in {time.perf_counter() - t0:.0f} s")
+    return out
+
+
 def tets(key: str) -> int | None:
-    path = CACHE / (key.replace("/", "__") + ".json")
-    return json.loads(path.read_text())["tets"] if path.is_file() else None
+    d = cached(key)
+    return None if d is None else d["tets"]
 
 
 if __name__ == "__main__":  # python -m warpvol.reproduce.model_rows [PREFIX ...]: fill the cache
@@ -234,12 +339,11 @@ if __name__ == "__main__":  # python -m warpvol.reproduce.model_rows [PREFIX ...
     from warpvol.pipeline import quiet_warp
 
     quiet_warp()
-    for key in CONFIGS:
-        if len(sys.argv) > 1 and not key.startswith(tuple(sys.argv[1:])):
-            continue
-        t0 = time.perf_counter()
-        try:
-            c = counters(key, refresh=os.environ.get("REFRESH") == "1")
-            print(f"{key}: {time.perf_counter() - t0:.1f} s, {sum(len(v) for v in c.values())} counters", flush=True)
-        except Exception as e:  # noqa: BLE001 - reported, next configuration
-            print(f"{key}: FAILED {type(e).__name__}: {e}", flush=True)
+    keys = [k for k in CONFIGS if len(sys.argv) < 2 or k.startswith(tuple(sys.argv[1:]))]
+    t0 = time.perf_counter()
+    r = fill(keys, refresh=os.environ.get("REFRESH") == "1")
+    for k, v in r["counted"].items():
+        print(f"{k}: {v:.1f} s", flush=True)
+    for k, v in r["failed"].items():
+        print(f"{k}: FAILED {v}", flush=True)
+    print(f"{len(r['counted'])} counted in {time.perf_counter() - t0:.0f} s, {r['cached']} from the cache", flush=True)

@@ -96,7 +96,7 @@ def _texel_coords(program, c: np.ndarray) -> tuple:
 
 
 @contextlib.contextmanager
-def _observe_draws(seen: list):
+def observe_draws(seen: list):
     """While active, every :func:`warpvol.projection.pt.draw` batch whose program has ``coords`` adds
     ``(program, prim, coords)`` to ``seen``."""
     import warpvol.projection.pt as pt
@@ -128,9 +128,7 @@ SENSITIVITY_BLOCKS = (BLOCK // 2, BLOCK * 2)
 def table_misses(pipeline, scene, warm: bool = False) -> dict:
     """Texture-cache misses of ``pipeline``'s table lookups in a redraw of ``scene`` (a first render builds
     tables and compiles kernels, unless ``warm``: the caller rendered the scene with this pipeline
-    already): ``fragments``, ``blocks`` (distinct per triangle, summed over the draw's batches and the
-    fetch's textures), ``block_bytes`` (the texture's bytes per texel x BLOCK^2) and ``miss_bytes``;
-    ``miss_bytes_by_block``: the same count for block edges :data:`SENSITIVITY_BLOCKS` and BLOCK."""
+    already): :func:`misses` of the redraw's draws."""
     import warnings
 
     seen: list = []
@@ -138,8 +136,16 @@ def table_misses(pipeline, scene, warm: bool = False) -> dict:
         warnings.simplefilter("ignore")
         if not warm:
             pipeline.render(scene, quiet=True)
-        with _observe_draws(seen):
+        with observe_draws(seen):
             pipeline.render(scene, quiet=True)
+    return misses(seen)
+
+
+def misses(seen: list) -> dict:
+    """The misses of the draws :func:`observe_draws` saw: ``fragments``, ``blocks`` (distinct per triangle,
+    summed over the draw's batches and the fetch's textures), ``block_bytes`` (the texture's bytes per texel
+    x BLOCK^2) and ``miss_bytes``; ``miss_bytes_by_block``: the same count for block edges
+    :data:`SENSITIVITY_BLOCKS` and BLOCK."""
     frags = 0
     nbytes = 0
     edges = sorted({BLOCK, *SENSITIVITY_BLOCKS})
