@@ -285,7 +285,7 @@ def test_relative_rows_take_their_role_from_their_absolute_rows():
                                                     for s in vm.SORTS)]
     absolute[0]["role"] = absolute[1]["role"] = cal  # GeForce4, Blunt Fin: numeric and MPVO fitted
     rel = [r for r in vm.relative_rows(None, absolute) if r["paper"] == "Guthe 2002" and r["row"].startswith("T5")]
-    first = next(r for r in rel if r["row"] == "T5 numeric over MPVO" and r["card"] == "GeForce4 Ti 4600"
+    first = next(r for r in rel if r["row"] == "T5 numeric over MPVO" and r["card"] == vm.GF4
                  and r["data"] == "Blunt Fin")
     assert first["role"] == "calibration only" and "calibration: " in first["note"]
     counts = vm.relative_counts(rel)
@@ -313,9 +313,48 @@ def test_shipped_validation_json_counts_follow_from_its_absolute_rows():
     by_role = {(r[0], r[1]): r[2:4] for r in shipped["counts"]["rows"]}
     n_pred = sum(r[8] == "prediction" and r[7] is not None for r in shipped["relative"]["rows"])
     assert by_role[("relative rows", "prediction")][1] == n_pred
-    gf4 = next(r for r in shipped["relative"]["rows"] if r[1:4] == ["T5 numeric over MPVO", "GeForce4 Ti 4600",
-                                                                    "Blunt Fin"])
+    gf4 = next(r for r in shipped["relative"]["rows"] if r[1:4] == ["T5 numeric over MPVO", vm.GF4, "Blunt Fin"])
     assert gf4[8] == "calibration only"  # both of its rows fitted the GeForce4's sort rates
+    assert "assumed" in vm.GF4  # the paper says "GeForce4"; the Ti 4600 is the model's assumption
+    ind = shipped["counts"]["independent"]
+    assert (ind["relative_rows"], ind["prediction_rows"]) == (len([r for r in shipped["relative"]["rows"]
+                                                                    if r[6] is not None]), n_pred)
+    assert ind["independent_ratios"] < ind["relative_rows"] and "independent ratios" in shipped["counts"]["notes"]
+    # VICP-GPU on the LOX Post: most of its time is the host sort fitted to the VICP LOX Post row
+    roles = {r[1]: r[5] for r in shipped["rows"]["rows"]}
+    assert roles["T2/T3 VICP-GPU LOX Post [fps]"] == f"calibration on {vm.VICP_LOX}"
+    assert roles["T2/T3 VICP-GPU Blunt Fin [fps]"] == "prediction"
+    vv = next(r for r in shipped["relative"]["rows"] if r[1] == "VICP-GPU over VICP" and r[3] == "LOX Post")
+    assert vv[8] == "calibration only"
+
+
+def test_relative_rows_rest_on_fewer_independent_ratios():
+    """A relative row's ratio is its A row's over its B row's: rows over one set of absolute rows span at
+    most (rows used) - (linked groups) independent ratios; a one-calibration row's ratio is the predicted
+    row's over the calibration row's (not the predicted row's unless the fit is exact)."""
+    vm = _validate_model_script()
+
+    def rel(a, b, role="prediction"):
+        return {"a": ("P", a), "b": ("P", b), "ratio": 1.0, "role": role}
+
+    rows = [rel("x", "y"), rel("y", "z"), rel("x", "z"), rel("u", "v"), rel("u", "v", "one calibration row")]
+    assert vm.independent_ratios(rows) == (5, 3)  # {x, y, z}: 2, {u, v}: 1
+    assert vm.independent_ratios(rows, "prediction") == (4, 3)
+    assert vm.independent_ratios([{**rows[0], "ratio": None}]) == (0, 0)
+
+    def row(name, pv, mv, role):
+        return {"paper": "Guthe 2002", "row": name, "paper_value": pv, "modelled": mv, "ratio": mv / pv,
+                "role": role, "note": ""}
+
+    absolute = [row(f"T5 {vm.CARD[c]} {vm.DATA[d]} {la} [fps]", 2.0, 2.0, "prediction")
+                for c in vm.GUTHE_T5 for d in ("bluntfin", "bucky") for la, _ in vm.SORTS]
+    absolute[1] = {**absolute[1], "modelled": 2.0 * 1.047, "ratio": 1.047, "role": "calibration on this row"}
+    absolute[2] = {**absolute[2], "modelled": 2.0 * 0.9, "ratio": 0.9}
+    one = next(r for r in vm.relative_rows(None, absolute) if r["row"] == "T5 MPVO over XMPVO"
+               and r["card"] == vm.GF4 and r["data"] == "Blunt Fin")
+    assert one["role"] == "one calibration row" and one["ratio"] == pytest.approx(1.047 / 0.9)
+    assert "repeats" not in " ".join(vm.count_lines(absolute, [one]))
+
 
 
 def test_agreements_resting_on_one_estimate_show_it():
