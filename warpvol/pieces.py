@@ -111,14 +111,42 @@ def read_piece(path: Path | str, scalars: str):
         if ghost.any():
             ds = ds.extract_cells(np.flatnonzero(~ghost))
             notes["ghost_cells_dropped"] = int(ghost.sum())
+    gid = next((k for k in GLOBAL_ID_ARRAYS if k in ds.point_data), None)
+    if gid is not None:  # points in global order: rays through shared edges and vertices tie-break as the whole
+        g = np.asarray(ds.point_data[gid]).astype(np.int64)
+        if len(g) > 1 and not (np.diff(g) > 0).all():
+            ds = _points_in_order(ds.cast_to_unstructured_grid(), np.argsort(g, kind="stable"))
+            notes["points_in_global_order"] = int(len(g))
     for data in (ds.point_data, ds.cell_data):
-        for k in [k for k in data.keys() if k.startswith("vtk")]:
+        for k in [k for k in data.keys() if k.startswith("vtk") or k in GLOBAL_ID_ARRAYS]:
             del data[k]
     try:
         return mesh_from_dataset(ds, scalars, name=p.name, source=str(p), scalars_key=f"piece {p.name}: scalars",
                                  dataset_key=f"piece {p.name}", notes=notes)
     except ConfigError as e:
         raise ConfigError(f"piece {p.name}: {e}") from None
+
+
+#: point-data arrays that carry global point ids (ParaView's, VTK's and :func:`partition_mesh`'s names)
+GLOBAL_ID_ARRAYS = ("GlobalPointIds", "vtkGlobalIds", "GlobalNodeId", "GlobalNodeIds")
+
+
+def _points_in_order(grid, order: np.ndarray):
+    """``grid`` (an unstructured grid) with its points in ``order`` (old index of each new point)."""
+    import pyvista as pv
+
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    conn = np.asarray(grid.cells).copy()  # VTK's legacy cell array: (count, ids...) per cell
+    ids = np.ones(len(conn), dtype=bool)
+    ids[np.asarray(grid.cell_offsets)[:-1] + np.arange(grid.n_cells)] = False
+    conn[ids] = rank[conn[ids]]
+    out = pv.UnstructuredGrid(conn, np.asarray(grid.celltypes), np.asarray(grid.points)[order])
+    for k in grid.point_data.keys():
+        out.point_data[k] = np.asarray(grid.point_data[k])[order]
+    for k in grid.cell_data.keys():
+        out.cell_data[k] = np.asarray(grid.cell_data[k])
+    return out
 
 
 def _peak_bytes() -> int:
@@ -262,17 +290,11 @@ def partition_mesh(mesh_path: Path | str, n: int, outdir: Path | str, scalars: s
         piece = ds.extract_cells(cells)
         # extract_cells keeps the points in first-use order: put them back in the whole mesh's order
         orig = np.asarray(piece.point_data["vtkOriginalPointIds"], dtype=np.int64)
-        order = np.argsort(orig, kind="stable")
-        rank = np.empty_like(order)
-        rank[order] = np.arange(len(order))
-        conn = np.asarray(piece.cells).copy()  # VTK's legacy cell array: (count, ids...) per cell
-        ids = np.ones(len(conn), dtype=bool)
-        ids[np.asarray(piece.cell_offsets)[:-1] + np.arange(piece.n_cells)] = False
-        conn[ids] = rank[conn[ids]]
-        ctypes = np.asarray(piece.celltypes)
-        g = pv.UnstructuredGrid(conn, ctypes, np.asarray(piece.points)[order])
-        g.point_data[name] = np.asarray(ds.point_data[name])[orig[order]]
-        g.point_data["GlobalPointIds"] = gids[orig[order]]
+        g = _points_in_order(piece, np.argsort(orig, kind="stable"))
+        for data in (g.point_data, g.cell_data):
+            for key in [key for key in data.keys() if key.startswith("vtk")]:
+                del data[key]
+        g.point_data["GlobalPointIds"] = gids[np.sort(orig)]
         arrays = [(name, g.point_data[name].dtype), ("GlobalPointIds", np.dtype(np.int64))]
         g.save(out / f"piece{k}.vtu")
     vtk_type = {np.dtype(np.float64): "Float64", np.dtype(np.float32): "Float32", np.dtype(np.int64): "Int64",
@@ -346,4 +368,5 @@ def render_in_pieces(scene: Path | str, pipeline: str = "raycast", scheduler: An
             client.close()
             if cluster is not None:
                 cluster.close()
+    report["client_peak_bytes"] = _peak_bytes()  # this process's peak resident memory (it never loads the mesh)
     return {"image": img, "segments": segs, "reference": ref, "report": report}
