@@ -205,7 +205,7 @@ def add_under_tr(acc: wp.vec4, seg: wp.vec4, e: float) -> wp.vec4:
     return wp.vec4(acc[0] + tr * seg[0], acc[1] + tr * seg[1], acc[2] + tr * seg[2], tr * e)
 
 
-def make_walk(planes: bool, paper: bool, mode: int, segs: bool = False):
+def make_walk(planes: bool, paper: bool, mode: int, segs: bool = False, clip: bool = True):
     """The walk of one configuration (see the module docstring) as a ``@wp.func``:
 
     ``walk(cell, face_in, fc, t_in, s_in, acc, r, o, d, t_clip, scale, mesh, mt, ig, opts, counters, chunk)``
@@ -217,7 +217,10 @@ def make_walk(planes: bool, paper: bool, mode: int, segs: bool = False):
     Returns ``(acc, t, cell, steps, cells, failed, exited, thin, backward, fetches, seg)``: the composited state,
     the last exit's ray parameter and cell, segments integrated (iso sub-steps included), cells visited, failed
     (1), left the mesh (1), failed on a thin layer (1), took a step with ``lambda' < lambda`` (1, the paper's
-    walk), texture fetches of the planes walk, and (``segs``) this entry's own ``(rgb, tr)``."""
+    walk), texture fetches of the planes walk, and (``segs``) this entry's own ``(rgb, tr)``. ``clip`` (the exact
+    Plücker walk): a ray may start inside the mesh's bounding sphere (``t_clip > 0``: ``raycast``), so segments
+    are clipped at ``t_clip``; without it (HARC, whose rays start on a rasterised boundary face) ``t_clip`` is not
+    read."""
     exact = mode == INTEG_EXACT
     carried = (not planes) and exact  # the exact Plücker walk: TF carried face to face, checks, (rgb, tr) state
     if paper and not planes:
@@ -247,18 +250,14 @@ def make_walk(planes: bool, paper: bool, mode: int, segs: bool = False):
         if wp.static(carried):
             k_in = tf_upper(s_in, ig.tf_s)
             v_in = tf_eval_upper(s_in, k_in, ig.tf_s, ig.tf_v)
-            if t_in >= t_clip and grazing_unresolved(acc[3], v_in, ig.model, fc, r, t_in, scale):
+            if (wp.static(not clip) or t_in >= t_clip) and grazing_unresolved(acc[3], v_in, ig.model, fc, r, t_in,
+                                                                              scale):
                 failed = 1  # entering through a face seen nearly edge-on: the chord's float32 start is too uncertain
             ds_in = scalar_error_if(opts.scalar_check, fc, r)  # the entry crossing's scalar error
         if wp.static(not planes):
             gn = mesh.tets[cell][face_in]
         while cells < opts.max_steps and failed == 0:
             cells += 1
-            t_out = float(0.0)
-            s_out = float(0.0)
-            nb = int(-1)
-            f_out = int(-1)
-            vrow = wp.vec4i()
             if wp.static(planes):
                 lam, f_out = plane_exit(mt, cell, o, d)
                 fetches += 4
@@ -297,11 +296,11 @@ def make_walk(planes: bool, paper: bool, mode: int, segs: bool = False):
             if wp.static(carried):
                 k_out = tf_upper_from(s_out, k_in, ig.tf_s)
                 v_out = tf_eval_upper(s_out, k_out, ig.tf_s, ig.tf_v)
-                if t_out > t_clip:
+                if wp.static(not clip) or t_out > t_clip:
                     tr = acc[3]
                     ln = t_out - t_in
                     seg = wp.vec4(0.0, 0.0, 0.0, 0.0)
-                    if t_in >= t_clip:
+                    if wp.static(not clip) or t_in >= t_clip:
                         if k_in == k_out:  # no control point crossed: one linear piece
                             seg = integrate_piece(ln, v_in, v_out, ig.model)
                         else:
@@ -355,20 +354,20 @@ def make_walk(planes: bool, paper: bool, mode: int, segs: bool = False):
                     steps += n_sub
             t_in = t_out
             s_in = s_out
-            tr_now = float(0.0)
             if wp.static(carried):
-                tr_now = acc[3]
+                if acc[3] < opts.t_stop:
+                    break
             else:
-                tr_now = 1.0 - acc[3]
-            if tr_now < opts.t_stop:
-                break
+                if 1.0 - acc[3] < opts.t_stop:
+                    break
             if nb < 0:
                 exited = 1
                 if wp.static(carried):
                     if thin_at_exit(thin_mem):
                         failed = 1
                         thin = 1
-                    elif t_in > t_clip and grazing_unresolved(acc[3], v_in, ig.model, fc, r, t_in, scale):
+                    elif (wp.static(not clip) or t_in > t_clip) and grazing_unresolved(acc[3], v_in, ig.model, fc, r,
+                                                                                        t_in, scale):
                         failed = 1  # leaving through a face seen nearly edge-on
                 break
             if wp.static(not planes):

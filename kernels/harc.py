@@ -172,7 +172,7 @@ def make_march(walk: int, setup: int, mode: int):
     # other walks composite RGBA "under" (the paper's Fig. 6)
     fused = (not planes) and exact
 
-    walk_cells = make_walk(planes, paper, mode)
+    walk_cells = make_walk(planes, paper, mode, clip=False)  # (a ray starting inside the sphere is failed first)
 
     @wp.kernel(module="unique", module_options=MARCH_OPTIONS)
     def harc_march(

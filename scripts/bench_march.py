@@ -86,7 +86,16 @@ def as_package(x, pkg: str):
     field); anything else as it is."""
     if not hasattr(x, "_cls"):
         return x
-    mod = importlib.import_module(x._cls.module.name.replace("warpvol.kernels", pkg, 1))
+    try:
+        mod = importlib.import_module(x._cls.module.name.replace("warpvol.kernels", pkg, 1))
+    except ModuleNotFoundError:
+        mod = None
+    if mod is None or not hasattr(mod, x._cls.key):  # a struct defined elsewhere in pkg (moved between modules)
+        import pkgutil
+
+        base = importlib.import_module(pkg)
+        mod = next(m for m in (importlib.import_module(f"{pkg}.{i.name}") for i in pkgutil.iter_modules(base.__path__))
+                   if hasattr(m, x._cls.key))
     out = getattr(mod, x._cls.key)()
     for name in x._cls.vars:
         setattr(out, name, as_package(getattr(x, name), pkg))
