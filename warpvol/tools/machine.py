@@ -16,9 +16,11 @@ from __future__ import annotations
 import datetime
 import os
 import platform
+import subprocess
 import sys
 import time
 from importlib import metadata
+from pathlib import Path
 
 
 def timer_resolution() -> float:
@@ -34,12 +36,35 @@ def load_average() -> str:
         return "n/a"
 
 
+#: paths whose changes do not make a run "dirty": the generated files and the pages themselves
+NOT_CODE = ("docs",)
+
+
+def _git(*args: str, cwd: Path | None = None) -> str | None:
+    try:
+        r = subprocess.run(["git", *args], cwd=cwd or Path(__file__).resolve().parent, capture_output=True,
+                           text=True, timeout=20)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return r.stdout.strip() if r.returncode == 0 else None
+
+
+def git_state() -> tuple[str | None, bool | None]:
+    """``(commit, dirty)`` of the checkout warpvol runs from: HEAD, and whether tracked files outside
+    ``docs/`` differ from it; ``(None, None)`` for an installed copy or without git."""
+    top = _git("rev-parse", "--show-toplevel")
+    head = _git("rev-parse", "HEAD", cwd=Path(top)) if top else None
+    if not head:
+        return None, None
+    status = _git("status", "--porcelain", "--untracked-files=no", "--", ".",
+                  *(f":(exclude){p}" for p in NOT_CODE), cwd=Path(top))
+    return head, (None if status is None else bool(status))
+
+
 def git_commit() -> str:
     """The commit of the checkout warpvol runs from, ``+ local changes`` when tracked files outside
-    ``docs/`` differ from it (:func:`warpvol.tools.provenance.git_state`); ``unknown (...)`` for an
+    ``docs/`` differ from it (:func:`git_state`); ``unknown (...)`` for an
     installed copy or without git."""
-    from warpvol.tools.provenance import git_state
-
     commit, dirty = git_state()
     if commit is None:
         return "unknown (not a git checkout, or git not available)"

@@ -34,39 +34,15 @@ import json
 import os
 import platform
 import shlex
-import subprocess
 import sys
 from pathlib import Path
+
+from warpvol.tools.machine import _git, cpu_cores, cpu_model, git_state
 
 #: the key of the block in a generated JSON document
 KEY = "_provenance"
 #: the keys of a block (``note`` optional, ``parts`` only at the top level)
 FIELDS = ("commit", "dirty", "command", "date", "timing", "load", "machine")
-#: paths whose changes do not make a run "dirty": the generated files and the pages themselves
-NOT_CODE = ("docs",)
-
-
-def _git(*args: str, cwd: Path | None = None) -> str | None:
-    try:
-        r = subprocess.run(["git", *args], cwd=cwd or Path(__file__).resolve().parent, capture_output=True,
-                           text=True, timeout=20)
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return r.stdout.strip() if r.returncode == 0 else None
-
-
-def git_state() -> tuple[str | None, bool | None]:
-    """``(commit, dirty)`` of the checkout warpvol runs from: HEAD, and whether tracked files outside
-    ``docs/`` differ from it; ``(None, None)`` for an installed copy or without git."""
-    top = _git("rev-parse", "--show-toplevel")
-    head = _git("rev-parse", "HEAD", cwd=Path(top)) if top else None
-    if not head:
-        return None, None
-    status = _git("status", "--porcelain", "--untracked-files=no", "--", ".",
-                  *(f":(exclude){p}" for p in NOT_CODE), cwd=Path(top))
-    return head, (None if status is None else bool(status))
-
-
 def load_now() -> list[float] | None:
     """The 1, 5 and 15 minute load averages, rounded to 0.01 (None where the system has none)."""
     try:
@@ -76,8 +52,6 @@ def load_now() -> list[float] | None:
 
 
 def machine() -> dict[str, str]:
-    from warpvol.tools.machine import cpu_cores, cpu_model
-
     return {"cpu": cpu_model(), "cores": cpu_cores(), "os": f"{platform.system()} {platform.release()}"}
 
 
