@@ -11,12 +11,12 @@ import pytest  # noqa: E402
 import pyvista as pv  # noqa: E402
 
 import warpvol  # noqa: E402
-from tolerances import TOLERANCES  # noqa: E402
+from tolerances import preset_tolerance  # noqa: E402
 from warpvol import ConfigError, Pipeline  # noqa: E402
 from warpvol.io import read_exr, write_exr  # noqa: E402
 from warpvol.metrics import image_error  # noqa: E402
 
-TOL = TOLERANCES["raycast/fp32"]
+TOL = preset_tolerance("raycast")
 
 
 def small(name="box", px=16):

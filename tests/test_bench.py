@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import warpvol
-from tolerances import TOLERANCES
+from tolerances import TOLERANCES, preset_tolerance
 from warpvol.cli import main
 from warpvol.errors import ConfigError
 from warpvol.pipeline import Pipeline, list_presets
@@ -43,7 +43,7 @@ def test_bench_report_has_every_preset_and_field(bench_dir):
         assert set(r["stages_s"]) | {s["stage"] for s in r["skipped"]} == set(Pipeline.load(r["pipeline"]).stage_keys())
         assert all(isinstance(v, int) for c in r["counters"].values() for v in c.values())
     ray = next(r for r in doc["rows"] if r["pipeline"] == "raycast")
-    assert ray["rmse"] < TOLERANCES["raycast/fp32"]["rmse"] and ray["counters"]["raycast"]["cell_steps"] > 0
+    assert ray["rmse"] < preset_tolerance("raycast")["rmse"] and ray["counters"]["raycast"]["cell_steps"] > 0
     # the CSV and Markdown tables hold the same rows
     rows = list(csv.DictReader(io.StringIO((bench_dir / "table.csv").read_text())))
     assert [r["pipeline"] for r in rows] == [r["pipeline"] for r in doc["rows"]]

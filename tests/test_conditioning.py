@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from helpers import box_mesh, scene
-from tolerances import TOLERANCES
+from tolerances import EXACT_PRESETS, preset_tolerance
 from warpvol.conditioning.conditioning import condition_scene, precision_warnings
 from warpvol.errors import ConfigError
 from warpvol.pipeline import Pipeline
@@ -25,8 +25,6 @@ from warpvol.scene.transfer import TransferFunction
 from warpvol.tools.stress import report_warnings
 from warpvol.tools.stress_real import offset_scene
 
-ROWS = {"raycast": "raycast/fp32", "harc_best": "harc_best", "pt_best": "pt_best",
-        "vsbuffer_best": "vsbuffer/vsbuffer_best"}
 PX = 32
 
 CASES = {
@@ -53,8 +51,8 @@ def reference(sc):
     return _REFS[key]
 
 
-def within(err, row):
-    tol = TOLERANCES[row]
+def within(err, preset):
+    tol = preset_tolerance(preset)
     return err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"]
 
 
@@ -72,13 +70,13 @@ def test_conditioning_keeps_the_exact_image(case):
     assert np.abs(ref - cref).max() <= 1e-7  # the float64 reference of the original: ~1e-16 x offset / span
 
 
-@pytest.mark.parametrize("preset", list(ROWS))
+@pytest.mark.parametrize("preset", list(EXACT_PRESETS))
 @pytest.mark.parametrize("case", list(CASES))
 def test_exact_presets_within_tolerance(case, preset):
     sc = case_scene(case)
     ref = reference(sc)
     res = Pipeline.load(preset).render(sc, reference=ref, quiet=True)
-    assert within(res.report["error"], ROWS[preset]), (res.report["error"], res.report["stats"]["condition"])
+    assert within(res.report["error"], preset), (res.report["error"], res.report["stats"]["condition"])
     assert "precision" not in res.report["stats"] and not report_warnings(res.report)
 
 
@@ -148,9 +146,9 @@ def test_tf_points_at_the_float64_limits():
     wide = _with_tf_points(sc, np.vstack([[-1.7e308, *tf[0, 1:]], tf, [1.7e308, *tf[-1, 1:]]]))
     ref = reference(sc)
     assert np.abs(render_reference(wide.mesh, wide.transfer, wide.camera) - ref).max() == 0.0
-    for preset in ROWS:  # the TF restricted to the data's range: the points at +-1.7e308 drop out
+    for preset in EXACT_PRESETS:  # the TF restricted to the data's range: the points at +-1.7e308 drop out
         res = Pipeline.load(preset).render(wide, reference=ref, quiet=True)
-        assert within(res.report["error"], ROWS[preset]), (preset, res.report["error"])
+        assert within(res.report["error"], preset), (preset, res.report["error"])
     with pytest.raises(ConfigError, match=r"transfer\.points \(s\): \|value\| up to 1\.7e\+308"):
         Pipeline.load("kraus2004_basic").render(wide, quiet=True)
 
@@ -185,7 +183,7 @@ def test_native_cells_survive_conditioning():
     ref = render_reference(m, tf, cam)
     res = Pipeline.load("vsbuffer_best").render(sc, reference=ref, quiet=True)
     assert res.report["stats"]["vsb_setup"]["cells_by_type"] == {"hex": 8}
-    assert ref[..., 3].max() > 0.5 and within(res.report["error"], "vsbuffer/vsbuffer_best"), res.report["error"]
+    assert ref[..., 3].max() > 0.5 and within(res.report["error"], "vsbuffer_best"), res.report["error"]
 
 
 def test_camera_thresholds_are_relative_to_the_scene():
@@ -207,7 +205,7 @@ def test_mesh_scaled_to_1e_minus_13_renders_with_the_paper_vsbuffer():
         warnings.simplefilter("error")
         res = Pipeline.load("westermann1997").render(sc, reference=render_reference(sc.mesh, sc.transfer, sc.camera),
                                                      quiet=True)
-    assert within(res.report["error"], "vsbuffer/westermann1997")
+    assert within(res.report["error"], "westermann1997")
     m = box_mesh(scalar=lambda p: p[:, 0])
     assert TetMesh(m.points * 1e-13, m.tets, m.scalars).n_tets == m.n_tets
 
@@ -222,4 +220,4 @@ def test_convex_cell_mesh_input_is_conditioned_with_its_cells():
     assert np.abs(c.mesh.pieces.points).max() == pytest.approx(1.0)
     res = Pipeline.load("vsbuffer_best").render(scene(cells, sc.transfer, sc.camera), reference=reference(sc),
                                                 quiet=True)
-    assert within(res.report["error"], "vsbuffer/vsbuffer_best"), res.report["error"]
+    assert within(res.report["error"], "vsbuffer_best"), res.report["error"]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import warp as wp
 
-from tolerances import TOLERANCES
+from tolerances import preset_tolerance
 from warpvol.io import read_exr, write_exr, write_png
 from warpvol.kernels import tf as ktf
 from warpvol.scene.camera import Camera
@@ -121,7 +121,7 @@ def test_real_meshes_raycast_matches_reference(name):
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
     res = Pipeline.load("raycast").render(sc, reference=ref, quiet=True)
     assert ref[..., 3].mean() > 0.02
-    tol = TOLERANCES["raycast/fp32"]
+    tol = preset_tolerance("raycast")
     assert res.report["error"]["rmse"] <= tol["rmse"], res.report["error"]
     assert res.report["error"]["max_abs"] <= tol["max_abs"], res.report["error"]
     assert image_error(res.image, ref) == res.report["error"]

@@ -14,7 +14,7 @@ import warnings
 import numpy as np
 import pytest
 
-from tolerances import TOLERANCES
+from tolerances import EXACT_PRESETS, preset_tolerance
 from warpvol.conditioning.conditioning import condition_scene, scalar_mapping
 from warpvol.errors import ConfigError
 from warpvol.pipeline import Pipeline
@@ -26,23 +26,20 @@ from warpvol.tools.stress import Case, report_warnings, run_case
 from warpvol.tools.stress_meshes import _box
 from warpvol.tools.stress_range import log_scene, rough_scene, silent_wrong, unused_points_scene
 
-ROWS = {"raycast": "raycast/fp32", "harc_best": "harc_best", "pt_best": "pt_best",
-        "vsbuffer_best": "vsbuffer/vsbuffer_best"}
 
-
-def within(err, row):
-    tol = TOLERANCES[row]
+def within(err, preset):
+    tol = preset_tolerance(preset)
     return err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"]
 
 
-@pytest.mark.parametrize("preset", list(ROWS))
+@pytest.mark.parametrize("preset", list(EXACT_PRESETS))
 @pytest.mark.parametrize("decades,n", [(6, 5), (9, 6), (12, 4)])
 def test_log_scaled_fields_render_exactly(preset, decades, n):
     sc = log_scene(24, decades=decades, n=n)
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
     assert ref[..., 3].max() > 0.5
     res = Pipeline.load(preset).render(sc, reference=ref, quiet=True)
-    assert within(res.report["error"], ROWS[preset]), (res.report["error"], res.report["stats"]["condition"])
+    assert within(res.report["error"], preset), (res.report["error"], res.report["stats"]["condition"])
     assert not report_warnings(res.report)
 
 
@@ -107,7 +104,7 @@ def test_rough_transfer_functions_are_exact_or_reported(points):
     res = Pipeline.load("raycast").render(sc, reference=ref, quiet=True)
     warned = "warning" in res.report["stats"]["condition"]
     assert warned == (points == 8192)
-    assert warned or within(res.report["error"], ROWS["raycast"]), res.report["error"]
+    assert warned or within(res.report["error"], "raycast"), res.report["error"]
 
 
 def test_ordinary_scenes_keep_the_midpoint_offset():
@@ -121,7 +118,7 @@ def test_ordinary_scenes_keep_the_midpoint_offset():
 # ------------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("preset", list(ROWS))
+@pytest.mark.parametrize("preset", list(EXACT_PRESETS))
 @pytest.mark.parametrize("distance", [1e3, 1e7, 1e30])
 def test_unused_points_change_no_exact_render(preset, distance):
     sc = unused_points_scene(24, distance)
@@ -130,7 +127,7 @@ def test_unused_points_change_no_exact_render(preset, distance):
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
     assert ref[..., 3].max() > 0.5
     res = Pipeline.load(preset).render(sc, reference=ref, quiet=True)
-    assert within(res.report["error"], ROWS[preset]), res.report["error"]
+    assert within(res.report["error"], preset), res.report["error"]
     assert not report_warnings(res.report)
     st = res.report["stats"]["condition"]
     assert st["scale"] == 1.0 and st["unused_points"] == 8
@@ -184,7 +181,7 @@ def test_render_of_a_part_file_draws_the_part(tmp_path):
 
 def test_stress_classes_show_no_silent_wrong_row():
     rows = []
-    pipes = [Pipeline.load(p) for p in ROWS]
+    pipes = [Pipeline.load(p) for p in EXACT_PRESETS]
     for sc in (log_scene(16, decades=9, n=4), unused_points_scene(16, 1e7, n=4), rough_scene(16, 4096)):
         rows += run_case(Case(sc.name, sc, ""), pipes)
     assert all(r["status"] == "ok" for r in rows) and not silent_wrong(rows)

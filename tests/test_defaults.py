@@ -15,7 +15,7 @@ import pytest  # noqa: E402
 import pyvista as pv  # noqa: E402
 
 import warpvol  # noqa: E402
-from tolerances import TOLERANCES  # noqa: E402
+from tolerances import preset_tolerance  # noqa: E402
 from warpvol import Camera, ConfigError  # noqa: E402
 from warpvol.api import as_scene  # noqa: E402
 from warpvol.cli import main  # noqa: E402
@@ -23,7 +23,7 @@ from warpvol.io import composite_over, read_exr  # noqa: E402
 from warpvol.metrics import ERROR_FLOOR, error_png_bytes  # noqa: E402
 from warpvol.scene.defaults import DEFAULT_SIZE, colormap_rgb  # noqa: E402
 
-TOL = TOLERANCES["raycast/fp32"]
+TOL = preset_tolerance("raycast")
 
 
 def grid(n=5):

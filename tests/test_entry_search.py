@@ -7,6 +7,7 @@ import pytest
 import warp as wp
 
 from helpers import noisy_shell
+from tolerances import preset_tolerance
 from warpvol.kernels import harc as kh
 from warpvol.pipeline import Pipeline
 from warpvol.raycasting.stages import entry_bins
@@ -137,7 +138,6 @@ def banded_slab(layers=17):
 
 def test_a_ray_re_enters_every_visible_layer_in_its_thread():
     from helpers import scene
-    from tolerances import TOLERANCES
     from warpvol.metrics import image_error
     from warpvol.reference.numpy_render import render_reference
 
@@ -154,7 +154,7 @@ def test_a_ray_re_enters_every_visible_layer_in_its_thread():
     per_pass = configured({}, raycast={"reentries": 0}, peel={"reentries": 0}).render(sc, quiet=True)
     assert per_pass.report["stats"]["peel"]["passes"] == visible_layers - 1
     assert np.array_equal(res.image, per_pass.image)
-    tol = TOLERANCES["raycast/fp32"]
+    tol = preset_tolerance("raycast")
     err = image_error(res.image, render_reference(m, tf, cam))
     assert err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"], err
 

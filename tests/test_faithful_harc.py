@@ -9,7 +9,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from tests.tolerances import TOLERANCES
+from tests.tolerances import preset_tolerance
 from warpvol.errors import ConfigError
 from warpvol.metrics import image_error
 from warpvol.pipeline import Pipeline
@@ -68,7 +68,7 @@ def test_tiny_mesh_loses_rays_in_espinha_not_in_harc_best():
     best = Pipeline.load("harc_best").render(sc, quiet=True)
     assert _lost(best.report) == 0
     e = image_error(best.image, ref)
-    assert e["max_abs"] <= TOLERANCES["harc_best"]["max_abs"] and e["rmse"] <= TOLERANCES["harc_best"]["rmse"]
+    assert e["max_abs"] <= preset_tolerance("harc_best")["max_abs"] and e["rmse"] <= preset_tolerance("harc_best")["rmse"]
 
 
 def test_far_eye_walk_steps_backwards_and_is_flagged():
@@ -80,10 +80,10 @@ def test_far_eye_walk_steps_backwards_and_is_flagged():
     back = res.report["stats"]["harc"]["backward_rays"]
     assert back > 0
     assert f"{back:,} rays took a step backwards" in res.report["stats"]["harc"]["warning"]
-    assert image_error(res.image, ref)["max_abs"] > TOLERANCES["espinha2005_full"]["max_abs"]
+    assert image_error(res.image, ref)["max_abs"] > preset_tolerance("espinha2005_full")["max_abs"]
     best = Pipeline.load("harc_best").render(sc, quiet=True)
     assert best.report["stats"]["harc"]["backward_rays"] == 0 and "warning" not in best.report["stats"]["harc"]
-    assert image_error(best.image, ref)["max_abs"] <= TOLERANCES["harc_best"]["max_abs"]
+    assert image_error(best.image, ref)["max_abs"] <= preset_tolerance("harc_best")["max_abs"]
 
 
 def test_paper_setup_needs_the_plane_walk_on_fp32_textures():

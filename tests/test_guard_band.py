@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import warpvol
-from tolerances import TOLERANCES as TOL
+from tolerances import preset_tolerance
 from warpvol.errors import ConfigError
 from warpvol.gpu.raster import GUARD_PX, guard_band_overflow
 from warpvol.reference.numpy_render import render_reference
@@ -38,5 +38,5 @@ def test_raycast_exact_at_huge_zoom():
     ref = render_reference(s.mesh, s.transfer, s.camera)
     assert ref[..., 3].min() > 0.5  # the mesh fills the image
     r = warpvol.render(s, pipeline="raycast", reference=ref)
-    tol = TOL["raycast/fp32"]
+    tol = preset_tolerance("raycast")
     assert r.error["rmse"] <= tol["rmse"] and r.error["max_abs"] <= tol["max_abs"]

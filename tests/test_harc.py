@@ -13,7 +13,7 @@ import pytest
 import warp as wp
 
 from helpers import box_mesh, merge, scene
-from tolerances import TOLERANCES
+from tolerances import TOLERANCES, preset_tolerance
 from warpvol.metrics import image_error
 from warpvol.pipeline import Pipeline
 from warpvol.reference.numpy_render import render_reference
@@ -31,11 +31,11 @@ def pipe(name):
     return _PIPES[name]
 
 
-def check(sc, name, tol_key=None):
+def check(sc, name):
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
     res = pipe(name).render(sc, quiet=True)
     err = image_error(res.image, ref)
-    tol = TOLERANCES[tol_key or name]
+    tol = preset_tolerance(name)
     assert ref[..., 3].max() > 0.05
     assert err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"], (name, err, res.report["stats"])
     return res
@@ -108,7 +108,7 @@ def test_rays_through_vertices_and_edges(direction):
     cam = Camera(projection="orthographic", eye=5 * d, target=[0, 0, 0], up=up, ortho_height=4.5, width_px=9, height_px=9)
     sc = scene(grid_mesh(), TF, cam)
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
-    tol = TOLERANCES["raycast/fp32"]
+    tol = preset_tolerance("raycast")
     for p in (pipe("harc_best"), exact_planes()):  # the consistent walk, and the paper's plane arithmetic
         res = p.render(sc, quiet=True)
         err = image_error(res.image, ref)
@@ -208,7 +208,7 @@ def test_eye_inside_the_mesh_is_redone_in_float64_and_counted():
                                                  width_px=8, height_px=8)
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
     res = pipe("harc_best").render(sc, quiet=True)
-    assert image_error(res.image, ref)["max_abs"] <= TOLERANCES["harc_best"]["max_abs"]
+    assert image_error(res.image, ref)["max_abs"] <= preset_tolerance("harc_best")["max_abs"]
     assert res.report["stats"]["harc"]["unresolved_rays"] == 64
 
 
@@ -325,5 +325,5 @@ def test_peel_pass_resolves_a_rejected_rasterised_face_in_float32():
     rc = Pipeline.load("raycast").render(sc, quiet=True)
     assert st["reentries"] == rc.report["stats"]["peel"]["reentries"]
     e = image_error(h.image, render_reference(sc.mesh, sc.transfer, sc.camera))
-    tol = TOLERANCES["harc_best"]
+    tol = preset_tolerance("harc_best")
     assert e["rmse"] <= tol["rmse"] and e["max_abs"] <= tol["max_abs"], e

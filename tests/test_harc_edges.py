@@ -11,7 +11,7 @@ against a brute-force distance test.
 import numpy as np
 import pytest
 
-from tolerances import TOLERANCES
+from tolerances import preset_tolerance
 from warpvol.metrics import image_error
 from warpvol.pipeline import Pipeline
 from warpvol.reference.numpy_render import render_reference
@@ -38,7 +38,7 @@ def test_harc_best_enters_faces_the_rasteriser_left_out(case):
     assert ref[..., 3].max() > 0.5  # the parts are in the image
     res = Pipeline.load("harc_best").render(sc, quiet=True)
     err = image_error(res.image, ref)
-    tol = TOLERANCES["harc_best"]
+    tol = preset_tolerance("harc_best")
     assert err["max_abs"] <= tol["max_abs"] and err["rmse"] <= tol["rmse"], (case, err)
     stats = res.report["stats"]
     found = stats["harc"]["edge_entries"] + stats.get("harc_peel", {}).get("edge_entries", 0)

@@ -23,3 +23,13 @@ def test_ruff_check_passes():
         pytest.skip("ruff is not installed (pip install -e '.[test]' installs it)")
     run = subprocess.run([exe, "check", "--no-cache", str(ROOT)], cwd=ROOT, capture_output=True, text=True)
     assert run.returncode == 0, f"ruff check found problems (ruff check --fix repairs most):\n{run.stdout}{run.stderr}"
+
+
+def test_contributing_layout_names_only_paths_that_exist():
+    """docs/contributing.md's layout table describes the tree as it is: every path it names exists."""
+    text = (ROOT / "docs" / "contributing.md").read_text()
+    table = text[text.index("| path | what |"):text.index("## House rules")]
+    paths = [line.split("`")[1] for line in table.splitlines() if line.startswith("| `")]
+    assert len(paths) > 10
+    missing = [p for p in paths if not (ROOT / p).exists()]
+    assert not missing, f"docs/contributing.md names paths that do not exist: {missing}"

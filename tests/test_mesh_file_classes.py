@@ -421,7 +421,8 @@ FILE_CLASS_CASES = {"hidden_cells_resampled": "hidden_cells_dropped", "hidden_ce
 
 @pytest.mark.parametrize("case", sorted(FILE_CLASS_CASES))
 def test_stress_cases_of_file_classes_have_no_silently_wrong_row(case):
-    from test_mesh_files import EXACT, check_exact_rows
+    from test_mesh_files import check_exact_rows
+    from tolerances import EXACT_PRESETS as EXACT
     from warpvol.tools.bench import load_pipelines
     from warpvol.tools.stress import CASES, build_case, run_case
 

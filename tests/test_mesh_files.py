@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from helpers import scene
-from tolerances import TOLERANCES
+from tolerances import EXACT_PRESETS, preset_tolerance
 from warpvol.errors import MeshError
 from warpvol.pipeline import Pipeline
 from warpvol.reference.numpy_render import render_reference
@@ -41,7 +41,7 @@ def test_pvtu_ghost_cells_are_dropped_and_counted(tmp_path, dims, tets, n_pieces
     np.testing.assert_allclose(render_reference(m, TF, CAM), ref, atol=1e-9)
     for name in ("raycast", "pt_best"):
         res = Pipeline.load(name).render(scene(m, TF, CAM), quiet=True)
-        assert np.abs(res.image - ref).max() <= TOLERANCES[name if name != "raycast" else "raycast/fp32"]["max_abs"]
+        assert np.abs(res.image - ref).max() <= preset_tolerance(name)["max_abs"]
         assert res.report["mesh_notes"]["ghost_cells_dropped"] == ghosts
 
 
@@ -118,7 +118,7 @@ def test_ogrid_axis_hexes_split_as_wedges(nr, nt, nz):
     ref = render_reference(m, TF, cam)
     np.testing.assert_allclose(render_reference(ms, TF, cam), ref, atol=1e-9)
     res = Pipeline.load("raycast").render(scene(m, TF, cam), quiet=True)
-    assert np.abs(res.image - ref).max() <= TOLERANCES["raycast/fp32"]["max_abs"]
+    assert np.abs(res.image - ref).max() <= preset_tolerance("raycast")["max_abs"]
     assert res.report["mesh_notes"]["collapsed_cells"] == axis_cells
 
 
@@ -151,8 +151,6 @@ def test_collapse_that_folds_is_refused_naming_the_cell():
                     np.array([0, 1, 2, 3, 7, 7, 6, 7]), {})
 
 
-EXACT = {"raycast": "raycast/fp32", "harc_best": "harc_best", "pt_best": "pt_best",
-         "vsbuffer_best": "vsbuffer/vsbuffer_best"}
 
 
 @pytest.mark.parametrize("case", ["ghost_layers_hex", "ghost_layers_tets", "collapsed_hexes_wedges",
@@ -164,7 +162,7 @@ def test_stress_cases_of_mesh_files_have_no_silently_wrong_row(case):
     c = build_case(case, quick=True)
     notes = c.scene.mesh.load_notes
     assert notes.get("ghost_cells_dropped", 0) > 0 or notes.get("collapsed_cells", 0) > 0
-    rows = run_case(c, load_pipelines(list(EXACT), "cpu", quick=True))
+    rows = run_case(c, load_pipelines(list(EXACT_PRESETS), "cpu", quick=True))
     assert rows[0]["status"] == "ok"
     check_exact_rows(rows[1:])
 
@@ -178,7 +176,7 @@ def check_exact_rows(rows):
         if r["status"] == "declined":
             assert r["message"].strip(), r
             continue
-        tol = TOLERANCES[EXACT[r["pipeline"]]]
+        tol = preset_tolerance(r["pipeline"])
         within = r["max_abs"] is not None and r["max_abs"] <= tol["max_abs"] and r["rmse"] <= tol["rmse"]
         assert within or r["message"], r  # exact, or warned in words
 

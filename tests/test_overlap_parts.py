@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from helpers import scene
-from tolerances import TOLERANCES
+from tolerances import preset_tolerance
 from warpvol.errors import MeshError
 from warpvol.pipeline import Pipeline
 from warpvol.reference.numpy_render import render_reference
@@ -97,10 +97,10 @@ def test_parts_touching_at_a_nonconforming_interface_pass_and_render(kind):
     assert len(m.nonconforming_faces) > 0 and m.overlapping_parts is None
     m.check_overlap()
     ref = render_reference(m, TF, CAM)
-    for name, row in (("raycast", "raycast/fp32"), ("pt_best", "pt_best")):
+    for name in ("raycast", "pt_best"):
         res = Pipeline.load(name).render(scene(m, TF, CAM), quiet=True)
-        err = np.abs(res.image - ref)
-        assert err.max() <= TOLERANCES[row]["max_abs"] and np.sqrt((err ** 2).mean()) <= TOLERANCES[row]["rmse"]
+        err, tol = np.abs(res.image - ref), preset_tolerance(name)
+        assert err.max() <= tol["max_abs"] and np.sqrt((err ** 2).mean()) <= tol["rmse"]
 
 
 def test_render_command_declines_before_the_reference(tmp_path, monkeypatch, capsys):
@@ -140,7 +140,8 @@ def test_real_data_has_one_part():
 @pytest.mark.parametrize("case", ["topology_overlapping_parts", "topology_part_twice", "topology_touching_parts",
                                   "subnormal_scalars"])
 def test_stress_cases_of_overlap_and_subnormal_scalars(case):
-    from test_mesh_files import EXACT, check_exact_rows
+    from test_mesh_files import check_exact_rows
+    from tolerances import EXACT_PRESETS as EXACT
     from warpvol.tools.bench import load_pipelines
     from warpvol.tools.stress import build_case, run_case
 

@@ -7,6 +7,7 @@ import pytest
 
 from helpers import DEVICES
 from test_sort import jittered_box, random_camera
+from tolerances import preset_tolerance
 from warpvol.gpu.raster import Rasterizer
 from warpvol.gpu.vertex import VertexStage
 from warpvol.projection.pt import RASTER_RULES, decompose
@@ -119,7 +120,6 @@ def test_pt_best_on_bluntfin_at_256_keeps_its_tolerance():
     the triangle's nearest point's attributes (seen: max abs 7.5e-4; 5.4e-3 with the planes extrapolated)."""
     import warnings
 
-    from tolerances import TOLERANCES
     from warpvol.pipeline import Pipeline
     from warpvol.reference.numpy_render import render_reference
     from warpvol.scene.scene_file import load_scene
@@ -129,5 +129,5 @@ def test_pt_best_on_bluntfin_at_256_keeps_its_tolerance():
         sc = load_scene(Path(__file__).resolve().parents[1] / "scenes" / "bluntfin.toml")
     sc = sc.with_camera(width_px=256, height_px=256)
     res = Pipeline.load("pt_best").render(sc, reference=render_reference(sc.mesh, sc.transfer, sc.camera), quiet=True)
-    e, tol = res.report["error"], TOLERANCES["pt_best"]
+    e, tol = res.report["error"], preset_tolerance("pt_best")
     assert e["max_abs"] <= tol["max_abs"] and e["rmse"] <= tol["rmse"], e

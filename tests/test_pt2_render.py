@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from test_pt_render import check, preset, ref_of
+from tolerances import preset_tolerance
 from warpvol.errors import ConfigError
 from warpvol.scene.builtin import builtin_scene
 from warpvol.scene.transfer import TransferFunction
@@ -35,20 +36,20 @@ def render(pipe, sc, **kw):
 def test_guthe_presets(name):
     pipe = preset(name, **SMALL_GUTHE)
     for sc_name in COLOUR_EXTINCTION:
-        check(render(pipe, scene(sc_name)), name)
+        check(render(pipe, scene(sc_name)), preset_tolerance(name))
 
 
 @pytest.mark.parametrize("name", ["kraus2004_basic", "kraus2004_full"])
 def test_kraus_presets(name):
     pipe = preset(name, **SMALL_KRAUS)
     for sc_name in ALL:
-        check(render(pipe, scene(sc_name)), f"{name}/stiff" if sc_name == "stiff" else name)
+        check(render(pipe, scene(sc_name)), preset_tolerance(name, sc_name))
 
 
 def test_pt_best_tight_on_all_builtins():
     pipe = preset("pt_best")
     for sc_name in ALL:
-        check(render(pipe, scene(sc_name)), "pt_best")
+        check(render(pipe, scene(sc_name)), preset_tolerance("pt_best"))
 
 
 def test_perspective_correct_interpolation_fixes_iso_surface_peak():
@@ -169,7 +170,7 @@ def test_fast_walks_give_the_same_image(walk):
             assert fast.report["error"]["rmse"] <= 1.01 * px.report["error"]["rmse"] + 1e-9, name
             shipped = render(preset("pt_best"), sc)  # attribute planes at the unsnapped positions
             assert shipped.report["error"]["rmse"] <= px.report["error"]["rmse"], name
-        check(fast, "pt_best")
+        check(fast, preset_tolerance("pt_best"))
         cp, cf = px.report["counters"]["pt_integrate"], fast.report["counters"]["pt_integrate"]
         keys = ("fragments", "blends_fp32", "segment_integrals") + (("attrs_clamped",) if walk == "triangle" else ())
         for k in keys:
@@ -252,7 +253,7 @@ def test_pt_best_with_the_eye_far_away():
     sc = build_case("camera_far", quick=True).scene
     ref = ref_of(sc)
     best = preset("pt_best").render(sc, reference=ref, quiet=True)
-    check(best, "pt_best")
+    check(best, preset_tolerance("pt_best"))
     eye = preset("pt_best", vertex={"eye_origin": "eye"}).render(sc, reference=ref, quiet=True)
     assert eye.report["error"]["rmse"] > 30 * best.report["error"]["rmse"]
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from helpers import box_mesh, merge, scene
-from tolerances import TOLERANCES
+from tolerances import preset_tolerance
 from warpvol.errors import ConfigError
 from warpvol.metrics import image_error
 from warpvol.pipeline import Pipeline, list_presets
@@ -120,6 +120,6 @@ def test_close_tet_is_drawn():
     ref = render_reference(mesh, tf, cam)
     assert ref[12, 12, 3] > 0.1 and ref[12, 17, 3] > 0.1  # the close tet in the centre, the far box right
     res = Pipeline.load("pt_best").render(s, reference=ref, quiet=True)
-    tol = TOLERANCES["pt_best"]
+    tol = preset_tolerance("pt_best")
     err = image_error(res.image, ref)
     assert err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"], err

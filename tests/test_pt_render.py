@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from helpers import DEVICES
-from tolerances import TOLERANCES
+from tolerances import TOLERANCES, preset_tolerance
 from warpvol.pipeline import Pipeline, _read_pipeline_text
 from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.builtin import builtin_scene
@@ -34,9 +34,9 @@ def ref_of(sc):
     return _REFS[key]
 
 
-def check(res, tol_key):
-    err, tol = res.report["error"], TOLERANCES[tol_key]
-    assert err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"], (tol_key, err)
+def check(res, tol):
+    err = res.report["error"]
+    assert err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"], (tol, err)
     return err
 
 
@@ -54,7 +54,7 @@ def test_constant_tf_box_orthographic(fmt, device):
     frame-buffer format."""
     sc = builtin_scene("box").with_camera(width_px=48, height_px=48, **BOX_VIEWS["ortho"])
     res = preset("pt_vertex_color", device, pt_vertex_color={"format": fmt}).render(sc, reference=ref_of(sc), quiet=True)
-    check(res, f"pt/constant_tf/ortho/{fmt}")
+    check(res, TOLERANCES[f"pt/constant_tf/ortho/{fmt}"])
     c = res.report["counters"]["pt_vertex_color"]
     assert c[f"blends_{fmt}"] == c["fragments_passed"] == c["fragments"]  # one blend per fragment, no depth test
 
@@ -62,7 +62,7 @@ def test_constant_tf_box_orthographic(fmt, device):
 def test_constant_tf_box_perspective_thickness_not_perspective_correct():
     sc = builtin_scene("box").with_camera(width_px=48, height_px=48, **BOX_VIEWS["perspective"])
     res = preset("pt_vertex_color", pt_vertex_color={"format": "fp32"}).render(sc, reference=ref_of(sc), quiet=True)
-    err = check(res, "pt/constant_tf/perspective/fp32")
+    err = check(res, TOLERANCES["pt/constant_tf/perspective/fp32"])
     assert err["max_abs"] > 1e-3  # l interpolated linearly in screen space (Kraus et al. 2004 fix it)
 
 
@@ -70,14 +70,14 @@ def test_constant_tf_box_perspective_thickness_not_perspective_correct():
 def test_pt_vertex_color_smooth_tfs(name):
     sc = builtin_scene(name).with_camera(width_px=64, height_px=64)
     res = preset("pt_vertex_color", pt_vertex_color={"format": "fp32"}).render(sc, reference=ref_of(sc), quiet=True)
-    check(res, "pt_vertex_color/fp32")
+    check(res, preset_tolerance("pt_vertex_color"))
 
 
 @pytest.mark.parametrize("name", ["box", "linear_box", "sphere", "concave", "stiff"])
 def test_roettger2000_3d_preset(name):
     sc = builtin_scene(name).with_camera(width_px=64, height_px=64)
     res = Pipeline.load("roettger2000_3d").render(sc, reference=ref_of(sc), quiet=True)
-    check(res, "roettger2000_3d/stiff" if name == "stiff" else "roettger2000_3d")
+    check(res, preset_tolerance("roettger2000_3d", name))
     c = res.report["counters"]
     assert c["pt_table3d"]["texture_lookups"] == c["pt_table3d"]["fragments"] > 0
     assert c["pt_project"]["tets_projected"] == sc.mesh.n_tets
@@ -102,7 +102,7 @@ def test_pre_integration_resolves_thin_tf_peaks():
                                                          "format": "fp32"},
                    pt_table3d={"texel_format": "auto", "format": "fp32"}).render(sc, reference=ref_of(sc), quiet=True)
     vc = preset("pt_vertex_color", pt_vertex_color={"format": "fp32"}).render(sc, reference=ref_of(sc), quiet=True)
-    check(exact, "pt_table3d/exact/fp32")
+    check(exact, TOLERANCES["pt_table3d/exact/fp32"])
     assert exact.report["error"]["rmse"] < 0.1 * vc.report["error"]["rmse"]
 
 
@@ -111,7 +111,7 @@ def test_roettger2002_hw_small_table(name):
     sc = builtin_scene(name).with_camera(width_px=48, height_px=48)
     p = preset("roettger2002_hw", table_roettger_hw={"n_s": 32, "n_l": 32, "steps": 128, "n_tex": 128})
     res = p.render(sc, reference=ref_of(sc), quiet=True)
-    check(res, "roettger2002_hw/32x32x32")
+    check(res, preset_tolerance("roettger2002_hw", "32x32x32"))
     assert res.report["stats"]["pt"]["texel_format"] == "rgba12"
 
 
@@ -120,7 +120,7 @@ def test_sliver_fragments_keep_their_triangle_range():
     (-26, -4, 31); attributes are now set up from snapped vertices and clamped to the triangle's range."""
     sc = builtin_scene("concave")
     res = preset("pt_vertex_color", pt_vertex_color={"format": "fp32"}).render(sc, reference=ref_of(sc), quiet=True)
-    check(res, "pt_vertex_color/fp32")
+    check(res, preset_tolerance("pt_vertex_color"))
     c = res.report["counters"]["pt_vertex_color"]
     assert c["attrs_clamped"] < 1e-3 * c["fragments"]
 
@@ -129,7 +129,7 @@ def test_sliver_fragments_keep_their_triangle_range():
 def test_roettger2002_cylindrical_preset(name):
     sc = builtin_scene(name).with_camera(width_px=64, height_px=64)
     res = Pipeline.load("roettger2002_cylindrical").render(sc, reference=ref_of(sc), quiet=True)
-    check(res, "roettger2000_3d/stiff" if name == "stiff" else "roettger2002_cylindrical")
+    check(res, preset_tolerance("roettger2002_cylindrical", name))
     c = res.report["counters"]["pt_cylindrical"]
     assert c["texture_lookups"] == 2 * c["fragments"] > 0
 
@@ -161,7 +161,7 @@ def test_constant_tf_emission_density_orthographic():
     sc = builtin_scene("box").with_camera(width_px=48, height_px=48, **BOX_VIEWS["ortho"])
     sc.transfer = TransferFunction([[0.0, 0.8, 0.6, 0.4, 1.5], [2.0, 0.8, 0.6, 0.4, 1.5]], "emission_density")
     res = preset("pt_vertex_color", pt_vertex_color={"format": "fp32"}).render(sc, reference=ref_of(sc), quiet=True)
-    check(res, "pt/constant_tf/ortho/fp32")
+    check(res, TOLERANCES["pt/constant_tf/ortho/fp32"])
 
 
 def test_planner_reuses_cached_table_and_says_so():
@@ -200,4 +200,4 @@ def test_roettger2002_hw_preset_as_shipped():
     """The shipped 64^3 table (128 steps, 12 bit; ~67 M emulated blends) on one built-in."""
     sc = builtin_scene("concave").with_camera(width_px=64, height_px=64)
     res = Pipeline.load("roettger2002_hw").render(sc, reference=ref_of(sc), quiet=True)
-    check(res, "roettger2002_hw")
+    check(res, preset_tolerance("roettger2002_hw"))

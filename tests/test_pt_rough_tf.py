@@ -10,14 +10,14 @@ reported as a warning with that bound (``stats.pt_integrate.rounding_bound``).
 import numpy as np
 import pytest
 
-from tolerances import TOLERANCES
+from tolerances import preset_tolerance
 from warpvol.pipeline import Pipeline
 from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.builtin import builtin_scene
 from warpvol.tools.stress import report_warnings
 from warpvol.tools.stress_range import rough_scene
 
-TOL = TOLERANCES["pt_best"]
+TOL = preset_tolerance("pt_best")
 
 
 @pytest.mark.parametrize("points,px", [(512, 32), (4096, 24), (4096, 40), (2048, 48)])

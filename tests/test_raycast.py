@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 
 from helpers import DEVICES, box_mesh, merge, scene
-from tolerances import TOLERANCES
+from tolerances import preset_tolerance
 from warpvol.pipeline import Pipeline
 from warpvol.scene.camera import Camera
 from warpvol.scene.transfer import TransferFunction
 
-TOL = TOLERANCES["raycast/fp32"]
+TOL = preset_tolerance("raycast")
 
 
 def render(sc, device="cpu", **raycast_params):
@@ -189,8 +189,8 @@ def steep_small_cells_case():
     return merge(small, far), tf, cam
 
 
-@pytest.mark.parametrize("preset, tol_key", [("raycast", "raycast/fp32"), ("harc_best", "harc_best")])
-def test_steep_transfer_function_on_small_cells_far_from_the_ray_origin(preset, tol_key):
+@pytest.mark.parametrize("preset", ["raycast", "harc_best"])
+def test_steep_transfer_function_on_small_cells_far_from_the_ray_origin(preset):
     # float32 resolves a point ~5.5 from the ray origin to ~1e-6, a barycentric weight of a small cell there to
     # ~1e-4, and the narrow transfer function peak turns those crossing scalars' errors into pixel errors of
     # 1.5e-4 (the class of the Blunt Fin close view with a narrow shell TF). The walk (shared by raycast and
@@ -203,7 +203,7 @@ def test_steep_transfer_function_on_small_cells_far_from_the_ray_origin(preset, 
     assert ref[..., 3].max() > 0.9
     res = Pipeline.load(preset, device="cpu").render(scene(m, tf, cam), quiet=True)
     err = np.abs(res.image - ref).max()
-    assert err <= TOLERANCES[tol_key]["max_abs"], err
+    assert err <= preset_tolerance(preset)["max_abs"], err
 
 
 def test_harc_note_names_the_eye_inside_only_when_that_is_the_reason():

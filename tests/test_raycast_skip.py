@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from helpers import box_mesh, scene
-from tolerances import TOLERANCES
+from tolerances import TOLERANCES, preset_tolerance
 from warpvol.pipeline import Pipeline
 from warpvol.scene.camera import Camera
 from warpvol.scene.transfer import TransferFunction
@@ -15,7 +15,7 @@ CASTERS = ["raycast", "harc_best"]
 
 
 def tol(preset):
-    return TOLERANCES["raycast/fp32" if preset == "raycast" else preset]
+    return preset_tolerance(preset)
 
 
 def steps(report):

@@ -6,7 +6,7 @@ a shuffled mesh within their tolerance rows either way."""
 import numpy as np
 import pytest
 
-from tolerances import TOLERANCES
+from tolerances import EXACT_PRESETS, preset_tolerance
 from warpvol.conditioning.reorder import (
     far_neighbour_fraction,
     morton_codes,
@@ -21,9 +21,6 @@ from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.builtin import builtin_mesh, builtin_scene
 from warpvol.scene.mesh import TetMesh, signed_volumes
 from warpvol.tools.sweep import pipeline_config
-
-ROWS = {"raycast": "raycast/fp32", "harc_best": "harc_best", "pt_best": "pt_best",
-        "vsbuffer_best": "vsbuffer/vsbuffer_best"}
 
 
 def shuffled(mesh: TetMesh, seed: int = 0) -> TetMesh:
@@ -88,12 +85,12 @@ def test_permutations_are_permutations():
     assert sorted(p.tolist()) == list(range(m.n_points)) and sorted(c.tolist()) == list(range(m.n_tets))
 
 
-@pytest.mark.parametrize("preset", sorted(ROWS))
+@pytest.mark.parametrize("preset", sorted(EXACT_PRESETS))
 def test_shuffled_mesh_renders_within_tolerance_renumbered_or_not(preset):
     sc = builtin_scene("concave").with_camera(width_px=40, height_px=40)
     sc.mesh = shuffled(sc.mesh, seed=3)
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
-    tol = TOLERANCES[ROWS[preset]]
+    tol = preset_tolerance(preset)
     images = {}
     for mode in ("none", "morton"):
         res = Pipeline.from_config(pipeline_config(preset, (("condition.reorder", mode),))).render(sc, quiet=True)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from helpers import box_mesh, scene
-from tolerances import TOLERANCES
+from tolerances import preset_tolerance
 from warpvol.errors import MeshError
 from warpvol.pipeline import Pipeline
 from warpvol.reference.numpy_render import render_reference
@@ -15,7 +15,7 @@ from warpvol.scene.camera import Camera
 from warpvol.scene.mesh import TetMesh
 from warpvol.scene.transfer import TransferFunction
 
-TOL = TOLERANCES["raycast/fp32"]
+TOL = preset_tolerance("raycast")
 TF = TransferFunction([[-1.0, 0.2, 0.4, 1.0, 0.8], [1.0, 1.0, 0.5, 0.2, 1.6], [3.0, 1.0, 1.0, 1.0, 0.4]])
 
 

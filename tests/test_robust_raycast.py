@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from helpers import DEVICES, box_mesh, scene
-from tolerances import TOLERANCES
+from tolerances import preset_tolerance
 from warpvol.metrics import image_error
 from warpvol.pipeline import Pipeline
 from warpvol.reference.numpy_render import render_reference
@@ -22,7 +22,7 @@ from warpvol.scene.camera import Camera
 from warpvol.scene.mesh import TetMesh
 from warpvol.scene.transfer import TransferFunction
 
-TOL = TOLERANCES["raycast/fp32"]
+TOL = preset_tolerance("raycast")
 
 TF = TransferFunction([[-1.0, 0.1, 0.2, 1.0, 0.4], [0.0, 1.0, 0.6, 0.1, 1.5], [1.0, 0.9, 1.0, 0.3, 0.6],
                        [3.0, 1.0, 0.2, 0.2, 2.0]])

@@ -8,7 +8,7 @@ import pytest
 
 from test_sort import jittered_box, random_camera
 from test_visibility import _layered_mesh, _scene
-from tolerances import TOLERANCES
+from tolerances import TOLERANCES, preset_tolerance
 from warpvol.pipeline import Pipeline
 from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.builtin import builtin_scene
@@ -34,7 +34,7 @@ def test_pt_best_draws_only_visible_cells_of_a_known_fraction():
     ok, d = _within(on.image, off.image, TOLERANCES["skip/on_off"])
     assert ok, d
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
-    ok, d = _within(on.image, ref, TOLERANCES["pt_best"])
+    ok, d = _within(on.image, ref, preset_tolerance("pt_best"))
     assert ok, d
     assert on.image[..., 3].max() > 0.3  # the shell is drawn
 
@@ -90,7 +90,7 @@ def test_pt_best_early_termination_count_and_bound():
     ok, d = _within(on.image, off.image, TOLERANCES["skip/on_off"])
     assert ok, d
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
-    ok, d = _within(on.image, ref, TOLERANCES["pt_best"])
+    ok, d = _within(on.image, ref, preset_tolerance("pt_best"))
     assert ok, d
 
 
@@ -149,7 +149,7 @@ def test_pt_best_cells_behind_an_opaque_front_are_occluded(px, height):
     ok, d = _within(on.image, off.image, TOLERANCES["skip/on_off"])
     assert ok, d
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
-    ok, d = _within(on.image, ref, TOLERANCES["pt_best"])
+    ok, d = _within(on.image, ref, preset_tolerance("pt_best"))
     assert ok, d
 
 
@@ -194,7 +194,7 @@ def test_pt_best_draws_with_the_eye_inside_invisible_cells():
     pipe = Pipeline.load("pt_best")
     on = pipe.render(sc, quiet=True)
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
-    ok, d = _within(on.image, ref, TOLERANCES["pt_best"])
+    ok, d = _within(on.image, ref, preset_tolerance("pt_best"))
     assert ok, d
     assert on.image[..., 3].max() > 0.2
     with pytest.raises(ConfigError, match="eye plane"):

@@ -7,14 +7,14 @@ import pytest
 
 from test_skip_pt import _within
 from test_visibility import _scene, _shell_tf
-from tolerances import TOLERANCES
+from tolerances import TOLERANCES, preset_tolerance
 from warpvol.pipeline import Pipeline
 from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.builtin import builtin_scene
 from warpvol.scene.scene import Scene
 from warpvol.scene.transfer import TransferFunction
 
-ROW = TOLERANCES["vsbuffer/vsbuffer_best"]
+ROW = preset_tolerance("vsbuffer_best")
 
 
 def _on_off(sc):

@@ -7,7 +7,7 @@ import pytest
 import warp as wp
 
 import warpvol
-from tolerances import TOLERANCES
+from tolerances import TOLERANCES, preset_tolerance
 from warpvol.kernels import integrate as ki
 from warpvol.kernels import tf as ktf
 from warpvol.reference.numpy_render import integrate_segments
@@ -224,9 +224,8 @@ def test_render_with_2000_point_tf_equals_8_point_render(pipeline):
     tf2k = dense(tf8, 2000)
     a = warpvol.render(scene, transfer=tf8, pipeline=pipeline).image
     b = warpvol.render(scene, transfer=tf2k, pipeline=pipeline).image
-    key = {"raycast": "raycast/fp32"}.get(pipeline, pipeline)
     err = np.abs(a.astype(np.float64) - b)
-    assert err.max() <= TOLERANCES[key]["max_abs"] * 1e-2  # same function: far inside the preset's row
+    assert err.max() <= preset_tolerance(pipeline)["max_abs"] * 1e-2  # same function: far inside the preset's row
     assert a[..., 3].max() > 0.1  # something drawn
 
 
@@ -239,5 +238,5 @@ def test_render_with_curved_2000_point_tf_matches_reference():
     tf = TransferFunction(np.column_stack([s, 0.5 + 0.5 * np.sin(30 * x), x, 1 - x, 1.0 + np.sin(21 * x) ** 2]))
     assert len(ktf.device_points(tf.points)) > 1000
     r = warpvol.render(scene, transfer=tf, pipeline="raycast", reference=True)
-    assert r.error["max_abs"] <= TOLERANCES["raycast/fp32"]["max_abs"]
-    assert r.error["rmse"] <= TOLERANCES["raycast/fp32"]["rmse"]
+    assert r.error["max_abs"] <= preset_tolerance("raycast")["max_abs"]
+    assert r.error["rmse"] <= preset_tolerance("raycast")["rmse"]

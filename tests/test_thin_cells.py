@@ -6,7 +6,7 @@ exact rows of ``tests/tolerances.py``; ordinary meshes have no such rays."""
 
 import pytest
 
-from tolerances import TOLERANCES
+from tolerances import preset_tolerance
 from warpvol.metrics import image_error
 from warpvol.pipeline import Pipeline
 from warpvol.reference.numpy_render import render_reference
@@ -20,19 +20,18 @@ CASES = {
     "needles_2e-3_persp": lambda: subpixel_scene("needle", 2e-3, n=16, seed=1, perspective=True),
     "needles_5e-3_persp_px40": lambda: subpixel_scene("needle", 5e-3, n=24, px=40, seed=6, perspective=True),
 }
-ROWS = {"raycast": "raycast/fp32", "harc_best": "harc_best"}
 STATS = {"raycast": "raycast", "harc_best": "harc"}
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
-@pytest.mark.parametrize("pipeline", sorted(ROWS))
+@pytest.mark.parametrize("pipeline", sorted(STATS))
 def test_rays_through_unresolved_cells_traced_in_float64(pipeline, case):
     sc = CASES[case]()
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
     assert ref[..., 3].max() > 0.5
     res = Pipeline.load(pipeline).render(sc, quiet=True)
     err = image_error(res.image, ref)
-    tol = TOLERANCES[ROWS[pipeline]]
+    tol = preset_tolerance(pipeline)
     assert err["max_abs"] <= tol["max_abs"] and err["rmse"] <= tol["rmse"], (case, err)
     assert res.report["stats"][STATS[pipeline]]["thin_cell_rays"] > 0
 

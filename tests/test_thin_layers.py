@@ -5,7 +5,7 @@ tests/tolerances.py rows against the float64 reference."""
 import numpy as np
 import pytest
 
-from tolerances import TOLERANCES
+from tolerances import preset_tolerance
 from warpvol.metrics import image_error
 from warpvol.pipeline import Pipeline
 from warpvol.projection.pt_thin import density_max, thin_tets
@@ -17,8 +17,6 @@ from warpvol.scene.mesh import TetMesh
 from warpvol.scene.scene import Scene
 from warpvol.scene.transfer import TransferFunction
 from warpvol.tools.stress_meshes import _box, _tf
-
-ROWS = {"raycast": "raycast/fp32", "harc_best": "harc_best", "pt_best": "pt_best"}
 
 
 def layer_scene(thick: float, depth: float, camera: Camera, z0: float = 0.15) -> Scene:
@@ -57,7 +55,7 @@ def test_ray_casters_redo_thin_layer_rays_in_float64(preset, view):
     assert ref[..., 3].max() > 0.2  # the layer carries the image
     res = Pipeline.load(preset).render(sc, quiet=True)
     err = image_error(res.image, ref)
-    tol = TOLERANCES[ROWS[preset]]
+    tol = preset_tolerance(preset)
     assert err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"], err
     assert _stat(res.report, "thin_layer_rays") > 0
     assert _stat(res.report, "float64_rays") + _stat(res.report, "unresolved_rays") >= \
@@ -70,7 +68,7 @@ def test_pt_best_redoes_thin_layer_pixels_in_float64(view):
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
     res = Pipeline.load("pt_best").render(sc, quiet=True)
     err = image_error(res.image, ref)
-    tol = TOLERANCES["pt_best"]
+    tol = preset_tolerance("pt_best")
     assert err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"], err
     st = res.report["stats"]["pt_integrate"]
     assert st["thin_tets"] > 0 and st["float64_pixels"] > 0
@@ -85,7 +83,7 @@ def _pt_best_diagonal_view(eye, size: int) -> dict:
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
     res = Pipeline.load("pt_best").render(sc, quiet=True)
     err = image_error(res.image, ref)
-    tol = TOLERANCES["pt_best"]
+    tol = preset_tolerance("pt_best")
     assert err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"], err
     return res.report["stats"]["pt_integrate"]
 
@@ -166,7 +164,7 @@ def test_pt_best_redoes_silhouette_pixels_at_high_extinction():
     ref = render_reference(sc.mesh, sc.transfer, cam)
     res = Pipeline.load("pt_best").render(sc, reference=ref, quiet=True)
     st = res.report["stats"]["pt_integrate"]
-    tol = TOLERANCES["pt_best"]
+    tol = preset_tolerance("pt_best")
     assert st["silhouette_edges"] > 0 and st["float64_pixels"] > 0
     assert res.report["error"]["rmse"] <= tol["rmse"] and res.report["error"]["max_abs"] <= tol["max_abs"]
     # at extinction 0.5 the same view has no silhouette edge to redo
@@ -184,5 +182,5 @@ def test_steep_transfer_function_on_cells_of_constant_scalar(preset):
     sc = Scene(mesh=mesh, transfer=tf, camera=cam, name="steep_tf")
     ref = render_reference(sc.mesh, sc.transfer, cam)
     res = Pipeline.load(preset).render(sc, reference=ref, quiet=True)
-    tol = TOLERANCES[ROWS[preset]]
+    tol = preset_tolerance(preset)
     assert res.report["error"]["rmse"] <= tol["rmse"] and res.report["error"]["max_abs"] <= tol["max_abs"]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from helpers import scene
-from tolerances import TOLERANCES
+from tolerances import preset_tolerance
 from warpvol.pipeline import Pipeline
 from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.camera import Camera
@@ -20,7 +20,7 @@ from warpvol.tools.stress_topology import explode, glued_blocks, hybrid_grid
 
 TF = TransferFunction([[-1.5, 0.8, 0.3, 0.1, 0.6], [0.2, 0.2, 0.7, 0.4, 1.7], [2.2, 0.1, 0.4, 0.9, 0.9]])
 CAM = Camera(eye=[2.3, 1.9, 2.9], target=[0.05, -0.05, 0.0], fov_y_deg=42.0, width_px=40, height_px=40)
-PRESETS = {"raycast": "raycast/fp32", "harc_best": "harc_best", "pt_best": "pt_best"}
+PRESETS = ["raycast", "harc_best", "pt_best"]
 
 
 def on_box_hull(m: TetMesh) -> np.ndarray:
@@ -97,11 +97,11 @@ def cases():
 
 
 @pytest.mark.parametrize("name", ["glued", "hybrid", "exploded"])
-@pytest.mark.parametrize("preset", list(PRESETS))
+@pytest.mark.parametrize("preset", PRESETS)
 def test_exact_presets_cross_interfaces(cases, name, preset):
     m, ref = cases[name]
     res = Pipeline.load(preset).render(scene(m, TF, CAM, name), quiet=True)
-    tol = TOLERANCES[PRESETS[preset]]
+    tol = preset_tolerance(preset)
     d = res.image - ref
     assert np.sqrt((d ** 2).mean()) <= tol["rmse"] and np.abs(d).max() <= tol["max_abs"]
     stats = res.report["stats"]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from helpers import box_mesh, scene
-from tolerances import TOLERANCES
+from tolerances import preset_tolerance
 from warpvol.gpu.counters import Counters
 from warpvol.gpu.raster import Rasterizer
 from warpvol.kernels.vicp import FP_INSTRUCTIONS
@@ -47,7 +47,7 @@ def test_no_perspective_error():
     # VICP: only the 8-bit table and blending remain (measured 2.2e-3); screen-linear PT: 9.9e-2
     assert vicp["rmse"] < 5e-3 and vicp["max_abs"] < 0.03, vicp
     assert linear["rmse"] > 10 * vicp["rmse"], (vicp, linear)
-    tol = TOLERANCES["weiler2003_vicp"]
+    tol = preset_tolerance("weiler2003_vicp")
     assert vicp["rmse"] <= tol["rmse"] and vicp["max_abs"] <= tol["max_abs"]
 
 
@@ -57,7 +57,7 @@ def test_builtins_within_tolerance(scn):
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
     res = Pipeline.load("weiler2003_vicp").render(sc, quiet=True)
     err = image_error(res.image, ref)
-    tol = TOLERANCES["weiler2003_vicp"]
+    tol = preset_tolerance("weiler2003_vicp")
     assert err["rmse"] <= tol["rmse"] and err["max_abs"] <= tol["max_abs"], err
     st = res.report["stats"]["vicp"]
     assert st["exit_unresolved"] == 0 and "warning" not in st and "8-bit" in st["losses"]

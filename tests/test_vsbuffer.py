@@ -7,7 +7,7 @@ import pyvista as pv
 
 import warpvol
 from helpers import box_mesh
-from tolerances import TOLERANCES
+from tolerances import TOLERANCES, preset_tolerance
 from warpvol.errors import ConfigError
 from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.transfer import TransferFunction
@@ -35,7 +35,7 @@ def test_presets_within_tolerance(refs, name, preset):
     s, ref = refs[name]
     r = warpvol.render(s, pipeline=preset, quiet=True)
     rmse, mx = _err(r.image, ref)
-    tol = TOLERANCES[f"vsbuffer/{preset}"]
+    tol = preset_tolerance(preset)
     assert rmse <= tol["rmse"] and mx <= tol["max_abs"], (rmse, mx)
     hw, c = r.report["counters"]["vsb_sweep"], r.report["stats"]["vsbuffer"]["walk"]
     assert hw["drawn_cells"] >= s.mesh.n_tets and hw["host_cell_steps"] == c["cells_integrated"] > 0
@@ -96,7 +96,7 @@ def test_hexahedra_rendered_directly_equal_split():
     assert np.abs(a - b).max() < 2e-6
     assert sa["counters"]["cells_integrated"] < sb["counters"]["cells_integrated"]  # whole hexes, one ID each
     ref = render_reference(hexes.to_tetmesh(), tf, cam)
-    tol = TOLERANCES["vsbuffer/vsbuffer_best"]
+    tol = preset_tolerance("vsbuffer_best")
     rmse, mx = _err(a, ref)
     assert rmse <= tol["rmse"] and mx <= tol["max_abs"]
 
@@ -188,7 +188,7 @@ def test_wedge_and_pyramid_cells():
     cam = warpvol.Camera(eye=(1.2, -2.5, 2.0), target=(1.2, 0.5, 0.4), fov_y_deg=50.0, width_px=20, height_px=20)
     a, st = render_vsbuffer(cells, tf, cam, integration="exact", adjacency="recover", rewalk=True)
     ref = render_reference(cells.to_tetmesh(), tf, cam)
-    assert np.abs(a - ref).max() < TOLERANCES["vsbuffer/vsbuffer_best"]["max_abs"] and a[..., 3].max() > 0.5
+    assert np.abs(a - ref).max() < preset_tolerance("vsbuffer_best")["max_abs"] and a[..., 3].max() > 0.5
     assert st["counters"]["pieces_integrated"] > st["counters"]["cells_integrated"]
 
 
@@ -278,7 +278,7 @@ def test_native_cells_through_the_pipeline(kind):
     split = warpvol.render(warpvol.TetMesh(mesh.points, mesh.tets, mesh.scalars), tf, cam,  # no cell groups
                            pipeline="vsbuffer_best", reference=False)
     assert split.report["stats"]["vsb_setup"]["cells_by_type"] == {"tet": mesh.n_tets}
-    tol = TOLERANCES["vsbuffer/vsbuffer_best"]
+    tol = preset_tolerance("vsbuffer_best")
     rmse, mx = _err(native.image, split.image)
     assert rmse <= tol["rmse"] and mx <= tol["max_abs"] and native.image[..., 3].max() > 0.3, (rmse, mx)
     assert (native.report["stats"]["vsbuffer"]["walk"]["cells_integrated"]
@@ -302,7 +302,7 @@ def test_native_cells_from_a_scene_file(tmp_path):
     s = warpvol.load_scene(tmp_path / "scene.toml")
     r = warpvol.render(s, pipeline="vsbuffer_best", reference=True)
     assert r.report["stats"]["vsb_setup"]["cells_by_type"] == {"hex": 12}
-    tol = TOLERANCES["vsbuffer/vsbuffer_best"]
+    tol = preset_tolerance("vsbuffer_best")
     e = r.error  # against the exact reference of the same field (the tets)
     assert e["rmse"] <= tol["rmse"] and e["max_abs"] <= tol["max_abs"] and r.image[..., 3].max() > 0.3, e
 

@@ -7,14 +7,14 @@ import pytest
 
 import warpvol
 from helpers import box_mesh, merge
-from tolerances import TOLERANCES
+from tolerances import preset_tolerance
 from warpvol.metrics import image_error
 from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.transfer import TransferFunction
 from warpvol.tools.stress_real import jittered_hex_grid
 from warpvol.vsbuffer.vsbuffer import BATCH_PIXELS, ConvexCellMesh, render_vsbuffer
 
-TOL = TOLERANCES["vsbuffer/vsbuffer_best"]
+TOL = preset_tolerance("vsbuffer_best")
 
 
 def _err(img, ref):

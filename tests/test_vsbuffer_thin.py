@@ -6,7 +6,7 @@ preset still warns."""
 
 import pytest
 
-from tolerances import TOLERANCES
+from tolerances import preset_tolerance
 from warpvol.metrics import image_error
 from warpvol.pipeline import Pipeline
 from warpvol.reference.numpy_render import render_reference
@@ -30,7 +30,7 @@ def test_vsbuffer_best_redoes_rays_through_thin_cells(case):
     assert ref[..., 3].max() > 0.2
     res = Pipeline.load("vsbuffer_best").render(sc, quiet=True)
     err = image_error(res.image, ref)
-    tol = TOLERANCES["vsbuffer/vsbuffer_best"]
+    tol = preset_tolerance("vsbuffer_best")
     assert err["max_abs"] <= tol["max_abs"] and err["rmse"] <= tol["rmse"], (case, err)
     v = res.report["stats"]["vsbuffer"]
     assert v["thin_rays_redone"] > 0 and v["thin_pieces"] > 0
@@ -51,6 +51,6 @@ def test_vsbuffer_best_redoes_rays_at_silhouettes_and_faces_in_a_sweep_plane(px)
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
     res = Pipeline.load("vsbuffer_best").render(sc, quiet=True)
     err = image_error(res.image, ref)
-    tol = TOLERANCES["vsbuffer/vsbuffer_best"]
+    tol = preset_tolerance("vsbuffer_best")
     assert err["max_abs"] <= tol["max_abs"] and err["rmse"] <= tol["rmse"], err
     assert res.report["stats"]["vsbuffer"]["silhouette_rays_redone"] > 0

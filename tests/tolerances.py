@@ -160,6 +160,18 @@ PRESET_ROWS = {"raycast": "raycast/fp32", "pt_vertex_color": "pt_vertex_color/fp
                "westermann1997": "vsbuffer/westermann1997", "vsbuffer_best": "vsbuffer/vsbuffer_best"}
 
 
-def preset_tolerance(name: str) -> dict:
-    """The tolerance row of the shipped preset ``name`` (its own name, else :data:`PRESET_ROWS`)."""
-    return TOLERANCES[PRESET_ROWS.get(name, name)]
+#: the presets that promise the exact reference to float32 (the tests that sweep "every exact preset" use these)
+EXACT_PRESETS = ("raycast", "harc_best", "pt_best", "vsbuffer_best")
+
+#: rows for a preset on a scene class its own row does not cover: (preset, variant) -> row
+VARIANT_ROWS = {("roettger2002_cylindrical", "stiff"): "roettger2000_3d/stiff"}
+
+
+def preset_tolerance(name: str, variant: str | None = None) -> dict:
+    """The tolerance row of the shipped preset ``name`` (its own name, else :data:`PRESET_ROWS`); with
+    ``variant`` (e.g. ``"stiff"``) the row ``<row>/<variant>`` where the table has one (or
+    :data:`VARIANT_ROWS`), else the preset's row."""
+    row = PRESET_ROWS.get(name, name)
+    if variant is not None:
+        row = VARIANT_ROWS.get((name, variant), row + "/" + variant if f"{row}/{variant}" in TOLERANCES else row)
+    return TOLERANCES[row]
