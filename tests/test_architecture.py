@@ -31,6 +31,8 @@ LAYERS = {
     "warpvol.tables": 4,
     # 5 the stage framework
     "warpvol.stage": 5,
+    # 6 code several renderer families share (entry bins, thin-cell and pixel marks, visibility and skipping)
+    "warpvol.shared": 6,
     # 6 the pipeline families: host code and stages (the table stages and the condition stage too)
     "warpvol.tables.stages": 6, "warpvol.conditioning": 6, "warpvol.projection": 6, "warpvol.raycasting": 6,
     "warpvol.vsbuffer": 6,

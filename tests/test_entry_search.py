@@ -10,15 +10,15 @@ from helpers import noisy_shell
 from tolerances import preset_tolerance
 from warpvol.kernels import harc as kh
 from warpvol.pipeline import Pipeline
-from warpvol.raycasting.stages import entry_bins
 from warpvol.scene.builtin import builtin_scene
 from warpvol.scene.camera import Camera
 from warpvol.scene.transfer import TransferFunction
+from warpvol.shared import entry_bins
 
 
 def test_bins_list_each_tile_by_nearest_depth_with_its_depth_bounds():
     from helpers import noisy_shell
-    from warpvol.raycasting.visible import face_triangles
+    from warpvol.shared.visible import face_triangles
 
     sc = noisy_shell(0, 48)
     b = entry_bins.bin_boundary_faces(sc.mesh, sc.camera, 8)

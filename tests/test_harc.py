@@ -271,7 +271,7 @@ def test_reentry_bound_holds_every_listed_face():
     e = entry_fragments(sc.mesh, sc.camera)
     far = e["far"].numpy().reshape(24, 24)
     start, fbf = e["frag_start"].numpy(), e["frag_bf"].numpy()
-    from warpvol.raycasting.stages.entry_bins import entry_face_mask
+    from warpvol.shared.entry_bins import entry_face_mask
 
     tris = sc.mesh.boundary_triangles()[entry_face_mask(sc.mesh, sc.camera)]
     g = np.linalg.norm(sc.mesh.points - np.asarray(sc.camera.eye), axis=1)

@@ -4,7 +4,7 @@ Generated scenes of many small, thin and disconnected parts on pixel rays (:mod:
 needles a few thousandths of a pixel wide, specks of a thousandth of a pixel, slabs 1e-9 and 1e-6 thick
 seen edge-on, a block whose silhouette the snapping moves onto pixel centres with a deeper block listed
 behind. Each render is held to the reference within ``harc_best``'s tolerance row, and the ray start must
-have found entries the rasterised lists left out. :func:`warpvol.raycasting.thin_cells.edge_pixels` is checked
+have found entries the rasterised lists left out. :func:`warpvol.shared.thin_cells.edge_pixels` is checked
 against a brute-force distance test.
 """
 
@@ -50,8 +50,8 @@ def test_harc_best_enters_faces_the_rasteriser_left_out(case):
 
 
 def test_edge_pixels_are_the_centres_near_open_edges():
-    from warpvol.raycasting.stages.entry_bins import entry_face_mask, window_xy
-    from warpvol.raycasting.thin_cells import EDGE_PX, edge_pixels, surface_neighbours
+    from warpvol.shared.entry_bins import entry_face_mask, window_xy
+    from warpvol.shared.thin_cells import EDGE_PX, edge_pixels, surface_neighbours
 
     sc = subpixel_scene("needle", 0.3, n=6, px=16, seed=3, block=False)
     mesh, cam = sc.mesh, sc.camera

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import warpvol
-import warpvol.raycasting.thin_cells as thin_cells
 import warpvol.scene.mesh as mesh_module
+import warpvol.shared.thin_cells as thin_cells
 from tests.helpers import box_mesh
 from warpvol.errors import MeshError
 from warpvol.raycasting.stages.cell_setup import neighbour_faces

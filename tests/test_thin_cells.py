@@ -38,7 +38,7 @@ def test_rays_through_unresolved_cells_traced_in_float64(pipeline, case):
 
 @pytest.mark.parametrize("name", ["concave", "stiff", "sphere"])
 def test_ordinary_meshes_have_no_unresolved_cells(name):
-    from warpvol.raycasting.thin_cells import unresolved_pixels
+    from warpvol.shared.thin_cells import unresolved_pixels
 
     sc = builtin_scene(name).with_camera(width_px=48, height_px=48)
     pix, tets = unresolved_pixels(sc.mesh, sc.transfer, sc.camera, face_on=False)
@@ -49,8 +49,8 @@ def test_view_free_part_kept_per_mesh_and_transfer_function():
     """What the view does not change is kept in the cache for the next frame (no per-frame scan of the
     mesh's thin tets): the same pixels as without a cache, for a moved camera (the view-dependent part is
     redone) and for another transfer function (compared by value: the kept part is not reused)."""
-    from warpvol.raycasting import thin_cells as tc
     from warpvol.scene.transfer import TransferFunction
+    from warpvol.shared import thin_cells as tc
 
     sc = CASES["slabs_1e-6_block_persp"]()
     cache: dict = {}

@@ -65,7 +65,7 @@ def raycast_segments(scene, *, device: str = "cpu", threads: int = 0, cap: int =
     from warpvol.parallel import cpu_threads
     from warpvol.pipeline import Pipeline
     from warpvol.raycasting.stages.raycast import MarchState, march_pass, segments_struct
-    from warpvol.raycasting.thin_cells import mark_unresolved
+    from warpvol.shared.thin_cells import mark_unresolved
     from warpvol.stage import Context
 
     pipe = Pipeline.load("raycast", device=device)

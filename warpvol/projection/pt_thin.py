@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from warpvol.projection.pixel_marks import InFront, _mark_boxes, _mark_near_edges, _segment_samples, near_segment_pixels
 from warpvol.scene.tf_ranges import density_bound, density_max, slope_max
+from warpvol.shared.pixel_marks import InFront, _mark_boxes, _mark_near_edges, _segment_samples, near_segment_pixels
 
 #: a tet whose smallest height is below this many float32 units (2^-23) of the mesh radius is thin
 THIN_ULPS = 1024.0

@@ -144,13 +144,13 @@ def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None 
     """Rasterise the front-facing boundary faces (the rasteriser unit, window coordinates from the
     vertex stage) into per-pixel fragment lists sorted by depth. ``faces``: ``(B, 2)`` rows ``(tet,
     local face)`` to rasterise instead of the mesh's boundary (the visible sub-mesh's boundary,
-    :func:`warpvol.raycasting.visible.visible_boundary`).
+    :func:`warpvol.shared.visible.visible_boundary`).
 
     Returns ``dict(frag_start (H*W+1), frag_bf, bf_tet, bf_face, bf_nbr, far, bf_depth, edge_start, edge_bf,
     edge_pairs, fragments, faces, max_layers)``: per fragment the index of its face in the front-face list; per
     front face its tet, local face, the three front faces sharing its edges (-1: none; the consistent walk
     searches them when the rasteriser's snapped coverage and its edge test disagree near an edge) and its
-    depth bounds (:func:`~warpvol.raycasting.stages.entry_bins.face_depths`: the re-entry search leaves the faces
+    depth bounds (:func:`~warpvol.shared.entry_bins.face_depths`: the re-entry search leaves the faces
     wholly before its start untested);
     ``max_layers`` is the most fragments any pixel has (the boundary layers depth peeling goes
     through).
@@ -159,9 +159,9 @@ def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None 
 
     from warpvol.gpu.raster import GUARD_PX, Rasterizer, depth_order, guard_band_overflow
     from warpvol.gpu.vertex import VertexStage
-    from warpvol.raycasting.stages.entry_bins import entry_face_mask, face_depths
-    from warpvol.raycasting.thin_cells import edge_pixels, surface_neighbours
-    from warpvol.raycasting.visible import face_triangles
+    from warpvol.shared.entry_bins import entry_face_mask, face_depths
+    from warpvol.shared.thin_cells import edge_pixels, surface_neighbours
+    from warpvol.shared.visible import face_triangles
 
     front = entry_face_mask(mesh, camera, faces)
     bf = (mesh.boundary_faces if faces is None else np.asarray(faces, dtype=np.int64).reshape(-1, 2))[front]
@@ -221,7 +221,7 @@ def reentry_bound(mesh, camera, tris: np.ndarray, nbr: np.ndarray, start: np.nda
     depth ``g`` (distance from the eye, perspective; depth along the view direction, orthographic) of any
     vertex of a front face the HARC entry search of that pixel can reach -- the faces listed at the pixel
     and its 8 neighbours and, through :func:`ring_search <warpvol.kernels.harc_walk.ring_search>`, the two
-    rings of surface neighbours around each, and the pixel's open-edge faces (:func:`~warpvol.raycasting.thin_cells.edge_pixels`,
+    rings of surface neighbours around each, and the pixel's open-edge faces (:func:`~warpvol.shared.thin_cells.edge_pixels`,
     ``edge_start`` / ``edge_bf``) -- plus a rounding margin of 1e-4 of the scene's extent.
     ``g`` is largest at a vertex (a distance is convex, a depth linear), so a crossing of any of those
     faces has ``t + t0 <= bound`` (``t0`` the ray origin's shift); ``-inf`` where no face is listed
@@ -446,8 +446,8 @@ def resolve_failed(ctx, state: HarcState, terminate: float = 0.0) -> int:
     import warp as wp
 
     from warpvol.kernels import raycast as kr
-    from warpvol.raycasting.visible import skipping
     from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
+    from warpvol.shared.visible import skipping
 
     status = state.status.numpy()
     failed = np.flatnonzero(status == int(kr.STATUS_FAILED))

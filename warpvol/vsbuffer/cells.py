@@ -262,8 +262,8 @@ class ConvexCellMesh:
 
     def thin_pieces(self, transfer) -> np.ndarray:
         """(T,) bool: pieces thinner than float32 resolves for their extinction
-        (:func:`warpvol.raycasting.thin_cells.thin_tets`)."""
-        from warpvol.raycasting.thin_cells import thin_tets
+        (:func:`warpvol.shared.thin_cells.thin_tets`)."""
+        from warpvol.shared.thin_cells import thin_tets
 
         return thin_tets(self.pieces, transfer)
 

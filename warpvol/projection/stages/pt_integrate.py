@@ -167,8 +167,8 @@ class PTIntegrate(Stage):
         redo stops at too."""
 
         from warpvol.projection.pt_thin import drawn_faces, missing_parts, prepare_parts, unresolved_pixels
-        from warpvol.raycasting.visible import skipping
         from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
+        from warpvol.shared.visible import skipping
 
         sc = ctx.scene
         geo = ctx.buffers["pt_geometry"]  # attributes of the unsnapped positions: rough TFs show where coverage parts

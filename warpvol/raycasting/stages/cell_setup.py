@@ -124,13 +124,13 @@ def cell_arrays(mesh, tf, device: str, cache: dict | None = None) -> dict:
 
 
 def confine_to_visible(ctx: Context, cells: dict) -> int:
-    """Empty-space skipping (:mod:`warpvol.raycasting.visible`): with a ``visible_cells`` mask that leaves
+    """Empty-space skipping (:mod:`warpvol.shared.visible`): with a ``visible_cells`` mask that leaves
     cells out, the walk's neighbour records ``cells["nbr"]`` end at invisible neighbours and
     ``cells["entry_faces"]`` lists the visible sub-mesh's boundary faces (the faces ``entry_bins`` and
     ``harc_raster`` start rays from); both kept per (mesh, mask, device). Returns the cells left out."""
     import warp as wp
 
-    from warpvol.raycasting.visible import skipping, sub_mesh
+    from warpvol.shared.visible import skipping, sub_mesh
 
     vis, n_out = skipping(ctx)
     if vis is None:

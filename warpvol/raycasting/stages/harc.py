@@ -10,7 +10,7 @@ the frame buffer in ``format``.
 ``ray_setup = "robust"``: each ray set up in float64 from an origin moved to the mesh; rays the float32
 walk cannot resolve are redone in float64 on the host and counted (``unresolved_rays``); with exact
 segments, so are the rays that may cross a cell too thin for float32 (``thin_cell_rays``,
-:func:`warpvol.raycasting.thin_cells.unresolved_pixels`), before the walk.
+:func:`warpvol.shared.thin_cells.unresolved_pixels`), before the walk.
 ``ray_setup = "paper"`` (the paper's fragment program; ``walk = "planes"`` on ``harc_mesh arithmetic =
 "fp32"`` textures): the ray starts at the eye in fp32, and a ray the walk cannot resolve is lost --
 counted (``lost_rays``), warned in the report, and its pixel shows what it had composited.
@@ -198,7 +198,7 @@ class Harc(Stage):
         thin_rays = thin_tets = 0
         if not paper and self.integration == "exact":  # rays through cells too thin for float32: float64 redo
             from warpvol.kernels.raycast import STATUS_FAILED
-            from warpvol.raycasting.thin_cells import mark_unresolved
+            from warpvol.shared.thin_cells import mark_unresolved
 
             thin_rays, thin_tets = mark_unresolved(ctx, state.status, int(STATUS_FAILED))
         t0 = time.perf_counter()

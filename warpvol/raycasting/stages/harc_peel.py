@@ -27,7 +27,7 @@ class HarcPeel(Stage):
     params = (Param("max_passes", int, 64, "upper bound on peel passes", lo=1),)
 
     def skip_reason(self, ctx: Context) -> str | None:
-        from warpvol.raycasting.visible import confined
+        from warpvol.shared.visible import confined
 
         ctx.mesh_setup(ctx.scene.mesh, "is_convex")  # per mesh, kept on it: set-up on first use
         if ctx.scene.mesh.is_convex and not confined(ctx):
@@ -54,7 +54,7 @@ class HarcPeel(Stage):
         if passes == self.max_passes and c["entries"] and hs.get("lost") is None:
             # robust set-up: rays that may still re-enter are redone whole in float64, never left half-walked
             from warpvol.kernels.raycast import STATUS_ACTIVE, STATUS_FAILED
-            from warpvol.raycasting.visible import unfinished_to_float64
+            from warpvol.shared.visible import unfinished_to_float64
 
             unfinished = unfinished_to_float64(hs["state"], int(STATUS_ACTIVE), int(STATUS_FAILED))
         redone = hs["resolve"]()

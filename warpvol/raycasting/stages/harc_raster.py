@@ -11,7 +11,7 @@ class HarcRaster(Stage):
     fragment lists (entry tet, local face) sorted by depth: the first is the ray's entry, the next
     ones the layers depth peeling goes through (:func:`warpvol.raycasting.harc.entry_fragments`); and
     per pixel the faces whose open edge passes within 1/64 pixel of its centre, which the ray start
-    tests exactly (:func:`warpvol.raycasting.thin_cells.edge_pixels`; ``edge_pixel_faces`` counts the pairs).
+    tests exactly (:func:`warpvol.shared.thin_cells.edge_pixels`; ``edge_pixel_faces`` counts the pairs).
     When ``cell_setup`` confines the walk to the cells the transfer function makes visible, the faces are
     the visible sub-mesh's boundary (``cells["entry_faces"]``).
 
@@ -29,7 +29,7 @@ class HarcRaster(Stage):
 
     def run(self, ctx: Context) -> None:
         from warpvol.raycasting.harc import entry_fragments
-        from warpvol.raycasting.stages.entry_bins import ENTRY_MESH_PROPERTIES
+        from warpvol.shared.entry_bins import ENTRY_MESH_PROPERTIES
 
         faces = ctx.buffers.get("cells", {}).get("entry_faces")  # the visible sub-mesh's (cell_setup)
         ctx.mesh_setup(ctx.scene.mesh, *ENTRY_MESH_PROPERTIES)

@@ -48,7 +48,7 @@ class Peel(Stage):
     params = (Param("max_passes", int, 256, "upper bound on re-entry passes", lo=1),) + RAY_PARAMS
 
     def skip_reason(self, ctx: Context) -> str | None:
-        from warpvol.raycasting.visible import confined
+        from warpvol.shared.visible import confined
 
         ctx.mesh_setup(ctx.scene.mesh, "is_convex")  # per mesh, kept on it: set-up on first use
         if ctx.scene.mesh.is_convex and not confined(ctx):
@@ -81,7 +81,7 @@ class Peel(Stage):
         unfinished = 0
         if state.active and passes == self.max_passes:  # rays that may re-enter further: redone whole
             from warpvol.kernels import raycast as k
-            from warpvol.raycasting.visible import unfinished_to_float64
+            from warpvol.shared.visible import unfinished_to_float64
 
             unfinished = unfinished_to_float64(state, int(k.STATUS_ACTIVE), int(k.STATUS_FAILED))
         redone = resolve_failed(ctx, state, bound)

@@ -187,7 +187,7 @@ def resolve_failed(ctx: Context, state: MarchState, terminate: float = 0.0) -> i
     import warp as wp
 
     from warpvol.kernels import raycast as k
-    from warpvol.raycasting.visible import skipping
+    from warpvol.shared.visible import skipping
 
     status = state.status.numpy()
     failed = np.flatnonzero(status == int(k.STATUS_FAILED))
@@ -228,7 +228,7 @@ def termination_bound(max_change: float) -> str:
 def leaves_out_text(ctx: Context, t_min: float) -> str | None:
     """The planner's words for what a ray caster leaves out (cells the TF makes invisible, depth behind
     an opaque front); ``None``: nothing."""
-    from warpvol.raycasting.visible import confined
+    from warpvol.shared.visible import confined
 
     parts = []
     if confined(ctx):
@@ -286,7 +286,7 @@ class Raycast(Stage):
     layer too thin for float32 segment lengths whose extinction makes that visible -- are redone in
     float64 on the host (:func:`redo_pixels_float64`) and counted (``float64_rays`` in the stats and
     counters; ``thin_layer_rays`` of them for thin layers). The rays that may cross a cell too thin for
-    float32 to resolve -- at its extinction, or seen edge-on (:func:`warpvol.raycasting.thin_cells.unresolved_pixels`)
+    float32 to resolve -- at its extinction, or seen edge-on (:func:`warpvol.shared.thin_cells.unresolved_pixels`)
     -- are not walked but traced in float64 from the start (``thin_cell_rays``, among ``float64_rays``).
 
     ==========  =====  =========  =============================================================
@@ -329,7 +329,7 @@ class Raycast(Stage):
         ctx.buffers["march"] = state
         threads = self.threads or cpu_threads()
         from warpvol.kernels import raycast as k
-        from warpvol.raycasting.thin_cells import mark_unresolved
+        from warpvol.shared.thin_cells import mark_unresolved
 
         thin_rays, thin_tets = mark_unresolved(ctx, state.status, int(k.STATUS_FAILED))  # traced in float64
         t_min = stop_transmittance(ctx, self.t_min)

@@ -174,17 +174,17 @@ class VsbSweep(Stage):
 
     def _redo_thin(self, ctx: Context, img):
         """``img`` with the pixels whose rays may cross a piece a float32 walk cannot resolve
-        (:func:`warpvol.raycasting.thin_cells.unresolved_pixels`), and those whose centre lies within 1/64 pixel
+        (:func:`warpvol.shared.thin_cells.unresolved_pixels`), and those whose centre lies within 1/64 pixel
         of a silhouette of the front boundary or of a face seen edge-on (in a sweep plane), where the ID
         buffers' snapped coverage does not decide the cell the ray crosses
-        (:func:`~warpvol.raycasting.thin_cells.silhouette_pixels`,
-        :func:`~warpvol.raycasting.thin_cells.edge_on_pixels`), traced again in float64."""
+        (:func:`~warpvol.shared.thin_cells.silhouette_pixels`,
+        :func:`~warpvol.shared.thin_cells.edge_on_pixels`), traced again in float64."""
         import numpy as np
 
-        from warpvol.raycasting.stages.entry_bins import ENTRY_MESH_PROPERTIES
-        from warpvol.raycasting.thin_cells import _shape, edge_on_pixels, silhouette_pixels, unresolved_pixels
-        from warpvol.raycasting.visible import skipping
         from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
+        from warpvol.shared.entry_bins import ENTRY_MESH_PROPERTIES
+        from warpvol.shared.thin_cells import _shape, edge_on_pixels, silhouette_pixels, unresolved_pixels
+        from warpvol.shared.visible import skipping
 
         sc = ctx.scene
         tets = getattr(sc.mesh, "pieces", sc.mesh)  # a ConvexCellMesh's tets

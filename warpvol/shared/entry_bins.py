@@ -27,7 +27,7 @@ ENTRY_MESH_PROPERTIES = ("boundary_faces", "face_planes", "bounds", "bounding_ra
 def entry_face_mask(mesh, camera, faces: np.ndarray | None = None) -> np.ndarray:
     """Boundary faces a ray may enter through (conservative: the kernel's Plücker test decides).
     ``faces``: ``(B, 2)`` rows ``(tet, local face)`` to choose from (the visible sub-mesh's boundary,
-    :func:`warpvol.raycasting.visible.visible_boundary`); ``None``: the mesh's boundary faces.
+    :func:`warpvol.shared.visible.visible_boundary`); ``None``: the mesh's boundary faces.
 
     Orthographic: faces with ``n . f < tol`` (edge-on faces included). Perspective: faces with the
     eye on (or within ``tol`` of) their outer side; all faces when the eye lies in the mesh's
@@ -140,7 +140,7 @@ def bin_boundary_faces(mesh, camera, tile: int, faces: np.ndarray | None = None)
     pixels whose rays may cross the face (centres in its projected box grown by :func:`box_margin_px`; a face
     between the pixel centres is listed nowhere); a tile's items are in the order of :func:`item_depths`, ``item_depth`` (float32, 3 per item) its depth bounds.
     """
-    from warpvol.raycasting.visible import face_triangles
+    from warpvol.shared.visible import face_triangles
 
     front = entry_face_mask(mesh, camera, faces)
     bf = (mesh.boundary_faces if faces is None else np.asarray(faces, dtype=np.int64).reshape(-1, 2))[front]
