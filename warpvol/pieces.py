@@ -149,6 +149,32 @@ def _points_in_order(grid, order: np.ndarray):
     return out
 
 
+class _RssWatch:
+    """Samples this process's resident memory every 2 ms while it runs (a thread): ``rise`` is the largest
+    sample above the first, what one task added at its peak."""
+
+    def __init__(self):
+        import threading
+
+        import psutil
+
+        self._proc = psutil.Process()
+        self.start = self.top = self._proc.memory_info().rss
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.wait(0.002):
+            self.top = max(self.top, self._proc.memory_info().rss)
+
+    def stop(self) -> int:
+        self._stop.set()
+        self._thread.join()
+        self.top = max(self.top, self._proc.memory_info().rss)
+        return self.top - self.start
+
+
 def _peak_bytes() -> int:
     import resource
 
@@ -158,27 +184,36 @@ def _peak_bytes() -> int:
 def piece_segments(path: str, scalars: str, tf, camera, what: str = "reference"):
     """Render one piece into segments (runs on a worker; top-level so it pickles). Returns
     ``(segments, info)`` with ``info``: piece, cells, seconds, peak_bytes (the worker process's peak
-    resident memory so far), segments."""
+    resident memory so far), piece_bytes (its resident memory's largest rise over this task: reading and
+    rendering the piece, sampled every 2 ms), bytes_per_tet (piece_bytes over the piece's cells), segments."""
     from warpvol.pipeline import quiet_warp
     from warpvol.reference.segments import reference_segments
 
     quiet_warp()
     t0 = time.perf_counter()
+    watch = _RssWatch()
     if what not in PIECE_RENDERERS:
+        watch.stop()
         raise ConfigError(f"pieces: cannot render {what!r} into segments; allowed: {', '.join(PIECE_RENDERERS)}")
-    mesh = read_piece(path, scalars)
+    try:
+        mesh = read_piece(path, scalars)
+    except BaseException:
+        watch.stop()
+        raise
     extra: dict = {}
-    if what == "raycast":
-        from warpvol.raycast_segments import raycast_segments
-        from warpvol.scene.scene import Scene
+    try:
+        if what == "raycast":
+            from warpvol.raycast_segments import raycast_segments
+            from warpvol.scene.scene import Scene
 
-        segs = raycast_segments(Scene(mesh=mesh, transfer=tf, camera=camera, name=mesh.name), stats=extra)
-    else:
-        segs = reference_segments(mesh, tf, camera)
-    peak = _peak_bytes()
+            segs = raycast_segments(Scene(mesh=mesh, transfer=tf, camera=camera, name=mesh.name), stats=extra)
+        else:
+            segs = reference_segments(mesh, tf, camera)
+    finally:
+        rise = watch.stop()
     info = {"piece": Path(path).name, "cells": int(mesh.n_tets), "seconds": time.perf_counter() - t0,
-            "peak_bytes": peak, "bytes_per_tet": peak / max(1, mesh.n_tets), "segments": len(segs), **extra,
-            **mesh.load_notes}
+            "peak_bytes": _peak_bytes(), "piece_bytes": rise, "bytes_per_tet": rise / max(1, mesh.n_tets),
+            "segments": len(segs), **extra, **mesh.load_notes}
     return segs, info
 
 
