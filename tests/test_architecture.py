@@ -31,20 +31,21 @@ LAYERS = {
     "warpvol.tables": 4,
     # 5 the stage framework
     "warpvol.stage": 5,
-    # 6 code several renderer families share (entry bins, thin-cell and pixel marks, visibility and skipping)
+    # 6 code several renderer families share (entry bins, thin-cell and pixel marks, visibility and skipping,
+    #   the integration set-up and table textures)
     "warpvol.shared": 6,
-    # 6 the pipeline families: host code and stages (the table stages and the condition stage too)
-    "warpvol.tables.stages": 6, "warpvol.conditioning": 6, "warpvol.projection": 6, "warpvol.raycasting": 6,
-    "warpvol.vsbuffer": 6,
-    # 7 the stage catalog and pipelines (presets)
-    "warpvol.stages": 7, "warpvol.pipeline": 7, "warpvol.presets": 7, "warpvol.profiles": 7,
-    # 8 the Python API, the session caches, the reference in bands
-    "warpvol.api": 8, "warpvol.cache": 8, "warpvol.bands": 8, "warpvol.figures": 8,
-    "warpvol.pieces": 8, "warpvol.raycast_segments": 8,
-    # 9 tools and the reproduction of the papers
-    "warpvol.tools": 9, "warpvol.reproduce": 9,
-    # 10 the command line and the package's face
-    "warpvol.cli": 10, "warpvol": 10,
+    # 7 the pipeline families: host code and stages (the table stages and the condition stage too)
+    "warpvol.tables.stages": 7, "warpvol.conditioning": 7, "warpvol.projection": 7, "warpvol.raycasting": 7,
+    "warpvol.vsbuffer": 7,
+    # 8 the stage catalog and pipelines (presets)
+    "warpvol.stages": 8, "warpvol.pipeline": 8, "warpvol.presets": 8, "warpvol.profiles": 8,
+    # 9 the Python API, the session caches, the reference in bands
+    "warpvol.api": 9, "warpvol.cache": 9, "warpvol.bands": 9, "warpvol.figures": 9,
+    "warpvol.pieces": 9, "warpvol.raycast_segments": 9,
+    # 10 tools and the reproduction of the papers
+    "warpvol.tools": 10, "warpvol.reproduce": 10,
+    # 11 the command line and the package's face
+    "warpvol.cli": 11, "warpvol": 11,
 }
 
 
@@ -134,6 +135,30 @@ def find_cycle(graph: dict[str, list[str]]) -> list[str] | None:
     return None
 
 
+#: the renderer families: none imports another (what two of them need lives in ``warpvol.shared``)
+RENDERER_FAMILIES = ("warpvol.projection", "warpvol.raycasting", "warpvol.vsbuffer")
+
+
+def family(mod: str) -> str | None:
+    return next((f for f in RENDERER_FAMILIES if mod == f or mod.startswith(f + ".")), None)
+
+
+def cross_family_imports(graph: dict[str, list[tuple[str, int]]]) -> list[str]:
+    return [f"{m}:{line} imports {t}" for m, ts in graph.items() for t, line in ts
+            if family(m) and family(t) and family(m) != family(t)]
+
+
+def test_no_renderer_family_imports_another():
+    cross = cross_family_imports(GRAPH)
+    assert not cross, "a renderer family imports another (move what both need to warpvol/shared/):\n" + \
+        "\n".join(cross)
+
+
+def test_the_family_check_finds_an_import_across_families():
+    graph = {"warpvol.vsbuffer.x": [("warpvol.raycasting.y", 12)], "warpvol.raycasting.y": [("warpvol.shared.z", 3)]}
+    assert cross_family_imports(graph) == ["warpvol.vsbuffer.x:12 imports warpvol.raycasting.y"]
+
+
 def test_no_import_circle():
     graph = {m: sorted({t for t, _ in ts if t in MODULES}) for m, ts in GRAPH.items()}
     cycle = find_cycle(graph)
@@ -150,3 +175,4 @@ def test_the_layer_check_sees_imports_inside_functions():
     src = MODULES["warpvol.pipeline"]
     found = [t for t, _ in imports("warpvol.pipeline", src)]
     assert "warpvol.stages" in found  # imported on first use, inside a function
+

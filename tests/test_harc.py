@@ -121,7 +121,7 @@ def test_rays_through_vertices_and_edges(direction):
 
 def segments(mode, tf, sf, sb, l, **kw):
     from warpvol.kernels import harc as kh
-    from warpvol.raycasting.harc import integ_setup
+    from warpvol.shared.integration import integ_setup
 
     ig, _keep = integ_setup(mode, tf, "cpu", **kw)
     n = len(sf)

@@ -24,6 +24,5 @@ package                                  stages
 from warpvol.conditioning import stages as conditioning_stages  # noqa: F401
 from warpvol.projection import stages as projection_stages  # noqa: F401
 from warpvol.raycasting import stages as raycasting_stages  # noqa: F401
-from warpvol.shared import entry_bins  # noqa: F401 (the entry_bins stage)
 from warpvol.tables import stages as table_stages  # noqa: F401
 from warpvol.vsbuffer import stages as vsbuffer_stages  # noqa: F401

@@ -16,6 +16,7 @@ import warp as wp
 
 from warpvol.errors import ConfigError
 from warpvol.projection.pt import NO_ZERO, PERSPECTIVE_MODES, PTGeometry
+from warpvol.shared.integration import TEXEL_FOR_TABLE, _axis_affine
 
 
 def vertex_colors(geo: PTGeometry, tf, device: str = "cpu") -> np.ndarray:
@@ -43,18 +44,6 @@ def vertex_color_program(emission_density: bool, device: str = "cpu") -> Callabl
         return out
 
     return run
-
-
-TEXEL_FOR_TABLE = {"fp32": "rgba32f", "fp16": "rgba16f", "rgba8": "rgba8", "hilo16": "rgba16"}
-
-
-def _axis_affine(ax) -> tuple[float, float, int]:
-    """``(a, b, log2_n)`` of an axis' normalised value -> texture coordinate map."""
-    if ax.kind == "centred":
-        return 1.0, 0.0, 0
-    if ax.kind == "endpoint":
-        return 1.0 - 1.0 / ax.n, 0.5 / ax.n, 0
-    return 1.0, 0.0, ax.n
 
 
 #: fragment attribute modes: screen-linear (sf, sb, l), or Kraus et al.'s perspective-correct

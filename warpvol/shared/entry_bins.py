@@ -1,4 +1,4 @@
-"""Host step ``entry_bins``: bin the front-facing boundary faces into screen tiles.
+"""Entry bins (the ``entry_bins`` stage's host code): the front-facing boundary faces binned into screen tiles.
 
 Rays start on the mesh boundary. Instead of testing every pixel against every boundary face, each
 boundary face a ray may enter through (:func:`entry_face_mask`) is projected along the camera's rays
@@ -17,8 +17,6 @@ gives the same entry as testing every face of the tile.
 from __future__ import annotations
 
 import numpy as np
-
-from warpvol.stage import Context, Param, Stage, register_stage
 
 #: the per-mesh properties (cached on the mesh) :func:`entry_face_mask` reads: set-up on first use
 ENTRY_MESH_PROPERTIES = ("boundary_faces", "face_planes", "bounds", "bounding_radius")
@@ -200,37 +198,3 @@ def bin_boundary_faces(mesh, camera, tile: int, faces: np.ndarray | None = None)
                 bface_box=np.ascontiguousarray(box, dtype=np.int32).reshape(-1),
                 tile_start=start.astype(np.int32), tile_items=face[order].astype(np.int32), item_depth=depth,
                 tiles_x=tiles_x, tiles_y=tiles_y, tile=tile)
-
-
-@register_stage
-class EntryBins(Stage):
-    """Bin the boundary faces rays may enter through into screen tiles (ray start / re-entry search):
-    the mesh's, or the visible sub-mesh's when ``cell_setup`` confines the walk to the visible cells
-    (``cells["entry_faces"]``).
-
-    ==========  =====  =======  ======================================
-    parameter   type   default  meaning
-    ==========  =====  =======  ======================================
-    tile        int    8        tile edge in pixels (1 .. 256)
-    ==========  =====  =======  ======================================
-    """
-
-    name = "entry_bins"
-    summary = "bin entry boundary faces into screen tiles for ray entry"
-    needs = ()
-    provides = ("entry_bins",)
-    params = (Param("tile", int, 8, "tile edge in pixels", lo=1, hi=256),)
-
-    def run(self, ctx: Context) -> None:
-        import warp as wp
-
-        faces = ctx.buffers.get("cells", {}).get("entry_faces")
-        ctx.mesh_setup(ctx.scene.mesh, *ENTRY_MESH_PROPERTIES)
-        b = bin_boundary_faces(ctx.scene.mesh, ctx.scene.camera, self.tile, faces)
-        ctx.stats["entry_faces"] = int(len(b["bface_tet"]))
-        ctx.stats["entry_bin_items"] = int(len(b["tile_items"]))
-        ctx.buffers["entry_bins"] = {
-            k: (wp.array(v, dtype=wp.vec3 if k == "item_depth" else wp.int32, device=ctx.device)
-                if isinstance(v, np.ndarray) else v)
-            for k, v in b.items()
-        }

@@ -39,7 +39,7 @@ def iso_values(tf) -> np.ndarray:
     as given, collinear runs included. The paper decomposes the TF into linear segments and splits a
     ray at every segment boundary, so a TF of 255 segments costs 255 iso-surfaces even where
     neighbouring segments are collinear (the partial pre-integration walk reads the same unmerged points:
-    :func:`warpvol.raycasting.harc.integ_setup`)."""
+    :func:`warpvol.shared.integration.integ_setup`)."""
     lo, hi = tf.srange
     return ((np.asarray(tf.points, dtype=np.float64)[:, 0] - lo) / (hi - lo)).astype(np.float32)
 

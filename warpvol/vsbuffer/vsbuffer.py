@@ -232,7 +232,7 @@ def _walk_inputs(cells: ConvexCellMesh, transfer, camera, device: str, rows: int
     import warp as wp
 
     from warpvol.kernels import vsbuffer as kv
-    from warpvol.raycasting.harc import integ_setup
+    from warpvol.shared.integration import integ_setup
 
     origin = 0.5 * (cells.bounds[0] + cells.bounds[1]) if ORIGIN_SHIFT else np.zeros(3)
     dc = _device_cells(cells, origin, device, camera if ties else None, visible)

@@ -146,7 +146,7 @@ class VICP(Stage):
         """The table as a 3D texture, made resident once per table object (a redraw uploads nothing)."""
         from warpvol.errors import ConfigError
         from warpvol.gpu.texture import Texture3D
-        from warpvol.projection.programs import TEXEL_FOR_TABLE
+        from warpvol.shared.integration import TEXEL_FOR_TABLE
 
         fmt = self.config["texel_format"]
         if fmt == "auto":
@@ -172,8 +172,9 @@ class VICP(Stage):
         from warpvol.gpu.blend import BlendUnit, FrameBuffer
         from warpvol.gpu.raster import Rasterizer
         from warpvol.kernels import vicp as kv
-        from warpvol.projection.programs import _axis_affine, _scalar_consts
+        from warpvol.projection.programs import _scalar_consts
         from warpvol.projection.pt import RASTER_RULES
+        from warpvol.shared.integration import _axis_affine
 
         table = table_from(self, ctx, "table_exact")
         if table.data.ndim != 4 or table.data.shape[-1] != 4 or len(table.axes) != 3:

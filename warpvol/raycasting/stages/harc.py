@@ -142,9 +142,10 @@ class Harc(Stage):
 
     def run(self, ctx: Context) -> None:
         from warpvol.kernels.raycast import STATUS_FAILED
-        from warpvol.raycasting.harc import HarcState, integ_setup, lost_rays, lost_warning, march_pass, resolve_failed
+        from warpvol.raycasting.harc import HarcState, lost_rays, lost_warning, march_pass, resolve_failed
         from warpvol.raycasting.stages.cell_setup import scalar_check_needed
         from warpvol.raycasting.stages.raycast import rays_without_cell, report_left_out, stop_transmittance
+        from warpvol.shared.integration import integ_setup
 
         mt = ctx.buffers["harc_mesh"]
         if self.walk == "planes" and mt["struct"] is None:
