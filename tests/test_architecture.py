@@ -176,3 +176,18 @@ def test_the_layer_check_sees_imports_inside_functions():
     found = [t for t, _ in imports("warpvol.pipeline", src)]
     assert "warpvol.stages" in found  # imported on first use, inside a function
 
+
+def test_no_package_is_listed_by_hand():
+    """pyproject.toml names no package: setup.py finds every folder of ``warpvol/`` by a scan, so a new
+    family's folder is installed with no line added (``kernels/`` -> ``warpvol.kernels`` is the one mapping)."""
+    import tomllib
+
+    from setuptools import find_namespace_packages
+
+    setuptools_cfg = tomllib.loads((ROOT / "pyproject.toml").read_text()).get("tool", {}).get("setuptools", {})
+    assert "packages" not in setuptools_cfg and "package-dir" not in setuptools_cfg
+    setup_py = (ROOT / "setup.py").read_text()
+    assert "find_namespace_packages(" in setup_py and '"warpvol.kernels": "kernels"' in setup_py
+    found = set(find_namespace_packages(str(ROOT), include=["warpvol", "warpvol.*"], exclude=["*.__pycache__"]))
+    python_folders = {module_name(p.parent / "__init__.py") for p in ROOT.glob("warpvol/**/*.py")}
+    assert python_folders <= found, sorted(python_folders - found)
