@@ -181,7 +181,14 @@ def _peak_bytes() -> int:
     return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024  # Linux: kilobytes
 
 
-def piece_segments(path: str, scalars: str, tf, camera, what: str = "reference"):
+def piece_bounds(path: str, scalars: str) -> dict:
+    """A piece's bounds and scalar range (the first pass of a render in pieces; runs on a worker)."""
+    mesh = read_piece(path, scalars)
+    lo, hi = mesh.bounds
+    return {"lo": np.asarray(lo).tolist(), "hi": np.asarray(hi).tolist(), "range": list(mesh.scalar_range)}
+
+
+def piece_segments(path: str, scalars: str, tf, camera, what: str = "reference", frame: dict | None = None):
     """Render one piece into segments (runs on a worker; top-level so it pickles). Returns
     ``(segments, info)`` with ``info``: piece, cells, seconds, peak_bytes (the worker process's peak
     resident memory so far), piece_bytes (its resident memory's largest rise over this task: reading and
@@ -206,7 +213,8 @@ def piece_segments(path: str, scalars: str, tf, camera, what: str = "reference")
             from warpvol.raycast_segments import raycast_segments
             from warpvol.scene.scene import Scene
 
-            segs = raycast_segments(Scene(mesh=mesh, transfer=tf, camera=camera, name=mesh.name), stats=extra)
+            segs = raycast_segments(Scene(mesh=mesh, transfer=tf, camera=camera, name=mesh.name), stats=extra,
+                                    frame=frame)
         else:
             segs = reference_segments(mesh, tf, camera)
     finally:
@@ -251,8 +259,16 @@ def render_pieces(pieces: list[Path], scalars: str, tf, camera, scheduler: Any =
     try:
         n_workers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
         tag = f"{os.getpid()}-{id(pieces)}-{time.monotonic_ns()}"
-        futs = {client.submit(piece_segments, str(p), scalars, tf, camera, what, key=f"piece-{k}-{tag}", pure=False): k
-                for k, p in enumerate(pieces)}
+        frame = None
+        if what == "raycast":  # first pass: the whole mesh's frame from the pieces' bounds and scalar ranges
+            from warpvol.conditioning.conditioning import shared_frame
+
+            heads = client.gather([client.submit(piece_bounds, str(p), scalars, key=f"bounds-{k}-{tag}", pure=False)
+                                   for k, p in enumerate(pieces)])
+            frame = shared_frame(tf, np.min([h["lo"] for h in heads], axis=0), np.max([h["hi"] for h in heads], axis=0),
+                                 (min(h["range"][0] for h in heads), max(h["range"][1] for h in heads)))
+        futs = {client.submit(piece_segments, str(p), scalars, tf, camera, what, frame, key=f"piece-{k}-{tag}",
+                              pure=False): k for k, p in enumerate(pieces)}
         parts: list = [None] * len(pieces)
         for f in as_completed(futs):
             k = futs[f]
@@ -268,6 +284,8 @@ def render_pieces(pieces: list[Path], scalars: str, tf, camera, scheduler: Any =
     segs = merge([s for s, _ in parts])
     rep = {"pieces": [i for _, i in parts], "workers": n_workers, "compositing_s": time.perf_counter() - t1,
            "seconds": time.perf_counter() - t0}
+    if frame is not None:
+        rep["frame"] = {k: frame[k] for k in ("centre", "h", "scalar_offset", "scalar_scale")}
     if stats is not None:
         stats.update(rep)
     return segs, rep
@@ -391,6 +409,8 @@ def render_in_pieces(scene: Path | str, pipeline: str = "raycast", scheduler: An
                                                    "compositing": rep["compositing_s"]},
                   "total_s": time.perf_counter() - t0, "pieces": rep["pieces"], "workers": rep["workers"],
                   "compositing_s": rep["compositing_s"]}
+        if "frame" in rep:
+            report["frame"] = rep["frame"]
         ref = None
         if reference:
             rsegs, rrep = (segs, rep) if pipeline == "reference" else \

@@ -58,9 +58,11 @@ def _reference_rows(mesh, tf, camera, pixels: np.ndarray) -> tuple[np.ndarray, S
 
 
 def raycast_segments(scene, *, device: str = "cpu", threads: int = 0, cap: int = SEGMENT_CAP,
-                     stats: dict | None = None) -> Segments:
+                     stats: dict | None = None, frame: dict | None = None) -> Segments:
     """``scene`` rendered by the ``raycast`` preset into segments (one per entry of a ray into the mesh);
-    ``stats`` gets ``float64_rays`` (rays given the reference's segments) and ``passes``."""
+    ``stats`` gets ``float64_rays`` (rays given the reference's segments) and ``passes``. ``frame``
+    (:func:`warpvol.conditioning.conditioning.shared_frame`): a piece of a larger mesh is conditioned and set up
+    in the whole mesh's frame, so that pieces meet in the same float32 points."""
     from warpvol.kernels import raycast as k
     from warpvol.parallel import cpu_threads
     from warpvol.pipeline import Pipeline
@@ -73,6 +75,8 @@ def raycast_segments(scene, *, device: str = "cpu", threads: int = 0, cap: int =
     if "entry_bins" not in keys or "raycast" not in keys:
         raise ConfigError("raycast_segments: the raycast preset lacks its entry_bins or raycast stage")
     ctx = Context(scene=scene, persistent=pipe.persistent, quiet=True, device=device)
+    if frame is not None:
+        ctx.buffers["frame"] = frame
     for st in pipe.stages[:keys.index("entry_bins") + 1]:
         st.run(ctx)
     rc = pipe.stages[keys.index("raycast")]

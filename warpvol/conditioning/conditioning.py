@@ -323,7 +323,8 @@ def check_conditionable(scene) -> None:
     _check_values(vals, s, tf.emission, _diagonal(mesh), where)
 
 
-def condition_scene(scene, cache: dict | None = None, reorder: str = "none") -> tuple[object, dict]:
+def condition_scene(scene, cache: dict | None = None, reorder: str = "none",
+                    frame: dict | None = None) -> tuple[object, dict]:
     """``(conditioned scene, info)``: the scene mapped as in the module docstring, in float64.
 
     ``info`` holds ``origin`` (the world point that becomes 0), ``scale`` (the world length that
@@ -337,6 +338,9 @@ def condition_scene(scene, cache: dict | None = None, reorder: str = "none") -> 
     The scene object is copied (any object with ``mesh``, ``transfer`` and ``camera``), the input
     untouched. With ``cache`` (a dict kept across calls) the conditioned mesh is reused while the
     mesh object and the scalar mapping stay the same, so per-mesh caches downstream keep hitting.
+    ``frame`` (:func:`shared_frame`), for a piece of a larger mesh: the whole mesh's ``centre``, ``h``,
+    ``scalar_offset``, ``scalar_scale``, ``data_range`` and ``diagonal`` instead of the piece's own, so that
+    every piece is conditioned alike (the same float32 points on both sides of a piece boundary).
 
     Examples
     --------
@@ -349,10 +353,19 @@ def condition_scene(scene, cache: dict | None = None, reorder: str = "none") -> 
     import weakref
 
     source, tf = scene.mesh, scene.transfer
+    if frame is not None:  # a piece in another mesh's frame: not the piece's own conditioning, not cached
+        cache = None
     mesh = _tets_of(source)  # convex cells drawn whole are conditioned through their tets
-    centre, h = mesh_frame(mesh)
-    data_range = mesh.scalar_range
-    s_mid, s_half, mapping = scalar_mapping(tf, mesh.scalars, data_range, getattr(tf, "where", "transfer"))
+    if frame is None:
+        centre, h = mesh_frame(mesh)
+        data_range = mesh.scalar_range
+        s_mid, s_half, mapping = scalar_mapping(tf, mesh.scalars, data_range, getattr(tf, "where", "transfer"))
+        diag = _diagonal(mesh)
+    else:  # a piece of a larger mesh: the whole mesh's frame
+        centre, h = np.asarray(frame["centre"], dtype=np.float64), float(frame["h"])
+        data_range = tuple(float(v) for v in frame["data_range"])
+        s_mid, s_half, mapping = float(frame["scalar_offset"]), float(frame["scalar_scale"]), {"resolution": None}
+        diag = float(frame["diagonal"])
     hit = None if cache is None else cache.get("mesh")  # (weakref to the source, mapping, renumbering, result)
     if hit is not None and hit[0]() is source and hit[1] == (s_mid, s_half) and hit[2] == reorder:
         cmesh, cached = hit[3], True
@@ -366,7 +379,7 @@ def condition_scene(scene, cache: dict | None = None, reorder: str = "none") -> 
             cache["mesh"] = (weakref.ref(source), (s_mid, s_half), reorder, cmesh)
     out = copy.copy(scene)
     out.mesh = cmesh
-    out.transfer = conditioned_transfer(tf, h, s_mid, s_half, data_range, _diagonal(mesh))
+    out.transfer = conditioned_transfer(tf, h, s_mid, s_half, data_range, diag)
     out.camera = conditioned_camera(scene.camera, centre, h)
     info = {"origin": [float(v) for v in centre], "scale": h, "scalar_offset": s_mid, "scalar_scale": s_half,
             "reordered": getattr(cmesh, "cell_order", None) is not None, "cached": cached,
@@ -374,6 +387,24 @@ def condition_scene(scene, cache: dict | None = None, reorder: str = "none") -> 
     if "warning" in mapping:
         info["warning"] = mapping["warning"]
     return out, info
+
+
+def shared_frame(tf: TransferFunction, lo, hi, data_range: tuple[float, float]) -> dict:
+    """The frame of a mesh known by its bounds ``lo``, ``hi`` and scalar range alone (the union of its pieces'):
+    what :func:`condition_scene` takes as ``frame``, plus ``cells_origin`` and ``cells_radius``, the conditioned
+    bounding box's centre and half diagonal (a bound on every point's distance from it), for the ray casters'
+    cell set-up."""
+    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    centre = 0.5 * lo + 0.5 * hi
+    h = float((0.5 * hi - 0.5 * lo).max())
+    if not h > 0:
+        h = float((hi - lo).max())
+    d_lo, d_hi = (float(v) for v in data_range)
+    s_mid, s_half, _ = scalar_mapping(tf, np.array([d_lo, d_hi]), (d_lo, d_hi), getattr(tf, "where", "transfer"))
+    c_lo, c_hi = (lo - centre) / h, (hi - centre) / h
+    return {"centre": centre.tolist(), "h": h, "scalar_offset": s_mid, "scalar_scale": s_half,
+            "data_range": [d_lo, d_hi], "diagonal": 2.0 * float(np.linalg.norm(0.5 * hi - 0.5 * lo)),
+            "cells_origin": (0.5 * (c_lo + c_hi)).tolist(), "cells_radius": 0.5 * float(np.linalg.norm(c_hi - c_lo))}
 
 
 def conditioned_transfer(tf: TransferFunction, h: float, s_mid: float, s_half: float,

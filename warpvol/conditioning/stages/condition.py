@@ -57,7 +57,7 @@ class Condition(Stage):
 
     def run(self, ctx: Context) -> None:
         ctx.scene, info = condition_scene(ctx.scene, cache=ctx.persistent.setdefault("condition", {}),
-                                          reorder=self.reorder)
+                                          reorder=self.reorder, frame=ctx.buffers.get("frame"))
         ctx.buffers["conditioned"] = True
         ctx.buffers.pop("visible_cells", None)  # per cell of the scene before: its cells may be renumbered
         ctx.stats["condition"] = info

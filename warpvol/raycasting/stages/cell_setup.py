@@ -80,18 +80,20 @@ def scalar_check_needed(tf_s, tf_v, model: int, s_span: float, radius: float) ->
     return int(not (g * 2.0 * float(s_span) * 2.1 * float(radius) <= 0.5 * float(STEEP_ERR)))
 
 
-def mesh_arrays(mesh, device: str) -> dict:
-    """Device arrays of the per-mesh cell layout (plain function for tests and other walkers)."""
+def mesh_arrays(mesh, device: str, frame: dict | None = None) -> dict:
+    """Device arrays of the per-mesh cell layout (plain function for tests and other walkers); ``frame``: a
+    piece of a larger mesh takes the whole mesh's ``cells_origin`` and ``cells_radius``
+    (:func:`warpvol.conditioning.conditioning.shared_frame`)."""
     import warp as wp
 
     lo, hi = mesh.bounds
-    origin = 0.5 * (lo + hi)
+    origin = 0.5 * (lo + hi) if frame is None else np.asarray(frame["cells_origin"], dtype=np.float64)
     rel = mesh.points - origin
     tets = np.ascontiguousarray(mesh.tets, dtype=np.int32)
     nbr = neighbour_faces(mesh.adjacency)
     return {
         "origin": origin,
-        "radius": float(np.sqrt((rel * rel).sum(axis=1).max())),
+        "radius": float(np.sqrt((rel * rel).sum(axis=1).max())) if frame is None else float(frame["cells_radius"]),
         "diameter": float(np.linalg.norm(hi - lo)),
         "s_span": float(np.ptp(np.asarray(mesh.scalars, np.float32))) if len(mesh.scalars) else 0.0,
         "verts": wp.array(np.ascontiguousarray(np.c_[rel, mesh.scalars], dtype=np.float32), dtype=wp.vec4,
@@ -103,15 +105,18 @@ def mesh_arrays(mesh, device: str) -> dict:
     }
 
 
-def cell_arrays(mesh, tf, device: str, cache: dict | None = None) -> dict:
-    """Mesh arrays (from ``cache`` when it holds them for this mesh and device) plus the TF."""
+def cell_arrays(mesh, tf, device: str, cache: dict | None = None, frame: dict | None = None) -> dict:
+    """Mesh arrays (from ``cache`` when it holds them for this mesh and device) plus the TF; ``frame``: see
+    :func:`mesh_arrays` (not cached)."""
+    if frame is not None:
+        cache = None
     key = str(device)
     hit = None if cache is None else cache.get(key)
     if hit is not None and hit["mesh"]() is mesh:
         cells = dict(hit["arrays"])
         cells["cached"] = True
     else:
-        arrays = mesh_arrays(mesh, device)
+        arrays = mesh_arrays(mesh, device, frame)
         if cache is not None:
             cache[key] = {"mesh": weakref.ref(mesh), "arrays": arrays}
         cells = dict(arrays)
@@ -168,7 +173,7 @@ class CellSetup(Stage):
 
     def run(self, ctx: Context) -> None:
         cache = ctx.persistent.setdefault("cells", {})
-        cells = cell_arrays(ctx.scene.mesh, ctx.scene.transfer, ctx.device, cache)
+        cells = cell_arrays(ctx.scene.mesh, ctx.scene.transfer, ctx.device, cache, ctx.buffers.get("frame"))
         n_out = confine_to_visible(ctx, cells)
         ctx.buffers["cells"] = cells
         ctx.stats["cell_setup"] = {"cached": cells["cached"]}
