@@ -175,6 +175,16 @@ class _RssWatch:
         return self.top - self.start
 
 
+def _worker_threads() -> int:
+    """The threads Dask gives the worker running this task (0 outside a worker: all cores)."""
+    try:
+        from dask.distributed import get_worker
+
+        return int(get_worker().state.nthreads)
+    except (ImportError, ValueError, AttributeError):
+        return 0
+
+
 def _peak_bytes() -> int:
     import resource
 
@@ -214,9 +224,9 @@ def piece_segments(path: str, scalars: str, tf, camera, what: str = "reference",
             from warpvol.scene.scene import Scene
 
             segs = raycast_segments(Scene(mesh=mesh, transfer=tf, camera=camera, name=mesh.name), stats=extra,
-                                    frame=frame)
-        else:
-            segs = reference_segments(mesh, tf, camera)
+                                    frame=frame, threads=_worker_threads())
+        else:  # bands of at most 4 million candidate (tet, pixel) pairs: a worker's memory stays small
+            segs = reference_segments(mesh, tf, camera, band_pairs=4_000_000)
     finally:
         rise = watch.stop()
     info = {"piece": Path(path).name, "cells": int(mesh.n_tets), "seconds": time.perf_counter() - t0,
