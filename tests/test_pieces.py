@@ -129,6 +129,13 @@ def test_missing_or_unreadable_piece_names_it(pieces, tmp_path):
     r = subprocess.run([sys.executable, "-m", "warpvol.cli", "render", str(scene), "--pipeline", "pt_best",
                         "--scheduler", "local", "-o", str(out)], capture_output=True, text=True)
     assert r.returncode == 2 and "piece by piece" in r.stderr and not out.exists()
+    # a local worker's memory limit: only for pieces on a local cluster, a size
+    for scene_arg, sched, mem, why in ((str(scene), "local", "lots", "expected a size"),
+                                       ("builtin:box", None, "1GB", "only used with --scheduler local")):
+        r = subprocess.run([sys.executable, "-m", "warpvol.cli", "reference", scene_arg, "-o", str(out),
+                            "--worker-memory", mem] + (["--scheduler", sched] if sched else []),
+                           capture_output=True, text=True)
+        assert r.returncode == 2 and why in r.stderr and not out.exists()
 
 
 def test_partition_cuts_into_a_pvtu(tmp_path):

@@ -50,8 +50,10 @@ def reference_band(scene: Any, first: int, last: int) -> np.ndarray:
     return render_reference(scene.mesh, scene.transfer, scene.camera, rows=(first, last))
 
 
-def _client(scheduler: str, workers: int):
-    """``(client, cluster or None)`` for ``"local"`` or a scheduler address."""
+def _client(scheduler: str, workers: int, memory_limit: str | int | None = None):
+    """``(client, cluster or None)`` for ``"local"`` or a scheduler address; ``memory_limit``: each local
+    worker's (Dask's ``memory_limit``: bytes or a string such as ``"2GB"``; default Dask's share of the
+    machine)."""
     from dask.distributed import Client, LocalCluster
 
     if not isinstance(scheduler, str) or not scheduler:
@@ -60,8 +62,9 @@ def _client(scheduler: str, workers: int):
     if scheduler == "local":
         if not isinstance(workers, int) or isinstance(workers, bool) or workers < 1:
             raise ConfigError(f"--workers: expected an integer >= 1, got {workers!r}")
+        extra = {} if memory_limit is None else {"memory_limit": memory_limit}
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                               dashboard_address=None, silence_logs=40)
+                               dashboard_address=None, silence_logs=40, **extra)
         return Client(cluster), cluster
     try:
         return Client(scheduler, timeout="20s"), None

@@ -177,11 +177,12 @@ def cmd_gpus(args) -> int:
 
 
 def cmd_reference(args) -> int:
-    from warpvol.cli_pieces import DEEP_OUTPUT, cmd_reference_pieces, maybe_pieces
+    from warpvol.cli_pieces import DEEP_OUTPUT, check_deep, cmd_reference_pieces, maybe_pieces
     from warpvol.io import Outputs
 
     if (info := maybe_pieces(args)) is not None:  # a .pvtu of several pieces on Dask: each piece on a worker
         return cmd_reference_pieces(args, info)
+    check_deep(args)
     outs = check_outputs({"-o": args.output, "--deep": args.deep}, {**IMAGE_OUTPUT, **DEEP_OUTPUT})
     out = outs["-o"]
     check_inputs(scene_inputs(args.scene), outs)
@@ -505,6 +506,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "the report's left_out section says what is left out otherwise)")
     mesh_args(r)
     band_args(r, "the reference of --compute-reference")
+    from warpvol.cli_pieces import add_worker_memory
+
+    add_worker_memory(r)
     r.add_argument("--deep", help="with --scheduler and a .pvtu scene of several pieces: also write the merged segments "
                    "as an OpenEXR deep image (RGBA, Z, ZBack; Z is view-space depth)")
     common(r)
@@ -518,6 +522,7 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--strict", action="store_true")
     mesh_args(f)
     band_args(f, "the reference (a .pvtu scene of several pieces: each piece on a worker)")
+    add_worker_memory(f)
     f.add_argument("--deep", help="also write the reference's segments (one per entry of a ray into the mesh or a piece) "
                    "as an OpenEXR deep image (RGBA, Z, ZBack; Z is view-space depth)")
     common(f, device=False)

@@ -15,6 +15,9 @@ DEEP_OUTPUT = {"--deep": (".exr",)}
 
 def check_deep(args) -> None:
     """``--deep`` is written from segments: a multi-piece ``.pvtu`` scene with ``--scheduler``, or the reference."""
+    if getattr(args, "worker_memory", None) is not None:
+        raise ConfigError("--worker-memory: only used with --scheduler local and a scene whose mesh is a .pvtu of "
+                          "several pieces (reference bands run in workers of Dask's default size)")
     if getattr(args, "deep", None) and args.scheduler is None and args.cmd != "reference":
         raise ConfigError("--deep: the segments of a render come from its pieces: give --scheduler with a scene whose "
                           "mesh is a .pvtu of several pieces (warpvol reference writes --deep on its own)")
@@ -56,6 +59,23 @@ def _write(outs: dict, img, segs, camera, args, report: str | None = None) -> di
     return deep
 
 
+def _worker_memory(args):
+    """``--worker-memory`` (local clusters only)."""
+    mem = getattr(args, "worker_memory", None)
+    if mem is not None and args.scheduler != "local":
+        raise ConfigError("--worker-memory: limits the workers of --scheduler local; a running cluster's workers "
+                          "take theirs from `dask worker --memory-limit`")
+    if mem is not None:
+        from dask.utils import parse_bytes
+
+        try:
+            if parse_bytes(mem) <= 0:
+                raise ValueError
+        except (ValueError, TypeError):
+            raise ConfigError(f"--worker-memory: expected a size such as 2GB or 500MB, got {mem!r}") from None
+    return mem
+
+
 def _piece_line(rep: dict) -> str:
     cells = sum(p["cells"] for p in rep["pieces"])
     peak = max(p["peak_bytes"] for p in rep["pieces"])
@@ -71,10 +91,18 @@ def cmd_reference_pieces(args, info: dict) -> int:
     _no_mesh_options(args)
     check_sizes(args)
     check_bands(args)
+    _worker_memory(args)
     cam = _camera(info, args)
     t0 = time.perf_counter()
-    segs, rep = render_pieces(info["pieces"], info["scalars"], info["transfer"], cam, args.scheduler,
-                              workers=args.workers or 2)
+    from warpvol.pieces import _client
+
+    client, cluster, owned = _client(args.scheduler, args.workers or 2, _worker_memory(args))
+    try:
+        segs, rep = render_pieces(info["pieces"], info["scalars"], info["transfer"], cam, client)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
     img = segs.flatten()
     dt = time.perf_counter() - t0
     deep = _write(outs, img, segs, cam, args)
@@ -112,7 +140,7 @@ def cmd_render_pieces(args, info: dict) -> int:
         raise ConfigError(f"--reference: {args.reference} has shape {ref.shape}, expected "
                           f"{(cam.height_px, cam.width_px, 4)}")
     res = render_in_pieces(args.scene, args.pipeline, args.scheduler, workers=args.workers or 2,
-                           reference=args.compute_reference, camera=cam)
+                           reference=args.compute_reference, camera=cam, worker_memory=_worker_memory(args))
     img, segs, report = res["image"], res["segments"], res["report"]
     total = report["total_s"]
     if ref is not None:  # --reference (with --compute-reference the report has the error already)
@@ -147,6 +175,11 @@ def add_partition_parser(sub) -> None:
     pt.add_argument("-o", "--output", required=True, help="folder for the pieces (piece0.vtu, ...) and NAME.pvtu")
     pt.add_argument("--scalars", help="point-data array the pieces keep (default: the active scalars)")
     pt.set_defaults(func=cmd_partition)
+
+
+def add_worker_memory(sp) -> None:
+    sp.add_argument("--worker-memory", help="with --scheduler local and a .pvtu scene of several pieces: each "
+                    "worker's memory limit (2GB, 500MB; Dask restarts a worker past 95 %% of it)")
 
 
 def maybe_pieces(args) -> dict | None:

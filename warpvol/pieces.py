@@ -27,7 +27,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from warpvol.errors import ConfigError
+from warpvol.errors import ConfigError, WarpvolError
 
 #: what the pieces can be rendered as (segments): the exact reference
 PIECE_RENDERERS = ("reference", "raycast")
@@ -235,7 +235,7 @@ def piece_segments(path: str, scalars: str, tf, camera, what: str = "reference",
     return segs, info
 
 
-def _client(scheduler: Any, workers: int):
+def _client(scheduler: Any, workers: int, memory_limit: str | int | None = None):
     """``(client, owned)``: a Dask client for ``scheduler`` (a Client is used as it is; owned ones are closed)."""
     from dask.distributed import Client
 
@@ -243,7 +243,7 @@ def _client(scheduler: Any, workers: int):
 
     if isinstance(scheduler, Client):
         return scheduler, None, False
-    client, cluster = band_client(scheduler, workers)
+    client, cluster = band_client(scheduler, workers, memory_limit)
     return client, cluster, True
 
 
@@ -259,6 +259,7 @@ def render_pieces(pieces: list[Path], scalars: str, tf, camera, scheduler: Any =
         piece: piece, cells, seconds, peak_bytes, segments), ``workers``, ``compositing_s``, ``seconds``.
     """
     from dask.distributed import as_completed
+    from distributed.scheduler import KilledWorker
 
     from warpvol.segments import merge
 
@@ -282,7 +283,12 @@ def render_pieces(pieces: list[Path], scalars: str, tf, camera, scheduler: Any =
         parts: list = [None] * len(pieces)
         for f in as_completed(futs):
             k = futs[f]
-            parts[k] = f.result()
+            try:
+                parts[k] = f.result()
+            except KilledWorker:
+                raise WarpvolError(f"piece {Path(pieces[k]).name}: every worker that ran it died (Dask's allowed "
+                                   "failures); a worker killed for memory needs a larger limit or smaller pieces "
+                                   "(warpvol partition -n with more pieces)") from None
             if on_piece is not None:
                 on_piece(k, client)
     finally:
@@ -378,7 +384,7 @@ def partition_mesh(mesh_path: Path | str, n: int, outdir: Path | str, scalars: s
 
 
 def render_in_pieces(scene: Path | str, pipeline: str = "raycast", scheduler: Any = "local", *, workers: int = 2,
-                     reference: bool = False, camera=None) -> dict:
+                     reference: bool = False, camera=None, worker_memory: str | int | None = None) -> dict:
     """Render a scene file whose mesh is a ``.pvtu`` of several pieces, each piece on a Dask worker.
 
     Parameters
@@ -393,6 +399,9 @@ def render_in_pieces(scene: Path | str, pipeline: str = "raycast", scheduler: An
         Also compute the exact reference piece by piece and add the error to the report.
     camera : Camera, optional
         Replaces the scene's camera.
+    worker_memory : str or int, optional
+        With ``"local"``: each worker's memory limit (``"2GB"``, bytes); Dask's nanny restarts a worker past
+        95 % of it (its piece then goes to another worker).
 
     Returns
     -------
@@ -411,7 +420,7 @@ def render_in_pieces(scene: Path | str, pipeline: str = "raycast", scheduler: An
                           f"(presets that do: {', '.join(PIECE_PIPELINES)}, and the exact reference)")
     cam = camera if camera is not None else info["camera"]
     t0 = time.perf_counter()
-    client, cluster, owned = _client(scheduler, workers)
+    client, cluster, owned = _client(scheduler, workers, worker_memory)
     try:
         segs, rep = render_pieces(info["pieces"], info["scalars"], info["transfer"], cam, client, what=pipeline)
         img = segs.flatten()
