@@ -185,12 +185,6 @@ def _worker_threads() -> int:
         return 0
 
 
-def _peak_bytes() -> int:
-    import resource
-
-    return int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024  # Linux: kilobytes
-
-
 def piece_bounds(path: str, scalars: str) -> dict:
     """A piece's bounds and scalar range (the first pass of a render in pieces; runs on a worker)."""
     mesh = read_piece(path, scalars)
@@ -200,8 +194,8 @@ def piece_bounds(path: str, scalars: str) -> dict:
 
 def piece_segments(path: str, scalars: str, tf, camera, what: str = "reference", frame: dict | None = None):
     """Render one piece into segments (runs on a worker; top-level so it pickles). Returns
-    ``(segments, info)`` with ``info``: piece, cells, seconds, peak_bytes (the worker process's peak
-    resident memory so far), piece_bytes (its resident memory's largest rise over this task: reading and
+    ``(segments, info)`` with ``info``: piece, cells, seconds, peak_bytes (the worker process's largest
+    resident size during this task), piece_bytes (its resident memory's largest rise over this task: reading and
     rendering the piece, sampled every 2 ms), bytes_per_tet (piece_bytes over the piece's cells), segments."""
     from warpvol.pipeline import quiet_warp
     from warpvol.reference.segments import reference_segments
@@ -230,7 +224,7 @@ def piece_segments(path: str, scalars: str, tf, camera, what: str = "reference",
     finally:
         rise = watch.stop()
     info = {"piece": Path(path).name, "cells": int(mesh.n_tets), "seconds": time.perf_counter() - t0,
-            "peak_bytes": _peak_bytes(), "piece_bytes": rise, "bytes_per_tet": rise / max(1, mesh.n_tets),
+            "peak_bytes": watch.top, "piece_bytes": rise, "bytes_per_tet": rise / max(1, mesh.n_tets),
             "segments": len(segs), **extra, **mesh.load_notes}
     return segs, info
 
@@ -420,6 +414,7 @@ def render_in_pieces(scene: Path | str, pipeline: str = "raycast", scheduler: An
                           f"(presets that do: {', '.join(PIECE_PIPELINES)}, and the exact reference)")
     cam = camera if camera is not None else info["camera"]
     t0 = time.perf_counter()
+    watch = _RssWatch()  # the client's resident memory over the render (getrusage's peak may be a parent's)
     client, cluster, owned = _client(scheduler, workers, worker_memory)
     try:
         segs, rep = render_pieces(info["pieces"], info["scalars"], info["transfer"], cam, client, what=pipeline)
@@ -438,9 +433,10 @@ def render_in_pieces(scene: Path | str, pipeline: str = "raycast", scheduler: An
             report["reference_s"] = rrep["seconds"]
             report["error"] = image_error(img, ref)
     finally:
+        watch.stop()
         if owned:
             client.close()
             if cluster is not None:
                 cluster.close()
-    report["client_peak_bytes"] = _peak_bytes()  # this process's peak resident memory (it never loads the mesh)
+    report["client_peak_bytes"] = watch.top  # this process's largest resident size over the render
     return {"image": img, "segments": segs, "reference": ref, "report": report}
