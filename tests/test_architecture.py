@@ -191,3 +191,33 @@ def test_no_package_is_listed_by_hand():
     found = set(find_namespace_packages(str(ROOT), include=["warpvol", "warpvol.*"], exclude=["*.__pycache__"]))
     python_folders = {module_name(p.parent / "__init__.py") for p in ROOT.glob("warpvol/**/*.py")}
     assert python_folders <= found, sorted(python_folders - found)
+
+
+def internal_import_counts() -> tuple[int, int]:
+    """(internal imports, those inside functions) over every module of the package and the kernels."""
+    total = inside = 0
+    for mod, path in MODULES.items():
+        tree = ast.parse(path.read_text(), str(path))
+        in_function = {id(n) for f in ast.walk(tree) if isinstance(f, (ast.FunctionDef, ast.AsyncFunctionDef))
+                       for n in ast.walk(f) if n is not f}
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom):
+                internal = node.level > 0 or (node.module or "").split(".")[0] == "warpvol"
+            elif isinstance(node, ast.Import):
+                internal = any(a.name.split(".")[0] == "warpvol" for a in node.names)
+            else:
+                continue
+            if internal:
+                total += 1
+                inside += id(node) in in_function
+    return total, inside
+
+
+def test_most_internal_imports_are_at_the_top_of_their_module():
+    """A module's dependencies are read from its top. What stays inside functions, each for a reason: the
+    package's face and the command line's dispatch (``import warpvol`` and ``warpvol --help`` load no
+    renderer), heavy optional dependencies (pyvista/VTK, matplotlib, Dask, Playwright, OpenImageIO), Warp's
+    kernels in modules that do not otherwise start Warp, and the imports that would close a circle through a
+    family's ``stages`` package (which imports every stage module in it)."""
+    total, inside = internal_import_counts()
+    assert total > 500 and inside <= 0.25 * total, f"{inside} of {total} internal imports inside functions"

@@ -22,8 +22,9 @@ from typing import Any
 import numpy as np
 
 from warpvol import cache
-from warpvol.errors import ConfigError
+from warpvol.errors import ConfigError, WarpvolError
 from warpvol.figures import comparison_figure, draw_pair
+from warpvol.io import write_exr, write_png
 from warpvol.pipeline import DEFAULT_PIPELINE, Pipeline, RenderResult, check_device, list_presets, quiet_warp
 from warpvol.scene.camera import Camera
 from warpvol.scene.defaults import colormap_transfer, default_extinction, default_transfer, pixel_size, scalar_window
@@ -281,7 +282,6 @@ class Rendering(RenderResult):
     def save(self, path: str | Path, *, background=(0.0, 0.0, 0.0)) -> Path:
         """Write the image: ``.exr`` (float32 RGBA, as ``warpvol render -o``) or ``.png`` (8-bit,
         composited over ``background``), chosen by the extension. Returns the path."""
-        from warpvol.io import write_exr, write_png
 
         p = Path(path)
         ext = p.suffix.lower()
@@ -319,8 +319,6 @@ class Rendering(RenderResult):
         return fig
 
     def _repr_png_(self) -> bytes:
-        from warpvol.io import write_png
-
         with tempfile.TemporaryDirectory() as d:
             path = Path(d) / "image.png"
             write_png(path, self.image)
@@ -555,7 +553,6 @@ def compare(scene_or_parts: Any, pipelines: Any = (DEFAULT_PIPELINE,), *, refere
     >>> [r["pipeline"] for r in table], table[0]["rmse"] < 1e-5, len([a for a in fig.axes if a.images])
     (['raycast'], True, 2)
     """
-    from warpvol.errors import WarpvolError
 
     _quiet(quiet, device)
     device = _device(device)

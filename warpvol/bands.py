@@ -25,6 +25,7 @@ from typing import Any, Callable
 import numpy as np
 
 from warpvol.errors import ConfigError
+from warpvol.pipeline import quiet_warp
 from warpvol.progress import ProgressBar
 from warpvol.reference.numpy_render import render_reference
 from warpvol.timing import CompileClock, announce_compile
@@ -39,8 +40,6 @@ def band_rows(height: int, n_bands: int) -> list[tuple[int, int]]:
 
 
 def _worker_setup() -> None:
-    from warpvol.pipeline import quiet_warp
-
     quiet_warp()
 
 

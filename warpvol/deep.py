@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from warpvol.errors import ConfigError
+from warpvol.io import Outputs
 from warpvol.segments import Segments
 
 CHANNELS = ("R", "G", "B", "A", "Z", "ZBack")
@@ -45,7 +46,6 @@ def write_deep(path: str | Path, segs: Segments, camera, stats: dict | None = No
     ``seconds`` (the fill, sample by sample, and the write)."""
     import OpenImageIO as oiio
 
-    from warpvol.io import Outputs
 
     t0 = time.perf_counter()
     h, w = segs.shape

@@ -3,6 +3,8 @@ each is, and the error numbers explained (Jinja2 template ``warpvol/templates/de
 
 from __future__ import annotations
 
+from warpvol.metrics import ERROR_FLOOR
+
 #: the files ``demo -o`` writes
 DEMO_FILES = ("image.exr", "reference.exr", "image.png", "reference.png", "error.png", "report.json", "index.html")
 #: background of the demo's PNG images
@@ -14,7 +16,6 @@ def demo_page(scene, report: dict, err_max: float) -> str:
     error map side by side, a line on what each is, and the error numbers explained."""
     import jinja2
 
-    from warpvol.metrics import ERROR_FLOOR
 
     env = jinja2.Environment(loader=jinja2.PackageLoader("warpvol", "templates"), autoescape=True,
                              undefined=jinja2.StrictUndefined)

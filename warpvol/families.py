@@ -10,6 +10,8 @@ Examples
 
 from __future__ import annotations
 
+from warpvol.pipeline import list_presets
+
 #: ``warpvol pipelines``: the presets by purpose, each with a short line (the full description with --long)
 PRESET_FAMILIES: tuple[tuple[str, dict[str, str]], ...] = (
     ("exact and fast", {
@@ -53,7 +55,6 @@ PIPELINES_WIDTH = 100
 def preset_groups() -> list[tuple[str, list[tuple[str, str, str]]]]:
     """``(family, [(preset, short line, full description)])`` of every shipped preset: the families of
     :data:`PRESET_FAMILIES`, then "other" for presets they do not name (short line: the description cut)."""
-    from warpvol.pipeline import list_presets
 
     full = dict(list_presets())
     groups, named = [], set()

@@ -9,13 +9,14 @@ from typing import Any
 
 import numpy as np
 
+from warpvol.io import composite_over
+
 #: characters per line of a declined pipeline's reason in its empty panel
 REASON_WIDTH = 70
 
 
 def rgb(image: np.ndarray, background=(0.0, 0.0, 0.0)) -> np.ndarray:
     """The premultiplied RGBA ``image`` composited over ``background``, clipped to [0, 1]."""
-    from warpvol.io import composite_over
 
     return np.clip(composite_over(np.asarray(image, np.float64), background), 0.0, 1.0)
 

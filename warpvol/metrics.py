@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+from warpvol.io import Outputs
+
 
 def image_error(image: np.ndarray, reference: np.ndarray) -> dict:
     """RMSE, max absolute error and PSNR (peak 1.0) over all RGBA values.
@@ -120,7 +122,6 @@ def write_error_png(path, image: np.ndarray, reference: np.ndarray, outputs=None
 
     With ``outputs`` (a :class:`warpvol.io.Outputs`) the file is staged there instead of written now.
     """
-    from warpvol.io import Outputs
 
     err = error_image(image, reference)
     data = error_png_bytes(err)

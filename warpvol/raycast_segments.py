@@ -14,7 +14,13 @@ from __future__ import annotations
 import numpy as np
 
 from warpvol.errors import ConfigError
+from warpvol.parallel import cpu_threads
+from warpvol.pipeline import Pipeline
+from warpvol.raycasting.stages.raycast import MarchState, march_pass, segments_struct
+from warpvol.reference.segments import reference_segments
 from warpvol.segments import Segments, stack_rows
+from warpvol.shared.thin_cells import mark_unresolved
+from warpvol.stage import Context
 
 #: segments kept per ray and pass set (a ray with more takes the reference's segments)
 SEGMENT_CAP = 32
@@ -46,7 +52,6 @@ def _ray_shift(ctx) -> np.ndarray:
 
 def _reference_rows(mesh, tf, camera, pixels: np.ndarray) -> tuple[np.ndarray, Segments]:
     """The exact reference's segments of ``pixels`` (flat indices): ``(pixel of each segment, segments)``."""
-    from warpvol.reference.segments import reference_segments
 
     W = int(camera.width_px)
     rows = np.unique(pixels // W)
@@ -64,11 +69,6 @@ def raycast_segments(scene, *, device: str = "cpu", threads: int = 0, cap: int =
     (:func:`warpvol.conditioning.conditioning.shared_frame`): a piece of a larger mesh is conditioned and set up
     in the whole mesh's frame, so that pieces meet in the same float32 points."""
     from warpvol.kernels import raycast as k
-    from warpvol.parallel import cpu_threads
-    from warpvol.pipeline import Pipeline
-    from warpvol.raycasting.stages.raycast import MarchState, march_pass, segments_struct
-    from warpvol.shared.thin_cells import mark_unresolved
-    from warpvol.stage import Context
 
     pipe = Pipeline.load("raycast", device=device)
     keys = pipe.stage_keys()

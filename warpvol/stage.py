@@ -18,6 +18,7 @@ from typing import Any, ClassVar, Iterator
 import numpy as np
 
 from warpvol.errors import ConfigError, check_choice, check_keys, check_number
+from warpvol.timing import CompileClock
 
 # ------------------------------------------------------------------------------------------------
 # parameters
@@ -197,7 +198,6 @@ class Context:
         """Time a block of per-mesh set-up that a frame stage computes on first use (e.g. on a cache
         miss: face planes, cell shapes) as set-up, not as frame time; enter it only when the work is
         done, so a warm render reports none."""
-        from warpvol.timing import CompileClock
 
         t0 = time.perf_counter()
         with CompileClock() as clock:

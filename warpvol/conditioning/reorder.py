@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from warpvol.scene.mesh import derived_mesh
+
 #: neighbour cells further apart than this many records count as far (~4,096 cells x 48 bytes of walk
 #: records: about a core's L2 cache)
 FAR_WINDOW = 4096
@@ -124,7 +126,6 @@ def reordered_mesh(mesh, point_order: np.ndarray | None = None, cell_order: np.n
     >>> bool((r.adjacency >= 0).sum() == (m.adjacency >= 0).sum())
     True
     """
-    from warpvol.scene.mesh import derived_mesh
 
     cell_start = getattr(mesh, "cell_start", None)
     if point_order is None or cell_order is None:

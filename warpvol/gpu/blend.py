@@ -64,6 +64,7 @@ from warpvol.errors import ConfigError, check_choice, check_number
 from warpvol.gpu import counters as _cnt
 from warpvol.gpu.dither import dither_table
 from warpvol.gpu.formats import NumberFormat, SNorm, UNorm, get_format
+from warpvol.gpu.texture import Texture2D
 from warpvol.kernels import blend as kblend
 
 FACTORS = {
@@ -188,7 +189,6 @@ class FrameBuffer:
         ``fmt`` defaults to the texel format that holds the buffer exactly: ``rgba8`` for unorm8,
         ``rgba16`` for unorm16, ``rgba16f`` for fp16, else ``rgba32f``. Texture row ``r`` = buffer row ``r``.
         """
-        from warpvol.gpu.texture import Texture2D
 
         if fmt is None:
             fmt = {"unorm8": "rgba8", "unorm16": "rgba16", "fp16": "rgba16f"}.get(self.fmt.name, "rgba32f")

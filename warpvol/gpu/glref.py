@@ -28,6 +28,8 @@ from typing import Any
 import numpy as np
 
 from warpvol.errors import ConfigError
+from warpvol.gpu.blend import BlendUnit, FrameBuffer
+from warpvol.gpu.raster import LLVMPIPE_RULES, Rasterizer
 
 GL_BLEND_FACTORS = {
     "zero": 0, "one": 1, "src_color": 0x0300, "one_minus_src_color": 0x0301, "src_alpha": 0x0302,
@@ -295,7 +297,6 @@ def _positions(xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def emulated_coverage(xy: np.ndarray, width: int, height: int, **rules) -> np.ndarray:
     """Per-triangle coverage (T, H, W) bool of the emulated rasteriser (warpvol rows, row 0 = top)."""
-    from warpvol.gpu.raster import Rasterizer
 
     pos, tris = _positions(xy)
     fr = Rasterizer(width, height, **rules).fragments(pos, tris)
@@ -307,8 +308,6 @@ def emulated_coverage(xy: np.ndarray, width: int, height: int, **rules) -> np.nd
 def emulated_draw(xy: np.ndarray, colors: np.ndarray, width: int, height: int, blend: tuple, background: np.ndarray,
                   arithmetic: str, interpolation: str, **rules) -> np.ndarray:
     """The emulated units' RGBA8 codes (H, W, 4) after drawing ``xy`` with vertex colour codes over ``background``."""
-    from warpvol.gpu.blend import BlendUnit, FrameBuffer
-    from warpvol.gpu.raster import Rasterizer
 
     pos, tris = _positions(xy)
     fb = FrameBuffer(width, height, "unorm8")
@@ -322,7 +321,6 @@ def emulated_draw(xy: np.ndarray, colors: np.ndarray, width: int, height: int, b
 
 def _last_fragment_values(xy: np.ndarray, colors: np.ndarray, width: int, height: int) -> np.ndarray:
     """fp32 barycentric Gouraud colour (H, W, 4) of the last fragment at each pixel (NaN where none)."""
-    from warpvol.gpu.raster import Rasterizer
 
     pos, tris = _positions(xy)
     rgba = colors.reshape(-1, 4).astype(np.float32) * np.float32(1 / 255)
@@ -345,7 +343,6 @@ def conformance_figures(canvas: GLCanvas, seed: int) -> dict:
     ``gouraud`` {interp_rule/arithmetic: (codes differing, max difference, codes, how many of the
     differing were within 1e-3 code of an exact k + 1/2 tie in the barycentric fp32 value)}.
     """
-    from warpvol.gpu.raster import LLVMPIPE_RULES
 
     w, h = canvas.width, canvas.height
     xy, group, names = conformance_soup(seed, w, h)

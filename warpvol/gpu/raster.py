@@ -73,7 +73,10 @@ import warp as wp
 
 from warpvol.errors import ConfigError, check_choice, check_number
 from warpvol.gpu import counters as _cnt
+from warpvol.gpu.blend import FrameBuffer
+from warpvol.gpu.texture import Texture1D
 from warpvol.kernels import raster as kr
+from warpvol.kernels import raster_draw as _krd
 from warpvol.kernels import raster_draw as krd
 from warpvol.parallel import blocks, launch_blocks, preload
 
@@ -503,7 +506,6 @@ class Rasterizer:
         ``blend`` is a :class:`~warpvol.gpu.blend.BlendUnit`; ``depth`` defaults to ``fb.depth``.
         ``prim0`` offsets primitive numbers (dither-table indexing) for multi-call sequences.
         """
-        from warpvol.gpu.blend import FrameBuffer
 
         if not isinstance(fb, FrameBuffer) or fb.shape != self.shape:
             raise ConfigError(f"fb: expected a FrameBuffer of {self.width}x{self.height}")
@@ -578,9 +580,6 @@ def draw_textured_quads(fb, blend, texture, corners: Any, modulate: Sequence[flo
     >>> int(fb.codes()[0, 0, 0])                              # 418 -> 793 -> 1130 (12-bit rounding)
     1130
     """
-    from warpvol.gpu.blend import FrameBuffer
-    from warpvol.gpu.texture import Texture1D
-    from warpvol.kernels import raster_draw as _krd
 
     if not isinstance(fb, FrameBuffer):
         raise ConfigError(f"fb: expected a FrameBuffer, got {type(fb).__name__}")

@@ -15,14 +15,19 @@ import numpy as np
 import warp as wp
 
 from warpvol.errors import ConfigError
+from warpvol.gpu.texture import Texture1D, Texture3D, TextureAtlas
+from warpvol.kernels import pt as kpt
+from warpvol.kernels.tf import device_points
 from warpvol.projection.pt import NO_ZERO, PERSPECTIVE_MODES, PTGeometry
 from warpvol.shared.integration import TEXEL_FOR_TABLE, _axis_affine
+from warpvol.tables.base import model_id
+from warpvol.tables.common import linear_index_map
+from warpvol.tables.cylindrical import PLANE_PATHS, PLANE_WEIGHTS, plane_texture
 
 
 def vertex_colors(geo: PTGeometry, tf, device: str = "cpu") -> np.ndarray:
     """Per output vertex ``(c̄r, c̄g, c̄b, τ̄, l)``: colour and extinction averaged over the front
     and back scalars (Shirley & Tuchman's averaged colour), thickness ``l``."""
-    from warpvol.kernels import pt as kpt
 
     n = geo.attrs.shape[0]
     out = wp.zeros((n, 5), dtype=wp.float32, device=device)
@@ -35,7 +40,6 @@ def vertex_colors(geo: PTGeometry, tf, device: str = "cpu") -> np.ndarray:
 
 def vertex_color_program(emission_density: bool, device: str = "cpu") -> Callable:
     """Fragment program of :func:`vertex_colors` attributes: ``α = 1 - exp(-τ̄ l)`` per fragment."""
-    from warpvol.kernels import pt as kpt
 
     def run(frags, tris):
         out = wp.zeros(frags.count, dtype=wp.vec4, device=device)
@@ -53,7 +57,6 @@ def vertex_color_program(emission_density: bool, device: str = "cpu") -> Callabl
 def perspective_attrs(geo: PTGeometry, device: str = "cpu") -> np.ndarray:
     """Kraus et al. 2004 vertex program: per output vertex ``(sf/wf, sb/wb, 1/wf, 1/wb, xf/wf,
     yf/wf, zf/wf, zb/wb)`` (V+M, 8) from the front and back points of :func:`decompose`."""
-    from warpvol.kernels import pt as kpt
 
     if geo.front is None or geo.back is None:
         raise ConfigError("pt_geometry: no front/back points (decompose() output needed)")
@@ -78,8 +81,6 @@ def guthe_program(table, *, mode: str = "off", ortho: bool = False, weight_bits:
     an atlas, holding the table's stored (already quantised: signed 8-bit RGB and unsigned 8-bit A
     for ``snorm8``) values exactly, bilinear with ``weight_bits`` filter fractions; the decoded
     alpha1D (8-bit A or the 16-bit A/L value) as a linear 1D texture read by a dependent lookup."""
-    from warpvol.gpu.texture import Texture1D, TextureAtlas
-    from warpvol.kernels import pt as kpt
 
     if table.name != "guthe2d":
         raise ConfigError(f"table: expected Guthe 2D tables (stage table_guthe), got {table!r}")
@@ -107,7 +108,6 @@ def guthe_lookups(run: Callable, atlas, consts: list, *, mode: str, ortho: bool,
     :func:`guthe_program` builds them) with ``coords``: the (sf, sb) texture coordinates each fragment
     reads every tile at (texture-cache analysis; the tiles hold signed 8-bit RGBA on the cards, 4 bytes per
     texel, whatever the emulation stores)."""
-    from warpvol.kernels import pt as kpt
 
     def coords(frags, tris):
         out = wp.zeros(frags.count, dtype=wp.vec3, device=device)
@@ -130,8 +130,6 @@ def exact_program(tf, *, mode: str = "off", ortho: bool = False, device: str = "
     :func:`~warpvol.projection.pt.ray_length_factors` (needed with ``mode="exact"`` in perspective); ``tile``: its bin size
     (:func:`~warpvol.projection.pt.fused_tile`; 0: by device); ``lanes``: its fragments per SIMD span
     (:func:`~warpvol.projection.pt.fused_lanes`; 1: one fragment at a time; 0: by device)."""
-    from warpvol.kernels import pt as kpt
-    from warpvol.tables.base import model_id
 
     tf_s, tf_v = tf.to_warp(device)
     flags = [PERSPECTIVE_MODES[mode], int(ortho), float(z_off)]
@@ -158,7 +156,6 @@ def zero_interval(tf) -> tuple[float, float]:
     >>> zero_interval(TransferFunction([[0, 1, 1, 1, 0], [0.25, 1, 1, 1, 0], [0.5, 1, 1, 1, 2], [1, 1, 1, 1, 0]]))
     (0.25, 1.0)
     """
-    from warpvol.kernels.tf import device_points
 
     p = device_points(tf.points)
     v = p[:, 1:5].astype(np.float32)
@@ -179,8 +176,6 @@ def table3d_program(table, texel_format: str = "auto", filter: str = "linear", w
     once per table and format and kept in ``table.extra``. ``mode``: the
     fragments' attributes (:data:`PERSPECTIVE_MODES`; not ``off``: :func:`perspective_attrs`).
     Returns the program and the texel format used."""
-    from warpvol.gpu.texture import Texture3D
-    from warpvol.kernels import pt as kpt
 
     if table.data.ndim != 4 or table.data.shape[-1] != 4 or len(table.axes) != 3:
         raise ConfigError(f"table: expected a 3D RGBA table data[l, sb, sf, 4], got {table!r}")
@@ -224,9 +219,6 @@ def cylindrical_program(planes, tf, geo: PTGeometry, weight_bits: int | None = 8
     ``path = "multitexture"``, the two nearest planes (bilinear) blended with a ``plane_weight``
     weight (``unorm8``: the combiner's 8-bit colour; ``fp32``); ``"sgi"``, one texture, the nearest
     plane with nearest-texel filtering."""
-    from warpvol.kernels import pt as kpt
-    from warpvol.tables.common import linear_index_map
-    from warpvol.tables.cylindrical import PLANE_PATHS, PLANE_WEIGHTS, plane_texture
 
     if getattr(planes, "name", None) != "cylindrical":
         raise ConfigError(f"planes: expected cylindrical planes (stage table_cylindrical), got {planes!r}")

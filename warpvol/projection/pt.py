@@ -34,6 +34,14 @@ import numpy as np
 import warp as wp
 
 from warpvol.errors import ConfigError
+from warpvol.gpu import counters as cnt
+from warpvol.gpu.blend import FrameBuffer
+from warpvol.gpu.counters import Counters, active
+from warpvol.gpu.raster import Rasterizer
+from warpvol.kernels import pt as kpt
+from warpvol.kernels import pt_draw
+from warpvol.kernels import raster as kraster
+from warpvol.parallel import blocks, launch_blocks, preload
 from warpvol.progress import detail
 
 #: fragment generation of :func:`draw`: the rasteriser's walks (a fragment list, then the program and
@@ -221,7 +229,6 @@ def decompose(mesh, vertices, order, device: str = "cpu", exact_attrs: bool = Fa
     vertex's attributes were taken (else they are those of the snapped crossing, as the hardware
     draws them).
     """
-    from warpvol.kernels import pt as kpt
 
     order = np.asarray(order, dtype=np.int32)
     m, v = len(order), mesh.n_points
@@ -305,8 +312,6 @@ def draw(geo: PTGeometry, vertex_attrs: np.ndarray, program: Callable, fb, blend
         raise ConfigError("early termination: only the fused draw (walk = 'fused') terminates early")
     if bands > 1 and fb.height > 1 and not getattr(blend, "dither", False):
         return _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands, walk)
-    from warpvol.gpu.raster import Rasterizer
-    from warpvol.kernels import pt as kpt
 
     rast = Rasterizer(fb.width, fb.height, device=device, **RASTER_RULES)
     n_frag = n_batch = 0
@@ -334,11 +339,6 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
     per tile walks, interpolates, clamps, integrates and blends (:mod:`warpvol.kernels.pt_draw`). Tiles
     own disjoint pixels, so on the CPU blocks of tiles are launched from ``threads`` host threads
     (:func:`warpvol.parallel.launch_blocks`; each batch finishes before the next: blending order)."""
-    from warpvol.gpu import counters as cnt
-    from warpvol.gpu.raster import Rasterizer
-    from warpvol.kernels import pt_draw
-    from warpvol.kernels import raster as kraster
-    from warpvol.parallel import blocks, launch_blocks, preload
 
     preload(device, pt_draw, kraster)
 
@@ -439,9 +439,6 @@ def _draw_fused(geo, vertex_attrs, fused, fb, blend, batch_tets, device, threads
 def _draw_bands(geo, vertex_attrs, program, fb, blend, batch_tets, device, bands, walk) -> dict:
     import dataclasses
 
-    from warpvol.gpu.blend import FrameBuffer
-    from warpvol.gpu.counters import Counters, active
-    from warpvol.parallel import blocks, launch_blocks
 
     rows = blocks(fb.height, -(-fb.height // bands))
     counted = [Counters() for _ in rows]  # host threads do not see this thread's active counters

@@ -47,6 +47,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from warpvol.errors import ConfigError, check_choice
+from warpvol.gpu.raster import Rasterizer
+from warpvol.gpu.vertex import VertexStage
+from warpvol.parallel import blocks, launch_blocks, preload
+from warpvol.projection.pt import RASTER_RULES
+from warpvol.projection.pt_thin import project_points
+from warpvol.reference.numpy_render import trace_segments
+from warpvol.scene.mesh import FACE_VERTS
 
 METHODS = ("centroid", "mpvo", "mpvonc", "xmpvo", "auto")
 METRICS = ("distance", "view")
@@ -117,7 +124,6 @@ def face_directions(mesh, camera) -> np.ndarray:
     import warp as wp
 
     from warpvol.kernels import sort as ks
-    from warpvol.scene.mesh import FACE_VERTS
 
     origin, eye, fwd, persp = _frame(mesh, camera)
     dev = "cpu"
@@ -198,7 +204,6 @@ def hull_faces(mesh) -> np.ndarray:
     cache = mesh.__dict__.get("_hull_faces")
     if cache is not None:
         return cache
-    from warpvol.scene.mesh import FACE_VERTS
 
     bf = mesh.boundary_faces
     pts = np.asarray(mesh.points, np.float64)
@@ -257,8 +262,6 @@ def xmpvo_cost(mesh, camera, off_hull: bool = True) -> float:
     """XMPVO's work on ``mesh`` for ``camera`` in fragment units: the projected area in pixels of the
     boundary faces it rasterises (``off_hull``: those off the hull; else all; faces beyond the image
     counted whole) plus two per cell (the face directions and the topological sort)."""
-    from warpvol.projection.pt_thin import project_points
-    from warpvol.scene.mesh import FACE_VERTS
 
     bf = mesh.boundary_faces[~hull_faces(mesh)] if off_hull else mesh.boundary_faces
     col, row, _ = project_points(mesh, camera)
@@ -275,12 +278,7 @@ def boundary_ray_constraints(mesh, camera, device: str = "cpu", hull: bool = Tru
     (:func:`hull_faces`) are left out (along a ray an exit followed by an entry has neither on the hull)."""
     import warp as wp
 
-    from warpvol.gpu.raster import Rasterizer
-    from warpvol.gpu.vertex import VertexStage
     from warpvol.kernels import sort as ks
-    from warpvol.parallel import blocks, launch_blocks, preload
-    from warpvol.projection.pt import RASTER_RULES
-    from warpvol.scene.mesh import FACE_VERTS
 
     bf = mesh.boundary_faces if hull else mesh.boundary_faces[~hull_faces(mesh)]
     empty = np.zeros(0, np.int64)
@@ -376,7 +374,6 @@ def occlusion_violations(mesh, camera, order: np.ndarray) -> tuple[int, int]:
 
     Uses :func:`warpvol.reference.numpy_render.trace_segments` (exact, watertight); meant for small meshes/images.
     """
-    from warpvol.reference.numpy_render import trace_segments
 
     seg = trace_segments(mesh, camera)
     pos = np.empty(mesh.n_tets, np.int64)

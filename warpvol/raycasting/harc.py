@@ -21,6 +21,18 @@ from __future__ import annotations
 import numpy as np
 
 from warpvol.errors import ConfigError
+from warpvol.gpu.formats import get_format
+from warpvol.gpu.raster import GUARD_PX, Rasterizer, depth_order, guard_band_overflow
+from warpvol.gpu.texture import Texture2D
+from warpvol.gpu.vertex import VertexStage
+from warpvol.parallel import launch_blocks
+from warpvol.raycasting.stages.cell_setup import neighbour_faces
+from warpvol.raycasting.stages.raycast import camera_struct, cell_mesh_struct, ray_blocks, walk_opts
+from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
+from warpvol.scene.mesh import FACE_VERTS
+from warpvol.shared.entry_bins import entry_face_mask, face_depths
+from warpvol.shared.thin_cells import edge_pixels, surface_neighbours
+from warpvol.shared.visible import face_triangles, skipping
 
 TEX_ROW = 4096  # texels per row of the mesh textures (GeForce 6800: 4096 x 4096 max)
 WALKS = {"planes": 0, "plucker": 1}
@@ -40,7 +52,6 @@ def planes_fp32(mesh) -> tuple[np.ndarray, np.ndarray]:
     textures computes them: ``n = (b - a) x (c - a)`` normalised, ``o = -n . a``, oriented so the
     opposite vertex lies on the negative side; ``g`` by Cramer's rule on the edge vectors from vertex
     0, ``g0 = s_0 - g . p_0``. Every operation rounds to float32 (returned as float32)."""
-    from warpvol.scene.mesh import FACE_VERTS
 
     with np.errstate(all="ignore"):  # a degenerate tet gives Inf / NaN, as in the paper's C float code
         f = np.float32
@@ -87,9 +98,7 @@ def mesh_textures(mesh, origin: np.ndarray, device: str = "cpu", arithmetic: str
     >>> len(tex), tex[0].fmt, st.width == min(m.n_tets, TEX_ROW)
     (6, 'rgba32f', True)
     """
-    from warpvol.gpu.texture import Texture2D
     from warpvol.kernels import harc as kh
-    from warpvol.raycasting.stages.cell_setup import neighbour_faces
 
     if arithmetic not in ARITHMETIC:
         raise ConfigError(f"arithmetic: {arithmetic!r} not allowed; allowed: {', '.join(ARITHMETIC)}")
@@ -128,7 +137,6 @@ def mesh_textures(mesh, origin: np.ndarray, device: str = "cpu", arithmetic: str
 
 def empty_mesh_tex(device: str = "cpu"):
     """A :class:`warpvol.kernels.harc.MeshTex` of 1x1 textures for walks that do not read Table 1."""
-    from warpvol.gpu.texture import Texture2D
     from warpvol.kernels import harc as kh
 
     t = Texture2D(np.zeros((1, 1, 4)), fmt="rgba32f", filter="nearest", device=device)
@@ -155,11 +163,6 @@ def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None 
     """
     import warp as wp
 
-    from warpvol.gpu.raster import GUARD_PX, Rasterizer, depth_order, guard_band_overflow
-    from warpvol.gpu.vertex import VertexStage
-    from warpvol.shared.entry_bins import entry_face_mask, face_depths
-    from warpvol.shared.thin_cells import edge_pixels, surface_neighbours
-    from warpvol.shared.visible import face_triangles
 
     front = entry_face_mask(mesh, camera, faces)
     bf = (mesh.boundary_faces if faces is None else np.asarray(faces, dtype=np.int64).reshape(-1, 2))[front]
@@ -302,10 +305,7 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     frame's :func:`~warpvol.raycasting.stages.cell_setup.scalar_check_needed`)."""
     import warp as wp
 
-    from warpvol.gpu.formats import get_format
     from warpvol.kernels import harc as kh
-    from warpvol.parallel import launch_blocks
-    from warpvol.raycasting.stages.raycast import camera_struct, cell_mesh_struct, ray_blocks, walk_opts
 
     cells = ctx.buffers["cells"]
     cam = camera_struct(ctx)
@@ -340,8 +340,6 @@ def resolve_failed(ctx, state: HarcState, terminate: float = 0.0) -> int:
     import warp as wp
 
     from warpvol.kernels import raycast as kr
-    from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
-    from warpvol.shared.visible import skipping
 
     status = state.status.numpy()
     failed = np.flatnonzero(status == int(kr.STATUS_FAILED))

@@ -37,7 +37,7 @@ from typing import Callable
 
 import numpy as np
 
-from warpvol.conditioning.visibility import cut_at_invisible
+from warpvol.conditioning.visibility import cell_visibility, cut_at_invisible
 from warpvol.errors import ConfigError, check_choice
 from warpvol.parallel import blocks, cpu_threads, launch_blocks, preload
 from warpvol.scene.camera import Camera
@@ -209,7 +209,6 @@ _CHECKED: OrderedDict = OrderedDict()
 def _check_visible(mesh: TetMesh, tf: TransferFunction, visible: np.ndarray) -> None:
     """Refuse a mask that leaves out a tet the transfer function can make visible (one from another
     transfer function): its pixels would be silently wrong. Once per (mesh, mask, transfer function)."""
-    from warpvol.conditioning.visibility import cell_visibility
 
     key = (id(mesh), _mask_key(visible), tf.hash)
     with _PIXEL_SETUP_LOCK:

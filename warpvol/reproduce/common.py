@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from warpvol import model
+from warpvol.gpu.counters import Counters
+from warpvol.model import load_profile
+from warpvol.tools import provenance
+
 
 def counted(fn, *a, **kw) -> dict:
-    from warpvol.gpu.counters import Counters
-
     with Counters() as c:
         fn(*a, **kw)
     return c.as_dict()
@@ -60,7 +63,6 @@ def write_tables_json(path, source: str, tables: dict, prov: dict | None = None)
     import json
     from pathlib import Path
 
-    from warpvol.tools import provenance
 
     if prov is None:
         prov = provenance.start(source, timing=True)
@@ -79,7 +81,6 @@ def write_tables_json(path, source: str, tables: dict, prov: dict | None = None)
 def calibrations(*profiles: str) -> str:
     """The calibrated constants of GPU profiles, each with the paper row it was fitted on, as the
     profile's TOML states them: the rows of a table that were used to fit are calibrations, not checks."""
-    from warpvol.model import load_profile
 
     out = []
     for name in profiles:
@@ -97,7 +98,6 @@ def modelled_seconds(report: dict, profile: str):
     on stderr) when the profile lacks a capability the counted work needs."""
     import sys
 
-    from warpvol import model
 
     p = model.load_profile(profile)
     try:

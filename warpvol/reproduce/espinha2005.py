@@ -5,11 +5,20 @@ from __future__ import annotations
 
 import numpy as np
 
+from warpvol.io import write_png
+from warpvol.metrics import image_error
+from warpvol.model import load_profile, model_report
+from warpvol.pipeline import Pipeline
+from warpvol.reference.numpy_render import render_reference
+from warpvol.reproduce.common import calibrations, table
+from warpvol.scene.builtin import builtin_scene
+from warpvol.scene.scene_file import load_scene
+from warpvol.scene.transfer import TransferFunction
+
 
 def resampled_tf(tf, segments: int):
     """The TF sampled at ``segments + 1`` uniformly spaced control points over its range (piecewise
     linear with ``segments`` segments, as the paper approximates its TFs)."""
-    from warpvol.scene.transfer import TransferFunction
 
     lo, hi = tf.srange
     s = np.linspace(lo, hi, segments + 1)
@@ -62,7 +71,6 @@ def paper_scene(name: str, size: int):
     import dataclasses
     from pathlib import Path
 
-    from warpvol.scene.scene_file import load_scene
 
     sc = load_scene(Path(__file__).resolve().parents[2] / "scenes" / f"{name}.toml")
     return dataclasses.replace(sc, camera=sc.camera.replace(width_px=size, height_px=size))
@@ -81,8 +89,6 @@ def method_runs(scenes: dict, n_views: int = 3, *, methods=METHODS, device="cpu"
     import dataclasses
     import time
 
-    from warpvol.model import load_profile, model_report
-    from warpvol.pipeline import Pipeline
 
     profile = load_profile(PROFILE)
     result = {}
@@ -119,8 +125,6 @@ def vicp_runs(scenes: dict, n_views: int = 3, *, device="cpu", log=None) -> dict
     of ``weiler2003_vicp`` (the table already built)."""
     import dataclasses
 
-    from warpvol.model import load_profile, model_report
-    from warpvol.pipeline import Pipeline
 
     profile = load_profile(PROFILE)
     out = {}
@@ -153,7 +157,6 @@ def _role(name, method):
 
 def table2(runs: dict, vicp: dict, size: int = 512) -> dict:
     """Table 2: VICP, VICP-GPU (modelled) and HARC-Full per data set, min-max over the viewpoints."""
-    from warpvol.reproduce.common import calibrations, table
 
     rows = []
     for name in runs.keys() | vicp.keys():
@@ -191,7 +194,6 @@ def table2(runs: dict, vicp: dict, size: int = 512) -> dict:
 def table3(runs: dict, size: int = 512) -> dict:
     """Table 3: HARC with full and with partial pre-integration (TF of 10 and 255 segments), speeds
     relative to HARC-Full, min-max over the viewpoints."""
-    from warpvol.reproduce.common import calibrations, table
 
     rows = []
     for name, r in runs.items():
@@ -231,12 +233,6 @@ def fig8(size: int = 256, *, out=None, device="cpu") -> dict:
     in ``out`` when given."""
     from pathlib import Path
 
-    from warpvol.io import write_png
-    from warpvol.metrics import image_error
-    from warpvol.pipeline import Pipeline
-    from warpvol.reference.numpy_render import render_reference
-    from warpvol.reproduce.common import table
-    from warpvol.scene.builtin import builtin_scene
 
     sc = builtin_scene("stiff").with_camera(width_px=size, height_px=size)
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)

@@ -5,12 +5,22 @@ from __future__ import annotations
 
 import numpy as np
 
-from warpvol.reproduce.common import counted
+from warpvol.model import load_profile, model_counters
+from warpvol.pipeline import Pipeline
+from warpvol.reproduce.common import calibrations, counted, modelled_seconds, table
+from warpvol.scene.camera import Camera
+from warpvol.scene.loaders import load_mesh
+from warpvol.scene.scene import Scene
+from warpvol.scene.scene_file import scene_from_config
+from warpvol.scene.transfer import TransferFunction
+from warpvol.tables.exact import build_exact3d
+from warpvol.tables.guthe2d import build_guthe2d, reconstruct
+from warpvol.tables.pingpong import build_pingpong
+from warpvol.tables.roettger_sw import build_roettger_sw
 
 
 def guthe_tf(m=128):
     """m entries, colour times extinction, with steep gradients (what the polynomial is for)."""
-    from warpvol.scene.transfer import TransferFunction
 
     x = np.linspace(0, 1, m)
     r = 0.5 + 0.5 * np.sin(9 * x)
@@ -25,8 +35,6 @@ GUTHE_T4 = {1: (4.4, 0.6), 2: (6.6, 1.0), 4: (11.0, 1.7)}
 
 def guthe_t4_model(degree: int, device: str = "cpu", gpu: str = "radeon8500") -> float:
     """Modelled Table 4 hardware row (512^2, m = 128, ping-pong slices + host coefficient fit)."""
-    from warpvol.model import load_profile, model_counters
-    from warpvol.tables.guthe2d import build_guthe2d
 
     c = counted(build_guthe2d, guthe_tf(), n_s=512, degree=degree, lmax=1.0, slices="pingpong", m=128,
                 emulate=False, device=device)
@@ -36,8 +44,6 @@ def guthe_t4_model(degree: int, device: str = "cpu", gpu: str = "radeon8500") ->
 
 def guthe_steps_per_pass_speedup(device: str = "cpu") -> float:
     """Radeon 8500: modelled GPU time of 1 over 4 integration steps per pass (one channel slice)."""
-    from warpvol.model import load_profile, model_counters
-    from warpvol.tables.pingpong import build_pingpong
 
     p = load_profile("radeon8500")
     t = [model_counters(counted(build_pingpong, guthe_tf(), n_s=512, lengths=(1.0,), m=128, per_pass=k,
@@ -79,10 +85,6 @@ def _save(out, name, img):
 def fig6(tf=None, N: int = 512, m: int = 128, *, device="cpu", out=None) -> dict:
     """Fig. 6: the ping-pong hardware slice at l = lmax (12-bit hi/lo, per card) against software
     pre-integration with ``m`` steps and against the exact integral."""
-    from warpvol.reproduce.common import table
-    from warpvol.tables.exact import build_exact3d
-    from warpvol.tables.pingpong import build_pingpong
-    from warpvol.tables.roettger_sw import build_roettger_sw
 
     tf = tf or guthe_tf()
     soft = build_roettger_sw(tf, n_s=N, n_l=2, lmax=1.0, m=1, oversampling=1e-9, n_min=m, l_axis="endpoint",
@@ -107,9 +109,6 @@ def fig6(tf=None, N: int = 512, m: int = 128, *, device="cpu", out=None) -> dict
 def fig7(tf=None, N: int = 512, E: int = 64, *, device="cpu", out=None) -> dict:
     """Figs. 4/7 as numbers: linear, degree-2 and degree-4 colour reconstruction error against the
     exact integral over an ``E``^3 grid of (sf, sb, l), textures ``N``^2."""
-    from warpvol.reproduce.common import table
-    from warpvol.tables.exact import build_exact3d
-    from warpvol.tables.guthe2d import build_guthe2d, reconstruct
 
     tf = tf or guthe_tf()
     ref = build_exact3d(tf, n_s=E, n_l=E, lmax=1.0, device=device)
@@ -147,8 +146,6 @@ def table4(tf=None, N: int = 512, m: int = 128, *, device="cpu", model_device=No
     radeon8500 profile (:func:`guthe_t4_model`), the paper's P4 / Radeon 8500 times beside."""
     import time
 
-    from warpvol.reproduce.common import calibrations, table
-    from warpvol.tables.guthe2d import build_guthe2d
 
     tf = tf or guthe_tf()
     build_guthe2d(tf, n_s=8, degree=1, slices="pingpong", m=4, device=device)  # warm-up
@@ -180,11 +177,6 @@ def table5_scenes(width=1280, height=960):
     import warnings
     from pathlib import Path
 
-    from warpvol.scene.camera import Camera
-    from warpvol.scene.loaders import load_mesh
-    from warpvol.scene.scene import Scene
-    from warpvol.scene.scene_file import scene_from_config
-    from warpvol.scene.transfer import TransferFunction
 
     root = Path(__file__).resolve().parents[2]
     p = root / "scenes" / "bluntfin.toml"
@@ -214,8 +206,6 @@ def table5(scenes, *, res: int = 512, device="cpu", log=None) -> dict:
     ``scenes``: named scenes (``Blunt Fin``, ``Bucky Ball`` have paper rows)."""
     import time
 
-    from warpvol.pipeline import Pipeline
-    from warpvol.reproduce.common import calibrations, modelled_seconds, table
 
     rows, size = [], ""
     for sc in scenes:

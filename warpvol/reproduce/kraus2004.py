@@ -17,7 +17,17 @@ from pathlib import Path
 
 import numpy as np
 
+from warpvol.io import write_png
+from warpvol.metrics import image_error
+from warpvol.pipeline import Pipeline
+from warpvol.reference.numpy_render import render_reference
 from warpvol.reproduce.common import calibrations, modelled_seconds, table
+from warpvol.scene.builtin import builtin_scene
+from warpvol.scene.camera import Camera
+from warpvol.scene.loaders import load_mesh
+from warpvol.scene.scene import Scene
+from warpvol.scene.scene_file import load_scene, scene_from_config
+from warpvol.scene.transfer import TransferFunction
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT.parent / "shared" / "data"
@@ -69,7 +79,6 @@ def kraus_config(*, perspective=False, hilo=False, log=False, buffer="unorm8", d
 def timed_render(cfg, scene, device="cpu", reference=None, repeat=1):
     """(seconds, result): the fastest of ``repeat`` renders after a first one that compiles kernels and
     builds the table (the minimum: the machine is shared, load only ever adds time)."""
-    from warpvol.pipeline import Pipeline
 
     pipe = Pipeline.from_config(cfg, device=device)
     pipe.render(scene, quiet=True)
@@ -87,7 +96,6 @@ def bluntfin187(width=800, height=600):
     """Scene file scenes/bluntfin.toml with the paper's 5-tet split (187,318 tets)."""
     import tomllib
 
-    from warpvol.scene.scene_file import scene_from_config
 
     p = ROOT / "scenes" / "bluntfin.toml"
     cfg = tomllib.loads(p.read_text())
@@ -100,11 +108,6 @@ def bluntfin187(width=800, height=600):
 
 
 def spx_scene(width=800, height=600):
-    from warpvol.scene.camera import Camera
-    from warpvol.scene.loaders import load_mesh
-    from warpvol.scene.scene import Scene
-    from warpvol.scene.transfer import TransferFunction
-
     mesh = load_mesh({"path": str(DATA / "spx.vtk"), "scalars": "scalars"})
     lo, hi = float(mesh.scalars.min()), float(mesh.scalars.max())
     tf = TransferFunction([[lo, 0.1, 0.2, 0.9, 0.0], [lo + 0.5 * (hi - lo), 0.2, 0.9, 0.3, 0.6],
@@ -117,8 +120,6 @@ def spx_scene(width=800, height=600):
 
 
 def file_scene(name, width=800, height=600):
-    from warpvol.scene.scene_file import load_scene
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         sc = load_scene(ROOT / "scenes" / f"{name}.toml")
@@ -138,7 +139,6 @@ def iso_surface_scene(sc, rho: float = 500.0, width: float = 0.02):
     """``sc`` with an iso-surface-like TF: extinction ``rho`` in a peak of half-width ``width`` of the
     scalar range at its middle, none elsewhere (Kraus Fig. 10 renders an iso-surface; a uniform
     thickness axis then under-samples the thin cells, whose alpha saturates within its first slice)."""
-    from warpvol.scene.transfer import TransferFunction
 
     lo, hi = sc.mesh.scalar_range
     m, w = 0.5 * (lo + hi), width * (hi - lo)
@@ -203,7 +203,6 @@ def table2(scenes, *, n_s=256, n_l=16, device="cpu", repeat=2, log=None) -> dict
 def artifact_studies(*, small=192, art_width=400, art_height=300, n_s=256, n_l=16, bluntfin=None) -> list:
     """(title, scene, [(variant, config)]) of the artifact study; ``bluntfin``: the Blunt Fin scene
     factory (default :func:`bluntfin187` at ``art_width`` x ``art_height``)."""
-    from warpvol.scene.builtin import builtin_scene
 
     best = dict(hilo=True, log=True, buffer="fp32", n_s=n_s, n_l=n_l)
     sphere = builtin_scene("sphere").with_camera(width_px=small, height_px=small)
@@ -236,9 +235,6 @@ def artifact_studies(*, small=192, art_width=400, art_height=300, n_s=256, n_l=1
 def artifacts(studies, *, device="cpu", out=None, log=None) -> dict:
     """The artifact study: each variant's RMSE and max |error| against the exact reference; images
     (reference, variant, error x 8) in ``out`` when given."""
-    from warpvol.io import write_png
-    from warpvol.metrics import image_error
-    from warpvol.reference.numpy_render import render_reference
 
     out = None if out is None else Path(out)
     if out is not None:

@@ -21,6 +21,19 @@ import os
 import warnings
 from pathlib import Path
 
+from warpvol.pipeline import Pipeline
+from warpvol.progress import ProgressBar
+from warpvol.reproduce.espinha2005 import resampled_tf
+from warpvol.reproduce.roettger2002 import fig9_tf
+from warpvol.reproduce.texcache import misses, observe_draws
+from warpvol.reproduce.westermann1997 import dataset
+from warpvol.scene.builtin import builtin_scene
+from warpvol.scene.camera import Camera
+from warpvol.scene.loaders import load_mesh
+from warpvol.scene.scene import Scene
+from warpvol.scene.scene_file import scene_from_config
+from warpvol.scene.transfer import TransferFunction
+
 ROOT = Path(__file__).resolve().parents[2]
 CACHE = ROOT / "out" / "validate_model" / "counters"
 #: stages whose work the papers' frame rates exclude (tables, per-mesh textures and cell set-up)
@@ -77,7 +90,6 @@ def _frame_counters(report: dict) -> dict:
 def _scene_file(name: str, w: int, h: int, split: int | None = None):
     import tomllib
 
-    from warpvol.scene.scene_file import scene_from_config
 
     p = ROOT / "scenes" / f"{name}.toml"
     cfg = tomllib.loads(p.read_text())
@@ -91,8 +103,6 @@ def _scene_file(name: str, w: int, h: int, split: int | None = None):
 
 
 def espinha_scene(name: str, segments: int | None = None):
-    from warpvol.reproduce.espinha2005 import resampled_tf
-
     sc = _scene_file(name, 512, 512)
     return sc if segments is None else dataclasses.replace(sc, transfer=resampled_tf(sc.transfer, segments))
 
@@ -117,10 +127,6 @@ KRAUS_T1 = {"i": {}, "ii": {"perspective": True}, "iii": {"perspective": True, "
 
 def guthe_scene(name: str):
     """Guthe et al. 2002 Table 5 scenes at 1280x960: Blunt Fin (5-tet split) and the Bucky Ball (6-tet split)."""
-    from warpvol.scene.camera import Camera
-    from warpvol.scene.loaders import load_mesh
-    from warpvol.scene.scene import Scene
-    from warpvol.scene.transfer import TransferFunction
 
     if name == "bluntfin":
         return _scene_file("bluntfin", 1280, 960, split=5)
@@ -140,8 +146,6 @@ def guthe_stages(card: str, method: str) -> list:
 
 def roettger_scene():
     """Roettger & Ertl 2002 Fig. 8: the 2,560-tet spherical distance volume, Fig. 9 TF, 512x384 window."""
-    from warpvol.reproduce.roettger2002 import fig9_tf
-    from warpvol.scene.builtin import builtin_scene
 
     sc = builtin_scene("sphere")
     return type(sc)(mesh=sc.mesh, transfer=fig9_tf(), camera=sc.camera.replace(width_px=512, height_px=384),
@@ -168,7 +172,6 @@ TEXCACHE = {"roettger": ("pt_table3d", "pt_cylindrical"), "kraus": ("pt_table3d"
 
 def _pipeline(key: str, device: str):
     """The pipeline of configuration ``key`` (a preset name or a stage list)."""
-    from warpvol.pipeline import Pipeline
 
     pipe = CONFIGS[key][1]
     return Pipeline.load(pipe, device=device) if isinstance(pipe, str) else \
@@ -206,8 +209,6 @@ def texcache_at(key: str, c: dict, block: int) -> dict:
 
 
 def _westermann(name: str):
-    from warpvol.reproduce.westermann1997 import dataset
-
     return dataset(name, 450)
 
 
@@ -270,7 +271,6 @@ def counters(key: str, device: str = "cpu", refresh: bool = False) -> dict:
         return c
     from contextlib import nullcontext
 
-    from warpvol.reproduce.texcache import misses, observe_draws
 
     p = _pipeline(key, device)
     seen: list = []
@@ -303,7 +303,6 @@ def fill(keys, device: str = "cpu", refresh: bool = False, force_lines: bool = T
     which lists its rows as skipped)."""
     import time
 
-    from warpvol.progress import ProgressBar
 
     todo = [k for k in keys if refresh or not is_cached(k)]
     weight = {}

@@ -5,12 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from warpvol.model import load_profile, model_counters
 from warpvol.reproduce.common import counted
+from warpvol.scene.transfer import TransferFunction
+from warpvol.tables.roettger_hw import build_roettger_hw
+from warpvol.tables.roettger_sw import sw_samples
 
 
 def fig9_tf():
     """Four interleaved orange and blue regions over the distance range, constant opacity."""
-    from warpvol.scene.transfer import TransferFunction
 
     orange, blue, w = (1.0, 0.55, 0.1), (0.15, 0.35, 1.0), 0.01
     pts = []
@@ -25,7 +28,6 @@ def fig9_tf():
 def fig4_tf(rho_scale: float = 1.0):
     """64 entries, emission density: smooth colour ramps with bumps, extinction with a few peaks
     (times ``rho_scale``: the one number calibrated on Table 1)."""
-    from warpvol.scene.transfer import TransferFunction
 
     x = np.linspace(0, 1, 64)
     r = np.clip(0.2 + 0.8 * np.exp(-((x - 0.7) / 0.12) ** 2) + 0.3 * x, 0, 1)
@@ -40,9 +42,6 @@ ROETTGER_T2 = {64: (13.499, 0.188, 71.80), 128: (216.204, 2.859, 75.62), 256: (3
 
 def roettger_t2_model(N: int, device: str = "cpu") -> dict:
     """Modelled Table 2 row N (N x N x N/2, N/2 steps): Octane MXI hardware build and R10K software."""
-    from warpvol.model import load_profile, model_counters
-    from warpvol.tables.roettger_hw import build_roettger_hw
-    from warpvol.tables.roettger_sw import sw_samples
 
     p = load_profile("octane_mxi")
     hw = counted(build_roettger_hw, fig4_tf(), n_s=N, n_l=N // 2, steps=N // 2, bits=12, emulate=False,
@@ -55,8 +54,6 @@ def roettger_t2_model(N: int, device: str = "cpu") -> dict:
 
 def roettger_combiner_speedup(N: int = 256, device: str = "cpu") -> float:
     """GeForce3: modelled time of plain 8-bit blending over the 4-steps-per-pass register-combiner build."""
-    from warpvol.model import load_profile, model_counters
-    from warpvol.tables.roettger_hw import build_roettger_hw
 
     p = load_profile("geforce3")
     kw = dict(n_s=N, n_l=N // 2, steps=N // 2, bits=8, passes="one", emulate=False, device=device)

@@ -36,6 +36,8 @@ import contextlib
 
 import numpy as np
 
+import warpvol.projection.pt as pt
+
 #: texels per block edge (memory blocks of BLOCK x BLOCK texels; estimate, see the module docstring)
 BLOCK = 4
 
@@ -99,7 +101,6 @@ def _texel_coords(program, c: np.ndarray) -> tuple:
 def observe_draws(seen: list):
     """While active, every :func:`warpvol.projection.pt.draw` batch whose program has ``coords`` adds
     ``(program, prim, coords)`` to ``seen``."""
-    import warpvol.projection.pt as pt
 
     draw = pt.draw
 

@@ -7,6 +7,19 @@ import os
 
 import numpy as np
 
+from warpvol.model import load_profile, model_counters
+from warpvol.pipeline import Pipeline
+from warpvol.reference.numpy_render import render_reference
+from warpvol.reproduce.common import calibrations, table
+from warpvol.scene.camera import Camera
+from warpvol.scene.grids import structured_to_tets
+from warpvol.scene.loaders import read_mesh_file
+from warpvol.scene.mesh import TetMesh
+from warpvol.scene.scene import Scene
+from warpvol.scene.scene_file import load_scene
+from warpvol.scene.transfer import TransferFunction
+from warpvol.vsbuffer.stages.vsb_setup import VsbSetup
+
 # Table 1 of the paper: tets, drawn tets, GrOps [s], Int [s], total [s]
 PAPER = {
     "ell64": (44689, 954317, 9.2, 36.6, 46.9),
@@ -21,8 +34,6 @@ PAPER_ROW = {"bluntfin": "bluntfin", "fe": "fedata", "spx": None}
 def fe_mesh():
     """Concave finite-element-like stand-in for ``fedata``: an annular sector (270 degrees) of
     6-tet hexes, 16,500 hexes = 99,000 tets, scalar = a smooth stress-like field in [0, 1]."""
-    from warpvol.scene.grids import structured_to_tets
-    from warpvol.scene.mesh import TetMesh
 
     nr, nt, nz = 11, 111, 16
     r = np.linspace(1.0, 2.0, nr)
@@ -37,12 +48,6 @@ def fe_mesh():
 
 
 def dataset(name: str, size: int):
-    from warpvol.scene.camera import Camera
-    from warpvol.scene.loaders import read_mesh_file
-    from warpvol.scene.scene import Scene
-    from warpvol.scene.scene_file import load_scene
-    from warpvol.scene.transfer import TransferFunction
-
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # the repository
     if name == "bluntfin":
         sc = load_scene(os.path.join(root, "scenes", "bluntfin.toml"))
@@ -96,7 +101,6 @@ def model_times(work: dict, walk: dict) -> tuple[float, float, float, str]:
     read/clear scaled by the pixels read + drawn tets times the slope through its three rows (fitted
     to the paper, a consistency check of our drawn-tet counts, not a hardware model).
     """
-    from warpvol.model import load_profile, model_counters
 
     r = model_counters(work, load_profile(PROFILE))
     k, _ = paper_slopes()
@@ -115,10 +119,6 @@ def table1(scenes, presets=("westermann1997", "vsbuffer_best"), *, device="cpu",
     import os
     import time
 
-    from warpvol.pipeline import Pipeline
-    from warpvol.reference.numpy_render import render_reference
-    from warpvol.reproduce.common import calibrations, table
-    from warpvol.vsbuffer.stages.vsb_setup import VsbSetup
 
     rows, size = [], ""
     for name, sc in scenes:

@@ -33,7 +33,7 @@ import numpy as np
 
 from warpvol.errors import ConfigError, check_number
 from warpvol.scene.camera import Camera
-from warpvol.scene.mesh import TetMesh
+from warpvol.scene.mesh import TetMesh, signed_volumes
 from warpvol.scene.scene import Scene
 from warpvol.scene.transfer import TransferFunction
 
@@ -159,7 +159,6 @@ def default_extinction(mesh: TetMesh) -> float:
     mean of the scalars mapped to [0, 1] over their range (at least 0.05), so an average ray through
     the mesh gathers an optical depth of about ``DEFAULT_DEPTH``, in any units and for thin or
     skewed data alike (see the module docstring)."""
-    from warpvol.scene.mesh import signed_volumes
 
     p = np.asarray(mesh.points, np.float64)
     vol = np.abs(signed_volumes(p, mesh.tets))

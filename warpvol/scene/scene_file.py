@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from warpvol.errors import ConfigError, unknown_keys
-from warpvol.io import toml_nesting
+from warpvol.io import available_memory, toml_nesting
 from warpvol.scene import datasets
 from warpvol.scene.builtin import builtin_camera, builtin_scene, builtin_transfer
 from warpvol.scene.camera import CAMERA_KEYS, Camera
@@ -166,7 +166,6 @@ def _raw_samples(mesh_cfg: Any) -> int | None:
 
 def _check_mesh_memory(mesh_cfg: Any, p: Path) -> None:
     """A raw volume whose tet mesh cannot fit in the memory there is is refused before it is read."""
-    from warpvol.io import available_memory
 
     n = _raw_samples(mesh_cfg)
     if n is not None:  # a file that does not match its dims is that, whatever memory there is

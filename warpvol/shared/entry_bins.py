@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from warpvol.shared.visible import face_triangles
+
 #: the per-mesh properties (cached on the mesh) :func:`entry_face_mask` reads: set-up on first use
 ENTRY_MESH_PROPERTIES = ("boundary_faces", "face_planes", "bounds", "bounding_radius")
 
@@ -138,7 +140,6 @@ def bin_boundary_faces(mesh, camera, tile: int, faces: np.ndarray | None = None)
     pixels whose rays may cross the face (centres in its projected box grown by :func:`box_margin_px`; a face
     between the pixel centres is listed nowhere); a tile's items are in the order of :func:`item_depths`, ``item_depth`` (float32, 3 per item) its depth bounds.
     """
-    from warpvol.shared.visible import face_triangles
 
     front = entry_face_mask(mesh, camera, faces)
     bf = (mesh.boundary_faces if faces is None else np.asarray(faces, dtype=np.int64).reshape(-1, 2))[front]

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from warpvol.errors import ConfigError
+from warpvol.gpu.texture import Texture1D, Texture2D, Texture3D
 
 INTEGRATIONS = {"exact": 0, "full": 1, "partial": 2}
 ISO_RULES = {"paper": 0, "behind": 1}
@@ -37,7 +38,6 @@ def integ_setup(mode: str, tf, device: str, *, table=None, psi=None, iso=None, i
     uploads nothing (as a texture stays resident on the card until the TF changes)."""
     import warp as wp
 
-    from warpvol.gpu.texture import Texture1D, Texture2D, Texture3D
     from warpvol.kernels import harc as kh
 
     if mode not in INTEGRATIONS:

@@ -17,6 +17,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from warpvol.scene.mesh import FACE_VERTS
+from warpvol.shared.entry_bins import entry_face_mask, window_xy
+from warpvol.shared.pixel_marks import near_segment_pixels
+
 #: a tet thinner than this fraction of the mesh radius may be unresolved in float32
 THIN = 2.0 ** -12
 #: a thin tet whose window footprint is narrower than this (pixels) is taken as seen edge-on
@@ -106,7 +110,6 @@ def footprint(pieces: np.ndarray, camera) -> tuple[np.ndarray, np.ndarray, np.nd
     (projected area -- half the summed absolute areas of its projected faces -- over its longest projected
     edge; 0 where a point does not project), that longest edge in pixels, and its extent along the view
     direction over the footprint's longest extent in scene units (large: a needle along the rays)."""
-    from warpvol.shared.entry_bins import window_xy
 
     if len(pieces) == 0:
         return np.zeros(0), np.zeros(0), np.zeros(0)
@@ -135,7 +138,6 @@ def pixels_under(pieces: np.ndarray, camera) -> np.ndarray:
     """Flat indices of the pixels whose rays may cross any of the tets ``pieces`` (T, 4, 3): each tet's window
     box grown by one pixel (float64 projection; a tet reaching the eye plane of a perspective camera: every
     pixel)."""
-    from warpvol.shared.entry_bins import window_xy
 
     h, w = camera.height_px, camera.width_px
     if len(pieces) == 0:
@@ -272,7 +274,6 @@ def edge_pixels(mesh, camera, tris: np.ndarray, nbr: np.ndarray, delta: float = 
     its layer listed instead (a deeper layer, or no face at all); elsewhere the face across the edge is
     listed, and the entry search's consistent edge test rejects it and searches its surface rings. The
     kernel tests these faces exactly at every ray start and takes the nearest crossing."""
-    from warpvol.shared.entry_bins import window_xy
 
     w, h = camera.width_px, camera.height_px
     wx, wy, bad, _ = window_xy(camera, np.asarray(mesh.points, np.float64)[tris.reshape(-1)])
@@ -335,7 +336,6 @@ def edge_pixels(mesh, camera, tris: np.ndarray, nbr: np.ndarray, delta: float = 
 def _near_segments(ax, ay, bx, by, ids, w: int, h: int, delta: float):
     """``(pixel, id)`` pairs: pixel centres within ``delta`` of the window-space segments ``a b``
     (:func:`warpvol.shared.pixel_marks.near_segment_pixels`), each with its segment's entry of ``ids``."""
-    from warpvol.shared.pixel_marks import near_segment_pixels
 
     pix, k = near_segment_pixels(ax, ay, bx, by, w, h, delta)
     return pix, np.asarray(ids)[k]
@@ -345,7 +345,6 @@ def silhouette_pixels(mesh, camera) -> np.ndarray:
     """Flat indices of the pixels whose centre lies within :data:`EDGE_PX` of an open
     edge of the front boundary (:func:`edge_pixels`): where a rasterised coverage
     snapped to 1/256 pixel can leave out the cell a ray crosses."""
-    from warpvol.shared.entry_bins import entry_face_mask
 
     tris = mesh.boundary_triangles()[entry_face_mask(mesh, camera)]
     if len(tris) == 0:
@@ -359,8 +358,6 @@ def edge_on_pixels(mesh, camera, delta: float | None = None) -> np.ndarray:
     :data:`EDGE_PX`) of a face of the mesh seen edge-on (window footprint narrower
     than ``delta``): a face in a VSBUFFER sweep plane, or a ray inside it, where rasterised coverage does
     not decide which cell the ray crosses."""
-    from warpvol.scene.mesh import FACE_VERTS
-    from warpvol.shared.entry_bins import window_xy
 
     delta = EDGE_PX if delta is None else delta
     w, h = camera.width_px, camera.height_px

@@ -24,7 +24,7 @@ import weakref
 
 import numpy as np
 
-from warpvol.conditioning.visibility import cut_at_invisible
+from warpvol.conditioning.visibility import cell_visibility, cut_at_invisible
 from warpvol.scene.mesh import FACE_VERTS
 
 
@@ -89,7 +89,6 @@ def confined(ctx) -> bool:
         return "entry_faces" in cells
     if "visible_cells" not in ctx.planned:
         return False
-    from warpvol.conditioning.visibility import cell_visibility
 
     return not bool(cell_visibility(ctx.scene.mesh, ctx.scene.transfer).all())
 

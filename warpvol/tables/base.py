@@ -32,7 +32,8 @@ from typing import Any
 
 import numpy as np
 
-from warpvol.errors import ConfigError, check_choice
+from warpvol.errors import ConfigError, check_choice, check_number
+from warpvol.gpu import formats as F
 
 AXIS_KINDS = ("centred", "endpoint", "log2")
 TABLE_FORMATS = ("fp32", "fp16", "rgba8", "hilo16", "snorm8", "al16")
@@ -118,7 +119,6 @@ def quantise(values: np.ndarray, fmt: str) -> tuple[np.ndarray, np.ndarray | Non
     Every conversion is :mod:`warpvol.gpu.formats` (one emulated GPU); ``al16`` stores each channel as
     Guthe's 8-bit A/L pair (raw has a trailing axis of 2: A code, L code).
     """
-    from warpvol.gpu import formats as F
 
     check_choice("format", fmt, TABLE_FORMATS)
     v = np.asarray(values, dtype=np.float32)
@@ -238,14 +238,10 @@ def model_id(tf) -> int:
 
 
 def check_resolution(name: str, n: Any, lo: int = 1, hi: int = 4096) -> int:
-    from warpvol.errors import check_number
-
     return int(check_number(name, n, lo=lo, hi=hi, integer=True))
 
 
 def check_positive(name: str, v: Any) -> float:
-    from warpvol.errors import check_number
-
     return float(check_number(name, v, lo=0.0, lo_open=True))
 
 

@@ -21,17 +21,16 @@ from typing import Any
 
 from warpvol.errors import check_choice
 from warpvol.tables.base import Table, table_key
+from warpvol.tables.cylindrical import build_cylindrical
+from warpvol.tables.exact import build_exact3d
+from warpvol.tables.guthe2d import build_guthe2d
+from warpvol.tables.incremental import build_incremental
+from warpvol.tables.isocross import build_isocross
+from warpvol.tables.psi import build_psi
+from warpvol.tables.roettger_sw import build_roettger_sw
 
 
 def _builders() -> dict:
-    from warpvol.tables.cylindrical import build_cylindrical
-    from warpvol.tables.exact import build_exact3d
-    from warpvol.tables.guthe2d import build_guthe2d
-    from warpvol.tables.incremental import build_incremental
-    from warpvol.tables.isocross import build_isocross
-    from warpvol.tables.psi import build_psi
-    from warpvol.tables.roettger_sw import build_roettger_sw
-
     b = {"exact3d": build_exact3d, "roettger_sw": build_roettger_sw, "incremental": build_incremental,
          "cylindrical": build_cylindrical, "guthe2d": build_guthe2d, "psi": build_psi, "isocross": build_isocross}
     try:

@@ -9,6 +9,7 @@ from contextlib import contextmanager
 import numpy as np
 
 from warpvol.errors import ConfigError, check_choice, check_number
+from warpvol.parallel import launch_blocks
 from warpvol.progress import detail
 from warpvol.scene.transfer import TransferFunction
 from warpvol.tables.base import Axis, Table, model_id, quantise, table_key
@@ -91,7 +92,6 @@ def launch_bands(kernel, n_l: int | None, n_rows: int, n_cols: int, device: str,
     """
     import warp as wp
 
-    from warpvol.parallel import launch_blocks
 
     rows = max(1, min(n_rows, BAND_WORK // max(1, n_cols * (1 + max(1, pieces)))))
     slabs = [(l0, j0, min(rows, n_rows - j0)) for l0 in range(n_l or 1) for j0 in range(0, n_rows, rows)]

@@ -50,6 +50,7 @@ import math
 
 import numpy as np
 
+from warpvol.gpu.texture import TextureAtlas
 from warpvol.tables.base import TABLE_FORMATS, Axis, Table
 from warpvol.tables.common import (
     check_choice,
@@ -193,8 +194,6 @@ def build_cylindrical(tf, *, n_s: int = 64, n_l: int | None = None, lmax: float 
 
 
 def _make_texture(planes: Table, device: str, weight_bits: int | None, filter: str = "linear"):
-    from warpvol.gpu.texture import TextureAtlas
-
     return TextureAtlas(planes.data, fmt=TEXEL_FORMAT[planes.format], filter=filter, device=device,
                         weight_bits=weight_bits)
 

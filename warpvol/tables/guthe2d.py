@@ -30,6 +30,9 @@ from __future__ import annotations
 import numpy as np
 
 from warpvol.errors import ConfigError
+from warpvol.gpu import counters as cnt
+from warpvol.gpu.formats import Pair16
+from warpvol.gpu.texture import Texture1D, Texture2D
 from warpvol.tables.base import Axis, Table, quantise
 from warpvol.tables.common import (
     check_choice,
@@ -276,7 +279,6 @@ def textures(table: Table, device: str = "cpu", weight_bits: int | None = 8) -> 
     """The stored tables as the emulated texture unit holds them: ``coef`` (one RGBA 2D texture per
     coefficient, signed 8-bit for ``snorm8``), ``rho`` (unsigned 8-bit 2D: ``SIGNED_RGB_UNSIGNED_ALPHA``)
     and ``alpha1d`` (1D, the 16-bit opacity as an A/L pair in ``la8``)."""
-    from warpvol.gpu.texture import Texture1D, Texture2D
 
     kw = dict(filter="linear", device=device, weight_bits=weight_bits)
     d = table.data
@@ -314,7 +316,6 @@ def reconstruct(table: Table, sf, sb, l, device: str = "cpu", via: str = "textur
     via = check_choice("via", via, RECONSTRUCT_VIA)
     if via == "float":
         return _reconstruct_float(table, sf, sb, l)
-    from warpvol.gpu.formats import Pair16
 
     sf, sb, l = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in (sf, sb, l)))
     shape = sf.shape
@@ -326,7 +327,6 @@ def reconstruct(table: Table, sf, sb, l, device: str = "cpu", via: str = "textur
     na = tx["alpha1d"].shape[0]
     ua = np.float32(0.5 / na) + lc * rho_n * np.float32(1.0 - 1.0 / na)
     a = tx["alpha1d"].sample(ua)
-    from warpvol.gpu import counters as cnt
 
     cnt.count(dependent_fetches=uv.shape[0])  # the alpha1D fetch's coordinate came from the rho fetch
     alpha = Pair16.value(a[:, 3], a[:, 0]) if tx["alpha_format"] == "al16" else a[:, 0]

@@ -19,6 +19,9 @@ from __future__ import annotations
 import numpy as np
 
 from warpvol.errors import ConfigError, check_number
+from warpvol.gpu import counters as cnt
+from warpvol.gpu.formats import Split12, UNorm
+from warpvol.gpu.texture import Texture1D
 from warpvol.parallel import launch_blocks, row_blocks
 from warpvol.tables.base import TABLE_FORMATS, Axis
 from warpvol.tables.common import (
@@ -40,7 +43,6 @@ OVERFLOW = {"radeon8500": "wrap", "geforce4": "saturate"}
 def split_texture_values(tf, n_tex: int, l: float, m: int, channel: int) -> np.ndarray:
     """RGBA8 texel values (n_tex, 4) of the TF texture for one colour channel (hi/lo split,
     :class:`warpvol.gpu.formats.Split12` truncating, as the shader's 8-bit writes)."""
-    from warpvol.gpu.formats import Split12
 
     lo_s, hi_s = tf.srange
     x = (np.arange(n_tex) + 0.5) / n_tex
@@ -60,7 +62,6 @@ def count_pingpong(jobs, m: int, per_pass: int, n_s: int) -> None:
     full-slice quad; a fragment fetches the ping texel (2D RGBA8, nearest) and one TF texel per step,
     runs ``per_pass`` shader steps and writes RGBA8 (no blending); the pong buffer is copied to the
     ping texture after each pass (on the card) and the channel's last pass is read back."""
-    from warpvol.gpu import counters as cnt
 
     c = cnt.active()
     if c is None:
@@ -77,7 +78,6 @@ def count_pingpong(jobs, m: int, per_pass: int, n_s: int) -> None:
 
 def count_moments(n_s: int) -> None:
     """Host work of the exact opacity (and colour) moments: one software integral per texel."""
-    from warpvol.gpu import counters as cnt
 
     cnt.count(host_texels=n_s * n_s)
 
@@ -113,8 +113,6 @@ def build_pingpong(tf, *, n_s: int = 128, lengths=(1.0,), lmax: float = 1.0, m: 
     """
     import warp as wp
 
-    from warpvol.gpu.formats import UNorm
-    from warpvol.gpu.texture import Texture1D
 
     check_tf(tf)
     if tf.emission != "color_extinction":

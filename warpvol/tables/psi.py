@@ -21,6 +21,7 @@ import numpy as np
 
 from warpvol.tables.base import TABLE_FORMATS, Axis, Table
 from warpvol.tables.common import check_choice, check_res, farr, finish, kernels, table_key, timed
+from warpvol.tables.guthe2d import _bilinear2d
 
 
 def build_psi(*, n: int = 128, format: str = "fp32", axis: str = "centred", device: str = "cpu") -> Table:
@@ -88,7 +89,6 @@ def combine(I0, Cf, Cb, tau_f, tau_b, l, psi) -> np.ndarray:
 
 def lookup(table: Table, gf, gb) -> np.ndarray:
     """Bilinear lookup of the psi table at ``(gf, gb)`` (texel centres, clamp to edge), float64."""
-    from warpvol.tables.guthe2d import _bilinear2d
 
     ax_b, ax_f = table.axes
     return _bilinear2d(table.data, ax_f.index(gf), ax_b.index(gb))

@@ -33,6 +33,10 @@ from __future__ import annotations
 import numpy as np
 
 from warpvol.errors import check_number
+from warpvol.gpu import counters as cnt
+from warpvol.gpu.blend import BlendUnit, FrameBuffer
+from warpvol.gpu.formats import UNORM12, get_format
+from warpvol.gpu.texture import Texture1D
 from warpvol.parallel import launch_blocks, row_blocks
 from warpvol.tables.base import AXIS_KINDS, TABLE_FORMATS
 from warpvol.tables.common import (
@@ -84,7 +88,6 @@ def ln_register(ln: float, ln_format: str = "unorm8") -> tuple[float, int | None
     """
     if ln_format == "fp32":
         return float(ln), None
-    from warpvol.gpu.formats import get_format
 
     f = get_format("unorm8")
     code = f.encode(np.asarray([ln], dtype=np.float32))
@@ -94,7 +97,6 @@ def ln_register(ln: float, ln_format: str = "unorm8") -> tuple[float, int | None
 def count_slice_draws(jobs, nblend: int, draw: int, group: int, n_s: int) -> None:
     """Counters of one wave of slice draws (each job: one pass of ``nblend`` full-slice rectangles,
     ``group`` texture fetches per fragment, GeForce3: ``group`` combiner steps, read back at the end)."""
-    from warpvol.gpu import counters as cnt
 
     c = cnt.active()
     if c is None:
@@ -111,7 +113,6 @@ def count_slice_draws(jobs, nblend: int, draw: int, group: int, n_s: int) -> Non
 
 def make_tf_texture(values: np.ndarray, bits: int, device: str):
     """The TF as a texture of the emulated texture unit, in ``bits`` precision."""
-    from warpvol.gpu.texture import Texture1D
 
     if bits == 8:
         return Texture1D(values, fmt="rgba8", filter="linear", device=device)
@@ -172,8 +173,6 @@ def build_roettger_hw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, st
     """
     import warp as wp
 
-    from warpvol.gpu.blend import BlendUnit, FrameBuffer
-    from warpvol.gpu.formats import UNORM12
 
     check_tf(tf)
     n_s = check_res("n_s", n_s, 2)

@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from warpvol.errors import check_number
+from warpvol.gpu import counters as cnt
 from warpvol.tables.base import AXIS_KINDS, TABLE_FORMATS
 from warpvol.tables.common import (
     check_choice,
@@ -102,7 +103,6 @@ def build_roettger_sw(tf, *, n_s: int = 64, n_l: int = 32, lmax: float = 1.0, m:
             xf, xb[j0:j0 + nj], ls[l0:l0 + nl], lo, hi - lo, tf_s, tf_v, model_id(tf), float(m), o, n_min,
             int(step == "stein"), out[l0:l0 + nl, j0:j0 + nj]], pieces=max(n_min, int(o * m)) // 2, what=f"software table {n_l}x{n_s}x{n_s}")
     meta["samples"] = sw_samples(ax_f.nodes, ax_b.nodes, m, o, n_min) * n_l
-    from warpvol.gpu import counters as cnt
 
     cnt.count(sw_samples=meta["samples"])
     return finish("roettger_sw", out.numpy(), (ax_l, ax_b, ax_f), ("r", "g", "b", "a"), format, key, meta)

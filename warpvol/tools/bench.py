@@ -40,7 +40,14 @@ import numpy as np
 
 from warpvol.bands import compute_reference
 from warpvol.errors import ConfigError, WarpvolError
+from warpvol.io import Outputs, save_result, saved_records
+from warpvol.metrics import image_error
+from warpvol.pipeline import Pipeline, _read_pipeline_text, list_presets, report_json
 from warpvol.progress import ProgressBar
+from warpvol.reference import numpy_render as reference
+from warpvol.tools import provenance
+from warpvol.tools import report_html as rh
+from warpvol.tools.machine import load_average, run_metadata
 from warpvol.tools.report_html import FRONTS
 
 #: row fields every bench / sweep table has (stage times, counters and options come on top)
@@ -65,7 +72,6 @@ def scene_hash(scene: Any) -> str:
     >>> scene_hash(a) == scene_hash(warpvol.builtin_scene("box")), scene_hash(a) == scene_hash(a.with_camera(width_px=7))
     (True, False)
     """
-    from warpvol.reference import numpy_render as reference
 
     h = hashlib.sha256()
     m, tf, cam = scene.mesh, scene.transfer, scene.camera
@@ -134,7 +140,6 @@ def resolve_pipelines(names: list[str] | tuple[str, ...] | str | None) -> list[s
     >>> resolve_pipelines(["raycast,pt_best", "harc_best"])
     ['raycast', 'pt_best', 'harc_best']
     """
-    from warpvol.pipeline import list_presets
 
     if isinstance(names, (list, tuple)):
         names = [n.strip() for a in names for n in (a.split(",") if isinstance(a, str) else [a]) if n != ""]
@@ -160,7 +165,6 @@ def quick_pipeline(pipe: Any) -> Any:
     >>> [st.config["n_s"] for st in quick_pipeline(Pipeline.load("roettger2000_3d")).stages if "n_s" in st.config]
     [16]
     """
-    from warpvol.pipeline import Pipeline
 
     stages = []
     for st in pipe.stages:
@@ -173,7 +177,6 @@ def quick_pipeline(pipe: Any) -> Any:
 def load_pipelines(names: Any, device: str = "cpu", flag: str = "--pipelines", quick: bool = False) -> list:
     """:func:`resolve_pipelines` then load each (errors name ``flag``), before any work; ``quick``:
     through :func:`quick_pipeline`."""
-    from warpvol.pipeline import Pipeline
 
     out = []
     for n in resolve_pipelines(names):
@@ -192,7 +195,6 @@ def gpu_support(gpu: str | None, pipe: Any = None) -> str | None:
     GPU profiles arrive with the throughput model (``Pipeline.render(gpu=...)``); in a build without
     it the bench reports emulated times only and says so in the report.
     """
-    from warpvol.pipeline import Pipeline
 
     if gpu is None:
         return "no --gpu given: emulated times only"
@@ -239,7 +241,6 @@ def bench_pipeline(pipe: Any, scene: Any, ref: np.ndarray | None, *, repeats: in
     Returns the row (see :data:`ROW_FIELDS`) and, under ``"_image"``, the last image. Exceptions
     propagate (the caller decides whether a failure ends the run).
     """
-    from warpvol.metrics import image_error
 
     step = on_step or (lambda _msg: None)
     kw: dict[str, Any] = {"quiet": True, "device": device, "skip": bool(skip)}
@@ -302,7 +303,6 @@ def audit_skip(pipe: Any, scene: Any, skipped: dict, image: np.ndarray, total_s:
                *, repeats: int, kw: dict) -> dict:
     """Render with one skipped stage forced on: the stage's median time (what skipping it saves), the
     whole render's median time and its difference, and how far the images differ."""
-    from warpvol.metrics import image_error
 
     entry = {"stage": skipped["stage"], "reason": skipped["reason"]}
     try:
@@ -389,8 +389,6 @@ def run_bench(scene: Any, pipelines: Any = "all", *, repeats: int = 3, gpu: str 
     (:class:`warpvol.progress.ProgressBar`; ``progress``: also elsewhere, as lines; ``quiet``: never).
     ``command``: the command line, kept in the metadata. ``skip=False``: every render does all the work
     (no culling, empty-space skipping or early ray termination; ``--no-skip``), noted in the result."""
-    from warpvol.tools import provenance
-    from warpvol.tools.machine import load_average, run_metadata
 
     pipes = load_pipelines(pipelines, device, quick=quick)  # unknown names fail before any work
     check_gpu(gpu)
@@ -462,7 +460,6 @@ def pipeline_keys(pipes: list[Any]) -> list[str]:
 def pipeline_digest(name_or_path: str | Path) -> str:
     """SHA-256 (hex) of a preset's or pipeline file's TOML text: a resumed run reuses a pipeline's
     saved results only while this is unchanged."""
-    from warpvol.pipeline import _read_pipeline_text
 
     return hashlib.sha256(_read_pipeline_text(name_or_path)[0].encode()).hexdigest()
 
@@ -489,8 +486,6 @@ def row_store(outdir: str | Path, scene: Any, *, repeats: int, gpu: str | None, 
     again. ``owned`` (:class:`warpvol.io.OwnedFiles`): only the records warpvol wrote there are read.
     Temporary files (dot names) are never read; a record or image that cannot be read (cut short,
     edited) is benched again; ``note(text)`` is told about each saved row not reused."""
-    from warpvol.io import save_result, saved_records
-    from warpvol.pipeline import report_json
 
     note = note or (lambda _text: None)
     d = Path(outdir) / ROW_DIR
@@ -531,9 +526,6 @@ def write_bench(result: BenchResult, outdir: str | Path, *, plan: dict | None = 
     hover titles, pareto.png the same plot), with a GPU profile the one of the modelled times
     (pareto_modelled.svg / .png) and index.html into ``outdir``, all or none
     (:class:`warpvol.io.Outputs`; ``owned``: its :class:`warpvol.io.OwnedFiles`). Returns the paths."""
-    from warpvol.io import Outputs
-    from warpvol.pipeline import report_json
-    from warpvol.tools import report_html as rh
 
     out_dir = Path(outdir)
     files = {"table.csv": rh.table_csv(result.rows), "table.json": report_json(result.as_json()),

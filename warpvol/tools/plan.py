@@ -15,6 +15,7 @@ import time
 from typing import Any, Callable
 
 from warpvol.errors import WarpvolError
+from warpvol.tools.bench import bench_pipeline
 
 
 def _duration(seconds: float) -> str:
@@ -71,7 +72,6 @@ def run_plan(pipes: list, scenes: list, *, repeats: int = 3, measure: bool = Tru
     preset): ``pipeline``, ``scene``, ``status`` (``ok`` / ``declined`` / ``planned``), ``message``, ``s``
     (seconds spent on it).
     """
-    from warpvol.tools.bench import bench_pipeline
 
     say = note or (lambda _text: None)
     jobs = [(sc, p) for sc in scenes for p in pipes]

@@ -18,6 +18,10 @@ from typing import Any
 
 import numpy as np
 
+from warpvol.io import composite_over
+from warpvol.metrics import error_image
+from warpvol.tools.machine import timer_resolution
+
 #: time column -> the row flag marking its Pareto front (time against error)
 FRONTS = {"total_s": "pareto", "modelled_s": "pareto_modelled"}
 
@@ -365,8 +369,6 @@ def png_data_uri(rgb: np.ndarray) -> str:
 
 
 def image_uri(image: np.ndarray) -> str:
-    from warpvol.io import composite_over
-
     return png_data_uri(composite_over(np.asarray(image, np.float64), (0.0, 0.0, 0.0)))
 
 
@@ -374,7 +376,6 @@ def error_uri(image: np.ndarray, reference: np.ndarray) -> tuple[str, float]:
     """Per-pixel max |error| through the ``magma`` colour map, scaled to its maximum."""
     from matplotlib import colormaps
 
-    from warpvol.metrics import error_image
 
     err = error_image(image, reference)
     scale = float(err.max())
@@ -460,7 +461,6 @@ def _page_row(k: int, r: dict) -> dict:
 def bench_section(result: Any, plan: dict | None = None, title: str | None = None) -> str:
     """One scene's section: metadata, description, table with the spread of the repeats, one Pareto plot
     per clock (the presets not on it listed with the reason), images and error maps, planner audit."""
-    from warpvol.tools.machine import timer_resolution
 
     sc = result.scene
     gpu = getattr(result, "gpu", None)

@@ -38,13 +38,20 @@ from typing import Any, Callable
 
 import numpy as np
 
-from warpvol.errors import WarpvolError
+from warpvol.errors import ConfigError, WarpvolError
+from warpvol.io import save_result, saved_records
+from warpvol.metrics import image_error
+from warpvol.pipeline import report_json
+from warpvol.progress import ProgressBar, detail
+from warpvol.reference.numpy_render import render_reference
 from warpvol.scene.builtin import builtin_mesh
 from warpvol.scene.camera import Camera
 from warpvol.scene.grids import grid_points
 from warpvol.scene.mesh import TetMesh
 from warpvol.scene.scene import Scene
 from warpvol.scene.transfer import TransferFunction
+from warpvol.tools.bench import load_pipelines
+from warpvol.tools.report_html import _fmt, html_table, page
 from warpvol.tools.stress_meshes import _box, _tf
 from warpvol.tools.stress_range import range_cases
 from warpvol.tools.stress_real import add_real_data_cases
@@ -221,9 +228,6 @@ def run_case(case: Case, pipes: list[Any], device: str = "cpu",
     ``on_step(what)`` is told what starts next (the reference, each pipeline): progress. ``skip=False``:
     every render does all the work (``--no-skip``); a row's ``left_out`` says what a render left out."""
     step = on_step or (lambda _what: None)
-    from warpvol.metrics import image_error
-    from warpvol.progress import detail
-    from warpvol.reference.numpy_render import render_reference
 
     rows = []
     t0 = time.perf_counter()
@@ -290,8 +294,6 @@ def run_stress(quick: bool = False, cases: list[str] | None = None, pipelines: A
     each case that runs (e.g. to save it at once). Progress (a unit per reference and per render, with the
     time left) goes to stderr on a terminal (``progress``: also elsewhere, as lines; ``quiet``: never).
     ``skip=False``: every render does all the work (``--no-skip``)."""
-    from warpvol.progress import ProgressBar
-    from warpvol.tools.bench import load_pipelines
 
     names = check_case_names(cases)
     pipes = load_pipelines(pipelines, device, quick=quick)
@@ -357,9 +359,6 @@ def case_store(outdir, quick: bool, pipelines: list[str], *, skip: bool = True, 
     ``note(text)`` is told about each record not reused."""
     from pathlib import Path
 
-    from warpvol.errors import ConfigError
-    from warpvol.io import save_result, saved_records
-    from warpvol.pipeline import report_json
 
     note = note or (lambda _text: None)
     d = Path(outdir) / CASE_DIR
@@ -392,8 +391,6 @@ STRESS_HEAD = ("case", "pipeline", "status", "finite", "time [s]", "RMSE", "max 
 
 
 def stress_markdown(rows: list[dict]) -> str:
-    from warpvol.tools.report_html import _fmt
-
     lines = ["| " + " | ".join(STRESS_HEAD) + " |", "|" + " --- |" * len(STRESS_HEAD)]
     for r in rows:
         cells = [r["case"], r["pipeline"], r["status"], _fmt(r.get("finite")), _fmt(r.get("time_s")),
@@ -436,7 +433,6 @@ def stress_matrix(rows: list[dict]) -> str:
 
 def stress_page(rows: list[dict], quick: bool) -> str:
     """The summary as a self-contained HTML page: one table, failed rows in red, case descriptions."""
-    from warpvol.tools.report_html import _fmt, html_table, page
 
     body = [[r["case"], r["pipeline"], r["status"], _fmt(r.get("finite")), _fmt(r.get("time_s")), _fmt(r.get("rmse")),
              _fmt(r.get("max_abs")), r.get("message") or ""] for r in rows]

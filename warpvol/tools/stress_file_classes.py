@@ -19,7 +19,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from warpvol.scene.camera import Camera
+from warpvol.scene.grids import cell_corners
+from warpvol.scene.loaders import read_mesh_file
 from warpvol.scene.split_cells import VOXEL_TO_HEX
+from warpvol.scene.transfer import TransferFunction
 from warpvol.tools.stress_files import FILE_TF
 
 
@@ -67,7 +71,6 @@ def overset(dims=(9, 8, 7)):
     c = np.asarray(sg.cell_centers().points)
     hole = np.linalg.norm(c - [0.5, 0.5, 0.5], axis=1) < 0.22
     sg.cell_data["vtkGhostType"] = np.where(hole, 32, 0).astype(np.uint8)
-    from warpvol.scene.grids import cell_corners
 
     used = np.zeros(sg.n_points, dtype=bool)
     used[cell_corners(dims)[~hole].ravel()] = True
@@ -125,9 +128,6 @@ def file_class_cases(simple, with_ref, sc) -> None:
     import tempfile
     from pathlib import Path
 
-    from warpvol.scene.camera import Camera
-    from warpvol.scene.loaders import read_mesh_file
-    from warpvol.scene.transfer import TransferFunction
 
     tf = TransferFunction([list(p) for p in FILE_TF])
 

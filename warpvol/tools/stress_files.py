@@ -14,6 +14,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from warpvol.scene.camera import Camera
+from warpvol.scene.loaders import read_mesh_file
+from warpvol.scene.mesh import TetMesh
+from warpvol.scene.transfer import TransferFunction
+
 #: TF of these cases over the fields' range [-0.5, 1.2]: [s, r, g, b, extinction]
 FILE_TF = ((-0.5, 0.2, 0.4, 1.0, 0.8), (0.5, 1.0, 0.5, 0.2, 2.4), (1.2, 1.0, 1.0, 1.0, 0.4))
 
@@ -119,10 +124,6 @@ def file_cases(simple, with_ref, sc) -> None:
     import warnings
     from pathlib import Path
 
-    from warpvol.scene.camera import Camera
-    from warpvol.scene.loaders import read_mesh_file
-    from warpvol.scene.mesh import TetMesh
-    from warpvol.scene.transfer import TransferFunction
 
     tf = TransferFunction([list(p) for p in FILE_TF])
 

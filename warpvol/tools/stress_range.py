@@ -11,14 +11,20 @@ from __future__ import annotations
 
 import numpy as np
 
+from warpvol.scene.builtin import builtin_scene
+from warpvol.scene.camera import Camera
+from warpvol.scene.mesh import TetMesh
+from warpvol.scene.scene import Scene
+from warpvol.scene.transfer import TransferFunction
+from warpvol.tools.stress_meshes import _box
+from warpvol.tools.stress_real import COND_TF, _cond_field
+
 #: what the exact presets claim against the float64 reference (the README's numbers): rmse, max abs
 EXACT_CLAIMS = {"raycast": (2e-6, 1e-4), "harc_best": (2e-6, 1e-4), "vsbuffer_best": (2e-6, 1e-4),
                 "pt_best": (2.5e-4, 4e-3)}
 
 
 def _camera(px: int):
-    from warpvol.scene.camera import Camera
-
     return Camera(eye=(3.0, 2.0, 4.0), target=(0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0), fov_y_deg=30.0,
                   width_px=px, height_px=px)
 
@@ -32,9 +38,6 @@ def log_scene(px: int = 32, decades: int = 9, top: float = 3.0, n: int = 6, seed
     """A density from ``10^(top - decades)`` to ``10^top`` over an ``n^3``-point box grid, varying by
     decades across it, and a transfer function with a control point per decade (random colours and
     extinctions): how concentration, vorticity and density fields are shown."""
-    from warpvol.scene.scene import Scene
-    from warpvol.scene.transfer import TransferFunction
-    from warpvol.tools.stress_meshes import _box
 
     lo = top - decades
     mesh = _box(n, scalar=lambda p: 10.0 ** (lo + decades * _unit_field(p)), name=f"log_{decades}")
@@ -48,12 +51,6 @@ def unused_points_scene(px: int = 32, distance: float = 1e7, n: int = 5, fit: bo
     """A part (an ``n^3``-point box grid, 2 across) that keeps 8 points of its parent no cell uses,
     at ``+-distance`` on every axis, before and after its own points, with scalars outside the part's
     range. ``fit``: the default camera fitted to the mesh instead of one framing the part."""
-    from warpvol.scene.camera import Camera
-    from warpvol.scene.mesh import TetMesh
-    from warpvol.scene.scene import Scene
-    from warpvol.scene.transfer import TransferFunction
-    from warpvol.tools.stress_meshes import _box
-    from warpvol.tools.stress_real import COND_TF, _cond_field
 
     part = _box(n, scalar=_cond_field)
     far = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=np.float64) * distance
@@ -66,9 +63,6 @@ def unused_points_scene(px: int = 32, distance: float = 1e7, n: int = 5, fit: bo
 def rough_scene(px: int = 32, points: int = 4096, seed: int = 0):
     """The built-in sphere with a transfer function of ``points`` control points of random colour and
     extinction spread evenly over its scalars (a label-like colour map)."""
-    from warpvol.scene.builtin import builtin_scene
-    from warpvol.scene.scene import Scene
-    from warpvol.scene.transfer import TransferFunction
 
     base = builtin_scene("sphere")
     lo, hi = base.mesh.scalar_range
@@ -84,9 +78,6 @@ def subnormal_scene(px: int = 32, scale: float = 1e-311, n: int = 6):
     """The field of :func:`log_scene`'s box in ``[0, scale]`` (default: float64 subnormal numbers) and a
     transfer function over that range: the exact presets and the reference render it as the same data
     scaled into the normal range; the pipelines that cast scalars to float32 as they are decline."""
-    from warpvol.scene.scene import Scene
-    from warpvol.scene.transfer import TransferFunction
-    from warpvol.tools.stress_meshes import _box
 
     mesh = _box(n, scalar=lambda p: _unit_field(p) * scale, name="subnormal_scalars")
     tf = TransferFunction([[0.0, 0.1, 0.2, 0.9, 0.2], [0.5 * scale, 0.9, 0.5, 0.1, 1.5], [scale, 1.0, 1.0, 0.9, 0.6]])

@@ -10,6 +10,16 @@ builds the scene. ``build(quick)`` takes the ``--quick`` flag (smaller images fo
 
 from __future__ import annotations
 
+from warpvol.scene.camera import Camera
+from warpvol.scene.grids import grid_points, structured_to_tets
+from warpvol.scene.mesh import TetMesh
+from warpvol.scene.scene import Scene
+from warpvol.scene.transfer import TransferFunction
+from warpvol.tools.stress_file_classes import file_class_cases
+from warpvol.tools.stress_files import file_cases
+from warpvol.tools.stress_meshes import _box, _tf
+from warpvol.tools.stress_topology import add_topology_cases
+
 
 #: the field of the conditioning cases on the unit box grid (varied, so a lost bit shows as colour)
 def _cond_field(p):
@@ -38,11 +48,6 @@ def offset_scene(px: int = 32, *, scalar_offset: float = 0.0, scalar_span: float
     """
     import numpy as np
 
-    from warpvol.scene.camera import Camera
-    from warpvol.scene.grids import grid_points, structured_to_tets
-    from warpvol.scene.mesh import TetMesh
-    from warpvol.scene.scene import Scene
-    from warpvol.scene.transfer import TransferFunction
 
     x = np.linspace(-1.0, 1.0, 4)
     unit = grid_points(x, x, x)
@@ -92,7 +97,6 @@ def conditioning_cases(simple, with_ref, sc) -> None:
         s = offset_scene(px(q), name="tf_points_1.7e308")
         tf = np.array(s.transfer.points)
         tf = np.vstack([[-1.7e308, *tf[0, 1:]], tf, [1.7e308, *tf[-1, 1:]]])
-        from warpvol.scene.transfer import TransferFunction
 
         return sc(s.mesh, TransferFunction(tf), s.camera, "tf_points_1.7e308")
     simple("tf_points_1.7e308", "TF control points at +-1.7e308 around an ordinary TF (their span overflows float64): "
@@ -102,7 +106,6 @@ def conditioning_cases(simple, with_ref, sc) -> None:
         s = offset_scene(px(q), name="scalars_1e39")
         sc_ = np.array(s.mesh.scalars)
         sc_[0] = 1e39
-        from warpvol.scene.mesh import TetMesh
 
         return sc(TetMesh(s.mesh.points, s.mesh.tets, sc_, name="scalars_1e39"), s.transfer, s.camera, "scalars_1e39")
     simple("scalars_1e39", "one scalar 1e39 (beyond float32) in an ordinary field: declined naming the scalars",
@@ -112,7 +115,6 @@ def conditioning_cases(simple, with_ref, sc) -> None:
         s = offset_scene(px(q), name="extinction_3e38")
         tf = np.array(s.transfer.points)
         tf[1, 4] = 3e38
-        from warpvol.scene.transfer import TransferFunction
 
         return sc(s.mesh, TransferFunction(tf), s.camera, "extinction_3e38")
     simple("extinction_3e38", "extinction 3e38 per unit length (optical depth beyond float32 across the mesh): "
@@ -121,7 +123,6 @@ def conditioning_cases(simple, with_ref, sc) -> None:
 
 def topology_cases(simple, with_ref, sc) -> None:
     """Cells that meet without sharing faces: glued blocks, split hexahedra / wedges / pyramids."""
-    from warpvol.tools.stress_topology import add_topology_cases
 
     add_topology_cases(simple, sc)
 
@@ -132,9 +133,6 @@ def thin_layer_scene(thick: float, depth: float, camera, z0: float = -0.2, name:
     with optical depth ``depth`` along z. Returns ``(mesh, tf)``."""
     import numpy as np
 
-    from warpvol.scene.grids import grid_points, structured_to_tets
-    from warpvol.scene.mesh import TetMesh
-    from warpvol.scene.transfer import TransferFunction
 
     x = np.linspace(-1.0, 1.0, 5)
     zs = np.array([-1.0, z0, z0 + thick, 0.6, 1.0])
@@ -148,8 +146,6 @@ def thin_layer_scene(thick: float, depth: float, camera, z0: float = -0.2, name:
 
 def thin_layer_cases(simple, with_ref, sc) -> None:
     """Thin layers that carry the image, huge on-screen extents, edge-on slabs."""
-    from warpvol.scene.camera import Camera
-    from warpvol.tools.stress_meshes import _box, _tf
 
     def persp(px, eye, target=(0.0, 0.0, 0.0), up=(0, 1, 0), fov=35.0):
         return Camera(eye=eye, target=target, up=up, fov_y_deg=fov, width_px=px, height_px=px)
@@ -192,7 +188,6 @@ def jittered_hex_grid(jitter: float, seed: int):
 
 def _jittered_hexes(jitter: float, seed: int):
     """:func:`jittered_hex_grid` as a mesh (split by the loader into tets, the cells recorded)."""
-    from warpvol.scene.mesh import TetMesh
 
     return TetMesh.from_pyvista(jittered_hex_grid(jitter, seed), "s")
 
@@ -201,10 +196,6 @@ def sweep_cases(simple, with_ref, sc) -> None:
     """VSBUFFER-specific: non-planar hexahedra, pixel centres on boundary faces, a thin layer."""
     import numpy as np
 
-    from warpvol.scene.camera import Camera
-    from warpvol.scene.grids import grid_points, structured_to_tets
-    from warpvol.scene.mesh import TetMesh
-    from warpvol.scene.transfer import TransferFunction
 
     tf_hex = TransferFunction([[0.0, 1.0, 0.1, 0.0, 9.0], [0.4, 0.0, 1.0, 0.1, 0.5], [0.8, 0.1, 0.0, 1.0, 9.0]])
     for jit in (0.05, 0.2):
@@ -249,8 +240,5 @@ def sweep_cases(simple, with_ref, sc) -> None:
 
 
 def add_real_data_cases(simple, with_ref, sc) -> None:
-    from warpvol.tools.stress_file_classes import file_class_cases
-    from warpvol.tools.stress_files import file_cases
-
     for group in (conditioning_cases, topology_cases, thin_layer_cases, sweep_cases, file_cases, file_class_cases):
         group(simple, with_ref, sc)

@@ -15,8 +15,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from warpvol.scene.camera import Camera
 from warpvol.scene.grids import grid_points, structured_to_tets
 from warpvol.scene.mesh import TetMesh
+from warpvol.scene.transfer import TransferFunction
 
 
 def _field(p: np.ndarray) -> np.ndarray:
@@ -114,8 +116,6 @@ TOPOLOGY_TF = ((-1.7, 0.9, 0.3, 0.1, 0.7), (0.3, 0.2, 0.8, 0.4, 1.8), (2.7, 0.2,
 def add_topology_cases(simple, sc) -> None:
     """Register the stress cases of this module with ``simple(name, doc, build)`` (see
     :func:`warpvol.tools.stress_real.topology_cases`)."""
-    from warpvol.scene.camera import Camera
-    from warpvol.scene.transfer import TransferFunction
 
     def cam(quick: bool) -> Camera:
         px = 24 if quick else 128

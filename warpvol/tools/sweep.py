@@ -55,6 +55,20 @@ from typing import Any, Callable
 import numpy as np
 
 from warpvol.errors import ConfigError, check_keys
+from warpvol.io import Outputs, save_result
+from warpvol.pipeline import Pipeline, _read_pipeline_text, quiet_warp, report_json
+from warpvol.progress import ProgressBar
+from warpvol.scene.scene_file import load_scene, scene_digest
+from warpvol.tools import report_html as rh
+from warpvol.tools.bench import (
+    BenchResult,
+    bench_pipeline,
+    cached_reference,
+    mark_pareto,
+    pipeline_digest,
+    resolve_pipelines,
+    scene_hash,
+)
 
 CONFIG_KEYS = ("name", "scenes", "presets", "repeats", "kernel_cache_dir", "views", "options")
 
@@ -131,8 +145,6 @@ def _named(where: str, items: Any, allowed_extra: tuple[str, ...] | None) -> lis
 
 def load_config(path: str | Path) -> SweepConfig:
     """Read and check a sweep config; scene files are resolved relative to it, presets checked."""
-    from warpvol.pipeline import _read_pipeline_text
-    from warpvol.tools.bench import resolve_pipelines
 
     p = Path(path)
     if not p.is_file():
@@ -172,7 +184,6 @@ def load_config(path: str | Path) -> SweepConfig:
 
 def pipeline_config(preset: str, overrides: tuple) -> dict | str:
     """The preset's config with ``stage.param`` overrides applied, or a sentence why they do not apply."""
-    from warpvol.pipeline import _read_pipeline_text
 
     text, where = _read_pipeline_text(preset)
     try:
@@ -195,8 +206,6 @@ def pipeline_config(preset: str, overrides: tuple) -> dict | str:
 
 def plan_tasks(cfg: SweepConfig) -> tuple[list[Task], list[dict]]:
     """Tasks to run, and rows for the combinations an option does not apply to."""
-    from warpvol.scene.scene_file import scene_digest
-    from warpvol.tools.bench import pipeline_digest
 
     tasks, na = [], []
     scene_sha = {s: scene_digest(s) for s in cfg.scenes}
@@ -225,7 +234,6 @@ def _ids(t: Task) -> dict:
 def _worker_setup(kernel_cache_dir: str | None) -> None:
     if kernel_cache_dir:
         os.environ.setdefault("WARP_CACHE_PATH", kernel_cache_dir)  # read by wp.init() below
-    from warpvol.pipeline import quiet_warp
 
     quiet_warp()
 
@@ -233,7 +241,6 @@ def _worker_setup(kernel_cache_dir: str | None) -> None:
 @functools.lru_cache(maxsize=4)
 def _scene(spec: str, sha: str = ""):
     """The scene of ``spec`` (cached by its path and ``sha``, the content hash: a changed file is read again)."""
-    from warpvol.scene.scene_file import load_scene
 
     return load_scene(spec)
 
@@ -246,7 +253,6 @@ def _view_scene(spec: str, view: tuple, sha: str = ""):
 def reference_task(spec: str, view: tuple, sha: str, cache_dir: str, kernel_cache_dir: str | None = None) -> str:
     """Compute (or find) the exact reference of one scene (content hash ``sha``) and view; returns its
     cache file."""
-    from warpvol.tools.bench import cached_reference, scene_hash
 
     _worker_setup(kernel_cache_dir)
     scene = _view_scene(spec, view, sha)
@@ -256,9 +262,6 @@ def reference_task(spec: str, view: tuple, sha: str, cache_dir: str, kernel_cach
 
 def run_task(task: Task, ref_path: str, outdir: str, kernel_cache_dir: str | None = None) -> dict:
     """Render one task (warm-up + repeats), store its row and image; a failure is a row, not an error."""
-    from warpvol.io import save_result
-    from warpvol.pipeline import Pipeline, report_json
-    from warpvol.tools.bench import bench_pipeline
 
     _worker_setup(kernel_cache_dir)
     row = _ids(task)
@@ -304,7 +307,6 @@ def run_sweep(cfg: SweepConfig, outdir: str | Path, *, scheduler: str | None = N
     """Run every task not yet done (see the module docstring); ``on_result(row, client)`` is called
     as each task finishes (``client`` is ``None`` when serial). Progress (tasks done, the time left) goes
     to stderr on a terminal (``progress``: also elsewhere, as lines; ``quiet``: never)."""
-    from warpvol.progress import ProgressBar
 
     out = Path(outdir)
     (out / "tasks").mkdir(parents=True, exist_ok=True)
@@ -376,10 +378,6 @@ SWEEP_FILES = ("table.csv", "table.json", "table.md", "pareto.svg", "pareto.png"
 def write_sweep(result: SweepResult, outdir: str | Path, owned: Any = None) -> None:
     """table.csv / .json / .md, pareto.png / .svg over all rows and index.html with one section per
     scene and view (each with its own Pareto front), all or none."""
-    from warpvol.io import Outputs
-    from warpvol.pipeline import report_json
-    from warpvol.tools import report_html as rh
-    from warpvol.tools.bench import BenchResult, mark_pareto, scene_hash
 
     out = Path(outdir)
     groups: dict[tuple, list[dict]] = {}

@@ -39,6 +39,7 @@ import numpy as np
 from warpvol.errors import ConfigError
 from warpvol.scene.grids import KUHN_TETS
 from warpvol.scene.mesh import FACE_VERTS, TetMesh
+from warpvol.shared.thin_cells import thin_tets
 
 # VTK cell types and their decompositions into tets (local vertex indices, VTK point order)
 VTK_TETRA, VTK_HEXAHEDRON, VTK_WEDGE, VTK_PYRAMID, VTK_VOXEL = 10, 12, 13, 14, 11
@@ -263,7 +264,6 @@ class ConvexCellMesh:
     def thin_pieces(self, transfer) -> np.ndarray:
         """(T,) bool: pieces thinner than float32 resolves for their extinction
         (:func:`warpvol.shared.thin_cells.thin_tets`)."""
-        from warpvol.shared.thin_cells import thin_tets
 
         return thin_tets(self.pieces, transfer)
 

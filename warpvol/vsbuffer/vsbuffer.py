@@ -46,7 +46,9 @@ import numpy as np
 
 from warpvol.conditioning.visibility import per_cell
 from warpvol.errors import ConfigError
+from warpvol.gpu.raster import Rasterizer
 from warpvol.parallel import blocks, cpu_threads, launch_blocks
+from warpvol.shared.integration import integ_setup
 from warpvol.vsbuffer.cells import ConvexCellMesh
 from warpvol.vsbuffer.octree import Octree, _expand, box_corners_yz, build_octree, plane_box_cut, plane_node_hits  # noqa: F401 (re-exported)
 
@@ -232,7 +234,6 @@ def _walk_inputs(cells: ConvexCellMesh, transfer, camera, device: str, rows: int
     import warp as wp
 
     from warpvol.kernels import vsbuffer as kv
-    from warpvol.shared.integration import integ_setup
 
     origin = 0.5 * (cells.bounds[0] + cells.bounds[1]) if ORIGIN_SHIFT else np.zeros(3)
     dc = _device_cells(cells, origin, device, camera if ties else None, visible)
@@ -404,7 +405,6 @@ def render_vsbuffer(cells: ConvexCellMesh, transfer, camera, *, device: str = "c
     """
     import warp as wp
 
-    from warpvol.gpu.raster import Rasterizer
     from warpvol.kernels import vsbuffer as kv
     from warpvol.kernels import vsbuffer_audit as ka
 

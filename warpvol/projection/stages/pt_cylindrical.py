@@ -21,8 +21,11 @@ format and filter, ``combiner_ops`` (the plane blend, none on the SGI path) and 
 
 from __future__ import annotations
 
+from warpvol.errors import ConfigError
+from warpvol.projection.programs import cylindrical_program
 from warpvol.projection.stages.pt_vertex_color import BATCH, DITHER, composite, fb_param
 from warpvol.stage import Context, Param, Stage, register_stage
+from warpvol.tables.cylindrical import TEXEL_FORMAT
 
 
 @register_stage
@@ -62,9 +65,6 @@ class PTCylindrical(Stage):
         return {"texture_units": 1 if self.config["path"] == "sgi" else 2}
 
     def run(self, ctx: Context) -> None:
-        from warpvol.errors import ConfigError
-        from warpvol.projection.programs import cylindrical_program
-
         key = self.config["planes"]
         if key not in ctx.buffers:
             raise ConfigError(f"{self.where}.planes: no planes {key!r} in this pipeline; put table_cylindrical "
@@ -75,7 +75,6 @@ class PTCylindrical(Stage):
                                              self.config["weight_bits"] or None, device=ctx.device,
                                              plane_weight=self.config["plane_weight"], path=self.config["path"])
         info = composite(self, ctx, attrs, program)
-        from warpvol.tables.cylindrical import TEXEL_FORMAT
 
         texel = TEXEL_FORMAT[ctx.buffers[key].format]
         n = info["fragments"]

@@ -19,9 +19,14 @@ With ``pt_perspective`` before it the attributes are perspective-correct. Writes
 
 from __future__ import annotations
 
+from warpvol.errors import ConfigError
+from warpvol.gpu.texture import Texture1D, TextureAtlas
+from warpvol.projection.programs import _scalar_consts, guthe_lookups, guthe_program
+from warpvol.projection.pt import PERSPECTIVE_MODES
 from warpvol.projection.stages.pt_perspective import fragment_inputs
 from warpvol.projection.stages.pt_vertex_color import BATCH, DITHER, composite, fb_param, table_from
 from warpvol.stage import Context, Param, Stage, register_stage
+from warpvol.tables.guthe2d import arith_constants
 
 #: texture units per card (NV25 GeForce4 Ti: 4; R200 Radeon 8500: 6)
 TEXTURE_UNITS = {"geforce4": 4, "radeon8500": 6, "any": 64}
@@ -69,9 +74,6 @@ class PTGuthe(Stage):
     provides = ("image",)
 
     def run(self, ctx: Context) -> None:
-        from warpvol.errors import ConfigError
-        from warpvol.projection.programs import guthe_program
-
         table = table_from(self, ctx, "table_guthe")
         deg = table.data.shape[0] - 1
         units = TEXTURE_UNITS[self.config["gpu"]]
@@ -109,11 +111,7 @@ def fixed_program(stage: Stage, ctx: Context, table, arith: str, *, mode: str, o
     import numpy as np
     import warp as wp
 
-    from warpvol.gpu.texture import Texture1D, TextureAtlas
     from warpvol.kernels import combiners as kc
-    from warpvol.projection.programs import _scalar_consts, guthe_lookups
-    from warpvol.projection.pt import PERSPECTIVE_MODES
-    from warpvol.tables.guthe2d import arith_constants
 
     try:
         w, s_acc, rng, unit = arith_constants(table, arith)

@@ -21,9 +21,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from warpvol.projection.programs import exact_program
 from warpvol.projection.pt import DRAW_WALKS, FUSED_LANES, FUSED_TILES
+from warpvol.projection.pt_thin import drawn_faces, missing_parts, prepare_parts, rounding_bound, unresolved_pixels
 from warpvol.projection.stages.pt_perspective import fragment_inputs
 from warpvol.projection.stages.pt_vertex_color import BATCH, DITHER, composite, fb_param
+from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
+from warpvol.shared.visible import skipping
 from warpvol.stage import Context, Param, Stage, register_stage
 
 #: pt_best's stated largest error against the float64 reference (README; tests/tolerances.py row pt_best)
@@ -119,8 +123,6 @@ class PTIntegrate(Stage):
     provides = ("image",)
 
     def run(self, ctx: Context) -> None:
-        from warpvol.projection.programs import exact_program
-
         attrs, mode, ortho, z_off = fragment_inputs(ctx)
         program = exact_program(ctx.scene.transfer, mode=mode, ortho=ortho, device=ctx.device, z_off=z_off,
                                 camera=ctx.scene.camera, tile=self.config["fused_tile"],
@@ -166,9 +168,6 @@ class PTIntegrate(Stage):
         out, reported under ``left_out``). ``eps`` > 0: the draw's early-termination bound, which the float64
         redo stops at too."""
 
-        from warpvol.projection.pt_thin import drawn_faces, missing_parts, prepare_parts, unresolved_pixels
-        from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
-        from warpvol.shared.visible import skipping
 
         sc = ctx.scene
         geo = ctx.buffers["pt_geometry"]  # attributes of the unsnapped positions: rough TFs show where coverage parts
@@ -218,7 +217,6 @@ class PTIntegrate(Stage):
         """The estimated colour error float32 rounding of the fragments' ``(sf, sb)`` causes on a steep
         transfer function (:func:`warpvol.projection.pt_thin.rounding_bound`) as ``rounding_bound``; a
         warning saying so where it exceeds pt_best's stated max abs (:data:`PT_BEST_MAX_ABS`)."""
-        from warpvol.projection.pt_thin import rounding_bound
 
         bound, n = rounding_bound(sc.mesh, sc.transfer)
         st["rounding_bound"] = bound

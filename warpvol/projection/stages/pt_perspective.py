@@ -19,6 +19,7 @@ instructions are counted, the image is the same up to rounding.
 
 from __future__ import annotations
 
+from warpvol.projection.programs import perspective_attrs
 from warpvol.stage import Context, Param, Stage, register_stage
 
 
@@ -64,8 +65,6 @@ class PTPerspective(Stage):
         return None
 
     def run(self, ctx: Context) -> None:
-        from warpvol.projection.programs import perspective_attrs
-
         attrs = perspective_attrs(ctx.buffers["pt_geometry"], device=ctx.device)
         ctx.buffers["pt_perspective"] = {"attrs": attrs, "thickness": self.config["thickness"],
                                          "ortho": ctx.scene.camera.projection == "orthographic"}

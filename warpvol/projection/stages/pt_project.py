@@ -10,6 +10,8 @@ a point), ``class_culled``), ``triangles`` (non-degenerate triangles emitted) an
 
 from __future__ import annotations
 
+from warpvol.projection.pt import decompose
+from warpvol.projection.pt_thin import unresolved_pixels
 from warpvol.stage import Context, Param, Stage, register_stage
 
 #: optical-depth error bound of a thin cell above which a preset without a float64 redo reports its pixels
@@ -58,8 +60,6 @@ class PTProject(Stage):
                     "the unsnapped diagonals' crossing) for the fused draw's attribute planes"))
 
     def run(self, ctx: Context) -> None:
-        from warpvol.projection.pt import decompose
-
         geo = decompose(ctx.scene.mesh, ctx.buffers["vertices"], ctx.buffers["order"], device=ctx.device,
                         exact_attrs=self.config["exact_attrs"])
         ctx.buffers["pt_geometry"] = geo
@@ -72,7 +72,6 @@ class PTProject(Stage):
         """A faithful preset draws what its arithmetic gives; where that may be visibly wrong (a thin
         cell's thickness error worth more than :data:`WARN_TAU` of optical depth) the report says how
         many pixels."""
-        from warpvol.projection.pt_thin import unresolved_pixels
 
         sc = ctx.scene
         u = unresolved_pixels(sc.mesh, sc.transfer, sc.camera, tau=WARN_TAU, silhouettes=False, edge_on=False)

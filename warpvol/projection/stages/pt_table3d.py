@@ -19,6 +19,7 @@ the rasteriser and blending unit count fragments and blends.
 
 from __future__ import annotations
 
+from warpvol.projection.programs import table3d_program
 from warpvol.projection.stages.pt_perspective import fragment_inputs
 from warpvol.projection.stages.pt_vertex_color import (
     BATCH,
@@ -76,8 +77,6 @@ class PTTable3D(Stage):
     provides = ("image",)
 
     def run(self, ctx: Context) -> None:
-        from warpvol.projection.programs import table3d_program
-
         table = table_from(self, ctx, "table")
         attrs, mode, ortho, z_off = fragment_inputs(ctx)
         program, texel = table3d_program(table, self.config["texel_format"], self.config["filter"],

@@ -13,6 +13,10 @@ Writes ``ctx.image``; counts ``fragments`` and ``blends`` (one blend per fragmen
 
 from __future__ import annotations
 
+from warpvol.errors import ConfigError
+from warpvol.gpu.blend import BlendUnit, FrameBuffer
+from warpvol.projection.programs import vertex_color_program, vertex_colors
+from warpvol.projection.pt import draw
 from warpvol.stage import Context, Param, Stage, register_stage
 
 FB_FORMATS = ("unorm8", "unorm12", "unorm16", "fp16", "fp32")
@@ -42,9 +46,6 @@ def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1, walk: 
     and count (shared by the ``pt_*`` fragment stages). ``t_min > 0``: front to back ("under") with early
     termination at that remaining transmittance (fused draw only); ``skip_zero``: fragments the transfer
     function maps to zero left out (fused draw only, :func:`warpvol.projection.pt.draw`)."""
-    from warpvol.errors import ConfigError
-    from warpvol.gpu.blend import BlendUnit, FrameBuffer
-    from warpvol.projection.pt import draw
 
     cam = ctx.scene.camera
     fmt = stage.config["format"]
@@ -71,7 +72,6 @@ def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1, walk: 
 
 def table_from(stage: Stage, ctx: Context, producer: str):
     """The table ``ctx.buffers[stage.config["table"]]``, or an error naming the stage to add."""
-    from warpvol.errors import ConfigError
 
     key = stage.config["table"]
     if key not in ctx.buffers:
@@ -109,8 +109,6 @@ class PTVertexColor(Stage):
     provides = ("image",)
 
     def run(self, ctx: Context) -> None:
-        from warpvol.projection.programs import vertex_color_program, vertex_colors
-
         tf = ctx.scene.transfer
         attrs = vertex_colors(ctx.buffers["pt_geometry"], tf, device=ctx.device)
         composite(self, ctx, attrs, vertex_color_program(tf.emission == "emission_density", device=ctx.device))

@@ -26,7 +26,7 @@ what is left. With ``visible_alone``, XMPVO sorts the visible cells alone, as a 
 from __future__ import annotations
 
 from warpvol.errors import ConfigError
-from warpvol.projection.sort import METHODS, METRICS, visibility_order
+from warpvol.projection.sort import METHODS, METRICS, visibility_order, visible_submesh, xmpvo_cost
 from warpvol.stage import Context, Param, Stage, register_stage
 
 BOUNDARY = ("all", "off_hull")
@@ -119,7 +119,6 @@ class SortCells(Stage):
         """``(sub, cells)`` (:func:`warpvol.projection.sort.visible_submesh`, built as set-up) when XMPVO on
         the visible cells alone costs less than on the whole mesh (:func:`~warpvol.projection.sort.xmpvo_cost`),
         else ``None``."""
-        from warpvol.projection.sort import visible_submesh, xmpvo_cost
 
         mesh, cam = ctx.scene.mesh, ctx.scene.camera
         off_hull = self.config["boundary"] == "off_hull"

@@ -14,6 +14,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from warpvol.errors import ConfigError
+from warpvol.gpu.raster import GUARD_PX, guard_band_overflow
+from warpvol.gpu.vertex import VertexStage
+from warpvol.projection.pt import eye_plane_check
 from warpvol.stage import Context, Param, Stage, register_stage
 
 
@@ -55,17 +59,10 @@ class Vertex(Stage):
     )
 
     def validate(self) -> None:
-        from warpvol.errors import ConfigError
-
         if self.config["near"] and self.config["far"] and self.config["far"] <= self.config["near"]:
             raise ConfigError(f"{self.where}.far: {self.config['far']} must exceed near ({self.config['near']})")
 
     def run(self, ctx: Context) -> None:
-        from warpvol.errors import ConfigError
-        from warpvol.gpu.raster import GUARD_PX, guard_band_overflow
-        from warpvol.gpu.vertex import VertexStage
-        from warpvol.projection.pt import eye_plane_check
-
         cam, mesh = ctx.scene.camera, ctx.scene.mesh
         vis = ctx.buffers.get("visible_cells") if ctx.skip else None  # the cells the later stages draw
         view = eye_plane_check(mesh, cam, None if vis is None or vis.all() else np.flatnonzero(vis))

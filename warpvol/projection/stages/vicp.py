@@ -34,6 +34,12 @@ import weakref
 
 import numpy as np
 
+from warpvol.errors import ConfigError
+from warpvol.gpu.blend import BlendUnit, FrameBuffer
+from warpvol.gpu.raster import Rasterizer
+from warpvol.gpu.texture import Texture3D
+from warpvol.projection.programs import _scalar_consts
+from warpvol.projection.pt import RASTER_RULES
 from warpvol.projection.stages.pt_vertex_color import (
     BATCH,
     FILTER,
@@ -43,6 +49,7 @@ from warpvol.projection.stages.pt_vertex_color import (
     table_from,
     texel_param,
 )
+from warpvol.shared.integration import TEXEL_FOR_TABLE, _axis_affine
 from warpvol.stage import Context, Param, Stage, register_stage
 
 #: fp32 values sent per vertex with ``geometry = "upload"``: position (3), four face planes (16),
@@ -144,9 +151,6 @@ class VICP(Stage):
 
     def _texture(self, ctx: Context, table):
         """The table as a 3D texture, made resident once per table object (a redraw uploads nothing)."""
-        from warpvol.errors import ConfigError
-        from warpvol.gpu.texture import Texture3D
-        from warpvol.shared.integration import TEXEL_FOR_TABLE
 
         fmt = self.config["texel_format"]
         if fmt == "auto":
@@ -168,13 +172,7 @@ class VICP(Stage):
     def run(self, ctx: Context) -> None:
         import warp as wp
 
-        from warpvol.errors import ConfigError
-        from warpvol.gpu.blend import BlendUnit, FrameBuffer
-        from warpvol.gpu.raster import Rasterizer
         from warpvol.kernels import vicp as kv
-        from warpvol.projection.programs import _scalar_consts
-        from warpvol.projection.pt import RASTER_RULES
-        from warpvol.shared.integration import _axis_affine
 
         table = table_from(self, ctx, "table_exact")
         if table.data.ndim != 4 or table.data.shape[-1] != 4 or len(table.axes) != 3:

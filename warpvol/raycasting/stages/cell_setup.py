@@ -19,6 +19,7 @@ import weakref
 
 import numpy as np
 
+from warpvol.shared.visible import skipping, sub_mesh
 from warpvol.stage import Context, Stage, register_stage
 
 
@@ -135,7 +136,6 @@ def confine_to_visible(ctx: Context, cells: dict) -> int:
     ``harc_raster`` start rays from); both kept per (mesh, mask, device). Returns the cells left out."""
     import warp as wp
 
-    from warpvol.shared.visible import skipping, sub_mesh
 
     vis, n_out = skipping(ctx)
     if vis is None:

@@ -19,7 +19,11 @@ counted (``lost_rays``), warned in the report, and its pixel shows what it had c
 from __future__ import annotations
 
 from warpvol.errors import ConfigError
+from warpvol.gpu.counters import active
 from warpvol.parallel import cpu_threads
+from warpvol.raycasting.stages.cell_setup import scalar_check_needed
+from warpvol.raycasting.stages.raycast import leaves_out_text, rays_without_cell, report_left_out, stop_transmittance
+from warpvol.shared.integration import integ_setup
 from warpvol.stage import Context, Param, Stage, register_stage
 
 
@@ -33,7 +37,6 @@ def count_pass(ctx: Context, c: dict, textures: list, walk: str, integration: st
     slots per pixel are summed as run (``loop_slots``) and as 32 x 32-pixel lock-step batches run
     them (``loop_slots_batch1024``, :func:`warpvol.gpu.programs.batched_slots`). Diagnostics
     (unresolved rays, iso misses, entry searches) go to ``stats``."""
-    from warpvol.gpu.counters import active
 
     ctx.count(passes=1, entries=c["entries"], cell_steps=c["steps"])
     cnt = active()
@@ -136,16 +139,11 @@ class Harc(Stage):
         return caps
 
     def leaves_out(self, ctx: Context) -> str | None:
-        from warpvol.raycasting.stages.raycast import leaves_out_text
-
         return leaves_out_text(ctx, self.early_termination)
 
     def run(self, ctx: Context) -> None:
         from warpvol.kernels.raycast import STATUS_FAILED
         from warpvol.raycasting.harc import HarcState, lost_rays, lost_warning, march_pass, resolve_failed
-        from warpvol.raycasting.stages.cell_setup import scalar_check_needed
-        from warpvol.raycasting.stages.raycast import rays_without_cell, report_left_out, stop_transmittance
-        from warpvol.shared.integration import integ_setup
 
         mt = ctx.buffers["harc_mesh"]
         if self.walk == "planes" and mt["struct"] is None:

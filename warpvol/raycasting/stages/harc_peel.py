@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from warpvol.raycasting.stages.raycast import report_left_out
+from warpvol.shared.visible import confined
 from warpvol.stage import Context, Param, Stage, register_stage
 
 
@@ -27,8 +29,6 @@ class HarcPeel(Stage):
     params = (Param("max_passes", int, 64, "upper bound on peel passes", lo=1),)
 
     def skip_reason(self, ctx: Context) -> str | None:
-        from warpvol.shared.visible import confined
-
         ctx.mesh_setup(ctx.scene.mesh, "is_convex")  # per mesh, kept on it: set-up on first use
         if ctx.scene.mesh.is_convex and not confined(ctx):
             return "mesh boundary is convex: every ray enters the mesh at most once (no boundary layer to peel)"
@@ -58,7 +58,6 @@ class HarcPeel(Stage):
 
             unfinished = unfinished_to_float64(hs["state"], int(STATUS_ACTIVE), int(STATUS_FAILED))
         redone = hs["resolve"]()
-        from warpvol.raycasting.stages.raycast import report_left_out
 
         report_left_out(ctx, hs.get("eps", 0.0), total.get("terminated_early", 0))
         mesh = ctx.scene.mesh  # interior faces without a neighbour: rays re-enter at the coincident face

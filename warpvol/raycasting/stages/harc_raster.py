@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from warpvol.shared.entry_bins import ENTRY_MESH_PROPERTIES
 from warpvol.stage import Context, Stage, register_stage
 
 
@@ -29,7 +30,6 @@ class HarcRaster(Stage):
 
     def run(self, ctx: Context) -> None:
         from warpvol.raycasting.harc import entry_fragments
-        from warpvol.shared.entry_bins import ENTRY_MESH_PROPERTIES
 
         faces = ctx.buffers.get("cells", {}).get("entry_faces")  # the visible sub-mesh's (cell_setup)
         ctx.mesh_setup(ctx.scene.mesh, *ENTRY_MESH_PROPERTIES)

@@ -19,6 +19,7 @@ from warpvol.raycasting.stages.raycast import (
     resolve_failed,
     stop_transmittance,
 )
+from warpvol.shared.visible import confined
 from warpvol.stage import Context, Param, Stage, register_stage
 
 
@@ -48,8 +49,6 @@ class Peel(Stage):
     params = (Param("max_passes", int, 256, "upper bound on re-entry passes", lo=1),) + RAY_PARAMS
 
     def skip_reason(self, ctx: Context) -> str | None:
-        from warpvol.shared.visible import confined
-
         ctx.mesh_setup(ctx.scene.mesh, "is_convex")  # per mesh, kept on it: set-up on first use
         if ctx.scene.mesh.is_convex and not confined(ctx):
             return "mesh boundary is convex: every ray enters the mesh at most once"

@@ -16,8 +16,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from warpvol.conditioning.visibility import termination_threshold
 from warpvol.parallel import blocks, cpu_threads, launch_blocks
 from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
+from warpvol.shared.thin_cells import mark_unresolved
+from warpvol.shared.visible import confined, skipping
 from warpvol.stage import Context, Param, Stage, register_stage
 
 
@@ -187,7 +190,6 @@ def resolve_failed(ctx: Context, state: MarchState, terminate: float = 0.0) -> i
     import warp as wp
 
     from warpvol.kernels import raycast as k
-    from warpvol.shared.visible import skipping
 
     status = state.status.numpy()
     failed = np.flatnonzero(status == int(k.STATUS_FAILED))
@@ -214,7 +216,6 @@ def stop_transmittance(ctx: Context, max_change: float) -> float:
     diagonal as the longest path); 0 (no termination) with skipping off or ``max_change`` 0."""
     if not ctx.skip or max_change <= 0:
         return 0.0
-    from warpvol.conditioning.visibility import termination_threshold
 
     return termination_threshold(ctx.scene.transfer, ctx.buffers["cells"]["diameter"], max_change)
 
@@ -228,7 +229,6 @@ def termination_bound(max_change: float) -> str:
 def leaves_out_text(ctx: Context, t_min: float) -> str | None:
     """The planner's words for what a ray caster leaves out (cells the TF makes invisible, depth behind
     an opaque front); ``None``: nothing."""
-    from warpvol.shared.visible import confined
 
     parts = []
     if confined(ctx):
@@ -329,7 +329,6 @@ class Raycast(Stage):
         ctx.buffers["march"] = state
         threads = self.threads or cpu_threads()
         from warpvol.kernels import raycast as k
-        from warpvol.shared.thin_cells import mark_unresolved
 
         thin_rays, thin_tets = mark_unresolved(ctx, state.status, int(k.STATUS_FAILED))  # traced in float64
         t_min = stop_transmittance(ctx, self.t_min)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
+from warpvol.scene.tf_ranges import density_max
 from warpvol.stage import Context, Param, Stage
 from warpvol.tables.cache import TableCache
 from warpvol.tables.common import progress_to
@@ -83,7 +84,6 @@ def thickness_axis_note(scene, table, tf) -> dict | None:
     without a uniform ``l`` axis."""
     import numpy as np
 
-    from warpvol.scene.tf_ranges import density_max
 
     ax = next((a for a in table.axes if a.name == "l"), None)
     mesh = getattr(scene, "mesh", None)

@@ -16,6 +16,12 @@ as empty space (``left_out``: ``cells_culled``).
 
 from __future__ import annotations
 
+from warpvol.errors import ConfigError
+from warpvol.progress import detail
+from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
+from warpvol.shared.entry_bins import ENTRY_MESH_PROPERTIES
+from warpvol.shared.thin_cells import _shape, edge_on_pixels, silhouette_pixels, unresolved_pixels
+from warpvol.shared.visible import skipping
 from warpvol.stage import Context, Param, Stage, register_stage
 from warpvol.vsbuffer.vsbuffer import ADJACENCY_MODES, INTEGRATIONS, render_vsbuffer
 
@@ -111,8 +117,6 @@ class VsbSweep(Stage):
         return "; ".join(what)
 
     def run(self, ctx: Context) -> None:
-        from warpvol.errors import ConfigError
-
         sc = ctx.scene
         cfg = dict(self.config)
         key = cfg.pop("table")
@@ -128,7 +132,6 @@ class VsbSweep(Stage):
                 f"max_sweep_pixels = {limit:.3g} (the emulated sweep grows as the cube of the image size; hours "
                 "on a CPU); lower the image size or depth_res, or raise max_sweep_pixels")
         table = ctx.buffers[key] if self.integration == "table" else None
-        from warpvol.progress import detail
 
         h = cam.height_px  # the sweep's planes, one per image row: its share done goes to an open progress bar
         vis = ctx.buffers.get("visible_cells") if ctx.skip else None
@@ -181,10 +184,6 @@ class VsbSweep(Stage):
         :func:`~warpvol.shared.thin_cells.edge_on_pixels`), traced again in float64."""
         import numpy as np
 
-        from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
-        from warpvol.shared.entry_bins import ENTRY_MESH_PROPERTIES
-        from warpvol.shared.thin_cells import _shape, edge_on_pixels, silhouette_pixels, unresolved_pixels
-        from warpvol.shared.visible import skipping
 
         sc = ctx.scene
         tets = getattr(sc.mesh, "pieces", sc.mesh)  # a ConvexCellMesh's tets
