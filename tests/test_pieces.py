@@ -205,3 +205,29 @@ def test_piece_points_taken_in_global_order(tmp_path):
     np.testing.assert_array_equal(back.points, m.points)
     np.testing.assert_array_equal(back.scalars, m.scalars)
     np.testing.assert_array_equal(np.sort(back.tets, axis=1), np.sort(m.tets, axis=1))
+
+
+@pytest.mark.parametrize("tets", [False, True])
+def test_solver_pieces_with_ghost_layers(tmp_path, tets):
+    """A .pvtu as a solver writes it (slab pieces of hexahedra or tets, each with a ghost layer from its
+    neighbour): every worker drops its piece's ghost cells, and the pieces merged give the whole grid's
+    reference (hexahedra split alike on both sides of a piece boundary)."""
+    from warpvol.pieces import render_pieces
+    from warpvol.scene.camera import Camera
+    from warpvol.scene.mesh import TetMesh
+    from warpvol.tools.stress_files import ghost_grid, write_pvtu
+
+    g = ghost_grid((7, 6, 5), tets)
+    path, ghosts = write_pvtu(tmp_path, g, 3, 1, 0)
+    tf = warpvol.builtin_scene("concave").transfer
+    cam = Camera(eye=(2.5, 1.6, 2.2), target=(0.5, 0.5, 0.5), width_px=20, height_px=16, fov_y_deg=35.0)
+    ref = render_reference(TetMesh.from_pyvista(g, "s"), tf, cam)
+    from dask.distributed import Client, LocalCluster
+
+    from tests.tolerances import TOLERANCES
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as cl, \
+            Client(cl) as client:
+        segs, rep = render_pieces(pvtu_pieces(path), "s", tf, cam, client)
+    assert sum(p.get("ghost_cells_dropped", 0) for p in rep["pieces"]) == ghosts > 0
+    np.testing.assert_allclose(segs.flatten(), ref, rtol=0, atol=TOLERANCES["pieces/reference"]["max_abs"])
