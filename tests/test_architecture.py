@@ -11,8 +11,12 @@ from pathlib import Path
 
 import pytest
 
+from warpvol.family import family_declaration, family_packages
+
 ROOT = Path(__file__).resolve().parents[1]
 
+#: the layer of the pipeline families (a family found by warpvol.family gets it with no line here)
+FAMILY_LAYER = 7
 #: module prefix -> layer; a module takes the layer of its longest matching prefix
 LAYERS = {
     # 0 base: errors, helpers for threads, timing, progress, files and image errors
@@ -34,11 +38,11 @@ LAYERS = {
     # 6 code several renderer families share (entry bins, thin-cell and pixel marks, visibility and skipping,
     #   the integration set-up and table textures)
     "warpvol.shared": 6,
-    # 7 the pipeline families: host code and stages (the table stages and the condition stage too)
-    "warpvol.tables.stages": 7, "warpvol.conditioning": 7, "warpvol.projection": 7, "warpvol.raycasting": 7,
-    "warpvol.vsbuffer": 7,
-    # 8 the stage catalog and pipelines (presets)
-    "warpvol.stages": 8, "warpvol.pipeline": 8, "warpvol.presets": 8, "warpvol.profiles": 8,
+    # 7 the pipeline families: host code and stages (every family's "stages" package, all of a renderer
+    #   family): added from their declarations by layers_with_families(); conditioning's stages import its host
+    "warpvol.conditioning": 7,
+    # 8 the stage catalog, family discovery and pipelines (presets)
+    "warpvol.stages": 8, "warpvol.family": 8, "warpvol.pipeline": 8, "warpvol.presets": 8, "warpvol.profiles": 8,
     # 9 the Python API, the session caches, the reference in bands
     "warpvol.api": 9, "warpvol.cache": 9, "warpvol.bands": 9, "warpvol.figures": 9,
     "warpvol.pieces": 9, "warpvol.raycast_segments": 9,
@@ -49,8 +53,8 @@ LAYERS = {
 }
 
 
-def module_name(path: Path) -> str:
-    rel = path.relative_to(ROOT).with_suffix("")
+def module_name(path: Path, root: Path = ROOT) -> str:
+    rel = path.relative_to(root).with_suffix("")
     parts = list(rel.parts)
     if parts[0] == "kernels":
         parts = ["warpvol", "kernels"] + parts[1:]
@@ -67,34 +71,68 @@ def all_modules() -> dict[str, Path]:
 MODULES = all_modules()
 
 
-def layer(mod: str) -> int:
-    best = max((k for k in LAYERS if mod == k or mod.startswith(k + ".")), key=len)
-    return LAYERS[best]
+def package_modules(folder: Path, name: str) -> dict[str, Path]:
+    """The modules of a package outside warpvol (a family an entry point declares), by dotted name."""
+    return {name + ("." + module_name(p, folder) if module_name(p, folder) else ""): p
+            for p in sorted(folder.glob("**/*.py"))}
 
 
-def imports(mod: str, path: Path) -> list[tuple[str, int]]:
-    """The warpvol modules ``mod`` imports, with the line (a name imported from a package that is a
-    module of it counts as that module)."""
+#: the families (warpvol.family finds them: a scan of warpvol/, then entry points) and what they declare
+FAMILY_DECLARATIONS = {pkg: family_declaration(pkg) for pkg in family_packages()}
+
+
+def layers_with_families(declarations: dict[str, dict]) -> dict[str, int]:
+    """:data:`LAYERS` with every family found: a family's stages sit at the families' layer, and so does
+    all of a renderer family (its host code too)."""
+    out = dict(LAYERS)
+    for pkg, decl in declarations.items():
+        out.setdefault(f"{pkg}.stages", FAMILY_LAYER)
+        if decl.get("renderer"):
+            out.setdefault(pkg, FAMILY_LAYER)
+    return out
+
+
+LAYERS = layers_with_families(FAMILY_DECLARATIONS)
+#: the renderer families: none imports another (what two of them need lives in ``warpvol.shared``)
+RENDERER_FAMILIES = sorted(pkg for pkg, decl in FAMILY_DECLARATIONS.items() if decl.get("renderer"))
+
+
+def layer(mod: str, layers: dict[str, int] | None = None) -> int:
+    layers = LAYERS if layers is None else layers
+    best = max((k for k in layers if mod == k or mod.startswith(k + ".")), key=len)
+    return layers[best]
+
+
+def imports(mod: str, path: Path, modules: dict[str, Path] | None = None) -> list[tuple[str, int]]:
+    """The modules of ``modules`` (warpvol's by default) that ``mod`` imports, with the line (a name imported
+    from a package that is a module of it counts as that module)."""
+    modules = MODULES if modules is None else modules
+    roots = {m.split(".")[0] for m in modules}
     is_pkg = path.name == "__init__.py"
     pkg = mod.split(".") if is_pkg else mod.split(".")[:-1]
     out = []
     for node in ast.walk(ast.parse(path.read_text(), str(path))):
         if isinstance(node, ast.Import):
-            out += [(a.name, node.lineno) for a in node.names if a.name.split(".")[0] == "warpvol"]
+            out += [(a.name, node.lineno) for a in node.names if a.name.split(".")[0] in roots]
         elif isinstance(node, ast.ImportFrom):
             if node.level:
                 base = ".".join(pkg[:len(pkg) - node.level + 1] + ([node.module] if node.module else []))
             else:
                 base = node.module or ""
-            if base.split(".")[0] != "warpvol":
+            if base.split(".")[0] not in roots:
                 continue
             for a in node.names:
                 sub = f"{base}.{a.name}"
-                out.append((sub if sub in MODULES else base, node.lineno))
+                out.append((sub if sub in modules else base, node.lineno))
     return [(t, line) for t, line in out if t != mod]
 
 
 GRAPH = {m: imports(m, p) for m, p in MODULES.items()}
+
+
+def layer_violations(graph: dict[str, list[tuple[str, int]]], layers: dict[str, int] | None = None) -> list[str]:
+    return [f"{m} (layer {layer(m, layers)}) imports {t} (layer {layer(t, layers)}), line {line}"
+            for m, ts in graph.items() for t, line in ts if layer(t, layers) > layer(m, layers)]
 
 
 def test_every_module_has_a_layer_and_every_import_resolves():
@@ -104,8 +142,7 @@ def test_every_module_has_a_layer_and_every_import_resolves():
 
 
 def test_a_module_imports_only_from_its_layer_or_below():
-    up = [f"{MODULES[m].relative_to(ROOT)}:{line}: {m} (layer {layer(m)}) imports {t} (layer {layer(t)})"
-          for m, ts in GRAPH.items() for t, line in ts if layer(t) > layer(m)]
+    up = layer_violations(GRAPH)
     assert not up, "imports that run up a layer:\n" + "\n".join(up)
 
 
@@ -135,17 +172,18 @@ def find_cycle(graph: dict[str, list[str]]) -> list[str] | None:
     return None
 
 
-#: the renderer families: none imports another (what two of them need lives in ``warpvol.shared``)
-RENDERER_FAMILIES = ("warpvol.projection", "warpvol.raycasting", "warpvol.vsbuffer")
+def family(mod: str, families=None) -> str | None:
+    return next((f for f in (RENDERER_FAMILIES if families is None else families)
+                 if mod == f or mod.startswith(f + ".")), None)
 
 
-def family(mod: str) -> str | None:
-    return next((f for f in RENDERER_FAMILIES if mod == f or mod.startswith(f + ".")), None)
-
-
-def cross_family_imports(graph: dict[str, list[tuple[str, int]]]) -> list[str]:
+def cross_family_imports(graph: dict[str, list[tuple[str, int]]], families=None) -> list[str]:
     return [f"{m}:{line} imports {t}" for m, ts in graph.items() for t, line in ts
-            if family(m) and family(t) and family(m) != family(t)]
+            if family(m, families) and family(t, families) and family(m, families) != family(t, families)]
+
+
+def test_the_renderer_families_are_found_from_their_declarations():
+    assert RENDERER_FAMILIES == ["warpvol.projection", "warpvol.raycasting", "warpvol.vsbuffer"]
 
 
 def test_no_renderer_family_imports_another():

@@ -10,6 +10,7 @@ Examples
 
 from __future__ import annotations
 
+from warpvol.family import family_declaration, family_packages
 from warpvol.pipeline import list_presets
 
 #: ``warpvol pipelines``: the presets by purpose, each with a short line (the full description with --long)
@@ -63,6 +64,12 @@ def preset_groups() -> list[tuple[str, list[tuple[str, str, str]]]]:
         named.update(items)
         if rows:
             groups.append((family, rows))
+    for package in family_packages():  # the groups families declare (``FAMILY["title"]``, ``["presets"]``)
+        decl = family_declaration(package)
+        rows = [(n, short, full[n]) for n, short in decl.get("presets", {}).items() if n in full and n not in named]
+        named.update(n for n, _, _ in rows)
+        if rows:
+            groups.append((decl.get("title", package), rows))
     other = [(n, d, d) for n, d in full.items() if n not in named]
     if other:
         groups.append(("other", other))

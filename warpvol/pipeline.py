@@ -38,8 +38,11 @@ from warpvol.timing import CompileClock, ReadCounter, announce_compile, split_ti
 
 
 def _load_builtin_stages() -> None:
-    # importing the package registers every stage module it lists
-    from warpvol import stages  # noqa: F401  (the catalog sits above the families; loaded on first use)
+    # importing the catalog registers every family's stage modules (loaded on first use); a family found
+    # since (a package put on the path) is loaded too
+    from warpvol import stages
+
+    stages.load_family_stages()
 
 
 def get_stage_class(name: str, where: str = "stage") -> type["Stage"]:
@@ -434,8 +437,11 @@ def _first_use(ctx: Context, row: dict, report: dict, key: str) -> None:
 
 
 def _preset_files() -> dict[str, Any]:
+    """Preset name -> TOML file: the families' own ``presets`` folders, then ``warpvol/presets/``."""
+    from warpvol.family import family_preset_files  # (family discovery reads the path; on first use)
+
     root = resources.files("warpvol.presets")
-    return {p.name[:-5]: p for p in root.iterdir() if p.name.endswith(".toml")}
+    return {**family_preset_files(), **{p.name[:-5]: p for p in root.iterdir() if p.name.endswith(".toml")}}
 
 
 def _read_pipeline_text(name_or_path: str | Path) -> tuple[str, str]:

@@ -1,6 +1,8 @@
-"""The stage catalog: every built-in stage, one module per stage, kept beside its family's host code.
+"""The stage catalog: every family's stages, one module per stage, kept beside its family's host code.
 
-Importing this module registers every built-in stage (the pipeline does so before it looks a stage up).
+Importing this module registers the stages of every family :mod:`warpvol.family` finds (the built-in ones
+by a scan of ``warpvol/``, others by their ``warpvol.families`` entry point); the pipeline does so before it
+looks a stage up. The built-in families:
 
 =======================================  ==========================================================================
 package                                  stages
@@ -21,8 +23,6 @@ package                                  stages
 =======================================  ==========================================================================
 """
 
-from warpvol.conditioning import stages as conditioning_stages  # noqa: F401
-from warpvol.projection import stages as projection_stages  # noqa: F401
-from warpvol.raycasting import stages as raycasting_stages  # noqa: F401
-from warpvol.tables import stages as table_stages  # noqa: F401
-from warpvol.vsbuffer import stages as vsbuffer_stages  # noqa: F401
+from warpvol.family import load_family_stages
+
+load_family_stages()

@@ -23,6 +23,8 @@ positions only; psi: nothing) and parameters. Tolerances of every builder/format
 table, ``TOLERANCES`` in ``tests/test_tables_common.py``.
 """
 
+#: the family's declaration (warpvol.family): a renderer family imports no other family
+FAMILY = {"title": "pre-integration tables", "renderer": False}
 from warpvol.tables.base import Axis, Table, sample3d  # noqa: F401
 
 
