@@ -49,6 +49,41 @@ PRESET_FAMILIES: tuple[tuple[str, dict[str, str]], ...] = (
         "espinha2005_partial": "hardware ray casting with partial pre-integration (iso-crossing, psi)",
     }),
 )
+#: the preset tables of README.md and docs/guide/presets.md (``scripts/preset_tables.py`` writes both):
+#: (purpose, paper page under docs/papers/ or None, presets, what they are)
+PRESET_TABLE: tuple[tuple[str, str | None, tuple[str, ...], str], ...] = (
+    ("exact and fast", None, ("raycast",),
+     "float32 ray casting through the cell adjacency, exact segment integrals for the piecewise-linear transfer "
+     "function, re-entry for non-convex meshes; handles the eye inside the mesh; walks only the cells the transfer "
+     "function makes visible and stops a ray once its transmittance is below 1e-6 (`--no-skip`: every cell, every "
+     "ray to its end)"),
+    ("exact and fast", None, ("harc_best",),
+     "hardware ray casting (rasterised ray start, depth peeling) made exact: `raycast`'s walk and integrals in the "
+     "HARC pipeline, leaving out the same"),
+    ("exact and fast", None, ("pt_best",),
+     "cell projection with exact visibility at the pixel centres, perspective-correct attributes and an exact "
+     "per-fragment integral (no table)"),
+    ("exact", None, ("vsbuffer_best",),
+     "the VSBUFFER sweep with hexahedra, wedges and pyramids drawn whole, every missed cell recovered and the rays "
+     "through cells too thin for float32 traced in float64; slow, since the sweep is emulated plane by plane"),
+    ("cell projection as VTK does it", None, ("pt_vertex_color",),
+     "projected tetrahedra (Shirley & Tuchman 1990), averaged per-vertex colour, 8-bit blending"),
+    ("Westermann & Ertl 1997", "westermann1997.md", ("westermann1997",),
+     "VSBUFFER as published: ID buffers per scanline, trapezoidal rule, missed cells counted"),
+    ("Röttger, Kraus & Ertl 2000; Röttger & Ertl 2002", "roettger2002.md",
+     ("roettger2000_3d", "roettger2002_hw", "roettger2002_cylindrical"),
+     "pre-integrated projected tetrahedra: software 3D table, emulated 12-bit hardware table, cylindrical 2D "
+     "planes"),
+    ("Guthe et al. 2002", "guthe2002.md", ("guthe2002_linear", "guthe2002_quadratic_gf4", "guthe2002_quartic_radeon"),
+     "2D multi-texturing with a separated opacity and a colour polynomial of degree 1, 2 or 4"),
+    ("Weiler et al. 2003", "espinha2005.md", ("weiler2003_vicp",),
+     "view-independent cell projection with a 128³ 8-bit table (Espinha & Celes' baseline)"),
+    ("Kraus, Qiao & Ebert 2004", "kraus2004.md", ("kraus2004_basic", "kraus2004_full"),
+     "pre-integrated projected tetrahedra without and with perspective-correct attributes, HILO16 table on a "
+     "logarithmic thickness axis and an fp16 buffer"),
+    ("Espinha & Celes 2005", "espinha2005.md", ("espinha2005_full", "espinha2005_partial"),
+     "hardware ray casting with a full 3D table or with partial pre-integration"),
+)
 #: columns of ``warpvol pipelines`` lines
 PIPELINES_WIDTH = 100
 
