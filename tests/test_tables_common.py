@@ -1,7 +1,7 @@
 """Shared fixtures and THE tolerance table of the pre-integration table tests.
 
-Every table test takes its bound from ``TOLERANCES`` (values on colour/opacity, absolute unless
-``rtol``). Faithful low-precision builders are not "exact": their rows bound the error the method
+Every table test takes its bound from ``TOLERANCES`` (``TABLE_TOLERANCES`` of ``tests/tolerances.py``,
+the one table of bounds; values on colour/opacity, absolute unless ``rtol``). Faithful low-precision builders are not "exact": their rows bound the error the method
 itself makes, and the tests print the measured error (run pytest with ``-s`` to see it) so it is
 reported, not hidden.
 
@@ -26,27 +26,9 @@ psi/fp32                       psi table vs float64 quadrature
 import numpy as np
 import pytest
 
+from tolerances import TABLE_TOLERANCES as TOLERANCES  # noqa: F401 (the table tests import it here)
 from warpvol.reference.numpy_render import integrate_segments
 from warpvol.scene.transfer import TransferFunction
-
-TOLERANCES = {
-    "exact3d/fp32": {"rtol": 2e-5, "atol": 2e-6},
-    "exact3d/fp16": {"rtol": 2 ** -11, "atol": 2e-6},
-    "exact3d/hilo16": {"atol": 0.5 / 65535 + 2e-6},
-    "exact3d/rgba8": {"atol": 0.5 / 255 + 2e-6},
-    "roettger_sw/fp32/color_extinction": {"rms": 0.01, "max": 0.05},
-    # eq. 6's Stein step (l/n) kappa with n = 1..2 near the diagonal at l rho = 2: first-order error
-    "roettger_sw/fp32/emission_density": {"rms": 0.05, "max": 0.6},
-    "roettger_hw/12": {"lsb": 1 / 4095},
-    "roettger_hw/8": {"lsb": 1 / 255},
-    "geforce3/8": {"lsb": 1 / 255},
-    "pingpong/radeon8500": {"lsb": 1 / 4080},
-    "incremental/log2": {"max": 0.02},
-    "incremental/uniform": {"max": 0.02},
-    "cylindrical/4x": {"max": 0.05},  # and <= the 3D table's own trilinear error (asserted too)
-    "guthe/nodes": {"max": 2e-3},
-    "psi/fp32": {"atol": 3e-6},
-}
 
 
 def smooth_tf(emission="color_extinction", m=16, rho_max=4.0):

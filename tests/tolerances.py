@@ -165,6 +165,27 @@ TOLERANCES = {
     "pieces/reference": {"max_abs": 1e-12},
 }
 
+#: bounds of the pre-integration table builders against their references (the table tests; the keys are
+#: described in ``tests/test_tables_common.py``)
+TABLE_TOLERANCES = {
+    "exact3d/fp32": {"rtol": 2e-5, "atol": 2e-6},
+    "exact3d/fp16": {"rtol": 2 ** -11, "atol": 2e-6},
+    "exact3d/hilo16": {"atol": 0.5 / 65535 + 2e-6},
+    "exact3d/rgba8": {"atol": 0.5 / 255 + 2e-6},
+    "roettger_sw/fp32/color_extinction": {"rms": 0.01, "max": 0.05},
+    # eq. 6's Stein step (l/n) kappa with n = 1..2 near the diagonal at l rho = 2: first-order error
+    "roettger_sw/fp32/emission_density": {"rms": 0.05, "max": 0.6},
+    "roettger_hw/12": {"lsb": 1 / 4095},
+    "roettger_hw/8": {"lsb": 1 / 255},
+    "geforce3/8": {"lsb": 1 / 255},
+    "pingpong/radeon8500": {"lsb": 1 / 4080},
+    "incremental/log2": {"max": 0.02},
+    "incremental/uniform": {"max": 0.02},
+    "cylindrical/4x": {"max": 0.05},  # and <= the 3D table's own trilinear error (asserted too)
+    "guthe/nodes": {"max": 2e-3},
+    "psi/fp32": {"atol": 3e-6},
+}
+
 #: the row of each shipped preset as shipped (presets whose row is not their name)
 PRESET_ROWS = {"raycast": "raycast/fp32", "pt_vertex_color": "pt_vertex_color/fp32",
                "westermann1997": "vsbuffer/westermann1997", "vsbuffer_best": "vsbuffer/vsbuffer_best"}

@@ -20,7 +20,7 @@ build_isocross       Espinha & Celes 2005 §4.2                   :mod:`.isocros
 
 Caching: :class:`~warpvol.tables.cache.TableCache` keys tables by the TF hash (iso table: control-point
 positions only; psi: nothing) and parameters. Tolerances of every builder/format are stated in one
-table, ``TOLERANCES`` in ``tests/test_tables_common.py``.
+table, ``TABLE_TOLERANCES`` in ``tests/tolerances.py``.
 """
 
 #: the family's declaration (warpvol.family): a renderer family imports no other family
