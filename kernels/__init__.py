@@ -12,7 +12,8 @@ def kernel_modules() -> list:
     """Every Warp module (``warp`` ``Module`` objects) that defines kernels: one per file of this package
     that has kernels, one per HARC march configuration (:func:`warpvol.kernels.harc.march_kernel`,
     each a module of its own) and one per ``raycast`` march configuration
-    (:func:`warpvol.kernels.raycast.march_kernel`). Files that define only ``@wp.func`` s are compiled through the kernels that
+    (:func:`warpvol.kernels.raycast.march_kernel`), and the lane march of one lane
+    (:func:`warpvol.kernels.lanes_march.march_lanes_kernel`). Files that define only ``@wp.func`` s are compiled through the kernels that
     call them."""
     import importlib
     import pkgutil
@@ -39,4 +40,7 @@ def kernel_modules() -> list:
     out.append(pt_span.span_kernel_cached(16).module)
     for segs in (False, True):
         out.append(raycast.march_kernel(segs).module)
+    from . import lanes_march
+
+    out.append(lanes_march.march_lanes_kernel(1).module)  # (the lane march as CUDA would build it: one ray per thread)
     return out

@@ -49,10 +49,16 @@ def exp_neg(x: float) -> float:
     """``exp(-x)`` for ``x >= 0``; below :data:`THIN_DEPTH` by its degree-4 Taylor polynomial
     (truncation <= x^5/120 = 2.6e-9 relative, below float32 rounding) -- the walkers' hot path."""
     if x <= THIN_DEPTH:
-        # 1 - x + x^2/2 - x^3/6 + x^4/24 in Estrin's form: three dependent multiplies instead of eight
-        x2 = x * x
-        return (1.0 - x) + x2 * ((0.5 - x * (1.0 / 6.0)) + x2 * (1.0 / 24.0))
+        return exp_neg_thin(x)
     return wp.exp(-x)
+
+
+@wp.func
+def exp_neg_thin(x: float) -> float:
+    """:func:`exp_neg` for ``0 <= x <=`` :data:`THIN_DEPTH` (no branch: the lane walk's form)."""
+    # 1 - x + x^2/2 - x^3/6 + x^4/24 in Estrin's form: three dependent multiplies instead of eight
+    x2 = x * x
+    return (1.0 - x) + x2 * ((0.5 - x * (1.0 / 6.0)) + x2 * (1.0 / 24.0))
 
 
 @wp.func

@@ -269,6 +269,7 @@ def make_march(segs: bool = False):
         if (status[idx] & 3) == STATUS_ACTIVE:
             wp.atomic_add(counters, chunk, 4, 1)  # rays a further pass must search
 
+    march.march_ray = march_ray  # (for the lane kernels of warpvol.kernels.lanes)
     return march
 
 

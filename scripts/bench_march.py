@@ -12,10 +12,15 @@ other processes hits both alike. Prints per kernel set the median time, the cell
 step (one thread), and whether the two produce the same pass bit for bit (colour, transmittance, ray
 parameter, status, counters: the same float64 redo counts).
 
+With ``--lanes N`` (``raycast``; 0: the CPU's lane count, :func:`warpvol.kernels.lanes.device_lanes`) it compares
+this tree's march with one ray per thread and with ``N`` rays per thread (:mod:`warpvol.kernels.lanes_march`)
+instead of a base ref, and ``--json`` adds the view's ns per ray-step to a stamped JSON file
+(``docs/data/march_lanes.json``).
+
 Usage::
 
     ./run.sh python scripts/bench_march.py scenes/bluntfin_close.toml --tf opaque [--size 512] [--repeat 5]
-        [--base main] [--preset raycast|harc_best]
+        [--base main] [--preset raycast|harc_best] [--lanes 0 [--json docs/data/march_lanes.json]]
 """
 
 from __future__ import annotations
@@ -120,16 +125,24 @@ def kernel_of(pkg: str, kernel):
     raise LookupError(kernel.key)
 
 
-def run_pass(pkg: str, launches: list, reentries: int = 0):
+def run_pass(pkg: str, launches: list, reentries: int = 0, lanes: int = 1):
     """The recorded launches with ``pkg``'s kernels, one after the other on this thread, each on fresh copies of
     its arrays, its inputs taken by argument name (a kernel of another signature takes what it names);
     ``(seconds, outputs)``: the arrays after the launches and the counters summed. A kernel that takes
-    ``reentries`` (raycast's re-entries in a ray's thread) gets ``reentries``."""
+    ``reentries`` (raycast's re-entries in a ray's thread) gets ``reentries``. ``lanes`` > 1 (raycast, this tree):
+    the pass kernel with that many rays per thread (:mod:`warpvol.kernels.lanes`) instead."""
     import warp as wp
 
     total, outs = 0.0, []
     for kernel, dim, inputs in launches:
         k = kernel if pkg == "warpvol.kernels" else kernel_of(pkg, kernel)
+        n_threads = dim
+        if lanes > 1:
+            from warpvol.kernels.lanes import LaneState, flat_mesh
+            from warpvol.kernels.lanes_march import march_lanes_kernel
+
+            k = march_lanes_kernel(lanes, False)
+            n_threads = (dim + lanes - 1) // lanes
         named = {a.label: x for a, x in zip(kernel.adj.args, inputs)}
         for x in list(named.values()):  # a struct's fields by name, for a kernel that takes them one by one
             if hasattr(x, "_cls"):
@@ -138,14 +151,19 @@ def run_pass(pkg: str, launches: list, reentries: int = 0):
         if "t_stop" in named:
             named.setdefault("t_min", named["t_stop"])  # (raycast's name of it before the walk options)
         named["reentries"] = reentries
+        if lanes > 1:
+            named["count"] = dim
+            named["scratch"] = wp.empty(named["first"] + dim, dtype=LaneState, device="cpu")
+            named["fm"] = flat_mesh(named["mesh"], named["ig"].tf_v)
         args = [wp.clone(named[a.label]) if isinstance(named[a.label], wp.array) else as_package(named[a.label], pkg)
                 for a in k.adj.args]
         wp.synchronize_device("cpu")
         t0 = time.perf_counter()
-        wp.launch(k, dim=dim, device="cpu", inputs=args)
+        wp.launch(k, dim=n_threads, device="cpu", inputs=args)
         wp.synchronize_device("cpu")
         total += time.perf_counter() - t0
-        outs.append({a.label: x.numpy() for a, x in zip(k.adj.args, args) if isinstance(x, wp.array)})
+        outs.append({a.label: x.numpy() for a, x in zip(k.adj.args, args)
+                     if isinstance(x, wp.array) and a.label != "scratch"})
         outs[-1]["counters"] = outs[-1]["counters"][named["chunk"]]  # this launch's row
     keys = ("rgb", "rgba", "trans", "tcur", "status", "last", "px_work")
     out = {key: np.concatenate([o[key].ravel() for o in outs]) for key in keys if key in outs[0]}
@@ -163,6 +181,10 @@ def main(argv=None) -> int:
     ap.add_argument("--preset", default="raycast", choices=("raycast", "harc_best"))
     ap.add_argument("--reentries", type=int, default=0, help="raycast: re-entries per ray in the pass's threads "
                     "(0: one entry per ray, as kernels without them)")
+    ap.add_argument("--lanes", type=int, default=None,
+                    help="raycast: compare this tree's march with one ray per thread (LANES=1) and with this many "
+                         "(0: the device's, warpvol.kernels.lanes.device_lanes) instead of a base ref")
+    ap.add_argument("--json", default=None, help="with --lanes: add this view's ns per ray-step to this JSON file")
     a = ap.parse_args(argv)
 
     from bench_raycast import load_average
@@ -176,17 +198,22 @@ def main(argv=None) -> int:
     base.camera = base.camera.replace(width_px=a.size, height_px=a.size)
     scene, _ = variant(base, a.tf)
     launches = capture(scene, a.preset)
-    kinds = {"this tree": "warpvol.kernels"}
+    kinds = {"this tree": ("warpvol.kernels", 1)}
+    if a.lanes is not None:
+        from warpvol.kernels.lanes import device_lanes
+
+        n = a.lanes or device_lanes("cpu")
+        kinds = {"LANES=1": ("warpvol.kernels", 1), f"LANES={n}": ("warpvol.kernels", n)}
     with tempfile.TemporaryDirectory() as tmp:
-        if a.base:
+        if a.base and a.lanes is None:
             base_kernels(a.base, Path(tmp))
-            kinds = {f"base {a.base}": "base_kernels", **kinds}
+            kinds = {f"base {a.base}": ("base_kernels", 1), **kinds}
         times = {name: [] for name in kinds}
         outs = {}
         load0 = load_average()
         for r in range(a.repeat + 1):  # round 0: compile and warm up
-            for name, pkg in kinds.items():
-                dt, outs[name] = run_pass(pkg, launches, a.reentries)
+            for name, (pkg, lanes) in kinds.items():
+                dt, outs[name] = run_pass(pkg, launches, a.reentries, lanes)
                 if r:
                     times[name].append(dt)
         load1 = load_average()
@@ -208,7 +235,39 @@ def main(argv=None) -> int:
             print(f"  largest colour difference {np.abs(o_base[colour] - o_new[colour]).max():.3e}")
         tb, tn = times.values()
         print(f"  base / this tree: {statistics.median(tb) / statistics.median(tn):.3f}")
+    if a.json and a.lanes is not None:
+        write_lanes_json(a, scene, kinds, times, outs, load0, load1)
     return 0
+
+
+def write_lanes_json(a, scene, kinds, times, outs, load0: str, load1: str) -> None:
+    """Add this view's row (ns per ray-step with one ray per thread and with the lanes, their ratio, whether
+    the passes are identical, the load average) to ``a.json`` (stamped: :mod:`warpvol.tools.provenance`)."""
+    import json
+
+    from warpvol.tools import provenance
+
+    path = Path(a.json)
+    doc = json.loads(path.read_text()) if path.exists() else {}
+    rows = {f"{r[0]}/{r[1]}/{r[2]}": r for r in (doc.get("tables", {}).get("march_lanes", {}).get("rows") or [])}
+    (n1, one), (nl, lanes) = kinds.items()
+    steps = int(outs[n1]["counters"][1])
+    t1, tl = statistics.median(times[n1]), statistics.median(times[nl])
+    same = all(np.array_equal(outs[n1][k], outs[nl][k]) for k in outs[n1])
+    lanes_n = lanes[1]
+    rows[f"{a.scene}/{a.tf}/{a.size}"] = [a.scene, a.tf, a.size, steps, round(1e9 * t1 / max(1, steps), 1), lanes_n,
+                                          round(1e9 * tl / max(1, steps), 1), round(t1 / tl, 3), same,
+                                          float(load0.split()[2]), float(load1.split()[2])]
+    table = {"title": "raycast's first-pass march on one host thread: ns per ray-step with one ray per thread "
+                      "(LANES=1) and with the CPU's lanes, interleaved in one process",
+             "columns": ["scene", "tf", "size", "steps", "ns_per_step_lanes1", "lanes", "ns_per_step_lanes",
+                         "speedup", "identical", "load_start", "load_end"],
+             "rows": sorted(rows.values())}
+    block = provenance.start(provenance.command_line("scripts/bench_march.py"), timing=True,
+                             note="scripts/bench_march.py --lanes 0, one command per view")
+    loads = [float(load0.split()[2]), float(load1.split()[2])]
+    provenance.write_json(path, {"tables": {"march_lanes": table}}, provenance.with_loads(block, loads))
+    print(f"  wrote {path}")
 
 
 if __name__ == "__main__":

@@ -140,6 +140,21 @@ PASS_COUNTERS = ("entries", "steps", "unfinished", "failed", "left active", "fai
                  "terminated early", "re-entries")
 
 
+#: rays per thread of the march (None: :func:`warpvol.kernels.lanes.device_lanes` of the device)
+MARCH_LANES: int | None = 1
+
+
+def march_lanes(device) -> int:
+    """The march's rays per thread on ``device`` (:data:`MARCH_LANES`; always 1 on CUDA)."""
+    if str(device).startswith("cuda"):
+        return 1
+    if MARCH_LANES is None:
+        from warpvol.kernels.lanes import device_lanes
+
+        return device_lanes(device)
+    return int(MARCH_LANES)
+
+
 def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float, threads: int, reentries: int = 0,
                rows_per_block: int = 16, segments=None) -> np.ndarray:
     """One propagation pass over all active rays (one thread per active ray: :func:`ray_blocks`), each ray
@@ -168,14 +183,29 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
     opts = walk_opts(t_min, max_steps, cells["scalar_check"], 1e-6 * cells["radius"])
     if segments is None:
         segments = segments_struct(0, 0, ctx.device)
-    kernel = k.march_kernel(segments.cap > 0)
+    lanes = march_lanes(ctx.device)
     common = [cam, cell_mesh_struct(cells), eb, ig, opts]
+    if lanes > 1:
+        from warpvol.kernels import lanes as kl
+        from warpvol.kernels.lanes_march import march_lanes_kernel
 
-    def launch(b: int) -> None:
-        first, count = parts[b]
-        wp.launch(kernel, dim=count, device=ctx.device,
-                  inputs=common + [first, ids, state.rgb, state.trans, state.tcur, state.status, state.last, reentries,
-                                   counters, b, segments])
+        kernel = march_lanes_kernel(lanes, segments.cap > 0)
+        scratch = wp.empty(max(f + c for f, c in parts), dtype=kl.LaneState, device=ctx.device)
+        fm = kl.flat_mesh(common[1], ig.tf_v)
+
+        def launch(b: int) -> None:
+            first, count = parts[b]
+            wp.launch(kernel, dim=(count + lanes - 1) // lanes, device=ctx.device,
+                      inputs=common + [first, ids, state.rgb, state.trans, state.tcur, state.status, state.last,
+                                       reentries, counters, b, segments, count, scratch, fm])
+    else:
+        kernel = k.march_kernel(segments.cap > 0)
+
+        def launch(b: int) -> None:
+            first, count = parts[b]
+            wp.launch(kernel, dim=count, device=ctx.device,
+                      inputs=common + [first, ids, state.rgb, state.trans, state.tcur, state.status, state.last,
+                                       reentries, counters, b, segments])
 
     launch_blocks(ctx.device, len(parts), launch, threads, modules=[kernel])
     c = counters.numpy().sum(axis=0)

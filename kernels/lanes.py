@@ -1,0 +1,309 @@
+"""The pieces of ``raycast``'s march with ``LANES`` rays per thread (:mod:`warpvol.kernels.lanes_march`).
+
+:func:`device_lanes` picks the lane count (16 on a CPU with AVX-512, 8 with AVX2, 1 on CUDA); a lane's walk
+between steps is a :class:`LaneState`; :func:`lane_step` is one pass of the exact Plücker walk's loop of
+:func:`warpvol.kernels.cellwalk.make_walk` (the same scalar functions, in the same order) for a lane whose step is
+rare; :func:`make_lane_io` splits :func:`warpvol.kernels.raycast.make_march`'s ``march_ray`` around its walk;
+:class:`FlatMesh` gives the lane loop the cell records and TF values as flat ``int32`` / ``float32`` arrays.
+"""
+
+import warp as wp
+
+from .cellwalk import CellMesh, RayCamera, Segments, WalkOpts, add_under_tr, camera_ray, clipped_segment, put_segment
+from .harc_integ import Integ
+from .integrate import exp_neg, integrate_piece, integrate_segment_tf
+from .raycast import MAX_FLAT_REENTRIES, STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, EntryBins, tile_entry
+from .tf import tf_eval, tf_eval_upper, tf_upper, tf_upper_from
+from .walk import (
+    STALL_STEPS,
+    STEEP_ERR,
+    Face,
+    Ray,
+    ThinPrev,
+    grazing_unresolved,
+    monotone_exit,
+    next_face_from,
+    scalar_error_if,
+    scalar_step,
+    thin_at_exit,
+    thin_start,
+    thin_step,
+)
+
+wp.set_module_options({"enable_backward": False, "fuse_fp": False})
+
+
+def device_lanes(device) -> int:
+    """Rays per thread for ``device``: 1 on CUDA, 16 on a CPU with AVX-512, 8 with AVX2, else 4."""
+    if str(device).startswith("cuda"):
+        return 1
+    flags = set()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("flags"):
+                    flags = set(line.split(":", 1)[1].split())
+                    break
+    except OSError:
+        pass
+    if "avx512f" in flags:
+        return 16
+    if "avx2" in flags:
+        return 8
+    return 4
+
+
+@wp.struct
+class FlatMesh:
+    """The cell records and the TF values as flat ``int32`` / ``float32`` arrays (views of
+    :class:`~warpvol.kernels.cellwalk.CellMesh`'s and the TF's arrays): the lane loop loads them element by
+    element (a ``vec4`` element load is an aggregate the compiler does not vectorise)."""
+
+    verts: wp.array(dtype=float)
+    tets: wp.array(dtype=wp.int32)
+    nbr: wp.array(dtype=wp.int32)
+    nbr_vertex: wp.array(dtype=wp.int32)
+    tf_v: wp.array(dtype=float)
+
+
+def flat_view(a, dtype):
+    """``a`` (a contiguous array of 4-vectors) as a flat array of ``dtype`` on the same memory."""
+    return wp.array(ptr=a.ptr, dtype=dtype, shape=(a.shape[0] * 4,), device=a.device)
+
+
+def flat_mesh(mesh, tf_v):
+    """:class:`FlatMesh` of a :class:`~warpvol.kernels.cellwalk.CellMesh` and the TF values ``tf_v`` (the caller
+    keeps those alive)."""
+    fm = FlatMesh()
+    fm.verts = flat_view(mesh.verts, float)
+    fm.tets = flat_view(mesh.tets, wp.int32)
+    fm.nbr = flat_view(mesh.nbr, wp.int32)
+    fm.nbr_vertex = flat_view(mesh.nbr_vertex, wp.int32)
+    fm.tf_v = flat_view(tf_v, float)
+    return fm
+
+
+@wp.struct
+class LaneState:
+    """One ray's walk between steps, and what its entry left for the write-back."""
+
+    idx: int
+    walking: int
+    cell: int
+    gn: int
+    fc: Face
+    t_in: float
+    s_in: float
+    acc: wp.vec4
+    own: wp.vec4
+    cells: int
+    stall: int
+    failed: int
+    exited: int
+    thin: int
+    k_in: int
+    v_in: wp.vec4
+    ds_in: float
+    scal_err: float
+    thin_mem: ThinPrev
+    r: Ray
+    t_clip: float
+    t_end: float
+    best_t: float
+    far_t: float
+    flat: int
+
+
+@wp.func
+def lane_step(ls: LaneState, scale: float, mesh: CellMesh, ig: Integ, opts: WalkOpts) -> LaneState:
+    """One pass of :func:`~warpvol.kernels.cellwalk.make_walk`'s loop (the exact Plücker walk, clipped) for one
+    lane; ``walking`` 0 once the walk has ended (as its ``break`` and loop bound)."""
+    if ls.cells >= opts.max_steps or ls.failed != 0:
+        ls.walking = 0
+        return ls
+    cell = ls.cell
+    r = ls.r
+    t_clip = ls.t_clip
+    t_in = ls.t_in
+    s_in = ls.s_in
+    k_in = ls.k_in
+    v_in = ls.v_in
+    acc = ls.acc
+    ls.cells = ls.cells + 1
+    nrow = mesh.nbr[cell]
+    vrow = mesh.nbr_vertex[cell]
+    fc, f_out, t_out, s_out = next_face_from(mesh.tets[cell], ls.gn, ls.fc, mesh.verts, r)
+    t_out, stall = monotone_exit(t_in, t_out, ls.stall)
+    ls.stall = stall
+    if f_out < 0 or stall > STALL_STEPS:
+        ls.failed = 1
+        ls.walking = 0
+        return ls
+    ls.fc = fc
+    nb = nrow[f_out]
+    k_out = tf_upper_from(s_out, k_in, ig.tf_s)
+    v_out = tf_eval_upper(s_out, k_out, ig.tf_s, ig.tf_v)
+    failed = int(0)
+    if t_out > t_clip:
+        tr = acc[3]
+        ln = t_out - t_in
+        seg = wp.vec4(0.0, 0.0, 0.0, 0.0)
+        if t_in >= t_clip:
+            if k_in == k_out:
+                seg = integrate_piece(ln, v_in, v_out, ig.model)
+            else:
+                seg = integrate_segment_tf(s_in, s_out, v_in, v_out, ln, ig.tf_s, ig.tf_v, ig.model)
+        else:
+            ta, sa = clipped_segment(t_in, t_out, s_in, s_out, t_clip)
+            ln = t_out - ta
+            seg = integrate_segment_tf(sa, s_out, tf_eval(sa, ig.tf_s, ig.tf_v), v_out, ln, ig.tf_s, ig.tf_v,
+                                       ig.model)
+        thin, thin_mem = thin_step(ls.thin_mem, ln, seg[3], t_out, scale, tr, v_in, v_out, k_in, k_out, ig.tf_v,
+                                   ig.model)
+        ls.thin = thin
+        ls.thin_mem = thin_mem
+        ds_out = scalar_error_if(opts.scalar_check, fc, r)
+        scal_err = scalar_step(ls.scal_err, tr, ln, seg[3], s_in, s_out, v_in, v_out, k_in, k_out, ls.ds_in, ds_out,
+                               ig.tf_s, ig.tf_v, ig.model)
+        ls.scal_err = scal_err
+        if thin == 1 or scal_err > STEEP_ERR:
+            failed = 1
+        ls.ds_in = ds_out
+        e = exp_neg(seg[3])
+        acc = add_under_tr(acc, seg, e)
+        ls.acc = acc
+        ls.own = add_under_tr(ls.own, seg, e)
+    if failed == 1:
+        ls.failed = 1
+        ls.walking = 0
+        return ls
+    ls.k_in = k_out
+    ls.v_in = v_out
+    ls.t_in = t_out
+    ls.s_in = s_out
+    if acc[3] < opts.t_stop:
+        ls.walking = 0
+        return ls
+    if nb < 0:
+        ls.exited = 1
+        if thin_at_exit(ls.thin_mem):
+            ls.failed = 1
+            ls.thin = 1
+        elif t_out > t_clip and grazing_unresolved(acc[3], v_out, ig.model, fc, r, t_out, scale):
+            ls.failed = 1
+        ls.walking = 0
+        return ls
+    ls.gn = vrow[f_out]
+    ls.cell = nb >> 2
+    return ls
+
+
+#: the lane kernels' module options: no FMA contraction (the scalar functions' roundings); loops unrolled at most
+#: once, so that the lane loops stay loops LLVM vectorises
+LANE_OPTIONS = {"enable_backward": False, "fuse_fp": False, "max_unroll": 1}
+
+
+def make_lane_io(segs: bool = False):
+    """``(lane_entry, lane_finish)``: :func:`warpvol.kernels.raycast.make_march`'s ``march_ray`` split around
+    its walk -- the entry search and the walk's set-up into a :class:`LaneState` (``walking`` 0: the ray's
+    status is written, nothing to walk), and the write-back of a walked entry (``segs``: its segment too)."""
+
+    @wp.func
+    def lane_entry(idx: int, cam: RayCamera, mesh: CellMesh, bins: EntryBins, ig: Integ, opts: WalkOpts,
+                   st_rgb: wp.array(dtype=wp.vec3), trans: wp.array(dtype=float), tcur: wp.array(dtype=float),
+                   status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32),
+                   counters: wp.array2d(dtype=wp.int32), chunk: int) -> LaneState:
+        """``march_ray``'s entry and the walk's set-up; ``walking`` 0: the ray's status is written, no walk."""
+        ls = LaneState()
+        ls.idx = idx
+        ls.walking = 0
+        st = status[idx]
+        if (st & 3) != STATUS_ACTIVE:
+            return ls
+        py = idx // cam.width
+        px = idx - py * cam.width
+        tile_id = (py // bins.tile) * bins.tiles_x + px // bins.tile
+        if bins.tile_start[tile_id] == bins.tile_start[tile_id + 1]:
+            status[idx] = STATUS_DONE
+            return ls
+        r, t_clip, t_end = camera_ray(px, py, cam)
+        if t_end < t_clip:
+            status[idx] = STATUS_DONE
+            return ls
+        t_start = tcur[idx]
+        fwd32 = wp.vec3(float(cam.fwd[0]), float(cam.fwd[1]), float(cam.fwd[2]))
+        cell, face_in, fc, best_t, best_s, far_t = tile_entry(px, py, t_start, last[idx], r, opts.t_tol, fwd32,
+                                                              float(cam.radius), mesh, bins)
+        flat = st >> 2
+        if cell >= 0 and best_t <= t_start:
+            flat += 1
+            best_t = t_start
+        if cell < 0:
+            status[idx] = STATUS_DONE
+            return ls
+        if flat > MAX_FLAT_REENTRIES:
+            status[idx] = STATUS_FAILED
+            wp.atomic_add(counters, chunk, 3, 1)
+            return ls
+        wp.atomic_add(counters, chunk, 0, 1)
+        c = st_rgb[idx]
+        ls.walking = 1
+        ls.cell = cell
+        ls.fc = fc
+        ls.t_in = best_t
+        ls.s_in = best_s
+        ls.acc = wp.vec4(c[0], c[1], c[2], trans[idx])
+        ls.own = wp.vec4(0.0, 0.0, 0.0, 1.0)
+        ls.r = r
+        ls.t_clip = t_clip
+        ls.t_end = t_end
+        ls.best_t = best_t
+        ls.far_t = far_t
+        ls.flat = flat
+        ls.thin_mem = thin_start()
+        ls.k_in = tf_upper(best_s, ig.tf_s)
+        ls.v_in = tf_eval_upper(best_s, ls.k_in, ig.tf_s, ig.tf_v)
+        if best_t >= t_clip and grazing_unresolved(ls.acc[3], ls.v_in, ig.model, fc, r, best_t, float(cam.radius)):
+            ls.failed = 1
+        ls.ds_in = scalar_error_if(opts.scalar_check, fc, r)
+        ls.gn = mesh.tets[cell][face_in]
+        return ls
+
+    @wp.func
+    def lane_finish(ls: LaneState, opts: WalkOpts, st_rgb: wp.array(dtype=wp.vec3), trans: wp.array(dtype=float),
+                    tcur: wp.array(dtype=float), status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32),
+                    counters: wp.array2d(dtype=wp.int32), chunk: int, sg: Segments):
+        """``march_ray``'s write-back of a walked entry."""
+        idx = ls.idx
+        acc = ls.acc
+        tr = acc[3]
+        wp.atomic_add(counters, chunk, 1, ls.cells)
+        if ls.failed == 1:
+            status[idx] = STATUS_FAILED
+            wp.atomic_add(counters, chunk, 3, 1)
+            if ls.thin == 1:
+                wp.atomic_add(counters, chunk, 5, 1)
+            return
+        if wp.static(segs):
+            put_segment(sg, idx, wp.max(ls.best_t, ls.t_clip), ls.t_in, ls.own)
+        t_in = ls.t_in
+        flat = ls.flat
+        st_rgb[idx] = wp.vec3(acc[0], acc[1], acc[2])
+        trans[idx] = tr
+        tcur[idx] = t_in
+        last[idx] = ls.cell
+        if t_in > ls.best_t:
+            flat = 0
+        status[idx] = STATUS_ACTIVE + 4 * flat
+        if ls.exited == 0:
+            status[idx] = STATUS_DONE
+            if tr >= opts.t_stop:
+                wp.atomic_add(counters, chunk, 2, 1)
+            else:
+                wp.atomic_add(counters, chunk, 6, 1)
+        elif t_in >= ls.t_end:
+            status[idx] = STATUS_DONE
+        elif not (ls.far_t > t_in - opts.t_tol):
+            status[idx] = STATUS_DONE
+
+    return lane_entry, lane_finish

@@ -1,0 +1,552 @@
+"""``raycast``'s march pass with ``LANES`` rays per thread: the lane kernel of :mod:`warpvol.kernels.lanes`.
+
+:func:`make_march_lanes` builds, per lane count, a kernel that makes what
+:func:`warpvol.kernels.raycast.make_march`'s pass makes -- the same images, counters and float64 redo marks, bit for
+bit (tests/test_march_lanes.py) -- with the rays ``first + LANES tid + j`` of a thread: their first entries one
+after the other (:func:`~warpvol.kernels.lanes.make_lane_io`), then their walks one step of every lane per pass of
+a counted, branch-free ``for j in range(LANES)`` loop over lane matrices (each row one state variable, each
+column a lane), which LLVM vectorises; a lane whose step is rare takes that step in
+:func:`~warpvol.kernels.lanes.lane_step` (the scalar functions) and rejoins. The cell records and new vertex of
+every lane are read in a loop of their own before the step's arithmetic (loads from arrays in the arithmetic loop
+keep LLVM from vectorising it: it cannot bound them against the lane matrices' stores), the TF piece of a lane is
+kept in its state (a control point crossed is a rare step), and the lane matrices are read and written only by
+element in the kernel itself (passed to a function they would count as escaping, with the same effect).
+"""
+
+import threading
+
+import warp as wp
+
+from .cellwalk import CellMesh, RayCamera, Segments, WalkOpts, add_under_tr
+from .harc_integ import Integ
+from .integrate import GL3_W0, GL3_W1, GL3_X0, GL3_X2, THIN_DEPTH, exp_neg_thin, one_minus_exp_neg_thin
+from .lanes import LANE_OPTIONS, FlatMesh, LaneState, lane_step, make_lane_io
+from .raycast import STATUS_ACTIVE, EntryBins, march_kernel
+from .walk import EPS32, STALL_STEPS, STEEP_ERR, THIN_ULPS, spread_error, thin_unresolved
+
+wp.set_module_options({"enable_backward": False, "fuse_fp": False})
+
+
+def make_march_lanes(lanes: int, segs: bool = False):
+    """The pass kernel of :func:`warpvol.kernels.raycast.make_march` with ``lanes`` rays per thread (a module of
+    its own per lane count: ``LANES`` is a compile-time constant); use :func:`march_lanes_kernel`."""
+    LANES = lanes
+    lane_entry, lane_finish = make_lane_io(segs)
+    march_ray = march_kernel(segs).march_ray  # the scalar entry and walk, for the re-entries
+    FFm = wp.types.matrix(shape=(27, LANES), dtype=float)  # each lane's Face: pa, pb, pc, h, ma, mb, mc, s, w
+    FGm = wp.types.matrix(shape=(3, LANES), dtype=int)  # each lane's Face.g
+    SFm = wp.types.matrix(shape=(37, LANES), dtype=float)  # see the put block; 27..36: the lane's TF piece
+    SIm = wp.types.matrix(shape=(7, LANES), dtype=int)  # cell, gn, cells, stall, k_in, thin is_short, walking
+    RVv = wp.types.vector(length=LANES, dtype=int)  # the lanes whose step is rare
+    GIm = wp.types.matrix(shape=(12, LANES), dtype=int)  # each lane's cell: tets, nbr, nbr_vertex records
+    GVm = wp.types.matrix(shape=(4, LANES), dtype=float)  # each lane's new vertex record
+
+    @wp.kernel(module="unique", module_options=LANE_OPTIONS)
+    def march_lanes(cam: RayCamera, mesh: CellMesh, bins: EntryBins, ig: Integ, opts: WalkOpts, first: int,
+                    ids: wp.array(dtype=wp.int32), rgb: wp.array(dtype=wp.vec3), trans: wp.array(dtype=float),
+                    tcur: wp.array(dtype=float), status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32),
+                    reentries: int, counters: wp.array2d(dtype=wp.int32), chunk: int, sg: Segments, count: int,
+                    scratch: wp.array(dtype=LaneState), fm: FlatMesh):
+        """The pass of :func:`~warpvol.kernels.raycast.make_march` for the rays ``first + LANES tid + j``
+        (``< first + count``): their first entries one after the other, their walks in lanes (one step of every
+        lane per pass of the lane loop; a lane whose step is rare takes it in :func:`lane_step`), the
+        write-backs, then each ray's re-entries (scalar, up to ``reentries``)."""
+        tid = wp.tid()
+        base = first + tid * LANES
+        end = first + count
+        scale = float(cam.radius)
+        FF = FFm()
+        FG = FGm()
+        SF = SFm()
+        SI = SIm()
+        RV = RVv()
+        GI = GIm()
+        GV = GVm()
+        busy = int(0)
+        for j in range(LANES):
+            slot = base + j
+            if slot < end:
+                idx = slot
+                if ids.shape[0] > 0:
+                    idx = ids[slot]
+                ls = lane_entry(idx, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last, counters, chunk)
+                if ls.walking == 0:
+                    ls.idx = -1
+                if ls.failed != 0:
+                    ls.walking = 0  # (entered through a face seen nearly edge-on: no step, failed)
+                scratch[slot] = ls
+                if ls.idx >= 0:  # (lane_put, written out: the lane matrices never leave the kernel)
+                    for i in range(3):
+                        FF[i, j] = ls.fc.pa[i]
+                        FF[3 + i, j] = ls.fc.pb[i]
+                        FF[6 + i, j] = ls.fc.pc[i]
+                        FF[9 + i, j] = ls.fc.h[i]
+                        FF[12 + i, j] = ls.fc.ma[i]
+                        FF[15 + i, j] = ls.fc.mb[i]
+                        FF[18 + i, j] = ls.fc.mc[i]
+                        FF[21 + i, j] = ls.fc.s[i]
+                        FF[24 + i, j] = ls.fc.w[i]
+                        FG[i, j] = ls.fc.g[i]
+                        SF[20 + i, j] = ls.r.o[i]
+                        SF[23 + i, j] = ls.r.d[i]
+                    for i in range(4):
+                        SF[2 + i, j] = ls.acc[i]
+                        SF[6 + i, j] = ls.own[i]
+                        SF[10 + i, j] = ls.v_in[i]
+                    SF[0, j] = ls.t_in
+                    SF[1, j] = ls.s_in
+                    SF[14, j] = ls.ds_in
+                    SF[15, j] = ls.scal_err
+                    SF[16, j] = ls.thin_mem.d
+                    SF[17, j] = ls.thin_mem.dmax
+                    SF[18, j] = ls.thin_mem.tr
+                    SF[19, j] = ls.thin_mem.u
+                    SF[26, j] = ls.t_clip
+                    SI[0, j] = ls.cell
+                    SI[1, j] = ls.gn
+                    SI[2, j] = ls.cells
+                    SI[3, j] = ls.stall
+                    SI[4, j] = ls.k_in
+                    SI[5, j] = ls.thin_mem.is_short
+                    SI[6, j] = ls.walking
+                    kl_ = wp.max(ls.k_in - 1, 0)  # the lane's TF piece: its control points' scalars and values
+                    kh_ = wp.min(ls.k_in, ig.tf_s.shape[0] - 1)
+                    SF[27, j] = ig.tf_s[kl_]
+                    SF[28, j] = ig.tf_s[kh_]
+                    SF[29, j] = fm.tf_v[4 * kl_]
+                    SF[30, j] = fm.tf_v[4 * kl_ + 1]
+                    SF[31, j] = fm.tf_v[4 * kl_ + 2]
+                    SF[32, j] = fm.tf_v[4 * kl_ + 3]
+                    SF[33, j] = fm.tf_v[4 * kh_]
+                    SF[34, j] = fm.tf_v[4 * kh_ + 1]
+                    SF[35, j] = fm.tf_v[4 * kh_ + 2]
+                    SF[36, j] = fm.tf_v[4 * kh_ + 3]
+                busy = busy + ls.walking
+        n_tf = ig.tf_s.shape[0]
+        model = ig.model
+        check = opts.scalar_check
+        t_stop = opts.t_stop
+        max_steps = opts.max_steps
+        m_tets = fm.tets  # (the arrays as locals: a struct field's array read in the lane loop is an aggregate load)
+        m_verts = fm.verts
+        m_nbr = fm.nbr
+        m_nbrv = fm.nbr_vertex
+        while busy > 0:
+            # ---- one step of every walking lane, the common case in lane form ----
+            for j in range(LANES):  # the lanes' cell records and new vertex (loads: a loop of their own)
+                c4 = 4 * SI[0, j]
+                v4 = 4 * SI[1, j]
+                GI[0, j] = m_tets[c4]
+                GI[1, j] = m_tets[c4 + 1]
+                GI[2, j] = m_tets[c4 + 2]
+                GI[3, j] = m_tets[c4 + 3]
+                GI[4, j] = m_nbr[c4]
+                GI[5, j] = m_nbr[c4 + 1]
+                GI[6, j] = m_nbr[c4 + 2]
+                GI[7, j] = m_nbr[c4 + 3]
+                GI[8, j] = m_nbrv[c4]
+                GI[9, j] = m_nbrv[c4 + 1]
+                GI[10, j] = m_nbrv[c4 + 2]
+                GI[11, j] = m_nbrv[c4 + 3]
+                GV[0, j] = m_verts[v4]
+                GV[1, j] = m_verts[v4 + 1]
+                GV[2, j] = m_verts[v4 + 2]
+                GV[3, j] = m_verts[v4 + 3]
+            for j in range(LANES):
+                walk = SI[6, j]
+                cell = SI[0, j]
+                gn = SI[1, j]
+                stall = SI[3, j]
+                k_in = SI[4, j]
+                ok_steps = SI[2, j] < max_steps
+                tv0 = GI[0, j]
+                tv1 = GI[1, j]
+                tv2 = GI[2, j]
+                tv3 = GI[3, j]
+                pn = wp.vec3(GV[0, j], GV[1, j], GV[2, j])
+                sn = GV[3, j]
+                o = wp.vec3(SF[20, j], SF[21, j], SF[22, j])
+                d = wp.vec3(SF[23, j], SF[24, j], SF[25, j])
+                q = pn - o
+                hn = wp.dot(q, d)
+                mn = wp.cross(d, q)
+                pa = wp.vec3(FF[0, j], FF[1, j], FF[2, j])
+                pb = wp.vec3(FF[3, j], FF[4, j], FF[5, j])
+                pc = wp.vec3(FF[6, j], FF[7, j], FF[8, j])
+                ma = wp.vec3(FF[12, j], FF[13, j], FF[14, j])
+                mb = wp.vec3(FF[15, j], FF[16, j], FF[17, j])
+                mc = wp.vec3(FF[18, j], FF[19, j], FF[20, j])
+                h0 = FF[9, j]
+                h1 = FF[10, j]
+                h2 = FF[11, j]
+                s0 = FF[21, j]
+                s1 = FF[22, j]
+                s2 = FF[23, j]
+                w0 = FF[24, j]
+                w1 = FF[25, j]
+                w2 = FF[26, j]
+                g0 = FG[0, j]
+                g1 = FG[1, j]
+                g2 = FG[2, j]
+                # oriented_side of the edges N -> A, N -> B, N -> C (an exact zero: the rare path's tie-break)
+                ea1 = wp.dot(pa - pn, mn)
+                ea2 = wp.dot(pn - pa, ma)
+                eb1 = wp.dot(pb - pn, mn)
+                eb2 = wp.dot(pn - pb, mb)
+                ec1 = wp.dot(pc - pn, mn)
+                ec2 = wp.dot(pn - pc, mc)
+                na = wp.where(gn < g0, ea1, -ea2)
+                nb_ = wp.where(gn < g1, eb1, -eb2)
+                nc = wp.where(gn < g2, ec1, -ec2)
+                rare = na == 0.0 or nb_ == 0.0 or nc == 0.0
+                # the three candidate exit faces (face_cross), the first crossed one wins
+                wab = na
+                wbc = w0
+                wca = -nb_
+                ss1 = wab + wbc + wca
+                ok1 = not (wab < 0.0 or wbc < 0.0 or wca < 0.0 or not (ss1 > 0.0))
+                inv1 = 1.0 / ss1
+                m1 = wp.min(sn, wp.min(s0, s1))
+                sx1 = m1 + ((sn - m1) * wbc + (s0 - m1) * wca + (s1 - m1) * wab) * inv1
+                tx1 = (hn * wbc + h0 * wca + h1 * wab) * inv1
+                wab2 = nb_
+                wbc2 = w1
+                wca2 = -nc
+                ss2 = wab2 + wbc2 + wca2
+                ok2 = not (wab2 < 0.0 or wbc2 < 0.0 or wca2 < 0.0 or not (ss2 > 0.0))
+                inv2 = 1.0 / ss2
+                m2 = wp.min(sn, wp.min(s1, s2))
+                sx2 = m2 + ((sn - m2) * wbc2 + (s1 - m2) * wca2 + (s2 - m2) * wab2) * inv2
+                tx2 = (hn * wbc2 + h1 * wca2 + h2 * wab2) * inv2
+                wab3 = nc
+                wbc3 = w2
+                wca3 = -na
+                ss3 = wab3 + wbc3 + wca3
+                ok3 = not (wab3 < 0.0 or wbc3 < 0.0 or wca3 < 0.0 or not (ss3 > 0.0))
+                inv3 = 1.0 / ss3
+                m3 = wp.min(sn, wp.min(s2, s0))
+                sx3 = m3 + ((sn - m3) * wbc3 + (s2 - m3) * wca3 + (s0 - m3) * wab3) * inv3
+                tx3 = (hn * wbc3 + h2 * wca3 + h0 * wab3) * inv3
+                rare = rare or not (ok1 or ok2 or ok3)
+                # the exit face (N, X, Y) and the vertex it leaves out (its local index is the exit's)
+                c2 = (not ok1) and ok2
+                gx = wp.where(ok1, g0, wp.where(c2, g1, g2))
+                gy = wp.where(ok1, g1, wp.where(c2, g2, g0))
+                gz = wp.where(ok1, g2, wp.where(c2, g0, g1))
+                px = wp.vec3(wp.where(ok1, pa[0], wp.where(c2, pb[0], pc[0])),
+                              wp.where(ok1, pa[1], wp.where(c2, pb[1], pc[1])),
+                              wp.where(ok1, pa[2], wp.where(c2, pb[2], pc[2])))
+                py_ = wp.vec3(wp.where(ok1, pb[0], wp.where(c2, pc[0], pa[0])),
+                              wp.where(ok1, pb[1], wp.where(c2, pc[1], pa[1])),
+                              wp.where(ok1, pb[2], wp.where(c2, pc[2], pa[2])))
+                mx = wp.vec3(wp.where(ok1, ma[0], wp.where(c2, mb[0], mc[0])),
+                              wp.where(ok1, ma[1], wp.where(c2, mb[1], mc[1])),
+                              wp.where(ok1, ma[2], wp.where(c2, mb[2], mc[2])))
+                my = wp.vec3(wp.where(ok1, mb[0], wp.where(c2, mc[0], ma[0])),
+                              wp.where(ok1, mb[1], wp.where(c2, mc[1], ma[1])),
+                              wp.where(ok1, mb[2], wp.where(c2, mc[2], ma[2])))
+                hx = wp.where(ok1, h0, wp.where(c2, h1, h2))
+                hy = wp.where(ok1, h1, wp.where(c2, h2, h0))
+                sxv = wp.where(ok1, s0, wp.where(c2, s1, s2))
+                syv = wp.where(ok1, s1, wp.where(c2, s2, s0))
+                wn0 = wp.where(ok1, na, wp.where(c2, nb_, nc))
+                wn1 = wp.where(ok1, w0, wp.where(c2, w1, w2))
+                wn2 = wp.where(ok1, -nb_, wp.where(c2, -nc, -na))
+                t_out = wp.where(ok1, tx1, wp.where(c2, tx2, tx3))
+                s_out = wp.where(ok1, sx1, wp.where(c2, sx2, sx3))
+                f_out = wp.where(tv3 == gz, 3, wp.where(tv2 == gz, 2, wp.where(tv1 == gz, 1, wp.where(tv0 == gz, 0, -1))))
+                rare = rare or f_out < 0
+                nb = wp.where(f_out == 0, GI[4, j], wp.where(f_out == 1, GI[5, j], wp.where(f_out == 2, GI[6, j], GI[7, j])))
+                # monotone_exit
+                t_in = SF[0, j]
+                s_in = SF[1, j]
+                adv = t_out > t_in
+                t_out = wp.where(adv, t_out, t_in)
+                stall = wp.where(adv, 0, stall + 1)
+                rare = rare or stall > STALL_STEPS or nb < 0
+                # the TF at the exit: the same piece as at the entry (else rare: a control point crossed)
+                ts_lo = SF[27, j]
+                ts_hi = SF[28, j]
+                rare = rare or not ((k_in >= n_tf or ts_hi > s_out) and (k_in == 0 or not (ts_lo > s_out)))
+                wt = wp.clamp((s_out - ts_lo) / (ts_hi - ts_lo), 0.0, 1.0)
+                wl = 1.0 - wt
+                lo0 = SF[29, j]
+                lo1 = SF[30, j]
+                lo2 = SF[31, j]
+                lo3 = SF[32, j]
+                hi0 = SF[33, j]
+                hi1 = SF[34, j]
+                hi2 = SF[35, j]
+                hi3 = SF[36, j]
+                k_first = k_in == 0  # tf_eval_upper's end values: the first or the last control point's
+                k_last = k_in >= n_tf
+                vo0 = wp.where(k_first, lo0, wp.where(k_last, hi0, lo0 * wl + hi0 * wt))
+                vo1 = wp.where(k_first, lo1, wp.where(k_last, hi1, lo1 * wl + hi1 * wt))
+                vo2 = wp.where(k_first, lo2, wp.where(k_last, hi2, lo2 * wl + hi2 * wt))
+                vo3 = wp.where(k_first, lo3, wp.where(k_last, hi3, lo3 * wl + hi3 * wt))
+                v_out = wp.vec4(vo0, vo1, vo2, vo3)
+                v_in = wp.vec4(SF[10, j], SF[11, j], SF[12, j], SF[13, j])
+                t_clip = SF[26, j]
+                rare = rare or not (t_in >= t_clip and t_out > t_clip)
+                # integrate_piece, optically thin (else rare)
+                tr = SF[5, j]
+                ln = t_out - t_in
+                r0 = v_in[3]
+                dr = v_out[3] - r0
+                pa_ = ln * r0
+                pb_ = ln * dr
+                tau_total = 0.5 * ln * (v_in[3] + v_out[3])
+                x0 = GL3_X0 * pa_ + (0.5 * GL3_X0 * GL3_X0) * pb_
+                x1 = 0.5 * pa_ + 0.125 * pb_
+                x2 = GL3_X2 * pa_ + (0.5 * GL3_X2 * GL3_X2) * pb_
+                cc0 = wp.vec3(v_in[0], v_in[1], v_in[2])
+                cc1 = wp.vec3(v_out[0], v_out[1], v_out[2])
+                om = GL3_W0 * (one_minus_exp_neg_thin(x0) + one_minus_exp_neg_thin(x2)) \
+                    + GL3_W1 * one_minus_exp_neg_thin(x1)
+                rr0 = cc1 * (one_minus_exp_neg_thin(tau_total) - om) + cc0 * om
+                ew0 = exp_neg_thin(x0) * GL3_W0
+                ew1 = exp_neg_thin(x1) * GL3_W1
+                ew2 = exp_neg_thin(x2) * GL3_W0
+                mm0 = ew0 + ew1 + ew2
+                mm1 = GL3_X0 * ew0 + 0.5 * ew1 + GL3_X2 * ew2
+                rr1 = (cc0 * (mm0 - mm1) + cc1 * mm1) * ln
+                m0_ = model == 0
+                positive = not (ln <= 0.0)
+                rare = rare or (positive and (not (tau_total <= THIN_DEPTH) or (model != 0 and not (
+                    x0 <= THIN_DEPTH and x1 <= THIN_DEPTH and x2 <= THIN_DEPTH))))
+                seg = wp.vec4(wp.where(positive, wp.where(m0_, rr0[0], rr1[0]), 0.0),
+                              wp.where(positive, wp.where(m0_, rr0[1], rr1[1]), 0.0),
+                              wp.where(positive, wp.where(m0_, rr0[2], rr1[2]), 0.0), wp.where(positive, tau_total, 0.0))
+                # thin_step (one piece: k_in == k_out)
+                u = EPS32 * (wp.abs(t_out) + scale)
+                den_in = wp.where(model == 1, v_in[3] + wp.max(v_in[0], wp.max(v_in[1], v_in[2])), v_in[3])
+                den_out = wp.where(model == 1, v_out[3] + wp.max(v_out[0], wp.max(v_out[1], v_out[2])), v_out[3])
+                d_mean = 0.5 * (den_in + den_out)
+                short = ln < THIN_ULPS * u
+                dmax = wp.max(den_in, den_out)
+                rare = rare or (short and thin_unresolved(tr, dmax, SF[16, j], u))
+                rare = rare or (SI[5, j] == 1 and thin_unresolved(SF[18, j], SF[17, j], d_mean, SF[19, j]))
+                # the crossing's scalar error (scalar_error_if) and the walk's bound (scalar_step, one piece)
+                qa = pn - o
+                qb = px - o
+                qc = py_ - o
+                werr = EPS32 * (wp.length(px - pn) * wp.length(qa) + wp.length(py_ - px) * wp.length(qb)
+                                + wp.length(pn - py_) * wp.length(qc))
+                wsum = wn0 + wn1 + wn2
+                rel = wp.where(wsum > 0.0, werr / wsum, 1.0e30)
+                sf_v = wp.vec3(sn, sxv, syv)
+                ds_out = wp.where(check == 0, 0.0, spread_error(sf_v, rel))
+                ds_in = SF[14, j]
+                err = SF[15, j]
+                dh = wp.where(model == 1, hi3 + wp.max(hi0, wp.max(hi1, hi2)), hi3)
+                dl = wp.where(model == 1, lo3 + wp.max(lo0, wp.max(lo1, lo2)), lo3)
+                gsl = wp.abs(dh - dl) / (ts_hi - ts_lo)
+                err_new = err + tr * ln * 0.5 * gsl * (ds_in + ds_out)
+                err_new = wp.where((ds_in == 0.0 and ds_out == 0.0) or k_in <= 0 or k_in >= n_tf, err, err_new)
+                rare = rare or err_new > STEEP_ERR
+                e = exp_neg_thin(seg[3])
+                acc = add_under_tr(wp.vec4(SF[2, j], SF[3, j], SF[4, j], tr), seg, e)
+                own = add_under_tr(wp.vec4(SF[6, j], SF[7, j], SF[8, j], SF[9, j]), seg, e)
+                stop = acc[3] < t_stop
+                active = walk == 1 and ok_steps
+                go = active and not rare
+                RV[j] = wp.where(active and rare, 1, 0)
+                SI[6, j] = wp.where((walk == 1 and not ok_steps) or (go and stop), 0, walk)
+                # ---- commit the step of the lanes that took it ----
+                vrow = wp.where(f_out == 0, GI[8, j], wp.where(f_out == 1, GI[9, j], wp.where(f_out == 2, GI[10, j], GI[11, j])))
+                keep = go and not stop
+                SI[0, j] = wp.where(keep, nb >> 2, cell)
+                SI[1, j] = wp.where(keep, vrow, gn)
+                SI[2, j] = wp.where(go, SI[2, j] + 1, SI[2, j])
+                SI[3, j] = wp.where(go, stall, SI[3, j])
+                SI[5, j] = wp.where(go, wp.where(short, 1, 0), SI[5, j])
+                SF[0, j] = wp.where(go, t_out, t_in)
+                SF[1, j] = wp.where(go, s_out, s_in)
+                SF[2, j] = wp.where(go, acc[0], SF[2, j])
+                SF[6, j] = wp.where(go, own[0], SF[6, j])
+                SF[10, j] = wp.where(go, v_out[0], SF[10, j])
+                SF[3, j] = wp.where(go, acc[1], SF[3, j])
+                SF[7, j] = wp.where(go, own[1], SF[7, j])
+                SF[11, j] = wp.where(go, v_out[1], SF[11, j])
+                SF[4, j] = wp.where(go, acc[2], SF[4, j])
+                SF[8, j] = wp.where(go, own[2], SF[8, j])
+                SF[12, j] = wp.where(go, v_out[2], SF[12, j])
+                SF[5, j] = wp.where(go, acc[3], SF[5, j])
+                SF[9, j] = wp.where(go, own[3], SF[9, j])
+                SF[13, j] = wp.where(go, v_out[3], SF[13, j])
+                SF[14, j] = wp.where(go, ds_out, ds_in)
+                SF[15, j] = wp.where(go, err_new, err)
+                SF[16, j] = wp.where(go, d_mean, SF[16, j])
+                SF[17, j] = wp.where(go, wp.where(short, dmax, 0.0), SF[17, j])
+                SF[18, j] = wp.where(go, tr, SF[18, j])
+                SF[19, j] = wp.where(go, u, SF[19, j])
+                FF[0, j] = wp.where(go, pn[0], FF[0, j])
+                FF[3, j] = wp.where(go, px[0], FF[3, j])
+                FF[6, j] = wp.where(go, py_[0], FF[6, j])
+                FF[12, j] = wp.where(go, mn[0], FF[12, j])
+                FF[15, j] = wp.where(go, mx[0], FF[15, j])
+                FF[18, j] = wp.where(go, my[0], FF[18, j])
+                FF[1, j] = wp.where(go, pn[1], FF[1, j])
+                FF[4, j] = wp.where(go, px[1], FF[4, j])
+                FF[7, j] = wp.where(go, py_[1], FF[7, j])
+                FF[13, j] = wp.where(go, mn[1], FF[13, j])
+                FF[16, j] = wp.where(go, mx[1], FF[16, j])
+                FF[19, j] = wp.where(go, my[1], FF[19, j])
+                FF[2, j] = wp.where(go, pn[2], FF[2, j])
+                FF[5, j] = wp.where(go, px[2], FF[5, j])
+                FF[8, j] = wp.where(go, py_[2], FF[8, j])
+                FF[14, j] = wp.where(go, mn[2], FF[14, j])
+                FF[17, j] = wp.where(go, mx[2], FF[17, j])
+                FF[20, j] = wp.where(go, my[2], FF[20, j])
+                FF[9, j] = wp.where(go, hn, h0)
+                FF[10, j] = wp.where(go, hx, h1)
+                FF[11, j] = wp.where(go, hy, h2)
+                FF[21, j] = wp.where(go, sn, s0)
+                FF[22, j] = wp.where(go, sxv, s1)
+                FF[23, j] = wp.where(go, syv, s2)
+                FF[24, j] = wp.where(go, wn0, w0)
+                FF[25, j] = wp.where(go, wn1, w1)
+                FF[26, j] = wp.where(go, wn2, w2)
+                FG[0, j] = wp.where(go, gn, g0)
+                FG[1, j] = wp.where(go, gx, g1)
+                FG[2, j] = wp.where(go, gy, g2)
+            # ---- the lanes whose step is rare take it in the scalar functions ----
+            busy = int(0)
+            for j in range(LANES):
+                if RV[j] == 1:
+                    slot = base + j
+                    ls = scratch[slot]
+                    ls.fc.pa = wp.vec3(FF[0, j], FF[1, j], FF[2, j])
+                    ls.fc.pb = wp.vec3(FF[3, j], FF[4, j], FF[5, j])
+                    ls.fc.pc = wp.vec3(FF[6, j], FF[7, j], FF[8, j])
+                    ls.fc.h = wp.vec3(FF[9, j], FF[10, j], FF[11, j])
+                    ls.fc.ma = wp.vec3(FF[12, j], FF[13, j], FF[14, j])
+                    ls.fc.mb = wp.vec3(FF[15, j], FF[16, j], FF[17, j])
+                    ls.fc.mc = wp.vec3(FF[18, j], FF[19, j], FF[20, j])
+                    ls.fc.s = wp.vec3(FF[21, j], FF[22, j], FF[23, j])
+                    ls.fc.w = wp.vec3(FF[24, j], FF[25, j], FF[26, j])
+                    ls.fc.g = wp.vec3i(FG[0, j], FG[1, j], FG[2, j])
+                    ls.t_in = SF[0, j]
+                    ls.s_in = SF[1, j]
+                    ls.acc = wp.vec4(SF[2, j], SF[3, j], SF[4, j], SF[5, j])
+                    ls.own = wp.vec4(SF[6, j], SF[7, j], SF[8, j], SF[9, j])
+                    ls.v_in = wp.vec4(SF[10, j], SF[11, j], SF[12, j], SF[13, j])
+                    ls.ds_in = SF[14, j]
+                    ls.scal_err = SF[15, j]
+                    ls.thin_mem.d = SF[16, j]
+                    ls.thin_mem.dmax = SF[17, j]
+                    ls.thin_mem.tr = SF[18, j]
+                    ls.thin_mem.u = SF[19, j]
+                    ls.cell = SI[0, j]
+                    ls.gn = SI[1, j]
+                    ls.cells = SI[2, j]
+                    ls.stall = SI[3, j]
+                    ls.k_in = SI[4, j]
+                    ls.thin_mem.is_short = SI[5, j]
+                    ls.walking = SI[6, j]
+                    ls = lane_step(ls, scale, mesh, ig, opts)
+                    for i in range(3):
+                        FF[i, j] = ls.fc.pa[i]
+                        FF[3 + i, j] = ls.fc.pb[i]
+                        FF[6 + i, j] = ls.fc.pc[i]
+                        FF[9 + i, j] = ls.fc.h[i]
+                        FF[12 + i, j] = ls.fc.ma[i]
+                        FF[15 + i, j] = ls.fc.mb[i]
+                        FF[18 + i, j] = ls.fc.mc[i]
+                        FF[21 + i, j] = ls.fc.s[i]
+                        FF[24 + i, j] = ls.fc.w[i]
+                        FG[i, j] = ls.fc.g[i]
+                        SF[20 + i, j] = ls.r.o[i]
+                        SF[23 + i, j] = ls.r.d[i]
+                    for i in range(4):
+                        SF[2 + i, j] = ls.acc[i]
+                        SF[6 + i, j] = ls.own[i]
+                        SF[10 + i, j] = ls.v_in[i]
+                    SF[0, j] = ls.t_in
+                    SF[1, j] = ls.s_in
+                    SF[14, j] = ls.ds_in
+                    SF[15, j] = ls.scal_err
+                    SF[16, j] = ls.thin_mem.d
+                    SF[17, j] = ls.thin_mem.dmax
+                    SF[18, j] = ls.thin_mem.tr
+                    SF[19, j] = ls.thin_mem.u
+                    SF[26, j] = ls.t_clip
+                    SI[0, j] = ls.cell
+                    SI[1, j] = ls.gn
+                    SI[2, j] = ls.cells
+                    SI[3, j] = ls.stall
+                    SI[4, j] = ls.k_in
+                    SI[5, j] = ls.thin_mem.is_short
+                    SI[6, j] = ls.walking
+                    kl_ = wp.max(ls.k_in - 1, 0)  # the lane's TF piece: its control points' scalars and values
+                    kh_ = wp.min(ls.k_in, ig.tf_s.shape[0] - 1)
+                    SF[27, j] = ig.tf_s[kl_]
+                    SF[28, j] = ig.tf_s[kh_]
+                    SF[29, j] = fm.tf_v[4 * kl_]
+                    SF[30, j] = fm.tf_v[4 * kl_ + 1]
+                    SF[31, j] = fm.tf_v[4 * kl_ + 2]
+                    SF[32, j] = fm.tf_v[4 * kl_ + 3]
+                    SF[33, j] = fm.tf_v[4 * kh_]
+                    SF[34, j] = fm.tf_v[4 * kh_ + 1]
+                    SF[35, j] = fm.tf_v[4 * kh_ + 2]
+                    SF[36, j] = fm.tf_v[4 * kh_ + 3]
+                    scratch[slot] = ls
+                busy = busy + SI[6, j]
+        for j in range(LANES):
+            slot = base + j
+            if slot < end:
+                idx = slot
+                if ids.shape[0] > 0:
+                    idx = ids[slot]
+                ls = scratch[slot]
+                if ls.idx >= 0:
+                    ls.fc.pa = wp.vec3(FF[0, j], FF[1, j], FF[2, j])
+                    ls.fc.pb = wp.vec3(FF[3, j], FF[4, j], FF[5, j])
+                    ls.fc.pc = wp.vec3(FF[6, j], FF[7, j], FF[8, j])
+                    ls.fc.h = wp.vec3(FF[9, j], FF[10, j], FF[11, j])
+                    ls.fc.ma = wp.vec3(FF[12, j], FF[13, j], FF[14, j])
+                    ls.fc.mb = wp.vec3(FF[15, j], FF[16, j], FF[17, j])
+                    ls.fc.mc = wp.vec3(FF[18, j], FF[19, j], FF[20, j])
+                    ls.fc.s = wp.vec3(FF[21, j], FF[22, j], FF[23, j])
+                    ls.fc.w = wp.vec3(FF[24, j], FF[25, j], FF[26, j])
+                    ls.fc.g = wp.vec3i(FG[0, j], FG[1, j], FG[2, j])
+                    ls.t_in = SF[0, j]
+                    ls.s_in = SF[1, j]
+                    ls.acc = wp.vec4(SF[2, j], SF[3, j], SF[4, j], SF[5, j])
+                    ls.own = wp.vec4(SF[6, j], SF[7, j], SF[8, j], SF[9, j])
+                    ls.v_in = wp.vec4(SF[10, j], SF[11, j], SF[12, j], SF[13, j])
+                    ls.ds_in = SF[14, j]
+                    ls.scal_err = SF[15, j]
+                    ls.thin_mem.d = SF[16, j]
+                    ls.thin_mem.dmax = SF[17, j]
+                    ls.thin_mem.tr = SF[18, j]
+                    ls.thin_mem.u = SF[19, j]
+                    ls.cell = SI[0, j]
+                    ls.gn = SI[1, j]
+                    ls.cells = SI[2, j]
+                    ls.stall = SI[3, j]
+                    ls.k_in = SI[4, j]
+                    ls.thin_mem.is_short = SI[5, j]
+                    ls.walking = SI[6, j]
+                    lane_finish(ls, opts, rgb, trans, tcur, status, last, counters, chunk, sg)
+                k = int(0)
+                while k < reentries and (status[idx] & 3) == STATUS_ACTIVE:
+                    k += 1
+                    march_ray(idx, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last, counters, chunk, 7, sg)
+                if (status[idx] & 3) == STATUS_ACTIVE:
+                    wp.atomic_add(counters, chunk, 4, 1)
+
+    return march_lanes
+
+
+_LANES: dict = {}
+_LANES_LOCK = threading.Lock()
+
+
+def march_lanes_kernel(lanes: int, segs: bool = False):
+    """:func:`make_march_lanes`'s kernel of ``(lanes, segs)``, made once."""
+    key = (int(lanes), bool(segs))
+    with _LANES_LOCK:
+        if key not in _LANES:
+            _LANES[key] = make_march_lanes(*key)
+        return _LANES[key]

@@ -1,0 +1,66 @@
+"""The march with several rays per thread (:mod:`warpvol.kernels.lanes`) draws the same bits as one ray per thread:
+images, counters (the same float64 redo counts) on built-in scenes and the quick stress classes, for the CPU's lane
+count and for 4 lanes (a CPU without AVX-512 or AVX2)."""
+
+from __future__ import annotations
+
+import warnings
+
+import pytest
+
+from test_walk_pins import BUILTIN, STRESS, pin_of, scene_of
+
+SCENES = [b for b, _ in BUILTIN] + list(STRESS)
+PRESETS = ("raycast", "peel")
+#: further quick stress classes (warpvol/tools/stress.py) for raycast: thick and thin pieces, the emission model, a
+#: constant field, slivers of extreme edge ratio, an orthographic eye inside the mesh
+MORE_STRESS = ("extinction_1e+02", "extinction_1e-02", "emission_density_scale_1e-12", "constant_scalars",
+               "edge_ratio_1e6", "ortho_eye_inside")
+
+
+def render_with_lanes(scene: str, preset: str, lanes: int) -> dict:
+    from warpvol.errors import ConfigError
+    from warpvol.pipeline import Pipeline
+    from warpvol.raycasting.stages import raycast as stage
+
+    old = stage.MARCH_LANES
+    stage.MARCH_LANES = lanes
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = Pipeline.load(preset).render(scene_of(scene), quiet=True)
+    except ConfigError as e:
+        return {"declined": str(e)}
+    finally:
+        stage.MARCH_LANES = old
+    return pin_of(res.image, res.report)
+
+
+def lane_counts() -> list[int]:
+    from warpvol.kernels.lanes import device_lanes
+
+    return sorted({device_lanes("cpu"), 4})
+
+
+@pytest.mark.parametrize("scene", SCENES)
+@pytest.mark.parametrize("preset", PRESETS)
+def test_lanes_bit_identical(scene, preset):
+    one = render_with_lanes(scene, preset, 1)
+    for lanes in lane_counts():
+        assert render_with_lanes(scene, preset, lanes) == one, lanes
+
+
+@pytest.mark.parametrize("scene", MORE_STRESS)
+def test_lanes_bit_identical_stress(scene):
+    one = render_with_lanes(scene, "raycast", 1)
+    for lanes in lane_counts():
+        assert render_with_lanes(scene, "raycast", lanes) == one, lanes
+
+
+def test_device_lanes():
+    from warpvol.kernels.lanes import device_lanes
+    from warpvol.raycasting.stages.raycast import march_lanes
+
+    assert device_lanes("cuda:0") == 1
+    assert march_lanes("cuda:0") == 1
+    assert device_lanes("cpu") in (4, 8, 16)
