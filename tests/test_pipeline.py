@@ -26,7 +26,7 @@ def test_unknown_key_is_an_error_naming_it():
 
 
 def test_bad_parameter_value_names_range():
-    with pytest.raises(ConfigError, match=r"raycast.*t_min: 2.0 is outside the allowed range \[0, 1\]"):
+    with pytest.raises(ConfigError, match=r"raycast.*early_termination: 2.0 is outside the allowed range \[0, 1\]"):
         Pipeline.from_config({"stages": [{"stage": "raycast", "t_min": 2.0}]})
     with pytest.raises(ConfigError, match=r"tile: expected an integer"):
         Pipeline.from_config({"stages": [{"stage": "entry_bins", "tile": 2.5}]})
@@ -125,3 +125,14 @@ def test_every_stage_declares_what_it_needs_and_provides():
 def test_the_raycast_preset_passes_the_check_and_its_stages_chain():
     pipe = Pipeline.load("raycast")
     assert [s.name for s in pipe.stages] == ["condition", "visibility", "cell_setup", "entry_bins", "raycast", "peel"]
+
+
+def test_an_old_parameter_name_is_still_accepted_with_a_deprecation_note():
+    """raycast's early termination was ``t_min``: pipeline files that still say so keep working (warned)."""
+    with pytest.warns(DeprecationWarning, match="'t_min' is the old name of 'early_termination'"):
+        p = Pipeline.from_config({"stages": [{"stage": "cell_setup"}, {"stage": "entry_bins"},
+                                             {"stage": "raycast", "t_min": 0.0}]})
+    st = p.stages[-1]
+    assert st.config["early_termination"] == 0.0 and st.t_min == 0.0 and "t_min" not in st.config
+    with pytest.raises(ConfigError, match="'early_termination' and its old name 't_min' both given"):
+        Pipeline.from_config({"stages": [{"stage": "raycast", "t_min": 0.0, "early_termination": 0.0}]})

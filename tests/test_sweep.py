@@ -30,10 +30,10 @@ eye = [5.0, 1.0, 2.0]
 name = "default"
 [[options]]
 name = "t_min0"
-overrides = { "raycast.t_min" = 0.0 }
+overrides = { "raycast.early_termination" = 0.0 }
 [[options]]
 name = "bad"
-overrides = { "raycast.t_min" = -1.0 }
+overrides = { "raycast.early_termination" = -1.0 }
 [[options]]
 name = "elsewhere"
 overrides = { "no_such_stage.bits" = 8 }
@@ -68,7 +68,7 @@ def test_serial_sweep_rows(config, serial):
     assert status.count("n/a") == len(na) == 2 * 2 * (2 + 2)
     assert all("has no stage" in r["message"] for r in res.rows if r["status"] == "n/a")
     bad = [r for r in res.rows if r["options"] == "bad"]
-    assert all(r["status"] == "failed" and "t_min" in r["message"] for r in bad if r["pipeline"] == "raycast")
+    assert all(r["status"] == "failed" and "early_termination" in r["message"] for r in bad if r["pipeline"] == "raycast")
     ok = [r for r in res.rows if r["status"] == "ok"]
     assert ok and all(r["rmse"] < 2e-6 for r in ok if r["pipeline"] == "raycast")
     assert all((out / "tasks" / f"{r['task']}.npy").is_file() for r in ok)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import sys
 import time
+import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Iterator
@@ -38,6 +39,8 @@ class Param:
     hi: float | None = None
     lo_open: bool = False
     hi_open: bool = False
+    #: old names of the parameter, still accepted in pipeline files (with a DeprecationWarning)
+    aliases: tuple[str, ...] = ()
 
     def validate(self, where: str, value: Any) -> Any:
         key = f"{where}.{self.name}"
@@ -62,7 +65,33 @@ class Param:
             lo = "-inf" if self.lo is None else self.lo
             hi = "inf" if self.hi is None else self.hi
             rng = f"{'(' if self.lo_open else '['}{lo}, {hi}{')' if self.hi_open else ']'}"
-        return f"{self.name:<18} {self.kind.__name__:<6} {self.default!r:<12} {rng:<22} {self.doc}"
+        old = f" (old name: {', '.join(self.aliases)})" if self.aliases else ""
+        return f"{self.name:<18} {self.kind.__name__:<6} {self.default!r:<12} {rng:<22} {self.doc}{old}"
+
+
+def renamed_params(where: str, declared: tuple[Param, ...], params: dict[str, Any]) -> dict[str, Any]:
+    """``params`` with every old parameter name (a :class:`Param`'s ``aliases``) moved to its current name,
+    each with a DeprecationWarning naming both; both names given at once is an error.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True):
+    ...     renamed_params("stage 'x'", (Param("early_termination", float, 0.0, "", aliases=("t_min",)),),
+    ...                    {"t_min": 1e-6})
+    {'early_termination': 1e-06}
+    """
+    out = dict(params)
+    for p in declared:
+        for old in p.aliases:
+            if old not in out:
+                continue
+            if p.name in out:
+                raise ConfigError(f"{where}: {p.name!r} and its old name {old!r} both given; keep {p.name!r}")
+            warnings.warn(f"{where}: {old!r} is the old name of {p.name!r} (still accepted)", DeprecationWarning,
+                          stacklevel=3)
+            out[p.name] = out.pop(old)
+    return out
 
 
 # ------------------------------------------------------------------------------------------------
@@ -106,6 +135,7 @@ class Stage:
         self.device = device
         self.where = where or f"stage {self.name!r}"
         allowed = {p.name: p for p in self.params}
+        params = renamed_params(self.where, self.params, params)
         check_keys(self.where, params, list(allowed))
         self.config: dict[str, Any] = {}
         for p in self.params:
@@ -119,6 +149,9 @@ class Stage:
         cfg = self.__dict__.get("config")
         if cfg is not None and item in cfg:
             return cfg[item]
+        for p in type(self).params:  # an old name reads the current one
+            if item in p.aliases and cfg is not None:
+                return cfg[p.name]
         raise AttributeError(item)
 
     def requires_caps(self) -> dict[str, Any]:

@@ -15,7 +15,7 @@ A sweep config (TOML)::
     name = "default"
     [[options]]
     name = "no-early-termination"
-    overrides = { "raycast.t_min" = 0.0 }
+    overrides = { "raycast.early_termination" = 0.0 }
     [[options]]
     name = "no-skip"                 # skip = false: every render does all the work (render --no-skip)
     skip = false

@@ -27,16 +27,16 @@ from warpvol.stage import Context, Param, Stage, register_stage
 class Peel(Stage):
     """Re-entry passes for non-convex meshes.
 
-    ==========  =====  =========  =============================================================
-    parameter   type   default    meaning
-    ==========  =====  =========  =============================================================
-    max_passes  int    256        upper bound on re-entry passes (>= 1); rays still
-                                  re-entering after it are redone in float64
-    max_steps   int    1000000    cell steps per ray and entry before giving up
-    t_min       float  1e-6       early termination: the most a channel may change (0: off)
-    threads     int    0          host threads launching CPU row blocks (0: all cores)
-    reentries   int    256        re-entries per ray within a pass (>= 0; 0: one entry per pass)
-    ==========  =====  =========  =============================================================
+    =================  =====  =========  =============================================================
+    parameter          type   default    meaning
+    =================  =====  =========  =============================================================
+    max_passes         int    256        upper bound on re-entry passes (>= 1); rays still
+                                         re-entering after it are redone in float64
+    max_steps          int    1000000    cell steps per ray and entry before giving up
+    early_termination  float  1e-6       the most a channel may change (0: off; old name ``t_min``)
+    threads            int    0          host threads launching CPU row blocks (0: all cores)
+    reentries          int    256        re-entries per ray within a pass (>= 0; 0: one entry per pass)
+    =================  =====  =========  =============================================================
 
     The stats' ``reentries`` count every re-entry of the frame, those the ``raycast`` pass made in its
     threads (``raycast``'s ``reentries``) and this stage's; ``passes`` this stage's passes.

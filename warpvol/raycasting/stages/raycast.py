@@ -297,8 +297,8 @@ def report_left_out(ctx: Context, t_min: float, early: int, missed: int | None =
 
 RAY_PARAMS = (
     Param("max_steps", int, 1_000_000, "cell steps per ray and entry before giving up", lo=1),
-    Param("t_min", float, 1e-6, "early ray termination: the most any channel of a pixel may change by it (the "
-          "transmittance times the brightest radiance behind; 0: off)", lo=0.0, hi=1.0),
+    Param("early_termination", float, 1e-6, "early ray termination: the most any channel of a pixel may change by "
+          "it (the transmittance times the brightest radiance behind; 0: off)", lo=0.0, hi=1.0, aliases=("t_min",)),
     Param("threads", int, 0, "host threads launching row blocks on the CPU (0: all cores)", lo=0, hi=256),
     Param("reentries", int, 256, "re-entries of a ray within one pass, in its thread (0: one entry per pass, each "
           "further entry a peel pass)", lo=0),
@@ -319,14 +319,14 @@ class Raycast(Stage):
     float32 to resolve -- at its extinction, or seen edge-on (:func:`warpvol.shared.thin_cells.unresolved_pixels`)
     -- are not walked but traced in float64 from the start (``thin_cell_rays``, among ``float64_rays``).
 
-    ==========  =====  =========  =============================================================
-    parameter   type   default    meaning
-    ==========  =====  =========  =============================================================
-    max_steps   int    1000000    cell steps per ray and entry before giving up (>= 1)
-    t_min       float  1e-6       early termination: the most a channel may change, [0, 1] (0: off)
-    threads     int    0          host threads launching CPU row blocks (0: all cores)
-    reentries   int    256        re-entries per ray within the pass (>= 0; 0: one entry per pass)
-    ==========  =====  =========  =============================================================
+    =================  =====  =========  =============================================================
+    parameter          type   default    meaning
+    =================  =====  =========  =============================================================
+    max_steps          int    1000000    cell steps per ray and entry before giving up (>= 1)
+    early_termination  float  1e-6       the most a channel may change, [0, 1] (0: off; old name ``t_min``)
+    threads            int    0          host threads launching CPU row blocks (0: all cores)
+    reentries          int    256        re-entries per ray within the pass (>= 0; 0: one entry per pass)
+    =================  =====  =========  =============================================================
 
     A ray that leaves the (visible) mesh searches its next entry beyond the exit and walks on in the same
     thread, up to ``reentries`` times (``reentries`` in the stats; ``entries`` counts the first entries):
