@@ -27,7 +27,7 @@ def test_unknown_key_is_an_error_naming_it():
 
 def test_bad_parameter_value_names_range():
     with pytest.raises(ConfigError, match=r"raycast.*early_termination: 2.0 is outside the allowed range \[0, 1\]"):
-        Pipeline.from_config({"stages": [{"stage": "raycast", "t_min": 2.0}]})
+        Pipeline.from_config({"stages": [{"stage": "raycast", "early_termination": 2.0}]})
     with pytest.raises(ConfigError, match=r"tile: expected an integer"):
         Pipeline.from_config({"stages": [{"stage": "entry_bins", "tile": 2.5}]})
 
