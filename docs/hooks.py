@@ -49,7 +49,7 @@ DOCS = Path(__file__).resolve().parent
 DATA = DOCS / "data"
 ROOT = DOCS.parent
 
-MARKER = re.compile(r"(?<!`)<!--\s*(table|bench|presets|preset|cli|architecture-link|error-time|paper-figure|value)\b\s*:?\s*([^>]*?)\s*-->")
+MARKER = re.compile(r"(?<!`)<!--\s*(table|bench|presets|preset|stage-params|cli|architecture-link|error-time|paper-figure|value)\b\s*:?\s*([^>]*?)\s*-->")
 
 
 # -- formatting -----------------------------------------------------------------------------------
@@ -274,6 +274,29 @@ def cli_help(sub: str) -> str:
     return "```text\n$ warpvol " + (sub + " " if sub else "") + "--help\n" + _HELP[sub] + "\n```\n"
 
 
+def stage_params(_: str = "") -> str:
+    """Every registered stage with its parameters, from the stages' ``Param`` declarations."""
+    from warpvol.pipeline import _load_builtin_stages
+    from warpvol.stage import STAGES
+
+    _load_builtin_stages()
+    out = []
+    for name in sorted(STAGES):
+        cls = STAGES[name]
+        out.append(f"### `{name}`\n\n{cls.summary}\n")
+        if not cls.params:
+            out.append("No parameters.\n")
+            continue
+        out.append("| parameter | type | default | allowed | meaning |\n| --- | --- | --- | --- | --- |")
+        for p in cls.params:
+            allowed = p.allowed()
+            doc = p.doc + (f" (old name: `{'`, `'.join(p.aliases)}`)" if p.aliases else "")
+            allowed = allowed.replace("|", "\\|")
+            out.append(f"| `{p.name}` | {p.kind.__name__} | `{p.default!r}` | {allowed} | {doc.replace('|', chr(92) + '|')} |")
+        out.append("")
+    return "\n".join(out) + "\n"
+
+
 def _architecture_exists() -> bool:
     return (DOCS / "architecture.md").is_file()
 
@@ -382,7 +405,7 @@ def quoted_value(arg: str) -> str:
 
 
 HANDLERS = {"value": quoted_value, "paper-figure": paper_figure, "table": paper_table, "bench": bench_table, "preset": preset_stages, "presets": presets_list,
-            "cli": cli_help, "architecture-link": architecture_link, "error-time": error_time_plot}
+            "cli": cli_help, "stage-params": stage_params, "architecture-link": architecture_link, "error-time": error_time_plot}
 
 
 def expand(markdown: str) -> str:

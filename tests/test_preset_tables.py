@@ -24,3 +24,24 @@ def test_the_preset_tables_are_what_the_script_generates(capsys):
 def test_the_preset_table_names_every_shipped_preset_once():
     named = [p for _, _, presets, _ in PRESET_TABLE for p in presets]
     assert sorted(named) == sorted(n for n, _ in list_presets())
+
+
+def test_the_stage_page_is_generated_from_every_stages_params():
+    """docs/guide/stages.md's tables come from the stages' Param declarations: every stage and parameter."""
+    import sys
+
+    from warpvol.pipeline import _load_builtin_stages
+    from warpvol.stage import STAGES
+
+    sys.path.insert(0, str(ROOT / "docs"))
+    try:
+        import hooks
+    finally:
+        sys.path.pop(0)
+    assert "<!-- stage-params -->" in (ROOT / "docs" / "guide" / "stages.md").read_text()
+    text = hooks.stage_params("")
+    _load_builtin_stages()
+    for name, cls in STAGES.items():
+        assert f"### `{name}`" in text
+        assert all(f"| `{p.name}` |" in text for p in cls.params), name
+    assert "(old name: `t_min`)" in text

@@ -58,6 +58,11 @@ class Param:
         return value
 
     def describe(self) -> str:
+        old = f" (old name: {', '.join(self.aliases)})" if self.aliases else ""
+        return f"{self.name:<18} {self.kind.__name__:<6} {self.default!r:<12} {self.allowed():<22} {self.doc}{old}"
+
+    def allowed(self) -> str:
+        """The allowed values in words: the choices, or the range (empty: any value of the type)."""
         rng = ""
         if self.choices:
             rng = " | ".join(map(str, self.choices))
@@ -65,8 +70,7 @@ class Param:
             lo = "-inf" if self.lo is None else self.lo
             hi = "inf" if self.hi is None else self.hi
             rng = f"{'(' if self.lo_open else '['}{lo}, {hi}{')' if self.hi_open else ']'}"
-        old = f" (old name: {', '.join(self.aliases)})" if self.aliases else ""
-        return f"{self.name:<18} {self.kind.__name__:<6} {self.default!r:<12} {rng:<22} {self.doc}{old}"
+        return rng
 
 
 def renamed_params(where: str, declared: tuple[Param, ...], params: dict[str, Any]) -> dict[str, Any]:
