@@ -11,7 +11,7 @@ apply_launch_order()
 def kernel_modules() -> list:
     """Every Warp module (``warp`` ``Module`` objects) that defines kernels: one per file of this package
     that has kernels, one per HARC march configuration (:func:`warpvol.kernels.harc.march_kernel`,
-    each a module of its own) and one per ``raycast`` march configuration
+    each a module of its own, and ``harc_best``'s with segments) and one per ``raycast`` march configuration
     (:func:`warpvol.kernels.raycast.march_kernel`), and the lane march of one lane
     (:func:`warpvol.kernels.lanes_march.march_lanes_kernel`). Files that define only ``@wp.func`` s are compiled through the kernels that
     call them."""
@@ -35,6 +35,7 @@ def kernel_modules() -> list:
                 if setup == harc.SETUP_PAPER and walk != harc.WALK_PLANES:
                     continue  # make_march refuses it: the paper's set-up walks the face planes
                 out.append(harc.march_kernel(walk, setup, mode).module)
+    out.append(harc.march_kernel(harc.WALK_PLUCKER, harc.SETUP_ROBUST, INTEG_EXACT, True).module)  # with segments
     from . import pt_span
 
     out.append(pt_span.span_kernel_cached(16).module)

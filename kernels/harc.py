@@ -61,6 +61,7 @@ from .cellwalk import (  # noqa: F401 (MeshTex, cell_texel, plane_exit: re-expor
     CellMesh,
     MeshTex,
     RayCamera,
+    Segments,
     WalkOpts,
     camera_ray,
     cell_texel,
@@ -69,6 +70,7 @@ from .cellwalk import (  # noqa: F401 (MeshTex, cell_texel, plane_exit: re-expor
     plane_exit,
     plane_lambda,
     plane_of,
+    put_segment,
 )
 from .formats import NumFmt, fmt_quantize
 from .harc_integ import INTEG_EXACT, Integ, integrate_sub, segment, segments_kernel  # noqa: F401 (re-exported)
@@ -151,7 +153,7 @@ def no_face_around(px: int, py: int, width: int, height: int, frag_start: wp.arr
 MARCH_OPTIONS = {"enable_backward": False, "fuse_fp": False}
 
 
-def make_march(walk: int, setup: int, mode: int):
+def make_march(walk: int, setup: int, mode: int, segs: bool = False):
     """The march kernel of one configuration: ``walk`` (:data:`WALK_PLANES` | :data:`WALK_PLUCKER`),
     ``setup`` (:data:`SETUP_ROBUST` | :data:`SETUP_PAPER`) and integration ``mode`` (``INTEG_*``, the mode
     of the :class:`Integ` it is launched with) are fixed when the kernel is generated (``wp.static``
@@ -162,7 +164,10 @@ def make_march(walk: int, setup: int, mode: int):
     One thread per active ray (pixels ``first ..``, or ``ids[first ..]`` when a list of the active rays'
     pixels is given: a re-entry pass): ray set-up, the ray start (entry search), the walk, the
     pass's result to the frame buffer in its number format, the counters (see the module docstring) and
-    ``px_work`` (the pixel's cells visited and fragment-program steps in this pass)."""
+    ``px_work`` (the pixel's cells visited and fragment-program steps in this pass). ``segs`` (the consistent walk
+    with exact segments only): each entry also writes its segment (front and back ray parameter, its own colour
+    and transmittance) to the :class:`~warpvol.kernels.cellwalk.Segments` it is launched with, as ``raycast``'s
+    march does; without it the kernel ignores that argument."""
     planes = walk == WALK_PLANES
     paper = setup == SETUP_PAPER
     exact = mode == INTEG_EXACT
@@ -171,8 +176,10 @@ def make_march(walk: int, setup: int, mode: int):
     # the consistent walk with exact segments (and its checks) carries (rgb, transmittance) as raycast does; the
     # other walks composite RGBA "under" (the paper's Fig. 6)
     fused = (not planes) and exact
+    if segs and not fused:
+        raise ValueError("make_march: segments are kept by the consistent walk with exact segments only")
 
-    walk_cells = make_walk(planes, paper, mode, clip=False)  # (a ray starting inside the sphere is failed first)
+    walk_cells = make_walk(planes, paper, mode, segs=segs, clip=False)  # (a ray starting inside the sphere is failed first)
 
     @wp.kernel(module="unique", module_options=MARCH_OPTIONS)
     def harc_march(
@@ -193,6 +200,7 @@ def make_march(walk: int, setup: int, mode: int):
         counters: wp.array2d(dtype=wp.int32),
         chunk: int,
         px_work: wp.array(dtype=wp.vec2i),
+        sg: Segments,
     ):
         tid = wp.tid()
         idx = first + tid  # the pixels first .. (all rays of the image active)
@@ -346,6 +354,7 @@ def make_march(walk: int, setup: int, mode: int):
         acc = rgba[idx]
         if wp.static(fused):
             acc = wp.vec4(acc[0], acc[1], acc[2], 1.0 - acc[3])  # the exact Plücker walk carries (rgb, tr)
+        t_front = t_in  # the entry's ray parameter (its segment's front)
         acc, t_in, cell, steps, cells_visited, failed, exited, thin, backward, fetches, own = walk_cells(
             cell, face_in, fc, t_in, s_in, acc, r, o, d, t_clip, float(cam.radius), mesh, mt, ig, opts, counters,
             chunk)
@@ -375,6 +384,8 @@ def make_march(walk: int, setup: int, mode: int):
             if thin == 1:
                 wp.atomic_add(counters, chunk, 8, 1)
             return
+        if wp.static(segs):
+            put_segment(sg, idx, t_front, t_in, own)
         # the pass's result goes to the frame buffer in its number format
         rgba[idx] = wp.vec4(fmt_quantize(fb, acc[0]), fmt_quantize(fb, acc[1]), fmt_quantize(fb, acc[2]),
                             fmt_quantize(fb, acc[3]))
@@ -402,9 +413,9 @@ _MARCH: dict = {}
 _MARCH_LOCK = threading.Lock()
 
 
-def march_kernel(walk: int, setup: int, mode: int):
-    """The :func:`make_march` kernel of ``(walk, setup, mode)``, made once per configuration."""
-    key = (int(walk), int(setup), int(mode))
+def march_kernel(walk: int, setup: int, mode: int, segs: bool = False):
+    """The :func:`make_march` kernel of ``(walk, setup, mode, segs)``, made once per configuration."""
+    key = (int(walk), int(setup), int(mode), bool(segs))
     with _MARCH_LOCK:
         if key not in _MARCH:
             _MARCH[key] = make_march(*key)

@@ -129,6 +129,7 @@ def test_missing_or_unreadable_piece_names_it(pieces, tmp_path):
     r = subprocess.run([sys.executable, "-m", "warpvol.cli", "render", str(scene), "--pipeline", "pt_best",
                         "--scheduler", "local", "-o", str(out)], capture_output=True, text=True)
     assert r.returncode == 2 and "piece by piece" in r.stderr and not out.exists()
+    assert "presets that do: raycast, harc_best" in r.stderr
     # a local worker's memory limit: only for pieces on a local cluster, a size
     for scene_arg, sched, mem, why in ((str(scene), "local", "lots", "expected a size"),
                                        ("builtin:box", None, "1GB", "only used with --scheduler local")):
@@ -231,3 +232,28 @@ def test_solver_pieces_with_ghost_layers(tmp_path, tets):
         segs, rep = render_pieces(pvtu_pieces(path), "s", tf, cam, client)
     assert sum(p.get("ghost_cells_dropped", 0) for p in rep["pieces"]) == ghosts > 0
     np.testing.assert_allclose(segs.flatten(), ref, rtol=0, atol=TOLERANCES["pieces/reference"]["max_abs"])
+
+
+def test_harc_best_pieces_equal_the_single_render(pieces):
+    """harc_best into segments: the whole mesh flattens to the preset's image, and the pieces (in the whole
+    mesh's frame, on a local Dask cluster) merged by depth too, within pieces/harc_best."""
+    from dask.distributed import Client, LocalCluster
+
+    from tests.tolerances import TOLERANCES, preset_tolerance
+    from warpvol.pipeline import Pipeline
+    from warpvol.raycast_segments import harc_segments
+
+    s, scene, ref = pieces
+    img = Pipeline.load("harc_best").render(s, quiet=True).image
+    tol, close = preset_tolerance("harc_best"), TOLERANCES["pieces/harc_best"]
+    st: dict = {}
+    whole = harc_segments(s, stats=st).flatten()
+    assert st["passes"] >= 2  # the depth-peel passes re-entered the concave mesh
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=False, dashboard_address=None) as cl, \
+            Client(cl) as client:
+        res = warpvol.render_in_pieces(scene, "harc_best", client)
+    assert len(res["report"]["pieces"]) == 2 and res["report"]["frame"]["h"] > 0
+    for got in (whole, res["image"]):
+        d = got - img
+        assert np.sqrt((d ** 2).mean()) <= close["rmse"] and abs(d).max() <= close["max_abs"]
+        assert np.sqrt(((got - ref) ** 2).mean()) <= tol["rmse"] and abs(got - ref).max() <= tol["max_abs"]

@@ -29,10 +29,11 @@ import numpy as np
 
 from warpvol.errors import ConfigError, WarpvolError
 
-#: what the pieces can be rendered as (segments): the exact reference
-PIECE_RENDERERS = ("reference", "raycast")
-#: presets that render a piece into segments (``warpvol render PIECES --scheduler``)
-PIECE_PIPELINES: tuple[str, ...] = ("raycast",)
+#: presets that render a piece into segments (``warpvol render PIECES --scheduler``;
+#: :data:`warpvol.raycast_segments.PRESETS`)
+PIECE_PIPELINES: tuple[str, ...] = ("raycast", "harc_best")
+#: what the pieces can be rendered as (segments): the exact reference or a preset of :data:`PIECE_PIPELINES`
+PIECE_RENDERERS = ("reference",) + PIECE_PIPELINES
 
 
 def pvtu_pieces(path: Path | str) -> list[Path]:
@@ -213,12 +214,12 @@ def piece_segments(path: str, scalars: str, tf, camera, what: str = "reference",
         raise
     extra: dict = {}
     try:
-        if what == "raycast":
-            from warpvol.raycast_segments import raycast_segments
+        if what in PIECE_PIPELINES:
+            from warpvol.raycast_segments import preset_segments
             from warpvol.scene.scene import Scene
 
-            segs = raycast_segments(Scene(mesh=mesh, transfer=tf, camera=camera, name=mesh.name), stats=extra,
-                                    frame=frame, threads=_worker_threads())
+            segs = preset_segments(Scene(mesh=mesh, transfer=tf, camera=camera, name=mesh.name), what, stats=extra,
+                                   frame=frame, threads=_worker_threads())
         else:  # bands of at most 4 million candidate (tet, pixel) pairs: a worker's memory stays small
             segs = reference_segments(mesh, tf, camera, band_pairs=4_000_000)
     finally:
@@ -265,7 +266,7 @@ def render_pieces(pieces: list[Path], scalars: str, tf, camera, scheduler: Any =
         n_workers = max(1, len(client.scheduler_info(n_workers=-1).get("workers", {})))
         tag = f"{os.getpid()}-{id(pieces)}-{time.monotonic_ns()}"
         frame = None
-        if what == "raycast":  # first pass: the whole mesh's frame from the pieces' bounds and scalar ranges
+        if what in PIECE_PIPELINES:  # first pass: the whole mesh's frame from the pieces' bounds and scalar ranges
             from warpvol.conditioning.conditioning import shared_frame
 
             heads = client.gather([client.submit(piece_bounds, str(p), scalars, key=f"bounds-{k}-{tag}", pure=False)

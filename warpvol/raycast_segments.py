@@ -1,9 +1,10 @@
-"""The ``raycast`` preset rendered into segments (:mod:`warpvol.segments`), for a mesh in pieces.
+"""The ray casters ``raycast`` and ``harc_best`` rendered into segments (:mod:`warpvol.segments`), for a mesh
+in pieces.
 
-The preset's host stages (``condition`` .. ``entry_bins``) run as in a render; the float32 cell walk then
-keeps each entry's segment (front and back ray parameter, its own colour and transmittance:
-``march_pass(segments=...)``) over as many passes as rays re-enter, without early ray termination (a piece
-does not know what lies behind it). Rays the float32 walk cannot resolve (thin cells, a failed walk, more
+The preset's host stages (``condition`` .. ``entry_bins`` or ``harc_raster``) run as in a render; its float32 cell
+walk (the same exact Plücker walk in both) then keeps each entry's segment (front and back ray parameter, its own
+colour and transmittance: ``march_pass(segments=...)``) over as many passes as rays re-enter (``harc_best``: its
+first pass and depth-peel passes), without early ray termination (a piece does not know what lies behind it). Rays the float32 walk cannot resolve (thin cells, a failed walk, more
 entries than the segment lists hold, passes exhausted) take the exact reference's segments instead, as the
 preset's float64 redo takes the reference's pixel. Depths are turned back into the world ray parameter of
 Contract 2 (the walk measures them in the conditioned frame from an origin moved to the mesh).
@@ -62,42 +63,78 @@ def _reference_rows(mesh, tf, camera, pixels: np.ndarray) -> tuple[np.ndarray, S
     return pix, segs
 
 
-def raycast_segments(scene, *, device: str = "cpu", threads: int = 0, cap: int = SEGMENT_CAP,
-                     stats: dict | None = None, frame: dict | None = None) -> Segments:
-    """``scene`` rendered by the ``raycast`` preset into segments (one per entry of a ray into the mesh);
-    ``stats`` gets ``float64_rays`` (rays given the reference's segments) and ``passes``. ``frame``
-    (:func:`warpvol.conditioning.conditioning.shared_frame`): a piece of a larger mesh is conditioned and set up
-    in the whole mesh's frame, so that pieces meet in the same float32 points."""
+def _march_raycast(ctx, pipe, keys, n: int, cap: int, threads: int):
+    """``raycast``'s walk over every ray, each entry's segment kept: ``(status, segments, passes, exhausted)``."""
     from warpvol.kernels import raycast as k
 
-    pipe = Pipeline.load("raycast", device=device)
-    keys = pipe.stage_keys()
-    if "entry_bins" not in keys or "raycast" not in keys:
-        raise ConfigError("raycast_segments: the raycast preset lacks its entry_bins or raycast stage")
-    ctx = Context(scene=scene, persistent=pipe.persistent, quiet=True, device=device)
-    if frame is not None:
-        ctx.buffers["frame"] = frame
-    for st in pipe.stages[:keys.index("entry_bins") + 1]:
-        st.run(ctx)
     rc = pipe.stages[keys.index("raycast")]
-    cam = ctx.scene.camera
-    n = int(cam.width_px) * int(cam.height_px)
     state = MarchState(n, ctx.device)
     mark_unresolved(ctx, state.status, int(k.STATUS_FAILED))
     sg = segments_struct(n, cap, ctx.device)
-    threads = threads or cpu_threads()
     march_pass(ctx, state, max_steps=rc.max_steps, t_min=0.0, threads=threads, reentries=rc.reentries, segments=sg)
-    passes, exhausted = 1, False
+    passes = 1
     while state.active:
         if passes == MAX_PASSES:  # rays that may re-enter further: the reference's segments
-            exhausted = True
-            break
+            return state.status.numpy(), sg, passes, True
         c = march_pass(ctx, state, max_steps=rc.max_steps, t_min=0.0, threads=threads, reentries=rc.reentries,
                        segments=sg)
         passes += 1
         if c[0] == 0:
             break
-    status = state.status.numpy()
+    return state.status.numpy(), sg, passes, False
+
+
+def _march_harc(ctx, pipe, keys, n: int, cap: int, threads: int):
+    """``harc_best``'s first pass and depth-peel passes over every ray, each entry's segment kept: ``(status,
+    segments, passes, exhausted)``; the peel stage's ``max_passes`` bounds the passes."""
+    from warpvol.kernels import raycast as k
+    from warpvol.raycasting.harc import HarcState
+
+    hc = pipe.stages[keys.index("harc")]
+    max_passes = pipe.stages[keys.index("harc_peel")].max_passes if "harc_peel" in keys else 1
+    state = HarcState(n, ctx.device)
+    sg = segments_struct(n, cap, ctx.device)
+    run_pass, _keep = hc.pass_runner(ctx, state, t_stop=0.0, segments=sg)
+    mark_unresolved(ctx, state.status, int(k.STATUS_FAILED))
+    passes = 0
+    while True:
+        c = run_pass()
+        passes += 1
+        if c["entries"] == 0:
+            return state.status.numpy(), sg, passes, False
+        if passes > max_passes:  # the first pass and max_passes peel passes: the rest take the reference's
+            return state.status.numpy(), sg, passes, True
+
+
+#: per preset: the host stage its walk follows, the stage that walks, and its march into segments
+PRESETS = {"raycast": ("entry_bins", "raycast", _march_raycast),
+           "harc_best": ("harc_raster", "harc", _march_harc)}
+
+
+def preset_segments(scene, preset: str = "raycast", *, device: str = "cpu", threads: int = 0,
+                    cap: int = SEGMENT_CAP, stats: dict | None = None, frame: dict | None = None) -> Segments:
+    """``scene`` rendered by ``preset`` (:data:`PRESETS`: ``raycast`` or ``harc_best``) into segments (one per
+    entry of a ray into the mesh); ``stats`` gets ``float64_rays`` (rays given the reference's segments) and
+    ``passes``. ``frame`` (:func:`warpvol.conditioning.conditioning.shared_frame`): a piece of a larger mesh is
+    conditioned and set up in the whole mesh's frame, so that pieces meet in the same float32 points."""
+    from warpvol.kernels import raycast as k
+
+    if preset not in PRESETS:
+        raise ConfigError(f"preset: {preset!r} cannot render into segments; presets that can: "
+                          f"{', '.join(PRESETS)}")
+    last_host, walker, march = PRESETS[preset]
+    pipe = Pipeline.load(preset, device=device)
+    keys = pipe.stage_keys()
+    if last_host not in keys or walker not in keys:
+        raise ConfigError(f"{preset}_segments: the {preset} preset lacks its {last_host} or {walker} stage")
+    ctx = Context(scene=scene, persistent=pipe.persistent, quiet=True, device=device)
+    if frame is not None:
+        ctx.buffers["frame"] = frame
+    for st in pipe.stages[:keys.index(last_host) + 1]:
+        st.run(ctx)
+    cam = ctx.scene.camera
+    n = int(cam.width_px) * int(cam.height_px)
+    status, sg, passes, exhausted = march(ctx, pipe, keys, n, cap, threads or cpu_threads())
     count = sg.count.numpy().astype(np.int64)
     redo = ((status & 3) == int(k.STATUS_FAILED)) | (count > cap)
     if exhausted:
@@ -126,3 +163,13 @@ def raycast_segments(scene, *, device: str = "cpu", threads: int = 0, cap: int =
     if stats is not None:
         stats.update(float64_rays=int(len(redo_pix)), passes=passes)
     return Segments.from_unsorted(pix, front, back, rgb, tau, (int(cam.height_px), int(cam.width_px)))
+
+
+def raycast_segments(scene, **kw) -> Segments:
+    """:func:`preset_segments` of the ``raycast`` preset."""
+    return preset_segments(scene, "raycast", **kw)
+
+
+def harc_segments(scene, **kw) -> Segments:
+    """:func:`preset_segments` of the ``harc_best`` preset."""
+    return preset_segments(scene, "harc_best", **kw)

@@ -27,7 +27,7 @@ from warpvol.gpu.texture import Texture2D
 from warpvol.gpu.vertex import VertexStage
 from warpvol.parallel import launch_blocks
 from warpvol.raycasting.stages.cell_setup import neighbour_faces
-from warpvol.raycasting.stages.raycast import camera_struct, cell_mesh_struct, ray_blocks, walk_opts
+from warpvol.raycasting.stages.raycast import camera_struct, cell_mesh_struct, ray_blocks, segments_struct, walk_opts
 from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
 from warpvol.scene.mesh import FACE_VERTS
 from warpvol.shared.entry_bins import entry_face_mask, face_depths
@@ -294,7 +294,7 @@ COUNTER_NAMES = ("entries", "steps", "cells", "failed", "step_bound", "iso_misse
 
 def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, fb_format: str, t_stop: float,
                max_steps: int, threads: int, scalar_check: int = 1, rows_per_block: int = 16,
-               setup: str = "robust") -> dict:
+               setup: str = "robust", segments=None) -> dict:
     """One propagation pass over all active rays (the kernel of this walk, set-up and integration:
     :func:`warpvol.kernels.harc.march_kernel`, one thread per active ray:
     :func:`warpvol.raycasting.stages.raycast.ray_blocks`); returns the summed counters by name (all zero,
@@ -302,7 +302,9 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     ``robust`` (float64 ray set-up from the mesh, :func:`warpvol.kernels.walk.pixel_ray`) or
     ``paper`` (the ray from the eye in fp32, in the frame of ``fp32`` mesh textures). ``scalar_check``: the
     exact walk's bound on the crossings' scalar errors on (1) or off where it provably cannot fire (0: the
-    frame's :func:`~warpvol.raycasting.stages.cell_setup.scalar_check_needed`)."""
+    frame's :func:`~warpvol.raycasting.stages.cell_setup.scalar_check_needed`). ``segments``
+    (:func:`~warpvol.raycasting.stages.raycast.segments_struct`, the consistent walk with exact segments): each
+    entry's segment is kept there (front and back ray parameter, its own colour and transmittance)."""
     import warp as wp
 
     from warpvol.kernels import harc as kh
@@ -320,13 +322,15 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
         setattr(lists, name, entry[name])
     common = [cam, eye_w, mesh_tex, cell_mesh_struct(cells), lists, ig, get_format(fb_format).kernel_params(),
               walk_opts(t_stop, max_steps, scalar_check, PEEL_TOL * cells["radius"])]
-    kernel = kh.march_kernel(WALKS[walk], SETUPS[setup], ig.mode)  # this configuration's kernel
+    if segments is None:
+        segments = segments_struct(0, 0, ctx.device)
+    kernel = kh.march_kernel(WALKS[walk], SETUPS[setup], ig.mode, segments.cap > 0)  # this configuration's kernel
 
     def launch(b: int) -> None:
         first, count = parts[b]
         wp.launch(kernel, dim=count, device=ctx.device,
                   inputs=common + [first, ids, state.rgba, state.tcur, state.status, state.last, counters, b,
-                                   state.px_work])
+                                   state.px_work, segments])
 
     launch_blocks(ctx.device, len(parts), launch, threads, modules=[kernel])
     return dict(zip(COUNTER_NAMES, (int(x) for x in counters.numpy().sum(axis=0))))

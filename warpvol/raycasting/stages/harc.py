@@ -141,9 +141,13 @@ class Harc(Stage):
     def leaves_out(self, ctx: Context) -> str | None:
         return leaves_out_text(ctx, self.early_termination)
 
-    def run(self, ctx: Context) -> None:
-        from warpvol.kernels.raycast import STATUS_FAILED
-        from warpvol.raycasting.harc import HarcState, lost_rays, lost_warning, march_pass, resolve_failed
+    def pass_runner(self, ctx: Context, state, *, t_stop: float, segments=None):
+        """This stage's propagation pass over ``state`` (a :class:`~warpvol.raycasting.harc.HarcState`), its
+        configuration checked and its integration set up: ``(run_pass, keep)``, ``run_pass(max_steps)`` giving a
+        pass's counters, ``keep`` the textures it reads. ``t_stop``: the transmittance rays stop below (0:
+        never); ``segments`` (:func:`~warpvol.raycasting.stages.raycast.segments_struct`): each entry's segment
+        kept there (``walk = "plucker"``, ``integration = "exact"``)."""
+        from warpvol.raycasting.harc import march_pass
 
         mt = ctx.buffers["harc_mesh"]
         if self.walk == "planes" and mt["struct"] is None:
@@ -158,6 +162,9 @@ class Harc(Stage):
         if self.walk == "planes" and "entry_faces" in ctx.buffers["cells"]:
             raise ConfigError(f"{self.where}.walk: 'planes' reads the mesh's own adjacency texture and cannot walk "
                               "only the visible cells; drop the visibility stage or use walk = 'plucker'")
+        if segments is not None and (self.walk, self.integration) != ("plucker", "exact"):
+            raise ConfigError(f"{self.where}: segments are kept by walk = 'plucker' with integration = 'exact' only, "
+                              f"not {self.walk!r} with {self.integration!r}")
         st = mt["struct"]
         keep_st = None
         if st is None:  # the plucker walk reads the compact layout (the cells' arrays)
@@ -177,12 +184,8 @@ class Harc(Stage):
                                weight_bits=self.weight_bits or None, lmax=ctx.scene.mesh.lmax,
                                cache=ctx.persistent.setdefault("harc_textures", {}), tf_texture=self.tf_texture,
                                tf_texels=self.tf_texels, **tables)
-        cam = ctx.scene.camera
-        state = HarcState(cam.width_px * cam.height_px, ctx.device)
         entry = ctx.buffers["harc_entry"]
         threads = self.threads or cpu_threads()
-        t_stop = stop_transmittance(ctx, self.early_termination)
-        bound = self.early_termination if t_stop > 0 else 0.0  # the stated termination bound (0: none)
         # the exact walk's bound on the crossings' scalar errors, off where it provably cannot fire (per frame)
         cells = ctx.buffers["cells"]
         scalar_check = scalar_check_needed(ig.tf_s, ig.tf_v, ig.model, cells["s_span"], cells["radius"])
@@ -190,13 +193,25 @@ class Harc(Stage):
         def run_pass(max_steps=self.max_steps):
             return march_pass(ctx, state, walk=self.walk, mesh_tex=st, entry=entry, ig=ig, fb_format=self.format,
                               t_stop=t_stop, max_steps=max_steps, threads=threads, scalar_check=scalar_check,
-                              setup=self.ray_setup)
+                              setup=self.ray_setup, segments=segments)
+
+        return run_pass, (keep, keep_st)
+
+    def run(self, ctx: Context) -> None:
+        from warpvol.kernels.raycast import STATUS_FAILED
+        from warpvol.raycasting.harc import HarcState, lost_rays, lost_warning, resolve_failed
+
+        paper = self.ray_setup == "paper"
+        cam = ctx.scene.camera
+        state = HarcState(cam.width_px * cam.height_px, ctx.device)
+        t_stop = stop_transmittance(ctx, self.early_termination)
+        bound = self.early_termination if t_stop > 0 else 0.0  # the stated termination bound (0: none)
+        run_pass, (keep, keep_st) = self.pass_runner(ctx, state, t_stop=t_stop)
 
         import time
 
         thin_rays = thin_tets = 0
         if not paper and self.integration == "exact":  # rays through cells too thin for float32: float64 redo
-            from warpvol.kernels.raycast import STATUS_FAILED
             from warpvol.shared.thin_cells import mark_unresolved
 
             thin_rays, thin_tets = mark_unresolved(ctx, state.status, int(STATUS_FAILED))
