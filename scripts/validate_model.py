@@ -24,10 +24,11 @@ Counters come from one redraw of each of 29 configurations at the paper's image 
 that counts (:func:`warpvol.reproduce.model_rows.code_key`: a change to any counting module or preset
 recounts, so a stale cache cannot hide it; ``--refresh`` recounts everything). What the cache lacks is
 counted first, in this process, with a progress bar weighted by each configuration's last count time;
-the script prints each count's time. A fresh run (empty cache) counted the 29 configurations in 2,195 s
-(37 min) wall and 1,218 s of CPU on this project's shared 2-core Intel Xeon at load 2.1-12.2 (mean 6.6:
-other sessions' tests running beside it); the four Guthe Table 5 renders at 1280x960 took 300-449 s each,
-71 % of it. With every counter cached the run takes seconds. The table builds (Roettger Table 2, Guthe Table 4) are counted in counting mode on every run.
+the script prints each count's time, and the JSON's ``cost`` table keeps what each count took (wall, CPU,
+load) as recorded when it was counted. One fresh run (empty cache, at b46a81f) counted the 29
+configurations in 2,195 s (37 min) wall and 1,218 s of CPU on this project's shared 2-core Intel Xeon at
+load 2.1-12.2 (mean 6.6: other sessions' tests running beside it); the four Guthe Table 5 renders at
+1280x960 took 300-449 s each, 71 % of it. With every counter cached the run takes seconds. The table builds (Roettger Table 2, Guthe Table 4) are counted in counting mode on every run.
 Configurations whose data are absent are listed as skipped.
 
     .venv/bin/python scripts/validate_model.py [--refresh] [--json docs/data/validate_model.json]
@@ -481,6 +482,44 @@ def relative_rows(m: Model | None, absolute: list[dict], view_note: str = "") ->
     return rows
 
 
+#: the cost table's groups of configurations (MODEL_KEYS prefixes)
+COST_GROUPS = (("Roettger Fig. 8 renders (512x384)", "roettger/"), ("Guthe Table 5 renders (1280x960)",
+               ("guthe/bluntfin/geforce4", "guthe/bluntfin/radeon8500", "guthe/bucky/geforce4",
+                "guthe/bucky/radeon8500")),
+               ("Guthe Table 5 sorts alone", "guthe/"), ("Kraus Table 1 renders (800x600)", "kraus/"),
+               ("Westermann Table 1 sweeps", "westermann/"), ("Espinha Tables 2/3 renders (512^2)", "espinha/"))
+
+
+def cost_table(counted: dict) -> dict | None:
+    """What counting the configurations took, as each cache file recorded when it was counted
+    (:func:`warpvol.reproduce.model_rows.count_cost`), by group; ``counted``: the keys this run counted.
+    ``None`` when a configuration's cost is not recorded."""
+    from warpvol.reproduce.model_rows import count_cost
+
+    cost = {k: count_cost(k) for k in MODEL_KEYS}
+    if any(v is None for v in cost.values()):
+        return None
+    rows, left = [], list(MODEL_KEYS)
+    for label, match in COST_GROUPS:
+        keys = [k for k in left if (k in match if isinstance(match, tuple) else k.startswith(match))]
+        left = [k for k in left if k not in keys]
+        loads = [x for k in keys for x in cost[k]["load"]]
+        rows.append([label, len(keys), round(sum(cost[k]["seconds"] for k in keys)),
+                     round(sum(cost[k]["cpu_s"] for k in keys)), f"{min(loads):.1f}-{max(loads):.1f}"])
+    loads = [x for v in cost.values() for x in v["load"]]
+    wall, cpu = sum(v["seconds"] for v in cost.values()), sum(v["cpu_s"] for v in cost.values())
+    rows.append(["all", len(MODEL_KEYS), round(wall), round(cpu), f"{min(loads):.1f}-{max(loads):.1f}"])
+    return {"title": "Throughput model: what counting its configurations took",
+            "columns": ["configurations", "count", "wall [s]", "CPU [s]", "load (1 min)"], "rows": rows,
+            "notes": (f"Each configuration's count (two renders at the paper's size: the first builds the tables, "
+                      f"the redraw is counted) as its cache file recorded it when counted, in one process; this "
+                      f"run counted {len(counted)} of {len(MODEL_KEYS)} and took the rest from the cache (keyed by "
+                      f"the code that counts). Load: the 1-minute load average at each count's start and end (other "
+                      f"sessions' work beside it on the shared 2-core machine of the provenance line). A fresh run "
+                      f"(empty cache) costs the 'all' row, {wall / 60:.0f} min here; with every counter cached the "
+                      f"run takes seconds.")}
+
+
 def espinha_view_note(m: Model) -> str:
     """How many cells our two views walk, against what the paper's frame rates imply (the paper gives no
     viewpoints): the one input the LOX Post rows rest on that no paper number fixes."""
@@ -556,6 +595,7 @@ def main(argv=None) -> int:
 
         quiet_warp()
         m = Model(a.device, False, a.cached_only)
+        got = {"counted": {}}
         if not a.cached_only:  # every configuration the cache lacks (or all: --refresh), counted first
             from warpvol.reproduce.model_rows import fill
 
@@ -567,6 +607,11 @@ def main(argv=None) -> int:
         absolute = absolute_rows(m)
         relative = relative_rows(m, absolute)
         out = to_json(absolute, relative, m.skipped)
+        cost = cost_table(got["counted"])
+        if cost:
+            out["tables"]["cost"] = cost
+            print("\n" + cost["title"] + "\n" + "\n".join(f"  {r[0]:<40} {r[1]:>3} {r[2]:>6} s wall {r[3]:>6} s CPU "
+                                                        f" load {r[4]}" for r in cost["rows"]))
     print_tables(absolute, relative)
     if a.json:
         provenance.write_json(a.json, out, prov)

@@ -258,7 +258,12 @@ def counters(key: str, device: str = "cpu", refresh: bool = False) -> dict:
     d = None if refresh else cached(key)
     if d is not None:
         return _with_texcache(key, d["counters"], make, device)
-    t0 = time.perf_counter()
+    t0, c0, load0 = time.perf_counter(), time.process_time(), os.getloadavg()[0]
+
+    def cost() -> dict:  # what this count took: wall and CPU seconds (all threads), 1-min load at start, end
+        return {"seconds": time.perf_counter() - t0, "cpu_s": time.process_time() - c0,
+                "load": [round(load0, 2), round(os.getloadavg()[0], 2)]}
+
     sc = make()
     if isinstance(pipe, tuple):  # the host visibility sort alone, counted as the sort stage counts it
         from warpvol.projection.sort import visibility_order
@@ -266,7 +271,7 @@ def counters(key: str, device: str = "cpu", refresh: bool = False) -> dict:
         r = visibility_order(sc.mesh, sc.camera, pipe[1])
         c = {"sort": {"cells_sorted": len(r.order), "graph_edges": int(r.edges), "cycles_broken": int(r.cycles_broken),
                       **{k: int(v) for k, v in r.extra.items()}}}
-        _write(key, {"key": key, "tets": int(sc.mesh.n_tets), "counters": c, "seconds": time.perf_counter() - t0,
+        _write(key, {"key": key, "tets": int(sc.mesh.n_tets), "counters": c, **cost(),
                      "stats": {"sort": {"method": r.method, "exact": bool(r.exact)}}})
         return c
     from contextlib import nullcontext
@@ -287,8 +292,7 @@ def counters(key: str, device: str = "cpu", refresh: bool = False) -> dict:
     else:
         _cache_path(key, "__texcache").unlink(missing_ok=True)
     del seen
-    _write(key, {"key": key, "tets": int(sc.mesh.n_tets), "counters": c, "stats": stats,
-                 "seconds": time.perf_counter() - t0})
+    _write(key, {"key": key, "tets": int(sc.mesh.n_tets), "counters": c, "stats": stats, **cost()})
     return _with_texcache(key, c, lambda: sc, device, warm=p)
 
 
@@ -324,6 +328,13 @@ def fill(keys, device: str = "cpu", refresh: bool = False, force_lines: bool = T
                 out["failed"][k] = f"{type(e).__name__}: {e}"
             bar.advance(weight[k], f"{k} done in {time.perf_counter() - t0:.0f} s")
     return out
+
+
+def count_cost(key: str) -> dict | None:
+    """What counting configuration ``key`` took when its cached counters were counted (``seconds``,
+    ``cpu_s``, ``load``: the 1-minute load average at its start and end); ``None`` when not cached."""
+    d = cached(key)
+    return None if d is None or "cpu_s" not in d else {k: d[k] for k in ("seconds", "cpu_s", "load")}
 
 
 def tets(key: str) -> int | None:
