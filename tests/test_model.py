@@ -413,3 +413,22 @@ def test_texture_cache_misses_are_memory_traffic():
     r = model_counters({"fragments": 1_200_000, "tex_miss_bytes": 10_400_000_000}, p)
     assert r["bound"] == "memory" and r["s"] == pytest.approx(1.0, rel=1e-12)  # 10.4 GB at 10.4 GB/s
     assert model_counters({"tex_miss_bytes": 1}, load_profile("octane_mxi"))["s"] == 0.0  # no memory figure: no unit
+
+
+def test_cost_table_sums_what_each_count_took(monkeypatch):
+    """validate_model's cost table: each configuration's recorded count (wall, CPU, load at start and end)
+    by group and in all; no table while a configuration's cost is unknown."""
+    from warpvol.reproduce import model_rows
+
+    vm = _validate_model_script()
+    cost = {k: {"seconds": 10.0 * (i + 1), "cpu_s": 5.0, "load": [1.0 + i / 10, 2.0]}
+            for i, k in enumerate(vm.MODEL_KEYS)}
+    monkeypatch.setattr(model_rows, "count_cost", cost.get)
+    t = vm.cost_table({vm.MODEL_KEYS[0]: 10.0})
+    rows = {r[0]: r[1:] for r in t["rows"]}
+    n = len(vm.MODEL_KEYS)
+    assert rows["all"] == [n, round(sum(10.0 * (i + 1) for i in range(n))), round(5.0 * n), f"1.0-{1 + (n - 1) / 10:.1f}"]
+    assert sum(r[1] for r in t["rows"][:-1]) == n and rows["Guthe Table 5 renders (1280x960)"][0] == 4
+    assert rows["Guthe Table 5 sorts alone"][0] == 6 and "counted 1 of 29" in t["notes"]
+    monkeypatch.setattr(model_rows, "count_cost", lambda k: None)
+    assert vm.cost_table({}) is None
