@@ -207,13 +207,13 @@ def test_xmpvo_on_the_visible_cells_alone_draws_the_same_image(seed, drop, monke
     a face or are apart across a gap of its boundary) orders them exactly at the pixel centres, as the
     whole mesh's order with the invisible cells dropped does: the same image bits where both are acyclic
     (non-convex jittered grids, the shell TF). Which one runs is chosen by cost; here forced both ways."""
-    import warpvol.projection.sort as S
+    import warpvol.projection.stages.sort_cells as SC  # the stage holds xmpvo_cost (imported at its top)
 
     sc = _cyclic_case(seed, drop, "xmpvo")
     pipe = Pipeline.load("pt_best")
-    monkeypatch.setattr(S, "xmpvo_cost", lambda mesh, cam, **k: float(mesh.n_tets))  # the visible cells cheaper
+    monkeypatch.setattr(SC, "xmpvo_cost", lambda mesh, cam, **k: float(mesh.n_tets))  # the visible cells cheaper
     sub = pipe.render(sc, quiet=True)
-    monkeypatch.setattr(S, "xmpvo_cost", lambda mesh, cam, **k: -float(mesh.n_tets))  # the whole mesh cheaper
+    monkeypatch.setattr(SC, "xmpvo_cost", lambda mesh, cam, **k: -float(mesh.n_tets))  # the whole mesh cheaper
     whole = pipe.render(sc, quiet=True)
     ss, sw = sub.report["stats"]["sort"], whole.report["stats"]["sort"]
     assert (ss["sorted"], sw["sorted"]) == ("visible cells", "whole mesh") and ss["exact"] and sw["exact"]
