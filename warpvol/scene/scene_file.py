@@ -25,8 +25,9 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+from warpvol import io as wio  # (wio.available_memory: the one place a test or a caller replaces it)
 from warpvol.errors import ConfigError, unknown_keys
-from warpvol.io import available_memory, toml_nesting
+from warpvol.io import toml_nesting
 from warpvol.scene import datasets
 from warpvol.scene.builtin import builtin_camera, builtin_scene, builtin_transfer
 from warpvol.scene.camera import CAMERA_KEYS, Camera
@@ -176,7 +177,7 @@ def _check_mesh_memory(mesh_cfg: Any, p: Path) -> None:
             f = None  # the loader names what is wrong
         if f is not None:
             check_raw_size(f, raw["dims"], dt, where=f"{p}: mesh.raw")
-    have = available_memory() if n is not None else None
+    have = wio.available_memory() if n is not None else None
     if n is not None and have is not None and n * RAW_BYTES_PER_SAMPLE > have:
         raise ConfigError(f"{p}: mesh.raw: the volume is too large for the memory available to warpvol "
                           f"({_mesh_desc(mesh_cfg, p.parent).removeprefix('mesh.raw: ')}; {_gib(have)} available); use a smaller or "
