@@ -15,8 +15,8 @@ from __future__ import annotations
 
 from warpvol.errors import ConfigError
 from warpvol.gpu.blend import BlendUnit, FrameBuffer
+from warpvol.projection import pt  # (pt.draw looked up per call: the texture-cache observer replaces it)
 from warpvol.projection.programs import vertex_color_program, vertex_colors
-from warpvol.projection.pt import draw
 from warpvol.stage import Context, Param, Stage, register_stage
 
 FB_FORMATS = ("unorm8", "unorm12", "unorm16", "fp16", "fp32")
@@ -56,7 +56,7 @@ def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1, walk: 
     unit = BlendUnit.over(dither=stage.config["dither"]) if blend_unit is None else blend_unit
     if t_min > 0:
         unit = BlendUnit.under()
-    info = draw(ctx.buffers["pt_geometry"], attrs, program, fb, unit,
+    info = pt.draw(ctx.buffers["pt_geometry"], attrs, program, fb, unit,
                 batch_tets=stage.config["batch_tets"], device=ctx.device, bands=bands, walk=walk, t_min=t_min,
                 skip_zero=skip_zero)
     ctx.image = fb.readback()
