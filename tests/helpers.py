@@ -1,5 +1,6 @@
 """Small mesh builders shared by tests (no files, no randomness unless seeded)."""
 
+import hashlib
 from types import SimpleNamespace
 
 import numpy as np
@@ -82,3 +83,19 @@ class python_sigint:
 
         signal.signal(signal.SIGINT, self.old)
         return False
+
+
+def pin_of(image, report: dict, sums: bool = False) -> dict:
+    """A render's pin: the SHA-256 of its float image (shape and dtype included) and every integer counter
+    of its report (``stage.name``); with ``sums`` also the image's per-channel sums (what a changed pin
+    moved, at a glance)."""
+    img = np.ascontiguousarray(image)
+    h = hashlib.sha256(f"{img.shape}{img.dtype.str}".encode())
+    h.update(img.tobytes())
+    counters = {f"{stage}.{k}": int(v) for stage, cc in sorted(report["counters"].items())
+                for k, v in sorted(cc.items()) if isinstance(v, (int, np.integer)) and not isinstance(v, bool)}
+    pin = {"sha256": h.hexdigest()}
+    if sums:
+        pin["sums"] = [float(x) for x in img.astype(np.float64).sum(axis=(0, 1))]
+    pin["counters"] = counters
+    return pin

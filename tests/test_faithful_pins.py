@@ -19,11 +19,12 @@ re-pin and read what changed::
 
 from __future__ import annotations
 
-import hashlib
 import json
 import sys
 import warnings
 from pathlib import Path
+
+from helpers import pin_of
 
 PINS = Path(__file__).resolve().parent / "data" / "faithful_pins.json"
 SCENES = (("concave", 32), ("sphere", 32))
@@ -34,18 +35,6 @@ def faithful_presets() -> list[str]:
     from warpvol.pipeline import list_presets
 
     return [n for n, _ in list_presets() if n != "raycast" and not n.endswith("_best")]
-
-
-def pin_of(image, report: dict) -> dict:
-    import numpy as np
-
-    img = np.ascontiguousarray(image)
-    h = hashlib.sha256(f"{img.shape}{img.dtype.str}".encode())
-    h.update(img.tobytes())
-    counters = {f"{stage}.{k}": int(v) for stage, cc in sorted(report["counters"].items())
-                for k, v in sorted(cc.items()) if isinstance(v, (int, np.integer)) and not isinstance(v, bool)}
-    return {"sha256": h.hexdigest(), "sums": [float(x) for x in img.astype(np.float64).sum(axis=(0, 1))],
-            "counters": counters}
 
 
 def compute_pins() -> dict:
@@ -67,7 +56,7 @@ def compute_pins() -> dict:
             except ConfigError as e:
                 out[key] = {"declined": str(e)}
                 continue
-            out[key] = pin_of(res.image, res.report)
+            out[key] = pin_of(res.image, res.report, sums=True)
     return out
 
 

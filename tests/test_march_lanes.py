@@ -8,7 +8,8 @@ import warnings
 
 import pytest
 
-from test_walk_pins import BUILTIN, STRESS, pin_of, scene_of
+from helpers import pin_of
+from test_walk_pins import BUILTIN, STRESS, scene_of
 
 SCENES = [b for b, _ in BUILTIN] + list(STRESS)
 PRESETS = ("raycast", "peel")

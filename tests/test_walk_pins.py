@@ -12,13 +12,14 @@ row and is not pinned here). When a pinned preset is meant to change (said in th
 
 from __future__ import annotations
 
-import hashlib
 import json
 import sys
 import warnings
 from pathlib import Path
 
 import pytest
+
+from helpers import pin_of
 
 PINS = Path(__file__).resolve().parent / "data" / "walk_pins.json"
 PRESETS = ("espinha2005_full", "espinha2005_partial", "raycast")
@@ -34,17 +35,6 @@ def scene_of(name: str):
         if b == name:
             return builtin_scene(b).with_camera(width_px=size, height_px=size)
     return build_case(name, quick=True).scene
-
-
-def pin_of(image, report: dict) -> dict:
-    import numpy as np
-
-    img = np.ascontiguousarray(image)
-    h = hashlib.sha256(f"{img.shape}{img.dtype.str}".encode())
-    h.update(img.tobytes())
-    counters = {f"{stage}.{k}": int(v) for stage, cc in sorted(report["counters"].items())
-                for k, v in sorted(cc.items()) if isinstance(v, (int, np.integer)) and not isinstance(v, bool)}
-    return {"sha256": h.hexdigest(), "counters": counters}
 
 
 def render_pin(scene: str, preset: str) -> dict:
