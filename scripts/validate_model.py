@@ -25,10 +25,9 @@ that counts (:func:`warpvol.reproduce.model_rows.code_key`: a change to any coun
 recounts, so a stale cache cannot hide it; ``--refresh`` recounts everything). What the cache lacks is
 counted first, in this process, with a progress bar weighted by each configuration's last count time;
 the script prints each count's time, and the JSON's ``cost`` table keeps what each count took (wall, CPU,
-load) as recorded when it was counted. One fresh run (empty cache, at b46a81f) counted the 29
-configurations in 2,195 s (37 min) wall and 1,218 s of CPU on this project's shared 2-core Intel Xeon at
-load 2.1-12.2 (mean 6.6: other sessions' tests running beside it); the four Guthe Table 5 renders at
-1280x960 took 300-449 s each, 71 % of it. With every counter cached the run takes seconds. The table builds (Roettger Table 2, Guthe Table 4) are counted in counting mode on every run.
+load) as recorded when it was counted. A fresh run (empty cache) takes tens of minutes on a 2-core
+machine, most of it the four Guthe Table 5 renders at 1280x960: the shipped JSON's ``cost`` table (shown on
+the performance page) gives what its run took, group by group, with the load. With every counter cached the run takes seconds. The table builds (Roettger Table 2, Guthe Table 4) are counted in counting mode on every run.
 Configurations whose data are absent are listed as skipped.
 
     .venv/bin/python scripts/validate_model.py [--refresh] [--json docs/data/validate_model.json]
@@ -515,7 +514,7 @@ def cost_table(counted: dict) -> dict | None:
                       f"the redraw is counted) as its cache file recorded it when counted, in one process; this "
                       f"run counted {len(counted)} of {len(MODEL_KEYS)} and took the rest from the cache (keyed by "
                       f"the code that counts). Load: the 1-minute load average at each count's start and end (other "
-                      f"sessions' work beside it on the shared 2-core machine of the provenance line). A fresh run "
+                      f"jobs beside it on the shared 2-core machine of the provenance line). A fresh run "
                       f"(empty cache) costs the 'all' row, {wall / 60:.0f} min here; with every counter cached the "
                       f"run takes seconds.")}
 
