@@ -47,7 +47,7 @@ lengths (:func:`warpvol.kernels.walk.thin_unresolved`; redone in float64 like ev
 9 rays of the paper's set-up that took a step with ``lambda' < lambda`` (an exit chosen by rounding:
 the ray is suspect, its pixel possibly wrong; counted, not changed), 10 entries through a face the
 rasterised lists left out, found by the exact test of the faces whose open edge passes within 1/64
-pixel of the pixel centre (``edge_start`` / ``edge_bf``, :func:`warpvol.raycasting.thin_cells.edge_pixels`),
+pixel of the pixel centre (``edge_start`` / ``edge_bf``, :func:`warpvol.shared.thin_cells.edge_pixels`),
 11 rays ended by early ray termination (``1 - A`` below ``t_stop``), 12 rays handed to the float64 redo
 because the ray starts inside the mesh's bounding sphere (``t_clip > 0``: a perspective eye or orthographic eye
 plane there, where a rasterised entry cannot tell rays that begin inside a cell).

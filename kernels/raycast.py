@@ -100,7 +100,7 @@ def tile_entry(px: int, py: int, t_start: float, prev: int, r: Ray, t_tol: float
 
     The tile's faces come sorted by nearest depth along the view direction ``fwd`` with their depth
     bounds (``item_depth``: nearest, farthest, farthest of the tile's faces from this one on;
-    :func:`warpvol.raycasting.stages.entry_bins.item_depths`). The ray's depth grows linearly with ``t``,
+    :func:`warpvol.shared.entry_bins.item_depths`). The ray's depth grows linearly with ``t``,
     ``z(t) = zo + cz t``, so a face wholly before the search's start is skipped untested, and the search
     stops at the first face whose nearest depth lies beyond the best crossing found: it and every later
     face are crossed (if at all) farther on. Both by a margin (:func:`depth_slack`) well above float32

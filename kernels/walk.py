@@ -1,6 +1,7 @@
-"""The consistent float32 cell walk shared by the ray casters (``raycast``'s :func:`~warpvol.kernels.raycast.march`,
-HARC's :func:`~warpvol.kernels.harc_walk.exact_walk`): ray set-up, Plücker edge tests, face crossings, one step
-through a tet, and the thin-layer check of integrated segments (``@wp.func`` only).
+"""The consistent float32 cell walk shared by the ray casters (through :mod:`warpvol.kernels.cellwalk`, which
+``raycast``'s :func:`~warpvol.kernels.raycast.march_kernel` and HARC's :func:`~warpvol.kernels.harc.march_kernel`
+call): ray set-up, Plücker edge tests, face crossings, one step through a tet, and the thin-layer check of
+integrated segments (``@wp.func`` only).
 
 * :func:`ray_setup` -- the pixel's ray in **float64**: unit direction, origin moved along the ray to
   just before the mesh's bounding sphere (so float32 rounding of points on the ray scales with the

@@ -10,6 +10,7 @@ from warpvol.errors import ConfigError
 from warpvol.scene.loaders import load_mesh
 from warpvol.scene.mesh import TetMesh
 from warpvol.scene.spec import scene_from_spec
+from warpvol.tools.stress_file_classes import write_pvd
 
 
 def _grid(dims=(4, 4, 4)):
@@ -332,17 +333,14 @@ def test_zero_volume_cells_are_counted_as_file_cells_without_a_warning(tmp_path,
 
 # -- time series: which step, and the user's pick ----------------------------------------------------------
 def _series(tmp_path, times=(0.0, 0.5, 1.0)):
-    """A .pvd of ``len(times)`` steps of one grid, the field at step ``i`` scaled by ``i + 1``."""
-    entries = []
+    """A .pvd of ``len(times)`` steps of one grid, the field at step ``i`` scaled by ``i + 1`` (files
+    ``t<i>.vti``), written by the stress suite's builder."""
+    steps = []
     for i, t in enumerate(times):
         g = _grid()
         g.point_data["s"] = g.point_data["s"] * (i + 1) + 2.0
-        g.save(tmp_path / f"t{i}.vti")
-        entries.append(f'<DataSet timestep="{t}" part="0" file="t{i}.vti"/>')
-    path = tmp_path / "series.pvd"
-    path.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1"><Collection>'
-                    + "".join(entries) + "</Collection></VTKFile>")
-    return path
+        steps.append((t, g))
+    return write_pvd(tmp_path / "series.pvd", steps, stem="t")
 
 
 def _step_mesh(tmp_path, i):

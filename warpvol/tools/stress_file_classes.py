@@ -92,18 +92,26 @@ def write_pvts(folder, sg, pieces=3, ghost=1):
     return folder / "grid.pvts"
 
 
-def write_series(folder, n=3):
-    """A ``.pvd`` of ``n`` steps of one image, the field at step ``i`` scaled by ``(i + 1) / n``."""
+def write_pvd(path, steps, stem="step"):
+    """A ``.pvd`` collection at ``path`` of ``steps``, ``(time, data set)`` pairs: each data set saved beside it
+    as ``<stem><i>.vti`` and named with its time step; returns ``path``."""
     entries = []
-    for i in range(n):
-        g = _image((7, 6, 6))
-        g.point_data["s"] = g.point_data["s"] * (i + 1) / n
-        g.save(folder / f"step{i}.vti")
-        entries.append(f'<DataSet timestep="{0.25 * i}" part="0" file="step{i}.vti"/>')
-    path = folder / "series.pvd"
+    for i, (t, g) in enumerate(steps):
+        g.save(path.parent / f"{stem}{i}.vti")
+        entries.append(f'<DataSet timestep="{t}" part="0" file="{stem}{i}.vti"/>')
     path.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1"><Collection>'
                     + "".join(entries) + "</Collection></VTKFile>")
     return path
+
+
+def write_series(folder, n=3):
+    """A ``.pvd`` of ``n`` steps of one image, the field at step ``i`` scaled by ``(i + 1) / n``."""
+    steps = []
+    for i in range(n):
+        g = _image((7, 6, 6))
+        g.point_data["s"] = g.point_data["s"] * (i + 1) / n
+        steps.append((0.25 * i, g))
+    return write_pvd(folder / "series.pvd", steps)
 
 
 def cohesive(dims=(5, 5, 3)):
