@@ -27,7 +27,14 @@ from warpvol.gpu.texture import Texture2D
 from warpvol.gpu.vertex import VertexStage
 from warpvol.parallel import launch_blocks
 from warpvol.raycasting.stages.cell_setup import neighbour_faces
-from warpvol.raycasting.stages.raycast import camera_struct, cell_mesh_struct, ray_blocks, segments_struct, walk_opts
+from warpvol.raycasting.stages.raycast import (
+    camera_struct,
+    cell_mesh_struct,
+    drop_unreached,
+    ray_blocks,
+    segments_struct,
+    walk_opts,
+)
 from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
 from warpvol.scene.mesh import FACE_VERTS
 from warpvol.shared.entry_bins import entry_face_mask, face_depths
@@ -213,6 +220,7 @@ def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None 
             "bf_nbr": arr(nbr, wp.vec3i), "far": wp.array(far, dtype=wp.float32, device=device),
             "bf_depth": wp.array(depth if len(depth) else np.zeros((1, 2), np.float32), dtype=wp.vec2, device=device),
             "edge_start": arr(edge_start), "edge_bf": arr(edge_bf), "edge_pairs": int(len(edge_bf)),
+            "frag_start_host": start, "edge_start_host": edge_start,
             "fragments": int(count), "faces": int(len(bf)), "max_layers": layers}
 
 
@@ -292,6 +300,38 @@ COUNTER_NAMES = ("entries", "steps", "cells", "failed", "step_bound", "iso_misse
                  "terminated_early", "eye_inside_rays")
 
 
+def face_reach(ctx, entry: dict, setup: str = "robust") -> np.ndarray | None:
+    """Per pixel (bool, flat), whether a front face is listed at the pixel, at one of its 8 neighbours or among
+    its open-edge faces (``entry``: :func:`entry_fragments`): elsewhere the pass's entry search has no face to
+    test and the kernel sets the ray done (:func:`warpvol.kernels.harc.no_face_around`) -- provided the ray
+    starts outside the mesh (``t_clip`` 0), which holds for every ray that can meet the mesh's bounding
+    sphere when the eye lies beyond 1.5 of its radius (perspective: a ray starting inside the sphere and
+    meeting it has the eye within ``sqrt(1 + 1.001^2)`` radii of its centre) or the eye plane lies more than
+    1.01 radii before the centre (orthographic); the paper's set-up starts every ray at the eye. Per frame, kept
+    in ``entry``; None off the CPU or when the eye is nearer (the kernel decides there)."""
+    if not str(ctx.device).startswith("cpu"):
+        return None
+    if setup != "paper":
+        cam, cells = ctx.scene.camera, ctx.buffers["cells"]
+        eye = np.asarray(cam.eye, np.float64) - cells["origin"]
+        radius = float(cells["radius"])
+        if cam.projection == "orthographic":
+            clear = float(-eye @ np.asarray(cam.forward, np.float64)) > 1.01 * radius
+        else:
+            clear = float(np.linalg.norm(eye)) > 1.5 * radius
+        if not clear:
+            return None
+    if "reach" not in entry:
+        cam = ctx.scene.camera
+        h, w = cam.height_px, cam.width_px
+        listed = np.diff(entry["frag_start_host"]).reshape(h, w) > 0
+        pad = np.pad(listed, 1)
+        row = pad[:, :-2] | pad[:, 1:-1] | pad[:, 2:]
+        near = row[:-2] | row[1:-1] | row[2:]
+        entry["reach"] = (near | (np.diff(entry["edge_start_host"]).reshape(h, w) > 0)).ravel()
+    return entry["reach"]
+
+
 def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, fb_format: str, t_stop: float,
                max_steps: int, threads: int, scalar_check: int = 1, rows_per_block: int = 16,
                setup: str = "robust", segments=None) -> dict:
@@ -312,7 +352,10 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     cells = ctx.buffers["cells"]
     cam = camera_struct(ctx)
     state.px_work.zero_()
-    ids, parts = ray_blocks(ctx, state.status.numpy() == int(kh.STATUS_ACTIVE), threads, rows_per_block)
+    status = state.status.numpy()
+    active = drop_unreached(status, status == int(kh.STATUS_ACTIVE), face_reach(ctx, entry, setup),
+                            int(kh.STATUS_DONE))
+    ids, parts = ray_blocks(ctx, active, threads, rows_per_block)
     if not parts:
         return dict.fromkeys(COUNTER_NAMES, 0)
     counters = wp.zeros((len(parts), N_COUNTERS), dtype=wp.int32, device=ctx.device)

@@ -135,6 +135,38 @@ def ray_blocks(ctx: Context, active: np.ndarray, threads: int, rows_per_block: i
     return ids, blocks(len(act), size)
 
 
+def drop_unreached(status: np.ndarray, active: np.ndarray, reach: np.ndarray | None, done: int) -> np.ndarray:
+    """The rays a pass launches: ``active`` (bool per pixel) where ``reach`` (bool per pixel: the pass's entry
+    search has a face to test there) holds; the active rays outside ``reach`` are set to ``done`` in ``status``
+    (the host's view of a CPU array) without a launch, as the kernel would set them. On the CPU a thread that
+    only finds its pixel without a face costs about 30 ns (measured on SPX at 512^2: 8 ms of a 31 ms frame where
+    5 % of the pixels see the mesh). ``reach`` None: every active ray is launched."""
+    if reach is None:
+        return active
+    gone = active & ~reach
+    if gone.any():
+        status[gone] = done
+        return active & reach
+    return active
+
+
+def tile_reach(ctx: Context) -> np.ndarray | None:
+    """Per pixel (bool, flat), whether ``entry_bins`` binned a face to its screen tile: the march's entry search
+    (:func:`warpvol.kernels.raycast.march`) finds nothing elsewhere and sets the ray done. Per frame (the
+    bins depend on the camera), kept in ``ctx.buffers["entry_bins"]``; None off the CPU (one launch fills a
+    GPU, and the host holds no view of its status array)."""
+    if not str(ctx.device).startswith("cpu"):
+        return None
+    bins = ctx.buffers["entry_bins"]
+    if "reach" not in bins:
+        cam = ctx.scene.camera
+        tile, tx = int(bins["tile"]), int(bins["tiles_x"])
+        start = bins["tile_start"].numpy()
+        full = (np.diff(start) > 0).reshape(-1, tx)
+        bins["reach"] = np.repeat(np.repeat(full, tile, axis=0), tile, axis=1)[:cam.height_px, :cam.width_px].ravel()
+    return bins["reach"]
+
+
 #: counters of a pass (columns of :func:`march_pass`'s result)
 PASS_COUNTERS = ("entries", "steps", "unfinished", "failed", "left active", "failed on a thin layer",
                  "terminated early", "re-entries")
@@ -170,7 +202,9 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
 
     cells, bins = ctx.buffers["cells"], ctx.buffers["entry_bins"]
     cam = camera_struct(ctx)
-    ids, parts = ray_blocks(ctx, (state.status.numpy() & 3) == int(k.STATUS_ACTIVE), threads, rows_per_block)
+    status = state.status.numpy()
+    active = drop_unreached(status, (status & 3) == int(k.STATUS_ACTIVE), tile_reach(ctx), int(k.STATUS_DONE))
+    ids, parts = ray_blocks(ctx, active, threads, rows_per_block)
     if not parts:
         state.active = 0
         return np.zeros(len(PASS_COUNTERS), np.int64)

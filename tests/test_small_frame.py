@@ -1,0 +1,68 @@
+"""A small frame's fixed costs: the ray casters (``raycast``, ``harc_best``) launch only the rays whose entry
+search has a face to test, and a frame that leaves that out is bit for bit the frame that launches every ray
+(image, counters, stats)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from helpers import box_mesh, scene
+from warpvol.pipeline import Pipeline
+from warpvol.scene.camera import Camera
+from warpvol.scene.transfer import TransferFunction
+
+CASTERS = ["raycast", "harc_best"]
+
+
+def corner_scene(size=48):
+    """A box seen from far off, small in the image (a few screen tiles hold its faces); a shell TF leaves
+    some cells out, so the walk re-enters the visible part."""
+    mesh = box_mesh(dims=(5, 5, 5), scalar=lambda p: np.linalg.norm(p, axis=1))
+    tf = TransferFunction([[0.0, 0.2, 0.5, 0.9, 0.0], [0.9, 0.2, 0.5, 0.9, 0.0], [1.2, 0.9, 0.6, 0.2, 3.0],
+                           [1.5, 0.2, 0.5, 0.9, 0.0], [2.0, 0.2, 0.5, 0.9, 0.0]])
+    cam = Camera(projection="perspective", eye=[9.0, 5.0, 12.0], target=[0.4, 0.3, 0.0], fov_y_deg=20.0,
+                 width_px=size, height_px=size)
+    return scene(mesh, tf, cam, name="corner")
+
+
+def launched(monkeypatch, preset, sc):
+    """Render ``sc`` with ``preset``; ``(result, threads launched by its march kernels)``."""
+    import warp
+
+    seen = []
+    orig = warp.launch
+
+    def spy(kernel, *a, **k):
+        if "march" in getattr(kernel, "key", ""):
+            seen.append(int(k.get("dim", a[0] if a else 0)))
+        return orig(kernel, *a, **k)
+
+    monkeypatch.setattr(warp, "launch", spy)
+    res = Pipeline.load(preset).render(sc, quiet=True)
+    monkeypatch.setattr(warp, "launch", orig)
+    return res, sum(seen)
+
+
+def facts(res):
+    stats = {k: {kk: vv for kk, vv in v.items() if kk not in ("pass_s", "float64_s", "cached")}
+             if isinstance(v, dict) else v for k, v in res.report.get("stats", {}).items()}
+    return json.dumps(res.report["counters"], sort_keys=True, default=str), json.dumps(stats, sort_keys=True, default=str)
+
+
+@pytest.mark.parametrize("preset", CASTERS)
+def test_rays_without_a_face_are_not_launched(monkeypatch, preset):
+    from warpvol.raycasting import harc
+    from warpvol.raycasting.stages import raycast as rs
+
+    sc = corner_scene()
+    res, n = launched(monkeypatch, preset, sc)
+    w, h = sc.camera.width_px, sc.camera.height_px
+    assert 0 < n < w * h // 2  # the first pass launches the rays of the tiles (pixels) with a face, not all
+    monkeypatch.setattr(rs, "tile_reach", lambda ctx: None)
+    monkeypatch.setattr(harc, "face_reach", lambda ctx, entry, setup="robust": None)
+    full, n_full = launched(monkeypatch, preset, sc)
+    assert n_full >= w * h
+    assert np.array_equal(res.image, full.image)
+    assert facts(res) == facts(full)
+    assert res.image[..., 3].max() > 0.1  # the view shows the data
