@@ -14,12 +14,19 @@ have no cycle and never pay that sort). With ``fifo`` the ready cells leave in t
 became ready (a queue, O(1) per cell): for an exact order (MPVO on a convex mesh, XMPVO) any
 topological order draws the same image, so the depth priority is only needed by MPVONC.
 
+``k_boundary_count``, ``k_boundary_scatter`` and ``k_ray_gaps_keyed`` are the lean form of the same (``pt_best``):
+the boundary faces' fragments as (face, depth) only, counted and scattered per pixel (no attributes, no sort of
+the whole list), each pixel's list sorted by (depth, exit before entry, face): the pairs ``k_ray_gaps`` finds.
+``k_indegree`` counts each cell's incoming face edges from ``dirs``.
+
 ``k_ray_gaps`` finds XMPVO's extra edges along the pixel rays: per pixel, its boundary fragments
 ordered by depth (an insertion sort in place: a pixel holds a few), and wherever the ray leaves the
 mesh through one boundary face and enters again through the next, the pair of their cells.
 """
 
 import warp as wp
+
+from .raster import TriSetup, covers, interp_depth, screen_bary
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})  # same roundings on CPU and CUDA
 
@@ -200,5 +207,87 @@ def k_ray_gaps(offsets: wp.array(dtype=wp.int32), prim: wp.array(dtype=wp.int32)
         dst[k] = -1
         if k + 1 < b:
             if front[prim[k]] == 0 and front[prim[k + 1]] == 1:  # leave the mesh, then re-enter it
+                src[k] = cell[prim[k + 1]]
+                dst[k] = cell[prim[k]]
+
+
+@wp.kernel
+def k_indegree(dirs: wp.array2d(dtype=wp.int32), indeg: wp.array(dtype=wp.int32)):
+    """Cell ``c``: how many of its faces have ``dirs < 0`` (a neighbour drawn before it)."""
+    c = wp.tid()
+    n = int(0)
+    for f in range(4):
+        if dirs[c, f] < 0:
+            n += 1
+    indeg[c] = n
+
+
+@wp.kernel
+def k_boundary_count(s: TriSetup, width: int, pixel_counts: wp.array(dtype=wp.int32)):
+    """Face ``t`` (a set-up triangle): add one to ``pixel_counts`` at every pixel centre it covers (the
+    rasteriser's exact coverage test over its bounding box; no depth clip)."""
+    t = wp.tid()
+    b = s.bbox[t]
+    x = s.sx[t]
+    y = s.sy[t]
+    bi = s.bias[t]
+    for i in range(b[1], b[3] + 1):
+        for j in range(b[0], b[2] + 1):
+            if covers(x, y, bi, j, i):
+                wp.atomic_add(pixel_counts, i * width + j, 1)
+
+
+@wp.kernel
+def k_boundary_scatter(s: TriSetup, pos: wp.array(dtype=wp.vec4), width: int, offsets: wp.array(dtype=wp.int32),
+                       cursor: wp.array(dtype=wp.int32), prim: wp.array(dtype=wp.int32),
+                       depth: wp.array(dtype=wp.float32)):
+    """Face ``t``: at every pixel centre it covers, its index and its depth (the fragment depth of
+    :func:`warpvol.kernels.raster_draw.k_tri_fragments`) in the pixel's next free slot from ``offsets[p]``."""
+    t = wp.tid()
+    b = s.bbox[t]
+    x = s.sx[t]
+    y = s.sy[t]
+    bi = s.bias[t]
+    v = s.vidx[t]
+    for i in range(b[1], b[3] + 1):
+        for j in range(b[0], b[2] + 1):
+            if covers(x, y, bi, j, i):
+                p = i * width + j
+                k = offsets[p] + wp.atomic_add(cursor, p, 1)
+                prim[k] = t
+                depth[k] = interp_depth(pos, v, screen_bary(pos, v, float(j) + 0.5, float(i) + 0.5))
+
+
+@wp.kernel
+def k_ray_gaps_keyed(offsets: wp.array(dtype=wp.int32), prim: wp.array(dtype=wp.int32),
+                     depth: wp.array(dtype=wp.float32), front: wp.array(dtype=wp.int32), cell: wp.array(dtype=wp.int32),
+                     src: wp.array(dtype=wp.int32), dst: wp.array(dtype=wp.int32), p0: int):
+    """:func:`k_ray_gaps` for lists in any order: pixel ``p0 + tid``'s fragments sorted by (depth, exit before
+    entry, face index), the order ``k_ray_gaps`` gives a list in face order; the same pairs."""
+    p = p0 + wp.tid()
+    a = offsets[p]
+    b = offsets[p + 1]
+    for k in range(a + 1, b):
+        kd = depth[k]
+        kp = prim[k]
+        kf = front[kp]
+        m = k - 1
+        while m >= a:
+            md = depth[m]
+            mp = prim[m]
+            mf = front[mp]
+            if md > kd or (md == kd and (mf > kf or (mf == kf and mp > kp))):
+                depth[m + 1] = md
+                prim[m + 1] = mp
+                m -= 1
+            else:
+                break
+        depth[m + 1] = kd
+        prim[m + 1] = kp
+    for k in range(a, b):
+        src[k] = -1
+        dst[k] = -1
+        if k + 1 < b:
+            if front[prim[k]] == 0 and front[prim[k + 1]] == 1:
                 src[k] = cell[prim[k + 1]]
                 dst[k] = cell[prim[k]]

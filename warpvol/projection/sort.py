@@ -47,7 +47,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from warpvol.errors import ConfigError, check_choice
-from warpvol.gpu.raster import Rasterizer
+from warpvol.gpu.raster import Rasterizer, Triangles
 from warpvol.gpu.vertex import VertexStage
 from warpvol.parallel import blocks, launch_blocks, preload
 from warpvol.projection.pt import RASTER_RULES
@@ -135,6 +135,83 @@ def face_directions(mesh, camera) -> np.ndarray:
                       wp.array(FACE_VERTS.astype(np.int32), dtype=wp.int32, device=dev),
                       wp.vec3d(*eye), wp.vec3d(*fwd), int(persp), dirs], device=dev)
     return dirs.numpy()
+
+
+def kernel_arrays(mesh) -> dict:
+    """The mesh's arrays the lean per-frame sort (``lean=True``) reads, as Warp arrays on the CPU, built once
+    per mesh and kept on it (they depend on the mesh alone): points relative to the mesh centre (float64),
+    cells, adjacency, the local faces' points."""
+    got = mesh.__dict__.get("_sort_kernel_arrays")
+    if got is None:
+        import warp as wp
+
+        dev = "cpu"
+        got = {"points": wp.array(mesh.points - _frame(mesh, None)[0], dtype=wp.vec3d, device=dev),
+               "tets": wp.array(mesh.tets.astype(np.int32), dtype=wp.int32, device=dev),
+               "adj": wp.array(np.asarray(mesh.adjacency, np.int32), dtype=wp.int32, device=dev),
+               "face_verts": wp.array(FACE_VERTS.astype(np.int32), dtype=wp.int32, device=dev),
+               "no_key": wp.zeros(mesh.n_tets, dtype=wp.float64, device=dev)}
+        mesh.__dict__["_sort_kernel_arrays"] = got
+    return got
+
+
+def lean_face_directions(mesh, camera):
+    """:func:`face_directions` as Warp arrays ``(dirs, indeg)`` from the mesh's kept arrays
+    (:func:`kernel_arrays`), with each cell's in-degree (faces with ``dirs < 0``) counted by a kernel: no
+    per-frame copies of the mesh, no NumPy pass over the cells. The same directions."""
+    import warp as wp
+
+    from warpvol.kernels import sort as ks
+
+    _, eye, fwd, persp = _frame(mesh, camera)
+    a, dev = kernel_arrays(mesh), "cpu"
+    dirs = wp.zeros(a["adj"].shape, dtype=wp.int32, device=dev)
+    wp.launch(ks.k_face_directions, dim=mesh.n_tets,
+              inputs=[a["points"], a["tets"], a["adj"], a["face_verts"], wp.vec3d(*eye), wp.vec3d(*fwd), int(persp),
+                      dirs], device=dev)
+    indeg = wp.empty(mesh.n_tets, dtype=wp.int32, device=dev)
+    wp.launch(ks.k_indegree, dim=mesh.n_tets, inputs=[dirs, indeg], device=dev)
+    return dirs, indeg
+
+
+def lean_topological_order(mesh, camera, dirs, indeg, extra: tuple[np.ndarray, np.ndarray] | None,
+                           metric: str = "distance") -> tuple[np.ndarray, int, int]:
+    """:func:`topological_order` with ``priority=False`` on :func:`lean_face_directions`' arrays: the
+    same order (a queue in the same cell and edge order) without per-frame copies of the mesh's arrays;
+    the depth keys are computed only where the sort meets a cycle. Returns ``(order, cycles_broken,
+    face edges)``; ``extra`` ``(src, dst)`` sorted by ``src`` then ``dst`` (as
+    :func:`boundary_ray_constraints` returns them)."""
+    import warp as wp
+
+    from warpvol.kernels import sort as ks
+
+    m, dev, a = mesh.n_tets, "cpu", kernel_arrays(mesh)
+    ind = indeg.numpy()  # a view of the Warp array (CPU): changed in place
+    face_edges = int(ind.sum(dtype=np.int64))
+    src, dst = (np.zeros(0, np.int64), np.zeros(0, np.int64)) if extra is None else extra
+    off = np.zeros(m + 1, np.int32)
+    if len(src):
+        np.add.at(ind, dst, 1)
+        np.cumsum(np.bincount(src, minlength=m), out=off[1:])
+    graph = [a["adj"], dirs, wp.array(off, dtype=wp.int32, device=dev),
+             wp.array(np.append(dst, 0).astype(np.int32), dtype=wp.int32, device=dev)]
+    ind0 = ind.copy()  # the in-degrees again where a cycle makes the sort run twice
+    by_key = wp.zeros(1, dtype=wp.int32, device=dev)
+    key = a["no_key"]
+    for _ in range(2):
+        order = wp.empty(m, dtype=wp.int32, device=dev)
+        stats = wp.zeros(2, dtype=wp.int32, device=dev)
+        wp.launch(ks.k_priority_topo, dim=1,
+                  inputs=[*graph, key, by_key, indeg, wp.empty(m, dtype=wp.int32, device=dev),
+                          wp.zeros(m, dtype=wp.int32, device=dev), order, stats, 1], device=dev)
+        st = stats.numpy()
+        if not st[1]:
+            break
+        key_np = centroid_keys(mesh, camera, metric)  # a cycle: broken at the farthest remaining cell
+        key = wp.array(key_np, dtype=wp.float64, device=dev)
+        by_key = wp.array(cells_by_key(key_np), dtype=wp.int32, device=dev)
+        indeg = wp.array(ind0, dtype=wp.int32, device=dev)
+    return order.numpy(), int(st[0]), face_edges
 
 
 def cells_by_key(key: np.ndarray) -> np.ndarray:
@@ -310,35 +387,140 @@ def boundary_ray_constraints(mesh, camera, device: str = "cpu", hull: bool = Tru
     return pair // mesh.n_tets, pair % mesh.n_tets, frags.count
 
 
+def off_hull_boundary(mesh) -> dict:
+    """The boundary faces off the hull (:func:`hull_faces`) as the lean ray constraints read them, per mesh and
+    kept on it: their cells, the points they use (float32, as the vertex stage takes them) with the faces'
+    corners renumbered into that list, and each face's first corner and outward normal relative to the mesh
+    centre (float64) for the per-frame entry/exit test."""
+    got = mesh.__dict__.get("_sort_off_hull")
+    if got is None:
+        import warp as wp
+
+        bf = mesh.boundary_faces[~hull_faces(mesh)]
+        origin = _frame(mesh, None)[0]
+        tri = mesh.tets[bf[:, 0][:, None], FACE_VERTS[bf[:, 1]]]
+        used, local = np.unique(tri, return_inverse=True)
+        p0 = mesh.points[tri[:, 0]] - origin
+        n = np.cross(mesh.points[tri[:, 1]] - origin - p0, mesh.points[tri[:, 2]] - origin - p0)
+        got = {"faces": len(bf), "points": np.asarray(mesh.points, np.float32)[used],
+               "tris": local.reshape(tri.shape).astype(np.int32), "p0": p0, "normal": n,
+               "cells": wp.array(bf[:, 0].astype(np.int32), dtype=wp.int32, device="cpu")}
+        mesh.__dict__["_sort_off_hull"] = got
+    return got
+
+
+def lean_ray_constraints(mesh, camera) -> tuple[np.ndarray, np.ndarray, int]:
+    """:func:`boundary_ray_constraints` with ``hull=False`` in lean form (``pt_best``): the same pairs and
+    fragment count. The off-hull faces' data is kept per mesh (:func:`off_hull_boundary`); per frame only their
+    points are transformed, their fragments are counted per pixel and scattered as (face, depth) alone
+    (:func:`warpvol.kernels.sort.k_boundary_count`, ``k_boundary_scatter``: no attributes, no sort of the whole
+    list), and each pixel's short list is sorted by (depth, exit before entry, face) before the exit -> entry
+    pairs are read off (``k_ray_gaps_keyed``)."""
+    import warp as wp
+
+    from warpvol.kernels import sort as ks
+
+    hb = off_hull_boundary(mesh)
+    empty = np.zeros(0, np.int64)
+    if hb["faces"] == 0:
+        return empty, empty, 0
+    dev = "cpu"
+    _, eye, fwd, persp = _frame(mesh, camera)
+    front = (np.einsum("ij,ij->i", hb["normal"], eye - hb["p0"]) if persp else -(hb["normal"] @ fwd)) > 0
+    vs = VertexStage.from_camera(camera, *camera.depth_range(*mesh.bounds), device=dev)
+    rast = Rasterizer(camera.width_px, camera.height_px, device=dev, **RASTER_RULES)
+    tr = Triangles(rast, vs.transform(hb["points"]).window_array, hb["tris"], binned=False)
+    w, npx = camera.width_px, camera.width_px * camera.height_px
+    counts = wp.zeros(npx, dtype=wp.int32, device=dev)
+    wp.launch(ks.k_boundary_count, dim=tr.count, inputs=[tr.struct, w, counts], device=dev)
+    offsets = wp.empty(npx + 1, dtype=wp.int32, device=dev)
+    wp.utils.array_scan(counts, offsets[:npx], inclusive=False)
+    c, o = counts.numpy(), offsets.numpy()
+    n = int(o[npx - 1] + c[npx - 1])
+    o[npx] = n
+    if n < 2:
+        return empty, empty, n
+    prim, depth = wp.empty(n, dtype=wp.int32, device=dev), wp.empty(n, dtype=wp.float32, device=dev)
+    counts.zero_()  # now each pixel's next free slot
+    wp.launch(ks.k_boundary_scatter, dim=tr.count, inputs=[tr.struct, tr.positions, w, offsets, counts, prim, depth],
+              device=dev)
+    src_w, dst_w = wp.empty(n, dtype=wp.int32, device=dev), wp.empty(n, dtype=wp.int32, device=dev)
+    args = [offsets, prim, depth, wp.array(front.astype(np.int32), dtype=wp.int32, device=dev), hb["cells"], src_w, dst_w]
+    parts = blocks(npx, -(-npx // 16))
+    preload(dev, ks)
+    launch_blocks(dev, len(parts), lambda b: wp.launch(ks.k_ray_gaps_keyed, dim=parts[b][1], inputs=[*args, parts[b][0]],
+                                                       device=dev))
+    src, dst = src_w.numpy(), dst_w.numpy()
+    keep = np.flatnonzero((src >= 0) & (src != dst))
+    pair = np.unique(src[keep].astype(np.int64) * mesh.n_tets + dst[keep])
+    return pair // mesh.n_tets, pair % mesh.n_tets, n
+
+
+_RAYS_POOL: dict = {}
+
+
+def _rays_thread():
+    """The host thread XMPVO's ray constraints run on, kept for the process's next frames (a thread started
+    per frame cost up to milliseconds on a loaded machine); a forked child starts its own."""
+    import os
+    from concurrent.futures import ThreadPoolExecutor
+
+    pool = _RAYS_POOL.get(os.getpid())
+    if pool is None:
+        _RAYS_POOL.clear()
+        pool = _RAYS_POOL[os.getpid()] = ThreadPoolExecutor(max_workers=1, thread_name_prefix="warpvol-xmpvo-rays")
+    return pool
+
+
 def mpvo_order(mesh, camera, nonconvex: bool | None = None, metric: str = "distance",
-               exact_rays: bool = False, off_hull: bool = False) -> SortResult:
+               exact_rays: bool = False, off_hull: bool = False, lean: bool = False) -> SortResult:
     """MPVO (``nonconvex=False``), MPVONC (``True``; default: ``not mesh.is_convex``) or, with
-    ``exact_rays``, XMPVO order (``off_hull``: its boundary rasterised without the hull faces)."""
+    ``exact_rays``, XMPVO order (``off_hull``: its boundary rasterised without the hull faces). ``lean``
+    (``pt_best``; MPVO and XMPVO): the same order from per-mesh arrays kept on the mesh and per-frame
+    kernels (:func:`lean_face_directions`, :func:`lean_topological_order`, with ``off_hull``
+    :func:`lean_ray_constraints`)."""
     if nonconvex is None:
         nonconvex = not mesh.is_convex
+    lean = lean and (exact_rays or not nonconvex)  # MPVONC's depth priority: the published path
     extra, info = None, {}
     if exact_rays:  # the boundary rays on a second host thread while this one decides the faces
-        from concurrent.futures import ThreadPoolExecutor
-
         from warpvol.kernels import raster, raster_draw, sort, vertex
         from warpvol.parallel import preload
 
         _ = (mesh.boundary_faces, mesh.adjacency, centroids(mesh))  # built before the threads
         if off_hull:
             hull_faces(mesh)
+            if lean:
+                off_hull_boundary(mesh)
+        if lean:
+            kernel_arrays(mesh)
         preload("cpu", raster, raster_draw, sort, vertex)  # each thread's kernels compiled here, not concurrently
-        with ThreadPoolExecutor(max_workers=1) as pool:
-            rays = pool.submit(boundary_ray_constraints, mesh, camera, hull=not off_hull)
-            key = centroid_keys(mesh, camera, metric)
-            dirs = face_directions(mesh, camera)
-            src, dst, nfrag = rays.result()
+        pool = _rays_thread()
+        rays = (pool.submit(lean_ray_constraints, mesh, camera) if lean and off_hull
+                else pool.submit(boundary_ray_constraints, mesh, camera, hull=not off_hull))
+        try:
+            if lean:
+                dirs, indeg = lean_face_directions(mesh, camera)
+            else:
+                key = centroid_keys(mesh, camera, metric)
+                dirs = face_directions(mesh, camera)
+        except BaseException:  # the rays' thread finishes its frame before the error goes on
+            rays.exception()
+            raise
+        src, dst, nfrag = rays.result()
         extra, info = (src, dst), {"boundary_fragments": nfrag, "ray_constraints": len(src)}
+    elif lean:
+        dirs, indeg = lean_face_directions(mesh, camera)
     else:
         dirs = face_directions(mesh, camera)
         key = centroid_keys(mesh, camera, metric)
     # MPVONC needs its depth priority; MPVO (convex) and XMPVO orders are exact: a queue is enough. The cells
     # by depth key, where a cycle is broken, are sorted only when the sort meets one
-    order, cycles = topological_order(mesh, dirs, key, extra, priority=nonconvex and not exact_rays)
+    if lean:
+        order, cycles, face_edges = lean_topological_order(mesh, camera, dirs, indeg, extra, metric)
+    else:
+        order, cycles = topological_order(mesh, dirs, key, extra, priority=nonconvex and not exact_rays)
+        face_edges = int((dirs > 0).sum())
     method = "xmpvo" if exact_rays else "mpvonc" if nonconvex else "mpvo"
     notes = []
     if cycles:
@@ -346,26 +528,27 @@ def mpvo_order(mesh, camera, nonconvex: bool | None = None, metric: str = "dista
     if not mesh.is_convex and not exact_rays:
         notes.append("non-convex mesh: cells facing each other across empty space are ordered by depth "
                      "priority only (MPVONC heuristic)")
-    edges = int((dirs > 0).sum()) + (len(extra[0]) if extra else 0)
+    edges = face_edges + (len(extra[0]) if extra else 0)
     return SortResult(order, method, not notes, cycles, edges, "; ".join(notes), info)
 
 
 def visibility_order(mesh, camera, method: str = "auto", metric: str = "distance",
-                     off_hull: bool = False) -> SortResult:
+                     off_hull: bool = False, lean: bool = False) -> SortResult:
     """Back-to-front order by ``method``: ``centroid`` | ``mpvo`` | ``mpvonc`` | ``xmpvo`` |
     ``auto`` (MPVO for convex meshes, MPVONC otherwise). XMPVO's order is exact at the camera's
     pixel centres; it rasterises the whole boundary as published (``off_hull``: the faces on the convex
-    hull left out, :func:`boundary_ray_constraints`)."""
+    hull left out, :func:`boundary_ray_constraints`). ``lean``: the same order on per-frame kernels over
+    arrays kept on the mesh (:func:`mpvo_order`)."""
     method = check_choice("method", method, METHODS)
     if off_hull and method != "xmpvo":
         raise ConfigError(f"off_hull: applies to method 'xmpvo' only, not {method!r}")
     if method == "centroid":
         return centroid_order(mesh, camera, metric)
     if method == "auto":
-        return mpvo_order(mesh, camera, None, metric)
+        return mpvo_order(mesh, camera, None, metric, lean=lean)
     if method == "xmpvo":
-        return mpvo_order(mesh, camera, True, metric, exact_rays=True, off_hull=off_hull)
-    return mpvo_order(mesh, camera, method == "mpvonc", metric)
+        return mpvo_order(mesh, camera, True, metric, exact_rays=True, off_hull=off_hull, lean=lean)
+    return mpvo_order(mesh, camera, method == "mpvonc", metric, lean=lean)
 
 
 def occlusion_violations(mesh, camera, order: np.ndarray) -> tuple[int, int]:

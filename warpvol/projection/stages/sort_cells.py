@@ -9,8 +9,10 @@ about it in ``ctx.stats["sort"]`` (method run, whether it is exact, why not); co
 XMPVO rasterises its whole boundary, as Silva, Mitchell & Williams 1998 and Guthe et al. 2002 ran it.
 Two options beyond the papers, which only ``pt_best`` turns on: ``boundary = "off_hull"`` leaves the
 boundary faces on the convex hull out of the rasterised boundary (:func:`~warpvol.projection.sort.hull_faces`;
-a ray never leaves the mesh and re-enters across one), and ``visible_alone = true`` sorts the visible
-cells alone (below).
+a ray never leaves the mesh and re-enters across one), ``visible_alone = true`` sorts the visible
+cells alone (below), and ``lean = true`` (MPVO and XMPVO) computes the same order on per-frame kernels over
+arrays kept on the mesh (:func:`~warpvol.projection.sort.mpvo_order`: no per-frame copies of the mesh, the
+in-degrees counted by a kernel, XMPVO's off-hull boundary fragments as (face, depth) alone).
 
 With the ``visibility`` stage before it (skipping on) the order keeps only the cells the transfer
 function can make visible (``ctx.buffers["visible_cells"]``): the whole mesh is sorted (an invisible
@@ -59,10 +61,14 @@ class SortCells(Stage):
                                                                               visibility stage: sort
                                                                               the visible cells alone
                                                                               where cheaper (same image)
+    lean           bool   false     ``true`` | ``false``                      MPVO and XMPVO: the same
+                                                                              order on lean per-frame
+                                                                              kernels (arrays kept on
+                                                                              the mesh)
     =============  =====  ========  ========================================  =========================
 
-    ``boundary = "off_hull"`` and ``visible_alone = true`` are improvements beyond the papers (``pt_best``
-    turns them on); a faithful preset keeps the defaults.
+    ``boundary = "off_hull"``, ``visible_alone = true`` and ``lean = true`` are improvements beyond the papers
+    (``pt_best`` turns them on); a faithful preset keeps the defaults.
 
     A preset lists ``sort`` twice (``method = "mpvo"``, ``applies_to = "convex"`` and
     ``method = "mpvonc"``, ``applies_to = "non_convex"``): the planner runs one and reports the
@@ -90,10 +96,15 @@ class SortCells(Stage):
               "hull's faces left out)", choices=BOUNDARY),
         Param("visible_alone", bool, False, "XMPVO with the visibility stage: sort the visible cells alone, as a "
               "mesh of their own, where cheaper"),
+        Param("lean", bool, False, "MPVO and XMPVO: the same order on lean per-frame kernels over arrays kept on "
+              "the mesh"),
     )
     provides = ("order",)
 
     def validate(self) -> None:
+        if self.config["lean"] and self.config["method"] not in ("mpvo", "xmpvo"):
+            raise ConfigError(f"{self.where}.lean: applies to method = 'mpvo' or 'xmpvo' only (method is "
+                              f"{self.config['method']!r}); leave it out")
         for name, default in (("boundary", "all"), ("visible_alone", False)):
             if self.config[name] != default and self.config["method"] != "xmpvo":
                 raise ConfigError(f"{self.where}.{name}: applies to method = 'xmpvo' only (method is "
@@ -144,13 +155,14 @@ class SortCells(Stage):
         sub = (self.visible_only(ctx, vis) if self.config["visible_alone"] and vis is not None
                and 0 < vis.sum() < len(vis) else None)
         if sub is not None:  # XMPVO on the visible cells alone: cheaper here than on the whole mesh
-            r = visibility_order(sub[0], ctx.scene.camera, "xmpvo", self.config["metric"], off_hull=off_hull)
+            r = visibility_order(sub[0], ctx.scene.camera, "xmpvo", self.config["metric"], off_hull=off_hull,
+                                 lean=self.config["lean"])
             kept = sub[1][r.order]
             if r.cycles_broken:  # approximate: the whole mesh's order, exact where that one is
                 sub = None
         if sub is None:
             r = visibility_order(mesh, ctx.scene.camera, self.config["method"], self.config["metric"],
-                                 off_hull=off_hull)
+                                 off_hull=off_hull, lean=self.config["lean"])
             kept = r.order if vis is None else r.order[vis[r.order]]
         ctx.buffers["order"] = kept
         if vis is not None:
