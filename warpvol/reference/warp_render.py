@@ -315,7 +315,7 @@ def _entry_table(faces: tuple, wa: dict, view: _View, device: str, threads: int)
     W, H = view.W, view.H
     f64 = wp.float64
     nf = len(ftet)
-    fblocks = blocks(nf, max(1, -(-nf // (4 * threads)))) if device.startswith("cpu") else [(0, nf)]
+    fblocks = blocks(nf, max(_MIN_BLOCK, -(-nf // (4 * threads)))) if device.startswith("cpu") else [(0, nf)]
     d_ftet, d_floc = arr(ftet, wp.int32), arr(floc, wp.int32)
     d_box = arr(fbox.reshape(-1, 4) if nf else np.zeros((0, 4), np.int32), wp.vec4i)
     count = wp.zeros(max(nf, 1), dtype=wp.int64, device=device)
@@ -374,6 +374,32 @@ def _progress_bar(show: bool | None, total: int):
                    console=Console(file=sys.stderr))
     bar.start()
     return bar
+
+
+#: fewest pixels (a pixel list) or faces (entry tables) per block launched from a host thread: a block's start
+#: costs a thread wake-up, more than a few pixels' walks on a loaded machine
+_MIN_BLOCK = 64
+
+_QUAD: dict = {}  # device -> the Gauss-Legendre nodes and weights on it (RefQuad), built once
+
+
+def _quadrature(device: str):
+    """The walk's 10- and 5-point Gauss-Legendre nodes and weights on ``device``, kept for the next calls
+    (``leggauss`` solves an eigenproblem: milliseconds per call on a loaded machine, a float64 redo's whole
+    budget for a few pixels)."""
+    quad = _QUAD.get(device)
+    if quad is None:
+        import warp as wp
+
+        from warpvol.kernels import reference as K
+
+        arr, f64 = _uploader(device), wp.float64
+        x10, w10 = np.polynomial.legendre.leggauss(10)
+        x5, w5 = np.polynomial.legendre.leggauss(5)
+        quad = K.RefQuad()
+        quad.gx10, quad.gw10, quad.gx5, quad.gw5 = arr(x10, f64), arr(w10, f64), arr(x5, f64), arr(w5, f64)
+        _QUAD[device] = quad
+    return quad
 
 
 def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *, device: str | None = None,
@@ -512,8 +538,6 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     # -- transfer function, quadrature, termination bound ---------------------------------------------
     pts = np.asarray(tf.points, dtype=np.float64)
     tf_s, tf_c = arr(pts[:, 0], f64), arr(pts[:, 1:5], wp.vec4d)
-    x10, w10 = np.polynomial.legendre.leggauss(10)
-    x5, w5 = np.polynomial.legendre.leggauss(5)
     ed = int(tf.emission == "emission_density")
     lo, hi = mesh.bounds
     cmax = float(np.abs(pts[:, 1:4]).max())
@@ -529,12 +553,11 @@ def render_reference_warp(mesh: TetMesh, tf: TransferFunction, camera: Camera, *
     pix_arr = wp.zeros(0, dtype=wp.int32, device=device)
     if plist is not None:  # blocks of the list: (offset, count), one thread per listed pixel
         pix_arr = arr(plist.astype(np.int32), wp.int32)
-        rblocks = blocks(len(plist), max(1, -(-len(plist) // (8 * threads))) if on_cpu else len(plist))
+        rblocks = blocks(len(plist), max(_MIN_BLOCK, -(-len(plist) // (8 * threads))) if on_cpu else len(plist))
         show_progress = False
     ents = K.RefEntries()
     ents.near, ents.ent_start, ents.ent_t, ents.ent_tet = near, ent_start, ent_t, ent_tet
-    quad = K.RefQuad()
-    quad.gx10, quad.gw10, quad.gx5, quad.gw5 = arr(x10, f64), arr(w10, f64), arr(x5, f64), arr(w5, f64)
+    quad = _quadrature(device)
     common = [P, S, T, adj, orient, s_eye, ents, cxs, cys, persp, int(mesh.n_tets) + 1, f64(c_bound), f64(terminate),
               tf_s, tf_c, quad, ed, int(bool(closed_form)), img, counters]
     # a caller's own progress callback (the command line's bar, bench, stress) replaces the default bar
