@@ -28,8 +28,9 @@ when the site is built:
     The ``--help`` text of ``warpvol SUBCOMMAND`` (``<!-- cli: -->`` for ``warpvol --help``),
     taken from the installed command when the site is built.
 
-The contributors' architecture page (``docs/architecture.md``) is added to the navigation when the
-file exists, and ``<!-- architecture-link -->`` becomes a link to it (or a sentence saying it is not
+The Papers section of the navigation is built from the families' declarations (each paper's ``page``
+and ``nav`` title in ``FAMILY["papers"]``, :func:`papers_nav`). The contributors' architecture page
+(``docs/architecture.md``) is added to the navigation when the file exists, and ``<!-- architecture-link -->`` becomes a link to it (or a sentence saying it is not
 written yet), so the site builds with ``--strict`` either way.
 """
 
@@ -421,11 +422,33 @@ def expand(markdown: str) -> str:
 
 
 # -- MkDocs events --------------------------------------------------------------------------------
+def papers_nav() -> list[dict]:
+    """The site's Papers section, from the families' declarations: ``[{title: page}]`` of every paper entry
+    that gives a ``page`` and its ``nav`` title (:func:`warpvol.family.family_papers`), in the papers' order,
+    each page once."""
+    from warpvol.family import family_papers
+
+    out, seen = [], set()
+    for paper in family_papers():
+        if paper.get("nav") and paper.get("page") and paper["page"] not in seen:
+            seen.add(paper["page"])
+            out.append({paper["nav"]: paper["page"]})
+    return out
+
+
 def on_config(config, **kwargs):
-    """Add the architecture page to the contributors' section when the file exists."""
+    """The Papers section from the families' declarations (:func:`papers_nav`, after the user guide), and the
+    architecture page in the contributors' section when the file exists."""
+    nav = config.get("nav") or []
+    papers = {"Papers": papers_nav()}
+    at = next((k for k, item in enumerate(nav) if isinstance(item, dict) and "Papers" in item), None)
+    if at is not None:
+        nav[at] = papers
+    elif papers["Papers"]:
+        guide = next((k for k, item in enumerate(nav) if isinstance(item, dict) and "User guide" in item), 0)
+        nav.insert(guide + 1, papers)
     if not _architecture_exists():
         return config
-    nav = config.get("nav") or []
     for item in nav:
         if isinstance(item, dict) and "Contributing" in item:
             section = item["Contributing"]

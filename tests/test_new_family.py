@@ -1,6 +1,6 @@
 """A new paper is its own folder: a toy family, written into a temporary package that warpvol has never
-seen, is listed by ``warpvol pipelines``, renders, and passes the architecture test, with nothing of
-warpvol edited.
+seen, is listed by ``warpvol pipelines``, renders, passes the architecture test, and its tolerance row, docs
+page and table rows come from its declaration (``FAMILY`` in its ``__init__``), with nothing of warpvol edited.
 
 The discovery mechanism is an **entry point** in the group ``warpvol.families`` (the toy's
 ``*.dist-info/entry_points.txt``, what ``pip install`` writes from a ``pyproject.toml``'s
@@ -48,6 +48,21 @@ for _m in pkgutil.walk_packages(__path__, prefix=f"{__name__}."):
     importlib.import_module(_m.name)
 '''
 
+#: the toy's declaration: its paper (presets, docs page, files) and its tolerance row, all in its folder
+INIT = '''"""Toy family."""
+
+FAMILY = {
+    "title": "Toy 2026",
+    "renderer": True,
+    "papers": (
+        {"title": "Toy 2026", "presets": {"toy_grey": "the image filled with one grey"},
+         "table": "one grey", "page": "papers/toy2026.md", "nav": "Toy et al. 2026",
+         "code": {"stages": ["toyfam/stages/toy_fill.py"]}},
+    ),
+    "tolerances": {"toy_grey": {"max_abs": 0.0, "why": "every pixel is the grey it is given"}},
+}
+'''
+
 PRESET = '''description = "Toy 2026: the image filled with one grey"
 
 [[stages]]
@@ -61,8 +76,7 @@ def write_toy_family(root: Path) -> Path:
     pkg = root / "toyfam"
     (pkg / "stages").mkdir(parents=True)
     (pkg / "presets").mkdir()
-    (pkg / "__init__.py").write_text('"""Toy family."""\n\nFAMILY = {"title": "Toy 2026", "renderer": True, '
-                                     '"presets": {"toy_grey": "the image filled with one grey"}}\n')
+    (pkg / "__init__.py").write_text(INIT)
     (pkg / "stages" / "__init__.py").write_text(STAGES_INIT)
     (pkg / "stages" / "toy_fill.py").write_text(STAGE)
     (pkg / "presets" / "toy_grey.toml").write_text(PRESET)
@@ -107,6 +121,29 @@ def test_the_toy_family_renders(toy, tmp_path):
     r = warpvol_cmd(["render", "builtin:box", "--pipeline", "toy_grey", "--width", "8", "--height", "8",
                      "-o", "toy.png", "--quiet"], root, tmp_path)
     assert r.returncode == 0 and (tmp_path / "toy.png").is_file(), r.stderr
+
+
+def test_the_toy_familys_tolerance_row_docs_page_and_tables_come_from_its_declaration(toy):
+    """The toy's tolerance row is in tests/tolerances.py's table, its page in the site's Papers section, its
+    paper in the architecture page's table and the preset tables, with nothing of warpvol edited."""
+    root, _ = toy
+    repo = Path(__file__).resolve().parents[1]
+    code = ("import sys\n"
+            f"sys.path[:0] = [{str(repo / 'tests')!r}, {str(repo / 'docs')!r}, {str(repo / 'scripts')!r}]\n"
+            "from tolerances import TOLERANCES, preset_tolerance\n"
+            "import hooks, preset_tables\n"
+            "print(preset_tolerance('toy_grey'), TOLERANCES['raycast/fp32'])\n"
+            "print(hooks.papers_nav()[-1])\n"
+            "print([r for r in preset_tables.architecture_table().splitlines() if 'toy' in r])\n"
+            "print([r for r in preset_tables.table(None).splitlines() if 'toy' in r])\n")
+    r = subprocess.run([sys.executable, "-c", code], cwd=root, env={**os.environ, "PYTHONPATH": str(root)},
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    tol, nav, arch_rows, table_rows = r.stdout.splitlines()
+    assert tol == "{'max_abs': 0.0} {'rmse': 2e-06, 'max_abs': 0.0001}"
+    assert nav == "{'Toy et al. 2026': 'papers/toy2026.md'}"
+    assert arch_rows == "['| Toy 2026 (`toy_grey`) | `toyfam/` |  | `toyfam/stages/toy_fill.py` |  |  |']"
+    assert table_rows == "['| Toy 2026 | `toy_grey` | one grey |']"
 
 
 def test_the_toy_family_is_accepted_by_the_architecture_test(toy):
