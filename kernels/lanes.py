@@ -112,6 +112,7 @@ class LaneState:
     best_t: float
     far_t: float
     flat: int
+    entered: int
 
 
 @wp.func
@@ -196,6 +197,14 @@ def lane_step(ls: LaneState, scale: float, mesh: CellMesh, ig: Integ, opts: Walk
     ls.gn = vrow[f_out]
     ls.cell = nb >> 2
     return ls
+
+
+@wp.func
+def lane_step_at(scratch: wp.array(dtype=LaneState), slot: int, scale: float, mesh: CellMesh, ig: Integ,
+                 opts: WalkOpts):
+    """:func:`lane_step` of the lane kept in ``scratch[slot]``, in place (the lane kernel keeps no
+    :class:`LaneState` variable of its own: one assigned in its loops is copied on every pass)."""
+    scratch[slot] = lane_step(scratch[slot], scale, mesh, ig, opts)
 
 
 #: the lane kernels' module options: no FMA contraction (the scalar functions' roundings); loops unrolled at most
@@ -306,4 +315,29 @@ def make_lane_io(segs: bool = False):
         elif not (ls.far_t > t_in - opts.t_tol):
             status[idx] = STATUS_DONE
 
-    return lane_entry, lane_finish
+    @wp.func
+    def lane_entry_at(scratch: wp.array(dtype=LaneState), slot: int, idx: int, cam: RayCamera, mesh: CellMesh,
+                      bins: EntryBins, ig: Integ, opts: WalkOpts, st_rgb: wp.array(dtype=wp.vec3),
+                      trans: wp.array(dtype=float), tcur: wp.array(dtype=float), status: wp.array(dtype=wp.int32),
+                      last: wp.array(dtype=wp.int32), counters: wp.array2d(dtype=wp.int32), chunk: int):
+        """``lane_entry`` of ray ``idx`` into ``scratch[slot]``: ``entered`` 1 when the entry was made (its
+        write-back is ``lane_finish_at``'s), ``walking`` 1 when there is a walk to take."""
+        ls = lane_entry(idx, cam, mesh, bins, ig, opts, st_rgb, trans, tcur, status, last, counters, chunk)
+        ls.idx = idx
+        ls.entered = ls.walking
+        if ls.failed != 0:
+            ls.walking = 0  # (entered through a face seen nearly edge-on: no step, failed)
+        scratch[slot] = ls
+
+    @wp.func
+    def lane_finish_at(scratch: wp.array(dtype=LaneState), slot: int, opts: WalkOpts,
+                       st_rgb: wp.array(dtype=wp.vec3), trans: wp.array(dtype=float), tcur: wp.array(dtype=float),
+                       status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32),
+                       counters: wp.array2d(dtype=wp.int32), chunk: int, sg: Segments) -> int:
+        """``lane_finish`` of the lane in ``scratch[slot]`` if its entry was made; its ray's pixel."""
+        ls = scratch[slot]
+        if ls.entered == 1:
+            lane_finish(ls, opts, st_rgb, trans, tcur, status, last, counters, chunk, sg)
+        return ls.idx
+
+    return lane_entry_at, lane_finish_at

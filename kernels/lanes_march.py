@@ -3,14 +3,20 @@
 :func:`make_march_lanes` builds, per lane count, a kernel that makes what
 :func:`warpvol.kernels.raycast.make_march`'s pass makes -- the same images, counters and float64 redo marks, bit for
 bit (tests/test_march_lanes.py) -- with the rays ``first + LANES tid + j`` of a thread: their first entries one
-after the other (:func:`~warpvol.kernels.lanes.make_lane_io`), then their walks one step of every lane per pass of
-a counted, branch-free ``for j in range(LANES)`` loop over lane matrices (each row one state variable, each
-column a lane), which LLVM vectorises; a lane whose step is rare takes that step in
-:func:`~warpvol.kernels.lanes.lane_step` (the scalar functions) and rejoins. The cell records and new vertex of
-every lane are read in a loop of their own before the step's arithmetic (loads from arrays in the arithmetic loop
-keep LLVM from vectorising it: it cannot bound them against the lane matrices' stores), the TF piece of a lane is
-kept in its state (a control point crossed is a rare step), and the lane matrices are read and written only by
-element in the kernel itself (passed to a function they would count as escaping, with the same effect).
+after the other (:func:`~warpvol.kernels.lanes.make_lane_io`, into ``scratch``), then their walks one step of every
+lane per pass of a counted, branch-free ``for j in range(LANES)`` loop over lane matrices (each row one state
+variable, each column a lane), which LLVM vectorises. An optically thick piece (one TF piece, no check fired) takes
+the vector step but its integral afterwards, one lane at a time (:func:`~warpvol.kernels.integrate.integrate_piece`
+with libm's ``exp``, as the scalar walk); a lane whose step is rare goes to ``scratch`` and takes that step in
+:func:`~warpvol.kernels.lanes.lane_step` (the scalar functions), and the next pass reloads it. A ray whose walk has
+ended is written back (and re-enters, scalar) as soon as it ends. The cell records and new vertex of every lane are
+read in a loop of their own before the step's arithmetic (loads from arrays in the arithmetic loop keep LLVM from
+vectorising it: it cannot bound them against the lane matrices' stores), the TF piece of a lane is kept in its
+state (a control point crossed is a rare step), and the lane matrices are read and written only by element in the
+kernel itself (passed to a function they would count as escaping, with the same effect). The kernel keeps no
+:class:`~warpvol.kernels.lanes.LaneState` variable: a struct assigned in its loops is copied on every pass
+(a 328-byte ``memcpy`` per lane and pass, a third of the march's time); the state moves between the lane matrices
+and ``scratch`` field by field.
 """
 
 import threading
@@ -19,8 +25,9 @@ import warp as wp
 
 from .cellwalk import CellMesh, RayCamera, Segments, WalkOpts, add_under_tr
 from .harc_integ import Integ
-from .integrate import GL3_W0, GL3_W1, GL3_X0, GL3_X2, THIN_DEPTH, exp_neg_thin, one_minus_exp_neg_thin
-from .lanes import LANE_OPTIONS, FlatMesh, LaneState, lane_step, make_lane_io
+from .integrate import GL3_W0, GL3_W1, GL3_X0, GL3_X2, THIN_DEPTH, exp_neg, exp_neg_thin, integrate_piece, \
+    one_minus_exp_neg_thin
+from .lanes import LANE_OPTIONS, FlatMesh, LaneState, lane_step_at, make_lane_io
 from .raycast import STATUS_ACTIVE, EntryBins, march_kernel
 from .walk import EPS32, STALL_STEPS, STEEP_ERR, THIN_ULPS, spread_error, thin_unresolved
 
@@ -31,13 +38,15 @@ def make_march_lanes(lanes: int, segs: bool = False):
     """The pass kernel of :func:`warpvol.kernels.raycast.make_march` with ``lanes`` rays per thread (a module of
     its own per lane count: ``LANES`` is a compile-time constant); use :func:`march_lanes_kernel`."""
     LANES = lanes
-    lane_entry, lane_finish = make_lane_io(segs)
+    lane_entry_at, lane_finish_at = make_lane_io(segs)
     march_ray = march_kernel(segs).march_ray  # the scalar entry and walk, for the re-entries
     FFm = wp.types.matrix(shape=(27, LANES), dtype=float)  # each lane's Face: pa, pb, pc, h, ma, mb, mc, s, w
     FGm = wp.types.matrix(shape=(3, LANES), dtype=int)  # each lane's Face.g
     SFm = wp.types.matrix(shape=(37, LANES), dtype=float)  # see the put block; 27..36: the lane's TF piece
     SIm = wp.types.matrix(shape=(7, LANES), dtype=int)  # cell, gn, cells, stall, k_in, thin is_short, walking
-    RVv = wp.types.vector(length=LANES, dtype=int)  # the lanes whose step is rare
+    RVv = wp.types.vector(length=LANES, dtype=int)  # the lanes whose step is rare; whose piece is optically thick
+    TFm = wp.types.matrix(shape=(5, LANES), dtype=float)  # a thick piece: its length and entry TF value
+    TIm = wp.types.matrix(shape=(2, LANES), dtype=int)  # a thick piece: the next cell and its new vertex
     GIm = wp.types.matrix(shape=(12, LANES), dtype=int)  # each lane's cell: tets, nbr, nbr_vertex records
     GVm = wp.types.matrix(shape=(4, LANES), dtype=float)  # each lane's new vertex record
 
@@ -60,57 +69,75 @@ def make_march_lanes(lanes: int, segs: bool = False):
         SF = SFm()
         SI = SIm()
         RV = RVv()
+        RT = RVv()
+        LD = RVv()  # the lanes whose state the next pass loads from scratch (a first entry, a rare step)
+        FN = RVv()  # the lanes whose ray is still to be written back
+        TF = TFm()
+        TI = TIm()
         GI = GIm()
         GV = GVm()
-        busy = int(0)
         for j in range(LANES):
             slot = base + j
             if slot < end:
                 idx = slot
                 if ids.shape[0] > 0:
                     idx = ids[slot]
-                ls = lane_entry(idx, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last, counters, chunk)
-                if ls.walking == 0:
-                    ls.idx = -1
-                if ls.failed != 0:
-                    ls.walking = 0  # (entered through a face seen nearly edge-on: no step, failed)
-                scratch[slot] = ls
-                if ls.idx >= 0:  # (lane_put, written out: the lane matrices never leave the kernel)
+                lane_entry_at(scratch, slot, idx, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last,
+                              counters, chunk)
+                LD[j] = 1
+                FN[j] = 1
+        n_tf = ig.tf_s.shape[0]
+        model = ig.model
+        check = opts.scalar_check
+        t_stop = opts.t_stop
+        max_steps = opts.max_steps
+        m_tets = fm.tets  # (the arrays as locals: a struct field's array read in the lane loop is an aggregate load)
+        m_verts = fm.verts
+        m_nbr = fm.nbr
+        m_nbrv = fm.nbr_vertex
+        busy = int(1)
+        while busy > 0:
+            # ---- the lanes' state from scratch after a first entry or a rare step (field by field) ----
+            for j in range(LANES):
+                if LD[j] == 1:
+                    LD[j] = 0
+                    slot = base + j
                     for i in range(3):
-                        FF[i, j] = ls.fc.pa[i]
-                        FF[3 + i, j] = ls.fc.pb[i]
-                        FF[6 + i, j] = ls.fc.pc[i]
-                        FF[9 + i, j] = ls.fc.h[i]
-                        FF[12 + i, j] = ls.fc.ma[i]
-                        FF[15 + i, j] = ls.fc.mb[i]
-                        FF[18 + i, j] = ls.fc.mc[i]
-                        FF[21 + i, j] = ls.fc.s[i]
-                        FF[24 + i, j] = ls.fc.w[i]
-                        FG[i, j] = ls.fc.g[i]
-                        SF[20 + i, j] = ls.r.o[i]
-                        SF[23 + i, j] = ls.r.d[i]
+                        FF[i, j] = scratch[slot].fc.pa[i]
+                        FF[3 + i, j] = scratch[slot].fc.pb[i]
+                        FF[6 + i, j] = scratch[slot].fc.pc[i]
+                        FF[9 + i, j] = scratch[slot].fc.h[i]
+                        FF[12 + i, j] = scratch[slot].fc.ma[i]
+                        FF[15 + i, j] = scratch[slot].fc.mb[i]
+                        FF[18 + i, j] = scratch[slot].fc.mc[i]
+                        FF[21 + i, j] = scratch[slot].fc.s[i]
+                        FF[24 + i, j] = scratch[slot].fc.w[i]
+                        FG[i, j] = scratch[slot].fc.g[i]
+                        SF[20 + i, j] = scratch[slot].r.o[i]
+                        SF[23 + i, j] = scratch[slot].r.d[i]
                     for i in range(4):
-                        SF[2 + i, j] = ls.acc[i]
-                        SF[6 + i, j] = ls.own[i]
-                        SF[10 + i, j] = ls.v_in[i]
-                    SF[0, j] = ls.t_in
-                    SF[1, j] = ls.s_in
-                    SF[14, j] = ls.ds_in
-                    SF[15, j] = ls.scal_err
-                    SF[16, j] = ls.thin_mem.d
-                    SF[17, j] = ls.thin_mem.dmax
-                    SF[18, j] = ls.thin_mem.tr
-                    SF[19, j] = ls.thin_mem.u
-                    SF[26, j] = ls.t_clip
-                    SI[0, j] = ls.cell
-                    SI[1, j] = ls.gn
-                    SI[2, j] = ls.cells
-                    SI[3, j] = ls.stall
-                    SI[4, j] = ls.k_in
-                    SI[5, j] = ls.thin_mem.is_short
-                    SI[6, j] = ls.walking
-                    kl_ = wp.max(ls.k_in - 1, 0)  # the lane's TF piece: its control points' scalars and values
-                    kh_ = wp.min(ls.k_in, ig.tf_s.shape[0] - 1)
+                        SF[2 + i, j] = scratch[slot].acc[i]
+                        SF[6 + i, j] = scratch[slot].own[i]
+                        SF[10 + i, j] = scratch[slot].v_in[i]
+                    SF[0, j] = scratch[slot].t_in
+                    SF[1, j] = scratch[slot].s_in
+                    SF[14, j] = scratch[slot].ds_in
+                    SF[15, j] = scratch[slot].scal_err
+                    SF[16, j] = scratch[slot].thin_mem.d
+                    SF[17, j] = scratch[slot].thin_mem.dmax
+                    SF[18, j] = scratch[slot].thin_mem.tr
+                    SF[19, j] = scratch[slot].thin_mem.u
+                    SF[26, j] = scratch[slot].t_clip
+                    SI[0, j] = scratch[slot].cell
+                    SI[1, j] = scratch[slot].gn
+                    SI[2, j] = scratch[slot].cells
+                    SI[3, j] = scratch[slot].stall
+                    k_in = scratch[slot].k_in
+                    SI[4, j] = k_in
+                    SI[5, j] = scratch[slot].thin_mem.is_short
+                    SI[6, j] = scratch[slot].walking
+                    kl_ = wp.max(k_in - 1, 0)  # the lane's TF piece: its control points' scalars and values
+                    kh_ = wp.min(k_in, n_tf - 1)
                     SF[27, j] = ig.tf_s[kl_]
                     SF[28, j] = ig.tf_s[kh_]
                     SF[29, j] = fm.tf_v[4 * kl_]
@@ -121,17 +148,6 @@ def make_march_lanes(lanes: int, segs: bool = False):
                     SF[34, j] = fm.tf_v[4 * kh_ + 1]
                     SF[35, j] = fm.tf_v[4 * kh_ + 2]
                     SF[36, j] = fm.tf_v[4 * kh_ + 3]
-                busy = busy + ls.walking
-        n_tf = ig.tf_s.shape[0]
-        model = ig.model
-        check = opts.scalar_check
-        t_stop = opts.t_stop
-        max_steps = opts.max_steps
-        m_tets = fm.tets  # (the arrays as locals: a struct field's array read in the lane loop is an aggregate load)
-        m_verts = fm.verts
-        m_nbr = fm.nbr
-        m_nbrv = fm.nbr_vertex
-        while busy > 0:
             # ---- one step of every walking lane, the common case in lane form ----
             for j in range(LANES):  # the lanes' cell records and new vertex (loads: a loop of their own)
                 c4 = 4 * SI[0, j]
@@ -312,8 +328,9 @@ def make_march_lanes(lanes: int, segs: bool = False):
                 rr1 = (cc0 * (mm0 - mm1) + cc1 * mm1) * ln
                 m0_ = model == 0
                 positive = not (ln <= 0.0)
-                rare = rare or (positive and (not (tau_total <= THIN_DEPTH) or (model != 0 and not (
-                    x0 <= THIN_DEPTH and x1 <= THIN_DEPTH and x2 <= THIN_DEPTH))))
+                # an optically thick piece: its integral (and exp) in integrate_piece after the lane loop
+                thick = positive and (not (tau_total <= THIN_DEPTH) or (model != 0 and not (
+                    x0 <= THIN_DEPTH and x1 <= THIN_DEPTH and x2 <= THIN_DEPTH)))
                 seg = wp.vec4(wp.where(positive, wp.where(m0_, rr0[0], rr1[0]), 0.0),
                               wp.where(positive, wp.where(m0_, rr0[1], rr1[1]), 0.0),
                               wp.where(positive, wp.where(m0_, rr0[2], rr1[2]), 0.0), wp.where(positive, tau_total, 0.0))
@@ -350,11 +367,21 @@ def make_march_lanes(lanes: int, segs: bool = False):
                 stop = acc[3] < t_stop
                 active = walk == 1 and ok_steps
                 go = active and not rare
+                gt = go and thick  # (its colour, transmittance and stop after the lane loop)
+                gn_ = go and not thick
                 RV[j] = wp.where(active and rare, 1, 0)
-                SI[6, j] = wp.where((walk == 1 and not ok_steps) or (go and stop), 0, walk)
+                RT[j] = wp.where(gt, 1, 0)
+                SI[6, j] = wp.where((walk == 1 and not ok_steps) or (gn_ and stop), 0, walk)
                 # ---- commit the step of the lanes that took it ----
                 vrow = wp.where(f_out == 0, GI[8, j], wp.where(f_out == 1, GI[9, j], wp.where(f_out == 2, GI[10, j], GI[11, j])))
-                keep = go and not stop
+                keep = gn_ and not stop
+                TI[0, j] = nb >> 2
+                TI[1, j] = vrow
+                TF[0, j] = ln
+                TF[1, j] = v_in[0]
+                TF[2, j] = v_in[1]
+                TF[3, j] = v_in[2]
+                TF[4, j] = v_in[3]
                 SI[0, j] = wp.where(keep, nb >> 2, cell)
                 SI[1, j] = wp.where(keep, vrow, gn)
                 SI[2, j] = wp.where(go, SI[2, j] + 1, SI[2, j])
@@ -362,17 +389,17 @@ def make_march_lanes(lanes: int, segs: bool = False):
                 SI[5, j] = wp.where(go, wp.where(short, 1, 0), SI[5, j])
                 SF[0, j] = wp.where(go, t_out, t_in)
                 SF[1, j] = wp.where(go, s_out, s_in)
-                SF[2, j] = wp.where(go, acc[0], SF[2, j])
-                SF[6, j] = wp.where(go, own[0], SF[6, j])
+                SF[2, j] = wp.where(gn_, acc[0], SF[2, j])
+                SF[6, j] = wp.where(gn_, own[0], SF[6, j])
                 SF[10, j] = wp.where(go, v_out[0], SF[10, j])
-                SF[3, j] = wp.where(go, acc[1], SF[3, j])
-                SF[7, j] = wp.where(go, own[1], SF[7, j])
+                SF[3, j] = wp.where(gn_, acc[1], SF[3, j])
+                SF[7, j] = wp.where(gn_, own[1], SF[7, j])
                 SF[11, j] = wp.where(go, v_out[1], SF[11, j])
-                SF[4, j] = wp.where(go, acc[2], SF[4, j])
-                SF[8, j] = wp.where(go, own[2], SF[8, j])
+                SF[4, j] = wp.where(gn_, acc[2], SF[4, j])
+                SF[8, j] = wp.where(gn_, own[2], SF[8, j])
                 SF[12, j] = wp.where(go, v_out[2], SF[12, j])
-                SF[5, j] = wp.where(go, acc[3], SF[5, j])
-                SF[9, j] = wp.where(go, own[3], SF[9, j])
+                SF[5, j] = wp.where(gn_, acc[3], SF[5, j])
+                SF[9, j] = wp.where(gn_, own[3], SF[9, j])
                 SF[13, j] = wp.where(go, v_out[3], SF[13, j])
                 SF[14, j] = wp.where(go, ds_out, ds_in)
                 SF[15, j] = wp.where(go, err_new, err)
@@ -410,131 +437,73 @@ def make_march_lanes(lanes: int, segs: bool = False):
                 FG[0, j] = wp.where(go, gn, g0)
                 FG[1, j] = wp.where(go, gx, g1)
                 FG[2, j] = wp.where(go, gy, g2)
-            # ---- the lanes whose step is rare take it in the scalar functions ----
+            # ---- the optically thick pieces: integrate_piece, one lane at a time ----
+            for j in range(LANES):
+                if RT[j] == 1:
+                    seg = integrate_piece(TF[0, j], wp.vec4(TF[1, j], TF[2, j], TF[3, j], TF[4, j]),
+                                          wp.vec4(SF[10, j], SF[11, j], SF[12, j], SF[13, j]), model)
+                    e = exp_neg(seg[3])
+                    acc = add_under_tr(wp.vec4(SF[2, j], SF[3, j], SF[4, j], SF[5, j]), seg, e)
+                    own = add_under_tr(wp.vec4(SF[6, j], SF[7, j], SF[8, j], SF[9, j]), seg, e)
+                    for i in range(4):
+                        SF[2 + i, j] = acc[i]
+                        SF[6 + i, j] = own[i]
+                    if acc[3] < t_stop:
+                        SI[6, j] = 0
+                    else:
+                        SI[0, j] = TI[0, j]
+                        SI[1, j] = TI[1, j]
+            # ---- a rare step, and the write-back of a ray whose walk has ended (state to scratch, field by field) ----
             busy = int(0)
             for j in range(LANES):
-                if RV[j] == 1:
+                if RV[j] == 1 or (FN[j] == 1 and SI[6, j] == 0):
                     slot = base + j
-                    ls = scratch[slot]
-                    ls.fc.pa = wp.vec3(FF[0, j], FF[1, j], FF[2, j])
-                    ls.fc.pb = wp.vec3(FF[3, j], FF[4, j], FF[5, j])
-                    ls.fc.pc = wp.vec3(FF[6, j], FF[7, j], FF[8, j])
-                    ls.fc.h = wp.vec3(FF[9, j], FF[10, j], FF[11, j])
-                    ls.fc.ma = wp.vec3(FF[12, j], FF[13, j], FF[14, j])
-                    ls.fc.mb = wp.vec3(FF[15, j], FF[16, j], FF[17, j])
-                    ls.fc.mc = wp.vec3(FF[18, j], FF[19, j], FF[20, j])
-                    ls.fc.s = wp.vec3(FF[21, j], FF[22, j], FF[23, j])
-                    ls.fc.w = wp.vec3(FF[24, j], FF[25, j], FF[26, j])
-                    ls.fc.g = wp.vec3i(FG[0, j], FG[1, j], FG[2, j])
-                    ls.t_in = SF[0, j]
-                    ls.s_in = SF[1, j]
-                    ls.acc = wp.vec4(SF[2, j], SF[3, j], SF[4, j], SF[5, j])
-                    ls.own = wp.vec4(SF[6, j], SF[7, j], SF[8, j], SF[9, j])
-                    ls.v_in = wp.vec4(SF[10, j], SF[11, j], SF[12, j], SF[13, j])
-                    ls.ds_in = SF[14, j]
-                    ls.scal_err = SF[15, j]
-                    ls.thin_mem.d = SF[16, j]
-                    ls.thin_mem.dmax = SF[17, j]
-                    ls.thin_mem.tr = SF[18, j]
-                    ls.thin_mem.u = SF[19, j]
-                    ls.cell = SI[0, j]
-                    ls.gn = SI[1, j]
-                    ls.cells = SI[2, j]
-                    ls.stall = SI[3, j]
-                    ls.k_in = SI[4, j]
-                    ls.thin_mem.is_short = SI[5, j]
-                    ls.walking = SI[6, j]
-                    ls = lane_step(ls, scale, mesh, ig, opts)
                     for i in range(3):
-                        FF[i, j] = ls.fc.pa[i]
-                        FF[3 + i, j] = ls.fc.pb[i]
-                        FF[6 + i, j] = ls.fc.pc[i]
-                        FF[9 + i, j] = ls.fc.h[i]
-                        FF[12 + i, j] = ls.fc.ma[i]
-                        FF[15 + i, j] = ls.fc.mb[i]
-                        FF[18 + i, j] = ls.fc.mc[i]
-                        FF[21 + i, j] = ls.fc.s[i]
-                        FF[24 + i, j] = ls.fc.w[i]
-                        FG[i, j] = ls.fc.g[i]
-                        SF[20 + i, j] = ls.r.o[i]
-                        SF[23 + i, j] = ls.r.d[i]
+                        scratch[slot].fc.pa[i] = FF[i, j]
+                        scratch[slot].fc.pb[i] = FF[3 + i, j]
+                        scratch[slot].fc.pc[i] = FF[6 + i, j]
+                        scratch[slot].fc.h[i] = FF[9 + i, j]
+                        scratch[slot].fc.ma[i] = FF[12 + i, j]
+                        scratch[slot].fc.mb[i] = FF[15 + i, j]
+                        scratch[slot].fc.mc[i] = FF[18 + i, j]
+                        scratch[slot].fc.s[i] = FF[21 + i, j]
+                        scratch[slot].fc.w[i] = FF[24 + i, j]
+                        scratch[slot].fc.g[i] = FG[i, j]
                     for i in range(4):
-                        SF[2 + i, j] = ls.acc[i]
-                        SF[6 + i, j] = ls.own[i]
-                        SF[10 + i, j] = ls.v_in[i]
-                    SF[0, j] = ls.t_in
-                    SF[1, j] = ls.s_in
-                    SF[14, j] = ls.ds_in
-                    SF[15, j] = ls.scal_err
-                    SF[16, j] = ls.thin_mem.d
-                    SF[17, j] = ls.thin_mem.dmax
-                    SF[18, j] = ls.thin_mem.tr
-                    SF[19, j] = ls.thin_mem.u
-                    SF[26, j] = ls.t_clip
-                    SI[0, j] = ls.cell
-                    SI[1, j] = ls.gn
-                    SI[2, j] = ls.cells
-                    SI[3, j] = ls.stall
-                    SI[4, j] = ls.k_in
-                    SI[5, j] = ls.thin_mem.is_short
-                    SI[6, j] = ls.walking
-                    kl_ = wp.max(ls.k_in - 1, 0)  # the lane's TF piece: its control points' scalars and values
-                    kh_ = wp.min(ls.k_in, ig.tf_s.shape[0] - 1)
-                    SF[27, j] = ig.tf_s[kl_]
-                    SF[28, j] = ig.tf_s[kh_]
-                    SF[29, j] = fm.tf_v[4 * kl_]
-                    SF[30, j] = fm.tf_v[4 * kl_ + 1]
-                    SF[31, j] = fm.tf_v[4 * kl_ + 2]
-                    SF[32, j] = fm.tf_v[4 * kl_ + 3]
-                    SF[33, j] = fm.tf_v[4 * kh_]
-                    SF[34, j] = fm.tf_v[4 * kh_ + 1]
-                    SF[35, j] = fm.tf_v[4 * kh_ + 2]
-                    SF[36, j] = fm.tf_v[4 * kh_ + 3]
-                    scratch[slot] = ls
+                        scratch[slot].acc[i] = SF[2 + i, j]
+                        scratch[slot].own[i] = SF[6 + i, j]
+                        scratch[slot].v_in[i] = SF[10 + i, j]
+                    scratch[slot].t_in = SF[0, j]
+                    scratch[slot].s_in = SF[1, j]
+                    scratch[slot].ds_in = SF[14, j]
+                    scratch[slot].scal_err = SF[15, j]
+                    scratch[slot].thin_mem.d = SF[16, j]
+                    scratch[slot].thin_mem.dmax = SF[17, j]
+                    scratch[slot].thin_mem.tr = SF[18, j]
+                    scratch[slot].thin_mem.u = SF[19, j]
+                    scratch[slot].cell = SI[0, j]
+                    scratch[slot].gn = SI[1, j]
+                    scratch[slot].cells = SI[2, j]
+                    scratch[slot].stall = SI[3, j]
+                    scratch[slot].k_in = SI[4, j]
+                    scratch[slot].thin_mem.is_short = SI[5, j]
+                    scratch[slot].walking = SI[6, j]
+                    if RV[j] == 1:
+                        lane_step_at(scratch, slot, scale, mesh, ig, opts)
+                        LD[j] = 1
+                    if scratch[slot].walking == 0:
+                        LD[j] = 0
+                        FN[j] = 0
+                        SI[6, j] = 0
+                        idx = lane_finish_at(scratch, slot, opts, rgb, trans, tcur, status, last, counters, chunk, sg)
+                        k = int(0)
+                        while k < reentries and (status[idx] & 3) == STATUS_ACTIVE:
+                            k += 1
+                            march_ray(idx, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last, counters, chunk,
+                                      7, sg)
+                        if (status[idx] & 3) == STATUS_ACTIVE:
+                            wp.atomic_add(counters, chunk, 4, 1)
                 busy = busy + SI[6, j]
-        for j in range(LANES):
-            slot = base + j
-            if slot < end:
-                idx = slot
-                if ids.shape[0] > 0:
-                    idx = ids[slot]
-                ls = scratch[slot]
-                if ls.idx >= 0:
-                    ls.fc.pa = wp.vec3(FF[0, j], FF[1, j], FF[2, j])
-                    ls.fc.pb = wp.vec3(FF[3, j], FF[4, j], FF[5, j])
-                    ls.fc.pc = wp.vec3(FF[6, j], FF[7, j], FF[8, j])
-                    ls.fc.h = wp.vec3(FF[9, j], FF[10, j], FF[11, j])
-                    ls.fc.ma = wp.vec3(FF[12, j], FF[13, j], FF[14, j])
-                    ls.fc.mb = wp.vec3(FF[15, j], FF[16, j], FF[17, j])
-                    ls.fc.mc = wp.vec3(FF[18, j], FF[19, j], FF[20, j])
-                    ls.fc.s = wp.vec3(FF[21, j], FF[22, j], FF[23, j])
-                    ls.fc.w = wp.vec3(FF[24, j], FF[25, j], FF[26, j])
-                    ls.fc.g = wp.vec3i(FG[0, j], FG[1, j], FG[2, j])
-                    ls.t_in = SF[0, j]
-                    ls.s_in = SF[1, j]
-                    ls.acc = wp.vec4(SF[2, j], SF[3, j], SF[4, j], SF[5, j])
-                    ls.own = wp.vec4(SF[6, j], SF[7, j], SF[8, j], SF[9, j])
-                    ls.v_in = wp.vec4(SF[10, j], SF[11, j], SF[12, j], SF[13, j])
-                    ls.ds_in = SF[14, j]
-                    ls.scal_err = SF[15, j]
-                    ls.thin_mem.d = SF[16, j]
-                    ls.thin_mem.dmax = SF[17, j]
-                    ls.thin_mem.tr = SF[18, j]
-                    ls.thin_mem.u = SF[19, j]
-                    ls.cell = SI[0, j]
-                    ls.gn = SI[1, j]
-                    ls.cells = SI[2, j]
-                    ls.stall = SI[3, j]
-                    ls.k_in = SI[4, j]
-                    ls.thin_mem.is_short = SI[5, j]
-                    ls.walking = SI[6, j]
-                    lane_finish(ls, opts, rgb, trans, tcur, status, last, counters, chunk, sg)
-                k = int(0)
-                while k < reentries and (status[idx] & 3) == STATUS_ACTIVE:
-                    k += 1
-                    march_ray(idx, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last, counters, chunk, 7, sg)
-                if (status[idx] & 3) == STATUS_ACTIVE:
-                    wp.atomic_add(counters, chunk, 4, 1)
 
     return march_lanes
 
