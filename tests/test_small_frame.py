@@ -66,3 +66,38 @@ def test_rays_without_a_face_are_not_launched(monkeypatch, preset):
     assert np.array_equal(res.image, full.image)
     assert facts(res) == facts(full)
     assert res.image[..., 3].max() > 0.1  # the view shows the data
+
+
+def test_per_pixel_maps_in_the_listed_box_match_the_whole_window():
+    """HARC's re-entry bound and the pixels with a face around are computed in the box of the listed pixels:
+    the same values as over the whole window."""
+    from warpvol.raycasting import harc
+    from warpvol.shared.thin_cells import surface_neighbours
+    from warpvol.shared.visible import face_triangles
+
+    sc = corner_scene(40)
+    mesh, cam = sc.mesh, sc.camera
+    e = harc.entry_fragments(mesh, cam)
+    w, h = cam.width_px, cam.height_px
+    y0, y1, x0, x1 = e["box"]
+    assert (y1 - y0) * (x1 - x0) < w * h // 2  # a small view: the box is part of the window
+    front = harc.entry_face_mask(mesh, cam, None)
+    tris = face_triangles(mesh.tets, mesh.boundary_faces[front])
+    nbr = surface_neighbours(tris).reshape(-1, 3)
+    start, edge_start = e["frag_start_host"], e["edge_start_host"]
+    frag_bf = e["frag_bf"].numpy()[:e["fragments"]]
+    edge_bf = e["edge_bf"].numpy()[:e["edge_pairs"]]
+    whole = harc.reentry_bound(mesh, cam, tris, nbr, start, frag_bf, edge_start, edge_bf, (0, h, 0, w))
+    assert np.array_equal(e["far"].numpy(), whole)
+    assert np.isfinite(whole).any() and not np.isfinite(whole).all()
+    listed = (np.diff(start) > 0).reshape(h, w)
+    pad = np.pad(listed, 1)
+    around = np.zeros((h, w), bool)
+    for dy in range(3):
+        for dx in range(3):
+            around |= pad[dy:dy + h, dx:dx + w]
+    around |= (np.diff(edge_start) > 0).reshape(h, w)
+    ctx = type("Ctx", (), {})()
+    ctx.device, ctx.scene, ctx.buffers = "cpu", sc, {"cells": {"origin": np.zeros(3), "radius": 1.8}}
+    assert np.array_equal(harc.face_reach(ctx, dict(e)).reshape(h, w), around)
+    assert np.array_equal(np.isfinite(whole).reshape(h, w), around)

@@ -31,9 +31,12 @@ from warpvol.raycasting.stages.raycast import (
     camera_struct,
     cell_mesh_struct,
     drop_unreached,
+    host_view,
+    on_host,
     ray_blocks,
     segments_struct,
     walk_opts,
+    write_back,
 )
 from warpvol.reference.pixels import redo_mesh_properties, redo_pixels_float64
 from warpvol.scene.mesh import FACE_VERTS
@@ -192,14 +195,17 @@ def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None 
         rast = Rasterizer(w, h, device=device, depth_clip=False)
         fr = rast.fragments(vs.window_array, tris.astype(np.int32), walk="triangle")  # the pixel walk's list, faster
         count = fr.count
+    listed = np.zeros(0, np.int64)  # the pixels with fragments
     if count:
-        pix = fr.pixel_index()
+        start = fr.offsets.numpy().astype(np.int32)
+        per_px = np.diff(start)
+        listed = np.flatnonzero(per_px)
+        pix = np.repeat(listed, per_px[listed])  # (Fragments.pixel_index, from the listed pixels only)
         prim = fr.prim.numpy()[:count]
         depth = fr.depth.numpy()[:count]
         order = depth_order(pix, depth)
-        start = fr.offsets.numpy().astype(np.int32)
         frag_bf = prim[order]
-        layers = int(np.diff(start).max())
+        layers = int(per_px[listed].max())
     else:
         start = np.zeros(npx + 1, np.int32)
         frag_bf = np.zeros(0, np.int64)
@@ -214,18 +220,39 @@ def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None 
     nbr = surface_neighbours(tris).reshape(-1, 3)
     edge_start, edge_bf = edge_pixels(mesh, camera, tris, nbr) if len(bf) and in_front else (
         np.zeros(npx + 1, np.int64), np.zeros(0, np.int64))
-    far = reentry_bound(mesh, camera, tris, nbr, start, frag_bf, edge_start, edge_bf)
+    # the pixels with a fragment or an open-edge face lie in this box (per-pixel maps are computed there)
+    box = listed_box(w, h, np.r_[listed, np.searchsorted(edge_start, np.arange(len(edge_bf)), side="right") - 1])
+    far = reentry_bound(mesh, camera, tris, nbr, start, frag_bf, edge_start, edge_bf, box)
     depth = face_depths(mesh, camera, tris)
     return {"frag_start": arr(start), "frag_bf": arr(frag_bf), "bf_tet": arr(bf[:, 0]), "bf_face": arr(bf[:, 1]),
             "bf_nbr": arr(nbr, wp.vec3i), "far": wp.array(far, dtype=wp.float32, device=device),
             "bf_depth": wp.array(depth if len(depth) else np.zeros((1, 2), np.float32), dtype=wp.vec2, device=device),
             "edge_start": arr(edge_start), "edge_bf": arr(edge_bf), "edge_pairs": int(len(edge_bf)),
-            "frag_start_host": start, "edge_start_host": edge_start,
+            "frag_start_host": start, "edge_start_host": edge_start, "box": box,
             "fragments": int(count), "faces": int(len(bf)), "max_layers": layers}
 
 
+def listed_box(w: int, h: int, pixels: np.ndarray):
+    """The window rows and columns ``(y0, y1, x0, x1)`` (half-open) holding the flat pixel indices ``pixels``
+    (the pixels with a fragment or an open-edge face listed), grown by one pixel each way and clipped to the
+    window: outside it no pixel has one listed within its 3 x 3 neighbourhood. ``None``: nothing listed.
+    Per-pixel maps of a small frame are computed in the box, not over the window."""
+    pixels = np.asarray(pixels)
+    if len(pixels) == 0:
+        return None
+    rows, cols = np.divmod(pixels, w)
+    return (max(int(rows.min()) - 1, 0), min(int(rows.max()) + 2, h), max(int(cols.min()) - 1, 0),
+            min(int(cols.max()) + 2, w))
+
+
+def csr_rows(start: np.ndarray) -> np.ndarray:
+    """The rows of the CSR ``start`` that list something."""
+    return np.flatnonzero(np.diff(start) > 0)
+
+
 def reentry_bound(mesh, camera, tris: np.ndarray, nbr: np.ndarray, start: np.ndarray, frag_bf: np.ndarray,
-                  edge_start: np.ndarray | None = None, edge_bf: np.ndarray | None = None) -> np.ndarray:
+                  edge_start: np.ndarray | None = None, edge_bf: np.ndarray | None = None,
+                  box: tuple | None = None) -> np.ndarray:
     """Per pixel (H*W, float32), a bound past which a ray leaving the mesh cannot re-enter it: the largest
     depth ``g`` (distance from the eye, perspective; depth along the view direction, orthographic) of any
     vertex of a front face the HARC entry search of that pixel can reach -- the faces listed at the pixel
@@ -234,11 +261,15 @@ def reentry_bound(mesh, camera, tris: np.ndarray, nbr: np.ndarray, start: np.nda
     ``edge_start`` / ``edge_bf``) -- plus a rounding margin of 1e-4 of the scene's extent.
     ``g`` is largest at a vertex (a distance is convex, a depth linear), so a crossing of any of those
     faces has ``t + t0 <= bound`` (``t0`` the ray origin's shift); ``-inf`` where no face is listed
-    around the pixel."""
+    around the pixel. Computed in ``box``, the :func:`listed_box` of the pixels with a fragment or an open-edge
+    face (``-inf`` outside it; found from ``start`` and ``edge_start`` when not given)."""
     w, h = camera.width_px, camera.height_px
-    out = np.full(h * w, -np.inf)
+    out = np.full(h * w, -np.inf, dtype=np.float32)
     n_edge = 0 if edge_bf is None else len(edge_bf)
-    if (len(frag_bf) or n_edge) and len(tris):
+    if box is None:
+        box = listed_box(w, h, np.r_[csr_rows(start), csr_rows(edge_start) if n_edge else []].astype(np.int64))
+    if (len(frag_bf) or n_edge) and len(tris) and box is not None:
+        y0, y1, x0, x1 = box
         rel = np.asarray(mesh.points, np.float64) - np.asarray(camera.eye, np.float64)
         if camera.projection == "perspective":
             g = np.linalg.norm(rel, axis=1)
@@ -248,25 +279,29 @@ def reentry_bound(mesh, camera, tris: np.ndarray, nbr: np.ndarray, start: np.nda
         for _ in range(2):  # the two rings ring_search visits
             kn = np.where(nbr >= 0, k[np.maximum(nbr, 0)], -np.inf)
             k = np.maximum(k, kn.max(axis=1))
-        near = _list_max(out, start, frag_bf, k).reshape(h, w)
-        if len(frag_bf):  # the 3 x 3 maximum, as a row pass and a column pass
+        # the pixels of the box: their lists' largest key (the CSR rows of the box's pixels)
+        pix = (np.arange(y0, y1)[:, None] * w + np.arange(x0, x1)[None, :]).ravel()
+        near = _list_max(np.full(len(pix), -np.inf), start[pix], start[pix + 1], frag_bf, k).reshape(y1 - y0, x1 - x0)
+        if len(frag_bf):  # the 3 x 3 maximum, as a row pass and a column pass (-inf beyond the box: nothing listed)
             img = np.pad(near, 1, constant_values=-np.inf)
             row = np.maximum(np.maximum(img[:, :-2], img[:, 1:-1]), img[:, 2:])
             near = np.maximum(np.maximum(row[:-2], row[1:-1]), row[2:])
         if n_edge:  # few pixels have open-edge faces: their items, each to its pixel
-            pix = np.searchsorted(edge_start, np.arange(n_edge), side="right") - 1
-            np.maximum.at(near.reshape(-1), pix, k0[edge_bf])
+            epix = np.searchsorted(edge_start, np.arange(n_edge), side="right") - 1
+            ey, ex = np.divmod(epix, w)
+            np.maximum.at(near, (ey - y0, ex - x0), k0[edge_bf])
         ext = float(np.abs(rel).max()) + float((mesh.bounds[1] - mesh.bounds[0]).max())
-        out = near.reshape(-1) + 1e-4 * ext
-    return out.astype(np.float32)
+        out.reshape(h, w)[y0:y1, x0:x1] = (near + 1e-4 * ext).astype(np.float32)
+    return out
 
 
-def _list_max(empty: np.ndarray, start: np.ndarray, items: np.ndarray, key: np.ndarray) -> np.ndarray:
-    """Per list of the CSR ``(start, items)``, the largest ``key[item]`` (``empty``'s values where a list is empty)."""
+def _list_max(empty: np.ndarray, first: np.ndarray, stop: np.ndarray, items: np.ndarray, key: np.ndarray) -> np.ndarray:
+    """Per list ``items[first[i]:stop[i]]``, the largest ``key[item]`` (``empty``'s values where a list is empty);
+    the lists lie one after the other in ``items``."""
     out = empty.copy()
-    listed = np.flatnonzero(np.diff(start) > 0)
+    listed = np.flatnonzero(stop > first)
     if len(listed):
-        out[listed] = np.maximum.reduceat(key[items], start[:-1][listed])
+        out[listed] = np.maximum.reduceat(key[items], first[listed])
     return out
 
 
@@ -279,13 +314,19 @@ class HarcState:
         from warpvol.kernels import harc as kh
 
         self.n, self.device = n, device
-        self.rgba = wp.zeros(n, dtype=wp.vec4, device=device)
-        self.tcur = wp.zeros(n, dtype=wp.float32, device=device)
-        self.status = wp.zeros(n, dtype=wp.int32, device=device)
-        self.last = wp.zeros(n, dtype=wp.int32, device=device)
-        #: per pixel, the last pass's loop work: (cells visited, fragment-program steps)
-        self.px_work = wp.zeros(n, dtype=wp.vec2i, device=device)
-        wp.launch(kh.init_state, dim=n, inputs=[self.rgba, self.tcur, self.status, self.last], device=device)
+        self.rgba = wp.empty(n, dtype=wp.vec4, device=device)
+        self.tcur = wp.empty(n, dtype=wp.float32, device=device)
+        self.status = wp.empty(n, dtype=wp.int32, device=device)
+        self.last = wp.empty(n, dtype=wp.int32, device=device)
+        #: per pixel, the last pass's loop work: (cells visited, fragment-program steps; zeroed by each pass)
+        self.px_work = wp.empty(n, dtype=wp.vec2i, device=device)
+        if on_host(device):  # the host fills its views: a few memsets, no kernel over every pixel
+            host_view(self.rgba).fill(0.0)
+            host_view(self.tcur).fill(0.0)
+            host_view(self.status).fill(int(kh.STATUS_ACTIVE))
+            host_view(self.last).fill(-1)
+        else:
+            wp.launch(kh.init_state, dim=n, inputs=[self.rgba, self.tcur, self.status, self.last], device=device)
 
     def image(self, height: int, width: int) -> np.ndarray:
         return self.rgba.numpy().reshape(height, width, 4).astype(np.float32)
@@ -309,7 +350,7 @@ def face_reach(ctx, entry: dict, setup: str = "robust") -> np.ndarray | None:
     meeting it has the eye within ``sqrt(1 + 1.001^2)`` radii of its centre) or the eye plane lies more than
     1.01 radii before the centre (orthographic); the paper's set-up starts every ray at the eye. Per frame, kept
     in ``entry``; None off the CPU or when the eye is nearer (the kernel decides there)."""
-    if not str(ctx.device).startswith("cpu"):
+    if not on_host(ctx.device):
         return None
     if setup != "paper":
         cam, cells = ctx.scene.camera, ctx.buffers["cells"]
@@ -324,11 +365,16 @@ def face_reach(ctx, entry: dict, setup: str = "robust") -> np.ndarray | None:
     if "reach" not in entry:
         cam = ctx.scene.camera
         h, w = cam.height_px, cam.width_px
-        listed = np.diff(entry["frag_start_host"]).reshape(h, w) > 0
-        pad = np.pad(listed, 1)
-        row = pad[:, :-2] | pad[:, 1:-1] | pad[:, 2:]
-        near = row[:-2] | row[1:-1] | row[2:]
-        entry["reach"] = (near | (np.diff(entry["edge_start_host"]).reshape(h, w) > 0)).ravel()
+        start, edge_start = entry["frag_start_host"], entry["edge_start_host"]
+        reach = np.zeros((h, w), dtype=bool)
+        box = entry["box"]
+        if box is not None:  # (nothing outside the box is listed: no pixel there has a face around)
+            y0, y1, x0, x1 = box
+            pix = (np.arange(y0, y1)[:, None] * w + np.arange(x0, x1)[None, :])
+            pad = np.pad(start[pix + 1] > start[pix], 1)
+            row = pad[:, :-2] | pad[:, 1:-1] | pad[:, 2:]
+            reach[y0:y1, x0:x1] = row[:-2] | row[1:-1] | row[2:] | (edge_start[pix + 1] > edge_start[pix])
+        entry["reach"] = reach.ravel()
     return entry["reach"]
 
 
@@ -399,8 +445,8 @@ def resolve_failed(ctx, state: HarcState, terminate: float = 0.0) -> int:
     rgba = state.rgba.numpy()
     rgba[failed] = val
     status[failed] = int(kr.STATUS_DONE)
-    state.rgba = wp.array(rgba, dtype=wp.vec4, device=state.device)
-    state.status = wp.array(status, dtype=wp.int32, device=state.device)
+    state.rgba = write_back(state.rgba, rgba, wp.vec4)
+    state.status = write_back(state.status, status, wp.int32)
     return int(len(failed))
 
 

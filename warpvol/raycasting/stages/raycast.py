@@ -24,6 +24,27 @@ from warpvol.shared.visible import confined, skipping
 from warpvol.stage import Context, Param, Stage, register_stage
 
 
+def on_host(device) -> bool:
+    """Whether ``device``'s arrays live in host memory: their ``numpy()`` is a view the host may write."""
+    return str(device).startswith("cpu")
+
+
+def host_view(arr) -> np.ndarray:
+    """The host's view of a CPU array (:func:`on_host`), not counted as a device read
+    (:class:`warpvol.timing.ReadCounter` counts what a GPU frame would wait for; a CPU-only path reads
+    nothing a GPU frame would)."""
+    numpy = type(arr).numpy
+    return getattr(numpy, "__wrapped__", numpy)(arr)
+
+
+def write_back(arr, values: np.ndarray, dtype):
+    """``arr`` holding ``values`` (its ``numpy()`` edited on the host): the same array on the CPU, where that
+    was a view of it; a new device array elsewhere."""
+    import warp as wp
+
+    return arr if on_host(arr.device) else wp.array(values, dtype=dtype, device=arr.device)
+
+
 class MarchState:
     """Per-pixel ray state on the device: radiance, transmittance, ray parameter, status."""
 
@@ -33,21 +54,28 @@ class MarchState:
         from warpvol.kernels import raycast as k
 
         self.n, self.device = n, device
-        self.rgb = wp.zeros(n, dtype=wp.vec3, device=device)
-        self.trans = wp.zeros(n, dtype=wp.float32, device=device)
-        self.tcur = wp.zeros(n, dtype=wp.float32, device=device)
-        self.status = wp.zeros(n, dtype=wp.int32, device=device)
-        self.last = wp.zeros(n, dtype=wp.int32, device=device)  # cell each ray last left
+        self.rgb = wp.empty(n, dtype=wp.vec3, device=device)
+        self.trans = wp.empty(n, dtype=wp.float32, device=device)
+        self.tcur = wp.empty(n, dtype=wp.float32, device=device)
+        self.status = wp.empty(n, dtype=wp.int32, device=device)
+        self.last = wp.empty(n, dtype=wp.int32, device=device)  # cell each ray last left
         self.active = n  # rays a further pass must search (set by each pass)
-        wp.launch(k.init_state, dim=n, inputs=[self.rgb, self.trans, self.tcur, self.status, self.last, 0.0],
-                  device=device)
+        if on_host(device):  # the host fills its views: a few memsets, no kernel over every pixel
+            host_view(self.rgb).fill(0.0)
+            host_view(self.trans).fill(1.0)
+            host_view(self.tcur).fill(0.0)
+            host_view(self.status).fill(int(k.STATUS_ACTIVE))
+            host_view(self.last).fill(-1)
+        else:
+            wp.launch(k.init_state, dim=n, inputs=[self.rgb, self.trans, self.tcur, self.status, self.last, 0.0],
+                      device=device)
 
     def image(self, height: int, width: int) -> np.ndarray:
         import warp as wp
 
         from warpvol.kernels import raycast as k
 
-        out = wp.zeros(self.n, dtype=wp.vec4, device=self.device)
+        out = wp.empty(self.n, dtype=wp.vec4, device=self.device)  # (the kernel writes every pixel)
         wp.launch(k.finish, dim=self.n, inputs=[self.rgb, self.trans, out], device=self.device)
         return out.numpy().reshape(height, width, 4)
 
@@ -124,7 +152,7 @@ def ray_blocks(ctx: Context, active: np.ndarray, threads: int, rows_per_block: i
 
     cam = ctx.scene.camera
     w, h = cam.width_px, cam.height_px
-    on_cpu = str(ctx.device).startswith("cpu")
+    on_cpu = on_host(ctx.device)
     act = np.flatnonzero(active).astype(np.int32)
     if len(act) == w * h:
         rows = blocks(h, rows_per_block if on_cpu else h)
@@ -155,13 +183,13 @@ def tile_reach(ctx: Context) -> np.ndarray | None:
     (:func:`warpvol.kernels.raycast.march`) finds nothing elsewhere and sets the ray done. Per frame (the
     bins depend on the camera), kept in ``ctx.buffers["entry_bins"]``; None off the CPU (one launch fills a
     GPU, and the host holds no view of its status array)."""
-    if not str(ctx.device).startswith("cpu"):
+    if not on_host(ctx.device):
         return None
     bins = ctx.buffers["entry_bins"]
     if "reach" not in bins:
         cam = ctx.scene.camera
         tile, tx = int(bins["tile"]), int(bins["tiles_x"])
-        start = bins["tile_start"].numpy()
+        start = host_view(bins["tile_start"])
         full = (np.diff(start) > 0).reshape(-1, tx)
         bins["reach"] = np.repeat(np.repeat(full, tile, axis=0), tile, axis=1)[:cam.height_px, :cam.width_px].ravel()
     return bins["reach"]
@@ -267,9 +295,9 @@ def resolve_failed(ctx: Context, state: MarchState, terminate: float = 0.0) -> i
     rgb[failed] = val[:, :3]
     trans[failed] = 1.0 - val[:, 3]
     status[failed] = int(k.STATUS_DONE)
-    state.rgb = wp.array(rgb, dtype=wp.vec3, device=state.device)
-    state.trans = wp.array(trans, dtype=wp.float32, device=state.device)
-    state.status = wp.array(status, dtype=wp.int32, device=state.device)
+    state.rgb = write_back(state.rgb, rgb, wp.vec3)
+    state.trans = write_back(state.trans, trans, wp.float32)
+    state.status = write_back(state.status, status, wp.int32)
     return int(len(failed))
 
 
