@@ -37,7 +37,7 @@ import warp as wp
 
 from .blend import BlendState, blend
 from .integrate import GL3_W0, GL3_W1, GL3_X0, GL3_X2, THIN_DEPTH, one_minus_exp_neg_thin
-from .pt import CLAMP_ABS, CLAMP_REL, PERSP_EXACT, PERSP_OFF, exact_color, vec8f
+from .pt import CLAMP_ABS, CLAMP_REL, PERSP_EXACT, PERSP_OFF, exact_color, exact_color_upper, vec8f
 from .pt_draw import attribute_planes, clamp8, nearest_on_triangle, sfsbl_ray, span_done, zero_segments
 from .raster import TriSetup, edge_step_i, edge_step_j, edges_at, row_span, tile_rect, tile_span
 from .tf import tf_upper
@@ -139,6 +139,18 @@ def span_kernel(lanes: int):
     L = int(lanes)
     lanef = wp.types.vector(length=L, dtype=wp.float32)
     lanei = wp.types.vector(length=L, dtype=wp.int32)
+    lanem = wp.types.matrix(shape=(4, L), dtype=wp.float32)
+
+    @wp.func
+    def point_lanes(tf_s: wp.array(dtype=float), tf_flat: wp.array(dtype=float), p: int):
+        """Control point ``p`` ``(s, r, g, b, extinction)`` in every lane, twice: the start values of the front
+        end's and of the back end's selection (flat float32 loads, no ``vec4``)."""
+        s = lanef(tf_s[p])
+        r = lanef(tf_flat[4 * p])
+        g = lanef(tf_flat[4 * p + 1])
+        b = lanef(tf_flat[4 * p + 2])
+        x = lanef(tf_flat[4 * p + 3])
+        return s, r, g, b, x, s, r, g, b, x
 
     @wp.kernel(module="unique", module_options=SPAN_OPTIONS)
     def k_pt_span_tiles(s: TriSetup, fi: FusedIn, fo: FusedOut, bs: BlendState, fb: wp.array2d(dtype=wp.vec4),
@@ -315,16 +327,7 @@ def span_kernel(lanes: int):
                 #    the control points around it (k - 1 and k, clamped into the TF), selected, not loaded
                 kfv = lanei(m_lo)
                 kbv = lanei(m_lo)
-                fs0 = lanef(fi.tf_s[p0])
-                fr0 = lanef(fi.tf_flat[4 * p0])
-                fg0 = lanef(fi.tf_flat[4 * p0 + 1])
-                fb0 = lanef(fi.tf_flat[4 * p0 + 2])
-                fa0 = lanef(fi.tf_flat[4 * p0 + 3])
-                bs0 = lanef(fi.tf_s[p0])
-                br0 = lanef(fi.tf_flat[4 * p0])
-                bg0 = lanef(fi.tf_flat[4 * p0 + 1])
-                bb0 = lanef(fi.tf_flat[4 * p0 + 2])
-                ba0 = lanef(fi.tf_flat[4 * p0 + 3])
+                fs0, fr0, fg0, fb0, fa0, bs0, br0, bg0, bb0, ba0 = point_lanes(fi.tf_s, fi.tf_flat, p0)
                 for m in range(m_lo, m_hi):
                     sm = fi.tf_s[m]
                     vr = fi.tf_flat[4 * m]
@@ -346,16 +349,7 @@ def span_kernel(lanes: int):
                         bg0[l] = wp.where(bin_, vg, bg0[l])
                         bb0[l] = wp.where(bin_, vb, bb0[l])
                         ba0[l] = wp.where(bin_, va, ba0[l])
-                fs1 = lanef(fi.tf_s[p1])
-                fr1 = lanef(fi.tf_flat[4 * p1])
-                fg1 = lanef(fi.tf_flat[4 * p1 + 1])
-                fb1 = lanef(fi.tf_flat[4 * p1 + 2])
-                fa1 = lanef(fi.tf_flat[4 * p1 + 3])
-                bs1 = lanef(fi.tf_s[p1])
-                br1 = lanef(fi.tf_flat[4 * p1])
-                bg1 = lanef(fi.tf_flat[4 * p1 + 1])
-                bb1 = lanef(fi.tf_flat[4 * p1 + 2])
-                ba1 = lanef(fi.tf_flat[4 * p1 + 3])
+                fs1, fr1, fg1, fb1, fa1, bs1, br1, bg1, bb1, ba1 = point_lanes(fi.tf_s, fi.tf_flat, p1)
                 for mm in range(m_hi - m_lo):
                     m = m_hi - 1 - mm  # descending: the last above the scalar selected is the first
                     sm = fi.tf_s[m]
@@ -382,6 +376,8 @@ def span_kernel(lanes: int):
                 cb = lanef()
                 ca = lanef()
                 slow = lanei()
+                vfm = lanem()  # the TF values at both ends (rgb, extinction), for the rare lanes
+                vbm = lanem()
                 for l in range(L):
                     sf3 = sfv[l]
                     sb3 = sbv[l]
@@ -400,6 +396,14 @@ def span_kernel(lanes: int):
                     g1 = wp.where(be, bg1[l], bg0[l] * (1.0 - wbk) + bg1[l] * wbk)
                     g2 = wp.where(be, bb1[l], bb0[l] * (1.0 - wbk) + bb1[l] * wbk)
                     g3 = wp.where(be, ba1[l], ba0[l] * (1.0 - wbk) + ba1[l] * wbk)
+                    vfm[0, l] = f0
+                    vfm[1, l] = f1
+                    vfm[2, l] = f2
+                    vfm[3, l] = f3
+                    vbm[0, l] = g0
+                    vbm[1, l] = g1
+                    vbm[2, l] = g2
+                    vbm[3, l] = g3
                     aa = h * f3
                     bb = h * (g3 - f3)
                     tau = 0.5 * h * (f3 + g3)
@@ -461,7 +465,14 @@ def span_kernel(lanes: int):
                             continue
                         nclamp += (fl >> 2) & 1
                         if slow[l] != 0:  # a control point inside, optically thick: exact_color on the lane's segment
-                            c = exact_color(wp.vec3(sfv[l], sbv[l], lv[l]), fi.tf_s, fi.tf_v, model)
+                            seg = wp.vec3(sfv[l], sbv[l], lv[l])
+                            if many:
+                                c = exact_color(seg, fi.tf_s, fi.tf_v, model)
+                            else:  # the lane's TF intervals and values: no search
+                                c = exact_color_upper(seg, kfv[l], kbv[l],
+                                                      wp.vec4(vfm[0, l], vfm[1, l], vfm[2, l], vfm[3, l]),
+                                                      wp.vec4(vbm[0, l], vbm[1, l], vbm[2, l], vbm[3, l]), fi.tf_s,
+                                                      fi.tf_v, model)
                     nfrag += 1
                     d = blend(bs, c, d, jp, ip, t)
                     fb[ip, jp] = d

@@ -60,3 +60,64 @@ def test_spans_draw_the_stress_classes_as_one_fragment_at_a_time(case):
 def test_lanes_is_checked():
     with pytest.raises(ConfigError, match="lanes"):
         preset("pt_best", pt_integrate={"lanes": 3})
+
+
+def _tf_scene(name, ext, emission, points=9):
+    """Built-in scene ``name`` with a TF of ``points`` control points spread over its scalars (colours changing at
+    each, extinction ``ext(k)``): fragments inside one interval, across one point and across several."""
+    import copy
+
+    from warpvol.scene.transfer import TransferFunction
+
+    sc = copy.copy(builtin_scene(name).with_camera(width_px=40, height_px=40))
+    s = np.asarray(sc.mesh.scalars, np.float64)
+    xs = np.linspace(s.min(), s.max(), points)
+    pts = [[x, (k % 3) / 2.0, ((k + 1) % 3) / 2.0, ((k + 2) % 3) / 2.0, ext(k)] for k, x in enumerate(xs)]
+    sc.transfer = TransferFunction(pts, emission)
+    return sc
+
+
+@pytest.mark.parametrize("emission", ["color_extinction", "emission_density"])
+@pytest.mark.parametrize("ext", ["constant_thick", "varying_thick", "thin"])
+def test_spans_draw_crossing_and_thick_fragments_as_one_fragment_at_a_time(emission, ext):
+    """The span's rare lanes (a control point inside the segment, an optically thick piece: integrated with the
+    lane's TF intervals and values, no search) give the one-fragment kernel's bits."""
+    f = {"constant_thick": lambda k: 60.0, "varying_thick": lambda k: 20.0 + 15.0 * (k % 4),
+         "thin": lambda k: 0.05 * (1 + k % 3)}[ext]
+    for name in ("sphere", "concave"):
+        same_draw(_tf_scene(name, f, emission), lanes=(1, 16, 8))
+
+
+def test_exact_color_given_the_intervals_is_exact_color():
+    """:func:`~warpvol.kernels.pt.exact_color_upper` with ``tf_upper`` / ``tf_eval_upper`` of both ends is
+    :func:`~warpvol.kernels.pt.exact_color`, bit for bit (segments inside one interval, across one or several control
+    points, on a control point, thin and thick, empty; both emission models)."""
+    import warp as wp
+
+    from warpvol.kernels import pt as kpt
+    from warpvol.kernels.tf import tf_eval_upper, tf_upper
+
+    @wp.kernel
+    def k_both(seg: wp.array(dtype=wp.vec3), tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp.vec4), model: int,
+               a: wp.array(dtype=wp.vec4), b: wp.array(dtype=wp.vec4)):
+        i = wp.tid()
+        x = seg[i]
+        kf = tf_upper(x[0], tf_s)
+        kb = tf_upper(x[1], tf_s)
+        a[i] = kpt.exact_color(x, tf_s, tf_v, model)
+        b[i] = kpt.exact_color_upper(x, kf, kb, tf_eval_upper(x[0], kf, tf_s, tf_v),
+                                     tf_eval_upper(x[1], kb, tf_s, tf_v), tf_s, tf_v, model)
+
+    rng = np.random.default_rng(4)
+    ts = np.array([0.0, 0.1, 0.35, 0.4, 0.8, 1.0], np.float32)
+    tv = rng.uniform(0.0, 1.0, (6, 4)).astype(np.float32) * np.array([1, 1, 1, 50], np.float32)
+    n = 4000
+    seg = np.stack([rng.uniform(-0.1, 1.1, n), rng.uniform(-0.1, 1.1, n), rng.uniform(-0.01, 0.3, n)], 1)
+    seg[:200, 0] = ts[rng.integers(0, 6, 200)]  # starting on a control point
+    seg[200:400, 1] = seg[200:400, 0]  # no change of scalar
+    seg = seg.astype(np.float32)
+    for model in (0, 1):
+        a, b = (wp.zeros(n, dtype=wp.vec4) for _ in range(2))
+        wp.launch(k_both, dim=n, inputs=[wp.array(seg, dtype=wp.vec3), wp.array(ts), wp.array(tv, dtype=wp.vec4), model,
+                                         a, b])
+        assert np.array_equal(a.numpy().view(np.uint32), b.numpy().view(np.uint32))

@@ -3,7 +3,7 @@
 Plain functions the ``pt_*`` stages are thin over (tests call them directly):
 
 * :func:`decompose` — Shirley & Tuchman classification and decomposition of every tet, in
-  visibility order, on the device (:func:`warpvol.kernels.pt.k_classify`): ``V + M`` output vertices
+  visibility order, on the device (:func:`warpvol.kernels.pt_classify.k_classify`): ``V + M`` output vertices
   (mesh points, then one thick vertex per tet) with ``(sf, sb, l)`` attributes and ``4 M`` triangles
   (triangles ``4k .. 4k+3`` belong to the k-th tet of the order; unused ones are degenerate);
 * :func:`draw` — rasterise the triangles in batches of tets (fragments per pixel in primitive
@@ -39,7 +39,7 @@ from warpvol.gpu.blend import FrameBuffer
 from warpvol.gpu.counters import Counters, active
 from warpvol.gpu.raster import Rasterizer
 from warpvol.kernels import pt as kpt
-from warpvol.kernels import pt_draw
+from warpvol.kernels import pt_classify, pt_draw
 from warpvol.kernels import raster as kraster
 from warpvol.parallel import blocks, launch_blocks, preload
 from warpvol.progress import detail
@@ -246,13 +246,13 @@ def decompose(mesh, vertices, order, device: str = "cpu", exact_attrs: bool = Fa
     if m:
         from warpvol.parallel import blocks, cpu_threads, launch_blocks, preload
 
-        preload(device, kpt)
+        preload(device, pt_classify)
         args = [win, eye, scal, wp.array(mesh.tets.astype(np.int32), dtype=wp.int32, device=device),
                 wp.array(order, dtype=wp.int32, device=device), v, even, tp, ta, tris, klass, moved, tfront, tback,
                 ap, int(exact_attrs)]
         th = cpu_threads() if str(device).startswith("cpu") and m >= 8192 else 1  # blocks of tets, concurrently
         tb = blocks(m, -(-m // th))
-        launch_blocks(device, len(tb), lambda b: wp.launch(kpt.k_classify, dim=tb[b][1], inputs=[*args, tb[b][0]],
+        launch_blocks(device, len(tb), lambda b: wp.launch(pt_classify.k_classify, dim=tb[b][1], inputs=[*args, tb[b][0]],
                                                            device=device), th)
     snapped = wp.zeros(max(v, 1), dtype=wp.vec4, device=device)
     wp.launch(kpt.k_snap_positions, dim=v, inputs=[win, even, snapped], device=device)
