@@ -14,7 +14,8 @@ forward from the eye). None of the renderers' ``@wp.func``s are used here.
 * :func:`face_cross` -- a face is pierced when the signs of its three edges agree; entry or exit
   from the tet's orientation; depth and scalar from the clamped barycentric weights of the three
   edge values (bit-identical from both tets sharing the face).
-* :func:`tet_segment` -- entry / exit faces, depths and scalars of the line in one tet (:class:`Seg`).
+* :func:`tet_segment` -- entry / exit faces, depths and scalars of the line in one tet (:class:`Seg`); a walk
+  passes the exit face's edge values on to the next tet, which shares them (:func:`shared_face`).
 """
 
 from __future__ import annotations
@@ -42,6 +43,10 @@ class Seg:
     s_in: wp.float64
     s_out: wp.float64
     nexact: int  # exact (expansion) evaluations
+    xf: wp.vec3i  # global vertices of the first exit face, ascending ((-1, -1, -1) if none)
+    xab: wp.vec4d  # its edges' edge_side values: (a, b), (b, c), (a, c)
+    xbc: wp.vec4d
+    xac: wp.vec4d
 
 
 # ------------------------------------------------------------------------------------------------
@@ -247,10 +252,32 @@ def face_cross(wab: wp.float64, sab: wp.float64, wbc: wp.float64, sbc: wp.float6
 
 
 @wp.func
+def shared_face(v0: int, v1: int, v2: int, v3: int, pf: wp.vec3i) -> int:
+    """The face (opposite ascending local vertex 0..3) of the tet ``v0 < v1 < v2 < v3`` whose vertices are
+    ``pf`` (ascending), -1 if none."""
+    if pf[0] < 0:
+        return -1
+    if v0 == pf[0] and v1 == pf[1] and v2 == pf[2]:
+        return 3
+    if v0 == pf[0] and v1 == pf[1] and v3 == pf[2]:
+        return 2
+    if v0 == pf[0] and v2 == pf[1] and v3 == pf[2]:
+        return 1
+    if v1 == pf[0] and v2 == pf[1] and v3 == pf[2]:
+        return 0
+    return -1
+
+
+@wp.func
 def tet_segment(c: int, P: wp.array(dtype=wp.vec3d), S: wp.array(dtype=wp.float64),
                 T: wp.array2d(dtype=wp.int32), orient: wp.array(dtype=wp.float64),
                 s_eye: wp.array(dtype=wp.float64), dx: wp.float64, dy: wp.float64, dn: wp.float64,
-                persp: int) -> Seg:
+                persp: int, pf: wp.vec3i, pab: wp.vec4d, pbc: wp.vec4d, pac: wp.vec4d) -> Seg:
+    """The line's :class:`Seg` in tet ``c``. ``pf``, ``pab``, ``pbc``, ``pac``: the previous tet's exit face
+    and its edge values (its :class:`Seg`'s ``xf``, ``xab``, ``xbc``, ``xac``; ``pf = (-1, -1, -1)``: none).
+    Where ``c`` has that face (same global vertices), its three edges take those values instead of
+    evaluating :func:`edge_side` again: the same function of the same vertices in the same order, so the
+    same values bit for bit (the walk's step costs three edges instead of six)."""
     v0 = T[c, 0]
     v1 = T[c, 1]
     v2 = T[c, 2]
@@ -259,13 +286,33 @@ def tet_segment(c: int, P: wp.array(dtype=wp.vec3d), S: wp.array(dtype=wp.float6
     p1 = P[v1]
     p2 = P[v2]
     p3 = P[v3]
-    # edges (0,1) (0,2) (0,3) (1,2) (1,3) (2,3) of the ascending vertices
-    e0 = edge_side(p0, p1, dx, dy, persp)
-    e1 = edge_side(p0, p2, dx, dy, persp)
-    e2 = edge_side(p0, p3, dx, dy, persp)
-    e3 = edge_side(p1, p2, dx, dy, persp)
-    e4 = edge_side(p1, p3, dx, dy, persp)
-    e5 = edge_side(p2, p3, dx, dy, persp)
+    sh = shared_face(v0, v1, v2, v3, pf)
+    # edges (0,1) (0,2) (0,3) (1,2) (1,3) (2,3) of the ascending vertices; face f's (ab, bc, ac):
+    # f=0 (e3, e5, e4), f=1 (e1, e5, e2), f=2 (e0, e4, e2), f=3 (e0, e3, e1)
+    e0 = pab
+    if sh != 2 and sh != 3:
+        e0 = edge_side(p0, p1, dx, dy, persp)
+    e1 = pac
+    if sh == 1:
+        e1 = pab
+    elif sh != 3:
+        e1 = edge_side(p0, p2, dx, dy, persp)
+    e2 = pac
+    if sh != 1 and sh != 2:
+        e2 = edge_side(p0, p3, dx, dy, persp)
+    e3 = pbc
+    if sh == 0:
+        e3 = pab
+    elif sh != 3:
+        e3 = edge_side(p1, p2, dx, dy, persp)
+    e4 = pbc
+    if sh == 0:
+        e4 = pac
+    elif sh != 2:
+        e4 = edge_side(p1, p3, dx, dy, persp)
+    e5 = pbc
+    if sh != 0 and sh != 1:
+        e5 = edge_side(p2, p3, dx, dy, persp)
     r = Seg()
     r.nexact = int(e0[2] + e1[2] + e2[2] + e3[2] + e4[2] + e5[2])
     r.deg = int(0)
@@ -312,4 +359,25 @@ def tet_segment(c: int, P: wp.array(dtype=wp.vec3d), S: wp.array(dtype=wp.float6
                 r.t_out = fc[1]
                 r.s_out = fc[2]
             r.nx = r.nx + 1
+    r.xf = wp.vec3i(-1, -1, -1)
+    if r.kout == 0:
+        r.xf = wp.vec3i(v1, v2, v3)
+        r.xab = e3
+        r.xbc = e5
+        r.xac = e4
+    elif r.kout == 1:
+        r.xf = wp.vec3i(v0, v2, v3)
+        r.xab = e1
+        r.xbc = e5
+        r.xac = e2
+    elif r.kout == 2:
+        r.xf = wp.vec3i(v0, v1, v3)
+        r.xab = e0
+        r.xbc = e4
+        r.xac = e2
+    elif r.kout == 3:
+        r.xf = wp.vec3i(v0, v1, v2)
+        r.xab = e0
+        r.xbc = e3
+        r.xac = e1
     return r
