@@ -209,7 +209,31 @@ def test_eye_inside_the_mesh_is_redone_in_float64_and_counted():
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)
     res = pipe("harc_best").render(sc, quiet=True)
     assert image_error(res.image, ref)["max_abs"] <= preset_tolerance("harc_best")["max_abs"]
-    assert res.report["stats"]["harc"]["unresolved_rays"] == 64
+    assert res.report["stats"]["harc"]["float64_rays"] == 64
+
+
+def test_the_float64_redo_has_one_name_and_its_old_names_still_read():
+    """Every stage counts the float64 redo as ``float64_rays``; the old names (``unresolved_rays`` in HARC,
+    ``float64_pixels`` in pt_integrate) are still in the report with the same value, listed as deprecated, and
+    reading one warns."""
+    import json
+
+    sc = builtin_scene("linear_box").with_camera(eye=(0.2, 0.1, 0.3), target=(0, 0, -1), projection="perspective",
+                                                 width_px=8, height_px=8)
+    rep = pipe("harc_best").render(sc, quiet=True).report
+    st = rep["stats"]["harc"]
+    assert rep["deprecated"]["stats.harc.unresolved_rays"] == "stats.harc.float64_rays"
+    with pytest.warns(DeprecationWarning, match="'unresolved_rays' is the old name of 'float64_rays'"):
+        assert st["unresolved_rays"] == st["float64_rays"] == 64
+    back = json.loads(json.dumps(rep, default=str))  # a report file: both names, no warning needed
+    assert back["stats"]["harc"]["unresolved_rays"] == back["stats"]["harc"]["float64_rays"] == 64
+    rep = pipe("harc_best").render(builtin_scene("concave").with_camera(width_px=8, height_px=8), quiet=True).report
+    assert "harc_peel" in rep["stats"] and rep["deprecated"]["stats.harc_peel.unresolved_rays"]
+    assert dict(rep["stats"]["harc_peel"])["unresolved_rays"] == dict(rep["stats"]["harc_peel"])["float64_rays"]
+    rep = pipe("pt_best").render(builtin_scene("box").with_camera(width_px=8, height_px=8), quiet=True).report
+    assert rep["deprecated"]["stats.pt_integrate.float64_pixels"] == "stats.pt_integrate.float64_rays"
+    with pytest.warns(DeprecationWarning, match="'float64_pixels' is the old name of 'float64_rays'"):
+        assert rep["stats"]["pt_integrate"].get("float64_pixels") == rep["stats"]["pt_integrate"]["float64_rays"]
 
 
 @pytest.mark.parametrize("projection", ["perspective", "orthographic"])
@@ -321,7 +345,7 @@ def test_peel_pass_resolves_a_rejected_rasterised_face_in_float32():
     h = Pipeline.load("harc_best").render(sc, quiet=True)
     st = h.report["stats"]["harc_peel"]
     assert st["entry_searches"] >= 1, st  # the case occurs
-    assert st["failed"] == 0 and st["unresolved_rays"] == 0, st
+    assert st["failed"] == 0 and st["float64_rays"] == 0, st
     rc = Pipeline.load("raycast").render(sc, quiet=True)
     assert st["reentries"] == rc.report["stats"]["peel"]["reentries"]
     e = image_error(h.image, render_reference(sc.mesh, sc.transfer, sc.camera))

@@ -218,5 +218,5 @@ def test_grazing_entry_is_redone_not_drawn_wrong(preset, angle):
     res = render(preset, sc)
     err = image_error(res.image, ref)
     assert err["rmse"] <= tol(preset)["rmse"] and err["max_abs"] <= tol(preset)["max_abs"], err
-    redone = first_stats(res.report, preset)["float64_rays" if preset == "raycast" else "unresolved_rays"]
+    redone = first_stats(res.report, preset)["float64_rays"]
     assert redone > 0

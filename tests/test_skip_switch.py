@@ -89,3 +89,25 @@ def test_stress_no_skip(tmp_path):
     assert main(["stress", "--quick", "--cases", "one_tet", "--pipelines", "pt_best", "--no-skip", "-o", str(out),
                  "--quiet"]) == 0
     assert json.loads(next((out / "cases").glob("*.json")).read_text())["skip"] is False
+
+
+def test_the_ray_casters_confinement_travels_as_a_value():
+    """``cell_setup`` says whether the walk is confined to the visible cells as ``cells["confined"]``; the
+    later stages read that value (:func:`warpvol.shared.visible.confined`), not whether a key is present."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from warpvol.shared.visible import confined
+
+    cells = {"confined": False, "entry_faces": np.zeros((0, 2), np.int64)}
+    ctx = SimpleNamespace(skip=True, buffers={"cells": cells}, planned=set())
+    assert confined(ctx) is False
+    cells["confined"] = True
+    assert confined(ctx) is True
+    ctx.skip = False
+    assert confined(ctx) is False
+    sc = _scene(px=12)
+    on, off = (Pipeline.load("raycast").render(sc, quiet=True, skip=s).report for s in (True, False))
+    assert on["stats"]["cell_setup"]["cells_not_walked"] > 0 and "peel" not in [s["stage"] for s in on["skipped"]]
+    assert "cells_not_walked" not in off["stats"]["cell_setup"] and "left_out" not in off

@@ -34,13 +34,15 @@ def test_vsbuffer_best_redoes_rays_through_thin_cells(case):
     assert err["max_abs"] <= tol["max_abs"] and err["rmse"] <= tol["rmse"], (case, err)
     v = res.report["stats"]["vsbuffer"]
     assert v["thin_rays_redone"] > 0 and v["thin_pieces"] > 0
+    # the float64 redo under its one name: the thin-cell and the silhouette rays together
+    assert v["float64_rays"] == v["thin_rays_redone"] + v["silhouette_rays_redone"]
     assert not any("approximate" in w for w in report_warnings(res.report))
 
 
 def test_westermann1997_still_warns_on_a_thin_sheet():
     res = Pipeline.load("westermann1997").render(sheet_scene(1e-6, px=12), quiet=True)
     assert any("approximate" in w for w in report_warnings(res.report))
-    assert "thin_rays_redone" not in res.report["stats"]["vsbuffer"]
+    assert "thin_rays_redone" not in res.report["stats"]["vsbuffer"] and "float64_rays" not in res.report["stats"]["vsbuffer"]
 
 
 @pytest.mark.parametrize("px", [24, 32])

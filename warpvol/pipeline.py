@@ -33,7 +33,14 @@ from typing import Any
 import numpy as np
 
 from warpvol.errors import ConfigError, check_keys
-from warpvol.stage import STAGES, Context, Param, Stage, register_stage  # noqa: F401  (the framework's names)
+from warpvol.stage import (  # noqa: F401  (the framework's names)
+    STAGES,
+    Context,
+    Param,
+    Stage,
+    register_stage,
+    renamed_stats,
+)
 from warpvol.timing import CompileClock, ReadCounter, announce_compile, split_times
 
 
@@ -413,6 +420,9 @@ class Pipeline:
             report["modelled_s"] = model.model_report(ctx.counters, profile)
         if ctx.stats:
             report["stats"] = ctx.stats
+            old_names = renamed_stats(ctx.stats, self.stages)  # old names beside the current ones
+            if old_names:
+                report["deprecated"] = old_names
         if reference is not None:
             from warpvol.metrics import image_error
 

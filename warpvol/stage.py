@@ -134,6 +134,10 @@ class Stage:
     #: is reported as ``setup_s``, apart from the frame (``render_s``); when it reuses what it built
     #: before it says so with ``ctx.stats[name]["cached"] = True`` (or is skipped by the planner)
     setup: ClassVar[bool] = False
+    #: entries of the stage's ``ctx.stats[name]`` that were renamed: old name -> current name. The report
+    #: still writes the old name (same value) and lists it under ``report["deprecated"]``
+    #: (:func:`renamed_stats`), so readers of reports keep working.
+    renamed_stats: ClassVar[dict[str, str]] = {}
 
     def __init__(self, device: str = "cpu", where: str | None = None, **params: Any):
         self.device = device
@@ -193,6 +197,57 @@ class Stage:
 # context and report
 # ------------------------------------------------------------------------------------------------
 
+class StatsSection(dict):
+    """A stage's ``report["stats"]`` section that still carries the old names of renamed entries (``old``:
+    old name -> current name), each with the current entry's value, so that readers written against the old
+    names keep working (the JSON report holds both); reading an old name here warns (DeprecationWarning
+    naming the current one).
+
+    Examples
+    --------
+    >>> import warnings
+    >>> s = StatsSection({"float64_rays": 3}, {"unresolved_rays": "float64_rays"})
+    >>> dict(s)
+    {'float64_rays': 3, 'unresolved_rays': 3}
+    >>> with warnings.catch_warnings(record=True) as w:
+    ...     warnings.simplefilter("always")
+    ...     s["unresolved_rays"], str(w[0].message)
+    (3, "stats name 'unresolved_rays' is the old name of 'float64_rays' (still written)")
+    """
+
+    def __init__(self, data: dict, old: dict[str, str]):
+        super().__init__(data)
+        self.old = {o: n for o, n in old.items() if n in data}
+        for o, n in self.old.items():
+            super().__setitem__(o, data[n])
+
+    def _warn(self, key: Any) -> None:
+        if key in self.old:
+            warnings.warn(f"stats name {key!r} is the old name of {self.old[key]!r} (still written)",
+                          DeprecationWarning, stacklevel=3)
+
+    def __getitem__(self, key: Any) -> Any:
+        self._warn(key)
+        return super().__getitem__(key)
+
+    def get(self, key: Any, default: Any = None) -> Any:
+        self._warn(key)
+        return super().get(key, default)
+
+
+def renamed_stats(stats: dict, stages: list) -> dict[str, str]:
+    """Give each stage's section of ``stats`` (``ctx.stats[stage.name]``) the old names its
+    :attr:`Stage.renamed_stats` declares (a :class:`StatsSection`, in place); returns the deprecation note
+    of the report: ``{"stats.<stage>.<old>": "stats.<stage>.<current>"}`` for each old name written."""
+    note = {}
+    for st in stages:
+        section = stats.get(st.name)
+        if st.renamed_stats and isinstance(section, dict) and not isinstance(section, StatsSection):
+            stats[st.name] = section = StatsSection(section, st.renamed_stats)
+            note.update({f"stats.{st.name}.{o}": f"stats.{st.name}.{n}" for o, n in section.old.items()})
+    return note
+
+
 
 @dataclass
 class Context:
@@ -215,7 +270,11 @@ class Context:
     #: are skipped
     finished: str | None = None
     #: leave out what the scene does not need (invisible cells, empty space, occluded depth); ``False``
-    #: (``skip=False``, ``--no-skip``): every stage does all its work, for comparison
+    #: (``skip=False``, ``--no-skip``): every stage does all its work, for comparison. One setting under one
+    #: name from the user to the stages: ``render(skip=...)``, ``--no-skip``, a sweep option's ``skip``,
+    #: ``Pipeline.render``/``plan`` and this field (``report["skip"]`` says it); a stage reads ``ctx.skip``,
+    #: and what it decided travels as a value (the ray casters' ``cells["confined"]``,
+    #: :func:`warpvol.shared.visible.confined`), never as whether a buffer holds a key
     skip: bool = True
     #: what each stage left out (report key -> ``{"why": text, count name: integer}``), filled through
     #: :meth:`left_out`; the report's ``left_out`` section

@@ -80,13 +80,13 @@ def sub_mesh(mesh, visible: np.ndarray, nbr: np.ndarray, cache: dict | None = No
 def confined(ctx) -> bool:
     """Whether the ray casters walk a visible sub-mesh that leaves cells out: rays may then enter and
     re-enter several times even on a convex mesh, so the re-entry passes (``peel``, ``harc_peel``) run.
-    From ``cell_setup``'s buffers in a render; when planning (no buffers yet), from the transfer function
+    From ``cell_setup``'s ``cells["confined"]`` in a render; when planning (no buffers yet), from the transfer function
     as the ``visibility`` stage will decide, if one is planned before (``ctx.planned``)."""
     if not getattr(ctx, "skip", True):
         return False
     cells = ctx.buffers.get("cells")
     if cells is not None:
-        return "entry_faces" in cells
+        return bool(cells.get("confined", False))
     if "visible_cells" not in ctx.planned:
         return False
 

@@ -88,6 +88,7 @@ class PTIntegrate(Stage):
     """
 
     name = "pt_integrate"
+    renamed_stats = {"float64_pixels": "float64_rays"}  # the float64 redo's one name, as in the ray casters
     summary = "PT fragment program: exact per-fragment segment integral of the TF (no table; beyond the papers)"
     params = (fb_param("fp32"), DITHER, BATCH,
               Param("row_bands", int, 0, "row bands drawn concurrently (0: one per CPU core; 1: off)", lo=0, hi=256),
@@ -187,7 +188,7 @@ class PTIntegrate(Stage):
             ctx.left_out(why=None, float64_pixels_occluded=u["occluded_pixels"])
         px = u["pixels"]
         st = {"thin_tets": u["thin_tets"], "edge_on_faces": u["edge_on_faces"], "sliver_faces": u["sliver_faces"],
-              "silhouette_edges": u["silhouette_edges"], "rough_tets": u["rough_tets"], "float64_pixels": 0}
+              "silhouette_edges": u["silhouette_edges"], "rough_tets": u["rough_tets"], "float64_rays": 0}
         if len(px) and self.config["format"] == "fp32":
             ctx.mesh_setup(sc.mesh, *redo_mesh_properties(sc.camera))
             val = redo_pixels_float64(sc.mesh, sc.transfer, sc.camera, px, visible=skipping(ctx)[0],
@@ -195,7 +196,7 @@ class PTIntegrate(Stage):
             img = ctx.image.reshape(-1, 4)
             img[px] = val.astype(img.dtype)
             ctx.image = img.reshape(ctx.image.shape)
-            st["float64_pixels"] = int(len(px))
+            st["float64_rays"] = int(len(px))
             ctx.count(float64_rays=int(len(px)))
             ctx.progress(f"pt_integrate: {len(px)} pixels covered by {u['thin_tets']} thin tets, "
                          f"{u['edge_on_faces']} faces seen edge-on, {u['sliver_faces']} faces narrower than the "

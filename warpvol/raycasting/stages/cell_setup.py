@@ -133,11 +133,14 @@ def confine_to_visible(ctx: Context, cells: dict) -> int:
     """Empty-space skipping (:mod:`warpvol.shared.visible`): with a ``visible_cells`` mask that leaves
     cells out, the walk's neighbour records ``cells["nbr"]`` end at invisible neighbours and
     ``cells["entry_faces"]`` lists the visible sub-mesh's boundary faces (the faces ``entry_bins`` and
-    ``harc_raster`` start rays from); both kept per (mesh, mask, device). Returns the cells left out."""
+    ``harc_raster`` start rays from); both kept per (mesh, mask, device). ``cells["confined"]`` says
+    whether it did, the one value the later stages read (:func:`warpvol.shared.visible.confined`). Returns the
+    cells left out."""
     import warp as wp
 
 
     vis, n_out = skipping(ctx)
+    cells["confined"] = vis is not None
     if vis is None:
         return 0
     cache = ctx.persistent.setdefault("sub_mesh", {}).setdefault(str(ctx.device), {})

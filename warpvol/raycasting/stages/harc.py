@@ -8,9 +8,9 @@ or by partial pre-integration with iso splits (``partial``), composited front to
 the frame buffer in ``format``.
 
 ``ray_setup = "robust"``: each ray set up in float64 from an origin moved to the mesh; rays the float32
-walk cannot resolve are redone in float64 on the host and counted (``unresolved_rays``); with exact
-segments, so are the rays that may cross a cell too thin for float32 (``thin_cell_rays``,
-:func:`warpvol.shared.thin_cells.unresolved_pixels`), before the walk.
+walk cannot resolve are redone in float64 on the host and counted (``float64_rays``; old name
+``unresolved_rays``, still written); with exact segments, so are the rays that may cross a cell too thin
+for float32 (``thin_cell_rays``, :func:`warpvol.shared.thin_cells.unresolved_pixels`), before the walk.
 ``ray_setup = "paper"`` (the paper's fragment program; ``walk = "planes"`` on ``harc_mesh arithmetic =
 "fp32"`` textures): the ray starts at the eye in fp32, and a ray the walk cannot resolve is lost --
 counted (``lost_rays``), warned in the report, and its pixel shows what it had composited.
@@ -24,6 +24,7 @@ from warpvol.parallel import cpu_threads
 from warpvol.raycasting.stages.cell_setup import scalar_check_needed
 from warpvol.raycasting.stages.raycast import leaves_out_text, rays_without_cell, report_left_out, stop_transmittance
 from warpvol.shared.integration import integ_setup
+from warpvol.shared.visible import confined
 from warpvol.stage import Context, Param, Stage, register_stage
 
 
@@ -117,6 +118,7 @@ class Harc(Stage):
                "exact / full / partial pre-integration, front-to-back in the buffer's format")
     needs = ("cells", "harc_mesh", "harc_entry")
     provides = ("harc_state", "image")
+    renamed_stats = {"unresolved_rays": "float64_rays"}  # the float64 redo's one name, as in raycast and pt_integrate
     params = (
         Param("walk", str, "planes", "exit-face arithmetic", choices=("planes", "plucker")),
         Param("integration", str, "exact", "segment integration", choices=("exact", "full", "partial")),
@@ -159,7 +161,7 @@ class Harc(Stage):
             raise ConfigError(f"{self.where}.ray_setup: {self.ray_setup!r} reads harc_mesh textures with arithmetic = "
                               f"{'fp32' if paper else 'float64'!r} (the ray's frame), not "
                               f"{mt.get('arithmetic')!r}")
-        if self.walk == "planes" and "entry_faces" in ctx.buffers["cells"]:
+        if self.walk == "planes" and confined(ctx):
             raise ConfigError(f"{self.where}.walk: 'planes' reads the mesh's own adjacency texture and cannot walk "
                               "only the visible cells; drop the visibility stage or use walk = 'plucker'")
         if segments is not None and (self.walk, self.integration) != ("plucker", "exact"):
@@ -231,7 +233,7 @@ class Harc(Stage):
         count_pass(ctx, c, keep, self.walk, self.integration, self.format, lambda: px_work(state, cam))
         ctx.count(rays=state.n)
         ctx.stats["harc"] = {"walk": self.walk, "integration": self.integration, "ray_setup": self.ray_setup, **c,
-                             "unresolved_rays": redone, "thin_cell_rays": thin_rays, "thin_cells": thin_tets,
+                             "float64_rays": redone, "thin_cell_rays": thin_rays, "thin_cells": thin_tets,
                              "pass_s": t1 - t0, "float64_s": t2 - t1}
         if paper:
             lost = lost_rays(state)

@@ -26,6 +26,7 @@ class HarcPeel(Stage):
     summary = "depth peeling: re-enter non-convex meshes at the next boundary layer (skipped when convex)"
     needs = ("harc_state", "harc_entry")
     provides = ("image",)
+    renamed_stats = {"unresolved_rays": "float64_rays"}  # the float64 redo's one name, as in raycast and pt_integrate
     params = (Param("max_passes", int, 64, "upper bound on peel passes", lo=1),)
 
     def skip_reason(self, ctx: Context) -> str | None:
@@ -61,7 +62,7 @@ class HarcPeel(Stage):
 
         report_left_out(ctx, hs.get("eps", 0.0), total.get("terminated_early", 0))
         mesh = ctx.scene.mesh  # interior faces without a neighbour: rays re-enter at the coincident face
-        ctx.stats["harc_peel"] = {"passes": passes, "reentries": entries, "unresolved_rays": redone, **total,
+        ctx.stats["harc_peel"] = {"passes": passes, "reentries": entries, "float64_rays": redone, **total,
                                   "passes_exhausted_rays": unfinished,
                                   "exhausted": passes == self.max_passes, "crack_faces": len(mesh.crack_faces),
                                   "nonconforming_faces": len(mesh.nonconforming_faces)}

@@ -347,7 +347,7 @@ def report_left_out(ctx: Context, t_min: float, early: int, missed: int | None =
     cells = ctx.buffers.get("cells", {})
     amounts = {"rays_terminated": early} if t_min > 0 else {}
     why = []
-    if missed is not None and "entry_faces" in cells:
+    if missed is not None and cells.get("confined", False):
         amounts.update(cells_not_walked=int(cells.get("cells_not_walked", 0)), rays_without_visible_cell=missed)
         why.append("cells the transfer function makes invisible are not walked (rays enter and re-enter at "
                    "the visible cells' boundary)")

@@ -64,7 +64,7 @@ class VsbSweep(Stage):
                                          may cross one -- too thin at its extinction, or seen edge-on
                                          -- traced again in float64, ``thin_rays_redone``; so are
                                          pixel centres within 1/64 px of a silhouette or of a face seen
-                                         edge-on, ``silhouette_rays_redone``)
+                                         edge-on, ``silhouette_rays_redone``; both: ``float64_rays``)
     threads           int    0           host threads for the column walk on the CPU (0: all cores)
     max_sweep_pixels  int    2^32        refuse a sweep drawing more ID-buffer pixels than this (two
                                          passes x planes x (depth_res + 2) x width): the emulated sweep
@@ -198,6 +198,7 @@ class VsbSweep(Stage):
         ctx.stats["vsbuffer"].update(thin_pieces=n_thin, thin_rays_redone=int(len(pix)),
                                      silhouette_rays_redone=int(len(np.setdiff1d(edge, pix))))
         pix = np.union1d(pix, edge)
+        ctx.stats["vsbuffer"]["float64_rays"] = int(len(pix))  # the float64 redo's one name, as in the others
         if len(pix):
             h, w = sc.camera.height_px, sc.camera.width_px
             out = np.array(img, dtype=np.float32).reshape(h * w, 4)
