@@ -25,8 +25,17 @@ import warp as wp
 
 from .cellwalk import CellMesh, RayCamera, Segments, WalkOpts, add_under_tr
 from .harc_integ import Integ
-from .integrate import GL3_W0, GL3_W1, GL3_X0, GL3_X2, THIN_DEPTH, exp_neg, exp_neg_thin, integrate_piece, \
-    one_minus_exp_neg_thin
+from .integrate import (
+    GL3_W0,
+    GL3_W1,
+    GL3_X0,
+    GL3_X2,
+    THIN_DEPTH,
+    exp_neg,
+    exp_neg_thin,
+    integrate_piece,
+    one_minus_exp_neg_thin,
+)
 from .lanes import LANE_OPTIONS, FlatMesh, LaneState, lane_step_at, make_lane_io
 from .raycast import STATUS_ACTIVE, EntryBins, march_kernel
 from .walk import EPS32, STALL_STEPS, STEEP_ERR, THIN_ULPS, spread_error, thin_unresolved
