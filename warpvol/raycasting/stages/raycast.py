@@ -180,7 +180,7 @@ def drop_unreached(status: np.ndarray, active: np.ndarray, reach: np.ndarray | N
 
 def tile_reach(ctx: Context) -> np.ndarray | None:
     """Per pixel (bool, flat), whether ``entry_bins`` binned a face to its screen tile: the march's entry search
-    (:func:`warpvol.kernels.raycast.march`) finds nothing elsewhere and sets the ray done. Per frame (the
+    (:func:`warpvol.kernels.raycast.make_march`) finds nothing elsewhere and sets the ray done. Per frame (the
     bins depend on the camera), kept in ``ctx.buffers["entry_bins"]``; None off the CPU (one launch fills a
     GPU, and the host holds no view of its status array)."""
     if not on_host(ctx.device):
