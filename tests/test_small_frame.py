@@ -101,3 +101,18 @@ def test_per_pixel_maps_in_the_listed_box_match_the_whole_window():
     ctx.device, ctx.scene, ctx.buffers = "cpu", sc, {"cells": {"origin": np.zeros(3), "radius": 1.8}}
     assert np.array_equal(harc.face_reach(ctx, dict(e)).reshape(h, w), around)
     assert np.array_equal(np.isfinite(whole).reshape(h, w), around)
+
+
+def test_a_later_pass_looks_at_the_last_pass_rays_only():
+    from warpvol.raycasting.stages.raycast import pass_rays
+
+    status = np.array([1, 1, 0, 5, 2, 1, 1, 0], np.int32)  # 5 = active with a re-entry count (raycast: & 3)
+    reach = np.array([1, 1, 1, 1, 1, 0, 1, 1], bool)
+    first = pass_rays(status.copy(), 1, 0, None, None, 3)
+    assert first.tolist() == [0, 1, 3, 5, 6]
+    st = status.copy()
+    first = pass_rays(st, 1, 0, reach, None, 3)
+    assert first.tolist() == [0, 1, 3, 6] and st[5] == 0  # outside reach: done without a launch
+    st[[0, 6]] = 0  # the pass ended these
+    st[7] = 1  # (a pixel no pass launched is never active again; a candidate list does not look at it)
+    assert pass_rays(st, 1, 0, reach, first, 3).tolist() == [1, 3]

@@ -30,9 +30,9 @@ from warpvol.raycasting.stages.cell_setup import neighbour_faces
 from warpvol.raycasting.stages.raycast import (
     camera_struct,
     cell_mesh_struct,
-    drop_unreached,
     host_view,
     on_host,
+    pass_rays,
     ray_blocks,
     segments_struct,
     walk_opts,
@@ -318,6 +318,7 @@ class HarcState:
         self.tcur = wp.empty(n, dtype=wp.float32, device=device)
         self.status = wp.empty(n, dtype=wp.int32, device=device)
         self.last = wp.empty(n, dtype=wp.int32, device=device)
+        self.candidates = None  # the pixels a further pass looks at (the last pass's launched rays; None: all)
         #: per pixel, the last pass's loop work: (cells visited, fragment-program steps; zeroed by each pass)
         self.px_work = wp.empty(n, dtype=wp.vec2i, device=device)
         if on_host(device):  # the host fills its views: a few memsets, no kernel over every pixel
@@ -329,7 +330,9 @@ class HarcState:
             wp.launch(kh.init_state, dim=n, inputs=[self.rgba, self.tcur, self.status, self.last], device=device)
 
     def image(self, height: int, width: int) -> np.ndarray:
-        return self.rgba.numpy().reshape(height, width, 4).astype(np.float32)
+        """The accumulated RGBA as an ``(height, width, 4)`` float32 image: on the CPU a view of the state's
+        buffer (it keeps the buffer alive; the state is the frame's own), elsewhere a copy."""
+        return self.rgba.numpy().reshape(height, width, 4)
 
 
 N_COUNTERS = 13
@@ -397,10 +400,14 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
 
     cells = ctx.buffers["cells"]
     cam = camera_struct(ctx)
-    state.px_work.zero_()
+    if state.candidates is None or not on_host(ctx.device):
+        state.px_work.zero_()
+    else:  # only the last pass's launched rays have work written
+        host_view(state.px_work)[state.candidates] = 0
     status = state.status.numpy()
-    active = drop_unreached(status, status == int(kh.STATUS_ACTIVE), face_reach(ctx, entry, setup),
-                            int(kh.STATUS_DONE))
+    active = pass_rays(status, int(kh.STATUS_ACTIVE), int(kh.STATUS_DONE), face_reach(ctx, entry, setup),
+                       state.candidates)
+    state.candidates = active if len(active) < state.n else None  # the next pass looks at these only
     ids, parts = ray_blocks(ctx, active, threads, rows_per_block)
     if not parts:
         return dict.fromkeys(COUNTER_NAMES, 0)

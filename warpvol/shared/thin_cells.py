@@ -231,7 +231,8 @@ def mark_unresolved(ctx, status, failed: int) -> tuple[int, int]:
     if len(pix):
         st = status.numpy()
         st[pix] = failed
-        wp.copy(status, wp.array(st, dtype=wp.int32, device=status.device))
+        if not str(status.device).startswith("cpu"):  # (on the CPU ``st`` is a view of ``status``)
+            wp.copy(status, wp.array(st, dtype=wp.int32, device=status.device))
     return int(len(pix)), n_thin
 
 

@@ -60,6 +60,7 @@ class MarchState:
         self.status = wp.empty(n, dtype=wp.int32, device=device)
         self.last = wp.empty(n, dtype=wp.int32, device=device)  # cell each ray last left
         self.active = n  # rays a further pass must search (set by each pass)
+        self.candidates = None  # the pixels a further pass looks at (the last pass's launched rays; None: all)
         if on_host(device):  # the host fills its views: a few memsets, no kernel over every pixel
             host_view(self.rgb).fill(0.0)
             host_view(self.trans).fill(1.0)
@@ -140,7 +141,8 @@ def segments_struct(n: int, cap: int, device):
 
 
 def ray_blocks(ctx: Context, active: np.ndarray, threads: int, rows_per_block: int = 16) -> tuple:
-    """The launch blocks of a pass over the rays with ``active`` (a boolean per pixel): ``(ids, blocks)``,
+    """The launch blocks of a pass over the rays with ``active`` (a boolean per pixel, or the active pixels'
+    indices in increasing order): ``(ids, blocks)``,
     ``blocks`` a list of ``(first, count)``. While every ray is active, ``ids`` is empty and a block is the
     pixels ``first .. first + count`` (row blocks of ``rows_per_block`` rows on the CPU); otherwise ``ids``
     lists the active rays' pixels (in pixel order, so neighbouring threads walk neighbouring rays) and a block
@@ -153,7 +155,7 @@ def ray_blocks(ctx: Context, active: np.ndarray, threads: int, rows_per_block: i
     cam = ctx.scene.camera
     w, h = cam.width_px, cam.height_px
     on_cpu = on_host(ctx.device)
-    act = np.flatnonzero(active).astype(np.int32)
+    act = (np.flatnonzero(active) if active.dtype == bool else active).astype(np.int32)
     if len(act) == w * h:
         rows = blocks(h, rows_per_block if on_cpu else h)
         return wp.zeros(0, dtype=wp.int32, device=ctx.device), [(r0 * w, nr * w) for r0, nr in rows]
@@ -176,6 +178,18 @@ def drop_unreached(status: np.ndarray, active: np.ndarray, reach: np.ndarray | N
         status[gone] = done
         return active & reach
     return active
+
+
+def pass_rays(status: np.ndarray, active_code: int, done_code: int, reach: np.ndarray | None,
+              candidates: np.ndarray | None, mask: int = -1) -> np.ndarray:
+    """The indices of the rays a pass launches (``status & mask == active_code``), in increasing order.
+    ``candidates`` (None: every pixel): the pixels that may still be active, the previous pass's launched rays
+    -- a ray no pass launched stays as it was, and the host's edits between passes (the float64 redo, rays given
+    up) only end rays. The first pass (no candidates) scans the window and sets the active rays outside
+    ``reach`` done (:func:`drop_unreached`); a later one looks at its candidates only."""
+    if candidates is None:
+        return np.flatnonzero(drop_unreached(status, (status & mask) == active_code, reach, done_code))
+    return candidates[(status[candidates] & mask) == active_code]
 
 
 def tile_reach(ctx: Context) -> np.ndarray | None:
@@ -231,7 +245,8 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
     cells, bins = ctx.buffers["cells"], ctx.buffers["entry_bins"]
     cam = camera_struct(ctx)
     status = state.status.numpy()
-    active = drop_unreached(status, (status & 3) == int(k.STATUS_ACTIVE), tile_reach(ctx), int(k.STATUS_DONE))
+    active = pass_rays(status, int(k.STATUS_ACTIVE), int(k.STATUS_DONE), tile_reach(ctx), state.candidates, 3)
+    state.candidates = active if len(active) < state.n else None  # the next pass looks at these only
     ids, parts = ray_blocks(ctx, active, threads, rows_per_block)
     if not parts:
         state.active = 0
