@@ -90,7 +90,9 @@ def main(argv: list[str] | None = None) -> int:
             if not check:
                 path.write_text(new)
     if check and stale:
-        print("preset_tables: not what scripts/preset_tables.py generates: " + ", ".join(stale))
+        print("preset_tables: not what scripts/preset_tables.py generates: " + ", ".join(stale) + " (the tables "
+              "come from the families' FAMILY declarations in warpvol/<family>/__init__.py: change those, then run "
+              "python scripts/preset_tables.py)")
         return 1
     return 0
 
