@@ -14,9 +14,9 @@ have no cycle and never pay that sort). With ``fifo`` the ready cells leave in t
 became ready (a queue, O(1) per cell): for an exact order (MPVO on a convex mesh, XMPVO) any
 topological order draws the same image, so the depth priority is only needed by MPVONC.
 
-``k_boundary_count``, ``k_boundary_scatter`` and ``k_ray_gaps_keyed`` are the lean form of the same (``pt_best``):
+``k_boundary_count``, ``k_boundary_scatter`` and ``k_ray_gaps_listed`` are the lean form of the same (``pt_best``):
 the boundary faces' fragments as (face, depth) only, counted and scattered per pixel (no attributes, no sort of
-the whole list), each pixel's list sorted by (depth, exit before entry, face): the pairs ``k_ray_gaps`` finds.
+the whole list; pixels with one fragment left out), each pixel's list sorted by (depth, exit before entry, face): the pairs ``k_ray_gaps`` finds.
 ``k_indegree`` counts each cell's incoming face edges from ``dirs``.
 
 ``k_ray_gaps`` finds XMPVO's extra edges along the pixel rays: per pixel, its boundary fragments
@@ -238,11 +238,13 @@ def k_boundary_count(s: TriSetup, width: int, pixel_counts: wp.array(dtype=wp.in
 
 
 @wp.kernel
-def k_boundary_scatter(s: TriSetup, pos: wp.array(dtype=wp.vec4), width: int, offsets: wp.array(dtype=wp.int32),
-                       cursor: wp.array(dtype=wp.int32), prim: wp.array(dtype=wp.int32),
-                       depth: wp.array(dtype=wp.float32)):
-    """Face ``t``: at every pixel centre it covers, its index and its depth (the fragment depth of
-    :func:`warpvol.kernels.raster_draw.k_tri_fragments`) in the pixel's next free slot from ``offsets[p]``."""
+def k_boundary_scatter(s: TriSetup, pos: wp.array(dtype=wp.vec4), width: int, counts: wp.array(dtype=wp.int32),
+                       offsets: wp.array(dtype=wp.int32), cursor: wp.array(dtype=wp.int32),
+                       prim: wp.array(dtype=wp.int32), depth: wp.array(dtype=wp.float32)):
+    """Face ``t``: at every pixel centre it covers that holds two or more fragments (``counts``; one alone
+    makes no pair), its index and its depth (the fragment depth of
+    :func:`warpvol.kernels.raster_draw.k_tri_fragments`) in the pixel's next free slot from ``offsets[p]``.
+    Atomics: one launch on the CPU (Warp's CPU atomics are plain read-modify-writes)."""
     t = wp.tid()
     b = s.bbox[t]
     x = s.sx[t]
@@ -253,18 +255,21 @@ def k_boundary_scatter(s: TriSetup, pos: wp.array(dtype=wp.vec4), width: int, of
         for j in range(b[0], b[2] + 1):
             if covers(x, y, bi, j, i):
                 p = i * width + j
-                k = offsets[p] + wp.atomic_add(cursor, p, 1)
-                prim[k] = t
-                depth[k] = interp_depth(pos, v, screen_bary(pos, v, float(j) + 0.5, float(i) + 0.5))
+                if counts[p] > 1:
+                    k = offsets[p] + wp.atomic_add(cursor, p, 1)
+                    prim[k] = t
+                    depth[k] = interp_depth(pos, v, screen_bary(pos, v, float(j) + 0.5, float(i) + 0.5))
 
 
 @wp.kernel
-def k_ray_gaps_keyed(offsets: wp.array(dtype=wp.int32), prim: wp.array(dtype=wp.int32),
-                     depth: wp.array(dtype=wp.float32), front: wp.array(dtype=wp.int32), cell: wp.array(dtype=wp.int32),
-                     src: wp.array(dtype=wp.int32), dst: wp.array(dtype=wp.int32), p0: int):
-    """:func:`k_ray_gaps` for lists in any order: pixel ``p0 + tid``'s fragments sorted by (depth, exit before
-    entry, face index), the order ``k_ray_gaps`` gives a list in face order; the same pairs."""
-    p = p0 + wp.tid()
+def k_ray_gaps_listed(pixels: wp.array(dtype=wp.int32), offsets: wp.array(dtype=wp.int32),
+                      prim: wp.array(dtype=wp.int32), depth: wp.array(dtype=wp.float32),
+                      front: wp.array(dtype=wp.int32), cell: wp.array(dtype=wp.int32), n_pairs: wp.array(dtype=wp.int32),
+                      src: wp.array(dtype=wp.int32), dst: wp.array(dtype=wp.int32)):
+    """:func:`k_ray_gaps` for the listed pixels, their lists in any order: pixel ``pixels[tid]``'s fragments
+    sorted by (depth, exit before entry, face index), the order ``k_ray_gaps`` gives a list in face order; each
+    exit -> entry pair appended at ``n_pairs[0]`` (the same pairs as a set; one launch on the CPU)."""
+    p = pixels[wp.tid()]
     a = offsets[p]
     b = offsets[p + 1]
     for k in range(a + 1, b):
@@ -284,10 +289,8 @@ def k_ray_gaps_keyed(offsets: wp.array(dtype=wp.int32), prim: wp.array(dtype=wp.
                 break
         depth[m + 1] = kd
         prim[m + 1] = kp
-    for k in range(a, b):
-        src[k] = -1
-        dst[k] = -1
-        if k + 1 < b:
-            if front[prim[k]] == 0 and front[prim[k + 1]] == 1:
-                src[k] = cell[prim[k + 1]]
-                dst[k] = cell[prim[k]]
+    for k in range(a, b - 1):
+        if front[prim[k]] == 0 and front[prim[k + 1]] == 1:  # leave the mesh, then re-enter it
+            o = wp.atomic_add(n_pairs, 0, 1)
+            src[o] = cell[prim[k + 1]]
+            dst[o] = cell[prim[k]]

@@ -321,9 +321,10 @@ def test_lean_sort_gives_the_published_order():
     assert cycles >= 1
 
 
-def test_ray_gaps_keyed_matches_ray_gaps_on_lists_in_face_order():
-    """``k_ray_gaps_keyed`` (lists in any order, sorted by depth, exit before entry, face) finds the pairs
-    ``k_ray_gaps`` finds on the same lists in face order, with equal depths, -0 and +0 and shuffled lists."""
+def test_ray_gaps_listed_matches_ray_gaps_on_lists_in_face_order():
+    """``k_ray_gaps_listed`` (the listed pixels, lists in any order, sorted by depth, exit before entry, face)
+    finds the pairs ``k_ray_gaps`` finds on the same lists in face order, with equal depths, -0 and +0 and
+    shuffled lists."""
     import warp as wp
 
     from warpvol.kernels import sort as ks
@@ -341,14 +342,18 @@ def test_ray_gaps_keyed_matches_ray_gaps_on_lists_in_face_order():
     pix = np.repeat(np.arange(npx), counts)
     ordered = np.lexsort((prim, pix))  # face order within each pixel
     shuffled = np.lexsort((rng.random(n), pix))
-    got = []
-    for o, kern in ((ordered, ks.k_ray_gaps), (shuffled, ks.k_ray_gaps_keyed)):
-        src, dst = wp.empty(n, dtype=wp.int32), wp.empty(n, dtype=wp.int32)
-        wp.launch(kern, dim=npx, inputs=[wp.array(off), wp.array(prim[o]), wp.array(depth[o]), wp.array(front),
-                                         wp.array(cell), src, dst, 0], device="cpu")
-        s, d = src.numpy(), dst.numpy()
-        got.append(sorted(zip(s[s >= 0].tolist(), d[s >= 0].tolist())))
-    assert len(got[0]) > 100 and got[0] == got[1]
+    src, dst = wp.empty(n, dtype=wp.int32), wp.empty(n, dtype=wp.int32)
+    wp.launch(ks.k_ray_gaps, dim=npx, inputs=[wp.array(off), wp.array(prim[ordered]), wp.array(depth[ordered]),
+                                              wp.array(front), wp.array(cell), src, dst, 0], device="cpu")
+    s, d = src.numpy(), dst.numpy()
+    want = sorted(zip(s[s >= 0].tolist(), d[s >= 0].tolist()))
+    listed = np.flatnonzero(counts > 1).astype(np.int32)
+    src, dst, k = wp.empty(n, dtype=wp.int32), wp.empty(n, dtype=wp.int32), wp.zeros(1, dtype=wp.int32)
+    wp.launch(ks.k_ray_gaps_listed, dim=len(listed),
+              inputs=[wp.array(listed), wp.array(off), wp.array(prim[shuffled]), wp.array(depth[shuffled]),
+                      wp.array(front), wp.array(cell), k, src, dst], device="cpu")
+    k = int(k.numpy()[0])
+    assert len(want) > 100 and sorted(zip(src.numpy()[:k].tolist(), dst.numpy()[:k].tolist())) == want
 
 
 @pytest.mark.parametrize("name", ["concave", "sphere", "stress:eye_in_diagonal_face_plane", "stress:pixel_centres_on_boundary_faces",

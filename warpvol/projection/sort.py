@@ -414,8 +414,8 @@ def lean_ray_constraints(mesh, camera) -> tuple[np.ndarray, np.ndarray, int]:
     fragment count. The off-hull faces' data is kept per mesh (:func:`off_hull_boundary`); per frame only their
     points are transformed, their fragments are counted per pixel and scattered as (face, depth) alone
     (:func:`warpvol.kernels.sort.k_boundary_count`, ``k_boundary_scatter``: no attributes, no sort of the whole
-    list), and each pixel's short list is sorted by (depth, exit before entry, face) before the exit -> entry
-    pairs are read off (``k_ray_gaps_keyed``)."""
+    list, the pixels with one fragment left out), and each pixel's short list is sorted by (depth, exit before
+    entry, face) before the exit -> entry pairs are read off (``k_ray_gaps_listed``)."""
     import warp as wp
 
     from warpvol.kernels import sort as ks
@@ -438,20 +438,23 @@ def lean_ray_constraints(mesh, camera) -> tuple[np.ndarray, np.ndarray, int]:
     c, o = counts.numpy(), offsets.numpy()
     n = int(o[npx - 1] + c[npx - 1])
     o[npx] = n
-    if n < 2:
+    multi = np.flatnonzero(c > 1).astype(np.int32)  # a pixel with one boundary fragment makes no pair
+    if len(multi) == 0:
         return empty, empty, n
-    prim, depth = wp.empty(n, dtype=wp.int32, device=dev), wp.empty(n, dtype=wp.float32, device=dev)
-    counts.zero_()  # now each pixel's next free slot
-    wp.launch(ks.k_boundary_scatter, dim=tr.count, inputs=[tr.struct, tr.positions, w, offsets, counts, prim, depth],
+    m = int(o[multi[-1] + 1])  # the slots up to the last such pixel
+    prim, depth = wp.empty(m, dtype=wp.int32, device=dev), wp.empty(m, dtype=wp.float32, device=dev)
+    cursor = wp.zeros(npx, dtype=wp.int32, device=dev)
+    wp.launch(ks.k_boundary_scatter, dim=tr.count, inputs=[tr.struct, tr.positions, w, counts, offsets, cursor, prim,
+                                                          depth], device=dev)
+    n_pairs = wp.zeros(1, dtype=wp.int32, device=dev)
+    src_w, dst_w = wp.empty(m, dtype=wp.int32, device=dev), wp.empty(m, dtype=wp.int32, device=dev)
+    wp.launch(ks.k_ray_gaps_listed, dim=len(multi),
+              inputs=[wp.array(multi, dtype=wp.int32, device=dev), offsets, prim, depth,
+                      wp.array(front.astype(np.int32), dtype=wp.int32, device=dev), hb["cells"], n_pairs, src_w, dst_w],
               device=dev)
-    src_w, dst_w = wp.empty(n, dtype=wp.int32, device=dev), wp.empty(n, dtype=wp.int32, device=dev)
-    args = [offsets, prim, depth, wp.array(front.astype(np.int32), dtype=wp.int32, device=dev), hb["cells"], src_w, dst_w]
-    parts = blocks(npx, -(-npx // 16))
-    preload(dev, ks)
-    launch_blocks(dev, len(parts), lambda b: wp.launch(ks.k_ray_gaps_keyed, dim=parts[b][1], inputs=[*args, parts[b][0]],
-                                                       device=dev))
-    src, dst = src_w.numpy(), dst_w.numpy()
-    keep = np.flatnonzero((src >= 0) & (src != dst))
+    k = int(n_pairs.numpy()[0])
+    src, dst = src_w.numpy()[:k], dst_w.numpy()[:k]
+    keep = src != dst
     pair = np.unique(src[keep].astype(np.int64) * mesh.n_tets + dst[keep])
     return pair // mesh.n_tets, pair % mesh.n_tets, n
 
