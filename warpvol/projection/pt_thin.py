@@ -21,7 +21,13 @@ from __future__ import annotations
 import numpy as np
 
 from warpvol.scene.tf_ranges import density_bound, density_max, slope_max
-from warpvol.shared.pixel_marks import InFront, _mark_boxes, _mark_near_edges, _segment_samples, near_segment_pixels
+from warpvol.shared.pixel_marks import (
+    InFront,
+    _mark_boxes,
+    _mark_near_edges,
+    _segment_samples,
+    near_segment_pixels_warp,
+)
 
 #: a tet whose smallest height is below this many float32 units (2^-23) of the mesh radius is thin
 THIN_ULPS = 1024.0
@@ -185,9 +191,14 @@ def rough_tets(mesh, tf, camera, tau: float = ROUGH_TAU, proj=None, drawn=None) 
     function flags few; one of thousands of rough control points flags most tets. ``drawn``, ``proj``: as
     :func:`thin_tets`."""
     g = _slopes(mesh, tf)
-    change = g["rate"] * (g["smax"] - g["smin"])  # the largest value change across the tet
-    cand = np.flatnonzero((change > tau) if drawn is None else (change > tau) & drawn)  # the bound below is
-    if len(cand) == 0:  # at most the change itself
+    if "change" not in g:  # per mesh and transfer function, kept with the slopes
+        g["change"] = g["rate"] * (g["smax"] - g["smin"])  # the largest value change across the tet
+    change = g["change"]
+    steep = g.get(("steep", tau))
+    if steep is None:  # the bound below is at most the change itself
+        steep = g[("steep", tau)] = np.flatnonzero(change > tau)
+    cand = steep if drawn is None else steep[drawn[steep]]
+    if len(cand) == 0:
         return cand
     col, row, _ = _window(mesh, camera, cand, proj)
     area_px = 0.25 * sum(np.abs((col[:, b] - col[:, a]) * (row[:, c] - row[:, a])
@@ -491,7 +502,7 @@ def unresolved_pixels(mesh, tf, camera, tau: float = THIN_TAU, silhouettes: bool
         np.maximum.at(er, inv.ravel(), np.repeat(ranks(rtets[:, None]), 6))
         a, b = key // len(proj[0]), key % len(proj[0])
         (ca, cb), (ra, rb) = ((q[a], q[b]) for q in proj[:2])
-        pix, seg = near_segment_pixels(ca, ra, cb, rb, w, h, SNAP_FLIP_PX)
+        pix, seg = near_segment_pixels_warp(ca, ra, cb, rb, w, h, SNAP_FLIP_PX)  # the same pairs, one kernel
         cover.ravel()[pix if front is None else pix[front(pix, er[seg])]] = True
     occluded = 0 if front is None else int(np.count_nonzero(front.dropped & ~cover.ravel()))
     return {"thin_tets": int(len(thin)), "edge_on_faces": int(len(fids)), "sliver_faces": int(len(sids)),

@@ -107,6 +107,43 @@ def near_segment_pixels(ax, ay, bx, by, w: int, h: int, delta: float) -> tuple[n
     return np.concatenate(pix), np.concatenate(seg)
 
 
+#: :func:`near_segment_pixels_warp`'s kernel keeps the centres whose distance is within this factor of
+#: ``delta``; ``np.hypot`` then decides, as :func:`near_segment_pixels` does
+_NEAR_SLACK = 1.0 + 1e-9
+
+
+def near_segment_pixels_warp(ax, ay, bx, by, w: int, h: int, delta: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`near_segment_pixels` by one Warp kernel on the CPU (:func:`warpvol.kernels.pixel_marks.k_near_segments`:
+    the same float64 steps, one thread per segment), the pairs in another order: the same set. The
+    kernel keeps the centres within :data:`_NEAR_SLACK` of ``delta`` with the distance's components, and
+    ``np.hypot`` of those decides, so the pairs are the NumPy function's exactly. For many long segments
+    (the edges ``pt_best`` checks every frame) it replaces a dozen NumPy passes over every pixel step of
+    them."""
+    import warp as wp
+
+    from warpvol.kernels import pixel_marks as kpm
+
+    ax, ay, bx, by = (np.asarray(v, dtype=np.float64) for v in (ax, ay, bx, by))
+    ids = np.flatnonzero(np.isfinite(ax) & np.isfinite(ay) & np.isfinite(bx) & np.isfinite(by))
+    if len(ids) == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    dev = "cpu"
+    segs = [wp.array(np.ascontiguousarray(v[ids]), dtype=wp.float64, device=dev) for v in (ax, ay, bx, by)]
+    room = 4 * len(ids) + 1024  # marks are rare: centres within delta (< 0.35 px) of a segment
+    for _ in range(2):
+        n = wp.zeros(1, dtype=wp.int32, device=dev)
+        out = [wp.empty(room, dtype=t, device=dev) for t in (wp.int64, wp.int32, wp.float64, wp.float64)]
+        wp.launch(kpm.k_near_segments, dim=len(ids),
+                  inputs=[*segs, int(w), int(h), float(delta), float((delta * _NEAR_SLACK) ** 2), n, *out], device=dev)
+        k = int(n.numpy()[0])
+        if k <= room:
+            break
+        room = k
+    pix, seg, qx, qy = (o.numpy()[:k] for o in out)
+    near = np.hypot(qx, qy) <= delta
+    return pix[near], ids[seg[near]]
+
+
 def _mark_near_edges(cover: np.ndarray, col: np.ndarray, row: np.ndarray, delta: float, front=None,
                      rank=None) -> None:
     """Mark in ``cover`` (H, W) the pixels whose centres lie within ``delta`` (< 0.35) pixels of an edge of
