@@ -13,6 +13,10 @@ Writes ``ctx.image``; counts ``fragments`` and ``blends`` (one blend per fragmen
 
 from __future__ import annotations
 
+import threading
+from collections import OrderedDict
+from contextlib import contextmanager
+
 from warpvol.errors import ConfigError
 from warpvol.gpu.blend import BlendUnit, FrameBuffer
 from warpvol.projection import pt  # (pt.draw looked up per call: the texture-cache observer replaces it)
@@ -39,6 +43,34 @@ def texel_param(choices: tuple) -> Param:
                  choices=choices)
 
 
+_FB_POOL: OrderedDict = OrderedDict()  # (width, height, format, device) -> frame buffers not in use
+_FB_LOCK = threading.Lock()
+_FB_SIZES = 4  # buffer sizes kept (least recently used dropped), at most two buffers each
+
+
+@contextmanager
+def kept_frame_buffer(width: int, height: int, fmt: str, device):
+    """A :class:`FrameBuffer` of this size and format kept between frames (allocating 5 MB of colour and
+    depth per 512^2 frame, and touching its pages, cost more than a small frame's draw); each caller clears
+    it. A buffer in use is not handed out again: concurrent renders get their own."""
+    key = (int(width), int(height), str(fmt), str(device))
+    with _FB_LOCK:
+        free = _FB_POOL.get(key)
+        fb = free.pop() if free else None
+    if fb is None:
+        fb = FrameBuffer(width, height, fmt, device=device)
+    try:
+        yield fb
+    finally:
+        with _FB_LOCK:
+            free = _FB_POOL.setdefault(key, [])
+            _FB_POOL.move_to_end(key)
+            if len(free) < 2:
+                free.append(fb)
+            while len(_FB_POOL) > _FB_SIZES:
+                _FB_POOL.popitem(last=False)
+
+
 def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1, walk: str = "pixel",
               blend_unit=None, t_min: float = 0.0, skip_zero: bool = False) -> dict:
     """Draw ``pt_geometry`` with per-vertex ``attrs`` and ``program`` into a cleared buffer of the
@@ -51,15 +83,22 @@ def composite(stage: Stage, ctx: Context, attrs, program, bands: int = 1, walk: 
     fmt = stage.config["format"]
     if stage.config["dither"] and fmt in ("fp16", "fp32"):
         raise ConfigError(f"{stage.where}.dither: alpha dithering needs a fixed-point format, format is {fmt}")
-    fb = FrameBuffer(cam.width_px, cam.height_px, fmt, device=ctx.device)
-    fb.clear((0, 0, 0, 0))
     unit = BlendUnit.over(dither=stage.config["dither"]) if blend_unit is None else blend_unit
     if t_min > 0:
         unit = BlendUnit.under()
-    info = pt.draw(ctx.buffers["pt_geometry"], attrs, program, fb, unit,
-                batch_tets=stage.config["batch_tets"], device=ctx.device, bands=bands, walk=walk, t_min=t_min,
-                skip_zero=skip_zero)
-    ctx.image = fb.readback()
+    if walk == "fused":  # pt_best's draw: the buffer kept between frames (cleared here; the read-back a copy)
+        with kept_frame_buffer(cam.width_px, cam.height_px, fmt, ctx.device) as fb:
+            fb.clear((0, 0, 0, 0))
+            info = pt.draw(ctx.buffers["pt_geometry"], attrs, program, fb, unit, batch_tets=stage.config["batch_tets"],
+                           device=ctx.device, bands=bands, walk=walk, t_min=t_min, skip_zero=skip_zero)
+            ctx.image = fb.readback()
+    else:
+        fb = FrameBuffer(cam.width_px, cam.height_px, fmt, device=ctx.device)
+        fb.clear((0, 0, 0, 0))
+        info = pt.draw(ctx.buffers["pt_geometry"], attrs, program, fb, unit,
+                       batch_tets=stage.config["batch_tets"], device=ctx.device, bands=bands, walk=walk, t_min=t_min,
+                       skip_zero=skip_zero)
+        ctx.image = fb.readback()
     # fragments and blends are counted by the rasteriser and blending unit themselves; the draw sends each
     # drawn tet as a triangle fan (triangles + 2 vertices) with its position and attributes over the bus
     geo = ctx.buffers["pt_geometry"]
