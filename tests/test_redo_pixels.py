@@ -11,8 +11,13 @@ from warpvol.scene.builtin import builtin_scene
 
 @pytest.mark.parametrize("name", ["sphere", "concave"])
 @pytest.mark.parametrize("n", [37, 3])
-def test_pixel_list_matches_whole_image(name, n):
-    """Also with few pixels, where only the entry faces whose box holds a listed pixel are searched."""
+@pytest.mark.parametrize("match", ["pairs", "table"])
+def test_pixel_list_matches_whole_image(name, n, match, monkeypatch):
+    """Also with few pixels, where only the entry faces whose box holds a listed pixel are searched (those
+    found face by pixel, or by a summed-area table of the listed pixels)."""
+    from warpvol.reference import warp_render as wr
+
+    monkeypatch.setattr(wr, "_DIRECT_PAIRS", 1 << 22 if match == "pairs" else 0)
     sc = builtin_scene(name).with_camera(width_px=24, height_px=20)
     full = render_reference_warp(sc.mesh, sc.transfer, sc.camera, device="cpu", show_progress=False)
     px = np.random.default_rng(1).choice(24 * 20, n, replace=False)

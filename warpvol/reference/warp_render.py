@@ -284,15 +284,23 @@ def _list_entries(setup: _Setup, plist: np.ndarray, first: int, last: int, wa: d
     ftet, floc, fbox = setup.ent  # the kept faces of all rows
     if not len(ftet):
         return _entry_table(setup.ent, wa, view, device, threads), True
-    sat = np.zeros((last - first + 2, W + 1), np.int64)
-    np.add.at(sat, (plist // W - first + 1, plist % W + 1), 1)
-    sat = sat.cumsum(axis=0).cumsum(axis=1)
-    # boxes clipped to these rows as _entry_faces(first, last) clips them
-    i0 = np.minimum(np.maximum(fbox[:, 0], first).astype(np.int64) - first, last - first + 1)
-    i1 = np.minimum(fbox[:, 1], last).astype(np.int64) - first + 1
-    i1 = np.maximum(i1, i0)  # a box outside the rows: empty
-    j0, j1 = fbox[:, 2].astype(np.int64), fbox[:, 3].astype(np.int64) + 1
-    keep = sat[i1, j1] - sat[i0, j1] - sat[i1, j0] + sat[i0, j0] > 0
+    if len(plist) * len(ftet) <= _DIRECT_PAIRS:  # a short list: each (face, pixel) pair tested
+        keep = np.zeros(len(ftet), dtype=bool)
+        pr, pc = plist // W, plist % W  # the listed pixels' rows lie in first..last: the boxes need no clipping
+        step = max(1, _DIRECT_PAIRS // 4 // len(plist))
+        for f0 in range(0, len(ftet), step):
+            b = fbox[f0:f0 + step].astype(np.int64)
+            keep[f0:f0 + step] = ((pr >= b[:, 0:1]) & (pr <= b[:, 1:2]) & (pc >= b[:, 2:3]) & (pc <= b[:, 3:4])).any(axis=1)
+    else:
+        sat = np.zeros((last - first + 2, W + 1), np.int64)
+        np.add.at(sat, (plist // W - first + 1, plist % W + 1), 1)
+        sat = sat.cumsum(axis=0).cumsum(axis=1)
+        # boxes clipped to these rows as _entry_faces(first, last) clips them
+        i0 = np.minimum(np.maximum(fbox[:, 0], first).astype(np.int64) - first, last - first + 1)
+        i1 = np.minimum(fbox[:, 1], last).astype(np.int64) - first + 1
+        i1 = np.maximum(i1, i0)  # a box outside the rows: empty
+        j0, j1 = fbox[:, 2].astype(np.int64), fbox[:, 3].astype(np.int64) + 1
+        keep = sat[i1, j1] - sat[i0, j1] - sat[i1, j0] + sat[i0, j0] > 0
     if _box_area(fbox[keep]) > _WHOLE_VIEW_SHARE * _box_area(fbox):
         return _entry_table(setup.ent, wa, view, device, threads), True
     box = fbox[keep].copy()
@@ -379,6 +387,10 @@ def _progress_bar(show: bool | None, total: int):
 #: fewest pixels (a pixel list) or faces (entry tables) per block launched from a host thread: a block's start
 #: costs a thread wake-up, more than a few pixels' walks on a loaded machine
 _MIN_BLOCK = 64
+
+#: a pixel list times the entry faces up to this many pairs is matched face by pixel (else by a summed-area
+#: table over the list's rows: two cumulative sums of the whole band, more work for a few hundred pixels)
+_DIRECT_PAIRS = 1 << 22
 
 _QUAD: dict = {}  # device -> the Gauss-Legendre nodes and weights on it (RefQuad), built once
 
