@@ -200,11 +200,36 @@ def lane_step(ls: LaneState, scale: float, mesh: CellMesh, ig: Integ, opts: Walk
 
 
 @wp.func
+def thin_prev(d: float, is_short: int, dmax: float, tr: float, u: float) -> ThinPrev:
+    """:class:`~warpvol.kernels.walk.ThinPrev` of its fields (the lane kernel keeps them apart)."""
+    p = ThinPrev()
+    p.d = d
+    p.is_short = is_short
+    p.dmax = dmax
+    p.tr = tr
+    p.u = u
+    return p
+
+
+@wp.func
 def lane_step_at(scratch: wp.array(dtype=LaneState), slot: int, scale: float, mesh: CellMesh, ig: Integ,
                  opts: WalkOpts):
     """:func:`lane_step` of the lane kept in ``scratch[slot]``, in place (the lane kernel keeps no
     :class:`LaneState` variable of its own: one assigned in its loops is copied on every pass)."""
     scratch[slot] = lane_step(scratch[slot], scale, mesh, ig, opts)
+
+
+@wp.func
+def lane_exit_at(scratch: wp.array(dtype=LaneState), slot: int, scale: float, model: int):
+    """The end of :func:`lane_step` for the lane in ``scratch[slot]`` whose step (taken in the lane loop) left the
+    mesh: ``exited``, and its checks (a thin layer at the exit, an exit through a face seen nearly edge-on)."""
+    ls = scratch[slot]
+    scratch[slot].exited = 1
+    if thin_at_exit(ls.thin_mem):
+        scratch[slot].failed = 1
+        scratch[slot].thin = 1
+    elif ls.t_in > ls.t_clip and grazing_unresolved(ls.acc[3], ls.v_in, model, ls.fc, ls.r, ls.t_in, scale):
+        scratch[slot].failed = 1
 
 
 #: the lane kernels' module options: no FMA contraction (the scalar functions' roundings); loops unrolled at most

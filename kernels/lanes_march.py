@@ -5,14 +5,17 @@
 bit (tests/test_march_lanes.py) -- with the rays ``first + LANES tid + j`` of a thread: their first entries one
 after the other (:func:`~warpvol.kernels.lanes.make_lane_io`, into ``scratch``), then their walks one step of every
 lane per pass of a counted, branch-free ``for j in range(LANES)`` loop over lane matrices (each row one state
-variable, each column a lane), which LLVM vectorises. An optically thick piece (one TF piece, no check fired) takes
-the vector step but its integral afterwards, one lane at a time (:func:`~warpvol.kernels.integrate.integrate_piece`
-with libm's ``exp``, as the scalar walk); a lane whose step is rare goes to ``scratch`` and takes that step in
-:func:`~warpvol.kernels.lanes.lane_step` (the scalar functions), and the next pass reloads it. A ray whose walk has
+variable, each column a lane), which LLVM vectorises. Three kinds of step take the vector step's walk and finish
+after the lane loop, one lane at a time, with the scalar walk's functions: an optically thick piece (its integral,
+:func:`~warpvol.kernels.integrate.integrate_piece` with libm's ``exp``), a step across a TF control point (its TF
+value, integral and checks) and a step out of the mesh (its exit checks,
+:func:`~warpvol.kernels.lanes.lane_exit_at`). A lane whose step is rare (an exact-zero edge side, no exit face, no
+progress, a clipped segment, a check that fires) goes to ``scratch`` and takes that step in
+:func:`~warpvol.kernels.lanes.lane_step` (the scalar functions); the next pass reloads it. A ray whose walk has
 ended is written back (and re-enters, scalar) as soon as it ends. The cell records and new vertex of every lane are
 read in a loop of their own before the step's arithmetic (loads from arrays in the arithmetic loop keep LLVM from
 vectorising it: it cannot bound them against the lane matrices' stores), the TF piece of a lane is kept in its
-state (a control point crossed is a rare step), and the lane matrices are read and written only by element in the
+state (reloaded after a control point is crossed), and the lane matrices are read and written only by element in the
 kernel itself (passed to a function they would count as escaping, with the same effect). The kernel keeps no
 :class:`~warpvol.kernels.lanes.LaneState` variable: a struct assigned in its loops is copied on every pass
 (a 328-byte ``memcpy`` per lane and pass, a third of the march's time); the state moves between the lane matrices
@@ -34,11 +37,13 @@ from .integrate import (
     exp_neg,
     exp_neg_thin,
     integrate_piece,
+    integrate_segment_tf,
     one_minus_exp_neg_thin,
 )
-from .lanes import LANE_OPTIONS, FlatMesh, LaneState, lane_step_at, make_lane_io
+from .lanes import LANE_OPTIONS, FlatMesh, LaneState, lane_exit_at, lane_step_at, make_lane_io, thin_prev
 from .raycast import STATUS_ACTIVE, EntryBins, march_kernel
-from .walk import EPS32, STALL_STEPS, STEEP_ERR, THIN_ULPS, spread_error, thin_unresolved
+from .tf import tf_eval_upper, tf_upper_from
+from .walk import EPS32, STALL_STEPS, STEEP_ERR, THIN_ULPS, scalar_step, spread_error, thin_step, thin_unresolved
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -54,7 +59,7 @@ def make_march_lanes(lanes: int, segs: bool = False):
     SFm = wp.types.matrix(shape=(37, LANES), dtype=float)  # see the put block; 27..36: the lane's TF piece
     SIm = wp.types.matrix(shape=(7, LANES), dtype=int)  # cell, gn, cells, stall, k_in, thin is_short, walking
     RVv = wp.types.vector(length=LANES, dtype=int)  # the lanes whose step is rare; whose piece is optically thick
-    TFm = wp.types.matrix(shape=(5, LANES), dtype=float)  # a thick piece: its length and entry TF value
+    TFm = wp.types.matrix(shape=(8, LANES), dtype=float)  # a thick piece's length, entry TF value; crossing's ds, s, t
     TIm = wp.types.matrix(shape=(2, LANES), dtype=int)  # a thick piece: the next cell and its new vertex
     GIm = wp.types.matrix(shape=(12, LANES), dtype=int)  # each lane's cell: tets, nbr, nbr_vertex records
     GVm = wp.types.matrix(shape=(4, LANES), dtype=float)  # each lane's new vertex record
@@ -79,6 +84,9 @@ def make_march_lanes(lanes: int, segs: bool = False):
         SI = SIm()
         RV = RVv()
         RT = RVv()
+        RX = RVv()  # the lanes whose step leaves the mesh (its exit checks after the lane loop)
+        RC = RVv()  # the lanes whose step crosses a TF control point (its integral after the lane loop)
+        KP = RVv()  # the lanes whose TF piece the next pass loads
         LD = RVv()  # the lanes whose state the next pass loads from scratch (a first entry, a rare step)
         FN = RVv()  # the lanes whose ray is still to be written back
         TF = TFm()
@@ -141,10 +149,13 @@ def make_march_lanes(lanes: int, segs: bool = False):
                     SI[1, j] = scratch[slot].gn
                     SI[2, j] = scratch[slot].cells
                     SI[3, j] = scratch[slot].stall
-                    k_in = scratch[slot].k_in
-                    SI[4, j] = k_in
+                    SI[4, j] = scratch[slot].k_in
                     SI[5, j] = scratch[slot].thin_mem.is_short
                     SI[6, j] = scratch[slot].walking
+                    KP[j] = 1
+                if KP[j] == 1:
+                    KP[j] = 0
+                    k_in = SI[4, j]
                     kl_ = wp.max(k_in - 1, 0)  # the lane's TF piece: its control points' scalars and values
                     kh_ = wp.min(k_in, n_tf - 1)
                     SF[27, j] = ig.tf_s[kl_]
@@ -288,11 +299,12 @@ def make_march_lanes(lanes: int, segs: bool = False):
                 adv = t_out > t_in
                 t_out = wp.where(adv, t_out, t_in)
                 stall = wp.where(adv, 0, stall + 1)
-                rare = rare or stall > STALL_STEPS or nb < 0
+                rare = rare or stall > STALL_STEPS
+                ex = nb < 0  # (the walk leaves the mesh: its exit checks in lane_exit_at)
                 # the TF at the exit: the same piece as at the entry (else rare: a control point crossed)
                 ts_lo = SF[27, j]
                 ts_hi = SF[28, j]
-                rare = rare or not ((k_in >= n_tf or ts_hi > s_out) and (k_in == 0 or not (ts_lo > s_out)))
+                cross = not ((k_in >= n_tf or ts_hi > s_out) and (k_in == 0 or not (ts_lo > s_out)))
                 wt = wp.clamp((s_out - ts_lo) / (ts_hi - ts_lo), 0.0, 1.0)
                 wl = 1.0 - wt
                 lo0 = SF[29, j]
@@ -313,6 +325,7 @@ def make_march_lanes(lanes: int, segs: bool = False):
                 v_in = wp.vec4(SF[10, j], SF[11, j], SF[12, j], SF[13, j])
                 t_clip = SF[26, j]
                 rare = rare or not (t_in >= t_clip and t_out > t_clip)
+                chk = False  # the one-piece checks (thin layer, scalar error): they fire on a rare step
                 # integrate_piece, optically thin (else rare)
                 tr = SF[5, j]
                 ln = t_out - t_in
@@ -350,8 +363,8 @@ def make_march_lanes(lanes: int, segs: bool = False):
                 d_mean = 0.5 * (den_in + den_out)
                 short = ln < THIN_ULPS * u
                 dmax = wp.max(den_in, den_out)
-                rare = rare or (short and thin_unresolved(tr, dmax, SF[16, j], u))
-                rare = rare or (SI[5, j] == 1 and thin_unresolved(SF[18, j], SF[17, j], d_mean, SF[19, j]))
+                chk = short and thin_unresolved(tr, dmax, SF[16, j], u)
+                chk = chk or (SI[5, j] == 1 and thin_unresolved(SF[18, j], SF[17, j], d_mean, SF[19, j]))
                 # the crossing's scalar error (scalar_error_if) and the walk's bound (scalar_step, one piece)
                 qa = pn - o
                 qb = px - o
@@ -369,53 +382,62 @@ def make_march_lanes(lanes: int, segs: bool = False):
                 gsl = wp.abs(dh - dl) / (ts_hi - ts_lo)
                 err_new = err + tr * ln * 0.5 * gsl * (ds_in + ds_out)
                 err_new = wp.where((ds_in == 0.0 and ds_out == 0.0) or k_in <= 0 or k_in >= n_tf, err, err_new)
-                rare = rare or err_new > STEEP_ERR
+                chk = chk or err_new > STEEP_ERR
+                rare = rare or (chk and not cross)
                 e = exp_neg_thin(seg[3])
-                acc = add_under_tr(wp.vec4(SF[2, j], SF[3, j], SF[4, j], tr), seg, e)
-                own = add_under_tr(wp.vec4(SF[6, j], SF[7, j], SF[8, j], SF[9, j]), seg, e)
+                # add_under_tr, written out (a call the inliner leaves in this loop keeps it from vectorising)
+                tr_o = SF[9, j]
+                acc = wp.vec4(SF[2, j] + tr * seg[0], SF[3, j] + tr * seg[1], SF[4, j] + tr * seg[2], tr * e)
+                own = wp.vec4(SF[6, j] + tr_o * seg[0], SF[7, j] + tr_o * seg[1], SF[8, j] + tr_o * seg[2], tr_o * e)
                 stop = acc[3] < t_stop
                 active = walk == 1 and ok_steps
                 go = active and not rare
-                gt = go and thick  # (its colour, transmittance and stop after the lane loop)
-                gn_ = go and not thick
+                gq = go and not cross  # (a crossing: its TF, integral, checks and stop after the lane loop)
+                gt = gq and thick  # (its colour, transmittance and stop after the lane loop)
+                gn_ = gq and not thick
                 RV[j] = wp.where(active and rare, 1, 0)
                 RT[j] = wp.where(gt, 1, 0)
-                SI[6, j] = wp.where((walk == 1 and not ok_steps) or (gn_ and stop), 0, walk)
+                RC[j] = wp.where(go and cross, 1, 0)
+                RX[j] = wp.where(go and ex and not (gn_ and stop), 1, 0)
+                SI[6, j] = wp.where((walk == 1 and not ok_steps) or (gn_ and (stop or ex)), 0, walk)
                 # ---- commit the step of the lanes that took it ----
                 vrow = wp.where(f_out == 0, GI[8, j], wp.where(f_out == 1, GI[9, j], wp.where(f_out == 2, GI[10, j], GI[11, j])))
-                keep = gn_ and not stop
-                TI[0, j] = nb >> 2
-                TI[1, j] = vrow
+                keep = gn_ and not stop and not ex
+                TI[0, j] = wp.where(ex, cell, nb >> 2)
+                TI[1, j] = wp.where(ex, gn, vrow)
                 TF[0, j] = ln
                 TF[1, j] = v_in[0]
                 TF[2, j] = v_in[1]
                 TF[3, j] = v_in[2]
                 TF[4, j] = v_in[3]
+                TF[5, j] = ds_out
+                TF[6, j] = s_out
+                TF[7, j] = t_out
                 SI[0, j] = wp.where(keep, nb >> 2, cell)
                 SI[1, j] = wp.where(keep, vrow, gn)
                 SI[2, j] = wp.where(go, SI[2, j] + 1, SI[2, j])
                 SI[3, j] = wp.where(go, stall, SI[3, j])
-                SI[5, j] = wp.where(go, wp.where(short, 1, 0), SI[5, j])
-                SF[0, j] = wp.where(go, t_out, t_in)
-                SF[1, j] = wp.where(go, s_out, s_in)
+                SI[5, j] = wp.where(gq, wp.where(short, 1, 0), SI[5, j])
+                SF[0, j] = wp.where(gq, t_out, t_in)
+                SF[1, j] = wp.where(gq, s_out, s_in)
                 SF[2, j] = wp.where(gn_, acc[0], SF[2, j])
                 SF[6, j] = wp.where(gn_, own[0], SF[6, j])
-                SF[10, j] = wp.where(go, v_out[0], SF[10, j])
+                SF[10, j] = wp.where(gq, v_out[0], SF[10, j])
                 SF[3, j] = wp.where(gn_, acc[1], SF[3, j])
                 SF[7, j] = wp.where(gn_, own[1], SF[7, j])
-                SF[11, j] = wp.where(go, v_out[1], SF[11, j])
+                SF[11, j] = wp.where(gq, v_out[1], SF[11, j])
                 SF[4, j] = wp.where(gn_, acc[2], SF[4, j])
                 SF[8, j] = wp.where(gn_, own[2], SF[8, j])
-                SF[12, j] = wp.where(go, v_out[2], SF[12, j])
+                SF[12, j] = wp.where(gq, v_out[2], SF[12, j])
                 SF[5, j] = wp.where(gn_, acc[3], SF[5, j])
                 SF[9, j] = wp.where(gn_, own[3], SF[9, j])
-                SF[13, j] = wp.where(go, v_out[3], SF[13, j])
-                SF[14, j] = wp.where(go, ds_out, ds_in)
-                SF[15, j] = wp.where(go, err_new, err)
-                SF[16, j] = wp.where(go, d_mean, SF[16, j])
-                SF[17, j] = wp.where(go, wp.where(short, dmax, 0.0), SF[17, j])
-                SF[18, j] = wp.where(go, tr, SF[18, j])
-                SF[19, j] = wp.where(go, u, SF[19, j])
+                SF[13, j] = wp.where(gq, v_out[3], SF[13, j])
+                SF[14, j] = wp.where(gq, ds_out, ds_in)
+                SF[15, j] = wp.where(gq, err_new, err)
+                SF[16, j] = wp.where(gq, d_mean, SF[16, j])
+                SF[17, j] = wp.where(gq, wp.where(short, dmax, 0.0), SF[17, j])
+                SF[18, j] = wp.where(gq, tr, SF[18, j])
+                SF[19, j] = wp.where(gq, u, SF[19, j])
                 FF[0, j] = wp.where(go, pn[0], FF[0, j])
                 FF[3, j] = wp.where(go, px[0], FF[3, j])
                 FF[6, j] = wp.where(go, py_[0], FF[6, j])
@@ -446,6 +468,62 @@ def make_march_lanes(lanes: int, segs: bool = False):
                 FG[0, j] = wp.where(go, gn, g0)
                 FG[1, j] = wp.where(go, gx, g1)
                 FG[2, j] = wp.where(go, gy, g2)
+            # ---- the steps that cross a TF control point: their integral and checks, one lane at a time ----
+            for j in range(LANES):
+                if RC[j] == 1:
+                    t_in = SF[0, j]
+                    s_in = SF[1, j]
+                    t_out = TF[7, j]
+                    s_out = TF[6, j]
+                    ln = t_out - t_in
+                    k_in = SI[4, j]
+                    v_in = wp.vec4(SF[10, j], SF[11, j], SF[12, j], SF[13, j])
+                    k_out = tf_upper_from(s_out, k_in, ig.tf_s)
+                    v_out = tf_eval_upper(s_out, k_out, ig.tf_s, ig.tf_v)
+                    seg = wp.vec4(0.0, 0.0, 0.0, 0.0)
+                    if k_in == k_out:
+                        seg = integrate_piece(ln, v_in, v_out, model)
+                    else:
+                        seg = integrate_segment_tf(s_in, s_out, v_in, v_out, ln, ig.tf_s, ig.tf_v, model)
+                    tr = SF[5, j]
+                    thin, tm = thin_step(thin_prev(SF[16, j], SI[5, j], SF[17, j], SF[18, j], SF[19, j]), ln, seg[3],
+                                         t_out, scale, tr, v_in, v_out, k_in, k_out, ig.tf_v, model)
+                    ds_out = TF[5, j]
+                    err = scalar_step(SF[15, j], tr, ln, seg[3], s_in, s_out, v_in, v_out, k_in, k_out, SF[14, j],
+                                      ds_out, ig.tf_s, ig.tf_v, model)
+                    SF[14, j] = ds_out
+                    SF[15, j] = err
+                    SF[16, j] = tm.d
+                    SF[17, j] = tm.dmax
+                    SF[18, j] = tm.tr
+                    SF[19, j] = tm.u
+                    SI[5, j] = tm.is_short
+                    e = exp_neg(seg[3])
+                    acc = add_under_tr(wp.vec4(SF[2, j], SF[3, j], SF[4, j], tr), seg, e)
+                    own = add_under_tr(wp.vec4(SF[6, j], SF[7, j], SF[8, j], SF[9, j]), seg, e)
+                    for i in range(4):
+                        SF[2 + i, j] = acc[i]
+                        SF[6 + i, j] = own[i]
+                    if thin == 1 or err > STEEP_ERR:
+                        SI[6, j] = 0  # failed: the walk ends here (its colour is dropped)
+                        RX[j] = 0
+                        scratch[base + j].failed = 1
+                        scratch[base + j].thin = thin
+                    else:
+                        SF[0, j] = t_out
+                        SF[1, j] = s_out
+                        SI[4, j] = k_out
+                        for i in range(4):
+                            SF[10 + i, j] = v_out[i]
+                        KP[j] = 1
+                        if acc[3] < t_stop:
+                            SI[6, j] = 0
+                            RX[j] = 0
+                        else:
+                            SI[0, j] = TI[0, j]
+                            SI[1, j] = TI[1, j]
+                            if RX[j] == 1:
+                                SI[6, j] = 0
             # ---- the optically thick pieces: integrate_piece, one lane at a time ----
             for j in range(LANES):
                 if RT[j] == 1:
@@ -459,9 +537,12 @@ def make_march_lanes(lanes: int, segs: bool = False):
                         SF[6 + i, j] = own[i]
                     if acc[3] < t_stop:
                         SI[6, j] = 0
+                        RX[j] = 0
                     else:
                         SI[0, j] = TI[0, j]
                         SI[1, j] = TI[1, j]
+                        if RX[j] == 1:
+                            SI[6, j] = 0
             # ---- a rare step, and the write-back of a ray whose walk has ended (state to scratch, field by field) ----
             busy = int(0)
             for j in range(LANES):
@@ -500,6 +581,8 @@ def make_march_lanes(lanes: int, segs: bool = False):
                     if RV[j] == 1:
                         lane_step_at(scratch, slot, scale, mesh, ig, opts)
                         LD[j] = 1
+                    elif RX[j] == 1:
+                        lane_exit_at(scratch, slot, scale, model)
                     if scratch[slot].walking == 0:
                         LD[j] = 0
                         FN[j] = 0
