@@ -219,8 +219,10 @@ def rounding_bound(mesh, tf) -> tuple[float, int]:
     points) is what makes it matter: there a scalar moved by one unit in the last place crosses a
     visible share of a segment."""
     g = _slopes(mesh, tf)
-    per = ROUNDING_FACTOR * g["relative_rate"] * EPS32
-    return float(per.max(initial=0.0)), int((per > THIN_TAU).sum())
+    if "rounding_bound" not in g:  # per mesh and transfer function, kept with the slopes
+        per = ROUNDING_FACTOR * g["relative_rate"] * EPS32
+        g["rounding_bound"] = (float(per.max(initial=0.0)), int((per > THIN_TAU).sum()))
+    return g["rounding_bound"]
 
 
 def _face_planes(mesh) -> dict:

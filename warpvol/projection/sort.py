@@ -335,13 +335,14 @@ def visible_submesh(mesh, visible: np.ndarray, cached_only: bool = False, off_hu
     return cache[key]
 
 
-def xmpvo_cost(mesh, camera, off_hull: bool = True) -> float:
+def xmpvo_cost(mesh, camera, off_hull: bool = True, proj=None) -> float:
     """XMPVO's work on ``mesh`` for ``camera`` in fragment units: the projected area in pixels of the
     boundary faces it rasterises (``off_hull``: those off the hull; else all; faces beyond the image
-    counted whole) plus two per cell (the face directions and the topological sort)."""
+    counted whole) plus two per cell (the face directions and the topological sort). ``proj``: the mesh
+    points' projection (:func:`~warpvol.projection.pt_thin.project_points`), when the caller has it."""
 
     bf = mesh.boundary_faces[~hull_faces(mesh)] if off_hull else mesh.boundary_faces
-    col, row, _ = project_points(mesh, camera)
+    col, row, _ = project_points(mesh, camera) if proj is None else proj
     t = np.asarray(mesh.tets)[bf[:, 0][:, None], FACE_VERTS[bf[:, 1]]]
     c, r = col[t], row[t]
     area = 0.5 * np.abs((c[:, 1] - c[:, 0]) * (r[:, 2] - r[:, 0]) - (c[:, 2] - c[:, 0]) * (r[:, 1] - r[:, 0]))
@@ -460,6 +461,9 @@ def lean_ray_constraints(mesh, camera) -> tuple[np.ndarray, np.ndarray, int]:
 
 
 _RAYS_POOL: dict = {}
+#: lean XMPVO overlaps its ray constraints (a second host thread) with the face directions only from this many
+#: cells on: below, the directions take less than waking the thread costs on a loaded machine
+LEAN_OVERLAP_CELLS = 65536
 
 
 def _rays_thread():
@@ -498,9 +502,16 @@ def mpvo_order(mesh, camera, nonconvex: bool | None = None, metric: str = "dista
         if lean:
             kernel_arrays(mesh)
         preload("cpu", raster, raster_draw, sort, vertex)  # each thread's kernels compiled here, not concurrently
-        pool = _rays_thread()
-        rays = (pool.submit(lean_ray_constraints, mesh, camera) if lean and off_hull
-                else pool.submit(boundary_ray_constraints, mesh, camera, hull=not off_hull))
+        if lean and off_hull and mesh.n_tets < LEAN_OVERLAP_CELLS:  # a small mesh: no second thread to wake
+            import contextvars
+            from concurrent.futures import Future
+
+            rays = Future()  # run in a fresh context as on the rays' thread: no counters active (the sort's own)
+            rays.set_result(contextvars.Context().run(lean_ray_constraints, mesh, camera))
+        else:
+            pool = _rays_thread()
+            rays = (pool.submit(lean_ray_constraints, mesh, camera) if lean and off_hull
+                    else pool.submit(boundary_ray_constraints, mesh, camera, hull=not off_hull))
         try:
             if lean:
                 dirs, indeg = lean_face_directions(mesh, camera)

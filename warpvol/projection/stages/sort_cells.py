@@ -28,6 +28,7 @@ what is left. With ``visible_alone``, XMPVO sorts the visible cells alone, as a 
 from __future__ import annotations
 
 from warpvol.errors import ConfigError
+from warpvol.projection.pt_thin import project_points
 from warpvol.projection.sort import METHODS, METRICS, visibility_order, visible_submesh, xmpvo_cost
 from warpvol.stage import Context, Param, Stage, register_stage
 
@@ -137,7 +138,10 @@ class SortCells(Stage):
         if got is None:
             with ctx.setup_work("visible cells as a mesh"):
                 got = visible_submesh(mesh, vis, off_hull=off_hull)
-        if got[0] is None or xmpvo_cost(got[0], cam, off_hull=off_hull) >= xmpvo_cost(mesh, cam, off_hull=off_hull):
+        if got[0] is None:
+            return None
+        proj = project_points(mesh, cam)  # the visible cells' mesh has the same points
+        if xmpvo_cost(got[0], cam, off_hull=off_hull, proj=proj) >= xmpvo_cost(mesh, cam, off_hull=off_hull, proj=proj):
             return None
         return got
 
