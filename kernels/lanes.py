@@ -12,7 +12,7 @@ import warp as wp
 from .cellwalk import CellMesh, RayCamera, Segments, WalkOpts, add_under_tr, camera_ray, clipped_segment, put_segment
 from .harc_integ import Integ
 from .integrate import exp_neg, integrate_piece, integrate_segment_tf
-from .raycast import MAX_FLAT_REENTRIES, STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, EntryBins, tile_entry
+from .raycast import MAX_FLAT_REENTRIES, STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, EntryBins, march_kernel, tile_entry
 from .tf import tf_eval, tf_eval_upper, tf_upper, tf_upper_from
 from .walk import (
     STALL_STEPS,
@@ -237,10 +237,12 @@ def lane_exit_at(scratch: wp.array(dtype=LaneState), slot: int, scale: float, mo
 LANE_OPTIONS = {"enable_backward": False, "fuse_fp": False, "max_unroll": 1}
 
 
-def make_lane_io(segs: bool = False):
-    """``(lane_entry, lane_finish)``: :func:`warpvol.kernels.raycast.make_march`'s ``march_ray`` split around
-    its walk -- the entry search and the walk's set-up into a :class:`LaneState` (``walking`` 0: the ray's
-    status is written, nothing to walk), and the write-back of a walked entry (``segs``: its segment too)."""
+def make_lane_io(segs: bool = False, LANES: int = 1):
+    """``(lane_next, lane_done)`` of the lane kernel with ``LANES`` rays per pass: :func:`warpvol.kernels.raycast.
+    make_march`'s ``march_ray`` split around its walk -- ``lane_next`` makes a lane's next entries (the entry
+    search and the walk's set-up into a :class:`LaneState` in ``scratch``) until one has a walk, ``lane_done``
+    writes a walked entry back (``segs``: its segment too) and makes the ray's re-entries (scalar)."""
+    march_ray = march_kernel(segs).march_ray  # the scalar entry and walk, for the re-entries
 
     @wp.func
     def lane_entry(idx: int, cam: RayCamera, mesh: CellMesh, bins: EntryBins, ig: Integ, opts: WalkOpts,
@@ -365,4 +367,46 @@ def make_lane_io(segs: bool = False):
             lane_finish(ls, opts, st_rgb, trans, tcur, status, last, counters, chunk, sg)
         return ls.idx
 
-    return lane_entry_at, lane_finish_at
+    @wp.func
+    def lane_done(scratch: wp.array(dtype=LaneState), slot: int, cam: RayCamera, mesh: CellMesh, bins: EntryBins,
+                  ig: Integ, opts: WalkOpts, rgb: wp.array(dtype=wp.vec3), trans: wp.array(dtype=float),
+                  tcur: wp.array(dtype=float), status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32),
+                  reentries: int, counters: wp.array2d(dtype=wp.int32), chunk: int, sg: Segments):
+        """The end of the ray in ``scratch[slot]``: its write-back, then its re-entries (scalar, up to
+        ``reentries``), and whether a further pass must search it (``counters[chunk, 4]``)."""
+        idx = lane_finish_at(scratch, slot, opts, rgb, trans, tcur, status, last, counters, chunk, sg)
+        k = int(0)
+        while k < reentries and (status[idx] & 3) == STATUS_ACTIVE:
+            k += 1
+            march_ray(idx, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last, counters, chunk, 7, sg)
+        if (status[idx] & 3) == STATUS_ACTIVE:
+            wp.atomic_add(counters, chunk, 4, 1)
+
+    @wp.func
+    def lane_next(scratch: wp.array(dtype=LaneState), slot: int, lim: int, ids: wp.array(dtype=wp.int32),
+                  cam: RayCamera, mesh: CellMesh, bins: EntryBins, ig: Integ, opts: WalkOpts,
+                  rgb: wp.array(dtype=wp.vec3), trans: wp.array(dtype=float), tcur: wp.array(dtype=float),
+                  status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32), reentries: int,
+                  counters: wp.array2d(dtype=wp.int32), chunk: int, sg: Segments) -> int:
+        """A lane's next ray to walk from ``slot`` on (every ``LANES``-th below ``lim``): the entries of rays with
+        nothing to walk are made and ended here; its slot, or -1."""
+        while slot < lim:
+            idx = slot
+            if ids.shape[0] > 0:
+                idx = ids[slot]
+            if (status[idx] & 3) == STATUS_ACTIVE:
+                py = idx // cam.width
+                tile_id = (py // bins.tile) * bins.tiles_x + (idx - py * cam.width) // bins.tile
+                if bins.tile_start[tile_id] == bins.tile_start[tile_id + 1]:
+                    status[idx] = STATUS_DONE  # (no entry face binned to the pixel's tile: as lane_entry decides)
+                else:
+                    lane_entry_at(scratch, slot, idx, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last,
+                                  counters, chunk)
+                    if scratch[slot].walking == 1:
+                        return slot
+                    lane_done(scratch, slot, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last, reentries,
+                              counters, chunk, sg)
+            slot += LANES
+        return -1
+
+    return lane_next, lane_done

@@ -41,7 +41,7 @@ from .integrate import (
     one_minus_exp_neg_thin,
 )
 from .lanes import LANE_OPTIONS, FlatMesh, LaneState, lane_exit_at, lane_step_at, make_lane_io, thin_prev
-from .raycast import STATUS_ACTIVE, EntryBins, march_kernel
+from .raycast import EntryBins
 from .tf import tf_eval_upper, tf_upper_from
 from .walk import EPS32, STALL_STEPS, STEEP_ERR, THIN_ULPS, scalar_step, spread_error, thin_step, thin_unresolved
 
@@ -52,8 +52,8 @@ def make_march_lanes(lanes: int, segs: bool = False):
     """The pass kernel of :func:`warpvol.kernels.raycast.make_march` with ``lanes`` rays per thread (a module of
     its own per lane count: ``LANES`` is a compile-time constant); use :func:`march_lanes_kernel`."""
     LANES = lanes
-    lane_entry_at, lane_finish_at = make_lane_io(segs)
-    march_ray = march_kernel(segs).march_ray  # the scalar entry and walk, for the re-entries
+    RUNS = LANE_RUNS
+    lane_next, lane_done = make_lane_io(segs, LANES)
     FFm = wp.types.matrix(shape=(27, LANES), dtype=float)  # each lane's Face: pa, pb, pc, h, ma, mb, mc, s, w
     FGm = wp.types.matrix(shape=(3, LANES), dtype=int)  # each lane's Face.g
     SFm = wp.types.matrix(shape=(37, LANES), dtype=float)  # see the put block; 27..36: the lane's TF piece
@@ -70,12 +70,12 @@ def make_march_lanes(lanes: int, segs: bool = False):
                     tcur: wp.array(dtype=float), status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32),
                     reentries: int, counters: wp.array2d(dtype=wp.int32), chunk: int, sg: Segments, count: int,
                     scratch: wp.array(dtype=LaneState), fm: FlatMesh):
-        """The pass of :func:`~warpvol.kernels.raycast.make_march` for the rays ``first + LANES tid + j``
-        (``< first + count``): their first entries one after the other, their walks in lanes (one step of every
-        lane per pass of the lane loop; a lane whose step is rare takes it in :func:`lane_step`), the
-        write-backs, then each ray's re-entries (scalar, up to ``reentries``)."""
+        """The pass of :func:`~warpvol.kernels.raycast.make_march` for the rays ``first + LANES RUNS tid ..``
+        (``< first + count``): lane ``j`` walks the thread's rays ``j, j + LANES, ..`` one after the other (its entry,
+        its walk in the lane loop, its write-back and re-entries, scalar, up to ``reentries``), all lanes one step
+        per pass of the lane loop."""
         tid = wp.tid()
-        base = first + tid * LANES
+        base = first + tid * (LANES * RUNS)
         end = first + count
         scale = float(cam.radius)
         FF = FFm()
@@ -89,18 +89,17 @@ def make_march_lanes(lanes: int, segs: bool = False):
         KP = RVv()  # the lanes whose TF piece the next pass loads
         LD = RVv()  # the lanes whose state the next pass loads from scratch (a first entry, a rare step)
         FN = RVv()  # the lanes whose ray is still to be written back
+        SL = RVv()  # each lane's ray: its slot (first + ..)
         TF = TFm()
         TI = TIm()
         GI = GIm()
         GV = GVm()
+        lim = wp.min(end, base + LANES * RUNS)
         for j in range(LANES):
-            slot = base + j
-            if slot < end:
-                idx = slot
-                if ids.shape[0] > 0:
-                    idx = ids[slot]
-                lane_entry_at(scratch, slot, idx, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last,
-                              counters, chunk)
+            slot = lane_next(scratch, base + j, lim, ids, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last,
+                             reentries, counters, chunk, sg)
+            if slot >= 0:
+                SL[j] = slot
                 LD[j] = 1
                 FN[j] = 1
         n_tf = ig.tf_s.shape[0]
@@ -118,7 +117,7 @@ def make_march_lanes(lanes: int, segs: bool = False):
             for j in range(LANES):
                 if LD[j] == 1:
                     LD[j] = 0
-                    slot = base + j
+                    slot = SL[j]
                     for i in range(3):
                         FF[i, j] = scratch[slot].fc.pa[i]
                         FF[3 + i, j] = scratch[slot].fc.pb[i]
@@ -507,8 +506,8 @@ def make_march_lanes(lanes: int, segs: bool = False):
                     if thin == 1 or err > STEEP_ERR:
                         SI[6, j] = 0  # failed: the walk ends here (its colour is dropped)
                         RX[j] = 0
-                        scratch[base + j].failed = 1
-                        scratch[base + j].thin = thin
+                        scratch[SL[j]].failed = 1
+                        scratch[SL[j]].thin = thin
                     else:
                         SF[0, j] = t_out
                         SF[1, j] = s_out
@@ -547,7 +546,7 @@ def make_march_lanes(lanes: int, segs: bool = False):
             busy = int(0)
             for j in range(LANES):
                 if RV[j] == 1 or (FN[j] == 1 and SI[6, j] == 0):
-                    slot = base + j
+                    slot = SL[j]
                     for i in range(3):
                         scratch[slot].fc.pa[i] = FF[i, j]
                         scratch[slot].fc.pb[i] = FF[3 + i, j]
@@ -587,17 +586,27 @@ def make_march_lanes(lanes: int, segs: bool = False):
                         LD[j] = 0
                         FN[j] = 0
                         SI[6, j] = 0
-                        idx = lane_finish_at(scratch, slot, opts, rgb, trans, tcur, status, last, counters, chunk, sg)
-                        k = int(0)
-                        while k < reentries and (status[idx] & 3) == STATUS_ACTIVE:
-                            k += 1
-                            march_ray(idx, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last, counters, chunk,
-                                      7, sg)
-                        if (status[idx] & 3) == STATUS_ACTIVE:
-                            wp.atomic_add(counters, chunk, 4, 1)
-                busy = busy + SI[6, j]
+                        lane_done(scratch, slot, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last, reentries,
+                                  counters, chunk, sg)
+                        slot = lane_next(scratch, slot + LANES, lim, ids, cam, mesh, bins, ig, opts, rgb, trans, tcur,
+                                         status, last, reentries, counters, chunk, sg)
+                        if slot >= 0:
+                            SL[j] = slot
+                            LD[j] = 1
+                            FN[j] = 1
+                busy = busy + SI[6, j] + LD[j]
 
     return march_lanes
+
+
+#: rays per lane of a thread: a lane whose ray has ended takes the thread's next one (the lanes stay busy until the
+#: thread's last rays)
+LANE_RUNS = 8
+
+
+def lane_threads(count: int, lanes: int) -> int:
+    """Threads of a :func:`make_march_lanes` launch over ``count`` rays."""
+    return (count + lanes * LANE_RUNS - 1) // (lanes * LANE_RUNS)
 
 
 _LANES: dict = {}

@@ -139,10 +139,10 @@ def run_pass(pkg: str, launches: list, reentries: int = 0, lanes: int = 1):
         n_threads = dim
         if lanes > 1:
             from warpvol.kernels.lanes import LaneState, flat_mesh
-            from warpvol.kernels.lanes_march import march_lanes_kernel
+            from warpvol.kernels.lanes_march import lane_threads, march_lanes_kernel
 
             k = march_lanes_kernel(lanes, False)
-            n_threads = (dim + lanes - 1) // lanes
+            n_threads = lane_threads(dim, lanes)
         named = {a.label: x for a, x in zip(kernel.adj.args, inputs)}
         for x in list(named.values()):  # a struct's fields by name, for a kernel that takes them one by one
             if hasattr(x, "_cls"):
