@@ -6,7 +6,7 @@ site's Papers section is built from the declared pages."""
 import sys
 from pathlib import Path
 
-from tolerances import PRESET_ROWS, TOLERANCES, VARIANT_ROWS, preset_tolerance
+from tolerances import EXACT_PRESETS, PRESET_ROWS, TOLERANCES, VARIANT_ROWS, preset_tolerance
 from warpvol.family import family_declaration, family_packages, family_papers, family_tolerances
 from warpvol.pipeline import list_presets
 
@@ -36,6 +36,8 @@ def test_every_shipped_preset_belongs_to_one_paper_and_has_a_tolerance_row():
     assert set(preset_rows.values()) <= set(TOLERANCES) and set(rows) <= set(TOLERANCES)
     assert set(PRESET_ROWS.values()) | set(VARIANT_ROWS.values()) <= set(rows)
     assert all(row.get("why") for row in rows.values())  # each row says why it is what it is
+    # the exact presets, from the entries declared exact, in the papers' order
+    assert EXACT_PRESETS == ("raycast", "harc_best", "pt_best", "vsbuffer_best")
 
 
 def test_every_file_a_paper_names_exists():

@@ -37,7 +37,7 @@ pieces/reference       --           1e-12        the exact reference of pieces m
 =====================  ===========  ===========  ==================================================
 """
 
-from warpvol.family import family_tolerances
+from warpvol.family import family_papers, family_tolerances
 
 #: the rows that belong to no one family (the families' rows are added below)
 SHARED_TOLERANCES = {
@@ -79,8 +79,9 @@ TABLE_TOLERANCES = {
 #: the row of each shipped preset as shipped (presets whose row is not their name; the families declare them)
 PRESET_ROWS = {k: v for k, v in _FAMILY_PRESET_ROWS.items() if "/" not in k}
 
-#: the presets that promise the exact reference to float32 (the tests that sweep "every exact preset" use these)
-EXACT_PRESETS = ("raycast", "harc_best", "pt_best", "vsbuffer_best")
+#: the presets that promise the exact reference to float32 (the tests that sweep "every exact preset" use these):
+#: those of the paper entries the families declare ``"exact": True``
+EXACT_PRESETS = tuple(n for paper in family_papers() if paper.get("exact") for n in paper.get("presets", {}))
 
 #: rows for a preset on a scene class its own row does not cover: (preset, variant) -> row (the families
 #: declare them as "preset/variant")

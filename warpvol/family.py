@@ -15,7 +15,8 @@ A *family* is a package with a ``stages`` subpackage (one module per stage, each
     papers), ``presets`` (preset name -> the short line ``warpvol pipelines`` shows), ``table`` (what the
     presets are, in the README's and the presets page's table), ``purpose`` (that table's first column, default
     ``title``), ``page`` (its docs page under ``docs/``; with ``nav``, the page's title in the site's Papers
-    section), ``name`` (its row in the architecture page's table, default ``purpose``) and ``code`` (its
+    section), ``name`` (its row in the architecture page's table, default ``purpose``), ``exact`` (its presets
+    promise the exact reference to float32: the tests that sweep every exact preset take them) and ``code`` (its
     files: ``host``, ``stages``, ``kernels``, ``reproduce``; paths under ``warpvol/`` unless they start with
     ``kernels/`` or ``scripts/``, ``*`` patterns allowed);
 ``tolerances``

@@ -86,7 +86,7 @@ FAMILY = {
     "title": "cell projection",
     "renderer": True,
     "papers": (
-        {"title": "exact and fast", "order": (0, 3), "name": "Exact cell projection",
+        {"title": "exact and fast", "order": (0, 3), "name": "Exact cell projection", "exact": True,
          "presets": {"pt_best": "cell projection with exact visibility and an exact per-fragment integral"},
          "table": "cell projection with exact visibility at the pixel centres, perspective-correct attributes and "
                   "an exact per-fragment integral (no table)",

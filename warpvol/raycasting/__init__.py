@@ -32,7 +32,7 @@ FAMILY = {
     "title": "ray casting",
     "renderer": True,
     "papers": (
-        {"title": "exact and fast", "order": (0, 1), "name": "Consistent float32 ray casting",
+        {"title": "exact and fast", "order": (0, 1), "name": "Consistent float32 ray casting", "exact": True,
          "presets": {"raycast": "default; float32 ray casting through the cells, exact segment integrals"},
          "table": "float32 ray casting through the cell adjacency, exact segment integrals for the piecewise-linear "
                   "transfer function, re-entry for non-convex meshes; handles the eye inside the mesh; walks only the "
@@ -44,7 +44,7 @@ FAMILY = {
                              "conditioning/stages/condition.py", "conditioning/stages/visibility.py"],
                   "kernels": ["kernels/raycast.py", "kernels/cellwalk.py", "kernels/walk.py", "kernels/integrate.py",
                               "kernels/lanes*.py"]}},
-        {"title": "exact and fast", "order": (0, 2), "name": "HARC made exact",
+        {"title": "exact and fast", "order": (0, 2), "name": "HARC made exact", "exact": True,
          "presets": {"harc_best": "hardware ray casting (rasterised start, peeling), raycast's exact walk"},
          "table": "hardware ray casting (rasterised ray start, depth peeling) made exact: `raycast`'s walk and "
                   "integrals in the HARC pipeline, leaving out the same",

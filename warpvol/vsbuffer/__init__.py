@@ -24,7 +24,8 @@ FAMILY = {
     "title": "sweep planes",
     "renderer": True,
     "papers": (
-        {"title": "exact and fast", "purpose": "exact", "order": (0, 4), "name": "The VSBUFFER sweep made exact",
+        {"title": "exact and fast", "purpose": "exact", "order": (0, 4), "exact": True,
+         "name": "The VSBUFFER sweep made exact",
          "presets": {"vsbuffer_best": "VSBUFFER sweep made exact, hexahedra drawn whole; slow (plane by plane)"},
          "table": "the VSBUFFER sweep with hexahedra, wedges and pyramids drawn whole, every missed cell recovered and "
                   "the rays through cells too thin for float32 traced in float64; slow, since the sweep is emulated "
