@@ -35,11 +35,11 @@ Inputs and outputs are bundled in :class:`FusedIn` / :class:`FusedOut` (the kern
 
 import warp as wp
 
-from .blend import BlendState, blend
+from .blend import ONE, ONE_MINUS_DST_ALPHA, ONE_MINUS_SRC_ALPHA, BlendState, blend
 from .integrate import GL3_W0, GL3_W1, GL3_X0, GL3_X2, THIN_DEPTH, one_minus_exp_neg_thin
 from .pt import CLAMP_ABS, CLAMP_REL, PERSP_EXACT, PERSP_OFF, exact_color, exact_color_upper, vec8f
 from .pt_draw import attribute_planes, clamp8, nearest_on_triangle, sfsbl_ray, span_done, zero_segments
-from .raster import TriSetup, edge_step_i, edge_step_j, edges_at, row_span, tile_rect, tile_span
+from .raster import TriSetup, edge_step_i, edge_step_j, edges_at, tile_rect, tile_span, vec3l
 from .tf import tf_upper
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
@@ -133,13 +133,92 @@ def segment_bounds(lo: vec8f, hi: vec8f, mode: int) -> wp.vec4:
                    wp.max(wp.max(lo[1] * wb0, lo[1] * wb1), wp.max(hi[1] * wb0, hi[1] * wb1)))
 
 
+@wp.func
+def first_nonneg_rcp(e: wp.int64, step: wp.int64, inv: wp.float64, n: int) -> int:
+    """:func:`~warpvol.kernels.raster.first_nonneg` with the estimate ``-e inv`` (``inv = 1 / step``, once per
+    triangle: a product where it divides per row); its exact int64 corrections make ``k`` the same (the smallest
+    in ``[0, n)`` with ``e + k step >= 0``, else ``n``) whatever the estimate."""
+    if e >= wp.int64(0):
+        return 0
+    k = int(wp.ceil(wp.float64(-e) * inv))
+    k = wp.clamp(k, 0, n)
+    while k > 0 and e + wp.int64(k - 1) * step >= wp.int64(0):
+        k -= 1
+    while k < n and e + wp.int64(k) * step < wp.int64(0):
+        k += 1
+    return k
+
+
+@wp.func
+def row_span_rcp(e: vec3l, sj: vec3l, inv: wp.vec3d, n: int) -> wp.vec2i:
+    """:func:`~warpvol.kernels.raster.row_span` with the reciprocals ``inv`` of the steps ``sj``
+    (:func:`first_nonneg_rcp`; ``last_nonneg`` as there): the same run."""
+    lo = int(0)
+    hi = n - 1
+    for q in range(3):
+        if sj[q] > wp.int64(0):
+            lo = wp.max(lo, first_nonneg_rcp(e[q], sj[q], inv[q], n))
+        elif sj[q] < wp.int64(0):
+            hi = wp.min(hi, n - 1 - first_nonneg_rcp(e[q] + wp.int64(n - 1) * sj[q], -sj[q], -inv[q], n))
+        elif e[q] < wp.int64(0):
+            hi = -1
+    return wp.vec2i(lo, hi)
+
+
+@wp.func
+def step_reciprocals(sj: vec3l) -> wp.vec3d:
+    """``1 / sj`` per edge (float64; 0 for a zero step, unused there)."""
+    r = wp.vec3d()
+    for q in range(3):
+        if sj[q] != wp.int64(0):
+            r[q] = wp.float64(1.0) / wp.float64(sj[q])
+    return r
+
+
+@wp.func
+def blend_kind(bs: BlendState) -> int:
+    """Which of :func:`~warpvol.kernels.blend.blend_float`'s fp32 short cuts ``bs`` takes: 1 "under", 2 "over",
+    0 neither (then :func:`~warpvol.kernels.blend.blend`); once per kernel."""
+    if bs.fmt.kind == 0 or bs.fmt.kind == 2:
+        return 0
+    if bs.src_rgb == ONE_MINUS_DST_ALPHA and bs.src_a == ONE_MINUS_DST_ALPHA and bs.dst_rgb == ONE and bs.dst_a == ONE:
+        return 1
+    if bs.src_rgb == ONE and bs.src_a == ONE and bs.dst_rgb == ONE_MINUS_SRC_ALPHA and bs.dst_a == ONE_MINUS_SRC_ALPHA:
+        return 2
+    return 0
+
+
+@wp.func
+def blend_by(kind: int, bs: BlendState, src: wp.vec4, dst: wp.vec4, x: int, y: int, prim: int) -> wp.vec4:
+    """:func:`~warpvol.kernels.blend.blend` given :func:`blend_kind` (the same operations: no state read per
+    fragment on the fp32 paths)."""
+    if kind == 1:
+        g = 1.0 - dst[3]
+        return wp.vec4(src[0] * g + dst[0], src[1] * g + dst[1], src[2] * g + dst[2], src[3] * g + dst[3])
+    if kind == 2:
+        f = 1.0 - src[3]
+        return wp.vec4(src[0] + dst[0] * f, src[1] + dst[1] * f, src[2] + dst[2] * f, src[3] + dst[3] * f)
+    return blend(bs, src, dst, x, y, prim)
+
+
+@wp.func
+def tf_lane_value(s: float, k: int, ntf: int, s0: float, s1: float, r0: float, g0: float, b0: float, a0: float,
+                  r1: float, g1: float, b1: float, a1: float) -> wp.vec4:
+    """The TF value at ``s`` from its interval ``k = tf_upper(s)`` and the control points around it as a lane
+    selected them (``k - 1`` and ``k``, clamped): the lane loop's operations (those of
+    :func:`~warpvol.kernels.tf.tf_eval_upper`), for a rare lane."""
+    e = k == 0 or k >= ntf  # tf_eval_upper's ends: the end point's value
+    w = wp.clamp((s - s0) / (s1 - s0), 0.0, 1.0)
+    return wp.vec4(wp.where(e, r1, r0 * (1.0 - w) + r1 * w), wp.where(e, g1, g0 * (1.0 - w) + g1 * w),
+                   wp.where(e, b1, b0 * (1.0 - w) + b1 * w), wp.where(e, a1, a0 * (1.0 - w) + a1 * w))
+
+
 def span_kernel(lanes: int):
     """The span draw kernel for ``lanes`` fragments per span (a module of its own per lane count, compiled on
     first launch; cached by :func:`span_kernel_cached`)."""
     L = int(lanes)
     lanef = wp.types.vector(length=L, dtype=wp.float32)
     lanei = wp.types.vector(length=L, dtype=wp.int32)
-    lanem = wp.types.matrix(shape=(4, L), dtype=wp.float32)
 
     @wp.func
     def point_lanes(tf_s: wp.array(dtype=float), tf_flat: wp.array(dtype=float), p: int):
@@ -168,6 +247,7 @@ def span_kernel(lanes: int):
         t_min = fi.t_min
         tet0 = fi.tet0
         ntf = fi.tf_s.shape[0]
+        bkind = blend_kind(bs)
         many = ntf > TF_COUNTED  # too many control points to count: every fragment through exact_color
         ntf_lanes = wp.where(many, 0, ntf)
         area = (rect[2] - rect[0] + 1) * (rect[3] - rect[1] + 1)
@@ -244,6 +324,7 @@ def span_kernel(lanes: int):
             row = edges_at(s, t, j0, i0)
             sj = edge_step_j(s, t)
             si = edge_step_i(s, t)
+            sjr = step_reciprocals(sj)
             # the triangle's fragments in the bin, row by row, in spans of L (a span may take several rows)
             i = i0  # next row to open
             ci = i0  # the open row
@@ -257,7 +338,7 @@ def span_kernel(lanes: int):
                     if cj > ce:  # the run is used up: the next row's
                         if i > i1:
                             break
-                        run = row_span(row, sj, j1 - j0 + 1)
+                        run = row_span_rcp(row, sj, sjr, j1 - j0 + 1)
                         row = row + si
                         ci = i
                         i += 1
@@ -376,8 +457,6 @@ def span_kernel(lanes: int):
                 cb = lanef()
                 ca = lanef()
                 slow = lanei()
-                vfm = lanem()  # the TF values at both ends (rgb, extinction), for the rare lanes
-                vbm = lanem()
                 for l in range(L):
                     sf3 = sfv[l]
                     sb3 = sbv[l]
@@ -396,14 +475,6 @@ def span_kernel(lanes: int):
                     g1 = wp.where(be, bg1[l], bg0[l] * (1.0 - wbk) + bg1[l] * wbk)
                     g2 = wp.where(be, bb1[l], bb0[l] * (1.0 - wbk) + bb1[l] * wbk)
                     g3 = wp.where(be, ba1[l], ba0[l] * (1.0 - wbk) + ba1[l] * wbk)
-                    vfm[0, l] = f0
-                    vfm[1, l] = f1
-                    vfm[2, l] = f2
-                    vfm[3, l] = f3
-                    vbm[0, l] = g0
-                    vbm[1, l] = g1
-                    vbm[2, l] = g2
-                    vbm[3, l] = g3
                     aa = h * f3
                     bb = h * (g3 - f3)
                     tau = 0.5 * h * (f3 + g3)
@@ -469,12 +540,13 @@ def span_kernel(lanes: int):
                             if many:
                                 c = exact_color(seg, fi.tf_s, fi.tf_v, model)
                             else:  # the lane's TF intervals and values: no search
-                                c = exact_color_upper(seg, kfv[l], kbv[l],
-                                                      wp.vec4(vfm[0, l], vfm[1, l], vfm[2, l], vfm[3, l]),
-                                                      wp.vec4(vbm[0, l], vbm[1, l], vbm[2, l], vbm[3, l]), fi.tf_s,
-                                                      fi.tf_v, model)
+                                tvf = tf_lane_value(sfv[l], kfv[l], ntf, fs0[l], fs1[l], fr0[l], fg0[l], fb0[l], fa0[l],
+                                                   fr1[l], fg1[l], fb1[l], fa1[l])
+                                tvb = tf_lane_value(sbv[l], kbv[l], ntf, bs0[l], bs1[l], br0[l], bg0[l], bb0[l], ba0[l],
+                                                   br1[l], bg1[l], bb1[l], ba1[l])
+                                c = exact_color_upper(seg, kfv[l], kbv[l], tvf, tvb, fi.tf_s, fi.tf_v, model)
                     nfrag += 1
-                    d = blend(bs, c, d, jp, ip, t)
+                    d = blend_by(bkind, bs, c, d, jp, ip, t)
                     fb[ip, jp] = d
                     if term and 1.0 - d[3] <= t_min:
                         done += 1

@@ -121,3 +121,31 @@ def test_exact_color_given_the_intervals_is_exact_color():
         wp.launch(k_both, dim=n, inputs=[wp.array(seg, dtype=wp.vec3), wp.array(ts), wp.array(tv, dtype=wp.vec4), model,
                                          a, b])
         assert np.array_equal(a.numpy().view(np.uint32), b.numpy().view(np.uint32))
+
+
+def test_row_span_from_reciprocals_is_row_span():
+    """:func:`~warpvol.kernels.pt_span.row_span_rcp` (a product by the step's reciprocal for the estimate) finds
+    the run of :func:`~warpvol.kernels.raster.row_span` (a division), whatever the edge values and steps."""
+    import warp as wp
+
+    from warpvol.kernels import pt_span
+    from warpvol.kernels.raster import row_span, vec3l
+
+    @wp.kernel
+    def k_runs(e: wp.array(dtype=vec3l), sj: wp.array(dtype=vec3l), n: wp.array(dtype=wp.int32),
+               a: wp.array(dtype=wp.vec2i), b: wp.array(dtype=wp.vec2i)):
+        i = wp.tid()
+        a[i] = row_span(e[i], sj[i], n[i])
+        b[i] = pt_span.row_span_rcp(e[i], sj[i], pt_span.step_reciprocals(sj[i]), n[i])
+
+    rng = np.random.default_rng(7)
+    m = 20000
+    sj = rng.integers(-40, 41, (m, 3)) * rng.choice([1, 256, 65536, 3 * 2**20], (m, 3))
+    e = rng.integers(-2**40, 2**40, (m, 3)) // rng.choice([1, 2**8, 2**20, 2**30], (m, 3))
+    e[:2000] = -sj[:2000] * rng.integers(0, 64, (2000, 3))  # zero at a pixel: the run's ends exactly there
+    n = rng.integers(1, 65, m).astype(np.int32)
+    a, b = (wp.zeros(m, dtype=wp.vec2i) for _ in range(2))
+    wp.launch(k_runs, dim=m, inputs=[wp.array(e, dtype=vec3l), wp.array(sj, dtype=vec3l), wp.array(n), a, b])
+    ra, rb = a.numpy(), b.numpy()
+    assert np.array_equal(ra, rb)
+    assert ((ra[:, 0] > 0) & (ra[:, 0] <= ra[:, 1])).sum() > 100  # runs that start inside the row were checked
