@@ -32,3 +32,23 @@ def test_near_segment_pixels_warp_gives_the_numpy_pairs(case):
     if case == "wide":
         assert len(want[0]) > 4 * n + 1024  # the kernel ran again with room for them all
     assert sorted(zip(*(a.tolist() for a in want))) == sorted(zip(*(a.tolist() for a in got)))
+
+
+@pytest.mark.parametrize("case", ["random", "ties", "one_point", "integers", "long"])
+def test_segment_samples_all_rows_at_once_as_row_by_row(case):
+    """``_segment_samples`` (every projected face's points at once) gives the row-by-row ``np.linspace``
+    points bit for bit: equal longest pairs, a degenerate face, integer corners, segments past the 1e5 cap."""
+    from warpvol.shared.pixel_marks import _segment_samples, _segment_samples_rows
+
+    rng = np.random.default_rng(["random", "ties", "one_point", "integers", "long"].index(case))
+    col, row = rng.uniform(-50, 600, (200, 3)), rng.uniform(-50, 600, (200, 3))
+    if case == "ties":
+        col[:, 1], row[:, 1] = col[:, 0], row[:, 0]
+    elif case == "one_point":
+        col[:], row[:] = 3.5, 7.25
+    elif case == "integers":
+        col, row = np.round(col), np.round(row)
+    elif case == "long":
+        col, row = col[:5] * 2e4, row[:5] * 1e4
+    for a, b in zip(_segment_samples(col, row), _segment_samples_rows(col, row)):
+        assert a.dtype == b.dtype and np.array_equal(a, b)

@@ -396,7 +396,9 @@ def silhouette_edges(mesh, tf, camera, ids: bool = False) -> np.ndarray:
     if len(g["a"]) == 0:
         return np.zeros(0 if ids else (0, 2), dtype=np.int64)
     eye = np.asarray(camera.eye, dtype=np.float64)
-    nrm = g["normals"] / np.maximum(np.linalg.norm(g["normals"], axis=1, keepdims=True), 1e-300)
+    if "unit_normals" not in g:  # view-independent: kept with the edges
+        g["unit_normals"] = g["normals"] / np.maximum(np.linalg.norm(g["normals"], axis=1, keepdims=True), 1e-300)
+    nrm = g["unit_normals"]
     if camera.projection == "perspective":
         view = g["centres"] - eye
         depth = view @ camera.forward

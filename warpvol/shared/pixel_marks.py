@@ -160,7 +160,29 @@ def _mark_near_edges(cover: np.ndarray, col: np.ndarray, row: np.ndarray, delta:
 
 def _segment_samples(col: np.ndarray, row: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Points every half pixel along each row's projected face (three collinear window points): the
-    segment between its two farthest vertices, as (m, 1) columns and rows, and the row each came from."""
+    segment between its two farthest vertices, as (m, 1) columns and rows, and the row each came from.
+    The points of a row are ``np.linspace(0, 1, n)``'s (``k / (n - 1)`` as ``k * step``, the last 1), for every
+    row at once."""
+    col, row = np.asarray(col, np.float64), np.asarray(row, np.float64)
+    if len(col) == 0:
+        return np.zeros((0, 1)), np.zeros((0, 1)), np.zeros(0, np.int64)
+    if not (np.isfinite(col).all() and np.isfinite(row).all()):  # rare: row by row, as written first
+        return _segment_samples_rows(col, row)
+    pairs = np.array([(0, 1), (0, 2), (1, 2)])
+    length = np.hypot(col[:, pairs[:, 0]] - col[:, pairs[:, 1]], row[:, pairs[:, 0]] - row[:, pairs[:, 1]])
+    pick = pairs[np.argmax(length, axis=1)]  # the first longest, as max() over the pairs in this order
+    r = np.arange(len(col))
+    ca, cb, ra, rb = col[r, pick[:, 0]], col[r, pick[:, 1]], row[r, pick[:, 0]], row[r, pick[:, 1]]
+    n = (np.minimum(length[r, np.argmax(length, axis=1)], 1e5) * 2.0).astype(np.int64) + 2
+    src = np.repeat(r, n)
+    k = (np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)).astype(np.float64)
+    u = k * (1.0 / (n - 1).astype(np.float64))[src] + 0.0
+    u[np.cumsum(n) - 1] = 1.0  # linspace's endpoint
+    return (ca[src] + (cb[src] - ca[src]) * u)[:, None], (ra[src] + (rb[src] - ra[src]) * u)[:, None], src
+
+
+def _segment_samples_rows(col: np.ndarray, row: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_segment_samples` one row at a time (rows with non-finite window points)."""
     cs, rs = [np.zeros(0)], [np.zeros(0)]
     for c, r in zip(col, row):
         a, b = max(((0, 1), (0, 2), (1, 2)), key=lambda e: np.hypot(c[e[0]] - c[e[1]], r[e[0]] - r[e[1]]))
