@@ -8,14 +8,16 @@ compiled, per-mesh data built). Per renderer: the median frame time and ``VTK PT
 this process), its fragments (integrated and blended) and ``ns per fragment`` (draw wall time / fragments;
 the draw includes the rasteriser's triangle set-up and binning), and ``us per cell`` of the per-cell work
 before the draw (the ``pt_project`` stage: classification, decomposition, projection; its time over the
-cells drawn). Both paths must give the same image bits (checked; a difference is an error). The load
+cells drawn), and the median time of each pipeline stage. ``--corner`` adds, per view, the camera looking at
+the corner of the mesh's bounds nearest its eye (part of the image empty: what a small frame costs). Both
+paths must give the same image bits (checked; a difference is an error). The load
 average is printed and written with every view. ``--json`` writes the rows with the commit, the command
 and the date.
 
 Usage::
 
     ./run.sh python scripts/bench_pt.py --spans [--scenes scenes/bluntfin_close.toml scenes/spx_fill.toml]
-        [--tfs dense sparse opaque] [--size 512] [--repeat 3] [--json docs/data/pt_spans.json]
+        [--tfs dense sparse opaque] [--size 512] [--repeat 3] [--corner] [--json docs/data/pt_spans.json]
 """
 
 from __future__ import annotations
@@ -73,12 +75,25 @@ def pt_best_renderer(scene, lanes: int, clock: DrawClock, stats: list):
         last["res"] = res = pipe.render(scene, quiet=True)
         st = res.report["stage_timing"]
         stats.append({"draw_wall_s": clock.wall, "draw_cpu_s": clock.cpu, "fragments": clock.fragments,
-                      "pt_project_s": st["pt_project"]["s"]})
+                      "pt_project_s": st["pt_project"]["s"], "stages_s": {k: v["s"] for k, v in st.items()}})
 
     return render, lambda: last["res"]
 
 
-def run_view(path: str, tf_name: str, size: int, repeat: int) -> dict:
+def corner_view(scene):
+    """The scene with its view turned so that the old image centre lies near the lower left corner (the
+    target moved by 0.8 of the half view extent along the camera's right and up; same eye): part of the
+    image empty, every cell still sorted and set up -- what a small frame costs."""
+    cam = scene.camera
+    dist = float(np.linalg.norm(np.asarray(cam.target, np.float64) - np.asarray(cam.eye, np.float64)))
+    half = dist * np.tan(np.radians(cam.fov_y_deg) / 2.0) if cam.projection == "perspective" else cam.ortho_height / 2
+    shift = 0.8 * half * (np.asarray(cam.right) + np.asarray(cam.true_up))
+    scene.camera = cam.replace(target=(np.asarray(cam.target, np.float64) + shift).tolist())
+    scene.name = f"{scene.name}_corner"
+    return scene
+
+
+def run_view(path: str, tf_name: str, size: int, repeat: int, corner: bool = False) -> dict:
     from bench_skip import variant
 
     from warpvol.scene.scene_file import load_scene
@@ -86,6 +101,8 @@ def run_view(path: str, tf_name: str, size: int, repeat: int) -> dict:
     base = load_scene(path)
     base.camera = base.camera.replace(width_px=size, height_px=size)
     scene, frac = variant(base, tf_name)
+    if corner:
+        scene = corner_view(scene)
     clock = DrawClock()
     stats = {n: [] for n in LANES}
     vtk_render, vtk_image = vtk_renderer(scene, "projected_tetrahedra")
@@ -110,7 +127,7 @@ def run_view(path: str, tf_name: str, size: int, repeat: int) -> dict:
         raise SystemExit(f"{scene.name} {tf_name}: the two paths count differently")
     cells = int(a.report["counters"]["pt_project"]["tets_projected"])
     vtk_t = statistics.median(times["VTK PT"][1:])
-    row = {"scene": path, "tf": tf_name, "visible_fraction": frac, "tets": scene.mesh.n_tets, "cells_drawn": cells,
+    row = {"scene": path, "view": "corner" if corner else "scene", "tf": tf_name, "visible_fraction": frac, "tets": scene.mesh.n_tets, "cells_drawn": cells,
            "size": size, "repeat": repeat, "load": [load0, load1], "renderers": {}}
     print(f"\n{scene.name} {tf_name} ({scene.mesh.n_tets} tets, {cells} drawn, {size}x{size}), {repeat} interleaved "
           f"rounds after a warm-up; {load0} (start), {load1} (end)")
@@ -130,6 +147,8 @@ def run_view(path: str, tf_name: str, size: int, repeat: int) -> dict:
                      cpu_ns_per_fragment=dc / max(nf, 1) * 1e9, pt_project_s=pp,
                      us_per_cell=pp / max(cells, 1) * 1e6)
             line += (f"{dw:>10.4f}{dc:>13.4f}{nf:>12,}{r['ns_per_fragment']:>15.1f}{r['us_per_cell']:>24.2f}")
+            r["stages_ms"] = {k: statistics.median(s["stages_s"][k] for s in st) * 1e3 for k in st[-1]["stages_s"]}
+            line += "\n    stages [ms]: " + ", ".join(f"{k} {v:.1f}" for k, v in r["stages_ms"].items())
         print(line)
         row["renderers"][name] = r
     return row
@@ -143,7 +162,7 @@ def rows_table(views: list[dict]) -> dict:
     """The views as one table (``docs/hooks.py``'s value markers quote it): a row per view and renderer."""
     out = []
     for v in views:
-        view = Path(v["scene"]).stem
+        view = Path(v["scene"]).stem + ("_corner" if v.get("view") == "corner" else "")
         load = float(v["load"][0].split()[2])
         for name, r in v["renderers"].items():
             d = lambda k: round(r[k], 4) if k in r else "-"  # noqa: E731
@@ -162,7 +181,8 @@ def main(args) -> int:
     block = provenance.start(provenance.command_line("scripts/bench_pt.py"), timing=True,
                              note="pt_best lanes=1 vs lanes=16 vs VTK's projected-tetrahedra mapper, interleaved in "
                                   "one process (scripts/bench_pt_spans.py)")
-    rows = [run_view(p, tf, args.size, args.repeat) for p in args.scenes for tf in args.tfs]
+    rows = [run_view(p, tf, args.size, args.repeat, corner) for p in args.scenes for tf in args.tfs
+            for corner in ((False, True) if args.corner else (False,))]
     if args.json:
         loads = [float(r["load"][k].split()[2]) for r in rows for k in (0, 1)]
         doc = {"tables": {"rows": rows_table(rows)}, "views": rows}
@@ -176,3 +196,6 @@ def add_arguments(ap) -> None:
     ap.add_argument("--scenes", nargs="+", default=list(FILL_SCENES))
     ap.add_argument("--tfs", nargs="+", default=["dense", "sparse", "opaque"])
     ap.add_argument("--json", default=None, help="write the rows here (e.g. docs/data/pt_spans.json)")
+    ap.add_argument("--corner", action="store_true",
+                    help="each view also looking at the corner of the mesh's bounds nearest the eye (part of the "
+                         "image empty: a small frame's fixed costs)")
