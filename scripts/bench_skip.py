@@ -28,10 +28,18 @@ average; writes ``--out/skip_result.json`` and, with ``--docs``, ``docs/data/ski
 and ``rows`` for the performance page's ``<!-- table: skip/... -->`` markers; ``--docs-from JSON`` writes
 them from an earlier run's ``skip_result.json`` without rendering).
 
+``--small``: sparse views of a small mesh, where a frame is mostly fixed cost: SPX (12,936 tets) seen from
+far off (``scenes/spx.toml``) and filling the image (``scenes/spx_fill.toml``), each also as its ``corner``
+view (``--corner``: the camera turned half way to the corner of the mesh's bounding box farthest along the
+view's right, up and forward axes, so the mesh fills a corner of the image), with the sparse TF, ``raycast`` and
+``harc_best`` with skipping on only (``--skip-only``); it prints each ratio beside its target (:data:`TARGETS`)
+and writes ``--out`` (default ``out/bench_skip_small``) and, with ``--docs``, ``docs/data/skip_small.json``.
+
 Usage::
 
     ./run.sh python scripts/bench_skip.py [--size 512] [--repeat 3] [--slow-repeat 1] [--presets ...]
-        [--tfs dense sparse opaque] [--scenes scenes/bluntfin_close.toml scenes/spx_fill.toml]
+        [--tfs dense sparse opaque] [--scenes scenes/bluntfin_close.toml scenes/spx_fill.toml] [--corner]
+        [--skip-only] [--small]
 """
 
 from __future__ import annotations
@@ -59,6 +67,24 @@ SLOW = ("vsbuffer_best",)
 TOLERANCE_KEYS = {"vsbuffer_best": "vsbuffer/vsbuffer_best"}
 #: visible fraction the sparse TF's shell aims at (accepted within 5-10 %)
 SPARSE_TARGET = 0.075
+#: ``--small``: the scenes, and VTK PT's time over the preset's that the sparse views of a small mesh aim at
+SMALL_SCENES = (str(ROOT / "scenes" / "spx.toml"), str(ROOT / "scenes" / "spx_fill.toml"))
+TARGETS = {"raycast": 2.0, "harc_best": 1.5}
+
+
+def corner_view(scene):
+    """``scene`` seen from the same eye turned half way from its target to the corner of the mesh's bounding box
+    that lies farthest along its camera's right, up and forward axes (named ``NAME_corner``): the mesh moves
+    towards a corner of the image, part of it out of the window, the rest of the window sees nothing."""
+    cam = scene.camera
+    lo, hi = (np.asarray(b, np.float64) for b in scene.mesh.bounds)
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    axes = np.asarray(cam.right, np.float64) + np.asarray(cam.true_up, np.float64) + np.asarray(cam.forward, np.float64)
+    out = copy.copy(scene)
+    target = np.asarray(cam.target, np.float64)
+    out.camera = cam.replace(target=tuple(float(v) for v in target + 0.5 * (corners[int(np.argmax(corners @ axes))] - target)))
+    out.name = f"{scene.name}_corner"
+    return out
 
 
 def sparse_tf(scene):
@@ -143,12 +169,14 @@ def left_out_summary(report: dict) -> str:
 
 
 def run_view(path: str, tf_name: str, presets, size: int, repeat: int, slow_repeat: int, no_skip_slow: bool,
-             out: Path) -> dict:
+             out: Path, corner: bool = False, skip_only: bool = False, small: bool = False) -> dict:
     from warpvol.metrics import image_error
     from warpvol.scene.scene_file import load_scene
 
     base = load_scene(path)
     base.camera = base.camera.replace(width_px=size, height_px=size)
+    if corner:
+        base = corner_view(base)
     scene, frac = variant(base, tf_name)
     ref = cached_reference(scene, out)
     rows = [("VTK PT", *vtk_renderer(scene, "projected_tetrahedra"), None, repeat)]  # (label, render, image, result, rounds)
@@ -156,7 +184,7 @@ def run_view(path: str, tf_name: str, presets, size: int, repeat: int, slow_repe
         n = slow_repeat if name in SLOW else repeat
         r, res = preset_renderer(scene, name, True)
         rows.append((name, r, None, res, n))
-        if name not in SLOW or no_skip_slow:
+        if not skip_only and (name not in SLOW or no_skip_slow):
             r, res = preset_renderer(scene, name, False)
             rows.append((f"{name} no-skip", r, None, res, n))
     times = {row[0]: [] for row in rows}
@@ -194,7 +222,9 @@ def run_view(path: str, tf_name: str, presets, size: int, repeat: int, slow_repe
                 tol = "ok" if ok else "EXCEEDED"
         row["error"] = e
         result["rows"][label] = row
-        print(f"{label:<24}{t:>11.3f}{vtk_t / t:>15.2f}{e['rmse']:>11.3e}{e['max_abs']:>11.3e}{tol:>11}  {lo}",
+        target = TARGETS.get(label) if small else None
+        aim = "" if target is None else f"  (target {target:.1f}x: {'met' if vtk_t / t >= target else 'NOT met'})"
+        print(f"{label:<24}{t:>11.3f}{vtk_t / t:>15.2f}{e['rmse']:>11.3e}{e['max_abs']:>11.3e}{tol:>11}  {lo}{aim}",
               flush=True)
     return result
 
@@ -212,7 +242,19 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=str(ROOT / "out" / "bench_skip"))
     ap.add_argument("--docs", action="store_true", help="also write docs/data/skip.json")
     ap.add_argument("--docs-from", help="write docs/data/skip.json from this skip_result.json, render nothing")
+    ap.add_argument("--corner", action="store_true", help="also each scene's corner view (see corner_view)")
+    ap.add_argument("--skip-only", action="store_true", help="the presets with skipping on only (no skip=False rows)")
+    ap.add_argument("--small", action="store_true",
+                    help="sparse views of a small mesh: SPX far and filling, each with its corner view, sparse TF, "
+                         "raycast and harc_best with skipping on, ratios beside their targets")
     args = ap.parse_args(argv)
+    if args.small:
+        if args.docs_from:
+            ap.error("--small renders; --docs-from writes docs/data/skip.json from an earlier run")
+        args.scenes, args.tfs, args.presets = list(SMALL_SCENES), ["sparse"], list(TARGETS)
+        args.corner = args.skip_only = True
+        if args.out == str(ROOT / "out" / "bench_skip"):
+            args.out = str(ROOT / "out" / "bench_skip_small")
     if args.docs_from:
         saved = json.loads(Path(args.docs_from).read_text())
         prov = provenance.of(saved)
@@ -231,14 +273,18 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     fast = [p for p in args.presets if p not in SLOW]
     slow = [p for p in args.presets if p in SLOW]
-    for path in args.scenes:
+    views = [(path, corner) for path in args.scenes for corner in ((False, True) if args.corner else (False,))]
+    for path, corner in views:
+        stem = Path(path).stem + ("_corner" if corner else "")
+        opts = dict(corner=corner, skip_only=args.skip_only, small=args.small)
         for tf_name in args.tfs:
             if fast:
-                result[f"{Path(path).stem}/{tf_name}/{args.size}"] = run_view(
-                    path, tf_name, fast, args.size, args.repeat, args.slow_repeat, args.no_skip_vsbuffer, out)
+                result[f"{stem}/{tf_name}/{args.size}"] = run_view(
+                    path, tf_name, fast, args.size, args.repeat, args.slow_repeat, args.no_skip_vsbuffer, out, **opts)
             if slow:
-                result[f"{Path(path).stem}/{tf_name}/{args.slow_size}"] = run_view(
-                    path, tf_name, slow, args.slow_size, args.slow_repeat, args.slow_repeat, args.no_skip_vsbuffer, out)
+                result[f"{stem}/{tf_name}/{args.slow_size}"] = run_view(
+                    path, tf_name, slow, args.slow_size, args.slow_repeat, args.slow_repeat, args.no_skip_vsbuffer, out,
+                    **opts)
     print(f"\ntotal {time.perf_counter() - t0:.0f} s; {load_average()}")
     out.mkdir(parents=True, exist_ok=True)
     source = "python scripts/bench_skip.py " + " ".join(argv if argv is not None else sys.argv[1:])
@@ -246,11 +292,11 @@ def main(argv=None) -> int:
     provenance.write_json(out / "skip_result.json", {"source": source, "views": result}, prov)
     print(f"wrote {out / 'skip_result.json'}")
     if args.docs:
-        write_docs(result, source, prov)
+        write_docs(result, source, prov, "skip_small.json" if args.small else "skip.json")
     return 0
 
 
-def write_docs(views: dict, source: str, prov: dict) -> None:
+def write_docs(views: dict, source: str, prov: dict, name: str = "skip.json") -> None:
     """``docs/data/skip.json``: ``summary`` (per view and TF, VTK PT's median over each preset's, with
     skipping and, in parentheses, without) and ``rows`` (every renderer: time, ratio, error, left out)."""
     import os
@@ -273,12 +319,13 @@ def write_docs(views: dict, source: str, prov: dict) -> None:
                 continue
             cell = s["cells"].setdefault(name, ["", ""])
             cell[1 if label.endswith("no-skip") else 0] = f"{r['vtk_pt_over_this']:.2f}"
-    columns = ["view", "TF", "visible cells", "load (1 min)", "VTK PT [s]"] + [p + (" (128^2)" if p in SLOW else "") for p in PRESETS]
+    present = [p for p in PRESETS if any(p in s["cells"] for s in summary.values())]  # (--small: two)
+    columns = ["view", "TF", "visible cells", "load (1 min)", "VTK PT [s]"] + [p + (" (128^2)" if p in SLOW else "") for p in present]
     srows = []
     for (view, tf), s in summary.items():
         vtk = ", ".join(f"{t:.3f} ({size}^2)" for size, t in s["vtk"].items())
         vals = []
-        for p in PRESETS:
+        for p in present:
             c = s["cells"].get(p)
             vals.append("-" if c is None else (c[0] + (f" ({c[1]})" if c[1] else "")))
         srows.append([view, tf, f"{100 * s['visible']:.1f} %", s["load"], vtk] + vals)
@@ -293,7 +340,7 @@ def write_docs(views: dict, source: str, prov: dict) -> None:
                           "tolerance row, what the render left out",
                  "columns": ["view", "TF", "size", "renderer", "median [s]", "VTK PT / this", "RMSE", "max abs",
                              "tolerance", "left out"], "rows": rows}}}
-    path = ROOT / "docs" / "data" / "skip.json"
+    path = ROOT / "docs" / "data" / name
     provenance.write_json(path, doc, provenance.with_loads(prov, [float(s["load"]) for s in summary.values()]))
     print(f"wrote {path}")
 

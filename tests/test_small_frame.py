@@ -15,13 +15,13 @@ from warpvol.scene.transfer import TransferFunction
 CASTERS = ["raycast", "harc_best"]
 
 
-def corner_scene(size=48):
+def corner_scene(size=48, eye=(9.0, 5.0, 12.0), fov=20.0, target=(0.4, 0.3, 0.0)):
     """A box seen from far off, small in the image (a few screen tiles hold its faces); a shell TF leaves
-    some cells out, so the walk re-enters the visible part."""
+    some cells out, so the walk re-enters the visible part. ``eye``, ``fov``: another view of it."""
     mesh = box_mesh(dims=(5, 5, 5), scalar=lambda p: np.linalg.norm(p, axis=1))
     tf = TransferFunction([[0.0, 0.2, 0.5, 0.9, 0.0], [0.9, 0.2, 0.5, 0.9, 0.0], [1.2, 0.9, 0.6, 0.2, 3.0],
                            [1.5, 0.2, 0.5, 0.9, 0.0], [2.0, 0.2, 0.5, 0.9, 0.0]])
-    cam = Camera(projection="perspective", eye=[9.0, 5.0, 12.0], target=[0.4, 0.3, 0.0], fov_y_deg=20.0,
+    cam = Camera(projection="perspective", eye=list(eye), target=list(target), fov_y_deg=fov,
                  width_px=size, height_px=size)
     return scene(mesh, tf, cam, name="corner")
 
@@ -51,14 +51,18 @@ def facts(res):
 
 
 @pytest.mark.parametrize("preset", CASTERS)
-def test_rays_without_a_face_are_not_launched(monkeypatch, preset):
+@pytest.mark.parametrize("near", [False, True])
+def test_rays_without_a_face_are_not_launched(monkeypatch, preset, near):
     from warpvol.raycasting import harc
     from warpvol.raycasting.stages import raycast as rs
 
-    sc = corner_scene()
+    # near: the eye within 1.42 radii of the box's bounding sphere, above its top face and turned towards a
+    # corner: the rays beside the box that start inside the sphere are launched (the kernel hands them to the
+    # float64 redo), those that surely start outside it or miss it are not
+    sc = corner_scene(eye=(0.5, 0.5, 2.2), fov=50.0, target=(1.2, 1.2, 0.0)) if near else corner_scene()
     res, n = launched(monkeypatch, preset, sc)
     w, h = sc.camera.width_px, sc.camera.height_px
-    assert 0 < n < w * h // 2  # the first pass launches the rays of the tiles (pixels) with a face, not all
+    assert 0 < n < w * h * (0.9 if near else 0.5)  # the first pass launches the rays with a face, not all
     monkeypatch.setattr(rs, "tile_reach", lambda ctx: None)
     monkeypatch.setattr(harc, "face_reach", lambda ctx, entry, setup="robust": None)
     full, n_full = launched(monkeypatch, preset, sc)
@@ -116,3 +120,45 @@ def test_a_later_pass_looks_at_the_last_pass_rays_only():
     st[[0, 6]] = 0  # the pass ended these
     st[7] = 1  # (a pixel no pass launched is never active again; a candidate list does not look at it)
     assert pass_rays(st, 1, 0, reach, first, 3).tolist() == [1, 3]
+
+
+@pytest.mark.parametrize("projection", ["perspective", "orthographic"])
+def test_rays_said_to_start_outside_the_sphere_do_so_in_the_kernels_set_up(projection):
+    """``starts_outside`` against the kernel's ray set-up written out in float64 (``ray_setup``: ``t_clip > 0``
+    and no miss is a ray that may start inside the mesh's bounding sphere): never a ray that does, and most of
+    those that do not, on views from inside, beside and far from the sphere."""
+    from warpvol.raycasting.harc import starts_outside
+
+    rng = np.random.default_rng(3)
+    radius, origin = 1.3, np.array([0.2, -0.1, 0.3])
+    for dist in (0.5, 1.2, 1.45, 3.0, 20.0):
+        for k in range(4):
+            v = rng.normal(size=3)
+            eye = origin + dist * radius * v / np.linalg.norm(v)
+            target = origin + rng.normal(size=3) * 0.7
+            if k == 3:  # looking away from the sphere: rays whose line meets it behind the eye (tc < 0)
+                target = eye + (eye - origin) + rng.normal(size=3) * 0.3 * dist
+            cam = Camera(projection=projection, eye=list(eye), target=list(target), fov_y_deg=50.0,
+                         ortho_height=3.0, width_px=23, height_px=17)
+            e = eye - origin
+            h, w = cam.height_px, cam.width_px
+            qx = 2.0 * (np.arange(w) + 0.5) / w - 1.0
+            qy = 1.0 - 2.0 * (np.arange(h) + 0.5) / h
+            hh = np.tan(np.radians(cam.fov_y_deg) / 2.0) if projection == "perspective" else cam.ortho_height / 2.0
+            sx, sy = np.meshgrid(qx * hh * cam.aspect, qy * hh)
+            f, r, u = (np.asarray(a, np.float64) for a in (cam.forward, cam.right, cam.true_up))
+            if projection == "perspective":
+                d = f + sx[..., None] * r + sy[..., None] * u
+                d /= np.linalg.norm(d, axis=-1, keepdims=True)
+                o = np.broadcast_to(e, d.shape)
+            else:
+                d = np.broadcast_to(f, sx.shape + (3,))
+                o = e + sx[..., None] * r + sy[..., None] * u
+            tc = -(o * d).sum(-1)
+            t_clip = np.maximum(0.0, -(tc - 1.001 * radius))
+            miss = ((o + d * tc[..., None]) ** 2).sum(-1) > radius * radius
+            inside = (t_clip > 0) & ~miss
+            out = starts_outside(cam, origin, radius)
+            out = np.ones((h, w), bool) if out is None else out.reshape(h, w)
+            assert not (out & inside).any()
+            assert (out | inside).mean() > 0.99

@@ -344,27 +344,66 @@ COUNTER_NAMES = ("entries", "steps", "cells", "failed", "step_bound", "iso_misse
                  "terminated_early", "eye_inside_rays")
 
 
+def starts_outside(camera, origin: np.ndarray, radius: float) -> np.ndarray | None:
+    """Per pixel (bool, flat), whether the kernel's float64 ray set-up (:func:`warpvol.kernels.walk.ray_setup`:
+    the eye relative to the cells' ``origin``, the bounding sphere of ``radius``) surely gives the ray
+    ``t_clip = 0`` (its true start lies before the sphere: the closest approach to the centre at least 1.001
+    radii along the ray) or a miss of the sphere (the closest approach farther than the radius) -- decided here
+    in float64 from the same camera frame by a margin of 1e-9 of the scene's scale, far above the rounding of
+    either computation. With the camera frame orthonormal, the direction ``fwd + sx right + sy up`` has
+    ``tc = -(e.fwd + sx e.right + sy e.up) / sqrt(1 + sx^2 + sy^2)`` (perspective) and the closest distance
+    squared ``|e|^2 - tc^2``; an orthographic ray from ``e + sx right + sy up`` along ``fwd`` has
+    ``tc = -e.fwd`` and the closest distance squared ``(e.right + sx)^2 + (e.up + sy)^2``. A handful of
+    array operations over the window (no square root); None (every ray) where the eye lies beyond 1.42 radii
+    and every ray points to the centre's side (perspective: a ray whose line meets the sphere then has
+    ``tc >= sqrt(|e|^2 - r^2) > 1.001 r``) or the eye plane lies beyond 1.001 radii before the centre
+    (orthographic)."""
+    w, h = camera.width_px, camera.height_px
+    e = np.asarray(camera.eye, np.float64) - np.asarray(origin, np.float64)
+    fwd, right, up = (np.asarray(v, np.float64) for v in (camera.forward, camera.right, camera.true_up))
+    ef, er, eu = float(e @ fwd), float(e @ right), float(e @ up)
+    if camera.projection == "perspective":
+        half_h = float(np.tan(np.radians(camera.fov_y_deg) / 2.0))
+    else:
+        half_h = camera.ortho_height / 2.0
+    sx = (2.0 * (np.arange(w) + 0.5) / w - 1.0) * half_h * camera.aspect
+    sy = (1.0 - 2.0 * (np.arange(h) + 0.5) / h) * half_h
+    tol = 1e-9 * (float(np.linalg.norm(e)) + radius + abs(sx).max(initial=0.0) + abs(sy).max(initial=0.0))
+    clip0 = 1.001 * radius + tol  # tc beyond it: t_clip = 0
+    miss2 = radius * radius + 4.0 * tol * max(radius, tol)  # closest distance squared beyond it: a miss
+    if camera.projection == "perspective" and float(e @ e) > (1.42 * radius) ** 2 + miss2 and \
+            min(-(ef + er * x + eu * y) for x in (sx[0], sx[-1]) for y in (sy[0], sy[-1])) > tol:
+        # every ray points towards the centre's side (tc > 0: the least of a linear function of (sx, sy) over
+        # the image lies at a corner), so one meeting the sphere has tc >= sqrt(|e|^2 - r^2) > 1.001 r
+        return None
+    if camera.projection != "perspective" and -ef > clip0:
+        return None  # every ray's closest approach lies beyond 1.001 r along it
+    if camera.projection != "perspective":
+        out = (er + sx[None, :]) ** 2 + (eu + sy[:, None]) ** 2 > miss2
+        return (out | (-ef > clip0)).ravel()
+    # tc = -a / sqrt(n2) with a = e.fwd + sx e.right + sy e.up, n2 = 1 + sx^2 + sy^2, compared squared (no root):
+    # tc > clip0  <=>  a < 0 and a^2 > clip0^2 n2;  |e|^2 - tc^2 > miss2  <=>  a^2 < (|e|^2 - miss2) n2
+    a2 = (ef + eu * sy)[:, None] + (er * sx)[None, :]
+    neg = a2 < 0.0
+    np.multiply(a2, a2, out=a2)
+    n2 = (1.0 + sy * sy)[:, None] + (sx * sx)[None, :]
+    out = neg & (a2 > clip0 * clip0 * n2)
+    k = float(e @ e) - miss2
+    if k > 0.0:
+        n2 *= k
+        out |= a2 < n2
+    return out.ravel()
+
+
 def face_reach(ctx, entry: dict, setup: str = "robust") -> np.ndarray | None:
-    """Per pixel (bool, flat), whether a front face is listed at the pixel, at one of its 8 neighbours or among
-    its open-edge faces (``entry``: :func:`entry_fragments`): elsewhere the pass's entry search has no face to
-    test and the kernel sets the ray done (:func:`warpvol.kernels.harc.no_face_around`) -- provided the ray
-    starts outside the mesh (``t_clip`` 0), which holds for every ray that can meet the mesh's bounding
-    sphere when the eye lies beyond 1.5 of its radius (perspective: a ray starting inside the sphere and
-    meeting it has the eye within ``sqrt(1 + 1.001^2)`` radii of its centre) or the eye plane lies more than
-    1.01 radii before the centre (orthographic); the paper's set-up starts every ray at the eye. Per frame, kept
-    in ``entry``; None off the CPU or when the eye is nearer (the kernel decides there)."""
+    """Per pixel (bool, flat), whether the pass must launch the ray: a front face is listed at the pixel, at one
+    of its 8 neighbours or among its open-edge faces (``entry``: :func:`entry_fragments`), or (robust set-up)
+    the ray may start inside the mesh's bounding sphere (not :func:`starts_outside`). Elsewhere the kernel's
+    entry search has no face to test and it sets the ray done (:func:`warpvol.kernels.harc.no_face_around`;
+    a ray starting inside the sphere it hands to the float64 redo); the paper's set-up starts every ray at the
+    eye. Per frame, kept in ``entry``; None off the CPU."""
     if not on_host(ctx.device):
         return None
-    if setup != "paper":
-        cam, cells = ctx.scene.camera, ctx.buffers["cells"]
-        eye = np.asarray(cam.eye, np.float64) - cells["origin"]
-        radius = float(cells["radius"])
-        if cam.projection == "orthographic":
-            clear = float(-eye @ np.asarray(cam.forward, np.float64)) > 1.01 * radius
-        else:
-            clear = float(np.linalg.norm(eye)) > 1.5 * radius
-        if not clear:
-            return None
     if "reach" not in entry:
         cam = ctx.scene.camera
         h, w = cam.height_px, cam.width_px
@@ -377,7 +416,13 @@ def face_reach(ctx, entry: dict, setup: str = "robust") -> np.ndarray | None:
             pad = np.pad(start[pix + 1] > start[pix], 1)
             row = pad[:, :-2] | pad[:, 1:-1] | pad[:, 2:]
             reach[y0:y1, x0:x1] = row[:-2] | row[1:-1] | row[2:] | (edge_start[pix + 1] > edge_start[pix])
-        entry["reach"] = reach.ravel()
+        reach = reach.ravel()
+        if setup != "paper":
+            cells = ctx.buffers["cells"]
+            clear = starts_outside(cam, cells["origin"], max(float(cells["radius"]), 1e-30))
+            if clear is not None:
+                reach |= ~clear
+        entry["reach"] = reach
     return entry["reach"]
 
 
