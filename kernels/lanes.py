@@ -9,10 +9,10 @@ rare; :func:`make_lane_io` splits :func:`warpvol.kernels.raycast.make_march`'s `
 
 import warp as wp
 
-from .cellwalk import CellMesh, RayCamera, Segments, WalkOpts, add_under_tr, camera_ray, clipped_segment, put_segment
+from .cellwalk import CellMesh, RayCamera, Segments, WalkOpts, add_under_tr, clipped_segment, put_segment
 from .harc_integ import Integ
 from .integrate import exp_neg, integrate_piece, integrate_segment_tf
-from .raycast import MAX_FLAT_REENTRIES, STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, EntryBins, march_kernel, tile_entry
+from .raycast import STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, EntryBins, march_kernel, ray_entry
 from .tf import tf_eval, tf_eval_upper, tf_upper, tf_upper_from
 from .walk import (
     STALL_STEPS,
@@ -253,35 +253,10 @@ def make_lane_io(segs: bool = False, LANES: int = 1):
         ls = LaneState()
         ls.idx = idx
         ls.walking = 0
-        st = status[idx]
-        if (st & 3) != STATUS_ACTIVE:
-            return ls
-        py = idx // cam.width
-        px = idx - py * cam.width
-        tile_id = (py // bins.tile) * bins.tiles_x + px // bins.tile
-        if bins.tile_start[tile_id] == bins.tile_start[tile_id + 1]:
-            status[idx] = STATUS_DONE
-            return ls
-        r, t_clip, t_end = camera_ray(px, py, cam)
-        if t_end < t_clip:
-            status[idx] = STATUS_DONE
-            return ls
-        t_start = tcur[idx]
-        fwd32 = wp.vec3(float(cam.fwd[0]), float(cam.fwd[1]), float(cam.fwd[2]))
-        cell, face_in, fc, best_t, best_s, far_t = tile_entry(px, py, t_start, last[idx], r, opts.t_tol, fwd32,
-                                                              float(cam.radius), mesh, bins)
-        flat = st >> 2
-        if cell >= 0 and best_t <= t_start:
-            flat += 1
-            best_t = t_start
+        r, t_clip, t_end, cell, face_in, fc, best_t, best_s, far_t, flat = ray_entry(
+            idx, cam, mesh, bins, opts, tcur, status, last, counters, chunk, 0)
         if cell < 0:
-            status[idx] = STATUS_DONE
-            return ls
-        if flat > MAX_FLAT_REENTRIES:
-            status[idx] = STATUS_FAILED
-            wp.atomic_add(counters, chunk, 3, 1)
-            return ls
-        wp.atomic_add(counters, chunk, 0, 1)
+            return ls  # (the ray's status is written)
         c = st_rgb[idx]
         ls.walking = 1
         ls.cell = cell

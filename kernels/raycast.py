@@ -157,6 +157,46 @@ def tile_entry(px: int, py: int, t_start: float, prev: int, r: Ray, t_tol: float
     return cell, face_in, fc, best_t, best_s, far_t
 
 
+@wp.func
+def ray_entry(idx: int, cam: RayCamera, mesh: CellMesh, bins: EntryBins, opts: WalkOpts, tcur: wp.array(dtype=float),
+              status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32), counters: wp.array2d(dtype=wp.int32),
+              chunk: int, entry_col: int):
+    """Pixel ``idx``'s next entry beyond ``tcur[idx]`` (:func:`tile_entry`), as a pass makes it (``march_ray`` of
+    :func:`make_march` and the lane march's): ``(ray, t_clip, t_end, cell, local face, Face, t, scalar, far_t,
+    flat re-entries)``; ``cell`` -1: no walk, the ray's status is written (done: no entry; failed: re-entering
+    without progress). An entry made is counted in ``counters[chunk, entry_col]``."""
+    st = status[idx]
+    r = Ray()
+    t_clip = float(0.0)
+    t_end = float(0.0)
+    if (st & 3) != STATUS_ACTIVE:
+        return r, t_clip, t_end, -1, -1, Face(), 0.0, 0.0, 0.0, 0
+    py = idx // cam.width
+    px = idx - py * cam.width
+    r, t_clip, t_end = camera_ray(px, py, cam)
+    if t_end < t_clip:
+        status[idx] = STATUS_DONE  # the ray misses the mesh's bounding sphere
+        return r, t_clip, t_end, -1, -1, Face(), 0.0, 0.0, 0.0, 0
+    t_start = tcur[idx]
+    # ---- next entry: nearest boundary face crossed (entering) beyond t_start in this tile ----
+    fwd32 = wp.vec3(float(cam.fwd[0]), float(cam.fwd[1]), float(cam.fwd[2]))
+    cell, face_in, fc, best_t, best_s, far_t = tile_entry(px, py, t_start, last[idx], r, opts.t_tol, fwd32,
+                                                          float(cam.radius), mesh, bins)
+    flat = st >> 2
+    if cell >= 0 and best_t <= t_start:
+        flat += 1
+        best_t = t_start
+    if cell < 0:
+        status[idx] = STATUS_DONE
+    elif flat > MAX_FLAT_REENTRIES:
+        status[idx] = STATUS_FAILED  # re-entering without progress: unresolved, redone in float64
+        wp.atomic_add(counters, chunk, 3, 1)
+        cell = -1
+    else:
+        wp.atomic_add(counters, chunk, entry_col, 1)  # entries made in this pass
+    return r, t_clip, t_end, cell, face_in, fc, best_t, best_s, far_t, flat
+
+
 #: the march kernels' module options (``fuse_fp`` off: no contraction into fused multiply-adds, the arithmetic as
 #: written)
 MARCH_OPTIONS = {"enable_backward": False, "fuse_fp": False}
@@ -177,33 +217,10 @@ def make_march(segs: bool = False):
         """One entry of pixel ``idx``'s ray: the search for its next entry beyond ``tcur[idx]``, the walk from
         there to where it leaves the (visible) mesh, the state written back (see :func:`march`). The entry is
         counted in ``counters[chunk, entry_col]``."""
-        st = status[idx]
-        if (st & 3) != STATUS_ACTIVE:
-            return
-        py = idx // cam.width
-        px = idx - py * cam.width
-        r, t_clip, t_end = camera_ray(px, py, cam)
-        if t_end < t_clip:
-            status[idx] = STATUS_DONE  # the ray misses the mesh's bounding sphere
-            return
-        t_start = tcur[idx]
-
-        # ---- next entry: nearest boundary face crossed (entering) beyond t_start in this tile ----
-        fwd32 = wp.vec3(float(cam.fwd[0]), float(cam.fwd[1]), float(cam.fwd[2]))
-        cell, face_in, fc, best_t, best_s, far_t = tile_entry(px, py, t_start, last[idx], r, opts.t_tol, fwd32,
-                                                              float(cam.radius), mesh, bins)
-        flat = st >> 2
-        if cell >= 0 and best_t <= t_start:
-            flat += 1
-            best_t = t_start
+        r, t_clip, t_end, cell, face_in, fc, best_t, best_s, far_t, flat = ray_entry(
+            idx, cam, mesh, bins, opts, tcur, status, last, counters, chunk, entry_col)
         if cell < 0:
-            status[idx] = STATUS_DONE
-            return
-        if flat > MAX_FLAT_REENTRIES:
-            status[idx] = STATUS_FAILED  # re-entering without progress: unresolved, redone in float64
-            wp.atomic_add(counters, chunk, 3, 1)
-            return
-        wp.atomic_add(counters, chunk, entry_col, 1)  # entries made in this pass
+            return  # (the ray's status is written)
 
         # ---- walk through the cell adjacency ----
         c = st_rgb[idx]
