@@ -358,13 +358,13 @@ def make_lane_io(segs: bool = False, LANES: int = 1):
             wp.atomic_add(counters, chunk, 4, 1)
 
     @wp.func
-    def lane_next(scratch: wp.array(dtype=LaneState), slot: int, lim: int, ids: wp.array(dtype=wp.int32),
+    def lane_next(scratch: wp.array(dtype=LaneState), ln: int, slot: int, lim: int, ids: wp.array(dtype=wp.int32),
                   cam: RayCamera, mesh: CellMesh, bins: EntryBins, ig: Integ, opts: WalkOpts,
                   rgb: wp.array(dtype=wp.vec3), trans: wp.array(dtype=float), tcur: wp.array(dtype=float),
                   status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32), reentries: int,
                   counters: wp.array2d(dtype=wp.int32), chunk: int, sg: Segments) -> int:
-        """A lane's next ray to walk from ``slot`` on (every ``LANES``-th below ``lim``): the entries of rays with
-        nothing to walk are made and ended here; its slot, or -1."""
+        """Lane ``scratch[ln]``'s next ray to walk from the pass's ray ``slot`` on (every ``LANES``-th below
+        ``lim``): the entries of rays with nothing to walk are made and ended here; its slot, or -1."""
         while slot < lim:
             idx = slot
             if ids.shape[0] > 0:
@@ -375,11 +375,11 @@ def make_lane_io(segs: bool = False, LANES: int = 1):
                 if bins.tile_start[tile_id] == bins.tile_start[tile_id + 1]:
                     status[idx] = STATUS_DONE  # (no entry face binned to the pixel's tile: as lane_entry decides)
                 else:
-                    lane_entry_at(scratch, slot, idx, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last,
+                    lane_entry_at(scratch, ln, idx, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last,
                                   counters, chunk)
-                    if scratch[slot].walking == 1:
+                    if scratch[ln].walking == 1:
                         return slot
-                    lane_done(scratch, slot, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last, reentries,
+                    lane_done(scratch, ln, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last, reentries,
                               counters, chunk, sg)
             slot += LANES
         return -1

@@ -89,14 +89,15 @@ def make_march_lanes(lanes: int, segs: bool = False):
         KP = RVv()  # the lanes whose TF piece the next pass loads
         LD = RVv()  # the lanes whose state the next pass loads from scratch (a first entry, a rare step)
         FN = RVv()  # the lanes whose ray is still to be written back
-        SL = RVv()  # each lane's ray: its slot (first + ..)
+        SL = RVv()  # each lane's ray: its place in the pass (first + ..)
+        lane0 = (first // (LANES * RUNS) + tid + chunk) * LANES  # the thread's lanes in scratch: lane0 + j
         TF = TFm()
         TI = TIm()
         GI = GIm()
         GV = GVm()
         lim = wp.min(end, base + LANES * RUNS)
         for j in range(LANES):
-            slot = lane_next(scratch, base + j, lim, ids, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last,
+            slot = lane_next(scratch, lane0 + j, base + j, lim, ids, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last,
                              reentries, counters, chunk, sg)
             if slot >= 0:
                 SL[j] = slot
@@ -117,7 +118,7 @@ def make_march_lanes(lanes: int, segs: bool = False):
             for j in range(LANES):
                 if LD[j] == 1:
                     LD[j] = 0
-                    slot = SL[j]
+                    slot = lane0 + j
                     for i in range(3):
                         FF[i, j] = scratch[slot].fc.pa[i]
                         FF[3 + i, j] = scratch[slot].fc.pb[i]
@@ -506,8 +507,8 @@ def make_march_lanes(lanes: int, segs: bool = False):
                     if thin == 1 or err > STEEP_ERR:
                         SI[6, j] = 0  # failed: the walk ends here (its colour is dropped)
                         RX[j] = 0
-                        scratch[SL[j]].failed = 1
-                        scratch[SL[j]].thin = thin
+                        scratch[lane0 + j].failed = 1
+                        scratch[lane0 + j].thin = thin
                     else:
                         SF[0, j] = t_out
                         SF[1, j] = s_out
@@ -546,7 +547,7 @@ def make_march_lanes(lanes: int, segs: bool = False):
             busy = int(0)
             for j in range(LANES):
                 if RV[j] == 1 or (FN[j] == 1 and SI[6, j] == 0):
-                    slot = SL[j]
+                    slot = lane0 + j
                     for i in range(3):
                         scratch[slot].fc.pa[i] = FF[i, j]
                         scratch[slot].fc.pb[i] = FF[3 + i, j]
@@ -588,10 +589,10 @@ def make_march_lanes(lanes: int, segs: bool = False):
                         SI[6, j] = 0
                         lane_done(scratch, slot, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last, reentries,
                                   counters, chunk, sg)
-                        slot = lane_next(scratch, slot + LANES, lim, ids, cam, mesh, bins, ig, opts, rgb, trans, tcur,
-                                         status, last, reentries, counters, chunk, sg)
-                        if slot >= 0:
-                            SL[j] = slot
+                        nxt = lane_next(scratch, slot, SL[j] + LANES, lim, ids, cam, mesh, bins, ig, opts, rgb, trans,
+                                        tcur, status, last, reentries, counters, chunk, sg)
+                        if nxt >= 0:
+                            SL[j] = nxt
                             LD[j] = 1
                             FN[j] = 1
                 busy = busy + SI[6, j] + LD[j]
@@ -607,6 +608,14 @@ LANE_RUNS = 8
 def lane_threads(count: int, lanes: int) -> int:
     """Threads of a :func:`make_march_lanes` launch over ``count`` rays."""
     return (count + lanes * LANE_RUNS - 1) // (lanes * LANE_RUNS)
+
+
+def lane_scratch(end: int, blocks: int, lanes: int) -> int:
+    """Size of the ``scratch`` of :func:`make_march_lanes` launches over the rays ``first .. first + count`` up to
+    ``end``, ``blocks`` launches (``chunk`` 0 .. blocks - 1): one :class:`~warpvol.kernels.lanes.LaneState` per
+    lane, thread ``tid`` of a launch holding ``(first // (lanes LANE_RUNS) + tid + chunk) lanes ..`` (disjoint
+    between launches of consecutive ray ranges)."""
+    return (end // (lanes * LANE_RUNS) + blocks + 1) * lanes
 
 
 _LANES: dict = {}

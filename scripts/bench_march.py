@@ -139,7 +139,7 @@ def run_pass(pkg: str, launches: list, reentries: int = 0, lanes: int = 1):
         n_threads = dim
         if lanes > 1:
             from warpvol.kernels.lanes import LaneState, flat_mesh
-            from warpvol.kernels.lanes_march import lane_threads, march_lanes_kernel
+            from warpvol.kernels.lanes_march import lane_scratch, lane_threads, march_lanes_kernel
 
             k = march_lanes_kernel(lanes, False)
             n_threads = lane_threads(dim, lanes)
@@ -153,7 +153,8 @@ def run_pass(pkg: str, launches: list, reentries: int = 0, lanes: int = 1):
         named["reentries"] = reentries
         if lanes > 1:
             named["count"] = dim
-            named["scratch"] = wp.empty(named["first"] + dim, dtype=LaneState, device="cpu")
+            named["scratch"] = wp.empty(lane_scratch(named["first"] + dim, named["chunk"] + 1, lanes), dtype=LaneState,
+                                        device="cpu")
             named["fm"] = flat_mesh(named["mesh"], named["ig"].tf_v)
         args = [wp.clone(named[a.label]) if isinstance(named[a.label], wp.array) else as_package(named[a.label], pkg)
                 for a in k.adj.args]
