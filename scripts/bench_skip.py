@@ -241,16 +241,15 @@ def main(argv=None) -> int:
     ap.add_argument("--no-skip-vsbuffer", action="store_true", help="also vsbuffer_best with skip=False")
     ap.add_argument("--out", default=str(ROOT / "out" / "bench_skip"))
     ap.add_argument("--docs", action="store_true", help="also write docs/data/skip.json")
-    ap.add_argument("--docs-from", help="write docs/data/skip.json from this skip_result.json, render nothing")
+    ap.add_argument("--docs-from", help="write docs/data/skip.json (skip_small.json from a --small run) from this "
+                                        "skip_result.json, render nothing")
     ap.add_argument("--corner", action="store_true", help="also each scene's corner view (see corner_view)")
     ap.add_argument("--skip-only", action="store_true", help="the presets with skipping on only (no skip=False rows)")
     ap.add_argument("--small", action="store_true",
                     help="sparse views of a small mesh: SPX far and filling, each with its corner view, sparse TF, "
                          "raycast and harc_best with skipping on, ratios beside their targets")
     args = ap.parse_args(argv)
-    if args.small:
-        if args.docs_from:
-            ap.error("--small renders; --docs-from writes docs/data/skip.json from an earlier run")
+    if args.small and not args.docs_from:
         args.scenes, args.tfs, args.presets = list(SMALL_SCENES), ["sparse"], list(TARGETS)
         args.corner = args.skip_only = True
         if args.out == str(ROOT / "out" / "bench_skip"):
@@ -262,7 +261,7 @@ def main(argv=None) -> int:
             prov = dict(provenance.start(saved["source"], timing=True), commit="unknown", dirty=None, load=None,
                         date="unknown", note=f"Written by --docs-from {args.docs_from}, a run that recorded no "
                                              "commit, date or machine load of its own.")
-        write_docs(saved["views"], saved["source"], prov)
+        write_docs(saved["views"], saved["source"], prov, "skip_small.json" if "--small" in saved["source"] else "skip.json")
         return 0
     prov = provenance.start(provenance.command_line("scripts/bench_skip.py", argv), timing=True)
     from warpvol.pipeline import quiet_warp
@@ -296,7 +295,7 @@ def main(argv=None) -> int:
     return 0
 
 
-def write_docs(views: dict, source: str, prov: dict, name: str = "skip.json") -> None:
+def write_docs(views: dict, source: str, prov: dict, file_name: str = "skip.json") -> None:
     """``docs/data/skip.json``: ``summary`` (per view and TF, VTK PT's median over each preset's, with
     skipping and, in parentheses, without) and ``rows`` (every renderer: time, ratio, error, left out)."""
     import os
@@ -340,7 +339,7 @@ def write_docs(views: dict, source: str, prov: dict, name: str = "skip.json") ->
                           "tolerance row, what the render left out",
                  "columns": ["view", "TF", "size", "renderer", "median [s]", "VTK PT / this", "RMSE", "max abs",
                              "tolerance", "left out"], "rows": rows}}}
-    path = ROOT / "docs" / "data" / name
+    path = ROOT / "docs" / "data" / file_name
     provenance.write_json(path, doc, provenance.with_loads(prov, [float(s["load"]) for s in summary.values()]))
     print(f"wrote {path}")
 
