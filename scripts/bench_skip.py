@@ -333,8 +333,12 @@ def write_docs(views: dict, source: str, prov: dict, file_name: str = "skip.json
                              "parentheses the same preset with skip=False",
                     "columns": columns, "rows": srows,
                     "notes": f"Interleaved in one process on a shared {os.cpu_count()}-core machine (load: the 1-minute "
-                             "load average when the view started). vsbuffer_best at 128^2 beside VTK at 128^2 (its sweep is "
-                             "emulated plane by plane), without skip=False."},
+                             "load average when the view started). " + (
+                                 "The presets with skipping on only; a _corner view is its scene's camera turned half way "
+                                 "to a corner of the mesh's bounding box (bench_skip.corner_view)."
+                                 if file_name == "skip_small.json" else
+                                 "vsbuffer_best at 128^2 beside VTK at 128^2 (its sweep is emulated plane by plane), "
+                                 "without skip=False.")},
         "rows": {"title": "Every renderer: median time, VTK PT / this, error against the exact reference, "
                           "tolerance row, what the render left out",
                  "columns": ["view", "TF", "size", "renderer", "median [s]", "VTK PT / this", "RMSE", "max abs",
