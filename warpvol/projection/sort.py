@@ -155,6 +155,19 @@ def kernel_arrays(mesh) -> dict:
     return got
 
 
+def lean_arrays_kept(mesh, off_hull: bool) -> bool:
+    """Whether the lean sort's per-mesh arrays (:func:`kernel_arrays`, with ``off_hull``
+    :func:`off_hull_boundary`) are kept on ``mesh`` (else :func:`keep_lean_arrays` builds them: set-up)."""
+    return "_sort_kernel_arrays" in vars(mesh) and (not off_hull or "_sort_off_hull" in vars(mesh))
+
+
+def keep_lean_arrays(mesh, off_hull: bool) -> None:
+    """Build and keep the lean sort's per-mesh arrays (:func:`lean_arrays_kept`)."""
+    kernel_arrays(mesh)
+    if off_hull:
+        off_hull_boundary(mesh)
+
+
 def lean_face_directions(mesh, camera):
     """:func:`face_directions` as Warp arrays ``(dirs, indeg)`` from the mesh's kept arrays
     (:func:`kernel_arrays`), with each cell's in-degree (faces with ``dirs < 0``) counted by a kernel: no

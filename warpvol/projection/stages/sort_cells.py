@@ -29,7 +29,15 @@ from __future__ import annotations
 
 from warpvol.errors import ConfigError
 from warpvol.projection.pt_thin import project_points
-from warpvol.projection.sort import METHODS, METRICS, visibility_order, visible_submesh, xmpvo_cost
+from warpvol.projection.sort import (
+    METHODS,
+    METRICS,
+    keep_lean_arrays,
+    lean_arrays_kept,
+    visibility_order,
+    visible_submesh,
+    xmpvo_cost,
+)
 from warpvol.stage import Context, Param, Stage, register_stage
 
 BOUNDARY = ("all", "off_hull")
@@ -158,6 +166,11 @@ class SortCells(Stage):
         vis = ctx.buffers.get("visible_cells") if ctx.skip else None
         sub = (self.visible_only(ctx, vis) if self.config["visible_alone"] and vis is not None
                and 0 < vis.sum() < len(vis) else None)
+        lean = self.config["lean"]
+        for m in (mesh,) if sub is None else (mesh, sub[0]):
+            if lean and not lean_arrays_kept(m, off_hull):  # per mesh (the visible cells: per TF): set-up
+                with ctx.setup_work("the lean sort's arrays"):
+                    keep_lean_arrays(m, off_hull)
         if sub is not None:  # XMPVO on the visible cells alone: cheaper here than on the whole mesh
             r = visibility_order(sub[0], ctx.scene.camera, "xmpvo", self.config["metric"], off_hull=off_hull,
                                  lean=self.config["lean"])
