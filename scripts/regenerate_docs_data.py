@@ -68,6 +68,8 @@ PRODUCERS = (
              "57 s at load 5.5-5.7 on 2 cores (1 min 44 s at load 9.5-10)", 60, copy_from="out/bench/table.json"),
     Producer("skip", ("python scripts/bench_skip.py --repeat 3 --docs",),
              "not recorded"),
+    Producer("skip_small", ("python scripts/bench_skip.py --small --repeat 5 --docs",),
+             "about 10 s at load 2.5 on 2 cores (4 views, 6 rounds of 3 renderers, the references cached)", 10),
     Producer("march_lanes", ("python scripts/bench_march.py scenes/bluntfin_close.toml --tf dense --size 512 --repeat 3 "
                              "--lanes 0 --json docs/data/march_lanes.json",
                              "python scripts/bench_march.py scenes/bluntfin_close.toml --tf opaque --size 512 --repeat 3 "

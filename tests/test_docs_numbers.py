@@ -256,10 +256,12 @@ def test_validate_model_relative_ratios_are_modelled_over_paper():
             assert ratio == pytest.approx(modelled / paper, rel=1e-9), r[:4]
 
 
-def test_skip_json_ratios_are_the_quotients_of_its_times():
-    """docs/data/skip.json: each row's VTK PT / this is VTK's median over the row's (both rounded in the
-    file), and the summary's cells are the rows' ratios (skip=False in parentheses)."""
-    rows = _table_rows("skip", "rows")
+@pytest.mark.parametrize("name", ["skip", "skip_small"])
+def test_skip_json_ratios_are_the_quotients_of_its_times(name):
+    """docs/data/skip.json (and skip_small.json, bench_skip.py --small): each row's VTK PT / this is VTK's
+    median over the row's (both rounded in the file), and the summary's cells are the rows' ratios
+    (skip=False in parentheses)."""
+    rows = _table_rows(name, "rows")
     vtk = {(r["view"], r["TF"], r["size"]): r["median [s]"] for r in rows if r["renderer"] == "VTK PT"}
     for r in rows:
         v, t = vtk[(r["view"], r["TF"], r["size"])], r["median [s]"]
@@ -268,7 +270,7 @@ def test_skip_json_ratios_are_the_quotients_of_its_times():
         assert abs(r["VTK PT / this"] - v / t) <= slack, r
         assert r["tolerance"] in ("ok", "-"), r
     by = {(r["view"], r["TF"], r["renderer"]): r for r in rows}
-    for s in _table_rows("skip", "summary"):
+    for s in _table_rows(name, "summary"):
         for col, val in s.items():
             name = col.split(" (")[0]
             if name not in ("raycast", "harc_best", "pt_best", "vsbuffer_best") or val == "-":
