@@ -27,7 +27,8 @@ def corner_scene(size=48, eye=(9.0, 5.0, 12.0), fov=20.0, target=(0.4, 0.3, 0.0)
 
 
 def launched(monkeypatch, preset, sc):
-    """Render ``sc`` with ``preset``; ``(result, threads launched by its march kernels)``."""
+    """Render ``sc`` with ``preset``; ``(result, rays launched by its march kernels)``: a launch's threads, or for
+    the lane march (several rays per thread) its ``count`` argument."""
     import warp
 
     seen = []
@@ -35,7 +36,11 @@ def launched(monkeypatch, preset, sc):
 
     def spy(kernel, *a, **k):
         if "march" in getattr(kernel, "key", ""):
-            seen.append(int(k.get("dim", a[0] if a else 0)))
+            labels = [x.label for x in kernel.adj.args]
+            if "count" in labels:
+                seen.append(int(k["inputs"][labels.index("count")]))
+            else:
+                seen.append(int(k.get("dim", a[0] if a else 0)))
         return orig(kernel, *a, **k)
 
     monkeypatch.setattr(warp, "launch", spy)
