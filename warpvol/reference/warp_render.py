@@ -130,7 +130,10 @@ def _mesh_data(mesh: TetMesh, view: _View, visible: np.ndarray | None = None) ->
     adj = np.take_along_axis(np.asarray(mesh.adjacency, dtype=np.int64), perm, axis=1)  # across face opposite T[:, f]
     if visible is not None:
         adj = cut_at_invisible(adj, visible)
-    s_eye = (mesh.gradients @ view.eye + mesh.offsets) if view.persp else np.zeros(1)
+    s_eye = np.zeros(1)
+    if view.persp:  # not ``gradients @ eye``: a BLAS call leaves OpenBLAS's threads spinning for ~0.1 s,
+        g, e = mesh.gradients, view.eye  # on the cores the walk's launches then wait for
+        s_eye = g[:, 0] * e[0] + g[:, 1] * e[1] + g[:, 2] * e[2] + mesh.offsets
     near = np.zeros(0, dtype=np.int64)
     tol = 1e-9 * max(1.0, float(np.abs(Pc).max())) if len(Pc) else 0.0
     # tets whose (slightly grown) box holds the eye (the camera-frame origin): candidates for the chord
