@@ -54,7 +54,8 @@ def base_kernels(ref: str, where: Path):
 
 def capture(scene, preset: str) -> list:
     """Render ``scene`` with ``preset`` (``raycast`` or ``harc_best``) once; the first pass's launches of its
-    march kernel, each ``(kernel, dim, inputs)`` with the arrays as they were before the launch."""
+    march kernel (``raycast``: the one-ray march), each ``(kernel, dim, inputs)`` with the arrays as they were
+    before the launch."""
     import warp as wp
 
     from warpvol.pipeline import Pipeline
@@ -78,11 +79,16 @@ def capture(scene, preset: str) -> list:
         finally:
             on["now"], on["done"] = False, True
 
+    from warpvol.raycasting.stages import raycast as stage
+
+    lanes = stage.MARCH_LANES
+    stage.MARCH_LANES = 1  # (the one-ray launches: one thread per ray, the other kernels take their inputs)
     where.march_pass, wp.launch = first_pass, launch
     try:
         Pipeline.load(preset, device="cpu").render(scene, quiet=True)
     finally:
         where.march_pass, wp.launch = orig_pass, orig_launch
+        stage.MARCH_LANES = lanes
     return rec
 
 
