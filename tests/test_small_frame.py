@@ -167,3 +167,20 @@ def test_rays_said_to_start_outside_the_sphere_do_so_in_the_kernels_set_up(proje
             out = np.ones((h, w), bool) if out is None else out.reshape(h, w)
             assert not (out & inside).any()
             assert (out | inside).mean() > 0.99
+
+
+def test_march_image_from_the_written_pixels_is_the_kernels():
+    """``MarchState.image`` reads the pixels a pass or the redo wrote; the rest keep radiance 0 and
+    transmittance 1 (RGBA 0): the same image as the kernel over every pixel."""
+    from warpvol.raycasting.stages.raycast import MarchState
+
+    st = MarchState(6 * 5, "cpu")
+    rng = np.random.default_rng(0)
+    idx = np.array([0, 7, 8, 29])
+    st.rgb.numpy()[idx] = rng.random((4, 3)).astype(np.float32)
+    st.trans.numpy()[idx] = rng.random(4).astype(np.float32)
+    st.touch(idx[:2])
+    st.touch(idx[2:])
+    mine = st.image(5, 6)
+    st.touched = None  # the kernel's image
+    assert np.array_equal(mine, st.image(5, 6)) and mine.dtype == np.float32 and mine[..., 3].max() > 0

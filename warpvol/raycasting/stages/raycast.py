@@ -61,6 +61,9 @@ class MarchState:
         self.last = wp.empty(n, dtype=wp.int32, device=device)  # cell each ray last left
         self.active = n  # rays a further pass must search (set by each pass)
         self.candidates = None  # the pixels a further pass looks at (the last pass's launched rays; None: all)
+        #: the pixels whose radiance or transmittance a kernel or the host may have written (the first pass's
+        #: launched rays, each float64 redo's); None: any pixel (a pass launched every ray)
+        self.touched: list | None = []
         if on_host(device):  # the host fills its views: a few memsets, no kernel over every pixel
             host_view(self.rgb).fill(0.0)
             host_view(self.trans).fill(1.0)
@@ -76,9 +79,25 @@ class MarchState:
 
         from warpvol.kernels import raycast as k
 
+        if on_host(self.device) and self.touched is not None:
+            # every other pixel keeps its initial radiance 0 and transmittance 1: RGBA 0 (as the kernel gives)
+            out = np.zeros((self.n, 4), np.float32)
+            if self.touched:
+                idx = np.concatenate(self.touched)
+                out[idx, :3] = host_view(self.rgb)[idx]
+                out[idx, 3] = np.float32(1.0) - host_view(self.trans)[idx]
+            return out.reshape(height, width, 4)
         out = wp.empty(self.n, dtype=wp.vec4, device=self.device)  # (the kernel writes every pixel)
         wp.launch(k.finish, dim=self.n, inputs=[self.rgb, self.trans, out], device=self.device)
         return out.numpy().reshape(height, width, 4)
+
+    def touch(self, pixels: np.ndarray) -> None:
+        """Note ``pixels`` (indices) as written; :meth:`image` reads those only."""
+        if self.touched is not None:
+            if len(pixels) == self.n:
+                self.touched = None
+            elif len(pixels):
+                self.touched.append(np.asarray(pixels))
 
 
 def camera_struct(ctx: Context):
@@ -247,6 +266,8 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
     cam = camera_struct(ctx)
     status = state.status.numpy()
     active = pass_rays(status, int(k.STATUS_ACTIVE), int(k.STATUS_DONE), tile_reach(ctx), state.candidates, 3)
+    if state.candidates is None:
+        state.touch(active)  # (a later pass launches some of these)
     state.candidates = active if len(active) < state.n else None  # the next pass looks at these only
     ids, parts = ray_blocks(ctx, active, threads, rows_per_block)
     if not parts:
@@ -312,6 +333,7 @@ def resolve_failed(ctx: Context, state: MarchState, terminate: float = 0.0) -> i
     rgb[failed] = val[:, :3]
     trans[failed] = 1.0 - val[:, 3]
     status[failed] = int(k.STATUS_DONE)
+    state.touch(failed)
     state.rgb = write_back(state.rgb, rgb, wp.vec3)
     state.trans = write_back(state.trans, trans, wp.float32)
     state.status = write_back(state.status, status, wp.int32)
