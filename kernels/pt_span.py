@@ -3,7 +3,9 @@
 :func:`span_kernel` builds, per lane count ``LANES``, a kernel that draws what
 :func:`warpvol.kernels.pt_draw.k_pt_exact_tiles` draws -- the same bins, triangles, covered pixels, order,
 counters and float32 values -- but gathers a triangle's fragments in its bin, row after row (a span may
-take the end of one row and the start of the next), into spans of ``LANES`` and runs the common
+take the end of one row and the start of the next; each row's covered run from its edges' ``floor(e / |sj|)``,
+stepped from row to row with exact int64 adds, :func:`edge_start` / :func:`edge_next`), into spans of ``LANES`` and
+runs the common
 fragment's work for a whole span at once, in counted branch-free loops over local lane vectors that LLVM
 vectorises (8 float32 lanes per AVX-512 instruction with LLVM's preferred 256-bit width here):
 
@@ -39,7 +41,7 @@ from .blend import ONE, ONE_MINUS_DST_ALPHA, ONE_MINUS_SRC_ALPHA, BlendState, bl
 from .integrate import GL3_W0, GL3_W1, GL3_X0, GL3_X2, THIN_DEPTH, one_minus_exp_neg_thin
 from .pt import CLAMP_ABS, CLAMP_REL, PERSP_EXACT, PERSP_OFF, exact_color, exact_color_upper, vec8f
 from .pt_draw import attribute_planes, clamp8, nearest_on_triangle, sfsbl_ray, span_done, zero_segments
-from .raster import TriSetup, edge_step_i, edge_step_j, edges_at, tile_rect, tile_span, vec3l
+from .raster import TriSetup, edge_step_i, edge_step_j, edges_at, tile_rect, tile_span
 from .tf import tf_upper
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
@@ -134,45 +136,45 @@ def segment_bounds(lo: vec8f, hi: vec8f, mode: int) -> wp.vec4:
 
 
 @wp.func
-def first_nonneg_rcp(e: wp.int64, step: wp.int64, inv: wp.float64, n: int) -> int:
-    """:func:`~warpvol.kernels.raster.first_nonneg` with the estimate ``-e inv`` (``inv = 1 / step``, once per
-    triangle: a product where it divides per row); its exact int64 corrections make ``k`` the same (the smallest
-    in ``[0, n)`` with ``e + k step >= 0``, else ``n``) whatever the estimate."""
-    if e >= wp.int64(0):
-        return 0
-    k = int(wp.ceil(wp.float64(-e) * inv))
-    k = wp.clamp(k, 0, n)
-    while k > 0 and e + wp.int64(k - 1) * step >= wp.int64(0):
-        k -= 1
-    while k < n and e + wp.int64(k) * step < wp.int64(0):
-        k += 1
-    return k
+def edge_floor(e: wp.int64, d: wp.int64) -> wp.int64:
+    """``floor(e / d)`` for ``d > 0`` (exact, int64)."""
+    q = e / d
+    return wp.where(q * d > e, q - wp.int64(1), q)
 
 
 @wp.func
-def row_span_rcp(e: vec3l, sj: vec3l, inv: wp.vec3d, n: int) -> wp.vec2i:
-    """:func:`~warpvol.kernels.raster.row_span` with the reciprocals ``inv`` of the steps ``sj``
-    (:func:`first_nonneg_rcp`; ``last_nonneg`` as there): the same run."""
-    lo = int(0)
-    hi = n - 1
-    for q in range(3):
-        if sj[q] > wp.int64(0):
-            lo = wp.max(lo, first_nonneg_rcp(e[q], sj[q], inv[q], n))
-        elif sj[q] < wp.int64(0):
-            hi = wp.min(hi, n - 1 - first_nonneg_rcp(e[q] + wp.int64(n - 1) * sj[q], -sj[q], -inv[q], n))
-        elif e[q] < wp.int64(0):
-            hi = -1
-    return wp.vec2i(lo, hi)
+def edge_start(e: wp.int64, sj: wp.int64, si: wp.int64):
+    """One edge's row stepper: for an edge function ``e`` at a row's first pixel, ``sj`` per pixel and ``si``
+    per row, ``(F, R, d, dq, dr)`` with ``d = |sj|`` (1 for ``sj = 0``), ``e = F d + R``, ``0 <= R < d`` and
+    ``si = dq d + dr``, ``0 <= dr < d``: :func:`edge_next` steps ``F`` and ``R`` to the next row with adds."""
+    d = wp.where(sj == wp.int64(0), wp.int64(1), wp.abs(sj))
+    f = edge_floor(e, d)
+    dq = edge_floor(si, d)
+    return f, e - f * d, d, dq, si - dq * d
 
 
 @wp.func
-def step_reciprocals(sj: vec3l) -> wp.vec3d:
-    """``1 / sj`` per edge (float64; 0 for a zero step, unused there)."""
-    r = wp.vec3d()
-    for q in range(3):
-        if sj[q] != wp.int64(0):
-            r[q] = wp.float64(1.0) / wp.float64(sj[q])
-    return r
+def edge_next(f: wp.int64, r: wp.int64, dq: wp.int64, dr: wp.int64, d: wp.int64):
+    """:func:`edge_start`'s ``(F, R)`` one row down (``e + si``), exact."""
+    x = r + dr
+    c = x >= d
+    return f + dq + wp.where(c, wp.int64(1), wp.int64(0)), x - wp.where(c, d, wp.int64(0))
+
+
+@wp.func
+def edge_lo(f: wp.int64, sj: wp.int64, n: int) -> int:
+    """The first covered pixel of a row of ``n`` as one edge bounds it (``F = floor(e / |sj|)``): for
+    ``sj > 0`` :func:`~warpvol.kernels.raster.first_nonneg` (``-F`` clamped into ``[0, n]``), else 0."""
+    return wp.where(sj > wp.int64(0), int(wp.clamp(-f, wp.int64(0), wp.int64(n))), 0)
+
+
+@wp.func
+def edge_hi(f: wp.int64, sj: wp.int64, n: int) -> int:
+    """The last covered pixel of a row of ``n`` as one edge bounds it: for ``sj < 0``
+    :func:`~warpvol.kernels.raster.last_nonneg` (``F`` clamped into ``[-1, n - 1]``); for ``sj = 0`` -1 where
+    ``e < 0`` (``F = e``); else ``n - 1``."""
+    hz = wp.where(sj == wp.int64(0) and f < wp.int64(0), -1, n - 1)
+    return wp.where(sj < wp.int64(0), int(wp.clamp(f, wp.int64(-1), wp.int64(n - 1))), hz)
 
 
 @wp.func
@@ -324,7 +326,14 @@ def span_kernel(lanes: int):
             row = edges_at(s, t, j0, i0)
             sj = edge_step_j(s, t)
             si = edge_step_i(s, t)
-            sjr = step_reciprocals(sj)
+            # the rows' runs stepped exactly with adds (edge_start / edge_next: row_span's runs)
+            nrow = j1 - j0 + 1
+            sj0 = sj[0]
+            sj1 = sj[1]
+            sj2 = sj[2]
+            ef0, er0, ed0, eq0, es0 = edge_start(row[0], sj0, si[0])
+            ef1, er1, ed1, eq1, es1 = edge_start(row[1], sj1, si[1])
+            ef2, er2, ed2, eq2, es2 = edge_start(row[2], sj2, si[2])
             # the triangle's fragments in the bin, row by row, in spans of L (a span may take several rows)
             i = i0  # next row to open
             ci = i0  # the open row
@@ -338,12 +347,13 @@ def span_kernel(lanes: int):
                     if cj > ce:  # the run is used up: the next row's
                         if i > i1:
                             break
-                        run = row_span_rcp(row, sj, sjr, j1 - j0 + 1)
-                        row = row + si
                         ci = i
                         i += 1
-                        cj = j0 + run[0]
-                        ce = j0 + run[1]
+                        cj = j0 + wp.max(wp.max(edge_lo(ef0, sj0, nrow), edge_lo(ef1, sj1, nrow)), edge_lo(ef2, sj2, nrow))
+                        ce = j0 + wp.min(wp.min(edge_hi(ef0, sj0, nrow), edge_hi(ef1, sj1, nrow)), edge_hi(ef2, sj2, nrow))
+                        ef0, er0 = edge_next(ef0, er0, eq0, es0, ed0)
+                        ef1, er1 = edge_next(ef1, er1, eq1, es1, ed1)
+                        ef2, er2 = edge_next(ef2, er2, eq2, es2, ed2)
                         if term and cj <= ce:  # the run all terminated: skipped without a fragment
                             rr = rows0 + ci - rect[1]
                             if span_done(fo.done_rows, rr, rr, cj - rect[0], ce - rect[0]):

@@ -123,29 +123,52 @@ def test_exact_color_given_the_intervals_is_exact_color():
         assert np.array_equal(a.numpy().view(np.uint32), b.numpy().view(np.uint32))
 
 
-def test_row_span_from_reciprocals_is_row_span():
-    """:func:`~warpvol.kernels.pt_span.row_span_rcp` (a product by the step's reciprocal for the estimate) finds
-    the run of :func:`~warpvol.kernels.raster.row_span` (a division), whatever the edge values and steps."""
+def test_rows_stepped_with_adds_are_row_span():
+    """:func:`~warpvol.kernels.pt_span.edge_start` / :func:`~warpvol.kernels.pt_span.edge_next` step each edge's
+    ``floor(e / |sj|)`` from row to row with exact int64 adds; :func:`~warpvol.kernels.pt_span.edge_lo` /
+    :func:`~warpvol.kernels.pt_span.edge_hi` give the run :func:`~warpvol.kernels.raster.row_span` finds at every
+    row (edges increasing, decreasing and constant along the row, negative and positive steps between rows)."""
     import warp as wp
 
     from warpvol.kernels import pt_span
     from warpvol.kernels.raster import row_span, vec3l
 
-    @wp.kernel
-    def k_runs(e: wp.array(dtype=vec3l), sj: wp.array(dtype=vec3l), n: wp.array(dtype=wp.int32),
-               a: wp.array(dtype=wp.vec2i), b: wp.array(dtype=wp.vec2i)):
-        i = wp.tid()
-        a[i] = row_span(e[i], sj[i], n[i])
-        b[i] = pt_span.row_span_rcp(e[i], sj[i], pt_span.step_reciprocals(sj[i]), n[i])
+    rows = 24
 
-    rng = np.random.default_rng(7)
-    m = 20000
-    sj = rng.integers(-40, 41, (m, 3)) * rng.choice([1, 256, 65536, 3 * 2**20], (m, 3))
+    @wp.kernel
+    def k_rows(e: wp.array(dtype=vec3l), sj: wp.array(dtype=vec3l), si: wp.array(dtype=vec3l),
+               n: wp.array(dtype=wp.int32), a: wp.array2d(dtype=wp.vec2i), b: wp.array2d(dtype=wp.vec2i)):
+        i = wp.tid()
+        x = e[i]
+        s = sj[i]
+        m = n[i]
+        f0, r0, d0, q0, p0 = pt_span.edge_start(x[0], s[0], si[i][0])
+        f1, r1, d1, q1, p1 = pt_span.edge_start(x[1], s[1], si[i][1])
+        f2, r2, d2, q2, p2 = pt_span.edge_start(x[2], s[2], si[i][2])
+        for k in range(rows):
+            a[i, k] = row_span(x, s, m)
+            x = x + si[i]
+            lo = wp.max(wp.max(pt_span.edge_lo(f0, s[0], m), pt_span.edge_lo(f1, s[1], m)), pt_span.edge_lo(f2, s[2], m))
+            hi = wp.min(wp.min(pt_span.edge_hi(f0, s[0], m), pt_span.edge_hi(f1, s[1], m)), pt_span.edge_hi(f2, s[2], m))
+            b[i, k] = wp.vec2i(lo, hi)
+            f0, r0 = pt_span.edge_next(f0, r0, q0, p0, d0)
+            f1, r1 = pt_span.edge_next(f1, r1, q1, p1, d1)
+            f2, r2 = pt_span.edge_next(f2, r2, q2, p2, d2)
+
+    rng = np.random.default_rng(11)
+    m = 6000
+    scale = rng.choice([1, 256, 65536, 3 * 2**20], (m, 3))
+    sj = rng.integers(-40, 41, (m, 3)) * scale
+    si = rng.integers(-40, 41, (m, 3)) * scale
     e = rng.integers(-2**40, 2**40, (m, 3)) // rng.choice([1, 2**8, 2**20, 2**30], (m, 3))
-    e[:2000] = -sj[:2000] * rng.integers(0, 64, (2000, 3))  # zero at a pixel: the run's ends exactly there
+    e[:1000] = -sj[:1000] * rng.integers(0, 64, (1000, 3))  # zero at a pixel: the run's ends exactly there
+    e[1000:1500] = -si[1000:1500] * rng.integers(0, rows, (500, 3))  # zero at a row
     n = rng.integers(1, 65, m).astype(np.int32)
-    a, b = (wp.zeros(m, dtype=wp.vec2i) for _ in range(2))
-    wp.launch(k_runs, dim=m, inputs=[wp.array(e, dtype=vec3l), wp.array(sj, dtype=vec3l), wp.array(n), a, b])
+    a, b = (wp.zeros((m, rows), dtype=wp.vec2i) for _ in range(2))
+    wp.launch(k_rows, dim=m, inputs=[wp.array(e, dtype=vec3l), wp.array(sj, dtype=vec3l), wp.array(si, dtype=vec3l),
+                                     wp.array(n), a, b])
     ra, rb = a.numpy(), b.numpy()
-    assert np.array_equal(ra, rb)
-    assert ((ra[:, 0] > 0) & (ra[:, 0] <= ra[:, 1])).sum() > 100  # runs that start inside the row were checked
+    full = ra[..., 0] <= ra[..., 1]
+    assert np.array_equal(full, rb[..., 0] <= rb[..., 1])  # the same rows have a run
+    assert np.array_equal(ra[full], rb[full])  # and the same run
+    assert ((ra[..., 0] > 0) & full).sum() > 1000 and ((ra[..., 1] < n[:, None] - 1) & full).sum() > 1000
