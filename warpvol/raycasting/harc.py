@@ -197,7 +197,7 @@ def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None 
         count = fr.count
     listed = np.zeros(0, np.int64)  # the pixels with fragments
     if count:
-        start = fr.offsets.numpy().astype(np.int32)
+        start = fr.offsets.numpy()  # (int32, H*W + 1: the kernels read the rasteriser's array itself)
         per_px = np.diff(start)
         listed = np.flatnonzero(per_px)
         pix = np.repeat(listed, per_px[listed])  # (Fragments.pixel_index, from the listed pixels only)
@@ -211,11 +211,15 @@ def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None 
         frag_bf = np.zeros(0, np.int64)
         layers = 0
 
+    on_cpu = on_host(device)
+
     def arr(a, dtype=wp.int32):
         a = np.ascontiguousarray(a, dtype=np.int32)
         if len(a) == 0:
             a = np.zeros((1,) + a.shape[1:], np.int32)
-        return wp.array(a, dtype=dtype, device=device)
+        # on the CPU the device array is the host array itself (kept alive by it; none of these is written
+        # after this), not a copy
+        return wp.array(a, dtype=dtype, device=device, copy=not on_cpu)
 
     nbr = surface_neighbours(tris).reshape(-1, 3)
     edge_start, edge_bf = edge_pixels(mesh, camera, tris, nbr) if len(bf) and in_front else (
@@ -224,8 +228,8 @@ def entry_fragments(mesh, camera, device: str = "cpu", faces: np.ndarray | None 
     box = listed_box(w, h, np.r_[listed, np.searchsorted(edge_start, np.arange(len(edge_bf)), side="right") - 1])
     far = reentry_bound(mesh, camera, tris, nbr, start, frag_bf, edge_start, edge_bf, box)
     depth = face_depths(mesh, camera, tris)
-    return {"frag_start": arr(start), "frag_bf": arr(frag_bf), "bf_tet": arr(bf[:, 0]), "bf_face": arr(bf[:, 1]),
-            "bf_nbr": arr(nbr, wp.vec3i), "far": wp.array(far, dtype=wp.float32, device=device),
+    return {"frag_start": fr.offsets if count else arr(start), "frag_bf": arr(frag_bf), "bf_tet": arr(bf[:, 0]), "bf_face": arr(bf[:, 1]),
+            "bf_nbr": arr(nbr, wp.vec3i), "far": wp.array(far, dtype=wp.float32, device=device, copy=not on_cpu),
             "bf_depth": wp.array(depth if len(depth) else np.zeros((1, 2), np.float32), dtype=wp.vec2, device=device),
             "edge_start": arr(edge_start), "edge_bf": arr(edge_bf), "edge_pairs": int(len(edge_bf)),
             "frag_start_host": start, "edge_start_host": edge_start, "box": box,
