@@ -10,12 +10,14 @@ range) and that of their CPU seconds (this process's, all threads: less sensitiv
 processes than the wall-clock ratio), the reference's own split (set-up on the host before the walk, the
 walk's launches), its segments and tet steps, and the 1-minute load average before and after. With
 ``--numpy-sizes`` the NumPy oracle (:mod:`warpvol.reference.numpy_render`) runs once at those sizes, for its
-time and its largest difference from the Warp reference.
+time and its largest difference from the Warp reference. ``--docs`` writes the rows to
+``docs/data/reference_pace.json`` (stamped: :mod:`warpvol.tools.provenance`), which the performance page
+quotes.
 
 Usage::
 
     ./run.sh python scripts/bench_reference.py [--scenes scenes/bluntfin_close.toml ...] [--sizes 512]
-        [--rounds 3] [--numpy-sizes] [--device cpu] [--json out.json]
+        [--rounds 3] [--numpy-sizes] [--device cpu] [--json out.json] [--docs]
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
+DOCS_JSON = ROOT / "docs" / "data" / "reference_pace.json"
 DEFAULT_SCENES = [str(ROOT / "scenes" / "bluntfin_close.toml"), str(ROOT / "scenes" / "spx_fill.toml")]
 
 
@@ -109,7 +112,12 @@ def main(argv=None) -> int:
     ap.add_argument("--numpy-sizes", type=int, nargs="*", default=[])
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--json", default=None, help="also write the rows to this JSON file")
+    ap.add_argument("--docs", action="store_true", help=f"write the table to {DOCS_JSON.relative_to(ROOT)}")
     args = ap.parse_args(argv)
+    from warpvol.tools import provenance
+
+    block = provenance.start(provenance.command_line("scripts/bench_reference.py", argv), timing=True,
+                             note="raycast and the reference alternating in one process, warm against warm")
 
     rows = []
     for path in args.scenes:
@@ -129,7 +137,30 @@ def main(argv=None) -> int:
               f"{r['steps']:,} | {r['failed']} | {np_s} | {diff} | {r['load'][0]:.1f}-{r['load'][1]:.1f} |")
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1))
+    if args.docs:
+        write_docs(rows, block)
     return 0
+
+
+COLUMNS = ["scene", "size", "raycast_s", "reference_s", "ratio", "ratio_lo", "ratio_hi", "cpu_ratio", "setup_s",
+           "walk_s", "segments", "rounds", "load_start", "load_end"]
+
+
+def write_docs(rows: list[dict], block: dict) -> None:
+    """The rows as table ``reference_pace`` of :data:`DOCS_JSON`, stamped."""
+    from warpvol.tools import provenance
+
+    out = [[r["scene"], r["size"], round(r["raycast"], 3), round(r["reference"], 3), round(r["ratio"], 2),
+            round(r["ratio_lo"], 2), round(r["ratio_hi"], 2), round(r["cpu_ratio"], 2), round(r["ref_setup"], 3),
+            round(r["ref_walk"], 3), int(r["segments"]), r["rounds"], round(r["load"][0], 2), round(r["load"][1], 2)]
+           for r in rows]
+    table = {"title": "the exact reference (warpvol reference, --compute-reference) against raycast's warm frame: "
+                      "median seconds of rounds alternating in one process after one warm-up call each, the "
+                      "median per-round ratio reference / raycast (wall clock, its range, and of CPU seconds)",
+             "columns": COLUMNS, "rows": out}
+    provenance.write_json(DOCS_JSON, {"tables": {"reference_pace": table}},
+                          provenance.with_loads(block, [round(x, 2) for r in rows for x in r["load"]]))
+    print(f"  wrote {DOCS_JSON}", file=sys.stderr)
 
 
 if __name__ == "__main__":
