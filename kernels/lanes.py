@@ -232,6 +232,24 @@ def lane_exit_at(scratch: wp.array(dtype=LaneState), slot: int, scale: float, mo
         scratch[slot].failed = 1
 
 
+#: rays per lane of a thread: a lane whose ray has ended takes the thread's next one (the lanes stay busy until the
+#: thread's last rays)
+LANE_RUNS = 8
+
+
+def lane_threads(count: int, lanes: int) -> int:
+    """Threads of a :func:`~warpvol.kernels.lanes_march.make_march_lanes` launch over ``count`` rays."""
+    return (count + lanes * LANE_RUNS - 1) // (lanes * LANE_RUNS)
+
+
+def lane_scratch(end: int, blocks: int, lanes: int) -> int:
+    """Size of the ``scratch`` of :func:`~warpvol.kernels.lanes_march.make_march_lanes` launches over the rays ``first .. first + count`` up to
+    ``end``, ``blocks`` launches (``chunk`` 0 .. blocks - 1): one :class:`~warpvol.kernels.lanes.LaneState` per
+    lane, thread ``tid`` of a launch holding ``(first // (lanes LANE_RUNS) + tid + chunk) lanes ..`` (disjoint
+    between launches of consecutive ray ranges)."""
+    return (end // (lanes * LANE_RUNS) + blocks + 1) * lanes
+
+
 #: the lane kernels' module options: no FMA contraction (the scalar functions' roundings); loops unrolled at most
 #: once, so that the lane loops stay loops LLVM vectorises
 LANE_OPTIONS = {"enable_backward": False, "fuse_fp": False, "max_unroll": 1}

@@ -2,24 +2,17 @@
 
 :func:`make_march_lanes` builds, per lane count, a kernel that makes what
 :func:`warpvol.kernels.raycast.make_march`'s pass makes -- the same images, counters and float64 redo marks, bit for
-bit (tests/test_march_lanes.py) -- with the rays ``first + LANES tid + j`` of a thread: their first entries one
-after the other (:func:`~warpvol.kernels.lanes.make_lane_io`, into ``scratch``), then their walks one step of every
-lane per pass of a counted, branch-free ``for j in range(LANES)`` loop over lane matrices (each row one state
-variable, each column a lane), which LLVM vectorises. Three kinds of step take the vector step's walk and finish
-after the lane loop, one lane at a time, with the scalar walk's functions: an optically thick piece (its integral,
-:func:`~warpvol.kernels.integrate.integrate_piece` with libm's ``exp``), a step across a TF control point (its TF
-value, integral and checks) and a step out of the mesh (its exit checks,
-:func:`~warpvol.kernels.lanes.lane_exit_at`). A lane whose step is rare (an exact-zero edge side, no exit face, no
-progress, a clipped segment, a check that fires) goes to ``scratch`` and takes that step in
-:func:`~warpvol.kernels.lanes.lane_step` (the scalar functions); the next pass reloads it. A ray whose walk has
-ended is written back (and re-enters, scalar) as soon as it ends. The cell records and new vertex of every lane are
-read in a loop of their own before the step's arithmetic (loads from arrays in the arithmetic loop keep LLVM from
-vectorising it: it cannot bound them against the lane matrices' stores), the TF piece of a lane is kept in its
-state (reloaded after a control point is crossed), and the lane matrices are read and written only by element in the
-kernel itself (passed to a function they would count as escaping, with the same effect). The kernel keeps no
-:class:`~warpvol.kernels.lanes.LaneState` variable: a struct assigned in its loops is copied on every pass
-(a 328-byte ``memcpy`` per lane and pass, a third of the march's time); the state moves between the lane matrices
-and ``scratch`` field by field.
+bit (tests/test_march_lanes.py). Lane ``j`` of a thread walks its rays one after the other (entries, write-backs
+and re-entries scalar: :func:`~warpvol.kernels.lanes.make_lane_io`); all lanes take one step per pass of a
+counted, branch-free ``for j in range(LANES)`` loop over lane matrices (a row per state variable, a column per
+lane), which LLVM vectorises. A thick piece (libm's ``exp``), a TF control point crossed and a step out of the mesh
+take the loop's walk and finish after it, one lane at a time, in the scalar walk's functions; a rare step (an
+exact-zero edge side, no exit face, no progress, a clipped segment, a check that fires) is redone in
+:func:`~warpvol.kernels.lanes.lane_step` on the lane's ``scratch`` record. Array reads sit in loops of their own
+(in the arithmetic loop LLVM cannot bound them against the lane matrices' stores), and the matrices are read and
+written by element in the kernel only (passed to a function they would escape). The kernel keeps no struct
+variable: one assigned in its loops is copied on every pass (a ``LaneState`` ``memcpy`` per lane and pass was a
+third of the march); a lane's state moves field by field between the matrices and ``scratch``.
 """
 
 import threading
@@ -40,7 +33,7 @@ from .integrate import (
     integrate_segment_tf,
     one_minus_exp_neg_thin,
 )
-from .lanes import LANE_OPTIONS, FlatMesh, LaneState, lane_exit_at, lane_step_at, make_lane_io, thin_prev
+from .lanes import LANE_OPTIONS, LANE_RUNS, FlatMesh, LaneState, lane_exit_at, lane_step_at, make_lane_io, thin_prev
 from .raycast import EntryBins
 from .tf import tf_eval_upper, tf_upper_from
 from .walk import EPS32, STALL_STEPS, STEEP_ERR, THIN_ULPS, scalar_step, spread_error, thin_step, thin_unresolved
@@ -61,7 +54,8 @@ def make_march_lanes(lanes: int, segs: bool = False):
     RVv = wp.types.vector(length=LANES, dtype=int)  # the lanes whose step is rare; whose piece is optically thick
     TFm = wp.types.matrix(shape=(8, LANES), dtype=float)  # a thick piece's length, entry TF value; crossing's ds, s, t
     TIm = wp.types.matrix(shape=(2, LANES), dtype=int)  # a thick piece: the next cell and its new vertex
-    GIm = wp.types.matrix(shape=(12, LANES), dtype=int)  # each lane's cell: tets, nbr, nbr_vertex records
+    GIm = wp.types.matrix(shape=(7, LANES), dtype=int)  # each lane's cell's tets record; exit face, its nbr, nbr_vertex
+    FLm = wp.types.matrix(shape=(3, LANES), dtype=int)  # the step taken; its commit kind (see the exit loop)
     GVm = wp.types.matrix(shape=(4, LANES), dtype=float)  # each lane's new vertex record
 
     @wp.kernel(module="unique", module_options=LANE_OPTIONS)
@@ -94,6 +88,7 @@ def make_march_lanes(lanes: int, segs: bool = False):
         TF = TFm()
         TI = TIm()
         GI = GIm()
+        FL = FLm()
         GV = GVm()
         lim = wp.min(end, base + LANES * RUNS)
         for j in range(LANES):
@@ -176,14 +171,6 @@ def make_march_lanes(lanes: int, segs: bool = False):
                 GI[1, j] = m_tets[c4 + 1]
                 GI[2, j] = m_tets[c4 + 2]
                 GI[3, j] = m_tets[c4 + 3]
-                GI[4, j] = m_nbr[c4]
-                GI[5, j] = m_nbr[c4 + 1]
-                GI[6, j] = m_nbr[c4 + 2]
-                GI[7, j] = m_nbr[c4 + 3]
-                GI[8, j] = m_nbrv[c4]
-                GI[9, j] = m_nbrv[c4 + 1]
-                GI[10, j] = m_nbrv[c4 + 2]
-                GI[11, j] = m_nbrv[c4 + 3]
                 GV[0, j] = m_verts[v4]
                 GV[1, j] = m_verts[v4 + 1]
                 GV[2, j] = m_verts[v4 + 2]
@@ -292,7 +279,7 @@ def make_march_lanes(lanes: int, segs: bool = False):
                 s_out = wp.where(ok1, sx1, wp.where(c2, sx2, sx3))
                 f_out = wp.where(tv3 == gz, 3, wp.where(tv2 == gz, 2, wp.where(tv1 == gz, 1, wp.where(tv0 == gz, 0, -1))))
                 rare = rare or f_out < 0
-                nb = wp.where(f_out == 0, GI[4, j], wp.where(f_out == 1, GI[5, j], wp.where(f_out == 2, GI[6, j], GI[7, j])))
+                GI[4, j] = wp.max(f_out, 0)  # (its neighbour records after this loop)
                 # monotone_exit
                 t_in = SF[0, j]
                 s_in = SF[1, j]
@@ -300,7 +287,6 @@ def make_march_lanes(lanes: int, segs: bool = False):
                 t_out = wp.where(adv, t_out, t_in)
                 stall = wp.where(adv, 0, stall + 1)
                 rare = rare or stall > STALL_STEPS
-                ex = nb < 0  # (the walk leaves the mesh: its exit checks in lane_exit_at)
                 # the TF at the exit: the same piece as at the entry (else rare: a control point crossed)
                 ts_lo = SF[27, j]
                 ts_hi = SF[28, j]
@@ -398,13 +384,11 @@ def make_march_lanes(lanes: int, segs: bool = False):
                 RV[j] = wp.where(active and rare, 1, 0)
                 RT[j] = wp.where(gt, 1, 0)
                 RC[j] = wp.where(go and cross, 1, 0)
-                RX[j] = wp.where(go and ex and not (gn_ and stop), 1, 0)
-                SI[6, j] = wp.where((walk == 1 and not ok_steps) or (gn_ and (stop or ex)), 0, walk)
+                FL[0, j] = wp.where(go, 1, 0)
+                FL[1, j] = wp.where(gn_, 1, 0)
+                FL[2, j] = wp.where(gn_ and not stop, 1, 0)
+                SI[6, j] = wp.where((walk == 1 and not ok_steps) or (gn_ and stop), 0, walk)
                 # ---- commit the step of the lanes that took it ----
-                vrow = wp.where(f_out == 0, GI[8, j], wp.where(f_out == 1, GI[9, j], wp.where(f_out == 2, GI[10, j], GI[11, j])))
-                keep = gn_ and not stop and not ex
-                TI[0, j] = wp.where(ex, cell, nb >> 2)
-                TI[1, j] = wp.where(ex, gn, vrow)
                 TF[0, j] = ln
                 TF[1, j] = v_in[0]
                 TF[2, j] = v_in[1]
@@ -413,8 +397,6 @@ def make_march_lanes(lanes: int, segs: bool = False):
                 TF[5, j] = ds_out
                 TF[6, j] = s_out
                 TF[7, j] = t_out
-                SI[0, j] = wp.where(keep, nb >> 2, cell)
-                SI[1, j] = wp.where(keep, vrow, gn)
                 SI[2, j] = wp.where(go, SI[2, j] + 1, SI[2, j])
                 SI[3, j] = wp.where(go, stall, SI[3, j])
                 SI[5, j] = wp.where(gq, wp.where(short, 1, 0), SI[5, j])
@@ -468,6 +450,24 @@ def make_march_lanes(lanes: int, segs: bool = False):
                 FG[0, j] = wp.where(go, gn, g0)
                 FG[1, j] = wp.where(go, gx, g1)
                 FG[2, j] = wp.where(go, gy, g2)
+            # ---- the exit face's neighbour records (loads: a loop of their own), and the step to the next cell ----
+            for j in range(LANES):
+                c4 = 4 * SI[0, j] + GI[4, j]
+                GI[5, j] = m_nbr[c4]
+                GI[6, j] = m_nbrv[c4]
+            for j in range(LANES):
+                nb = GI[5, j]
+                ex = nb < 0  # (the walk leaves the mesh: its exit checks in lane_exit_at)
+                go = FL[0, j] == 1
+                keep = FL[2, j] == 1 and not ex
+                RX[j] = wp.where(go and ex and (FL[2, j] == 1 or FL[1, j] == 0), 1, 0)
+                SI[6, j] = wp.where(FL[2, j] == 1 and ex, 0, SI[6, j])
+                cell = SI[0, j]
+                gn = SI[1, j]
+                TI[0, j] = wp.where(ex, cell, nb >> 2)
+                TI[1, j] = wp.where(ex, gn, GI[6, j])
+                SI[0, j] = wp.where(keep, nb >> 2, cell)
+                SI[1, j] = wp.where(keep, GI[6, j], gn)
             # ---- the steps that cross a TF control point: their integral and checks, one lane at a time ----
             for j in range(LANES):
                 if RC[j] == 1:
@@ -598,24 +598,6 @@ def make_march_lanes(lanes: int, segs: bool = False):
                 busy = busy + SI[6, j] + LD[j]
 
     return march_lanes
-
-
-#: rays per lane of a thread: a lane whose ray has ended takes the thread's next one (the lanes stay busy until the
-#: thread's last rays)
-LANE_RUNS = 8
-
-
-def lane_threads(count: int, lanes: int) -> int:
-    """Threads of a :func:`make_march_lanes` launch over ``count`` rays."""
-    return (count + lanes * LANE_RUNS - 1) // (lanes * LANE_RUNS)
-
-
-def lane_scratch(end: int, blocks: int, lanes: int) -> int:
-    """Size of the ``scratch`` of :func:`make_march_lanes` launches over the rays ``first .. first + count`` up to
-    ``end``, ``blocks`` launches (``chunk`` 0 .. blocks - 1): one :class:`~warpvol.kernels.lanes.LaneState` per
-    lane, thread ``tid`` of a launch holding ``(first // (lanes LANE_RUNS) + tid + chunk) lanes ..`` (disjoint
-    between launches of consecutive ray ranges)."""
-    return (end // (lanes * LANE_RUNS) + blocks + 1) * lanes
 
 
 _LANES: dict = {}

@@ -144,8 +144,8 @@ def run_pass(pkg: str, launches: list, reentries: int = 0, lanes: int = 1):
         k = kernel if pkg == "warpvol.kernels" else kernel_of(pkg, kernel)
         n_threads = dim
         if lanes > 1:
-            from warpvol.kernels.lanes import LaneState, flat_mesh
-            from warpvol.kernels.lanes_march import lane_scratch, lane_threads, march_lanes_kernel
+            from warpvol.kernels.lanes import LaneState, flat_mesh, lane_scratch, lane_threads
+            from warpvol.kernels.lanes_march import march_lanes_kernel
 
             k = march_lanes_kernel(lanes, False)
             n_threads = lane_threads(dim, lanes)

@@ -286,16 +286,16 @@ def march_pass(ctx: Context, state: MarchState, *, max_steps: int, t_min: float,
     common = [cam, cell_mesh_struct(cells), eb, ig, opts]
     if lanes > 1:
         from warpvol.kernels import lanes as kl
-        from warpvol.kernels.lanes_march import lane_scratch, lane_threads, march_lanes_kernel
+        from warpvol.kernels.lanes_march import march_lanes_kernel
 
         kernel = march_lanes_kernel(lanes, segments.cap > 0)
-        scratch = wp.empty(lane_scratch(max(f + c for f, c in parts), len(parts), lanes), dtype=kl.LaneState,
+        scratch = wp.empty(kl.lane_scratch(max(f + c for f, c in parts), len(parts), lanes), dtype=kl.LaneState,
                            device=ctx.device)
         fm = kl.flat_mesh(common[1], ig.tf_v)
 
         def launch(b: int) -> None:
             first, count = parts[b]
-            wp.launch(kernel, dim=lane_threads(count, lanes), device=ctx.device,
+            wp.launch(kernel, dim=kl.lane_threads(count, lanes), device=ctx.device,
                       inputs=common + [first, ids, state.rgb, state.trans, state.tcur, state.status, state.last,
                                        reentries, counters, b, segments, count, scratch, fm])
     else:
