@@ -75,6 +75,8 @@ PRODUCERS = (
                              "python scripts/bench_march.py scenes/bluntfin_close.toml --tf opaque --size 512 --repeat 3 "
                              "--lanes 0 --json docs/data/march_lanes.json"),
              "about 2.5 min at load 7-9 on 2 cores (2 views, 4 rounds of LANES=1 and the CPU's lanes)", 150),
+    Producer("reference_pace", ("python scripts/bench_reference.py --rounds 3 --docs",),
+             "about 40 s at load 5-5.6 on 2 cores (2 views, 512^2, 4 rounds of raycast and the reference)", 40),
     Producer("pt_spans", ("python scripts/bench_pt.py --spans --repeat 3 --json docs/data/pt_spans.json",),
              "about 12 min at load 5-7 on 2 cores (2 views x 3 transfer functions, 512^2, 4 rounds of 3 renderers)",
              720),
