@@ -26,7 +26,7 @@ mesh through one boundary face and enters again through the next, the pair of th
 
 import warp as wp
 
-from .raster import TriSetup, covers, interp_depth, screen_bary
+from .raster import TriSetup, edge_step_i, edge_step_j, edges_at, interp_depth, row_span, screen_bary
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})  # same roundings on CPU and CUDA
 
@@ -224,41 +224,48 @@ def k_indegree(dirs: wp.array2d(dtype=wp.int32), indeg: wp.array(dtype=wp.int32)
 
 @wp.kernel
 def k_boundary_count(s: TriSetup, width: int, pixel_counts: wp.array(dtype=wp.int32)):
-    """Face ``t`` (a set-up triangle): add one to ``pixel_counts`` at every pixel centre it covers (the
-    rasteriser's exact coverage test over its bounding box; no depth clip)."""
+    """Face ``t`` (a set-up triangle): add one to ``pixel_counts`` at every pixel centre it covers (each row of
+    its bounding box walked over its covered run, :func:`warpvol.kernels.raster.row_span`: the pixels the
+    rasteriser's exact coverage test passes; no depth clip)."""
     t = wp.tid()
     b = s.bbox[t]
-    x = s.sx[t]
-    y = s.sy[t]
-    bi = s.bias[t]
+    if b[2] < b[0] or b[3] < b[1]:  # culled or off screen
+        return
+    e = edges_at(s, t, b[0], b[1])
+    sj = edge_step_j(s, t)
+    si = edge_step_i(s, t)
     for i in range(b[1], b[3] + 1):
-        for j in range(b[0], b[2] + 1):
-            if covers(x, y, bi, j, i):
-                wp.atomic_add(pixel_counts, i * width + j, 1)
+        run = row_span(e, sj, b[2] - b[0] + 1)
+        e = e + si
+        for j in range(b[0] + run[0], b[0] + run[1] + 1):
+            wp.atomic_add(pixel_counts, i * width + j, 1)
 
 
 @wp.kernel
 def k_boundary_scatter(s: TriSetup, pos: wp.array(dtype=wp.vec4), width: int, counts: wp.array(dtype=wp.int32),
                        offsets: wp.array(dtype=wp.int32), cursor: wp.array(dtype=wp.int32),
                        prim: wp.array(dtype=wp.int32), depth: wp.array(dtype=wp.float32)):
-    """Face ``t``: at every pixel centre it covers that holds two or more fragments (``counts``; one alone
-    makes no pair), its index and its depth (the fragment depth of
+    """Face ``t``: at every pixel centre it covers (as :func:`k_boundary_count` walks them) that holds two or
+    more fragments (``counts``; one alone makes no pair), its index and its depth (the fragment depth of
     :func:`warpvol.kernels.raster_draw.k_tri_fragments`) in the pixel's next free slot from ``offsets[p]``.
     Atomics: one launch on the CPU (Warp's CPU atomics are plain read-modify-writes)."""
     t = wp.tid()
     b = s.bbox[t]
-    x = s.sx[t]
-    y = s.sy[t]
-    bi = s.bias[t]
+    if b[2] < b[0] or b[3] < b[1]:
+        return
     v = s.vidx[t]
+    e = edges_at(s, t, b[0], b[1])
+    sj = edge_step_j(s, t)
+    si = edge_step_i(s, t)
     for i in range(b[1], b[3] + 1):
-        for j in range(b[0], b[2] + 1):
-            if covers(x, y, bi, j, i):
-                p = i * width + j
-                if counts[p] > 1:
-                    k = offsets[p] + wp.atomic_add(cursor, p, 1)
-                    prim[k] = t
-                    depth[k] = interp_depth(pos, v, screen_bary(pos, v, float(j) + 0.5, float(i) + 0.5))
+        run = row_span(e, sj, b[2] - b[0] + 1)
+        e = e + si
+        for j in range(b[0] + run[0], b[0] + run[1] + 1):
+            p = i * width + j
+            if counts[p] > 1:
+                k = offsets[p] + wp.atomic_add(cursor, p, 1)
+                prim[k] = t
+                depth[k] = interp_depth(pos, v, screen_bary(pos, v, float(j) + 0.5, float(i) + 0.5))
 
 
 @wp.kernel
