@@ -319,15 +319,18 @@ class HarcState:
 
         self.n, self.device = n, device
         self.rgba = wp.empty(n, dtype=wp.vec4, device=device)
-        self.tcur = wp.empty(n, dtype=wp.float32, device=device)
+        self.tcur = (wp.array(np.zeros(n, np.float32), dtype=wp.float32, device=device, copy=False)  # (calloc'd)
+                     if on_host(device) else wp.empty(n, dtype=wp.float32, device=device))
         self.status = wp.empty(n, dtype=wp.int32, device=device)
         self.last = wp.empty(n, dtype=wp.int32, device=device)
         self.candidates = None  # the pixels a further pass looks at (the last pass's launched rays; None: all)
-        #: per pixel, the last pass's loop work: (cells visited, fragment-program steps; zeroed by each pass)
-        self.px_work = wp.empty(n, dtype=wp.vec2i, device=device)
+        #: per pixel, the last pass's loop work: (cells visited, fragment-program steps; zeroed by each pass). On the
+        #: CPU over calloc'd host memory: its pages are zeroed as a pass first writes them, not all up front
+        self.px_work = (wp.array(np.zeros((n, 2), np.int32), dtype=wp.vec2i, device=device, copy=False)
+                        if on_host(device) else wp.zeros(n, dtype=wp.vec2i, device=device))
+        self.work_clean = True  # px_work all zero (no pass has written it yet)
         if on_host(device):  # the host fills its views: a few memsets, no kernel over every pixel
             host_view(self.rgba).fill(0.0)
-            host_view(self.tcur).fill(0.0)
             host_view(self.status).fill(int(kh.STATUS_ACTIVE))
             host_view(self.last).fill(-1)
         else:
@@ -456,11 +459,12 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     from warpvol.kernels import harc as kh
 
     cells = ctx.buffers["cells"]
-    cam = camera_struct(ctx)
-    if state.candidates is None or not on_host(ctx.device):
-        state.px_work.zero_()
-    else:  # only the last pass's launched rays have work written
-        host_view(state.px_work)[state.candidates] = 0
+    if not state.work_clean:
+        if state.candidates is None or not on_host(ctx.device):
+            state.px_work.zero_()
+        else:  # only the last pass's launched rays have work written
+            host_view(state.px_work)[state.candidates] = 0
+    state.work_clean = False
     status = state.status.numpy()
     active = pass_rays(status, int(kh.STATUS_ACTIVE), int(kh.STATUS_DONE), face_reach(ctx, entry, setup),
                        state.candidates)
@@ -469,15 +473,25 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
     if not parts:
         return dict.fromkeys(COUNTER_NAMES, 0)
     counters = wp.zeros((len(parts), N_COUNTERS), dtype=wp.int32, device=ctx.device)
-    eye_w = wp.vec3(*np.asarray(ctx.scene.camera.eye, np.float64).astype(np.float32))
-    lists = kh.FragLists()
-    for name in ("frag_start", "frag_bf", "bf_tet", "bf_face", "bf_nbr", "far", "bf_depth", "edge_start", "edge_bf"):
-        setattr(lists, name, entry[name])
-    common = [cam, eye_w, mesh_tex, cell_mesh_struct(cells), lists, ig, get_format(fb_format).kernel_params(),
-              walk_opts(t_stop, max_steps, scalar_check, PEEL_TOL * cells["radius"])]
-    if segments is None:
-        segments = segments_struct(0, 0, ctx.device)
-    kernel = kh.march_kernel(WALKS[walk], SETUPS[setup], ig.mode, segments.cap > 0)  # this configuration's kernel
+    # the kernel's inputs that stay the same through a frame's passes: built by its first pass, kept on the state
+    key = (walk, setup, fb_format, float(t_stop), int(max_steps), int(scalar_check), id(mesh_tex), id(entry), id(ig),
+           id(segments))
+    kept = getattr(state, "pass_inputs", None)
+    if kept is not None and kept[0] == key:
+        common, segments, kernel = kept[1:]
+    else:
+        eye_w = wp.vec3(*np.asarray(ctx.scene.camera.eye, np.float64).astype(np.float32))
+        lists = kh.FragLists()
+        for name in ("frag_start", "frag_bf", "bf_tet", "bf_face", "bf_nbr", "far", "bf_depth", "edge_start",
+                     "edge_bf"):
+            setattr(lists, name, entry[name])
+        common = [camera_struct(ctx), eye_w, mesh_tex, cell_mesh_struct(cells), lists, ig,
+                  get_format(fb_format).kernel_params(),
+                  walk_opts(t_stop, max_steps, scalar_check, PEEL_TOL * cells["radius"])]
+        if segments is None:
+            segments = segments_struct(0, 0, ctx.device)
+        kernel = kh.march_kernel(WALKS[walk], SETUPS[setup], ig.mode, segments.cap > 0)  # this configuration's
+        state.pass_inputs = (key, common, segments, kernel)
 
     def launch(b: int) -> None:
         first, count = parts[b]
