@@ -19,7 +19,10 @@ vectorises (8 float32 lanes per AVX-512 instruction with LLVM's preferred 256-bi
    Gauss moments of :func:`~warpvol.kernels.integrate.integrate_piece` and the alpha polynomial of
    :func:`~warpvol.kernels.pt.exact_color`.
 
-A row's covered run all terminated is skipped as a whole, as there. Then one pass over the span's
+Each bin entry's triangle data (box, vertices, snapped vertices) is loaded two entries ahead and its vertices'
+attributes and positions one entry ahead, so their cache misses overlap the draw of the entries before. A span's
+lanes are filled from the row runs by counted selects over all lanes. A row's covered run all terminated is
+skipped as a whole, as there. Then one pass over the span's
 pixels, in order, does what stays per fragment: the early-termination test (a terminated pixel is
 skipped and counted in ``skipped``, as there), the counters, the blend and the termination bookkeeping. A *rare* fragment leaves the span for the one-fragment
 kernel's functions: a pixel centre outside the unsnapped triangle, whole
@@ -41,8 +44,7 @@ from .blend import ONE, ONE_MINUS_DST_ALPHA, ONE_MINUS_SRC_ALPHA, BlendState, bl
 from .integrate import GL3_W0, GL3_W1, GL3_X0, GL3_X2, THIN_DEPTH, one_minus_exp_neg_thin
 from .pt import CLAMP_ABS, CLAMP_REL, PERSP_EXACT, PERSP_OFF, exact_color, exact_color_upper, vec8f
 from .pt_draw import attribute_planes, clamp8, nearest_on_triangle, sfsbl_ray, span_done, zero_segments
-from .raster import TriSetup, edge_step_i, edge_step_j, edges_at, tile_rect, tile_span
-from .tf import tf_upper
+from .raster import SUBPIX64, TriSetup, edges_of, tile_rect, vec3l
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -133,6 +135,14 @@ def segment_bounds(lo: vec8f, hi: vec8f, mode: int) -> wp.vec4:
                    wp.max(wp.max(lo[0] * wf0, lo[0] * wf1), wp.max(hi[0] * wf0, hi[0] * wf1)),
                    wp.min(wp.min(lo[1] * wb0, lo[1] * wb1), wp.min(hi[1] * wb0, hi[1] * wb1)),
                    wp.max(wp.max(lo[1] * wb0, lo[1] * wb1), wp.max(hi[1] * wb0, hi[1] * wb1)))
+
+
+@wp.func
+def bin_entry(e0: int, ne: int, q: int, back: bool) -> int:
+    """The index in ``tri_of`` of a tile's ``q``-th bin entry (``e0``, ``ne`` entries; in reverse for ``back``, front
+    to back), ``q`` past the last taken as the last."""
+    k = wp.min(q, ne - 1)
+    return wp.where(back, e0 + ne - 1 - k, e0 + k)
 
 
 @wp.func
@@ -266,21 +276,71 @@ def span_kernel(lanes: int):
                 fo.done_rows[rows0 + r] = wp.uint64(0)
         e0 = s.tile_start[tile]
         ne = s.tile_end[tile] - e0
+        if ne == 0:
+            fo.counts[tile] = wp.vec2i(0, 0)
+            fo.skipped[tile] = wp.vec2i(0, 0)
+            fo.occluded[tile] = wp.vec3i(0, 0, 0)
+            return
+        # the bin entries' triangle data loaded ahead (their misses overlap the draw of the entries before):
+        # the triangle, its box, vertices and snapped vertices two entries ahead, the vertices' attributes and
+        # positions one entry ahead (the last entry's where there is none)
+        pf_t1 = s.tri_of[bin_entry(e0, ne, 0, term)]
+        pf_b1 = s.bbox[pf_t1]
+        pf_v1 = s.vidx[pf_t1]
+        pf_x1 = s.sx[pf_t1]
+        pf_y1 = s.sy[pf_t1]
+        pf_c1 = s.bias[pf_t1]
+        pf_t2 = s.tri_of[bin_entry(e0, ne, 1, term)]
+        pf_b2 = s.bbox[pf_t2]
+        pf_v2 = s.vidx[pf_t2]
+        pf_x2 = s.sx[pf_t2]
+        pf_y2 = s.sy[pf_t2]
+        pf_c2 = s.bias[pf_t2]
+        pf_n0 = fi.vattrs[pf_v1[0]]
+        pf_n1 = fi.vattrs[pf_v1[1]]
+        pf_n2 = fi.vattrs[pf_v1[2]]
+        pf_npa = fi.pos[pf_v1[0]]
+        pf_npb = fi.pos[pf_v1[1]]
+        pf_npc = fi.pos[pf_v1[2]]
         for q in range(ne):
             if term and done >= area:
                 ntail = ne - q
                 for q2 in range(q, ne):
                     fo.binned[tet0 + s.tri_of[e0 + ne - 1 - q2] / 4] = 1
                 break
-            e = e0 + q
-            if term:
-                e = e0 + ne - 1 - q
-            t = s.tri_of[e]
-            span = tile_span(s, t, rect)
-            j0 = span[0]
-            i0 = span[1]
-            j1 = span[2]
-            i1 = span[3]
+            t = pf_t1
+            tb = pf_b1
+            tsx = pf_x1
+            tsy = pf_y1
+            tbi = pf_c1
+            a0 = pf_n0
+            a1 = pf_n1
+            a2 = pf_n2
+            pa = pf_npa
+            pb = pf_npb
+            pc = pf_npc
+            pf_t1 = pf_t2
+            pf_b1 = pf_b2
+            pf_v1 = pf_v2
+            pf_x1 = pf_x2
+            pf_y1 = pf_y2
+            pf_c1 = pf_c2
+            pf_n0 = fi.vattrs[pf_v1[0]]
+            pf_n1 = fi.vattrs[pf_v1[1]]
+            pf_n2 = fi.vattrs[pf_v1[2]]
+            pf_npa = fi.pos[pf_v1[0]]
+            pf_npb = fi.pos[pf_v1[1]]
+            pf_npc = fi.pos[pf_v1[2]]
+            pf_t2 = s.tri_of[bin_entry(e0, ne, q + 2, term)]
+            pf_b2 = s.bbox[pf_t2]
+            pf_v2 = s.vidx[pf_t2]
+            pf_x2 = s.sx[pf_t2]
+            pf_y2 = s.sy[pf_t2]
+            pf_c2 = s.bias[pf_t2]
+            j0 = wp.max(tb[0], rect[0])  # tile_span
+            i0 = wp.max(tb[1], rect[1])
+            j1 = wp.min(tb[2], rect[2])
+            i1 = wp.min(tb[3], rect[3])
             if term:
                 fo.binned[tet0 + t / 4] = 1
             if j0 > j1 or i0 > i1:
@@ -291,30 +351,39 @@ def span_kernel(lanes: int):
                     continue
             if term:
                 fo.walked[tet0 + t / 4] = 1
-            v = s.vidx[t]
-            a0 = fi.vattrs[v[0]]
-            a1 = fi.vattrs[v[1]]
-            a2 = fi.vattrs[v[2]]
             lo = wp.min(a0, wp.min(a1, a2))
             hi = wp.max(a0, wp.max(a1, a2))
-            if zero_segments(lo, hi, mode, zero_lo, zero_hi):
+            # the segments' bounds (zero_segments' corners): the zero test and the control points reachable
+            sbd = segment_bounds(lo, hi, mode)
+            bounded = sbd[0] == sbd[0]  # (NaN: no bound)
+            zt = (sbd[1] <= zero_lo and sbd[3] <= zero_lo) or (sbd[0] >= zero_hi and sbd[2] >= zero_hi)
+            if not bounded:
+                zt = zero_segments(lo, hi, mode, zero_lo, zero_hi)
+            if zt:
                 nzt += 1
                 continue
-            pa = fi.pos[v[0]]
-            pb = fi.pos[v[1]]
-            pc = fi.pos[v[2]]
             g = attribute_planes(pa, pb, pc, a0, a1, a2)
             gx = g[0]
             gy = g[1]
             tol = CLAMP_REL * (hi - lo)
             # the control points the triangle's segments can reach: each end's tf_upper lies in [m_lo, m_hi]
             # (monotone in the scalar), so the lanes count only the points m_lo .. m_hi - 1
+            # (tf_upper of each bound: the points not above it, counted; no bound: every point counted)
             m_lo = int(0)
             m_hi = ntf_lanes
-            sbd = segment_bounds(lo, hi, mode)
-            if not many and sbd[0] == sbd[0]:  # (NaN: no bound; every point counted)
-                m_lo = wp.min(tf_upper(sbd[0], fi.tf_s), tf_upper(sbd[2], fi.tf_s))
-                m_hi = wp.max(tf_upper(sbd[1], fi.tf_s), tf_upper(sbd[3], fi.tf_s))
+            if not many and bounded:
+                u0 = int(0)
+                u1 = int(0)
+                u2 = int(0)
+                u3 = int(0)
+                for m in range(ntf):
+                    sm = fi.tf_s[m]
+                    u0 += wp.where(sm > sbd[0], 0, 1)
+                    u1 += wp.where(sm > sbd[1], 0, 1)
+                    u2 += wp.where(sm > sbd[2], 0, 1)
+                    u3 += wp.where(sm > sbd[3], 0, 1)
+                m_lo = wp.min(u0, u2)
+                m_hi = wp.max(u1, u3)
             p0 = wp.max(m_lo - 1, 0)  # the points below / above a scalar counted at m_lo / m_hi
             p1 = wp.min(m_hi, ntf - 1)
             # the unsnapped triangle's inside test (nearest_on_triangle's), per lane
@@ -323,9 +392,11 @@ def span_kernel(lanes: int):
             vx = pc[0] - pa[0]
             vy = pc[1] - pa[1]
             den = ux * vy - vx * uy
-            row = edges_at(s, t, j0, i0)
-            sj = edge_step_j(s, t)
-            si = edge_step_i(s, t)
+            row = edges_of(tsx, tsy, tbi, j0, i0)  # edges_at, edge_step_j, edge_step_i of the loaded vertices
+            sj = vec3l(-wp.int64(tsy[2] - tsy[1]) * SUBPIX64, -wp.int64(tsy[0] - tsy[2]) * SUBPIX64,
+                       -wp.int64(tsy[1] - tsy[0]) * SUBPIX64)
+            si = vec3l(wp.int64(tsx[2] - tsx[1]) * SUBPIX64, wp.int64(tsx[0] - tsx[2]) * SUBPIX64,
+                       wp.int64(tsx[1] - tsx[0]) * SUBPIX64)
             # the rows' runs stepped exactly with adds (edge_start / edge_next: row_span's runs)
             nrow = j1 - j0 + 1
             sj0 = sj[0]
@@ -354,23 +425,26 @@ def span_kernel(lanes: int):
                         ef0, er0 = edge_next(ef0, er0, eq0, es0, ed0)
                         ef1, er1 = edge_next(ef1, er1, eq1, es1, ed1)
                         ef2, er2 = edge_next(ef2, er2, eq2, es2, ed2)
-                        if term and cj <= ce:  # the run all terminated: skipped without a fragment
+                        if term and done > 0 and cj <= ce:  # the run all terminated: skipped without a fragment
                             rr = rows0 + ci - rect[1]
                             if span_done(fo.done_rows, rr, rr, cj - rect[0], ce - rect[0]):
                                 nskip += ce - cj + 1
                                 cj = ce + 1
                         continue
                     take = wp.min(L - n, ce - cj + 1)  # the run's next pixels (a terminated one: skipped below)
-                    for q in range(take):
-                        ii[n + q] = ci
-                        jj[n + q] = cj + q
+                    for l in range(L):  # lanes n .. n + take - 1 (all lanes: a counted loop)
+                        sel = l >= n and l < n + take
+                        ii[l] = wp.where(sel, ci, ii[l])
+                        jj[l] = wp.where(sel, cj + l - n, jj[l])
                     n += take
                     cj += take
                 if n == 0:
                     break
-                for l in range(n, L):  # lanes past the fragments: the last one's pixel (dropped)
-                    ii[l] = ii[n - 1]
-                    jj[l] = jj[n - 1]
+                il = ii[n - 1]
+                jl = jj[n - 1]
+                for l in range(L):  # lanes past the fragments: the last one's pixel (dropped)
+                    ii[l] = wp.where(l >= n, il, ii[l])
+                    jj[l] = wp.where(l >= n, jl, jj[l])
                 sfv = lanef()
                 sbv = lanef()
                 lv = lanef()
