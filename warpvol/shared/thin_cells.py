@@ -329,8 +329,12 @@ def edge_pixels(mesh, camera, tris: np.ndarray, nbr: np.ndarray, delta: float = 
     face = np.concatenate(face) if face else np.zeros(0, np.int64)
     key = np.unique(pix * (len(tris) + 1) + face)  # one pair per (pixel, face), grouped by pixel
     pix, face = key // (len(tris) + 1), key % (len(tris) + 1)
-    start = np.zeros(w * h + 1, np.int64)
-    np.cumsum(np.bincount(pix, minlength=w * h), out=start[1:])
+    # the CSR starts from the few listed pixels (sorted): start[q] = pairs of pixels below q, constant between
+    # listed pixels, so one repeat of the running counts (no bincount and sum over the window)
+    u, c = np.unique(pix, return_counts=True)
+    runs = np.diff(np.concatenate([[0], u + 1, [w * h + 1]]))
+    dtype = np.int32 if len(pix) < 2 ** 31 else np.int64  # (int32: what the kernels read, no conversion)
+    start = np.repeat(np.concatenate([[0], np.cumsum(c)]).astype(dtype), runs)
     return start, face
 
 
