@@ -54,9 +54,14 @@ class MarchState:
         from warpvol.kernels import raycast as k
 
         self.n, self.device = n, device
-        self.rgb = wp.empty(n, dtype=wp.vec3, device=device)
+        host = on_host(device)
+        # radiance and ray parameter start at 0: on the CPU over calloc'd host memory (zero pages until written;
+        # the image reads the written pixels only), no memset of the window
+        self.rgb = (wp.array(np.zeros((n, 3), np.float32), dtype=wp.vec3, device=device, copy=False) if host
+                    else wp.empty(n, dtype=wp.vec3, device=device))
         self.trans = wp.empty(n, dtype=wp.float32, device=device)
-        self.tcur = wp.empty(n, dtype=wp.float32, device=device)
+        self.tcur = (wp.array(np.zeros(n, np.float32), dtype=wp.float32, device=device, copy=False) if host
+                     else wp.empty(n, dtype=wp.float32, device=device))
         self.status = wp.empty(n, dtype=wp.int32, device=device)
         self.last = wp.empty(n, dtype=wp.int32, device=device)  # cell each ray last left
         self.active = n  # rays a further pass must search (set by each pass)
@@ -64,10 +69,8 @@ class MarchState:
         #: the pixels whose radiance or transmittance a kernel or the host may have written (the first pass's
         #: launched rays, each float64 redo's); None: any pixel (a pass launched every ray)
         self.touched: list | None = []
-        if on_host(device):  # the host fills its views: a few memsets, no kernel over every pixel
-            host_view(self.rgb).fill(0.0)
+        if host:  # the host fills its views: a few memsets, no kernel over every pixel
             host_view(self.trans).fill(1.0)
-            host_view(self.tcur).fill(0.0)
             host_view(self.status).fill(int(k.STATUS_ACTIVE))
             host_view(self.last).fill(-1)
         else:
