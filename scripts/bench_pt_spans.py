@@ -8,8 +8,9 @@ compiled, per-mesh data built). Per renderer: the median frame time and ``VTK PT
 this process), its fragments (integrated and blended) and ``ns per fragment`` (draw wall time / fragments;
 the draw includes the rasteriser's triangle set-up and binning), and ``us per cell`` of the per-cell work
 before the draw (the ``pt_project`` stage: classification, decomposition, projection; its time over the
-cells drawn), and the median time of each pipeline stage. ``--corner`` adds, per view, the camera looking at
-the corner of the mesh's bounds nearest its eye (part of the image empty: what a small frame costs). Both
+cells drawn), and the median time of each pipeline stage. ``--corner`` adds, per view, its corner view
+(``scripts/bench_skip.py``'s ``corner_view``: the mesh in a corner of the image, the rest empty; what a small
+frame costs). Both
 paths must give the same image bits (checked; a difference is an error). The load
 average is printed and written with every view. ``--json`` writes the rows with the commit, the command
 and the date.
@@ -80,21 +81,8 @@ def pt_best_renderer(scene, lanes: int, clock: DrawClock, stats: list):
     return render, lambda: last["res"]
 
 
-def corner_view(scene):
-    """The scene with its view turned so that the old image centre lies near the lower left corner (the
-    target moved by 0.8 of the half view extent along the camera's right and up; same eye): part of the
-    image empty, every cell still sorted and set up -- what a small frame costs."""
-    cam = scene.camera
-    dist = float(np.linalg.norm(np.asarray(cam.target, np.float64) - np.asarray(cam.eye, np.float64)))
-    half = dist * np.tan(np.radians(cam.fov_y_deg) / 2.0) if cam.projection == "perspective" else cam.ortho_height / 2
-    shift = 0.8 * half * (np.asarray(cam.right) + np.asarray(cam.true_up))
-    scene.camera = cam.replace(target=(np.asarray(cam.target, np.float64) + shift).tolist())
-    scene.name = f"{scene.name}_corner"
-    return scene
-
-
 def run_view(path: str, tf_name: str, size: int, repeat: int, corner: bool = False) -> dict:
-    from bench_skip import variant
+    from bench_skip import corner_view, variant
 
     from warpvol.scene.scene_file import load_scene
 
@@ -127,7 +115,8 @@ def run_view(path: str, tf_name: str, size: int, repeat: int, corner: bool = Fal
         raise SystemExit(f"{scene.name} {tf_name}: the two paths count differently")
     cells = int(a.report["counters"]["pt_project"]["tets_projected"])
     vtk_t = statistics.median(times["VTK PT"][1:])
-    row = {"scene": path, "view": "corner" if corner else "scene", "tf": tf_name, "visible_fraction": frac, "tets": scene.mesh.n_tets, "cells_drawn": cells,
+    row = {"scene": path, "view": "corner" if corner else "scene", "tf": tf_name, "visible_fraction": frac,
+           "tets": scene.mesh.n_tets, "cells_drawn": cells,
            "size": size, "repeat": repeat, "load": [load0, load1], "renderers": {}}
     print(f"\n{scene.name} {tf_name} ({scene.mesh.n_tets} tets, {cells} drawn, {size}x{size}), {repeat} interleaved "
           f"rounds after a warm-up; {load0} (start), {load1} (end)")
@@ -197,5 +186,5 @@ def add_arguments(ap) -> None:
     ap.add_argument("--tfs", nargs="+", default=["dense", "sparse", "opaque"])
     ap.add_argument("--json", default=None, help="write the rows here (e.g. docs/data/pt_spans.json)")
     ap.add_argument("--corner", action="store_true",
-                    help="each view also looking at the corner of the mesh's bounds nearest the eye (part of the "
-                         "image empty: a small frame's fixed costs)")
+                    help="each view also as its corner view (bench_skip.corner_view: the mesh in a corner of the "
+                         "image; a small frame's fixed costs)")
