@@ -299,6 +299,14 @@ def test_skip_json_supports_the_pages_reading_of_it():
             assert r[(v, "dense", p)] == pytest.approx(r[(v, "dense", f"{p} no-skip")], rel=0.1)
 
 
+def test_skip_small_json_supports_the_pages_reading_of_it():
+    """performance.md reads skip_small.json: both ray casters' lowest ratio is on the far corner view."""
+    rows = _table_rows("skip_small", "rows")
+    for p in ("raycast", "harc_best"):
+        r = {x["view"]: x["VTK PT / this"] for x in rows if x["renderer"] == p}
+        assert min(r, key=r.get) == "spx_corner", (p, r)
+
+
 def test_scaling_shell_exponents_are_the_slopes_of_its_points():
     import importlib.util
 
