@@ -356,12 +356,17 @@ def _entry_table(faces: tuple, wa: dict, view: _View, device: str, threads: int)
         pix = out[0].numpy()
         order = np.argsort(pix, kind="stable")
         ent_t, ent_tet = arr(out[1].numpy()[order], f64), arr(out[2].numpy()[order], wp.int32)
-        start = np.zeros(W * H + 1, dtype=np.int64)
-        np.cumsum(np.bincount(pix, minlength=W * H), out=start[1:])
+        # start[q]: the entries of pixels below q, constant between the pixels that have one: the running
+        # counts repeated over those runs (a short pixel list's few pixels: no bincount and sum over the view)
+        u, c = np.unique(pix, return_counts=True)
+        start = np.repeat(np.concatenate([[0], np.cumsum(c)]).astype(np.int64),
+                          np.diff(np.concatenate([[0], u + 1, [W * H + 1]])))
     else:
         ent_t, ent_tet = wp.zeros(1, dtype=f64, device=device), wp.zeros(1, dtype=wp.int32, device=device)
         start = np.zeros(W * H + 1, dtype=np.int64)
-    return dict(ent_start=arr(start, wp.int64), ent_t=ent_t, ent_tet=ent_tet, start=start,
+    # on the CPU the device array is ``start`` itself (kept alive by it, never written), not a copy
+    ent_start = wp.array(start, dtype=wp.int64, device=device, copy=not device.startswith("cpu"))
+    return dict(ent_start=ent_start, ent_t=ent_t, ent_tet=ent_tet, start=start,
                 n_ent=n_ent, n_box=_box_area(fbox) if nf else 0, n_exact=int(fexact.numpy()[:nf].sum()))
 
 
