@@ -9,10 +9,10 @@ rare; :func:`make_lane_io` splits :func:`warpvol.kernels.raycast.make_march`'s `
 
 import warp as wp
 
-from .cellwalk import CellMesh, RayCamera, Segments, WalkOpts, add_under_tr, clipped_segment, put_segment
+from .cellwalk import CellMesh, RayCamera, Segments, WalkOpts, add_under_tr, clipped_segment
 from .harc_integ import Integ
 from .integrate import exp_neg, integrate_piece, integrate_segment_tf
-from .raycast import STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, EntryBins, march_kernel, ray_entry
+from .raycast import STATUS_ACTIVE, STATUS_DONE, EntryBins, march_kernel, ray_entry
 from .tf import tf_eval, tf_eval_upper, tf_upper, tf_upper_from
 from .walk import (
     STALL_STEPS,
@@ -265,6 +265,7 @@ def make_lane_io(segs: bool = False, LANES: int = 1):
     search and the walk's set-up into a :class:`LaneState` in ``scratch``) until one has a walk, ``lane_done``
     writes a walked entry back (``segs``: its segment too) and makes the ray's re-entries (scalar)."""
     march_ray = march_kernel(segs).march_ray  # the scalar entry and walk, for the re-entries
+    ray_done = march_kernel(segs).ray_done  # its write-back
 
     @wp.func
     def lane_entry(idx: int, cam: RayCamera, mesh: CellMesh, bins: EntryBins, ig: Integ, opts: WalkOpts,
@@ -303,43 +304,6 @@ def make_lane_io(segs: bool = False, LANES: int = 1):
         return ls
 
     @wp.func
-    def lane_finish(ls: LaneState, opts: WalkOpts, st_rgb: wp.array(dtype=wp.vec3), trans: wp.array(dtype=float),
-                    tcur: wp.array(dtype=float), status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32),
-                    counters: wp.array2d(dtype=wp.int32), chunk: int, sg: Segments):
-        """``march_ray``'s write-back of a walked entry."""
-        idx = ls.idx
-        acc = ls.acc
-        tr = acc[3]
-        wp.atomic_add(counters, chunk, 1, ls.cells)
-        if ls.failed == 1:
-            status[idx] = STATUS_FAILED
-            wp.atomic_add(counters, chunk, 3, 1)
-            if ls.thin == 1:
-                wp.atomic_add(counters, chunk, 5, 1)
-            return
-        if wp.static(segs):
-            put_segment(sg, idx, wp.max(ls.best_t, ls.t_clip), ls.t_in, ls.own)
-        t_in = ls.t_in
-        flat = ls.flat
-        st_rgb[idx] = wp.vec3(acc[0], acc[1], acc[2])
-        trans[idx] = tr
-        tcur[idx] = t_in
-        last[idx] = ls.cell
-        if t_in > ls.best_t:
-            flat = 0
-        status[idx] = STATUS_ACTIVE + 4 * flat
-        if ls.exited == 0:
-            status[idx] = STATUS_DONE
-            if tr >= opts.t_stop:
-                wp.atomic_add(counters, chunk, 2, 1)
-            else:
-                wp.atomic_add(counters, chunk, 6, 1)
-        elif t_in >= ls.t_end:
-            status[idx] = STATUS_DONE
-        elif not (ls.far_t > t_in - opts.t_tol):
-            status[idx] = STATUS_DONE
-
-    @wp.func
     def lane_entry_at(scratch: wp.array(dtype=LaneState), slot: int, idx: int, cam: RayCamera, mesh: CellMesh,
                       bins: EntryBins, ig: Integ, opts: WalkOpts, st_rgb: wp.array(dtype=wp.vec3),
                       trans: wp.array(dtype=float), tcur: wp.array(dtype=float), status: wp.array(dtype=wp.int32),
@@ -358,11 +322,15 @@ def make_lane_io(segs: bool = False, LANES: int = 1):
                        st_rgb: wp.array(dtype=wp.vec3), trans: wp.array(dtype=float), tcur: wp.array(dtype=float),
                        status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32),
                        counters: wp.array2d(dtype=wp.int32), chunk: int, sg: Segments) -> int:
-        """``lane_finish`` of the lane in ``scratch[slot]`` if its entry was made; its ray's pixel."""
-        ls = scratch[slot]
-        if ls.entered == 1:
-            lane_finish(ls, opts, st_rgb, trans, tcur, status, last, counters, chunk, sg)
-        return ls.idx
+        """``march_ray``'s write-back (``ray_done``) of the lane in ``scratch[slot]`` if its entry was made, its
+        fields read one by one (no :class:`LaneState` copy); its ray's pixel."""
+        idx = scratch[slot].idx
+        if scratch[slot].entered == 1:
+            ray_done(idx, scratch[slot].acc, scratch[slot].t_in, scratch[slot].cell, scratch[slot].cells,
+                     scratch[slot].failed, scratch[slot].exited, scratch[slot].thin, scratch[slot].own,
+                     scratch[slot].best_t, scratch[slot].t_clip, scratch[slot].t_end, scratch[slot].far_t,
+                     scratch[slot].flat, opts, st_rgb, trans, tcur, status, last, counters, chunk, sg)
+        return idx
 
     @wp.func
     def lane_done(scratch: wp.array(dtype=LaneState), slot: int, cam: RayCamera, mesh: CellMesh, bins: EntryBins,

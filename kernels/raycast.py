@@ -210,23 +210,14 @@ def make_march(segs: bool = False):
     walk = make_walk(False, False, INTEG_EXACT, segs)
 
     @wp.func
-    def march_ray(idx: int, cam: RayCamera, mesh: CellMesh, bins: EntryBins, ig: Integ, opts: WalkOpts,
-                  st_rgb: wp.array(dtype=wp.vec3), trans: wp.array(dtype=float), tcur: wp.array(dtype=float),
-                  status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32), counters: wp.array2d(dtype=wp.int32),
-                  chunk: int, entry_col: int, sg: Segments):
-        """One entry of pixel ``idx``'s ray: the search for its next entry beyond ``tcur[idx]``, the walk from
-        there to where it leaves the (visible) mesh, the state written back (see :func:`march`). The entry is
-        counted in ``counters[chunk, entry_col]``."""
-        r, t_clip, t_end, cell, face_in, fc, best_t, best_s, far_t, flat = ray_entry(
-            idx, cam, mesh, bins, opts, tcur, status, last, counters, chunk, entry_col)
-        if cell < 0:
-            return  # (the ray's status is written)
-
-        # ---- walk through the cell adjacency ----
-        c = st_rgb[idx]
-        acc, t_in, cell, steps, cells, failed, exited, thin, backward, fetches, own = walk(
-            cell, face_in, fc, best_t, best_s, wp.vec4(c[0], c[1], c[2], trans[idx]), r, r.o, r.d, t_clip,
-            float(cam.radius), mesh, MeshTex(), ig, opts, counters, chunk)
+    def ray_done(idx: int, acc: wp.vec4, t_in: float, cell: int, cells: int, failed: int, exited: int, thin: int,
+                 own: wp.vec4, best_t: float, t_clip: float, t_end: float, far_t: float, flat: int, opts: WalkOpts,
+                 st_rgb: wp.array(dtype=wp.vec3), trans: wp.array(dtype=float), tcur: wp.array(dtype=float),
+                 status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32), counters: wp.array2d(dtype=wp.int32),
+                 chunk: int, sg: Segments):
+        """The write-back of a walked entry of pixel ``idx`` (``march_ray``'s and the lane march's): colour and
+        transmittance ``acc``, ray parameter, cell and status (failed: redone in float64; done: stopped, or no
+        further entry possible), the counters (steps, failed, thin, stopped), and (``segs``) its segment."""
         tr = acc[3]
         wp.atomic_add(counters, chunk, 1, cells)
         if failed == 1:
@@ -256,6 +247,27 @@ def make_march(segs: bool = False):
             # the next search would test these faces (or faces bounded in depth before t_in) with the same
             # float32 numbers and find none beyond t_in - t_tol (it also skips the cell just left): skip it
             status[idx] = STATUS_DONE
+
+    @wp.func
+    def march_ray(idx: int, cam: RayCamera, mesh: CellMesh, bins: EntryBins, ig: Integ, opts: WalkOpts,
+                  st_rgb: wp.array(dtype=wp.vec3), trans: wp.array(dtype=float), tcur: wp.array(dtype=float),
+                  status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32), counters: wp.array2d(dtype=wp.int32),
+                  chunk: int, entry_col: int, sg: Segments):
+        """One entry of pixel ``idx``'s ray: the search for its next entry beyond ``tcur[idx]``, the walk from
+        there to where it leaves the (visible) mesh, the state written back (see :func:`march`). The entry is
+        counted in ``counters[chunk, entry_col]``."""
+        r, t_clip, t_end, cell, face_in, fc, best_t, best_s, far_t, flat = ray_entry(
+            idx, cam, mesh, bins, opts, tcur, status, last, counters, chunk, entry_col)
+        if cell < 0:
+            return  # (the ray's status is written)
+
+        # ---- walk through the cell adjacency ----
+        c = st_rgb[idx]
+        acc, t_in, cell, steps, cells, failed, exited, thin, backward, fetches, own = walk(
+            cell, face_in, fc, best_t, best_s, wp.vec4(c[0], c[1], c[2], trans[idx]), r, r.o, r.d, t_clip,
+            float(cam.radius), mesh, MeshTex(), ig, opts, counters, chunk)
+        ray_done(idx, acc, t_in, cell, cells, failed, exited, thin, own, best_t, t_clip, t_end, far_t, flat, opts, st_rgb,
+                 trans, tcur, status, last, counters, chunk, sg)
 
     @wp.kernel(module="unique", module_options=MARCH_OPTIONS)
     def march(cam: RayCamera, mesh: CellMesh, bins: EntryBins, ig: Integ, opts: WalkOpts, first: int,
@@ -287,6 +299,7 @@ def make_march(segs: bool = False):
             wp.atomic_add(counters, chunk, 4, 1)  # rays a further pass must search
 
     march.march_ray = march_ray  # (for the lane kernels of warpvol.kernels.lanes)
+    march.ray_done = ray_done
     return march
 
 
