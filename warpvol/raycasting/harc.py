@@ -318,7 +318,8 @@ class HarcState:
         from warpvol.kernels import harc as kh
 
         self.n, self.device = n, device
-        self.rgba = wp.empty(n, dtype=wp.vec4, device=device)
+        self.rgba = (wp.array(np.zeros((n, 4), np.float32), dtype=wp.vec4, device=device, copy=False)  # (calloc'd)
+                     if on_host(device) else wp.empty(n, dtype=wp.vec4, device=device))
         self.tcur = (wp.array(np.zeros(n, np.float32), dtype=wp.float32, device=device, copy=False)  # (calloc'd)
                      if on_host(device) else wp.empty(n, dtype=wp.float32, device=device))
         self.status = wp.empty(n, dtype=wp.int32, device=device)
@@ -330,7 +331,6 @@ class HarcState:
                         if on_host(device) else wp.zeros(n, dtype=wp.vec2i, device=device))
         self.work_clean = True  # px_work all zero (no pass has written it yet)
         if on_host(device):  # the host fills its views: a few memsets, no kernel over every pixel
-            host_view(self.rgba).fill(0.0)
             host_view(self.status).fill(int(kh.STATUS_ACTIVE))
             host_view(self.last).fill(-1)
         else:
