@@ -12,7 +12,7 @@ def kernel_modules() -> list:
     """Every Warp module (``warp`` ``Module`` objects) that defines kernels: one per file of this package
     that has kernels, one per HARC march configuration (:func:`warpvol.kernels.harc.march_kernel`,
     each a module of its own, and ``harc_best``'s with segments) and one per ``raycast`` march configuration
-    (:func:`warpvol.kernels.raycast.march_kernel`), and the lane march of one lane
+    (:func:`warpvol.kernels.raycast.march_kernel`), and the lane march of one lane, raycast's and harc_best's
     (:func:`warpvol.kernels.lanes_march.march_lanes_kernel`). Files that define only ``@wp.func`` s are compiled through the kernels that
     call them."""
     import importlib
@@ -44,4 +44,5 @@ def kernel_modules() -> list:
     from . import lanes_march
 
     out.append(lanes_march.march_lanes_kernel(1).module)  # (the lane march as CUDA would build it: one ray per thread)
+    out.append(lanes_march.march_lanes_kernel(1, harc=True).module)  # (harc_best's)
     return out

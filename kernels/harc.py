@@ -76,7 +76,7 @@ from .formats import NumFmt, fmt_quantize
 from .harc_integ import INTEG_EXACT, Integ, integrate_sub, segment, segments_kernel  # noqa: F401 (re-exported)
 from .harc_walk import composite, nearest_in_rings, nearest_listed, ring_search  # noqa: F401 (composite: re-exported)
 from .raycast import STATUS_ACTIVE, STATUS_DONE, STATUS_FAILED, depth_before
-from .walk import Face, boundary_face, face_hit
+from .walk import Face, Ray, boundary_face, face_hit
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
@@ -149,6 +149,132 @@ def no_face_around(px: int, py: int, width: int, height: int, frag_start: wp.arr
     return True
 
 
+@wp.func
+def plucker_start(idx: int, cam: RayCamera, mesh: CellMesh, lists: FragLists, opts: WalkOpts,
+                  tcur: wp.array(dtype=float), status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32),
+                  counters: wp.array2d(dtype=wp.int32), chunk: int):
+    """The ray start of the consistent walk (``WALK_PLUCKER``, robust set-up) for active pixel ``idx``: its float64
+    ray, the first rasterised front boundary face it crosses beyond ``tcur[idx]`` (the peel test), found by the
+    consistent edge test (see the module docstring: the faces around a rejected one, the 8 neighbours' lists, the
+    open-edge faces), counted. Returns ``(ray, t_clip, cell, local face, Face, t, scalar)``; ``cell`` -1: no walk
+    (the ray's status is written: done, or failed for the float64 redo). Used by :func:`make_march`'s kernel and
+    by the lane march (:mod:`warpvol.kernels.harc_lanes`)."""
+    py = idx // cam.width
+    px = idx - py * cam.width
+    r, t_clip, t_end = camera_ray(px, py, cam)
+    if t_end < t_clip:
+        status[idx] = STATUS_DONE
+        return r, t_clip, -1, -1, Face(), 0.0, 0.0
+    t_start = tcur[idx]
+    prev = last[idx]
+    if no_face_around(px, py, cam.width, cam.height, lists.frag_start, lists.edge_start):
+        # no face listed at this pixel, its 8 neighbours or its open edges: the search below finds no entry
+        if t_clip > 0.0:
+            status[idx] = STATUS_FAILED  # (as below: an eye inside the mesh is traced in float64)
+            wp.atomic_add(counters, chunk, 3, 1)
+            wp.atomic_add(counters, chunk, 12, 1)
+        else:
+            status[idx] = STATUS_DONE
+        return r, t_clip, -1, -1, Face(), 0.0, 0.0
+
+    # ---- ray start: the first rasterised front boundary face beyond the last exit (peel test) ----
+    cell = int(-1)
+    face_in = int(-1)
+    t_in = float(0.0)
+    s_in = float(0.0)
+    fc = Face()
+    entry_failed = int(0)
+    rescan = int(0)
+    rejected = int(-1)
+    edge_entry = int(0)
+    for it in range(lists.frag_start[idx], lists.frag_start[idx + 1]):
+        b = int(lists.frag_bf[it])
+        c = int(lists.bf_tet[b])
+        f = int(lists.bf_face[b])
+        if c == prev:
+            continue
+        cand = boundary_face(mesh.tets[c], f, mesh.verts, r)
+        ok, t, s = face_hit(cand)
+        if not ok:
+            # the rasteriser's snapped coverage and the edge test disagree (pixel centre within
+            # 1/256 pixel of a projected edge): the ray crosses a face around this one, found
+            # among its edge neighbours and theirs on the front boundary
+            wp.atomic_add(counters, chunk, 7, 1)
+            if prev >= 0:
+                # a re-entry (peel pass): at a crack the faces around belong to other cells,
+                # whose surface neighbours do not reach the crossed face; the exact face test over
+                # the lists of this pixel and its 8 neighbours and the rejected face's rings decides
+                # (below)
+                rescan = 1
+                rejected = b
+            else:
+                b2, ok, t, s = ring_search(b, lists.bf_tet, lists.bf_face, lists.bf_nbr, mesh.tets, mesh.verts, r)
+                if ok:
+                    c = int(lists.bf_tet[b2])
+                    f = int(lists.bf_face[b2])
+                    cand = boundary_face(mesh.tets[c], f, mesh.verts, r)
+        if ok:
+            if t > t_start - opts.t_tol and c != prev:
+                cell = c
+                face_in = f
+                t_in = wp.max(t, t_start)
+                s_in = s
+                fc = cand
+                break
+        else:
+            if rescan == 0:
+                entry_failed = 1  # no face around crosses either: resolved in float64 on the host
+            break
+    # faces wholly before the search's start are left untested (their crossings lie before it)
+    z_lo = depth_before(r, wp.vec3(float(cam.fwd[0]), float(cam.fwd[1]), float(cam.fwd[2])), t_start - opts.t_tol,
+                        float(cam.radius))
+    if cell < 0 and entry_failed == 0:
+        # no face of this pixel's list is crossed beyond the last exit: where the snapped coverage of a
+        # layer leaves a hole at the pixel centre (an inner silhouette within 1/256 pixel) the crossed
+        # face is listed at a neighbouring pixel; the exact (consistent) face test over the 8
+        # neighbours' lists finds it
+        for nb in range(9):
+            qx = px + (nb % 3) - 1
+            qy = py + (nb // 3) - 1
+            # (this pixel's own list too after a rejected face: its later faces were not tested)
+            q = qy * cam.width + qx
+            if (nb != 4 or rescan == 1) and qx >= 0 and qy >= 0 and qx < cam.width and qy < cam.height and \
+                    lists.frag_start[q] < lists.frag_start[q + 1]:  # (an empty list: no call)
+                cell, face_in, t_in, s_in, fc = nearest_listed(
+                    lists.frag_start[q], lists.frag_start[q + 1], lists.frag_bf, lists.bf_tet, lists.bf_face, lists.bf_depth, z_lo, mesh.tets, mesh.verts, r,
+                    prev, t_start, opts.t_tol, cell, face_in, t_in, s_in, fc)
+        if rejected >= 0:
+            # a sliver beside the rejected face (the boundary of the visible cells has many) may be listed
+            # at no pixel around: its surface rings
+            cell, face_in, t_in, s_in, fc = nearest_in_rings(
+                rejected, lists.bf_tet, lists.bf_face, lists.bf_nbr, mesh.tets, mesh.verts, r, prev, t_start, opts.t_tol, cell, face_in, t_in,
+                s_in, fc)
+    if entry_failed == 0 and lists.edge_start[idx] < lists.edge_start[idx + 1]:
+        # the faces whose open edge (silhouette, outline of a part) passes within 1/64 pixel of the centre,
+        # tested exactly: the snapped coverage can leave such a face out with a deeper layer (or nothing)
+        # listed in its place -- a cell smaller than the snapping, a face seen edge-on
+        c0 = cell
+        t0 = t_in
+        cell, face_in, t_in, s_in, fc = nearest_listed(
+            lists.edge_start[idx], lists.edge_start[idx + 1], lists.edge_bf, lists.bf_tet, lists.bf_face, lists.bf_depth, z_lo, mesh.tets, mesh.verts, r,
+            prev, t_start, opts.t_tol, cell, face_in, t_in, s_in, fc)
+        if cell != c0 or t_in != t0:
+            edge_entry = 1
+    if entry_failed == 1 or t_clip > 0.0:
+        status[idx] = STATUS_FAILED
+        wp.atomic_add(counters, chunk, 3, 1)
+        if t_clip > 0.0:
+            wp.atomic_add(counters, chunk, 12, 1)
+        return r, t_clip, -1, -1, Face(), 0.0, 0.0
+    if cell < 0:
+        status[idx] = STATUS_DONE
+        return r, t_clip, -1, -1, Face(), 0.0, 0.0
+    wp.atomic_add(counters, chunk, 0, 1)
+    if edge_entry == 1:
+        wp.atomic_add(counters, chunk, 10, 1)
+    return r, t_clip, cell, face_in, fc, t_in, s_in
+
+
 #: the kernels' module options (``fuse_fp`` off: no contraction into fused multiply-adds, the arithmetic as written)
 MARCH_OPTIONS = {"enable_backward": False, "fuse_fp": False}
 
@@ -181,190 +307,22 @@ def make_march(walk: int, setup: int, mode: int, segs: bool = False):
 
     walk_cells = make_walk(planes, paper, mode, segs=segs, clip=False)  # (a ray starting inside the sphere is failed first)
 
-    @wp.kernel(module="unique", module_options=MARCH_OPTIONS)
-    def harc_march(
-        cam: RayCamera,
-        eye_w: wp.vec3,
-        mt: MeshTex,
-        mesh: CellMesh,
-        lists: FragLists,
-        ig: Integ,
-        fb: NumFmt,
-        opts: WalkOpts,
-        first: int,
-        ids: wp.array(dtype=wp.int32),
-        rgba: wp.array(dtype=wp.vec4),
-        tcur: wp.array(dtype=float),
-        status: wp.array(dtype=wp.int32),
-        last: wp.array(dtype=wp.int32),
-        counters: wp.array2d(dtype=wp.int32),
-        chunk: int,
-        px_work: wp.array(dtype=wp.vec2i),
-        sg: Segments,
-    ):
-        tid = wp.tid()
-        idx = first + tid  # the pixels first .. (all rays of the image active)
-        if ids.shape[0] > 0:
-            idx = ids[first + tid]  # the active rays' pixels ids[first ..] (a re-entry pass)
-        if status[idx] != STATUS_ACTIVE:
-            return
-        py = idx // cam.width
-        px = idx - py * cam.width
-        r, t_clip, t_end = camera_ray(px, py, cam)
-        o = r.o
-        d = r.d
-        if wp.static(paper):
-            # the paper's fragment program: the ray from the eye in fp32, nothing clipped or culled
-            o, d = paper_ray(px, py, cam.width, cam.height, eye_w, cam.fwd, cam.right, cam.up, cam.ortho, cam.half_h,
-                              cam.aspect)
-            t_clip = 0.0
-        else:
-            if t_end < t_clip:
-                status[idx] = STATUS_DONE
-                return
-        t_start = tcur[idx]
-        prev = last[idx]
-        if no_face_around(px, py, cam.width, cam.height, lists.frag_start, lists.edge_start):
-            # no face listed at this pixel, its 8 neighbours or its open edges: the search below finds no entry
-            if t_clip > 0.0:
-                status[idx] = STATUS_FAILED  # (as below: an eye inside the mesh is traced in float64)
-                wp.atomic_add(counters, chunk, 3, 1)
-                wp.atomic_add(counters, chunk, 12, 1)
-            else:
-                status[idx] = STATUS_DONE
-            return
-
-        # ---- ray start: the first rasterised front boundary face beyond the last exit (peel test) ----
-        cell = int(-1)
-        face_in = int(-1)
-        t_in = float(0.0)
-        s_in = float(0.0)
-        fc = Face()
-        entry_failed = int(0)
-        rescan = int(0)
-        rejected = int(-1)
-        edge_entry = int(0)
-        for it in range(lists.frag_start[idx], lists.frag_start[idx + 1]):
-            b = int(lists.frag_bf[it])
-            c = int(lists.bf_tet[b])
-            f = int(lists.bf_face[b])
-            if c == prev:
-                continue
-            if wp.static(planes):
-                p = plane_of(mt, c, f)
-                lam = plane_lambda(p, o, d)
-                if wp.static(paper):
-                    if not wp.isfinite(lam):
-                        entry_failed = 1  # the entry face's plane gives no ray parameter: the ray is lost
-                        break
-                if lam > t_start - opts.t_tol:
-                    cell = c
-                    face_in = f
-                    t_in = wp.max(lam, t_start)
-                    s_in = grad_scalar(cell_texel(mt, mt.grad, c), o + d * t_in)
-                    break
-            else:
-                cand = boundary_face(mesh.tets[c], f, mesh.verts, r)
-                ok, t, s = face_hit(cand)
-                if not ok:
-                    # the rasteriser's snapped coverage and the edge test disagree (pixel centre within
-                    # 1/256 pixel of a projected edge): the ray crosses a face around this one, found
-                    # among its edge neighbours and theirs on the front boundary
-                    wp.atomic_add(counters, chunk, 7, 1)
-                    if prev >= 0:
-                        # a re-entry (peel pass): at a crack the faces around belong to other cells,
-                        # whose surface neighbours do not reach the crossed face; the exact face test over
-                        # the lists of this pixel and its 8 neighbours and the rejected face's rings decides
-                        # (below)
-                        rescan = 1
-                        rejected = b
-                    else:
-                        b2, ok, t, s = ring_search(b, lists.bf_tet, lists.bf_face, lists.bf_nbr, mesh.tets, mesh.verts, r)
-                        if ok:
-                            c = int(lists.bf_tet[b2])
-                            f = int(lists.bf_face[b2])
-                            cand = boundary_face(mesh.tets[c], f, mesh.verts, r)
-                if ok:
-                    if t > t_start - opts.t_tol and c != prev:
-                        cell = c
-                        face_in = f
-                        t_in = wp.max(t, t_start)
-                        s_in = s
-                        fc = cand
-                        break
-                else:
-                    if rescan == 0:
-                        entry_failed = 1  # no face around crosses either: resolved in float64 on the host
-                    break
-        if wp.static(not planes):
-            # faces wholly before the search's start are left untested (their crossings lie before it)
-            z_lo = depth_before(r, wp.vec3(float(cam.fwd[0]), float(cam.fwd[1]), float(cam.fwd[2])), t_start - opts.t_tol,
-                                float(cam.radius))
-            if cell < 0 and entry_failed == 0:
-                # no face of this pixel's list is crossed beyond the last exit: where the snapped coverage of a
-                # layer leaves a hole at the pixel centre (an inner silhouette within 1/256 pixel) the crossed
-                # face is listed at a neighbouring pixel; the exact (consistent) face test over the 8
-                # neighbours' lists finds it
-                for nb in range(9):
-                    qx = px + (nb % 3) - 1
-                    qy = py + (nb // 3) - 1
-                    # (this pixel's own list too after a rejected face: its later faces were not tested)
-                    q = qy * cam.width + qx
-                    if (nb != 4 or rescan == 1) and qx >= 0 and qy >= 0 and qx < cam.width and qy < cam.height and \
-                            lists.frag_start[q] < lists.frag_start[q + 1]:  # (an empty list: no call)
-                        cell, face_in, t_in, s_in, fc = nearest_listed(
-                            lists.frag_start[q], lists.frag_start[q + 1], lists.frag_bf, lists.bf_tet, lists.bf_face, lists.bf_depth, z_lo, mesh.tets, mesh.verts, r,
-                            prev, t_start, opts.t_tol, cell, face_in, t_in, s_in, fc)
-                if rejected >= 0:
-                    # a sliver beside the rejected face (the boundary of the visible cells has many) may be listed
-                    # at no pixel around: its surface rings
-                    cell, face_in, t_in, s_in, fc = nearest_in_rings(
-                        rejected, lists.bf_tet, lists.bf_face, lists.bf_nbr, mesh.tets, mesh.verts, r, prev, t_start, opts.t_tol, cell, face_in, t_in,
-                        s_in, fc)
-            if entry_failed == 0 and lists.edge_start[idx] < lists.edge_start[idx + 1]:
-                # the faces whose open edge (silhouette, outline of a part) passes within 1/64 pixel of the centre,
-                # tested exactly: the snapped coverage can leave such a face out with a deeper layer (or nothing)
-                # listed in its place -- a cell smaller than the snapping, a face seen edge-on
-                c0 = cell
-                t0 = t_in
-                cell, face_in, t_in, s_in, fc = nearest_listed(
-                    lists.edge_start[idx], lists.edge_start[idx + 1], lists.edge_bf, lists.bf_tet, lists.bf_face, lists.bf_depth, z_lo, mesh.tets, mesh.verts, r,
-                    prev, t_start, opts.t_tol, cell, face_in, t_in, s_in, fc)
-                if cell != c0 or t_in != t0:
-                    edge_entry = 1
-        if wp.static(paper):
-            if entry_failed == 1:
-                status[idx] = STATUS_LOST
-                wp.atomic_add(counters, chunk, 3, 1)
-                return
-        if entry_failed == 1 or t_clip > 0.0:
-            status[idx] = STATUS_FAILED
-            wp.atomic_add(counters, chunk, 3, 1)
-            if t_clip > 0.0:
-                wp.atomic_add(counters, chunk, 12, 1)
-            return
-        if cell < 0:
-            status[idx] = STATUS_DONE
-            return
-        wp.atomic_add(counters, chunk, 0, 1)
-        if edge_entry == 1:
-            wp.atomic_add(counters, chunk, 10, 1)
-
-        # ---- propagation: one cell per fragment-program step (Fig. 6), the shared walk ----
-        acc = rgba[idx]
-        if wp.static(fused):
-            acc = wp.vec4(acc[0], acc[1], acc[2], 1.0 - acc[3])  # the exact Plücker walk carries (rgb, tr)
-        t_front = t_in  # the entry's ray parameter (its segment's front)
-        acc, t_in, cell, steps, cells_visited, failed, exited, thin, backward, fetches, own = walk_cells(
-            cell, face_in, fc, t_in, s_in, acc, r, o, d, t_clip, float(cam.radius), mesh, mt, ig, opts, counters,
-            chunk)
+    @wp.func
+    def ray_done(idx: int, r: Ray, acc: wp.vec4, own: wp.vec4, t_front: float, t_in: float, cell: int, steps: int,
+                 cells_visited: int, failed: int, exited: int, thin: int, backward: int, fb: NumFmt, opts: WalkOpts,
+                 far: wp.array(dtype=float), rgba: wp.array(dtype=wp.vec4), tcur: wp.array(dtype=float),
+                 status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32), counters: wp.array2d(dtype=wp.int32),
+                 chunk: int, px_work: wp.array(dtype=wp.vec2i), sg: Segments):
+        """The write-back of pixel ``idx``'s walked entry (``acc`` as the walk carries it: ``(rgb, tr)`` for the
+        exact Plücker walk, ``RGBA`` otherwise; ``t_front`` the entry's ray parameter, the rest the walk's results):
+        the counters, ``px_work``, status (failed: the float64 redo; lost; done), the pass's result in the frame
+        buffer's format, ray parameter and cell, and (``segs``) the segment. ``far``: the lists' re-entry bound."""
         tr_left = float(0.0)  # the transmittance left (the early-termination test's, as the walk computed it)
         if wp.static(fused):
             tr_left = acc[3]
             acc = wp.vec4(acc[0], acc[1], acc[2], 1.0 - acc[3])
         else:
             tr_left = 1.0 - acc[3]
-            wp.atomic_add(counters, chunk, 6, fetches)
         wp.atomic_add(counters, chunk, 1, steps)
         wp.atomic_add(counters, chunk, 2, cells_visited)
         px_work[idx] = wp.vec2i(cells_visited, steps)  # this pixel's loop work in this pass (one thread per pixel)
@@ -395,7 +353,7 @@ def make_march(walk: int, setup: int, mode: int, segs: bool = False):
             # every face a re-entry search can reach (this pixel's list, its neighbours' lists, their surface
             # rings) lies within `far` of the eye (host bound with a rounding margin): a ray leaving the mesh
             # beyond it cannot re-enter, so it is done now and no further pass launches it
-            if exited == 1 and t_in + wp.dot(r.back, r.d) > lists.far[idx]:
+            if exited == 1 and t_in + wp.dot(r.back, r.d) > far[idx]:
                 status[idx] = STATUS_DONE
         if exited == 0:
             status[idx] = STATUS_DONE
@@ -406,6 +364,122 @@ def make_march(walk: int, setup: int, mode: int, segs: bool = False):
             else:
                 wp.atomic_add(counters, chunk, 11, 1)  # early ray termination: 1 - A below t_stop
 
+    @wp.kernel(module="unique", module_options=MARCH_OPTIONS)
+    def harc_march(
+        cam: RayCamera,
+        eye_w: wp.vec3,
+        mt: MeshTex,
+        mesh: CellMesh,
+        lists: FragLists,
+        ig: Integ,
+        fb: NumFmt,
+        opts: WalkOpts,
+        first: int,
+        ids: wp.array(dtype=wp.int32),
+        rgba: wp.array(dtype=wp.vec4),
+        tcur: wp.array(dtype=float),
+        status: wp.array(dtype=wp.int32),
+        last: wp.array(dtype=wp.int32),
+        counters: wp.array2d(dtype=wp.int32),
+        chunk: int,
+        px_work: wp.array(dtype=wp.vec2i),
+        sg: Segments,
+    ):
+        tid = wp.tid()
+        idx = first + tid  # the pixels first .. (all rays of the image active)
+        if ids.shape[0] > 0:
+            idx = ids[first + tid]  # the active rays' pixels ids[first ..] (a re-entry pass)
+        if status[idx] != STATUS_ACTIVE:
+            return
+        if wp.static(not planes):
+            r, t_clip, cell, face_in, fc, t_in, s_in = plucker_start(idx, cam, mesh, lists, opts, tcur, status, last,
+                                                                     counters, chunk)
+            if cell < 0:
+                return  # (the ray's status is written)
+            o = r.o
+            d = r.d
+        else:
+            py = idx // cam.width
+            px = idx - py * cam.width
+            r, t_clip, t_end = camera_ray(px, py, cam)
+            o = r.o
+            d = r.d
+            if wp.static(paper):
+                # the paper's fragment program: the ray from the eye in fp32, nothing clipped or culled
+                o, d = paper_ray(px, py, cam.width, cam.height, eye_w, cam.fwd, cam.right, cam.up, cam.ortho, cam.half_h,
+                                  cam.aspect)
+                t_clip = 0.0
+            else:
+                if t_end < t_clip:
+                    status[idx] = STATUS_DONE
+                    return
+            t_start = tcur[idx]
+            prev = last[idx]
+            if no_face_around(px, py, cam.width, cam.height, lists.frag_start, lists.edge_start):
+                # no face listed at this pixel, its 8 neighbours or its open edges: the search below finds no entry
+                if t_clip > 0.0:
+                    status[idx] = STATUS_FAILED  # (as below: an eye inside the mesh is traced in float64)
+                    wp.atomic_add(counters, chunk, 3, 1)
+                    wp.atomic_add(counters, chunk, 12, 1)
+                else:
+                    status[idx] = STATUS_DONE
+                return
+
+            # ---- ray start: the first rasterised front boundary face beyond the last exit (peel test) ----
+            cell = int(-1)
+            face_in = int(-1)
+            t_in = float(0.0)
+            s_in = float(0.0)
+            fc = Face()
+            entry_failed = int(0)
+            for it in range(lists.frag_start[idx], lists.frag_start[idx + 1]):
+                b = int(lists.frag_bf[it])
+                c = int(lists.bf_tet[b])
+                f = int(lists.bf_face[b])
+                if c == prev:
+                    continue
+                p = plane_of(mt, c, f)
+                lam = plane_lambda(p, o, d)
+                if wp.static(paper):
+                    if not wp.isfinite(lam):
+                        entry_failed = 1  # the entry face's plane gives no ray parameter: the ray is lost
+                        break
+                if lam > t_start - opts.t_tol:
+                    cell = c
+                    face_in = f
+                    t_in = wp.max(lam, t_start)
+                    s_in = grad_scalar(cell_texel(mt, mt.grad, c), o + d * t_in)
+                    break
+            if wp.static(paper):
+                if entry_failed == 1:
+                    status[idx] = STATUS_LOST
+                    wp.atomic_add(counters, chunk, 3, 1)
+                    return
+            if entry_failed == 1 or t_clip > 0.0:
+                status[idx] = STATUS_FAILED
+                wp.atomic_add(counters, chunk, 3, 1)
+                if t_clip > 0.0:
+                    wp.atomic_add(counters, chunk, 12, 1)
+                return
+            if cell < 0:
+                status[idx] = STATUS_DONE
+                return
+            wp.atomic_add(counters, chunk, 0, 1)
+
+        # ---- propagation: one cell per fragment-program step (Fig. 6), the shared walk ----
+        acc = rgba[idx]
+        if wp.static(fused):
+            acc = wp.vec4(acc[0], acc[1], acc[2], 1.0 - acc[3])  # the exact Plücker walk carries (rgb, tr)
+        t_front = t_in  # the entry's ray parameter (its segment's front)
+        acc, t_in, cell, steps, cells_visited, failed, exited, thin, backward, fetches, own = walk_cells(
+            cell, face_in, fc, t_in, s_in, acc, r, o, d, t_clip, float(cam.radius), mesh, mt, ig, opts, counters,
+            chunk)
+        if wp.static(not fused):
+            wp.atomic_add(counters, chunk, 6, fetches)
+        ray_done(idx, r, acc, own, t_front, t_in, cell, steps, cells_visited, failed, exited, thin, backward, fb, opts,
+                 lists.far, rgba, tcur, status, last, counters, chunk, px_work, sg)
+
+    harc_march.ray_done = ray_done  # (for the lane march of warpvol.kernels.harc_lanes)
     return harc_march
 
 

@@ -34,19 +34,33 @@ from .integrate import (
     one_minus_exp_neg_thin,
 )
 from .lanes import LANE_OPTIONS, LANE_RUNS, FlatMesh, LaneState, lane_exit_at, lane_step_at, make_lane_io, thin_prev
-from .raycast import EntryBins
 from .tf import tf_eval_upper, tf_upper_from
 from .walk import EPS32, STALL_STEPS, STEEP_ERR, THIN_ULPS, scalar_step, spread_error, thin_step, thin_unresolved
 
 wp.set_module_options({"enable_backward": False, "fuse_fp": False})
 
 
-def make_march_lanes(lanes: int, segs: bool = False):
+def make_march_lanes(lanes: int, segs: bool = False, harc: bool = False):
     """The pass kernel of :func:`warpvol.kernels.raycast.make_march` with ``lanes`` rays per thread (a module of
-    its own per lane count: ``LANES`` is a compile-time constant); use :func:`march_lanes_kernel`."""
+    its own per lane count: ``LANES`` is a compile-time constant); use :func:`march_lanes_kernel`. ``harc``: the pass
+    of :func:`warpvol.kernels.harc.make_march`'s consistent walk with exact segments instead (``harc_best``), its ray
+    start and write-back from :func:`warpvol.kernels.harc_lanes.make_harc_lane_io`.
+
+    The kernel's ray start and write-back inputs, by configuration: ``starts`` (raycast: the
+    :class:`~warpvol.kernels.raycast.EntryBins`; harc: the :class:`~warpvol.kernels.harc.FragLists`), ``col`` (the
+    rays' colour: ``vec3`` radiance; ``vec4`` RGBA), ``aux`` (transmittance; each pixel's loop work ``px_work``),
+    ``more`` (the re-entries a ray makes in the pass; the frame buffer's :class:`~warpvol.kernels.formats.NumFmt`)."""
     LANES = lanes
     RUNS = LANE_RUNS
-    lane_next, lane_done = make_lane_io(segs, LANES)
+    if harc:
+        from .harc_lanes import make_harc_lane_io
+
+        lane_next, lane_done = make_harc_lane_io(segs, LANES)
+    else:
+        lane_next, lane_done = make_lane_io(segs, LANES)
+    # the kernel's starts, col, aux, more: the types of lane_done's arguments in those places
+    io_types = list(lane_done.input_types.values())
+    StartsT, ColT, AuxT, MoreT = (io_types[i] for i in (4, 7, 8, 12))
     FFm = wp.types.matrix(shape=(27, LANES), dtype=float)  # each lane's Face: pa, pb, pc, h, ma, mb, mc, s, w
     FGm = wp.types.matrix(shape=(3, LANES), dtype=int)  # each lane's Face.g
     SFm = wp.types.matrix(shape=(37, LANES), dtype=float)  # see the put block; 27..36: the lane's TF piece
@@ -59,14 +73,14 @@ def make_march_lanes(lanes: int, segs: bool = False):
     GVm = wp.types.matrix(shape=(4, LANES), dtype=float)  # each lane's new vertex record
 
     @wp.kernel(module="unique", module_options=LANE_OPTIONS)
-    def march_lanes(cam: RayCamera, mesh: CellMesh, bins: EntryBins, ig: Integ, opts: WalkOpts, first: int,
-                    ids: wp.array(dtype=wp.int32), rgb: wp.array(dtype=wp.vec3), trans: wp.array(dtype=float),
-                    tcur: wp.array(dtype=float), status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32),
-                    reentries: int, counters: wp.array2d(dtype=wp.int32), chunk: int, sg: Segments, count: int,
+    def march_lanes(cam: RayCamera, mesh: CellMesh, starts: StartsT, ig: Integ, opts: WalkOpts, first: int,
+                    ids: wp.array(dtype=wp.int32), col: ColT, aux: AuxT, tcur: wp.array(dtype=float),
+                    status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32), more: MoreT,
+                    counters: wp.array2d(dtype=wp.int32), chunk: int, sg: Segments, count: int,
                     scratch: wp.array(dtype=LaneState), fm: FlatMesh):
         """The pass of :func:`~warpvol.kernels.raycast.make_march` for the rays ``first + LANES RUNS tid ..``
         (``< first + count``): lane ``j`` walks the thread's rays ``j, j + LANES, ..`` one after the other (its entry,
-        its walk in the lane loop, its write-back and re-entries, scalar, up to ``reentries``), all lanes one step
+        its walk in the lane loop, its write-back and re-entries, scalar, up to ``more``; harc: none), all lanes one step
         per pass of the lane loop."""
         tid = wp.tid()
         base = first + tid * (LANES * RUNS)
@@ -92,8 +106,8 @@ def make_march_lanes(lanes: int, segs: bool = False):
         GV = GVm()
         lim = wp.min(end, base + LANES * RUNS)
         for j in range(LANES):
-            slot = lane_next(scratch, lane0 + j, base + j, lim, ids, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last,
-                             reentries, counters, chunk, sg)
+            slot = lane_next(scratch, lane0 + j, base + j, lim, ids, cam, mesh, starts, ig, opts, col, aux, tcur, status, last,
+                             more, counters, chunk, sg)
             if slot >= 0:
                 SL[j] = slot
                 LD[j] = 1
@@ -587,10 +601,10 @@ def make_march_lanes(lanes: int, segs: bool = False):
                         LD[j] = 0
                         FN[j] = 0
                         SI[6, j] = 0
-                        lane_done(scratch, slot, cam, mesh, bins, ig, opts, rgb, trans, tcur, status, last, reentries,
+                        lane_done(scratch, slot, cam, mesh, starts, ig, opts, col, aux, tcur, status, last, more,
                                   counters, chunk, sg)
-                        nxt = lane_next(scratch, slot, SL[j] + LANES, lim, ids, cam, mesh, bins, ig, opts, rgb, trans,
-                                        tcur, status, last, reentries, counters, chunk, sg)
+                        nxt = lane_next(scratch, slot, SL[j] + LANES, lim, ids, cam, mesh, starts, ig, opts, col, aux,
+                                        tcur, status, last, more, counters, chunk, sg)
                         if nxt >= 0:
                             SL[j] = nxt
                             LD[j] = 1
@@ -604,9 +618,9 @@ _LANES: dict = {}
 _LANES_LOCK = threading.Lock()
 
 
-def march_lanes_kernel(lanes: int, segs: bool = False):
-    """:func:`make_march_lanes`'s kernel of ``(lanes, segs)``, made once."""
-    key = (int(lanes), bool(segs))
+def march_lanes_kernel(lanes: int, segs: bool = False, harc: bool = False):
+    """:func:`make_march_lanes`'s kernel of ``(lanes, segs, harc)``, made once."""
+    key = (int(lanes), bool(segs), bool(harc))
     with _LANES_LOCK:
         if key not in _LANES:
             _LANES[key] = make_march_lanes(*key)

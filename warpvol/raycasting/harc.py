@@ -31,6 +31,7 @@ from warpvol.raycasting.stages.raycast import (
     camera_struct,
     cell_mesh_struct,
     host_view,
+    march_lanes,
     on_host,
     pass_rays,
     ray_blocks,
@@ -474,11 +475,14 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
         return dict.fromkeys(COUNTER_NAMES, 0)
     counters = wp.zeros((len(parts), N_COUNTERS), dtype=wp.int32, device=ctx.device)
     # the kernel's inputs that stay the same through a frame's passes: built by its first pass, kept on the state
+    # the consistent walk with exact segments (harc_best) marches in SIMD lanes on the CPU (raycast's lane count:
+    # :func:`~warpvol.raycasting.stages.raycast.march_lanes`); the same bits as one ray per thread
+    lanes = march_lanes(ctx.device) if (walk, setup, int(ig.mode)) == ("plucker", "robust", int(kh.INTEG_EXACT)) else 1
     key = (walk, setup, fb_format, float(t_stop), int(max_steps), int(scalar_check), id(mesh_tex), id(entry), id(ig),
-           id(segments))
+           id(segments), lanes)
     kept = getattr(state, "pass_inputs", None)
     if kept is not None and kept[0] == key:
-        common, segments, kernel = kept[1:]
+        common, segments, kernel, fm = kept[1:]
     else:
         eye_w = wp.vec3(*np.asarray(ctx.scene.camera.eye, np.float64).astype(np.float32))
         lists = kh.FragLists()
@@ -490,14 +494,37 @@ def march_pass(ctx, state: HarcState, *, walk: str, mesh_tex, entry: dict, ig, f
                   walk_opts(t_stop, max_steps, scalar_check, PEEL_TOL * cells["radius"])]
         if segments is None:
             segments = segments_struct(0, 0, ctx.device)
-        kernel = kh.march_kernel(WALKS[walk], SETUPS[setup], ig.mode, segments.cap > 0)  # this configuration's
-        state.pass_inputs = (key, common, segments, kernel)
+        fm = None
+        if lanes > 1:
+            from warpvol.kernels import lanes as kl
+            from warpvol.kernels.lanes_march import march_lanes_kernel
 
-    def launch(b: int) -> None:
-        first, count = parts[b]
-        wp.launch(kernel, dim=count, device=ctx.device,
-                  inputs=common + [first, ids, state.rgba, state.tcur, state.status, state.last, counters, b,
-                                   state.px_work, segments])
+            kernel = march_lanes_kernel(lanes, segments.cap > 0, harc=True)
+            fm = kl.flat_mesh(common[3], ig.tf_v)
+        else:
+            kernel = kh.march_kernel(WALKS[walk], SETUPS[setup], ig.mode, segments.cap > 0)  # this configuration's
+        state.pass_inputs = (key, common, segments, kernel, fm)
+
+    if lanes > 1:
+        from warpvol.kernels import lanes as kl
+
+        size = kl.lane_scratch(max(f + c for f, c in parts), len(parts), lanes)
+        scratch = getattr(state, "lane_scratch", None)
+        if scratch is None or scratch.shape[0] < size:  # (kept through the frame's passes)
+            scratch = state.lane_scratch = wp.empty(size, dtype=kl.LaneState, device=ctx.device)
+        cam, _, _, mesh, lists, _, fb, opts = common
+
+        def launch(b: int) -> None:
+            first, count = parts[b]
+            wp.launch(kernel, dim=kl.lane_threads(count, lanes), device=ctx.device,
+                      inputs=[cam, mesh, lists, ig, opts, first, ids, state.rgba, state.px_work, state.tcur,
+                              state.status, state.last, fb, counters, b, segments, count, scratch, fm])
+    else:
+        def launch(b: int) -> None:
+            first, count = parts[b]
+            wp.launch(kernel, dim=count, device=ctx.device,
+                      inputs=common + [first, ids, state.rgba, state.tcur, state.status, state.last, counters, b,
+                                       state.px_work, segments])
 
     launch_blocks(ctx.device, len(parts), launch, threads, modules=[kernel])
     return dict(zip(COUNTER_NAMES, (int(x) for x in counters.numpy().sum(axis=0))))
