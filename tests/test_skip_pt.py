@@ -145,7 +145,7 @@ def test_pt_best_cells_behind_an_opaque_front_are_occluded(px, height):
         assert 0 < lo["pixels_terminated"] < px * px and lo["triangles_occluded"] > 0
     st_on, st_off = on.report["stats"]["pt_integrate"], off.report["stats"]["pt_integrate"]
     assert st_off["silhouette_edges"] > 0 and lo["float64_pixels_occluded"] > 0
-    assert st_on["float64_pixels"] + lo["float64_pixels_occluded"] == st_off["float64_pixels"]
+    assert st_on["float64_rays"] + lo["float64_pixels_occluded"] == st_off["float64_rays"]
     ok, d = _within(on.image, off.image, TOLERANCES["skip/on_off"])
     assert ok, d
     ref = render_reference(sc.mesh, sc.transfer, sc.camera)

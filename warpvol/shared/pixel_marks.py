@@ -98,8 +98,9 @@ def near_segment_pixels(ax, ay, bx, by, w: int, h: int, delta: float) -> tuple[n
         rx = (m if major == 0 else o) - pp[e, 0]
         ry = (o if major == 0 else m) - pp[e, 1]
         ex, ey = dd[e, 0], dd[e, 1]
-        t = np.clip((rx * ex + ry * ey) / np.maximum(ex * ex + ey * ey, 1e-300), 0.0, 1.0)
-        near = np.hypot(rx - t * ex, ry - t * ey) <= delta
+        with np.errstate(over="ignore", invalid="ignore"):  # a huge or non-finite segment is near no centre
+            t = np.clip((rx * ex + ry * ey) / np.maximum(ex * ex + ey * ey, 1e-300), 0.0, 1.0)
+            near = np.hypot(rx - t * ex, ry - t * ey) <= delta
         jj, ii = (c, other) if major == 0 else (other, c)
         near &= (jj >= 0) & (jj < w) & (ii >= 0) & (ii < h)
         pix.append(ii[near] * w + jj[near])
