@@ -12,7 +12,7 @@ other processes hits both alike. Prints per kernel set the median time, the cell
 step (one thread), and whether the two produce the same pass bit for bit (colour, transmittance, ray
 parameter, status, counters: the same float64 redo counts).
 
-With ``--lanes N`` (``raycast``; 0: the CPU's lane count, :func:`warpvol.kernels.lanes.device_lanes`) it compares
+With ``--lanes N`` (0: the CPU's lane count, :func:`warpvol.kernels.lanes.device_lanes`) it compares
 this tree's march with one ray per thread and with ``N`` rays per thread (:mod:`warpvol.kernels.lanes_march`)
 instead of a base ref, and ``--json`` adds the view's ns per ray-step to a stamped JSON file
 (``docs/data/march_lanes.json``).
@@ -135,20 +135,24 @@ def run_pass(pkg: str, launches: list, reentries: int = 0, lanes: int = 1):
     """The recorded launches with ``pkg``'s kernels, one after the other on this thread, each on fresh copies of
     its arrays, its inputs taken by argument name (a kernel of another signature takes what it names);
     ``(seconds, outputs)``: the arrays after the launches and the counters summed. A kernel that takes
-    ``reentries`` (raycast's re-entries in a ray's thread) gets ``reentries``. ``lanes`` > 1 (raycast, this tree):
-    the pass kernel with that many rays per thread (:mod:`warpvol.kernels.lanes`) instead."""
+    ``reentries`` (raycast's re-entries in a ray's thread) gets ``reentries``. ``lanes`` > 1 (this tree): the pass
+    kernel with that many rays per thread (:mod:`warpvol.kernels.lanes_march`, raycast's or harc_best's) instead."""
     import warp as wp
 
     total, outs = 0.0, []
     for kernel, dim, inputs in launches:
         k = kernel if pkg == "warpvol.kernels" else kernel_of(pkg, kernel)
         n_threads = dim
+        alias = {}  # the lane kernel's ray start and write-back inputs: their names in the recorded kernel
         if lanes > 1:
             from warpvol.kernels.lanes import LaneState, flat_mesh, lane_scratch, lane_threads
             from warpvol.kernels.lanes_march import march_lanes_kernel
 
-            k = march_lanes_kernel(lanes, False)
+            harc = "harc_march" in kernel.key
+            k = march_lanes_kernel(lanes, False, harc)
             n_threads = lane_threads(dim, lanes)
+            alias = ({"starts": "lists", "col": "rgba", "aux": "px_work", "more": "fb"} if harc else
+                     {"starts": "bins", "col": "rgb", "aux": "trans", "more": "reentries"})
         named = {a.label: x for a, x in zip(kernel.adj.args, inputs)}
         for x in list(named.values()):  # a struct's fields by name, for a kernel that takes them one by one
             if hasattr(x, "_cls"):
@@ -158,6 +162,8 @@ def run_pass(pkg: str, launches: list, reentries: int = 0, lanes: int = 1):
             named.setdefault("t_min", named["t_stop"])  # (raycast's name of it before the walk options)
         named["reentries"] = reentries
         if lanes > 1:
+            for name, was in alias.items():
+                named[name] = named[was]
             named["count"] = dim
             named["scratch"] = wp.empty(lane_scratch(named["first"] + dim, named["chunk"] + 1, lanes), dtype=LaneState,
                                         device="cpu")
@@ -169,7 +175,7 @@ def run_pass(pkg: str, launches: list, reentries: int = 0, lanes: int = 1):
         wp.launch(k, dim=n_threads, device="cpu", inputs=args)
         wp.synchronize_device("cpu")
         total += time.perf_counter() - t0
-        outs.append({a.label: x.numpy() for a, x in zip(k.adj.args, args)
+        outs.append({alias.get(a.label, a.label): x.numpy() for a, x in zip(k.adj.args, args)
                      if isinstance(x, wp.array) and a.label != "scratch"})
         outs[-1]["counters"] = outs[-1]["counters"][named["chunk"]]  # this launch's row
     keys = ("rgb", "rgba", "trans", "tcur", "status", "last", "px_work")
@@ -189,10 +195,12 @@ def main(argv=None) -> int:
     ap.add_argument("--reentries", type=int, default=0, help="raycast: re-entries per ray in the pass's threads "
                     "(0: one entry per ray, as kernels without them)")
     ap.add_argument("--lanes", type=int, default=None,
-                    help="raycast: compare this tree's march with one ray per thread (LANES=1) and with this many "
+                    help="compare this tree's march with one ray per thread (LANES=1) and with this many "
                          "(0: the device's, warpvol.kernels.lanes.device_lanes) instead of a base ref")
     ap.add_argument("--json", default=None, help="with --lanes: add this view's ns per ray-step to this JSON file")
     a = ap.parse_args(argv)
+    if a.json and a.preset != "raycast":
+        ap.error("--json: the table holds raycast's march (--preset raycast)")
 
     from bench_raycast import load_average
     from bench_skip import variant
