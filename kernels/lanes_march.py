@@ -15,8 +15,6 @@ variable: one assigned in its loops is copied on every pass (a ``LaneState`` ``m
 third of the march); a lane's state moves field by field between the matrices and ``scratch``.
 """
 
-import threading
-
 import warp as wp
 
 from .cellwalk import CellMesh, RayCamera, Segments, WalkOpts, add_under_tr
@@ -33,7 +31,8 @@ from .integrate import (
     integrate_segment_tf,
     one_minus_exp_neg_thin,
 )
-from .lanes import LANE_OPTIONS, LANE_RUNS, FlatMesh, LaneState, lane_exit_at, lane_step_at, make_lane_io, thin_prev
+from .lanes import LANE_OPTIONS, LANE_RUNS, FlatMesh, LaneState, lane_exit_at, lane_step_at, thin_prev
+from .lanes_types import lane_io, lane_mats, made_once
 from .tf import tf_eval_upper, tf_upper_from
 from .walk import EPS32, STALL_STEPS, STEEP_ERR, THIN_ULPS, scalar_step, spread_error, thin_step, thin_unresolved
 
@@ -44,33 +43,12 @@ def make_march_lanes(lanes: int, segs: bool = False, harc: bool = False):
     """The pass kernel of :func:`warpvol.kernels.raycast.make_march` with ``lanes`` rays per thread (a module of
     its own per lane count: ``LANES`` is a compile-time constant); use :func:`march_lanes_kernel`. ``harc``: the pass
     of :func:`warpvol.kernels.harc.make_march`'s consistent walk with exact segments instead (``harc_best``), its ray
-    start and write-back from :func:`warpvol.kernels.harc_lanes.make_harc_lane_io`.
-
-    The kernel's ray start and write-back inputs, by configuration: ``starts`` (raycast: the
-    :class:`~warpvol.kernels.raycast.EntryBins`; harc: the :class:`~warpvol.kernels.harc.FragLists`), ``col`` (the
-    rays' colour: ``vec3`` radiance; ``vec4`` RGBA), ``aux`` (transmittance; each pixel's loop work ``px_work``),
-    ``more`` (the re-entries a ray makes in the pass; the frame buffer's :class:`~warpvol.kernels.formats.NumFmt`)."""
+    start and write-back from :func:`warpvol.kernels.harc_lanes.make_harc_lane_io`. The kernel's ray start and
+    write-back inputs, by configuration: :class:`~warpvol.kernels.lanes_types.LaneIO`."""
     LANES = lanes
     RUNS = LANE_RUNS
-    if harc:
-        from .harc_lanes import make_harc_lane_io
-
-        lane_next, lane_done = make_harc_lane_io(segs, LANES)
-    else:
-        lane_next, lane_done = make_lane_io(segs, LANES)
-    # the kernel's starts, col, aux, more: the types of lane_done's arguments in those places
-    io_types = list(lane_done.input_types.values())
-    StartsT, ColT, AuxT, MoreT = (io_types[i] for i in (4, 7, 8, 12))
-    FFm = wp.types.matrix(shape=(27, LANES), dtype=float)  # each lane's Face: pa, pb, pc, h, ma, mb, mc, s, w
-    FGm = wp.types.matrix(shape=(3, LANES), dtype=int)  # each lane's Face.g
-    SFm = wp.types.matrix(shape=(37, LANES), dtype=float)  # see the put block; 27..36: the lane's TF piece
-    SIm = wp.types.matrix(shape=(7, LANES), dtype=int)  # cell, gn, cells, stall, k_in, thin is_short, walking
-    RVv = wp.types.vector(length=LANES, dtype=int)  # the lanes whose step is rare; whose piece is optically thick
-    TFm = wp.types.matrix(shape=(8, LANES), dtype=float)  # a thick piece's length, entry TF value; crossing's ds, s, t
-    TIm = wp.types.matrix(shape=(2, LANES), dtype=int)  # a thick piece: the next cell and its new vertex
-    GIm = wp.types.matrix(shape=(7, LANES), dtype=int)  # each lane's cell's tets record; exit face, its nbr, nbr_vertex
-    FLm = wp.types.matrix(shape=(3, LANES), dtype=int)  # the step taken; its commit kind (see the exit loop)
-    GVm = wp.types.matrix(shape=(4, LANES), dtype=float)  # each lane's new vertex record
+    lane_next, lane_done, StartsT, ColT, AuxT, MoreT = lane_io(LANES, segs, harc)  # (kernels/lanes_types.py)
+    FFm, FGm, SFm, SIm, RVv, TFm, TIm, GIm, FLm, GVm = lane_mats(LANES)
 
     @wp.kernel(module="unique", module_options=LANE_OPTIONS)
     def march_lanes(cam: RayCamera, mesh: CellMesh, starts: StartsT, ig: Integ, opts: WalkOpts, first: int,
@@ -614,14 +592,6 @@ def make_march_lanes(lanes: int, segs: bool = False, harc: bool = False):
     return march_lanes
 
 
-_LANES: dict = {}
-_LANES_LOCK = threading.Lock()
-
-
 def march_lanes_kernel(lanes: int, segs: bool = False, harc: bool = False):
     """:func:`make_march_lanes`'s kernel of ``(lanes, segs, harc)``, made once."""
-    key = (int(lanes), bool(segs), bool(harc))
-    with _LANES_LOCK:
-        if key not in _LANES:
-            _LANES[key] = make_march_lanes(*key)
-        return _LANES[key]
+    return made_once((int(lanes), bool(segs), bool(harc)), make_march_lanes)
