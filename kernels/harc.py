@@ -150,6 +150,20 @@ def no_face_around(px: int, py: int, width: int, height: int, frag_start: wp.arr
 
 
 @wp.func
+def no_entry_status(idx: int, t_clip: float, status: wp.array(dtype=wp.int32), counters: wp.array2d(dtype=wp.int32),
+                    chunk: int):
+    """The status of active pixel ``idx`` whose ray has :func:`no_face_around` (the entry search finds no entry):
+    done, or failed (counted) when its ray is clipped (``t_clip > 0``: an eye inside the mesh is traced in
+    float64, as when a search finds no entry)."""
+    if t_clip > 0.0:
+        status[idx] = STATUS_FAILED
+        wp.atomic_add(counters, chunk, 3, 1)
+        wp.atomic_add(counters, chunk, 12, 1)
+    else:
+        status[idx] = STATUS_DONE
+
+
+@wp.func
 def plucker_start(idx: int, cam: RayCamera, mesh: CellMesh, lists: FragLists, opts: WalkOpts,
                   tcur: wp.array(dtype=float), status: wp.array(dtype=wp.int32), last: wp.array(dtype=wp.int32),
                   counters: wp.array2d(dtype=wp.int32), chunk: int):
@@ -168,13 +182,7 @@ def plucker_start(idx: int, cam: RayCamera, mesh: CellMesh, lists: FragLists, op
     t_start = tcur[idx]
     prev = last[idx]
     if no_face_around(px, py, cam.width, cam.height, lists.frag_start, lists.edge_start):
-        # no face listed at this pixel, its 8 neighbours or its open edges: the search below finds no entry
-        if t_clip > 0.0:
-            status[idx] = STATUS_FAILED  # (as below: an eye inside the mesh is traced in float64)
-            wp.atomic_add(counters, chunk, 3, 1)
-            wp.atomic_add(counters, chunk, 12, 1)
-        else:
-            status[idx] = STATUS_DONE
+        no_entry_status(idx, t_clip, status, counters, chunk)
         return r, t_clip, -1, -1, Face(), 0.0, 0.0
 
     # ---- ray start: the first rasterised front boundary face beyond the last exit (peel test) ----
@@ -416,13 +424,7 @@ def make_march(walk: int, setup: int, mode: int, segs: bool = False):
             t_start = tcur[idx]
             prev = last[idx]
             if no_face_around(px, py, cam.width, cam.height, lists.frag_start, lists.edge_start):
-                # no face listed at this pixel, its 8 neighbours or its open edges: the search below finds no entry
-                if t_clip > 0.0:
-                    status[idx] = STATUS_FAILED  # (as below: an eye inside the mesh is traced in float64)
-                    wp.atomic_add(counters, chunk, 3, 1)
-                    wp.atomic_add(counters, chunk, 12, 1)
-                else:
-                    status[idx] = STATUS_DONE
+                no_entry_status(idx, t_clip, status, counters, chunk)
                 return
 
             # ---- ray start: the first rasterised front boundary face beyond the last exit (peel test) ----
