@@ -269,6 +269,27 @@ def shared_face(v0: int, v1: int, v2: int, v3: int, pf: wp.vec3i) -> int:
 
 
 @wp.func
+def edge_or_shared(i: int, j: int, sh: int, pab: wp.vec4d, pbc: wp.vec4d, pac: wp.vec4d, a: wp.vec3d, b: wp.vec3d,
+                   dx: wp.float64, dy: wp.float64, persp: int) -> wp.vec4d:
+    """The :func:`edge_side` value of the tet's edge ``i -> j`` (ascending local vertices, at ``a``, ``b``): the
+    shared face's (:func:`shared_face` ``sh``, vertices ``fa < fb < fc``: edges ``pab`` = (fa, fb), ``pbc`` =
+    (fb, fc), ``pac`` = (fa, fc)) where that face holds the edge, else evaluated."""
+    if sh < 0 or sh == i or sh == j:
+        return edge_side(a, b, dx, dy, persp)
+    fa = int(0)
+    if sh == 0:
+        fa = 1
+    fc = int(3)
+    if sh == 3:
+        fc = 2
+    if i != fa:
+        return pbc
+    if j == fc:
+        return pac
+    return pab
+
+
+@wp.func
 def tet_segment(c: int, P: wp.array(dtype=wp.vec3d), S: wp.array(dtype=wp.float64),
                 T: wp.array2d(dtype=wp.int32), orient: wp.array(dtype=wp.float64),
                 s_eye: wp.array(dtype=wp.float64), dx: wp.float64, dy: wp.float64, dn: wp.float64,
@@ -287,32 +308,13 @@ def tet_segment(c: int, P: wp.array(dtype=wp.vec3d), S: wp.array(dtype=wp.float6
     p2 = P[v2]
     p3 = P[v3]
     sh = shared_face(v0, v1, v2, v3, pf)
-    # edges (0,1) (0,2) (0,3) (1,2) (1,3) (2,3) of the ascending vertices; face f's (ab, bc, ac):
-    # f=0 (e3, e5, e4), f=1 (e1, e5, e2), f=2 (e0, e4, e2), f=3 (e0, e3, e1)
-    e0 = pab
-    if sh != 2 and sh != 3:
-        e0 = edge_side(p0, p1, dx, dy, persp)
-    e1 = pac
-    if sh == 1:
-        e1 = pab
-    elif sh != 3:
-        e1 = edge_side(p0, p2, dx, dy, persp)
-    e2 = pac
-    if sh != 1 and sh != 2:
-        e2 = edge_side(p0, p3, dx, dy, persp)
-    e3 = pbc
-    if sh == 0:
-        e3 = pab
-    elif sh != 3:
-        e3 = edge_side(p1, p2, dx, dy, persp)
-    e4 = pbc
-    if sh == 0:
-        e4 = pac
-    elif sh != 2:
-        e4 = edge_side(p1, p3, dx, dy, persp)
-    e5 = pbc
-    if sh != 0 and sh != 1:
-        e5 = edge_side(p2, p3, dx, dy, persp)
+    # edges (0,1) (0,2) (0,3) (1,2) (1,3) (2,3) of the ascending vertices
+    e0 = edge_or_shared(0, 1, sh, pab, pbc, pac, p0, p1, dx, dy, persp)
+    e1 = edge_or_shared(0, 2, sh, pab, pbc, pac, p0, p2, dx, dy, persp)
+    e2 = edge_or_shared(0, 3, sh, pab, pbc, pac, p0, p3, dx, dy, persp)
+    e3 = edge_or_shared(1, 2, sh, pab, pbc, pac, p1, p2, dx, dy, persp)
+    e4 = edge_or_shared(1, 3, sh, pab, pbc, pac, p1, p3, dx, dy, persp)
+    e5 = edge_or_shared(2, 3, sh, pab, pbc, pac, p2, p3, dx, dy, persp)
     r = Seg()
     r.nexact = int(e0[2] + e1[2] + e2[2] + e3[2] + e4[2] + e5[2])
     r.deg = int(0)
