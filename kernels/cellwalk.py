@@ -32,7 +32,7 @@ import warp as wp
 
 from .harc_integ import INTEG_EXACT, Integ, segment
 from .harc_walk import composite
-from .integrate import exp_neg, integrate_piece, integrate_segment_tf
+from .integrate import exp_neg, flat_extinction, integrate_piece, integrate_piece_flat, integrate_segment_tf
 from .texture import Tex2D, tex2d_texel
 from .tf import tf_eval, tf_eval_upper, tf_upper, tf_upper_from
 from .walk import (
@@ -302,7 +302,7 @@ def make_walk(planes: bool, paper: bool, mode: int, segs: bool = False, clip: bo
                     seg = wp.vec4(0.0, 0.0, 0.0, 0.0)
                     if wp.static(not clip) or t_in >= t_clip:
                         if k_in == k_out:  # no control point crossed: one linear piece
-                            seg = integrate_piece(ln, v_in, v_out, ig.model)
+                            seg = integrate_piece_flat(ln, v_in, v_out, flat_extinction(k_in, ig.tf_v), ig.model)
                         else:
                             seg = integrate_segment_tf(s_in, s_out, v_in, v_out, ln, ig.tf_s, ig.tf_v, ig.model)
                     else:

@@ -19,7 +19,9 @@ factor from a Taylor polynomial of ``1 - exp(-x)`` without cancellation), the ``
 ``h ((M0 - M1) c0 + M1 c1)``. A piece of constant extinction (both ends' extinction equal: an opaque
 or constant-density transfer function) deeper than that has the closed form ``c0 A + c1 B``
 (:func:`constant_weights`; over the extinction for ``emission_density``): one ``exp`` or two
-polynomials instead of four ``exp`` s per sub-step. A zero-length segment contributes nothing.
+polynomials instead of four ``exp`` s per sub-step. The improved presets decide that constancy at the transfer
+function (:func:`integrate_piece_flat`: both control points of the piece's interval of equal extinction), where
+the ends' interpolated extinctions may round an ulp apart. A zero-length segment contributes nothing.
 """
 
 import warp as wp
@@ -172,6 +174,37 @@ def integrate_piece(h: float, front: wp.vec4, back: wp.vec4, model: int) -> wp.v
             if wp.exp(-(a * x + 0.5 * b * x * x)) < T_CUTOFF:
                 break
     return wp.vec4(acc[0], acc[1], acc[2], tau_total)
+
+
+@wp.func
+def flat_extinction(k: int, tf_v: wp.array(dtype=wp.vec4)) -> float:
+    """The extinction of TF interval ``k`` (``tf_upper``'s index) where it is exactly constant: both its control
+    points' extinctions equal (the interpolated values inside it may round apart by an ulp); -1 otherwise (and at
+    the clamped ends, whose values are not interpolated)."""
+    n = tf_v.shape[0]
+    if k > 0 and k < n:
+        r = tf_v[k][3]
+        if tf_v[k - 1][3] == r:
+            return r
+    return -1.0
+
+
+@wp.func
+def integrate_piece_flat(h: float, front: wp.vec4, back: wp.vec4, rho: float, model: int) -> wp.vec4:
+    """:func:`integrate_piece` for a piece inside one TF interval of extinction ``rho``
+    (:func:`flat_extinction`; < 0: not known constant): an optically thick piece of exactly constant extinction
+    takes the closed form (:func:`constant_weights` of ``h rho``) even where its ends' interpolated extinctions
+    round apart, not the sub-stepped quadrature of a sloped piece. Optical depth and the thin pieces are
+    :func:`integrate_piece`'s (the improved presets' walks and draws; the faithful ones call that directly)."""
+    if rho > 0.0 and h > 0.0:
+        tau_total = 0.5 * h * (front[3] + back[3])
+        if not (tau_total <= THIN_DEPTH):
+            wa, wb = constant_weights(h * rho)
+            r = wp.vec3(front[0], front[1], front[2]) * wa + wp.vec3(back[0], back[1], back[2]) * wb
+            if model == 1:
+                r = r / rho
+            return wp.vec4(r[0], r[1], r[2], tau_total)
+    return integrate_piece(h, front, back, model)
 
 
 @wp.func

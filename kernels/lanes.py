@@ -11,7 +11,7 @@ import warp as wp
 
 from .cellwalk import CellMesh, RayCamera, Segments, WalkOpts, add_under_tr, clipped_segment
 from .harc_integ import Integ
-from .integrate import exp_neg, integrate_piece, integrate_segment_tf
+from .integrate import exp_neg, flat_extinction, integrate_piece_flat, integrate_segment_tf
 from .raycast import STATUS_ACTIVE, STATUS_DONE, EntryBins, march_kernel, ray_entry
 from .tf import tf_eval, tf_eval_upper, tf_upper, tf_upper_from
 from .walk import (
@@ -151,7 +151,7 @@ def lane_step(ls: LaneState, scale: float, mesh: CellMesh, ig: Integ, opts: Walk
         seg = wp.vec4(0.0, 0.0, 0.0, 0.0)
         if t_in >= t_clip:
             if k_in == k_out:
-                seg = integrate_piece(ln, v_in, v_out, ig.model)
+                seg = integrate_piece_flat(ln, v_in, v_out, flat_extinction(k_in, ig.tf_v), ig.model)
             else:
                 seg = integrate_segment_tf(s_in, s_out, v_in, v_out, ln, ig.tf_s, ig.tf_v, ig.model)
         else:

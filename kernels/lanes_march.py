@@ -27,7 +27,8 @@ from .integrate import (
     THIN_DEPTH,
     exp_neg,
     exp_neg_thin,
-    integrate_piece,
+    flat_extinction,
+    integrate_piece_flat,
     integrate_segment_tf,
     one_minus_exp_neg_thin,
 )
@@ -328,7 +329,7 @@ def make_march_lanes(lanes: int, segs: bool = False, harc: bool = False):
                 rr1 = (cc0 * (mm0 - mm1) + cc1 * mm1) * ln
                 m0_ = model == 0
                 positive = not (ln <= 0.0)
-                # an optically thick piece: its integral (and exp) in integrate_piece after the lane loop
+                # an optically thick piece: its integral (and exp) in integrate_piece_flat after the lane loop
                 thick = positive and (not (tau_total <= THIN_DEPTH) or (model != 0 and not (
                     x0 <= THIN_DEPTH and x1 <= THIN_DEPTH and x2 <= THIN_DEPTH)))
                 seg = wp.vec4(wp.where(positive, wp.where(m0_, rr0[0], rr1[0]), 0.0),
@@ -474,7 +475,7 @@ def make_march_lanes(lanes: int, segs: bool = False, harc: bool = False):
                     v_out = tf_eval_upper(s_out, k_out, ig.tf_s, ig.tf_v)
                     seg = wp.vec4(0.0, 0.0, 0.0, 0.0)
                     if k_in == k_out:
-                        seg = integrate_piece(ln, v_in, v_out, model)
+                        seg = integrate_piece_flat(ln, v_in, v_out, flat_extinction(k_in, ig.tf_v), model)
                     else:
                         seg = integrate_segment_tf(s_in, s_out, v_in, v_out, ln, ig.tf_s, ig.tf_v, model)
                     tr = SF[5, j]
@@ -516,11 +517,12 @@ def make_march_lanes(lanes: int, segs: bool = False, harc: bool = False):
                             SI[1, j] = TI[1, j]
                             if RX[j] == 1:
                                 SI[6, j] = 0
-            # ---- the optically thick pieces: integrate_piece, one lane at a time ----
+            # ---- the optically thick pieces: integrate_piece_flat, one lane at a time ----
             for j in range(LANES):
                 if RT[j] == 1:
-                    seg = integrate_piece(TF[0, j], wp.vec4(TF[1, j], TF[2, j], TF[3, j], TF[4, j]),
-                                          wp.vec4(SF[10, j], SF[11, j], SF[12, j], SF[13, j]), model)
+                    seg = integrate_piece_flat(TF[0, j], wp.vec4(TF[1, j], TF[2, j], TF[3, j], TF[4, j]),
+                                               wp.vec4(SF[10, j], SF[11, j], SF[12, j], SF[13, j]),
+                                               flat_extinction(SI[4, j], ig.tf_v), model)
                     e = exp_neg(seg[3])
                     acc = add_under_tr(wp.vec4(SF[2, j], SF[3, j], SF[4, j], SF[5, j]), seg, e)
                     own = add_under_tr(wp.vec4(SF[6, j], SF[7, j], SF[8, j], SF[9, j]), seg, e)

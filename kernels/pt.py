@@ -25,7 +25,7 @@ or (Kraus, Qiao & Ebert 2004) from ``a/w`` and ``1/w`` of the front and back poi
 
 import warp as wp
 
-from .integrate import exp_neg, integrate_piece, integrate_pieces
+from .integrate import exp_neg, flat_extinction, integrate_piece_flat, integrate_pieces
 from .preint import cyl_planes_sample, table_to_cyl
 from .raster import snap
 from .texture import Atlas, Tex1D, Tex3D, atlas_sample, tex1d, tex3d
@@ -177,7 +177,7 @@ def exact_color_upper(a: wp.vec3, kf: int, kb: int, vf: wp.vec4, vb: wp.vec4, tf
     r = wp.vec4(0.0, 0.0, 0.0, 0.0)
     if length > 0.0:
         if kf == kb:
-            r = integrate_piece(length, vf, vb, model)
+            r = integrate_piece_flat(length, vf, vb, flat_extinction(kf, tf_v), model)  # (exact constancy)
         else:
             r = integrate_pieces(a[0], a[1], vf, vb, tf_first_break_upper(kf, a[0], a[1], tf_s), length, tf_s,
                                  tf_v, model)

@@ -145,3 +145,62 @@ def test_first_break_from_one_search_equals_the_two_search_version():
     o = out.numpy()
     assert np.array_equal(o[:, 0], o[:, 1])
     assert (o[:, 0] >= 0).sum() > 50  # many segments do cross a control point
+
+
+@wp.kernel
+def k_flat_pieces(sf: wp.array(dtype=float), sb: wp.array(dtype=float), length: wp.array(dtype=float),
+                  tf_s: wp.array(dtype=float), tf_v: wp.array(dtype=wp.vec4), model: int,
+                  out: wp.array2d(dtype=wp.vec4)):
+    i = wp.tid()
+    k = ki.tf_upper(sf[i], tf_s)
+    vf = ki.tf_eval_upper(sf[i], k, tf_s, tf_v)
+    vb = ki.tf_eval_upper(sb[i], k, tf_s, tf_v)
+    rho = ki.flat_extinction(k, tf_v)
+    out[i, 0] = ki.integrate_piece_flat(length[i], vf, vb, rho, model)  # the improved presets' path
+    # integrate_piece's closed form: both ends at the interval's exact extinction
+    out[i, 1] = ki.integrate_piece(length[i], wp.vec4(vf[0], vf[1], vf[2], rho), wp.vec4(vb[0], vb[1], vb[2], rho),
+                                   model)
+    out[i, 2] = ki.integrate_piece(length[i], vf, vb, model)  # the faithful presets' path (rounded slope)
+    out[i, 3] = wp.vec4(vf[3], vb[3], rho, 0.0)
+
+@pytest.mark.parametrize("emission", ["color_extinction", "emission_density"])
+def test_flat_extinction_thick_piece_takes_the_closed_form(emission):
+    """A thick piece inside one TF interval of equal control extinctions: its ends' interpolated extinctions
+    round apart (``v (1 - w) + v w``), yet integrate_piece_flat gives integrate_piece's closed form at the exact
+    extinction, bit for bit, within 1e-6 of the float64 analytic integral (colour linear, extinction constant)."""
+    rho = 2.7
+    c0, c1 = np.array([0.9, 0.2, 0.05]), np.array([0.1, 0.7, 1.0])
+    tf = TransferFunction([[0, *c0, 0.3], [0.1, *c0, rho], [0.9, *c1, rho], [1, *c1, 0.3]], emission)
+    rng = np.random.default_rng(7)
+    n = 400
+    sf = rng.uniform(0.11, 0.89, n).astype(np.float32)
+    sb = rng.uniform(0.11, 0.89, n).astype(np.float32)
+    length = np.geomspace(0.05, 30.0, n).astype(np.float32)  # optical depths 0.135 .. 81: all thick
+    tf_s, tf_v = tf.to_warp("cpu")
+    out = wp.zeros((n, 4), dtype=wp.vec4, device="cpu")
+    wp.launch(k_flat_pieces, dim=n, device="cpu",
+              inputs=[wp.array(sf), wp.array(sb), wp.array(length), tf_s, tf_v,
+                      0 if emission == "color_extinction" else 1, out])
+    o = out.numpy()
+    flat, closed, sloped, ends = o[:, 0], o[:, 1], o[:, 2], o[:, 3]
+    rho32 = np.float32(rho)
+    assert (ends[:, 2] == rho32).all()
+    rounded = ends[:, 0] != ends[:, 1]
+    assert rounded.sum() > n // 10  # the case at issue: many pieces' end extinctions differ by rounding
+    np.testing.assert_array_equal(flat[:, :3], closed[:, :3])
+    assert (sloped[rounded, :3] != closed[rounded, :3]).any()  # integrate_piece: the rounded slope's quadrature
+    np.testing.assert_array_equal(flat[:, 3], sloped[:, 3])  # optical depth as before
+    # the float64 analytic integral: colour linear from the ends' colours, extinction rho32 throughout
+    a = length.astype(np.float64) * np.float64(rho32)
+    m0 = -np.expm1(-a) / a
+
+    tfv = np.array([[*c0, rho], [*c1, rho]])
+    wf = np.clip((sf.astype(np.float64) - 0.1) / 0.8, 0, 1)[:, None]
+    wb = np.clip((sb.astype(np.float64) - 0.1) / 0.8, 0, 1)[:, None]
+    cf = tfv[0, :3] * (1 - wf) + tfv[1, :3] * wf
+    cb = tfv[0, :3] * (1 - wb) + tfv[1, :3] * wb
+    want = cf * (1.0 - m0)[:, None] + cb * (m0 - np.exp(-a))[:, None]
+    if emission == "emission_density":
+        want /= np.float64(rho32)
+    err = np.abs(flat[:, :3] - want).max(axis=1) / np.abs(want).max(axis=1)
+    assert err.max() <= 1e-6
