@@ -156,6 +156,9 @@ def make_march_lanes(lanes: int, segs: bool = False, harc: bool = False):
                     SF[34, j] = fm.tf_v[4 * kh_ + 1]
                     SF[35, j] = fm.tf_v[4 * kh_ + 2]
                     SF[36, j] = fm.tf_v[4 * kh_ + 3]
+                    dh_ = wp.where(model == 1, SF[36, j] + wp.max(SF[33, j], wp.max(SF[34, j], SF[35, j])), SF[36, j])
+                    dl_ = wp.where(model == 1, SF[32, j] + wp.max(SF[29, j], wp.max(SF[30, j], SF[31, j])), SF[32, j])
+                    SF[37, j] = wp.abs(dh_ - dl_) / (SF[28, j] - SF[27, j])  # the piece's density slope
             # ---- one step of every walking lane, the common case in lane form ----
             for j in range(LANES):  # the lanes' cell records and new vertex (loads: a loop of their own)
                 c4 = 4 * SI[0, j]
@@ -221,28 +224,16 @@ def make_march_lanes(lanes: int, segs: bool = False, harc: bool = False):
                 wca = -nb_
                 ss1 = wab + wbc + wca
                 ok1 = not (wab < 0.0 or wbc < 0.0 or wca < 0.0 or not (ss1 > 0.0))
-                inv1 = 1.0 / ss1
-                m1 = wp.min(sn, wp.min(s0, s1))
-                sx1 = m1 + ((sn - m1) * wbc + (s0 - m1) * wca + (s1 - m1) * wab) * inv1
-                tx1 = (hn * wbc + h0 * wca + h1 * wab) * inv1
                 wab2 = nb_
                 wbc2 = w1
                 wca2 = -nc
                 ss2 = wab2 + wbc2 + wca2
                 ok2 = not (wab2 < 0.0 or wbc2 < 0.0 or wca2 < 0.0 or not (ss2 > 0.0))
-                inv2 = 1.0 / ss2
-                m2 = wp.min(sn, wp.min(s1, s2))
-                sx2 = m2 + ((sn - m2) * wbc2 + (s1 - m2) * wca2 + (s2 - m2) * wab2) * inv2
-                tx2 = (hn * wbc2 + h1 * wca2 + h2 * wab2) * inv2
                 wab3 = nc
                 wbc3 = w2
                 wca3 = -na
                 ss3 = wab3 + wbc3 + wca3
                 ok3 = not (wab3 < 0.0 or wbc3 < 0.0 or wca3 < 0.0 or not (ss3 > 0.0))
-                inv3 = 1.0 / ss3
-                m3 = wp.min(sn, wp.min(s2, s0))
-                sx3 = m3 + ((sn - m3) * wbc3 + (s2 - m3) * wca3 + (s0 - m3) * wab3) * inv3
-                tx3 = (hn * wbc3 + h2 * wca3 + h0 * wab3) * inv3
                 rare = rare or not (ok1 or ok2 or ok3)
                 # the exit face (N, X, Y) and the vertex it leaves out (its local index is the exit's)
                 c2 = (not ok1) and ok2
@@ -268,8 +259,12 @@ def make_march_lanes(lanes: int, segs: bool = False, harc: bool = False):
                 wn0 = wp.where(ok1, na, wp.where(c2, nb_, nc))
                 wn1 = wp.where(ok1, w0, wp.where(c2, w1, w2))
                 wn2 = wp.where(ok1, -nb_, wp.where(c2, -nc, -na))
-                t_out = wp.where(ok1, tx1, wp.where(c2, tx2, tx3))
-                s_out = wp.where(ok1, sx1, wp.where(c2, sx2, sx3))
+                # the crossing (face_cross) on the exit face only: its inputs selected, one division, same bits
+                wsum = wn0 + wn1 + wn2
+                inv = 1.0 / wsum
+                mx_ = wp.min(sn, wp.min(sxv, syv))
+                s_out = mx_ + ((sn - mx_) * wn1 + (sxv - mx_) * wn2 + (syv - mx_) * wn0) * inv
+                t_out = (hn * wn1 + hx * wn2 + hy * wn0) * inv
                 f_out = wp.where(tv3 == gz, 3, wp.where(tv2 == gz, 2, wp.where(tv1 == gz, 1, wp.where(tv0 == gz, 0, -1))))
                 rare = rare or f_out < 0
                 GI[4, j] = wp.max(f_out, 0)  # (its neighbour records after this loop)
@@ -350,16 +345,12 @@ def make_march_lanes(lanes: int, segs: bool = False, harc: bool = False):
                 qc = py_ - o
                 werr = EPS32 * (wp.length(px - pn) * wp.length(qa) + wp.length(py_ - px) * wp.length(qb)
                                 + wp.length(pn - py_) * wp.length(qc))
-                wsum = wn0 + wn1 + wn2
                 rel = wp.where(wsum > 0.0, werr / wsum, 1.0e30)
                 sf_v = wp.vec3(sn, sxv, syv)
                 ds_out = wp.where(check == 0, 0.0, spread_error(sf_v, rel))
                 ds_in = SF[14, j]
                 err = SF[15, j]
-                dh = wp.where(model == 1, hi3 + wp.max(hi0, wp.max(hi1, hi2)), hi3)
-                dl = wp.where(model == 1, lo3 + wp.max(lo0, wp.max(lo1, lo2)), lo3)
-                gsl = wp.abs(dh - dl) / (ts_hi - ts_lo)
-                err_new = err + tr * ln * 0.5 * gsl * (ds_in + ds_out)
+                err_new = err + tr * ln * 0.5 * SF[37, j] * (ds_in + ds_out)
                 err_new = wp.where((ds_in == 0.0 and ds_out == 0.0) or k_in <= 0 or k_in >= n_tf, err, err_new)
                 chk = chk or err_new > STEEP_ERR
                 rare = rare or (chk and not cross)

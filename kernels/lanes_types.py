@@ -48,7 +48,7 @@ class LaneMats(NamedTuple):
 
     FFm: object  # each lane's Face: pa, pb, pc, h, ma, mb, mc, s, w
     FGm: object  # each lane's Face.g
-    SFm: object  # see the kernel's put block; 27..36: the lane's TF piece
+    SFm: object  # see the kernel's put block; 27..36: the lane's TF piece, 37 its density slope
     SIm: object  # cell, gn, cells, stall, k_in, thin is_short, walking
     RVv: object  # the lanes whose step is rare; whose piece is optically thick
     TFm: object  # a thick piece's length, entry TF value; crossing's ds, s, t
@@ -63,7 +63,7 @@ def lane_mats(lanes: int) -> LaneMats:
     return LaneMats(
         FFm=wp.types.matrix(shape=(27, lanes), dtype=float),
         FGm=wp.types.matrix(shape=(3, lanes), dtype=int),
-        SFm=wp.types.matrix(shape=(37, lanes), dtype=float),
+        SFm=wp.types.matrix(shape=(38, lanes), dtype=float),
         SIm=wp.types.matrix(shape=(7, lanes), dtype=int),
         RVv=wp.types.vector(length=lanes, dtype=int),
         TFm=wp.types.matrix(shape=(8, lanes), dtype=float),

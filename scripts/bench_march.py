@@ -145,11 +145,11 @@ def run_pass(pkg: str, launches: list, reentries: int = 0, lanes: int = 1):
         n_threads = dim
         alias = {}  # the lane kernel's ray start and write-back inputs: their names in the recorded kernel
         if lanes > 1:
-            from warpvol.kernels.lanes import LaneState, flat_mesh, lane_scratch, lane_threads
-            from warpvol.kernels.lanes_march import march_lanes_kernel
-
+            lane_mod = importlib.import_module(f"{pkg}.lanes")
+            LaneState, flat_mesh = lane_mod.LaneState, lane_mod.flat_mesh
+            lane_scratch, lane_threads = lane_mod.lane_scratch, lane_mod.lane_threads
             harc = "harc_march" in kernel.key
-            k = march_lanes_kernel(lanes, False, harc)
+            k = importlib.import_module(f"{pkg}.lanes_march").march_lanes_kernel(lanes, False, harc)
             n_threads = lane_threads(dim, lanes)
             alias = ({"starts": "lists", "col": "rgba", "aux": "px_work", "more": "fb"} if harc else
                      {"starts": "bins", "col": "rgb", "aux": "trans", "more": "reentries"})
@@ -167,7 +167,7 @@ def run_pass(pkg: str, launches: list, reentries: int = 0, lanes: int = 1):
             named["count"] = dim
             named["scratch"] = wp.empty(lane_scratch(named["first"] + dim, named["chunk"] + 1, lanes), dtype=LaneState,
                                         device="cpu")
-            named["fm"] = flat_mesh(named["mesh"], named["ig"].tf_v)
+            named["fm"] = flat_mesh(as_package(named["mesh"], pkg), named["ig"].tf_v)
         args = [wp.clone(named[a.label]) if isinstance(named[a.label], wp.array) else as_package(named[a.label], pkg)
                 for a in k.adj.args]
         wp.synchronize_device("cpu")
@@ -197,8 +197,12 @@ def main(argv=None) -> int:
     ap.add_argument("--lanes", type=int, default=None,
                     help="compare this tree's march with one ray per thread (LANES=1) and with this many "
                          "(0: the device's, warpvol.kernels.lanes.device_lanes) instead of a base ref")
+    ap.add_argument("--lanes-base", default=None, help="with --lanes: compare this git ref's lane march with this "
+                    "tree's instead of LANES=1")
     ap.add_argument("--json", default=None, help="with --lanes: add this view's ns per ray-step to this JSON file")
     a = ap.parse_args(argv)
+    if a.lanes_base and (a.lanes is None or a.json):
+        ap.error("--lanes-base: with --lanes, without --json")
     if a.json and a.preset != "raycast":
         ap.error("--json: the table holds raycast's march (--preset raycast)")
 
@@ -223,6 +227,9 @@ def main(argv=None) -> int:
         if a.base and a.lanes is None:
             base_kernels(a.base, Path(tmp))
             kinds = {f"base {a.base}": ("base_kernels", 1), **kinds}
+        elif a.lanes_base:
+            base_kernels(a.lanes_base, Path(tmp))
+            kinds = {f"this tree L{n}": ("warpvol.kernels", n), f"{a.lanes_base} L{n}": ("base_kernels", n)}
         times = {name: [] for name in kinds}
         outs = {}
         load0 = load_average()
@@ -249,8 +256,10 @@ def main(argv=None) -> int:
         if not same[colour]:
             print(f"  largest colour difference {np.abs(o_base[colour] - o_new[colour]).max():.3e}")
         tb, tn = times.values()
+        if a.lanes_base:  # (this tree's kernels first: they compile before the base's)
+            tb, tn = tn, tb
         print(f"  base / this tree: {statistics.median(tb) / statistics.median(tn):.3f}")
-    if a.json and a.lanes is not None:
+    if a.json and a.lanes is not None and not a.lanes_base:
         write_lanes_json(a, scene, kinds, times, outs, load0, load1)
     return 0
 
