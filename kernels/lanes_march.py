@@ -140,6 +140,16 @@ def make_march_lanes(lanes: int, segs: bool = False, harc: bool = False):
                     SI[4, j] = scratch[slot].k_in
                     SI[5, j] = scratch[slot].thin_mem.is_short
                     SI[6, j] = scratch[slot].walking
+                    lo_ = wp.vec3(SF[20, j], SF[21, j], SF[22, j])  # the face's lengths (werr), kept while it moves
+                    la_ = wp.vec3(FF[0, j], FF[1, j], FF[2, j])
+                    lb_ = wp.vec3(FF[3, j], FF[4, j], FF[5, j])
+                    lc_ = wp.vec3(FF[6, j], FF[7, j], FF[8, j])
+                    FF[27, j] = wp.length(la_ - lo_)
+                    FF[28, j] = wp.length(lb_ - lo_)
+                    FF[29, j] = wp.length(lc_ - lo_)
+                    FF[30, j] = wp.length(lb_ - la_)
+                    FF[31, j] = wp.length(lc_ - lb_)
+                    FF[32, j] = wp.length(la_ - lc_)
                     KP[j] = 1
                 if KP[j] == 1:
                     KP[j] = 0
@@ -340,11 +350,13 @@ def make_march_lanes(lanes: int, segs: bool = False, harc: bool = False):
                 chk = short and thin_unresolved(tr, dmax, SF[16, j], u)
                 chk = chk or (SI[5, j] == 1 and thin_unresolved(SF[18, j], SF[17, j], d_mean, SF[19, j]))
                 # the crossing's scalar error (scalar_error_if) and the walk's bound (scalar_step, one piece)
-                qa = pn - o
-                qb = px - o
-                qc = py_ - o
-                werr = EPS32 * (wp.length(px - pn) * wp.length(qa) + wp.length(py_ - px) * wp.length(qb)
-                                + wp.length(pn - py_) * wp.length(qc))
+                ln_ = wp.length(pn - o)  # |N - o|, |X - N|, |N - Y|; |X - o|, |Y - o|, |Y - X| kept from earlier steps
+                lx = wp.where(ok1, FF[27, j], wp.where(c2, FF[28, j], FF[29, j]))
+                ly = wp.where(ok1, FF[28, j], wp.where(c2, FF[29, j], FF[27, j]))
+                exn = wp.length(px - pn)
+                exy = wp.where(ok1, FF[30, j], wp.where(c2, FF[31, j], FF[32, j]))
+                eyn = wp.length(pn - py_)
+                werr = EPS32 * (exn * ln_ + exy * lx + eyn * ly)
                 rel = wp.where(wsum > 0.0, werr / wsum, 1.0e30)
                 sf_v = wp.vec3(sn, sxv, syv)
                 ds_out = wp.where(check == 0, 0.0, spread_error(sf_v, rel))
@@ -431,6 +443,12 @@ def make_march_lanes(lanes: int, segs: bool = False, harc: bool = False):
                 FF[24, j] = wp.where(go, wn0, w0)
                 FF[25, j] = wp.where(go, wn1, w1)
                 FF[26, j] = wp.where(go, wn2, w2)
+                FF[27, j] = wp.where(go, ln_, FF[27, j])
+                FF[28, j] = wp.where(go, lx, FF[28, j])
+                FF[29, j] = wp.where(go, ly, FF[29, j])
+                FF[30, j] = wp.where(go, exn, FF[30, j])
+                FF[31, j] = wp.where(go, exy, FF[31, j])
+                FF[32, j] = wp.where(go, eyn, FF[32, j])
                 FG[0, j] = wp.where(go, gn, g0)
                 FG[1, j] = wp.where(go, gx, g1)
                 FG[2, j] = wp.where(go, gy, g2)

@@ -46,7 +46,7 @@ def lane_io(lanes: int, segs: bool, harc: bool) -> LaneIO:
 class LaneMats(NamedTuple):
     """The lane kernel's matrix and vector types (a row per state variable, a column per lane)."""
 
-    FFm: object  # each lane's Face: pa, pb, pc, h, ma, mb, mc, s, w
+    FFm: object  # each lane's Face: pa, pb, pc, h, ma, mb, mc, s, w; 27..32 its lengths
     FGm: object  # each lane's Face.g
     SFm: object  # see the kernel's put block; 27..36: the lane's TF piece, 37 its density slope
     SIm: object  # cell, gn, cells, stall, k_in, thin is_short, walking
@@ -61,7 +61,7 @@ class LaneMats(NamedTuple):
 def lane_mats(lanes: int) -> LaneMats:
     """:class:`LaneMats` for ``lanes`` lanes."""
     return LaneMats(
-        FFm=wp.types.matrix(shape=(27, lanes), dtype=float),
+        FFm=wp.types.matrix(shape=(33, lanes), dtype=float),
         FGm=wp.types.matrix(shape=(3, lanes), dtype=int),
         SFm=wp.types.matrix(shape=(38, lanes), dtype=float),
         SIm=wp.types.matrix(shape=(7, lanes), dtype=int),
