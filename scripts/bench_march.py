@@ -15,12 +15,13 @@ parameter, status, counters: the same float64 redo counts).
 With ``--lanes N`` (0: the CPU's lane count, :func:`warpvol.kernels.lanes.device_lanes`) it compares
 this tree's march with one ray per thread and with ``N`` rays per thread (:mod:`warpvol.kernels.lanes_march`)
 instead of a base ref, and ``--json`` adds the view's ns per ray-step to a stamped JSON file
-(``docs/data/march_lanes.json``).
+(``docs/data/march_lanes.json``); with ``--lanes-base REF`` too, it compares ``REF``'s lane march with this tree's
+(both ``N`` rays per thread; this tree's kernels compile first).
 
 Usage::
 
     ./run.sh python scripts/bench_march.py scenes/bluntfin_close.toml --tf opaque [--size 512] [--repeat 5]
-        [--base main] [--preset raycast|harc_best] [--lanes 0 [--json docs/data/march_lanes.json]]
+        [--base main] [--preset raycast|harc_best] [--lanes 0 [--json docs/data/march_lanes.json | --lanes-base REF]]
 """
 
 from __future__ import annotations
