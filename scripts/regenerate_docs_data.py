@@ -65,21 +65,24 @@ PRODUCERS = (
              "the renders alone 77 s at load ~15 (the cold times the file records), plus start-up and plotting", 120,
              also=("docs/img/papers/*.png",)),
     Producer("bench_concave", ("warpvol bench builtin:concave --pipelines all --repeats 3 --no-audit -o out/bench",),
-             "57 s at load 5.5-5.7 on 2 cores (1 min 44 s at load 9.5-10)", 60, copy_from="out/bench/table.json"),
+             "19 s at load 0.9-1.1 on 2 cores (57 s at load 5.5-5.7, 1 min 44 s at load 9.5-10)", 60, copy_from="out/bench/table.json"),
     Producer("skip", ("python scripts/bench_skip.py --repeat 3 --docs",),
-             "not recorded"),
+             "106 s at load 1.1-1.6 on 2 cores (2 views x 3 transfer functions, 4 rounds of 7 renderers)", 110),
     Producer("skip_small", ("python scripts/bench_skip.py --small --repeat 5 --docs",),
-             "about 10 s at load 2.5 on 2 cores (4 views, 6 rounds of 3 renderers, the references cached)", 10),
+             "7 s at load 0.5 on 2 cores (4 views, 6 rounds of 3 renderers, the references cached; 10 s at load 2.5)", 10),
     Producer("march_lanes", ("python scripts/bench_march.py scenes/bluntfin_close.toml --tf dense --size 512 --repeat 3 "
                              "--lanes 0 --json docs/data/march_lanes.json",
                              "python scripts/bench_march.py scenes/bluntfin_close.toml --tf opaque --size 512 --repeat 3 "
+                             "--lanes 0 --json docs/data/march_lanes.json",
+                             "python scripts/bench_march.py scenes/bluntfin_close.toml --tf sparse --size 512 --repeat 3 "
                              "--lanes 0 --json docs/data/march_lanes.json"),
-             "about 2.5 min at load 7-9 on 2 cores (2 views, 4 rounds of LANES=1 and the CPU's lanes)", 150),
+             "about 30 s at load 0.8 on 2 cores (3 views, 4 rounds of LANES=1 and the CPU's lanes; 2.5 min at load 7-9)",
+             30),
     Producer("reference_pace", ("python scripts/bench_reference.py --rounds 3 --docs",),
-             "about 40 s at load 5-5.6 on 2 cores (2 views, 512^2, 4 rounds of raycast and the reference)", 40),
+             "12 s at load 0.6-0.8 on 2 cores (2 views, 512^2, 4 rounds of raycast and the reference; 40 s at load 5-5.6)", 15),
     Producer("pt_spans", ("python scripts/bench_pt.py --spans --repeat 3 --json docs/data/pt_spans.json",),
-             "about 12 min at load 5-7 on 2 cores (2 views x 3 transfer functions, 512^2, 4 rounds of 3 renderers)",
-             720),
+             "32 s at load 1.6 on 2 cores (2 views x 3 transfer functions, 512^2, 4 rounds of 3 renderers; "
+             "about 12 min at load 5-7)", 40),
     Producer("scaling_shell", ("python scripts/bench_scaling.py --tf shell --kinds structured "
                                "--renderers raycast,harc_best,pt_best,vtk_pt",),
              "not recorded"),

@@ -289,8 +289,8 @@ def test_skip_json_supports_the_pages_reading_of_it():
     """The sentences of performance.md that read the skip table without quoting a number."""
     r = {(x["view"], x["TF"], x["renderer"]): x["VTK PT / this"] for x in _table_rows("skip", "rows")}
     views = ("bluntfin_close", "spx_fill")
-    assert all(r[(v, "sparse", "raycast")] >= 2 for v in views)  # twice VTK's speed: raycast on both sparse
-    assert r[("bluntfin_close", "sparse", "pt_best")] >= 2 and r[("spx_fill", "sparse", "pt_best")] < 2
+    for p in ("raycast", "pt_best"):  # twice VTK's speed: raycast and pt_best on both sparse views
+        assert all(r[(v, "sparse", p)] >= 2 for v in views), p
     assert all(r[(v, "sparse", "harc_best")] < 2 for v in views)  # not harc_best
     assert all(r[(v, tf, p)] < 2 for v in views for tf in ("opaque", "dense")
                for p in ("raycast", "harc_best", "pt_best"))  # nor on the opaque or dense views
@@ -300,11 +300,11 @@ def test_skip_json_supports_the_pages_reading_of_it():
 
 
 def test_skip_small_json_supports_the_pages_reading_of_it():
-    """performance.md reads skip_small.json: both ray casters' lowest ratio is on the far corner view."""
+    """performance.md reads skip_small.json: both ray casters' lowest ratio is on a view from far off."""
     rows = _table_rows("skip_small", "rows")
     for p in ("raycast", "harc_best"):
         r = {x["view"]: x["VTK PT / this"] for x in rows if x["renderer"] == p}
-        assert min(r, key=r.get) == "spx_corner", (p, r)
+        assert min(r, key=r.get) in ("spx", "spx_corner"), (p, r)
 
 
 def test_scaling_shell_exponents_are_the_slopes_of_its_points():
