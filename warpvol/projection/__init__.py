@@ -95,7 +95,7 @@ FAMILY = {
                   "stages": ["projection/stages/pt_integrate.py", "projection/stages/pt_perspective.py",
                              "conditioning/stages/condition.py", "conditioning/stages/visibility.py"],
                   "kernels": ["kernels/pt_classify.py", "kernels/pt.py", "kernels/pt_draw.py", "kernels/pt_span.py",
-                              "kernels/integrate.py"]}},
+                              "kernels/pt_span_lanes.py", "kernels/integrate.py"]}},
         {"title": "cell projection as VTK does it", "order": (1, 1), "name": "Shirley & Tuchman 1990",
          "presets": {"pt_vertex_color": "projected tetrahedra, averaged per-vertex colour, 8-bit blending"},
          "table": "projected tetrahedra (Shirley & Tuchman 1990), averaged per-vertex colour, 8-bit blending",
