@@ -63,7 +63,7 @@ from warpvol.scene.mesh import TetMesh
 from warpvol.scene.transfer import EMISSION_MODELS, TransferFunction
 
 #: the files the reference image depends on (the bench's reference cache hashes them)
-REFERENCE_SOURCES = ("numpy_render.py", "exact.py", "integrate.py", "warp_render.py")
+REFERENCE_SOURCES = ("numpy_render.py", "exact.py", "integrate.py", "warp_render.py", "entries.py")
 #: ways to compute the reference (:func:`render_reference`)
 REFERENCE_METHODS = ("warp", "numpy")
 
