@@ -169,3 +169,26 @@ def out_of_memory(scene, parts: list[str], what: str, have: int | None) -> Confi
 
 def _size(nbytes: int) -> str:
     return f"{nbytes / 2**30:.1f} GiB" if nbytes >= 2**30 else f"{nbytes / 2**20:.0f} MiB"
+
+
+def load_scene(spec: str, args) -> "object":
+    """The scene of ``SCENE`` (a scene file, ``builtin:NAME`` or a mesh file), with the options of ``args``
+    (``--scalars``, ``--colormap``, ``--strict``, ``--step``, ``--time``) and ``--width`` / ``--height`` applied."""
+    from warpvol.scene.spec import scene_from_spec
+
+    try:
+        scene = scene_from_spec(spec, scalars=getattr(args, "scalars", None), colormap=getattr(args, "colormap", None),
+                                strict=getattr(args, "strict", False), where="scene",
+                                step=getattr(args, "step", None), time=getattr(args, "time", None), option_prefix="--")
+    except MemoryError:
+        if not spec.startswith("builtin:"):
+            raise
+        raise ConfigError(f"{spec}: the built-in mesh does not fit in the memory available") from None
+    over = {}
+    if getattr(args, "width", None) is not None:
+        over["width_px"] = args.width
+    if getattr(args, "height", None) is not None:
+        over["height_px"] = args.height
+    if over:
+        scene.camera = scene.camera.replace(**over)
+    return scene
