@@ -5,12 +5,9 @@ AVX-512 or AVX2)."""
 
 from __future__ import annotations
 
-import warnings
-
 import pytest
 
-from helpers import pin_of
-from test_walk_pins import BUILTIN, STRESS, scene_of
+from test_walk_pins import BUILTIN, STRESS, render_pin
 
 SCENES = [b for b, _ in BUILTIN] + list(STRESS)
 PRESETS = ("raycast", "peel", "harc_best")
@@ -21,21 +18,15 @@ MORE_STRESS = ("extinction_1e+02", "extinction_1e-02", "emission_density_scale_1
 
 
 def render_with_lanes(scene: str, preset: str, lanes: int) -> dict:
-    from warpvol.errors import ConfigError
-    from warpvol.pipeline import Pipeline
+    """:func:`test_walk_pins.render_pin` with the march's rays per thread set to ``lanes``."""
     from warpvol.raycasting.stages import raycast as stage
 
     old = stage.MARCH_LANES
     stage.MARCH_LANES = lanes
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            res = Pipeline.load(preset).render(scene_of(scene), quiet=True)
-    except ConfigError as e:
-        return {"declined": str(e)}
+        return render_pin(scene, preset)
     finally:
         stage.MARCH_LANES = old
-    return pin_of(res.image, res.report)
 
 
 def lane_counts() -> list[int]:
